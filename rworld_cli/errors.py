@@ -1,0 +1,99 @@
+"""Errors and the located problems ("issues") that rworld reports.
+
+Every problem found in a user's file becomes an :class:`Issue` that knows its
+file, line and column, so the CLI can print ``file:line:col: where: message``
+lines that editors and CI logs link to.  Library code raises
+:class:`UserError` (bad input: exit code 2) or :class:`InternalError` (a bug:
+exit code 3); only the CLI prints and exits.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable, Literal
+
+Severity = Literal["error", "warning"]
+
+
+@dataclass(frozen=True)
+class Issue:
+    """One located problem in an input file.
+
+    Attributes
+    ----------
+    file : str
+        The path as the user named it (kept relative when it was given so).
+    line, column : int
+        1-based position of the offending key or value; 0 when unknown.
+    location : str
+        Dotted location inside the document, e.g. ``devices[0].joints[2].a``;
+        ``(root)`` for the whole document.
+    message : str
+        What is wrong, and where possible what would be right.
+    severity : {"error", "warning"}
+    """
+
+    file: str
+    line: int
+    column: int
+    location: str
+    message: str
+    severity: Severity = "error"
+
+    def format(self) -> str:
+        """The one-line form ``file:line:col: [warning: ]location: message``."""
+        tag = "warning: " if self.severity == "warning" else ""
+        return f"{self.file}:{self.line}:{self.column}: {tag}{self.location}: {self.message}"
+
+    def as_dict(self) -> dict:
+        return {
+            "file": self.file,
+            "line": self.line,
+            "column": self.column,
+            "location": self.location,
+            "message": self.message,
+            "severity": self.severity,
+        }
+
+
+class RworldError(Exception):
+    """Base of every error rworld raises on purpose."""
+
+    exit_code = 3
+
+
+class UserError(RworldError):
+    """Bad input or usage: the user can fix it.  CLI exit code 2.
+
+    Parameters
+    ----------
+    message : str
+        A one-line summary.
+    issues : iterable of Issue, optional
+        The located problems behind it (all of them, not only the first).
+    """
+
+    exit_code = 2
+
+    def __init__(self, message: str, issues: Iterable[Issue] = ()):
+        super().__init__(message)
+        self.message = message
+        self.issues: list[Issue] = list(issues)
+
+    def lines(self) -> list[str]:
+        """The lines to print: one per issue, or the message alone."""
+        if self.issues:
+            return [i.format() for i in self.issues]
+        return [self.message]
+
+
+class CheckFailed(RworldError):
+    """A check ran and its answer is "no" (a limit violated, ...).  Exit code 1."""
+
+    exit_code = 1
+
+
+class InternalError(RworldError):
+    """A bug in rworld.  CLI exit code 3."""
+
+    exit_code = 3

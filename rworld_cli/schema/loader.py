@@ -1,0 +1,713 @@
+"""Load a cell: YAML -> pydantic -> semantic checks -> :class:`CellModel` in SI.
+
+All problems of all files are collected and raised together as one
+:class:`~rworld_cli.errors.UserError` whose issues carry ``file:line:col``.
+Warnings (suspicious but usable data) ride along in :attr:`LoadedCell.warnings`.
+
+The checks here are the report's rules (sections 2-4 of the world-modelling
+paper, section 2 and 5 of the calibration report): unique names, a tree
+without cycles, devices may hold objects but objects may not hold devices,
+free frames hold only frames, a frame conditioned by a feature belongs to
+the feature's owner, plus physical sanity (masses, inertias, limits).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from pydantic import BaseModel, ValidationError
+
+from .. import spatial
+from ..errors import Issue, UserError
+from ..world import model as wm
+from ..world import rules
+from . import models as sm
+from .messages import did_you_mean, pydantic_issues
+from .yamlio import Marked, read_yaml
+
+LENGTH = {"m": 1.0, "mm": 1e-3}
+ANGLE = {"rad": 1.0, "deg": math.pi / 180.0}
+
+# Which feature kinds each condition accepts (calibration report, section 5).
+CONDITION_FEATURE_KINDS = {
+    "C1": {"point", "line", "plane", "circle"},
+    "C2": {"point", "line", "plane"},
+    "C3": {"line", "plane"},
+    "C4": {"plane"},
+    "C5": {"plane"},
+    "C6": {"plane"},
+    "C7": {"line", "plane"},
+    "C8": {"line", "plane"},
+    "C9": {"line", "plane"},
+    "C10": {"plane"},
+    "C11": {"plane"},
+    "C12": {"plane"},
+    "C13": {"circle"},
+}
+
+
+@dataclass
+class LoadedCell:
+    """A loaded cell with the warnings found on the way."""
+
+    cell: wm.CellModel
+    warnings: list[Issue] = field(default_factory=list)
+
+
+def resolve_cell_path(path: str | Path) -> tuple[Path, str]:
+    """Accept a cell file or its directory; return (real path, display name)."""
+    p = Path(path)
+    if p.is_dir():
+        p = p / "cell.yaml"
+        shown = str(Path(path) / "cell.yaml")
+    else:
+        shown = str(path)
+    return p, shown
+
+
+def validate_document(doc: Marked, model: type[BaseModel]):
+    """Validate parsed YAML against a file model; raise UserError with located issues."""
+    if not isinstance(doc.data, dict):
+        from .messages import describe
+
+        raise UserError(
+            "not a mapping", [doc.issue((), f"expected a mapping of keys at the top of the file, got {describe(doc.data)}")]
+        )
+    try:
+        return model.model_validate(doc.data)
+    except ValidationError as exc:
+        raise UserError(f"{doc.file}: invalid", pydantic_issues(exc, doc, model)) from None
+
+
+def load_cell(path: str | Path) -> LoadedCell:
+    """Load, check and convert a cell file (and the pose files it names).
+
+    Parameters
+    ----------
+    path : str or Path
+        ``cell.yaml`` or the directory holding it.
+
+    Returns
+    -------
+    LoadedCell
+
+    Raises
+    ------
+    UserError
+        With every error (and the warnings) of the cell and its pose files.
+    """
+    real, shown = resolve_cell_path(path)
+    doc = read_yaml(real, shown)
+    cell_file = validate_document(doc, sm.CellFile)
+    builder = _Builder(doc, cell_file, real.parent, Path(shown).parent)
+    cell = builder.build(real)
+    errors = [i for i in builder.issues if i.severity == "error"]
+    ordered = sorted(builder.issues, key=lambda i: (i.file != shown, i.file, i.line, i.column))
+    if errors:
+        raise UserError(f"{shown}: {len(errors)} error(s)", ordered)
+    return LoadedCell(cell, [i for i in ordered if i.severity == "warning"])
+
+
+def load_pose_file_doc(path: str | Path, display: str | None = None) -> tuple[Marked, sm.PoseFile]:
+    """Read and schema-check a pose file on its own (``rworld validate poses.yaml``)."""
+    doc = read_yaml(path, display)
+    return doc, validate_document(doc, sm.PoseFile)
+
+
+def pose_to_matrix(pose: sm.Pose, length: float, angle: float) -> tuple[np.ndarray, str | None, str | None]:
+    """Convert a pose spec to ``T`` (SI).  Returns (T, error, warning)."""
+    if pose.matrix is not None:
+        M = np.array(pose.matrix, dtype=float)
+        if not np.allclose(M[3], [0, 0, 0, 1], atol=1e-9):
+            return np.eye(4), f"the last row of a pose matrix must be [0, 0, 0, 1], got {M[3].tolist()}", None
+        err = float(spatial.rotation_error(M[:3, :3]))
+        if err > 1e-6:
+            return np.eye(4), f"the matrix's rotation part is not a rotation (|R^T R - I| or |det R - 1| = {err:.3g})", None
+        T = M.copy()
+        T[:3, 3] *= length
+        return T, None, None
+    p = np.array(pose.xyz if pose.xyz is not None else [0.0, 0.0, 0.0]) * length
+    warning = None
+    if pose.quat is not None:
+        q = np.array(pose.quat, dtype=float)
+        norm = float(np.linalg.norm(q))
+        if norm < 1e-9:
+            return np.eye(4), "the quaternion is zero; a rotation needs a unit quaternion (w, x, y, z)", None
+        if abs(norm - 1.0) > 1e-3:
+            warning = f"quaternion norm is {norm:.6g}, not 1; normalised"
+        R = spatial.quat_to_matrix(q)
+    elif pose.rpy is not None:
+        R = spatial.rpy_to_matrix(np.array(pose.rpy) * angle)
+    else:
+        R = np.eye(3)
+    return spatial.make_transform(R, p), None, warning
+
+
+class _Builder:
+    """One pass over a validated cell file: checks, unit conversion, model."""
+
+    def __init__(self, doc: Marked, cf: sm.CellFile, base_dir: Path, display_dir: Path):
+        self.doc = doc
+        self.cf = cf
+        self.base_dir = base_dir
+        self.display_dir = display_dir
+        self.L = LENGTH[cf.units.length]
+        self.A = ANGLE[cf.units.angle]
+        self.issues: list[Issue] = []
+        self.frames: dict[str, wm.FrameDecl] = {}
+        self.frame_paths: dict[str, tuple] = {}  # frame -> path of its declaration (its 'name' value)
+        self.primitives: dict[str, tuple[str, tuple]] = {}  # name -> (kind, path)
+        self.features: dict[str, wm.Feature] = {}
+        self.feature_paths: dict[str, tuple] = {}
+
+    # ------------------------------------------------------------------ helpers
+    def err(self, path, message, prefer="value", doc: Marked | None = None):
+        self.issues.append((doc or self.doc).issue(path, message, prefer=prefer))
+
+    def warn(self, path, message, prefer="value", doc: Marked | None = None):
+        self.issues.append((doc or self.doc).issue(path, message, prefer=prefer, severity="warning"))
+
+    def _line(self, path) -> int:
+        return self.doc.position(path)[0]
+
+    def _add_frame(self, decl: wm.FrameDecl, path: tuple) -> bool:
+        if decl.name in self.frames:
+            self.err(path, f"duplicate frame name '{decl.name}' (first declared at line {self._line(self.frame_paths[decl.name])})")
+            return False
+        self.frames[decl.name] = decl
+        self.frame_paths[decl.name] = path
+        return True
+
+    def _vec(self, values, scale=1.0) -> np.ndarray:
+        return np.array(values, dtype=float) * scale
+
+    def _unit(self, path, values, what: str) -> np.ndarray | None:
+        v = np.array(values, dtype=float)
+        n = float(np.linalg.norm(v))
+        if n < 1e-12:
+            self.err(path, f"{what} is zero; it needs a direction")
+            return None
+        return v / n
+
+    # ------------------------------------------------------------------ build
+    def build(self, cell_path: Path) -> wm.CellModel:
+        cf = self.cf
+        self.frames[wm.WORLD] = wm.FrameDecl(wm.WORLD, "world", wm.WORLD, None)
+        self.frame_paths[wm.WORLD] = ()
+        self._register_primitives()
+        objects = {o.name: self._object(i, o) for i, o in enumerate(cf.objects) if self._owns(o.name, ("objects", i))}
+        sensors = {s.name: self._sensor(i, s) for i, s in enumerate(cf.sensors) if self._owns(s.name, ("sensors", i))}
+        devices = {}
+        for i, d in enumerate(cf.devices):
+            if self._owns(d.name, ("devices", i)):
+                dev = self._device(i, d)
+                if dev is not None:
+                    devices[d.name] = dev
+        self._free_frames()
+        self._check_owned_parents()
+        affixments = self._affixments()
+        conditions = self._conditions()
+        poses, sources, files = self._poses()
+        self._check_cycles(affixments)
+        return wm.CellModel(
+            name=cf.name,
+            path=cell_path,
+            gravity=np.array(cf.gravity, dtype=float),
+            frames=self.frames,
+            objects=objects,
+            sensors=sensors,
+            devices=devices,
+            features=self.features,
+            conditions=conditions,
+            affixments=affixments,
+            poses=poses,
+            pose_files=files,
+            pose_sources=sources,
+            description=cf.description,
+        )
+
+    def _owns(self, name, path) -> bool:
+        kind, first = self.primitives.get(name, (None, None))
+        return first == path
+
+    def _register_primitives(self):
+        groups = (("objects", "object"), ("sensors", "sensor"), ("devices", "device"), ("frames", "free"))
+        for key, kind in groups:
+            for i, item in enumerate(getattr(self.cf, key)):
+                path = (key, i, "name")
+                if item.name == wm.WORLD:
+                    self.err(path, "'world' is the name of the world frame; choose another name")
+                    continue
+                if item.name in self.primitives:
+                    _, first = self.primitives[item.name]
+                    self.err(path, f"duplicate name '{item.name}' (first declared at line {self._line(first)})")
+                    continue
+                self.primitives[item.name] = (kind, (key, i))
+                if kind != "free":
+                    self._add_frame(wm.FrameDecl(item.name, "natural", item.name, None), path)
+
+    # ------------------------------------------------------------------ mass, shape
+    def _inertial(self, path, mass, com, inertia: sm.Inertia | None) -> wm.Inertial:
+        I = np.zeros((3, 3))
+        if inertia is not None:
+            I = np.array(
+                [
+                    [inertia.ixx, inertia.ixy, inertia.ixz],
+                    [inertia.ixy, inertia.iyy, inertia.iyz],
+                    [inertia.ixz, inertia.iyz, inertia.izz],
+                ]
+            )
+            moments = np.linalg.eigvalsh(I)
+            scale = max(1.0, float(np.abs(moments).max()))
+            ipath = path + ("inertia",)
+            if moments[0] < -1e-12 * scale:
+                self.err(
+                    ipath,
+                    "inertia is not positive semidefinite: principal moments "
+                    f"{', '.join(f'{m:.6g}' for m in moments)} kg m^2 include a negative one",
+                )
+            elif moments[2] > moments[0] + moments[1] + 1e-9 * scale:
+                self.warn(
+                    ipath,
+                    f"principal moments {', '.join(f'{m:.6g}' for m in moments)} kg m^2 break the triangle inequality "
+                    "(largest <= sum of the others): no rigid body has this inertia",
+                )
+        return wm.Inertial(float(mass), self._vec(com, self.L), I)
+
+    def _shape(self, path, g: sm.Geometry | None) -> wm.Shape | None:
+        if g is None:
+            return None
+        T = np.eye(4)
+        if g.origin is not None:
+            T, error, warning = pose_to_matrix(g.origin, self.L, self.A)
+            if error:
+                self.err(path + ("origin",), error)
+            if warning:
+                self.warn(path + ("origin",), warning)
+        if g.box is not None:
+            size = self._vec(g.box, self.L)
+            return wm.Shape("box", T, size, wm.Box(T, size / 2))
+        if g.cylinder is not None:
+            r, h = g.cylinder.radius * self.L, g.cylinder.length * self.L
+            size = np.array([2 * r, 2 * r, h])
+            return wm.Shape("cylinder", T, size, wm.Box(T, size / 2))
+        if g.sphere is not None:
+            size = np.full(3, 2 * g.sphere.radius * self.L)
+            return wm.Shape("sphere", T, size, wm.Box(T, size / 2))
+        return self._mesh_shape(path + ("mesh",), g.mesh, T)
+
+    def _mesh_shape(self, path, mesh: sm.Mesh, T: np.ndarray) -> wm.Shape | None:
+        file = self.base_dir / mesh.file
+        if not file.is_file():
+            self.err(path + ("file",), f"no such mesh file: {self.display_dir / mesh.file}")
+            return None
+        if file.suffix.lower() not in (".stl", ".obj", ".ply"):
+            self.err(path + ("file",), f"unsupported mesh format '{file.suffix}'; use .stl, .obj or .ply")
+            return None
+        import trimesh  # heavy: only when a cell has meshes
+
+        try:
+            tm = trimesh.load(file, force="mesh")
+        except Exception as exc:  # trimesh raises many kinds
+            self.err(path + ("file",), f"cannot read mesh: {exc}")
+            return None
+        if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
+            self.err(path + ("file",), "the mesh file holds no triangles")
+            return None
+        scale = LENGTH[mesh.units or self.cf.units.length]
+        if not tm.is_watertight:
+            self.warn(path + ("file",), "the mesh is not closed (watertight); sensing treats shapes as solids and may be wrong")
+        obb = tm.bounding_box_oriented.primitive
+        T_mesh_box = np.array(obb.transform, dtype=float)
+        T_mesh_box[:3, 3] *= scale
+        box = wm.Box(T @ T_mesh_box, np.array(obb.extents, dtype=float) * scale / 2)
+        size = np.array(tm.extents, dtype=float) * scale
+        return wm.Shape("mesh", T, size, box, mesh_file=file, mesh_scale=scale)
+
+    def _aux_frames(self, owner: str, frames: list[sm.AuxFrame], path: tuple, default_parent: str, kind="auxiliary"):
+        for j, f in enumerate(frames):
+            parent = f"{owner}.{f.parent}" if f.parent else default_parent
+            self._add_frame(wm.FrameDecl(f"{owner}.{f.name}", kind, owner, parent), path + (j, "name"))
+
+    def _features(self, owner: str, features: list[sm.Feature], path: tuple):
+        for j, f in enumerate(features):
+            fpath = path + (j,)
+            qname = f"{owner}.{f.name}"
+            if qname in self.features:
+                self.err(fpath + ("name",), f"duplicate feature name '{f.name}' in '{owner}' (first at line {self._line(self.feature_paths[qname])})")
+                continue
+            if f.point is not None:
+                feat = wm.Feature(qname, owner, "point", self._vec(f.point, self.L))
+            elif f.line is not None:
+                u = self._unit(fpath + ("line", "direction"), f.line.direction, "the line's direction")
+                feat = wm.Feature(qname, owner, "line", self._vec(f.line.point, self.L), u)
+            elif f.plane is not None:
+                u = self._unit(fpath + ("plane", "normal"), f.plane.normal, "the plane's normal")
+                feat = wm.Feature(qname, owner, "plane", self._vec(f.plane.point, self.L), u)
+            else:
+                c = f.circle
+                u = self._unit(fpath + ("circle", "normal"), c.normal, "the circle's normal")
+                feat = wm.Feature(qname, owner, "circle", self._vec(c.center, self.L), u, c.radius * self.L)
+            self.features[qname] = feat
+            self.feature_paths[qname] = fpath + ("name",)
+
+    # ------------------------------------------------------------------ primitives
+    def _object(self, i: int, o: sm.RigidObject) -> wm.ObjectModel:
+        path = ("objects", i)
+        self._aux_frames(o.name, o.frames, path + ("frames",), o.name)
+        self._features(o.name, o.features, path + ("features",))
+        return wm.ObjectModel(o.name, self._inertial(path, o.mass, o.com, o.inertia), self._shape(path + ("geometry",), o.geometry))
+
+    def _sensor(self, i: int, s: sm.Sensor) -> wm.SensorModel:
+        path = ("sensors", i)
+        self._aux_frames(s.name, s.frames, path + ("frames",), s.name)
+        needs = {"tactile": "segments", "proximity": "slices", "force": "force_curve"}
+        for key in ("segments", "slices", "force_curve"):
+            given = getattr(s, key) is not None
+            wanted = needs.get(s.type) == key
+            if given and not wanted:
+                self.err(path + (key,), f"'{key}' applies to {next(t for t, k in needs.items() if k == key)} sensors, not to a {s.type} sensor", prefer="key")
+            if wanted and not given:
+                self.err(path, f"a {s.type} sensor needs '{key}'")
+        curve = None
+        if s.force_curve is not None:
+            curve = np.array(s.force_curve, dtype=float)
+            cpath = path + ("force_curve",)
+            if len(curve) < 2:
+                self.err(cpath, f"a force curve needs at least 2 [volume, force] points, got {len(curve)}")
+            elif np.any(curve[:, 0] < 0) or np.any(np.diff(curve[:, 0]) <= 0):
+                self.err(cpath, "overlap volumes must be >= 0 and strictly increasing")
+            elif np.any(curve[:, 1] < 0):
+                self.err(cpath, "forces must be >= 0")
+            curve = curve * np.array([self.L**3, 1.0])
+        return wm.SensorModel(
+            name=s.name,
+            type=s.type,
+            size=self._vec(s.size, self.L),
+            rows=s.segments.rows if s.segments else 1,
+            cols=s.segments.cols if s.segments else 1,
+            slices=s.slices or 1,
+            force_curve=curve,
+        )
+
+    def _device(self, i: int, d: sm.Device) -> wm.DeviceModel | None:
+        path = ("devices", i)
+        ok = True
+        if len(d.joints) != d.dof:
+            self.err(path + ("joints",), f"the DH table has {len(d.joints)} row(s) but dof is {d.dof}")
+            ok = False
+        if d.links is not None and len(d.links) != d.dof:
+            self.err(path + ("links",), f"{len(d.links)} link(s) given but dof is {d.dof}; give one link per joint")
+            ok = False
+        joints = []
+        for j, row in enumerate(d.joints):
+            joints.append(self._joint(path + ("joints", j), j, row))
+        n = len(joints)
+        link_specs = d.links if (d.links is not None and len(d.links) == n) else [sm.Link() for _ in range(n)]
+        links = []
+        local_names: dict[str, tuple] = {}
+
+        def local(name: str, p: tuple) -> bool:
+            if name in local_names:
+                self.err(p, f"duplicate name '{name}' in device '{d.name}' (first at line {self._line(local_names[name])})")
+                return False
+            local_names[name] = p
+            return True
+
+        prev = d.name
+        for j, spec in enumerate(link_specs):
+            lname = spec.name or f"link{j + 1}"
+            lpath = path + ("links", j) if d.links is not None else path + ("joints", j)
+            local(lname, lpath + (("name",) if spec.name else ()))
+            qname = f"{d.name}.{lname}"
+            self._add_frame(wm.FrameDecl(qname, "link", d.name, prev), lpath + ("name",))
+            prev = qname
+            links.append(
+                wm.Link(lname, self._inertial(lpath, spec.mass, spec.com, spec.inertia), self._shape(lpath + ("geometry",), spec.geometry))
+            )
+        for j, f in enumerate(d.frames):
+            if local(f.name, path + ("frames", j, "name")):
+                parent = f"{d.name}.{f.parent}" if f.parent else d.name
+                self._add_frame(wm.FrameDecl(f"{d.name}.{f.name}", "auxiliary", d.name, parent), path + ("frames", j, "name"))
+        for j, spec in enumerate(link_specs):
+            for k, f in enumerate(spec.frames):
+                fpath = path + ("links", j, "frames", k, "name")
+                if local(f.name, fpath):
+                    parent = f"{d.name}.{f.parent}" if f.parent else f"{d.name}.{links[j].name}"
+                    self._add_frame(wm.FrameDecl(f"{d.name}.{f.name}", "auxiliary", d.name, parent), fpath)
+        tcps = []
+        last = f"{d.name}.{links[-1].name}" if links else d.name
+        for j, t in enumerate(d.tcps):
+            tpath = path + ("tcps", j, "name")
+            if local(t.name, tpath):
+                parent = f"{d.name}.{t.parent}" if t.parent else last
+                self._add_frame(wm.FrameDecl(f"{d.name}.{t.name}", "tcp", d.name, parent), tpath)
+                tcps.append(f"{d.name}.{t.name}")
+        self._features(d.name, d.features, path + ("features",))
+        home = self._home(path, d, joints)
+        if not ok:
+            return None
+        return wm.DeviceModel(d.name, d.dh, tuple(joints), tuple(links), tuple(tcps), home, self._shape(path + ("geometry",), d.geometry))
+
+    def _joint(self, path, j: int, row: sm.Joint) -> wm.Joint:
+        scale = self.A if row.type == "revolute" else self.L
+        lim = row.limits or sm.JointLimits()
+        lower, upper = -np.inf, np.inf
+        if lim.position is not None:
+            lower, upper = lim.position[0] * scale, lim.position[1] * scale
+            if not lower < upper:
+                self.err(path + ("limits", "position"), f"limits out of order: lower {lim.position[0]} must be below upper {lim.position[1]}")
+        limits = wm.JointLimits(
+            lower=lower,
+            upper=upper,
+            velocity=lim.velocity * scale if lim.velocity else np.inf,
+            acceleration=lim.acceleration * scale if lim.acceleration else np.inf,
+            effort=lim.effort if lim.effort else np.inf,
+        )
+        Jm, G = (row.motor.inertia, row.motor.gear_ratio) if row.motor else (0.0, 1.0)
+        viscous = coulomb_pos = coulomb_neg = 0.0
+        if row.friction is not None:
+            fr = row.friction
+            coulomb_neg_raw = fr.coulomb if fr.coulomb_negative is None else fr.coulomb_negative
+            if fr.at == "motor":
+                if row.motor is None:
+                    self.err(path + ("friction", "at"), "motor-side friction needs the joint's 'motor' (its gear_ratio) to refer it to the joint")
+                viscous, coulomb_pos, coulomb_neg = fr.viscous * G**2, fr.coulomb * abs(G), coulomb_neg_raw * abs(G)
+            else:
+                viscous, coulomb_pos, coulomb_neg = fr.viscous, fr.coulomb, coulomb_neg_raw
+        return wm.Joint(
+            name=row.name or f"j{j + 1}",
+            kind=row.type,
+            a=row.a * self.L,
+            alpha=row.alpha * self.A,
+            d=row.d * self.L,
+            theta=row.theta * self.A,
+            limits=limits,
+            motor_inertia=Jm,
+            gear_ratio=G,
+            viscous=viscous,
+            coulomb_positive=coulomb_pos,
+            coulomb_negative=coulomb_neg,
+        )
+
+    def _home(self, path, d: sm.Device, joints: list[wm.Joint]) -> np.ndarray:
+        lower = np.array([j.limits.lower for j in joints])
+        upper = np.array([j.limits.upper for j in joints])
+        if d.home is None:
+            return np.clip(np.zeros(len(joints)), lower, upper)
+        scale = np.array([self.A if j.kind == "revolute" else self.L for j in joints])
+        if len(d.home) != len(joints):
+            self.err(path + ("home",), f"home has {len(d.home)} value(s) but the device has {len(joints)} joint(s)")
+            return np.clip(np.zeros(len(joints)), lower, upper)
+        home = np.array(d.home, dtype=float) * scale
+        for k in np.nonzero((home < lower) | (home > upper))[0]:
+            self.err(path + ("home", int(k)), f"home value {d.home[k]} of joint {joints[k].name} is outside its position limits")
+        return home
+
+    def _free_frames(self):
+        for i, f in enumerate(self.cf.frames):
+            if self.primitives.get(f.name, (None, None))[1] != ("frames", i):
+                continue
+            self._add_frame(wm.FrameDecl(f.name, "free", wm.WORLD, f.parent or wm.WORLD), ("frames", i, "name"))
+
+    def _check_owned_parents(self):
+        """Owned frames' parents exist and belong to the same owner; free frames hang on free frames."""
+        for name, decl in list(self.frames.items()):
+            if decl.parent is None or decl.kind == "link":
+                continue
+            path = self.frame_paths[name][:-1] + ("parent",)
+            parent = self.frames.get(decl.parent)
+            if decl.kind == "free":
+                if parent is None:
+                    self.err(path, f"unknown frame '{decl.parent}'{did_you_mean(decl.parent, self.frames)}")
+                elif parent.kind not in ("free", "world"):
+                    self.err(path, f"a free frame hangs on 'world' or another free frame, not on '{decl.parent}'; declare it as an auxiliary frame of '{parent.owner}' instead")
+                continue
+            if parent is None:
+                local = decl.parent.split(".", 1)[1]
+                siblings = [f.split(".", 1)[1] for f, d in self.frames.items() if d.owner == decl.owner and "." in f]
+                self.err(path, f"'{decl.owner}' has no frame '{local}'{did_you_mean(local, siblings)}")
+            elif decl.parent == name:
+                self.err(path, f"frame '{name}' cannot be its own parent")
+
+    # ------------------------------------------------------------------ affixments
+    def _owner_kind(self, frame: str) -> str:
+        decl = self.frames[frame]
+        if decl.kind in ("world", "free"):
+            return decl.kind
+        return self.primitives[decl.owner][0]
+
+    def _affixments(self) -> list[wm.AffixmentDecl]:
+        out = []
+        seen_child: dict[str, tuple] = {}
+        for i, a in enumerate(self.cf.affixments):
+            path = ("affixments", i)
+            bad = False
+            if a.parent not in self.frames:
+                self.err(path + ("parent",), f"unknown frame '{a.parent}'{did_you_mean(a.parent, self.frames)}")
+                bad = True
+            child_kind = self.primitives.get(a.child, (None,))[0]
+            if child_kind is None:
+                frame_hint = " (auxiliary frames belong to their owner and cannot be affixed)" if a.child in self.frames else ""
+                names = [n for n, (k, _) in self.primitives.items() if k != "free"]
+                self.err(path + ("child",), f"unknown object, sensor or device '{a.child}'{did_you_mean(a.child, names)}{frame_hint}")
+                bad = True
+            elif child_kind == "free":
+                self.err(path + ("child",), f"'{a.child}' is a free frame; give it a 'parent' in 'frames' instead of an affixment")
+                bad = True
+            if a.child in seen_child:
+                self.err(path + ("child",), f"'{a.child}' is already affixed at line {self._line(seen_child[a.child])}; a primitive has one parent (the affixments form a tree)")
+                bad = True
+            if bad:
+                continue
+            seen_child[a.child] = path + ("child",)
+            owner_kind = self._owner_kind(a.parent)
+            parent_owner = self.frames[a.parent].owner
+            problem = rules.hierarchy_problem(a.child, child_kind, a.parent, parent_owner, owner_kind)
+            if problem:
+                self.err(path + (problem[0],), problem[1])
+                continue
+            problem = rules.kind_problem(a.type, a.kind, child_kind, owner_kind)
+            if problem:
+                self.err(path + ("kind",), problem)
+            out.append(wm.AffixmentDecl(a.parent, a.child, a.type, a.kind))
+        return out
+
+    def _check_cycles(self, affixments: list[wm.AffixmentDecl]):
+        """Follow parents from every frame; report each cycle once, at an affixment that closes it."""
+        parent = {n: d.parent for n, d in self.frames.items()}
+        via: dict[str, int] = {}
+        for i, a in enumerate(affixments):
+            parent[a.child] = a.parent
+            via[a.child] = i
+        reported: set[frozenset] = set()
+        for start in parent:
+            path, node = [], start
+            while node is not None and node not in path:
+                path.append(node)
+                node = parent.get(node)
+            if node is None:
+                continue
+            cycle = path[path.index(node) :]
+            key = frozenset(cycle)
+            if key in reported:
+                continue
+            reported.add(key)
+            chain = " -> ".join(cycle + [cycle[0]])
+            closing = [n for n in cycle if n in via]
+            if closing:
+                idx = self.cf.affixments.index(next(a for a in self.cf.affixments if a.child == closing[-1]))
+                self.err(("affixments", idx, "parent"), f"the affixments form a cycle: {chain} (each frame must lead to world)")
+            else:
+                self.err(self.frame_paths[cycle[0]][:-1] + ("parent",), f"frames form a cycle: {chain}")
+
+    # ------------------------------------------------------------------ conditions
+    def _conditions(self) -> list[wm.Condition]:
+        out = []
+        seen: dict[str, tuple] = {}
+        for i, c in enumerate(self.cf.conditions):
+            path = ("conditions", i)
+            decl = self.frames.get(c.frame)
+            if decl is None:
+                self.err(path + ("frame",), f"unknown frame '{c.frame}'{did_you_mean(c.frame, self.frames)}")
+                continue
+            if c.frame in seen:
+                self.err(path + ("frame",), f"frame '{c.frame}' is already conditioned at line {self._line(seen[c.frame])}; a frame takes one condition")
+                continue
+            seen[c.frame] = path + ("frame",)
+            code = c.code
+            natural = code in ("C1", "C2")
+            if decl.kind in ("world", "free", "link"):
+                what = {"world": "the world frame", "free": "a free frame", "link": "a link frame (placed by the DH table)"}[decl.kind]
+                self.err(path + ("frame",), f"'{c.frame}' is {what}; only frames owned by an object or device can be conditioned by features")
+                continue
+            if natural and decl.kind != "natural":
+                self.err(path + ("type",), f"{c.type} ({code}) locates a natural frame; '{c.frame}' is an auxiliary frame (use C3-C13)")
+                continue
+            if not natural and decl.kind == "natural":
+                self.err(path + ("type",), f"{c.type} ({code}) conditions an auxiliary frame; '{c.frame}' is a natural frame (use C1 or C2)")
+                continue
+            if self.primitives.get(decl.owner, ("",))[0] == "sensor":
+                self.err(path + ("frame",), f"'{c.frame}' belongs to a sensor; features belong to objects and devices")
+                continue
+            names = c.feature_names
+            fpath = path + ("feature",) if c.feature is not None else path + ("features",)
+            if not natural and len(names) != 1:
+                self.err(fpath, f"an auxiliary frame is conditioned by exactly one feature, got {len(names)}")
+                continue
+            if natural and not names:
+                self.err(fpath, "give the features that locate this frame")
+                continue
+            resolved = []
+            for k, fname in enumerate(names):
+                p = fpath if c.feature is not None else fpath + (k,)
+                qname = fname if "." in fname else f"{decl.owner}.{fname}"
+                feat = self.features.get(qname)
+                if feat is None:
+                    own = [f.split(".", 1)[1] for f in self.features if f.startswith(decl.owner + ".")]
+                    self.err(p, f"'{decl.owner}' has no feature '{fname}'{did_you_mean(fname.split('.')[-1], own)}")
+                    continue
+                if feat.owner != decl.owner:
+                    self.err(
+                        p,
+                        f"feature '{qname}' belongs to '{feat.owner}' but frame '{c.frame}' belongs to '{decl.owner}'; "
+                        "a frame is conditioned only by features of its own object or device",
+                    )
+                    continue
+                if feat.kind not in CONDITION_FEATURE_KINDS[code]:
+                    allowed = " or ".join(sorted(CONDITION_FEATURE_KINDS[code]))
+                    self.err(p, f"{c.type} ({code}) needs a {allowed} feature; '{qname}' is a {feat.kind}")
+                    continue
+                resolved.append(qname)
+            if len(resolved) == len(names):
+                out.append(wm.Condition(c.frame, code, c.type, tuple(resolved)))
+        return out
+
+    # ------------------------------------------------------------------ poses
+    def _poses(self):
+        poses: dict[str, np.ndarray] = {}
+        sources: dict[str, Path] = {}
+        files: list[Path] = []
+        for i, rel in enumerate(self.cf.pose_files):
+            real = self.base_dir / rel
+            shown = str(self.display_dir / rel)
+            if not real.is_file():
+                self.err(("pose_files", i), f"no such pose file: {shown}")
+                continue
+            files.append(real)
+            try:
+                doc, pf = load_pose_file_doc(real, shown)
+            except UserError as exc:
+                self.issues.extend(exc.issues)
+                continue
+            L, A = LENGTH[pf.units.length], ANGLE[pf.units.angle]
+            for name, pose in pf.poses.items():
+                ppath = ("poses", name)
+                decl = self.frames.get(name)
+                if decl is None:
+                    self.err(ppath, f"unknown frame '{name}'{did_you_mean(name, self.frames)}", prefer="key", doc=doc)
+                    continue
+                if decl.kind == "world":
+                    self.err(ppath, "the world frame has no pose; it is the reference", prefer="key", doc=doc)
+                    continue
+                if decl.kind == "link":
+                    self.err(ppath, f"'{name}' is a link frame placed by the DH table of '{decl.owner}'; it takes no pose", prefer="key", doc=doc)
+                    continue
+                T, error, warning = pose_to_matrix(pose, L, A)
+                if error:
+                    self.err(ppath, error, doc=doc)
+                    continue
+                if warning:
+                    self.warn(ppath, warning, doc=doc)
+                poses[name] = T
+                sources[name] = real
+        if len(files) == len(self.cf.pose_files):
+            shown_files = ", ".join(str(self.display_dir / r) for r in self.cf.pose_files)
+            for name, decl in self.frames.items():
+                if decl.kind in ("world", "link") or name in poses:
+                    continue
+                self.err(self.frame_paths[name], f"no pose for frame '{name}' in {shown_files}; add '{name}: {{xyz: [x, y, z], rpy: [r, p, y]}}'")
+        return poses, sources, files

@@ -1,0 +1,390 @@
+"""Pydantic models of rworld's YAML file formats: the cell and its pose files.
+
+These models describe the *files* (numbers in the file's declared units); the
+loader converts them to SI and builds the runtime model
+(:mod:`rworld_cli.world.model`).  Every field carries a description: they
+become the JSON Schemas in ``schemas/`` that editors use for completion.
+
+Units (``docs/formats.md``): a file's ``units.length`` applies to every
+length (positions, sizes, DH ``a`` and ``d``, prismatic joint travel, speed
+and acceleration, feature coordinates, sensor overlap volumes as length^3);
+``units.angle`` to every angle (rotations, DH ``alpha`` and ``theta``,
+revolute joint travel, speed and acceleration).  Mass properties, efforts
+and gravity are always SI (kg, kg m^2, N m or N, m/s^2).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal, Optional
+
+from annotated_types import Len
+from pydantic import BaseModel, ConfigDict, Field, StringConstraints, field_validator, model_validator
+
+NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_\-]*$"
+REF_PATTERN = r"^[A-Za-z_][A-Za-z0-9_\-]*(\.[A-Za-z_][A-Za-z0-9_\-]*)*$"
+
+Name = Annotated[str, StringConstraints(pattern=NAME_PATTERN), Field(description="A name: letters, digits, '_' or '-', not starting with a digit, no '.'.")]
+FrameRef = Annotated[
+    str,
+    StringConstraints(pattern=REF_PATTERN),
+    Field(description="A frame: 'world', a primitive's name (its natural frame) or 'owner.frame' for an auxiliary, link or TCP frame."),
+]
+Vec3 = Annotated[list[float], Len(3, 3)]
+PositiveVec3 = Annotated[list[Annotated[float, Field(gt=0)]], Len(3, 3)]
+Positive = Annotated[float, Field(gt=0)]
+NonNegative = Annotated[float, Field(ge=0)]
+
+
+class Strict(BaseModel):
+    """Base: no unknown keys, no silent string-to-number coercion, finite numbers only."""
+
+    model_config = ConfigDict(strict=True, extra="forbid", allow_inf_nan=False)
+
+
+# --------------------------------------------------------------------------- shared
+
+
+class Units(Strict):
+    """Units of the numbers in this file; converted to SI when the file is loaded."""
+
+    length: Literal["m", "mm"] = Field("m", description="Unit of every length in the file.")
+    angle: Literal["rad", "deg"] = Field("rad", description="Unit of every angle in the file.")
+
+
+class Pose(Strict):
+    """A pose relative to the frame's parent: ``xyz`` with ``rpy`` or ``quat``, or a 4x4 ``matrix``."""
+
+    xyz: Optional[Vec3] = Field(None, description="Translation [length unit]; default 0.")
+    rpy: Optional[Vec3] = Field(
+        None, description="Roll, pitch, yaw [angle unit] about the fixed x, y, z axes: R = Rz(yaw) Ry(pitch) Rx(roll)."
+    )
+    quat: Optional[Annotated[list[float], Len(4, 4)]] = Field(None, description="Unit quaternion (w, x, y, z).")
+    matrix: Optional[Annotated[list[Annotated[list[float], Len(4, 4)]], Len(4, 4)]] = Field(
+        None, description="Homogeneous 4x4 matrix, rows; translation in the length unit."
+    )
+
+    @model_validator(mode="after")
+    def _one_form(self):
+        if self.rpy is not None and self.quat is not None:
+            raise ValueError("give the rotation once: 'rpy' or 'quat', not both")
+        if self.matrix is not None and (self.xyz is not None or self.rpy is not None or self.quat is not None):
+            raise ValueError("'matrix' holds the whole pose; do not combine it with 'xyz', 'rpy' or 'quat'")
+        return self
+
+
+class Inertia(Strict):
+    """Inertia tensor about the centre of mass, axes of the owner's frame [kg m^2]."""
+
+    ixx: float = Field(description="kg m^2")
+    iyy: float = Field(description="kg m^2")
+    izz: float = Field(description="kg m^2")
+    ixy: float = Field(0.0, description="kg m^2")
+    ixz: float = Field(0.0, description="kg m^2")
+    iyz: float = Field(0.0, description="kg m^2")
+
+
+class Cylinder(Strict):
+    radius: Positive = Field(description="[length unit]")
+    length: Positive = Field(description="Along z, centred on the origin [length unit].")
+
+
+class Sphere(Strict):
+    radius: Positive = Field(description="[length unit]")
+
+
+class Mesh(Strict):
+    file: str = Field(description="STL, OBJ or PLY file, relative to the cell file.")
+    units: Optional[Literal["m", "mm"]] = Field(None, description="Length unit of the mesh file; default: the cell's.")
+
+
+class Geometry(Strict):
+    """Shape: exactly one of box, cylinder, sphere, mesh; placed by ``origin`` in the owner's frame."""
+
+    box: Optional[PositiveVec3] = Field(None, description="Edge lengths x, y, z, centred on the origin [length unit].")
+    cylinder: Optional[Cylinder] = None
+    sphere: Optional[Sphere] = None
+    mesh: Optional[Mesh] = None
+    origin: Optional[Pose] = Field(None, description="Pose of the shape in the owner's frame; default identity.")
+
+    @model_validator(mode="after")
+    def _exactly_one(self):
+        given = [k for k in ("box", "cylinder", "sphere", "mesh") if getattr(self, k) is not None]
+        if len(given) != 1:
+            what = "none" if not given else " and ".join(given)
+            raise ValueError(f"give exactly one shape (box, cylinder, sphere or mesh), got {what}")
+        return self
+
+
+# --------------------------------------------------------------------------- features
+
+
+class LineSpec(Strict):
+    point: Vec3 = Field(description="A point on the line [length unit].")
+    direction: Vec3 = Field(description="Direction; for orientation-carrying probing, first -> last point.")
+
+
+class PlaneSpec(Strict):
+    point: Vec3 = Field(description="A point on the plane [length unit].")
+    normal: Vec3 = Field(description="Normal pointing out of the material ('above' the surface).")
+
+
+class CircleSpec(Strict):
+    center: Vec3 = Field(description="[length unit]")
+    normal: Vec3 = Field(description="Normal of the circle's plane, out of the material.")
+    radius: Positive = Field(description="[length unit]")
+
+
+class Feature(Strict):
+    """A geometric feature of its owner, nominal equation in the owner's natural frame."""
+
+    name: Name
+    point: Optional[Vec3] = Field(None, description="A point feature [length unit].")
+    line: Optional[LineSpec] = None
+    plane: Optional[PlaneSpec] = None
+    circle: Optional[CircleSpec] = None
+
+    @model_validator(mode="after")
+    def _exactly_one(self):
+        given = [k for k in ("point", "line", "plane", "circle") if getattr(self, k) is not None]
+        if len(given) != 1:
+            what = "none" if not given else " and ".join(given)
+            raise ValueError(f"give exactly one of point, line, plane, circle; got {what}")
+        return self
+
+    @property
+    def kind(self) -> str:
+        return next(k for k in ("point", "line", "plane", "circle") if getattr(self, k) is not None)
+
+
+# --------------------------------------------------------------------------- frames, objects, sensors
+
+
+class AuxFrame(Strict):
+    """An auxiliary frame owned by an object, sensor, device or link; its pose lives in a pose file."""
+
+    name: Name
+    parent: Optional[Name] = Field(
+        None, description="Another frame of the same owner this one is attached to; default the owner's frame."
+    )
+
+
+class FreeFrame(Strict):
+    """A frame in free space (e.g. a target location); its pose lives in a pose file."""
+
+    name: Name
+    parent: Optional[FrameRef] = Field(None, description="'world' (default) or another free frame.")
+
+
+class RigidObject(Strict):
+    """A rigid object: natural frame, mass properties, shape, auxiliary frames, features."""
+
+    name: Name
+    mass: NonNegative = Field(0.0, description="[kg]")
+    com: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0], description="Centre of mass in the natural frame [length unit].")
+    inertia: Optional[Inertia] = Field(None, description="About the centre of mass; default zero (a point mass).")
+    geometry: Optional[Geometry] = None
+    frames: list[AuxFrame] = Field(default_factory=list)
+    features: list[Feature] = Field(default_factory=list)
+
+
+class Segments(Strict):
+    rows: Annotated[int, Field(ge=1)] = Field(description="Cells along the pad's y axis.")
+    cols: Annotated[int, Field(ge=1)] = Field(description="Cells along the pad's x axis.")
+
+
+class Sensor(Strict):
+    """A sensor: a box whose origin is the centre of its base face, sensing along +z."""
+
+    name: Name
+    type: Literal["touch", "tactile", "proximity", "presence", "force"]
+    size: PositiveVec3 = Field(description="Box edge lengths x, y, z [length unit]; z is the sensing depth or range.")
+    segments: Optional[Segments] = Field(None, description="Tactile sensors: the pad's grid of cells.")
+    slices: Optional[Annotated[int, Field(ge=1)]] = Field(None, description="Proximity sensors: slices of the range along +z.")
+    force_curve: Optional[list[Annotated[list[float], Len(2, 2)]]] = Field(
+        None, description="Force sensors: [overlap volume (length unit^3), force (N)] pairs, volume increasing."
+    )
+    frames: list[AuxFrame] = Field(default_factory=list)
+
+
+# --------------------------------------------------------------------------- devices
+
+
+class JointLimits(Strict):
+    position: Optional[Annotated[list[float], Len(2, 2)]] = Field(
+        None, description="[lower, upper] joint value [angle or length unit]."
+    )
+    velocity: Optional[Positive] = Field(None, description="[angle or length unit]/s")
+    acceleration: Optional[Positive] = Field(None, description="[angle or length unit]/s^2")
+    effort: Optional[Positive] = Field(None, description="Torque [N m] or force [N] the actuator can give.")
+
+
+class Motor(Strict):
+    inertia: NonNegative = Field(description="Motor rotor (armature) inertia Jm [kg m^2], motor side.")
+    gear_ratio: float = Field(description="G: motor speed / joint speed; sign allowed; reflected inertia Jm G^2.")
+
+    @field_validator("gear_ratio")
+    @classmethod
+    def _nonzero(cls, v: float) -> float:
+        if v == 0:
+            raise ValueError("gear_ratio must not be 0")
+        return v
+
+
+class Friction(Strict):
+    viscous: NonNegative = Field(0.0, description="B: torque per speed [N m s/rad or N s/m].")
+    coulomb: NonNegative = Field(0.0, description="Coulomb friction magnitude when moving in + direction [N m or N].")
+    coulomb_negative: Optional[NonNegative] = Field(None, description="Magnitude when moving in - direction; default: coulomb.")
+    at: Literal["joint", "motor"] = Field(
+        "joint", description="Side the values are measured on; motor-side values are scaled by the gear ratio (B G^2, Tc |G|)."
+    )
+
+
+class Joint(Strict):
+    """One row of the DH table (see docs/conventions.md for standard vs modified)."""
+
+    name: Optional[Name] = Field(None, description="Default j1, j2, ...")
+    type: Literal["revolute", "prismatic"]
+    a: float = Field(0.0, description="Link length [length unit].")
+    alpha: float = Field(0.0, description="Link twist [angle unit].")
+    d: float = Field(0.0, description="Link offset [length unit]; for prismatic joints added to the joint value.")
+    theta: float = Field(0.0, description="Joint angle offset [angle unit]; for revolute joints added to the joint value.")
+    limits: Optional[JointLimits] = None
+    motor: Optional[Motor] = None
+    friction: Optional[Friction] = None
+
+
+class Link(Strict):
+    """Link i, moved by joint i; its frame is DH frame i."""
+
+    name: Optional[Name] = Field(None, description="Default link1, link2, ...")
+    mass: NonNegative = Field(0.0, description="[kg]")
+    com: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0], description="Centre of mass in the link frame [length unit].")
+    inertia: Optional[Inertia] = None
+    geometry: Optional[Geometry] = None
+    frames: list[AuxFrame] = Field(default_factory=list, description="Auxiliary frames on this link.")
+
+
+class Tcp(Strict):
+    name: Name
+    parent: Optional[Name] = Field(None, description="A link or frame of this device; default the last link.")
+
+
+class Device(Strict):
+    """A device: a serial chain given by its DH table, with links, limits and TCPs."""
+
+    name: Name
+    dof: Annotated[int, Field(ge=1)] = Field(description="Mobility: number of joints.")
+    dh: Literal["standard", "modified"] = Field(description="DH convention of the joint table.")
+    joints: list[Joint] = Field(description="The DH table, one row per joint.")
+    links: Optional[list[Link]] = Field(None, description="One per joint; default massless links link1..n.")
+    tcps: Annotated[list[Tcp], Len(1)] = Field(description="Tool centre points; the first is the default active TCP.")
+    home: Optional[list[float]] = Field(None, description="Initial joint values [angle or length unit]; default 0.")
+    geometry: Optional[Geometry] = Field(None, description="Shape of the base.")
+    frames: list[AuxFrame] = Field(default_factory=list, description="Auxiliary frames on the base.")
+    features: list[Feature] = Field(default_factory=list, description="Features of the base, in the natural frame.")
+
+
+# --------------------------------------------------------------------------- relations
+
+
+class Affixment(Strict):
+    """Child is affixed to parent: rigid (child follows parent) or non-rigid (child rests on parent)."""
+
+    parent: FrameRef
+    child: Name = Field(description="An object, sensor or device.")
+    type: Literal["rigid", "non_rigid"]
+    kind: Optional[Literal["grasp", "assembly", "aggregation", "tool", "fixture", "rests_on"]] = Field(
+        None, description="What the affixment models; 'rests_on' is non-rigid, the others rigid."
+    )
+
+
+CONDITION_CODES: dict[str, str] = {
+    "natural_unoriented": "C1",
+    "natural_oriented": "C2",
+    "origin_on": "C3",
+    "x_normal_to": "C4",
+    "y_normal_to": "C5",
+    "z_normal_to": "C6",
+    "xy_perpendicular_to": "C7",
+    "xz_perpendicular_to": "C8",
+    "yz_perpendicular_to": "C9",
+    "xy_parallel_to": "C10",
+    "xz_parallel_to": "C11",
+    "yz_parallel_to": "C12",
+    "circle_frame": "C13",
+}
+CODE_TO_CONDITION = {code: name for name, code in CONDITION_CODES.items()}
+ConditionName = Literal[
+    "natural_unoriented",
+    "natural_oriented",
+    "origin_on",
+    "x_normal_to",
+    "y_normal_to",
+    "z_normal_to",
+    "xy_perpendicular_to",
+    "xz_perpendicular_to",
+    "yz_perpendicular_to",
+    "xy_parallel_to",
+    "xz_parallel_to",
+    "yz_parallel_to",
+    "circle_frame",
+]
+
+
+class Condition(Strict):
+    """A frame conditioned by features (the calibration report's C1-C13)."""
+
+    frame: FrameRef
+    type: ConditionName = Field(description="Readable name; the report's codes C1..C13 are accepted too.")
+    feature: Optional[str] = Field(None, description="The one feature of an auxiliary frame's condition (C3-C13).")
+    features: Optional[list[str]] = Field(None, description="The features that locate a natural frame (C1, C2).")
+
+    @field_validator("type", mode="before")
+    @classmethod
+    def _code_alias(cls, v):
+        if isinstance(v, str) and v.upper() in CODE_TO_CONDITION:
+            return CODE_TO_CONDITION[v.upper()]
+        return v
+
+    @model_validator(mode="after")
+    def _one_feature_key(self):
+        if (self.feature is None) == (self.features is None):
+            raise ValueError("give either 'feature' (one name) or 'features' (a list), exactly one of them")
+        return self
+
+    @property
+    def code(self) -> str:
+        return CONDITION_CODES[self.type]
+
+    @property
+    def feature_names(self) -> list[str]:
+        return [self.feature] if self.feature is not None else list(self.features or [])
+
+
+# --------------------------------------------------------------------------- files
+
+
+class CellFile(Strict):
+    """A workcell: structure, geometry, devices, features, affixments and frame conditions."""
+
+    name: Name
+    description: Optional[str] = None
+    units: Units = Field(default_factory=Units)
+    pose_files: Annotated[list[str], Len(1)] = Field(
+        default_factory=lambda: ["poses.yaml"],
+        description="Numeric pose files relative to this file; later files override earlier ones (calibration overlays).",
+    )
+    gravity: Vec3 = Field(default_factory=lambda: [0.0, 0.0, -9.81], description="Acceleration of gravity in world [m/s^2].")
+    frames: list[FreeFrame] = Field(default_factory=list, description="Frames in free space.")
+    objects: list[RigidObject] = Field(default_factory=list)
+    sensors: list[Sensor] = Field(default_factory=list)
+    devices: list[Device] = Field(default_factory=list)
+    affixments: list[Affixment] = Field(default_factory=list, description="The initial tree; unaffixed primitives sit in world.")
+    conditions: list[Condition] = Field(default_factory=list, description="Frame conditions for calibration.")
+
+
+class PoseFile(Strict):
+    """Numeric data: frame poses relative to their parents.  Calibration rewrites these files."""
+
+    units: Units = Field(default_factory=Units)
+    poses: dict[str, Pose] = Field(description="Frame name -> pose relative to its parent.")

@@ -1,0 +1,307 @@
+"""The static description of a cell, in SI units, as the algorithms use it.
+
+Built once by the loader from validated files; immutable afterwards.  The
+mutable state (joint values, the affixment tree as programs change it) lives
+in :class:`rworld_cli.world.tree.World`.
+
+Frame names are qualified: a primitive's natural frame has the primitive's
+name (``puma``); auxiliary, link and TCP frames are ``owner.name``
+(``puma.link6``, ``puma.tool``, ``block.frame3``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+PrimitiveKind = Literal["object", "sensor", "device"]
+FrameKind = Literal["world", "natural", "auxiliary", "free", "link", "tcp"]
+WORLD = "world"
+
+
+@dataclass(frozen=True)
+class Inertial:
+    """Mass properties of a rigid body.
+
+    Attributes
+    ----------
+    mass : float
+        [kg]
+    com : ndarray, shape (3,)
+        Centre of mass in the body's frame [m].
+    inertia : ndarray, shape (3, 3)
+        Inertia tensor about the centre of mass, body-frame axes [kg m^2].
+    """
+
+    mass: float
+    com: np.ndarray
+    inertia: np.ndarray
+
+    @staticmethod
+    def zero() -> "Inertial":
+        return Inertial(0.0, np.zeros(3), np.zeros((3, 3)))
+
+
+@dataclass(frozen=True)
+class Box:
+    """An oriented box: ``T_owner_box`` places its centre; ``half_extents`` [m] along its axes."""
+
+    T_owner_box: np.ndarray
+    half_extents: np.ndarray
+
+    def corners(self) -> np.ndarray:
+        """The 8 corners in the owner's frame, shape (8, 3)."""
+        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+        local = signs * self.half_extents
+        return local @ self.T_owner_box[:3, :3].T + self.T_owner_box[:3, 3]
+
+
+@dataclass(frozen=True)
+class Shape:
+    """Geometry of a primitive or link, in its owner's frame.
+
+    Attributes
+    ----------
+    kind : {"box", "cylinder", "sphere", "mesh"}
+    T_owner_shape : ndarray, shape (4, 4)
+        Pose of the shape's own frame in the owner's frame.
+    size : ndarray, shape (3,)
+        Box edge lengths; cylinder (2r, 2r, length); sphere (2r, 2r, 2r) [m].
+    mesh_file : Path or None
+        Resolved mesh path (mesh shapes).
+    mesh_scale : float
+        Factor from mesh-file units to metres.
+    bounding_box : Box
+        The second-level (prismatic) representation, in the owner's frame.
+    """
+
+    kind: str
+    T_owner_shape: np.ndarray
+    size: np.ndarray
+    bounding_box: Box
+    mesh_file: Path | None = None
+    mesh_scale: float = 1.0
+
+
+@dataclass(frozen=True)
+class JointLimits:
+    """Limits of one joint, SI (rad or m based); ``inf`` where not given."""
+
+    lower: float = -np.inf
+    upper: float = np.inf
+    velocity: float = np.inf
+    acceleration: float = np.inf
+    effort: float = np.inf
+
+
+@dataclass(frozen=True)
+class Joint:
+    """One DH row, SI.  Revolute: ``theta = q + theta``; prismatic: ``d = q + d``."""
+
+    name: str
+    kind: Literal["revolute", "prismatic"]
+    a: float
+    alpha: float
+    d: float
+    theta: float
+    limits: JointLimits
+    motor_inertia: float = 0.0  # Jm [kg m^2], motor side
+    gear_ratio: float = 1.0  # G
+    viscous: float = 0.0  # joint side [N m s/rad or N s/m]
+    coulomb_positive: float = 0.0  # joint side [N m or N]
+    coulomb_negative: float = 0.0
+
+    @property
+    def armature(self) -> float:
+        """Motor inertia reflected to the joint, ``Jm G^2`` [kg m^2]."""
+        return self.motor_inertia * self.gear_ratio**2
+
+
+@dataclass(frozen=True)
+class Link:
+    name: str
+    inertial: Inertial
+    shape: Shape | None
+
+
+@dataclass(frozen=True)
+class DeviceModel:
+    """A serial-chain device.
+
+    Attributes
+    ----------
+    convention : {"standard", "modified"}
+        DH convention of ``joints``.
+    joints, links : tuple
+        ``n`` each; link *i* is moved by joint *i*, its frame is DH frame *i*.
+    tcps : tuple of str
+        Qualified TCP frame names; the first is the default active one.
+    home : ndarray, shape (n,)
+        Initial joint values (SI).
+    """
+
+    name: str
+    convention: Literal["standard", "modified"]
+    joints: tuple[Joint, ...]
+    links: tuple[Link, ...]
+    tcps: tuple[str, ...]
+    home: np.ndarray
+    shape: Shape | None = None
+
+    @property
+    def dof(self) -> int:
+        return len(self.joints)
+
+    @property
+    def link_frames(self) -> tuple[str, ...]:
+        return tuple(f"{self.name}.{link.name}" for link in self.links)
+
+    def dh_arrays(self) -> dict[str, np.ndarray]:
+        """The DH table as arrays of shape (n,): a, alpha, d, theta, prismatic (bool)."""
+        return {
+            "a": np.array([j.a for j in self.joints]),
+            "alpha": np.array([j.alpha for j in self.joints]),
+            "d": np.array([j.d for j in self.joints]),
+            "theta": np.array([j.theta for j in self.joints]),
+            "prismatic": np.array([j.kind == "prismatic" for j in self.joints]),
+        }
+
+    def limit_array(self, which: str) -> np.ndarray:
+        """One limit for all joints, shape (n,): 'lower', 'upper', 'velocity', 'acceleration' or 'effort'."""
+        return np.array([getattr(j.limits, which) for j in self.joints], dtype=float)
+
+    @property
+    def total_mass(self) -> float:
+        return float(sum(link.inertial.mass for link in self.links))
+
+
+@dataclass(frozen=True)
+class ObjectModel:
+    name: str
+    inertial: Inertial
+    shape: Shape | None
+
+
+@dataclass(frozen=True)
+class SensorModel:
+    """A box sensor; origin at the centre of its base face, sensing along +z.
+
+    Attributes
+    ----------
+    size : ndarray, shape (3,)
+        Edge lengths [m].
+    rows, cols : int
+        Tactile grid (1 x 1 otherwise).
+    slices : int
+        Proximity slices along +z (1 otherwise).
+    force_curve : ndarray, shape (K, 2) or None
+        Overlap volume [m^3] -> force [N].
+    """
+
+    name: str
+    type: Literal["touch", "tactile", "proximity", "presence", "force"]
+    size: np.ndarray
+    rows: int = 1
+    cols: int = 1
+    slices: int = 1
+    force_curve: np.ndarray | None = None
+
+    @property
+    def box(self) -> Box:
+        T = np.eye(4)
+        T[2, 3] = self.size[2] / 2
+        return Box(T, self.size / 2)
+
+
+@dataclass(frozen=True)
+class Feature:
+    """A feature in its owner's natural frame (SI).
+
+    ``point``: the point, a point on the line or plane, or the circle's centre;
+    ``direction``: unit line direction, or unit plane/circle normal; ``radius`` for circles.
+    """
+
+    name: str  # qualified: owner.feature
+    owner: str
+    kind: Literal["point", "line", "plane", "circle"]
+    point: np.ndarray
+    direction: np.ndarray | None = None
+    radius: float | None = None
+
+
+@dataclass(frozen=True)
+class Condition:
+    frame: str
+    code: str  # C1..C13
+    name: str  # readable name
+    features: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class FrameDecl:
+    """A declared frame.
+
+    Attributes
+    ----------
+    name : str
+        Qualified name.
+    kind : FrameKind
+    owner : str
+        Owning primitive's name ('world' for free frames and world).
+    parent : str or None
+        Parent frame for owned frames (aux, TCP, link); ``None`` for natural
+        frames, whose parent comes from the affixments.
+    """
+
+    name: str
+    kind: FrameKind
+    owner: str
+    parent: str | None
+
+
+@dataclass(frozen=True)
+class AffixmentDecl:
+    parent: str
+    child: str
+    type: Literal["rigid", "non_rigid"]
+    kind: str | None = None
+
+
+@dataclass
+class CellModel:
+    """Everything a cell file and its pose files declare, in SI.
+
+    Attributes
+    ----------
+    poses : dict
+        Frame -> ``T_parent_frame`` (4, 4) for every frame that is not a link frame.
+    pose_sources : dict
+        Frame -> the pose file that gave its pose.
+    """
+
+    name: str
+    path: Path
+    gravity: np.ndarray
+    frames: dict[str, FrameDecl]
+    objects: dict[str, ObjectModel]
+    sensors: dict[str, SensorModel]
+    devices: dict[str, DeviceModel]
+    features: dict[str, Feature]
+    conditions: list[Condition]
+    affixments: list[AffixmentDecl]
+    poses: dict[str, np.ndarray]
+    pose_files: list[Path] = field(default_factory=list)
+    pose_sources: dict[str, Path] = field(default_factory=dict)
+    description: str | None = None
+
+    def primitive_kind(self, name: str) -> PrimitiveKind | None:
+        if name in self.objects:
+            return "object"
+        if name in self.sensors:
+            return "sensor"
+        if name in self.devices:
+            return "device"
+        return None
