@@ -43,7 +43,8 @@ class Issue:
     def format(self) -> str:
         """The one-line form ``file:line:col: [warning: ]location: message``."""
         tag = "warning: " if self.severity == "warning" else ""
-        return f"{self.file}:{self.line}:{self.column}: {tag}{self.location}: {self.message}"
+        where = f"{self.file}:{self.line}:{self.column}" if self.line > 0 else self.file
+        return f"{where}: {tag}{self.location}: {self.message}"
 
     def as_dict(self) -> dict:
         return {

@@ -1,0 +1,305 @@
+"""Task-level functions: what each CLI command does, callable from Python.
+
+Nothing here prints or exits; results are dataclasses, problems are raised
+as :class:`~rworld_cli.errors.UserError`.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import Issue, UserError
+
+__all__ = [
+    "FileReport",
+    "validate_files",
+    "load_world",
+    "FrameNode",
+    "CellSummary",
+    "summarize_cell",
+    "schema_documents",
+    "write_schemas",
+    "stale_schemas",
+]
+
+
+# --------------------------------------------------------------------------- validate
+
+
+@dataclass
+class FileReport:
+    """The outcome of validating one file."""
+
+    file: str
+    kind: str  # "cell" | "poses" | "unknown"
+    errors: list[Issue] = field(default_factory=list)
+    warnings: list[Issue] = field(default_factory=list)
+    summary: str = ""
+
+    @property
+    def valid(self) -> bool:
+        return not self.errors
+
+    def as_dict(self) -> dict:
+        return {
+            "file": self.file,
+            "kind": self.kind,
+            "valid": self.valid,
+            "summary": self.summary,
+            "errors": [i.as_dict() for i in self.errors],
+            "warnings": [i.as_dict() for i in self.warnings],
+        }
+
+
+def _file_kind(path: Path) -> str:
+    """'cell' or 'poses', from the top-level keys (a directory means its cell.yaml)."""
+    if path.is_dir():
+        return "cell"
+    try:
+        from .schema.yamlio import read_yaml
+
+        data = read_yaml(path).data
+    except UserError:
+        return "cell"  # the cell loader reports the read error with its location
+    if isinstance(data, dict) and "poses" in data and "name" not in data:
+        return "poses"
+    return "cell"
+
+
+def validate_files(paths: list[str]) -> list[FileReport]:
+    """Validate cell files (with the pose files and meshes they name) and pose files.
+
+    Parameters
+    ----------
+    paths : list of str
+        Cell files, cell directories or pose files, as the user named them.
+
+    Returns
+    -------
+    list of FileReport
+        One per path, in order; ``valid`` is False when a file has errors.
+    """
+    from .schema import models as sm
+    from .schema.loader import load_cell, load_pose_file_doc, resolve_cell_path
+
+    reports = []
+    for raw in paths:
+        kind = _file_kind(Path(raw))
+        shown = resolve_cell_path(raw)[1] if kind == "cell" else raw
+        report = FileReport(shown, kind)
+        try:
+            if kind == "cell":
+                loaded = load_cell(raw)
+                report.warnings = loaded.warnings
+                c = loaded.cell
+                report.summary = (
+                    f"{len(c.devices)} device(s), {len(c.objects)} object(s), {len(c.sensors)} sensor(s), "
+                    f"{len(c.frames) - 1} frame(s), {len(c.features)} feature(s), {len(c.conditions)} condition(s)"
+                )
+            else:
+                _, pf = load_pose_file_doc(raw)
+                assert isinstance(pf, sm.PoseFile)
+                report.summary = f"{len(pf.poses)} pose(s); frame names are checked when a cell uses this file"
+        except UserError as exc:
+            report.errors = [i for i in exc.issues if i.severity == "error"] or [Issue(shown, 0, 0, "(file)", exc.message)]
+            report.warnings = [i for i in exc.issues if i.severity == "warning"]
+        reports.append(report)
+    return reports
+
+
+# --------------------------------------------------------------------------- show
+
+
+def load_world(cell_path: str, joints: dict[str, list[float]] | None = None):
+    """Load a cell and build its runtime :class:`~rworld_cli.world.tree.World`.
+
+    Parameters
+    ----------
+    cell_path : str
+        Cell file or directory.
+    joints : dict, optional
+        Device name -> joint values (SI) to set instead of the devices' home.
+
+    Returns
+    -------
+    (World, list of Issue)
+        The world and the load warnings.
+    """
+    from .schema.loader import load_cell
+    from .world.tree import World
+
+    loaded = load_cell(cell_path)
+    world = World(loaded.cell)
+    for device, q in (joints or {}).items():
+        world.set_joints(device, q)
+    return world, loaded.warnings
+
+
+@dataclass
+class FrameNode:
+    """One frame of the tree as ``rworld show`` reports it (SI)."""
+
+    name: str
+    kind: str  # world | natural | auxiliary | free | link | tcp
+    owner: str
+    parent: str | None
+    primitive: str | None  # object | sensor | device for natural frames
+    affixment: dict | None  # {"type", "kind"} for affixed primitives
+    T_world: np.ndarray
+    mass: float | None = None
+    detail: str = ""
+    children: list["FrameNode"] = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        from .spatial import matrix_to_rpy
+
+        return {
+            "name": self.name,
+            "kind": self.kind,
+            "owner": self.owner,
+            "parent": self.parent,
+            "primitive": self.primitive,
+            "affixment": self.affixment,
+            "xyz": self.T_world[:3, 3].tolist(),
+            "rpy": matrix_to_rpy(self.T_world[:3, :3]).tolist(),
+            "T_world": self.T_world.tolist(),
+            "mass": self.mass,
+            "detail": self.detail,
+        }
+
+
+@dataclass
+class CellSummary:
+    """What ``rworld show`` prints: the tree with world poses, and per-primitive facts."""
+
+    name: str
+    description: str | None
+    root: FrameNode
+    joints: dict[str, list[float]]
+    active_tcps: dict[str, str]
+    warnings: list[Issue]
+    conditions: list[dict]
+
+    def nodes(self) -> list[FrameNode]:
+        out, stack = [], [self.root]
+        while stack:
+            node = stack.pop()
+            out.append(node)
+            stack.extend(reversed(node.children))
+        return out
+
+    def as_dict(self) -> dict:
+        return {
+            "cell": self.name,
+            "description": self.description,
+            "units": {"length": "m", "angle": "rad"},
+            "joints": self.joints,
+            "active_tcps": self.active_tcps,
+            "frames": [n.as_dict() for n in self.nodes()],
+            "conditions": self.conditions,
+            "warnings": [w.as_dict() for w in self.warnings],
+        }
+
+
+def _detail(cell, name: str) -> tuple[str | None, float | None, str]:
+    kind = cell.primitive_kind(name)
+    if kind == "object":
+        o = cell.objects[name]
+        shape = o.shape.kind if o.shape else "no shape"
+        return kind, o.inertial.mass, shape
+    if kind == "sensor":
+        s = cell.sensors[name]
+        seg = {"tactile": f" {s.rows}x{s.cols} cells", "proximity": f" {s.slices} slices"}.get(s.type, "")
+        return kind, None, f"{s.type}{seg}"
+    if kind == "device":
+        d = cell.devices[name]
+        kinds = "".join("R" if j.kind == "revolute" else "P" for j in d.joints)
+        return kind, d.total_mass, f"{d.dof} DOF {kinds}, {d.convention} DH"
+    return None, None, ""
+
+
+def summarize_cell(cell_path: str, joints: dict[str, list[float]] | None = None) -> CellSummary:
+    """Load a cell and describe its frame tree with world poses (SI).
+
+    Parameters
+    ----------
+    cell_path : str
+        Cell file or directory.
+    joints : dict, optional
+        Device name -> joint values (SI); default the devices' home values.
+    """
+    world, warnings = load_world(cell_path, joints)
+    cell = world.cell
+    poses = world.world_poses()
+
+    def build(name: str) -> FrameNode:
+        decl = cell.frames[name]
+        primitive, mass, detail = _detail(cell, name) if decl.kind == "natural" else (None, None, "")
+        aff = world.affixment(name)
+        node = FrameNode(
+            name=name,
+            kind=decl.kind,
+            owner=decl.owner,
+            parent=world.parent(name),
+            primitive=primitive,
+            affixment={"type": aff.type, "kind": aff.kind} if aff else None,
+            T_world=poses[name],
+            mass=mass,
+            detail=detail,
+        )
+        node.children = [build(c) for c in world.children(name)]
+        return node
+
+    return CellSummary(
+        name=cell.name,
+        description=cell.description,
+        root=build("world"),
+        joints={d: world.joints(d).tolist() for d in cell.devices},
+        active_tcps={d: world.active_tcp(d) for d in cell.devices},
+        warnings=warnings,
+        conditions=[{"frame": c.frame, "code": c.code, "type": c.name, "features": list(c.features)} for c in cell.conditions],
+    )
+
+
+# --------------------------------------------------------------------------- schemas
+
+SCHEMA_FILES = {"cell.schema.json": "CellFile", "poses.schema.json": "PoseFile"}
+
+
+def schema_documents() -> dict[str, str]:
+    """The JSON Schema text of each file format, keyed by file name."""
+    from .schema import models as sm
+
+    out = {}
+    for filename, model_name in SCHEMA_FILES.items():
+        model = getattr(sm, model_name)
+        doc = {"$schema": "https://json-schema.org/draft/2020-12/schema", "$id": f"rworld/{filename}"}
+        doc.update(model.model_json_schema(mode="validation"))
+        out[filename] = json.dumps(doc, indent=2, ensure_ascii=False) + "\n"
+    return out
+
+
+def write_schemas(directory: str | Path) -> list[Path]:
+    """Write every schema into ``directory`` atomically; return the paths written."""
+    from .fileio import atomic_write_text
+
+    written = []
+    for filename, text in schema_documents().items():
+        path = Path(directory) / filename
+        atomic_write_text(path, text)
+        written.append(path)
+    return written
+
+
+def stale_schemas(directory: str | Path) -> list[str]:
+    """Names of schema files in ``directory`` that are missing or differ from the models."""
+    stale = []
+    for filename, text in schema_documents().items():
+        path = Path(directory) / filename
+        if not path.is_file() or path.read_text(encoding="utf-8") != text:
+            stale.append(filename)
+    return stale

@@ -1,0 +1,73 @@
+"""The ``rworld`` command line.
+
+Commands live in their own modules and are imported only when run, so
+``rworld --help`` stays fast (numpy, pydantic, scipy, trimesh load lazily).
+"""
+
+from __future__ import annotations
+
+import importlib
+
+import click
+
+from .. import __version__
+
+# name -> (module, function, one-line help shown by `rworld --help` without importing it)
+COMMANDS = {
+    "validate": ("validate", "validate", "Check cell and pose files; exit 2 with file:line:col lines if invalid."),
+    "show": ("show", "show", "Print a cell's frame tree with world poses, affixments and masses."),
+    "schema": ("schema_cmd", "schema", "Write (or --check) the JSON Schemas of the file formats."),
+}
+
+
+class LazyGroup(click.Group):
+    """A group whose subcommands are imported on first use."""
+
+    def list_commands(self, ctx):
+        return list(COMMANDS)
+
+    def get_command(self, ctx, name):
+        if name not in COMMANDS:
+            return None
+        module, attr, _ = COMMANDS[name]
+        return getattr(importlib.import_module(f"{__name__}.{module}"), attr)
+
+    def format_commands(self, ctx, formatter):
+        rows = [(name, help_) for name, (_, _, help_) in COMMANDS.items()]
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
+
+    def resolve_command(self, ctx, args):
+        try:
+            return super().resolve_command(ctx, args)
+        except click.UsageError:
+            import difflib
+
+            close = difflib.get_close_matches(args[0], list(COMMANDS), n=1) if args else []
+            if close:
+                ctx.fail(f"no such command '{args[0]}' (did you mean '{close[0]}'?)")
+            raise
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.version_option(__version__, prog_name="rworld")
+@click.option("--json", "json_output", is_flag=True, help="Machine-readable JSON on stdout (same as each command's --json).")
+@click.pass_context
+def main(ctx: click.Context, json_output: bool) -> None:
+    """rworld - world models, device physics and checks for robot workcells.
+
+    A cell is a directory with cell.yaml (structure: devices, objects,
+    sensors, frames, features, affixments, frame conditions) and pose files
+    (the numbers calibration may change).  See docs/formats.md.
+
+    \b
+    Examples:
+      rworld validate workcells/*/cell.yaml
+      rworld show workcells/paper_fig9
+      rworld --json show workcells/puma560 > tree.json
+      rworld schema --check
+
+    Exit codes: 0 ok, 1 a check failed, 2 bad input or usage, 3 internal error.
+    """
+    ctx.ensure_object(dict)
+    ctx.obj["json"] = json_output

@@ -1,0 +1,92 @@
+"""What every command shares: --json, error printing, exit codes."""
+
+from __future__ import annotations
+
+import functools
+import json
+import sys
+from typing import Any, Callable
+
+import click
+
+EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
+
+
+def json_option(fn: Callable) -> Callable:
+    """Add ``--json`` to a command; it is also on when the group got ``rworld --json``."""
+
+    @click.option("--json", "json_output", is_flag=True, help="Print machine-readable JSON on stdout.")
+    @functools.wraps(fn)
+    def wrapper(*args, json_output: bool = False, **kwargs):
+        ctx = click.get_current_context()
+        group_json = bool((ctx.find_root().obj or {}).get("json"))
+        return fn(*args, json_output=json_output or group_json, **kwargs)
+
+    return wrapper
+
+
+def emit_json(payload: Any) -> None:
+    click.echo(json.dumps(payload, indent=2, ensure_ascii=False, allow_nan=False))
+
+
+def handle_errors(fn: Callable) -> Callable:
+    """Turn rworld errors into printed lines and exit codes; never a traceback for bad input.
+
+    UserError -> its issue lines on stderr, exit 2 (or the JSON error object
+    on stdout with --json).  Anything unexpected is a bug: exit 3 with a
+    one-line request to report it (the traceback with RWORLD_DEBUG=1).
+    """
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        from ..errors import RworldError, UserError
+
+        try:
+            return fn(*args, **kwargs)
+        except click.exceptions.Exit:
+            raise
+        except click.ClickException:
+            raise
+        except RworldError as exc:
+            if kwargs.get("json_output"):
+                issues = exc.issues if isinstance(exc, UserError) else []
+                emit_json({"error": str(exc), "issues": [i.as_dict() for i in issues]})
+            else:
+                lines = exc.lines() if isinstance(exc, UserError) else [str(exc)]
+                for line in lines:
+                    click.echo(line, err=True)
+            sys.exit(exc.exit_code)
+        except KeyboardInterrupt:
+            click.echo("interrupted", err=True)
+            sys.exit(130)
+        except Exception as exc:  # a bug: say so plainly
+            import os
+            import traceback
+
+            if os.environ.get("RWORLD_DEBUG"):
+                traceback.print_exc()
+            click.echo(
+                f"internal error: {type(exc).__name__}: {exc}\n"
+                "This is a bug in rworld; please report it with the command and files (RWORLD_DEBUG=1 shows the traceback).",
+                err=True,
+            )
+            sys.exit(EXIT_INTERNAL)
+
+    return wrapper
+
+
+def parse_joint_assignments(values: tuple[str, ...]) -> dict[str, list[float]]:
+    """``("robot=0,0.5,1", ...)`` -> ``{"robot": [0, 0.5, 1]}``; usage errors exit 2."""
+    out: dict[str, list[float]] = {}
+    for item in values:
+        name, sep, rest = item.partition("=")
+        if not sep or not name:
+            raise click.BadParameter(f"'{item}': expected DEVICE=q1,q2,... (SI: rad or m)", param_hint="--joints")
+        try:
+            q = [float(v) for v in rest.split(",")]
+        except ValueError:
+            raise click.BadParameter(f"'{item}': joint values must be numbers separated by commas", param_hint="--joints") from None
+        if any(v != v or v in (float("inf"), float("-inf")) for v in q):
+            raise click.BadParameter(f"'{item}': joint values must be finite", param_hint="--joints")
+        out[name] = q
+    return out

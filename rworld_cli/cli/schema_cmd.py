@@ -1,0 +1,49 @@
+"""rworld schema"""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from .common import EXIT_CHECK_FAILED, emit_json, handle_errors, json_option
+
+
+@click.command()
+@click.option("-o", "--output", "output", default="schemas", show_default=True, type=click.Path(file_okay=False),
+              help="Directory to write the schemas into.")
+@click.option("--check", is_flag=True, help="Write nothing; exit 1 if the files in the directory are missing or stale.")
+@json_option
+@handle_errors
+def schema(output: str, check: bool, json_output: bool) -> None:
+    """Write the JSON Schemas of the file formats (cell.schema.json, poses.schema.json).
+
+    The schemas are generated from the same models that validate the files,
+    so an editor that uses them (e.g. the YAML language server, via a
+    '# yaml-language-server: $schema=../../schemas/cell.schema.json' line)
+    completes and checks keys as you type.
+
+    \b
+    Examples:
+      rworld schema                 # regenerate schemas/
+      rworld schema --check         # in CI: fail when schemas/ is stale
+    """
+    from ..api import stale_schemas, write_schemas
+
+    if check:
+        stale = stale_schemas(output)
+        if json_output:
+            emit_json({"directory": output, "stale": stale, "up_to_date": not stale})
+        elif stale:
+            click.echo(f"stale schemas in {output}: {', '.join(stale)} (run 'rworld schema -o {output}')", err=True)
+        else:
+            click.echo(f"ok: schemas in {output} are up to date")
+        if stale:
+            sys.exit(EXIT_CHECK_FAILED)
+        return
+    written = write_schemas(output)
+    if json_output:
+        emit_json({"written": [str(p) for p in written]})
+    else:
+        for p in written:
+            click.echo(f"wrote {p}")

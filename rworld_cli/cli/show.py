@@ -1,0 +1,115 @@
+"""rworld show CELL"""
+
+from __future__ import annotations
+
+import click
+
+from .common import emit_json, handle_errors, json_option, parse_joint_assignments
+
+KIND_STYLE = {"device": "bold cyan", "object": "bold green", "sensor": "bold magenta"}
+FRAME_STYLE = {"auxiliary": "yellow", "tcp": "bold yellow", "link": "blue", "free": "white", "world": "bold"}
+
+
+@click.command()
+@click.argument("cell", metavar="CELL")
+@click.option("--joints", "joints", multiple=True, metavar="DEVICE=q1,q2,...",
+              help="Joint values (SI: rad or m) instead of the device's home; repeatable.")
+@click.option("--units", "units", type=click.Choice(["mm", "m"]), default="mm", show_default=True,
+              help="Length unit of the printed positions (angles print in degrees).")
+@json_option
+@handle_errors
+def show(cell: str, joints: tuple[str, ...], units: str, json_output: bool) -> None:
+    """Print CELL's frame tree: every frame's world pose, affixments, masses.
+
+    CELL is a cell.yaml or its directory.  Natural frames of devices,
+    objects and sensors are shown with what holds them (rigid grasp,
+    aggregation, ...; non-rigid rests_on); auxiliary frames, link frames and
+    TCPs hang under their owner.  Positions are x, y, z in world; rotations
+    are fixed-axis roll, pitch, yaw.  --json prints SI values (m, rad) and
+    full 4x4 matrices.
+
+    \b
+    Examples:
+      rworld show workcells/paper_fig9
+      rworld show workcells/puma560 --joints puma=0,0.5,-1,0,0.3,0
+      rworld show --json workcells/calibration_example
+    """
+    from ..api import summarize_cell
+
+    summary = summarize_cell(cell, parse_joint_assignments(joints))
+    if json_output:
+        emit_json(summary.as_dict())
+        return
+    _render(summary, units)
+
+
+def _rows(node, depth=0):
+    """(node, display depth) in tree order; a device's link chain shows as one level."""
+    for child in node.children:
+        flat = child.kind == "link" and node.kind == "link"
+        child_depth = depth if flat else depth + 1
+        yield child, child_depth
+        yield from _rows(child, child_depth)
+
+
+def _render(summary, units: str) -> None:
+    import numpy as np
+    from rich.console import Console
+    from rich.table import Table
+    from rich.text import Text
+
+    from ..spatial import matrix_to_rpy
+
+    scale = 1000.0 if units == "mm" else 1.0
+    digits = 2 if units == "mm" else 5
+    console = Console(highlight=False)
+    err_console = Console(stderr=True, highlight=False)
+    for w in summary.warnings:
+        err_console.print(w.format(), style="yellow", markup=False)
+
+    title = summary.name + (f" - {summary.description}" if summary.description else "")
+    table = Table(title=title, title_justify="left", show_edge=False, pad_edge=False, box=None, header_style="bold")
+    table.add_column("frame", no_wrap=True)
+    table.add_column("what")
+    table.add_column("held by")
+    table.add_column(f"x y z [{units}]", justify="right", no_wrap=True)
+    table.add_column("roll pitch yaw [deg]", justify="right", no_wrap=True)
+    table.add_column("mass [kg]", justify="right")
+    for node, depth in _rows(summary.root):
+        if node.kind == "natural":
+            style = KIND_STYLE.get(node.primitive, "bold")
+            what = f"{node.primitive} {node.detail}".strip()
+        else:
+            style = FRAME_STYLE.get(node.kind, "white")
+            what = f"{node.kind} frame"
+        name = Text("  " * (depth - 1) + ("└ " if depth > 1 else ""), style="dim")
+        name.append(node.name, style=style)
+        held = ""
+        if node.affixment:
+            aff = node.affixment
+            held = aff["type"].replace("_", "-") + (f" {aff['kind']}" if aff["kind"] else "")
+        # round first so -1e-14 prints as 0.00, not -0.00
+        xyz = " ".join(f"{v:.{digits}f}" for v in np.round(node.T_world[:3, 3] * scale, digits) + 0.0)
+        rpy = " ".join(f"{v:.2f}" for v in np.round(np.degrees(matrix_to_rpy(node.T_world[:3, :3])), 2) + 0.0)
+        mass = f"{node.mass:.4g}" if node.mass is not None else ""
+        table.add_row(name, what, held, xyz, rpy, mass)
+    console.print(table)
+
+    if summary.joints:
+        dev_table = Table(title="Devices", title_justify="left", show_edge=False, box=None, header_style="bold")
+        dev_table.add_column("device")
+        dev_table.add_column("joint values (SI: rad, m)")
+        dev_table.add_column("active TCP")
+        for dev, q in summary.joints.items():
+            dev_table.add_row(dev, "[" + ", ".join(f"{v:.4g}" for v in q) + "]", summary.active_tcps[dev])
+        console.print()
+        console.print(dev_table)
+    if summary.conditions:
+        cond_table = Table(title="Frame conditions (calibration)", title_justify="left", show_edge=False, box=None, header_style="bold")
+        cond_table.add_column("frame")
+        cond_table.add_column("condition")
+        cond_table.add_column("features")
+        for c in summary.conditions:
+            cond_table.add_row(c["frame"], f"{c['type']} ({c['code']})", ", ".join(c["features"]))
+        console.print()
+        console.print(cond_table)

@@ -1,0 +1,47 @@
+"""rworld validate FILE..."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from .common import EXIT_BAD_INPUT, emit_json, handle_errors, json_option
+
+
+@click.command()
+@click.argument("files", nargs=-1, required=True, metavar="FILE...")
+@json_option
+@handle_errors
+def validate(files: tuple[str, ...], json_output: bool) -> None:
+    """Check cell files (with their pose files and meshes) and pose files.
+
+    FILE is a cell.yaml, a cell directory, or a pose file.  Every problem of
+    every file is reported at once, one line each, as
+    file:line:col: location: message.  Warnings (data that is legal but
+    suspicious, e.g. an inertia breaking the triangle inequality) do not fail
+    the check.
+
+    \b
+    Examples:
+      rworld validate workcells/*/cell.yaml
+      rworld validate workcells/puma560          # the directory's cell.yaml
+      rworld validate --json workcells/paper_fig9 | jq '.files[0].errors'
+
+    Exit codes: 0 all valid, 2 a file is invalid.
+    """
+    from ..api import validate_files
+
+    reports = validate_files(list(files))
+    if json_output:
+        emit_json({"valid": all(r.valid for r in reports), "files": [r.as_dict() for r in reports]})
+    else:
+        for r in reports:
+            for issue in sorted(r.errors + r.warnings, key=lambda i: (i.file != r.file, i.file, i.line, i.column)):
+                click.echo(issue.format(), err=True)
+            if r.valid:
+                click.echo(f"ok: {r.file}: {r.summary}")
+            else:
+                click.echo(f"invalid: {r.file}: {len(r.errors)} error(s)", err=True)
+    if not all(r.valid for r in reports):
+        sys.exit(EXIT_BAD_INPUT)
