@@ -69,13 +69,14 @@ def _render(summary, units: str) -> None:
 
     title = summary.name + (f" - {summary.description}" if summary.description else "")
     table = Table(title=title, title_justify="left", show_edge=False, pad_edge=False, box=None, header_style="bold")
-    table.add_column("frame", no_wrap=True)
-    table.add_column("what")
-    table.add_column("held by")
+    rows = list(_rows(summary.root))
+    name_width = max((2 * (d - 1) + (2 if d > 1 else 0) + len(n.name) for n, d in rows), default=5)
+    table.add_column("frame", no_wrap=True, min_width=name_width)  # names are what users type: never cut
+    table.add_column("what", overflow="fold")
+    # numbers stay whole; the descriptive columns wrap in narrow terminals
     table.add_column(f"x y z [{units}]", justify="right", no_wrap=True)
     table.add_column("roll pitch yaw [deg]", justify="right", no_wrap=True)
-    table.add_column("mass [kg]", justify="right")
-    for node, depth in _rows(summary.root):
+    for node, depth in rows:
         if node.kind == "natural":
             style = KIND_STYLE.get(node.primitive, "bold")
             what = f"{node.primitive} {node.detail}".strip()
@@ -84,15 +85,15 @@ def _render(summary, units: str) -> None:
             what = f"{node.kind} frame"
         name = Text("  " * (depth - 1) + ("└ " if depth > 1 else ""), style="dim")
         name.append(node.name, style=style)
-        held = ""
+        if node.mass is not None:
+            what += f", {node.mass:.4g} kg"
         if node.affixment:
             aff = node.affixment
-            held = aff["type"].replace("_", "-") + (f" {aff['kind']}" if aff["kind"] else "")
+            what += ", held " + aff["type"].replace("_", "-") + (f" ({aff['kind']})" if aff["kind"] else "")
         # round first so -1e-14 prints as 0.00, not -0.00
         xyz = " ".join(f"{v:.{digits}f}" for v in np.round(node.T_world[:3, 3] * scale, digits) + 0.0)
         rpy = " ".join(f"{v:.2f}" for v in np.round(np.degrees(matrix_to_rpy(node.T_world[:3, :3])), 2) + 0.0)
-        mass = f"{node.mass:.4g}" if node.mass is not None else ""
-        table.add_row(name, what, held, xyz, rpy, mass)
+        table.add_row(name, what, xyz, rpy)
     console.print(table)
 
     if summary.joints:

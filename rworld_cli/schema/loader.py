@@ -13,6 +13,7 @@ the feature's owner, plus physical sanity (masses, inertias, limits).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -68,6 +69,29 @@ def resolve_cell_path(path: str | Path) -> tuple[Path, str]:
     return p, shown
 
 
+MAX_MAGNITUDE = 1e12
+
+
+def _implausible_numbers(doc: Marked) -> list[Issue]:
+    """Numbers beyond +-1e12 in any unit: typos (a missing decimal point), never data.
+
+    Why: derived quantities (G^2, lengths^3, inertias) would overflow or lose
+    all precision; refusing them at the edge keeps the math finite.
+    """
+    found = []
+    stack = [((), doc.data)]
+    while stack:
+        path, value = stack.pop()
+        if isinstance(value, dict):
+            stack.extend((path + (k,), v) for k, v in value.items())
+        elif isinstance(value, list):
+            stack.extend((path + (i,), v) for i, v in enumerate(value))
+        elif isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+            if abs(value) > MAX_MAGNITUDE:
+                found.append(doc.issue(path, f"{value!r} is implausibly large (rworld accepts magnitudes up to 1e12)"))
+    return found
+
+
 def validate_document(doc: Marked, model: type[BaseModel]):
     """Validate parsed YAML against a file model; raise UserError with located issues."""
     if not isinstance(doc.data, dict):
@@ -76,10 +100,15 @@ def validate_document(doc: Marked, model: type[BaseModel]):
         raise UserError(
             "not a mapping", [doc.issue((), f"expected a mapping of keys at the top of the file, got {describe(doc.data)}")]
         )
+    issues = _implausible_numbers(doc)
     try:
-        return model.model_validate(doc.data)
+        result = model.model_validate(doc.data)
     except ValidationError as exc:
-        raise UserError(f"{doc.file}: invalid", pydantic_issues(exc, doc, model)) from None
+        issues += pydantic_issues(exc, doc, model)
+        result = None
+    if issues:
+        raise UserError(f"{doc.file}: invalid", sorted(set(issues), key=lambda i: (i.line, i.column, i.message)))
+    return result
 
 
 def load_cell(path: str | Path) -> LoadedCell:
@@ -144,6 +173,29 @@ def pose_to_matrix(pose: sm.Pose, length: float, angle: float) -> tuple[np.ndarr
     else:
         R = np.eye(3)
     return spatial.make_transform(R, p), None, warning
+
+
+@functools.lru_cache(maxsize=64)
+def _mesh_facts(file: str, mtime_ns: int, size: int):
+    """(T_mesh_obb, obb extents, extents, watertight) of a mesh file in its own units, or an error text.
+
+    Cached on (path, mtime, size): cells are reloaded often (validate, simulate).
+    """
+    import trimesh  # heavy: only when a cell has meshes
+
+    try:
+        tm = trimesh.load(file, force="mesh")
+    except Exception as exc:  # trimesh raises many kinds
+        return f"cannot read mesh: {exc}"
+    if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
+        return "the mesh file holds no triangles"
+    obb = tm.bounding_box_oriented.primitive
+    return (
+        np.array(obb.transform, dtype=float),
+        np.array(obb.extents, dtype=float),
+        np.array(tm.extents, dtype=float),
+        bool(tm.is_watertight),
+    )
 
 
 class _Builder:
@@ -307,25 +359,19 @@ class _Builder:
         if file.suffix.lower() not in (".stl", ".obj", ".ply"):
             self.err(path + ("file",), f"unsupported mesh format '{file.suffix}'; use .stl, .obj or .ply")
             return None
-        import trimesh  # heavy: only when a cell has meshes
-
-        try:
-            tm = trimesh.load(file, force="mesh")
-        except Exception as exc:  # trimesh raises many kinds
-            self.err(path + ("file",), f"cannot read mesh: {exc}")
+        stat = file.stat()
+        facts = _mesh_facts(str(file.resolve()), stat.st_mtime_ns, stat.st_size)
+        if isinstance(facts, str):
+            self.err(path + ("file",), facts)
             return None
-        if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
-            self.err(path + ("file",), "the mesh file holds no triangles")
-            return None
+        T_mesh_box, extents, size, watertight = facts
         scale = LENGTH[mesh.units or self.cf.units.length]
-        if not tm.is_watertight:
+        if not watertight:
             self.warn(path + ("file",), "the mesh is not closed (watertight); sensing treats shapes as solids and may be wrong")
-        obb = tm.bounding_box_oriented.primitive
-        T_mesh_box = np.array(obb.transform, dtype=float)
+        T_mesh_box = T_mesh_box.copy()
         T_mesh_box[:3, 3] *= scale
-        box = wm.Box(T @ T_mesh_box, np.array(obb.extents, dtype=float) * scale / 2)
-        size = np.array(tm.extents, dtype=float) * scale
-        return wm.Shape("mesh", T, size, box, mesh_file=file, mesh_scale=scale)
+        box = wm.Box(T @ T_mesh_box, extents * scale / 2)
+        return wm.Shape("mesh", T, size * scale, box, mesh_file=file, mesh_scale=scale)
 
     def _aux_frames(self, owner: str, frames: list[sm.AuxFrame], path: tuple, default_parent: str, kind="auxiliary"):
         for j, f in enumerate(frames):
@@ -504,7 +550,8 @@ class _Builder:
             return np.clip(np.zeros(len(joints)), lower, upper)
         home = np.array(d.home, dtype=float) * scale
         for k in np.nonzero((home < lower) | (home > upper))[0]:
-            self.err(path + ("home", int(k)), f"home value {d.home[k]} of joint {joints[k].name} is outside its position limits")
+            lim = d.joints[k].limits.position if d.joints[k].limits else None
+            self.err(path + ("home", int(k)), f"home value {d.home[k]} of joint {joints[k].name} is outside its position limits {lim}")
         return home
 
     def _free_frames(self):
@@ -671,18 +718,22 @@ class _Builder:
         poses: dict[str, np.ndarray] = {}
         sources: dict[str, Path] = {}
         files: list[Path] = []
+        complete = True  # every pose file was read and schema-valid
+        given_but_bad: set[str] = set()
         for i, rel in enumerate(self.cf.pose_files):
             real = self.base_dir / rel
             shown = str(self.display_dir / rel)
             if not real.is_file():
                 self.err(("pose_files", i), f"no such pose file: {shown}")
+                complete = False
                 continue
-            files.append(real)
             try:
                 doc, pf = load_pose_file_doc(real, shown)
             except UserError as exc:
                 self.issues.extend(exc.issues)
+                complete = False
                 continue
+            files.append(real)
             L, A = LENGTH[pf.units.length], ANGLE[pf.units.angle]
             for name, pose in pf.poses.items():
                 ppath = ("poses", name)
@@ -699,15 +750,16 @@ class _Builder:
                 T, error, warning = pose_to_matrix(pose, L, A)
                 if error:
                     self.err(ppath, error, doc=doc)
+                    given_but_bad.add(name)
                     continue
                 if warning:
                     self.warn(ppath, warning, doc=doc)
                 poses[name] = T
                 sources[name] = real
-        if len(files) == len(self.cf.pose_files):
+        if complete:  # otherwise the missing poses may well be in the file we could not read
             shown_files = ", ".join(str(self.display_dir / r) for r in self.cf.pose_files)
             for name, decl in self.frames.items():
-                if decl.kind in ("world", "link") or name in poses:
+                if decl.kind in ("world", "link") or name in poses or name in given_but_bad:
                     continue
                 self.err(self.frame_paths[name], f"no pose for frame '{name}' in {shown_files}; add '{name}: {{xyz: [x, y, z], rpy: [r, p, y]}}'")
         return poses, sources, files

@@ -1,0 +1,82 @@
+"""Any wrong scalar or deleted key in an example gives exit 0 or 2 with located lines.
+
+Every scalar of every example file (cell and poses) is replaced in turn by
+values of the wrong kind, and every key is deleted in turn; the validator
+must answer with exit 0 or exit 2 and only ``file:line:col`` lines - never a
+traceback, never another exit code.
+"""
+
+from __future__ import annotations
+
+import copy
+import re
+import shutil
+
+import pytest
+import yaml
+
+from tests.conftest import EXAMPLE_CELLS, WORKCELLS, run_cli
+
+WRONG_VALUES = ["oops", -1, 0, None, [1, 2], {"k": 1}, True, 1e300, ""]
+LINE = re.compile(r"^\S+?(:\d+:\d+)?: (warning: )?\S+: .+$")
+
+
+def _paths(data, prefix=()):
+    """Every path to a scalar, and every path to a mapping key."""
+    scalars, keys = [], []
+    if isinstance(data, dict):
+        for k, v in data.items():
+            keys.append(prefix + (k,))
+            s, ks = _paths(v, prefix + (k,))
+            scalars += s
+            keys += ks
+    elif isinstance(data, list):
+        for i, v in enumerate(data):
+            s, ks = _paths(v, prefix + (i,))
+            scalars += s
+            keys += ks
+    else:
+        scalars.append(prefix)
+    return scalars, keys
+
+
+def _set(data, path, value=None, delete=False):
+    for part in path[:-1]:
+        data = data[part]
+    if delete:
+        del data[path[-1]]
+    else:
+        data[path[-1]] = value
+
+
+def _check(result):
+    assert result.exit_code in (0, 2), (result.exit_code, result.output)
+    assert "Traceback" not in result.output
+    lines = [l for l in result.stderr.splitlines() if not l.startswith("invalid: ")]
+    for line in lines:
+        assert LINE.match(line), line
+    if result.exit_code == 2:
+        assert lines
+
+
+@pytest.mark.parametrize("cell_name", EXAMPLE_CELLS)
+@pytest.mark.parametrize("file_name", ["cell.yaml", "poses.yaml"])
+def test_every_mutation_is_reported_cleanly(cell_name, file_name, tmp_path):
+    work = tmp_path / cell_name
+    shutil.copytree(WORKCELLS / cell_name, work)
+    original = yaml.safe_load((WORKCELLS / cell_name / file_name).read_text())
+    scalars, keys = _paths(original)
+    # three wrong values per scalar, rotating, so every kind of wrong value meets every part of the file
+    n = len(WRONG_VALUES)
+    mutants = [(p, WRONG_VALUES[(3 * i + k) % n], False) for i, p in enumerate(scalars) for k in range(3)]
+    mutants += [(p, None, True) for p in keys]
+    invalid = 0
+    for path, value, delete in mutants:
+        data = copy.deepcopy(original)
+        _set(data, path, value, delete)
+        (work / file_name).write_text(yaml.safe_dump(data, sort_keys=False))
+        result = run_cli(["validate", str(work / "cell.yaml")])
+        _check(result)
+        invalid += result.exit_code == 2
+    # the mutations are not toothless: most of them must be refused
+    assert invalid > 0.5 * len(mutants), (invalid, len(mutants))
