@@ -1,0 +1,54 @@
+"""Start-up and validation wall times of the CLI, beside a bare Python start.
+
+Run:  .venv/bin/python bench/startup.py [--repeat 20]
+
+Each command runs REPEAT times in a fresh process; the table gives the
+median and the ratio to a bare `python -c pass` measured in the same run
+(the machines are shared: compare ratios, not absolute times).
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def median_time(cmd: list[str], repeat: int) -> float:
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        subprocess.run(cmd, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False)
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=20)
+    args = parser.parse_args()
+    rworld = shutil.which("rworld", path=str(Path(sys.executable).parent)) or "rworld"
+    cells = sorted(str(p.relative_to(REPO)) for p in (REPO / "workcells").glob("*/cell.yaml"))
+    runs = [
+        ("python -c pass (baseline)", [sys.executable, "-c", "pass"]),
+        ("rworld --help", [rworld, "--help"]),
+        ("rworld validate (3 example cells)", [rworld, "validate", *cells]),
+        ("rworld show workcells/paper_fig9", [rworld, "show", "workcells/paper_fig9"]),
+        ("rworld --json show workcells/paper_fig9", [rworld, "--json", "show", "workcells/paper_fig9"]),
+    ]
+    base = None
+    print(f"{'command':42s} {'median [s]':>11s} {'x baseline':>11s}")
+    for label, cmd in runs:
+        t = median_time(cmd, args.repeat)
+        base = base or t
+        print(f"{label:42s} {t:11.3f} {t / base:11.1f}")
+
+
+if __name__ == "__main__":
+    main()
