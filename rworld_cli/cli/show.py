@@ -97,20 +97,28 @@ def _render(summary, units: str) -> None:
     console.print(table)
 
     if summary.joints:
-        dev_table = Table(title="Devices", title_justify="left", show_edge=False, box=None, header_style="bold")
-        dev_table.add_column("device")
-        dev_table.add_column("joint values (SI: rad, m)")
-        dev_table.add_column("active TCP")
-        for dev, q in summary.joints.items():
-            dev_table.add_row(dev, "[" + ", ".join(f"{v:.4g}" for v in q) + "]", summary.active_tcps[dev])
-        console.print()
-        console.print(dev_table)
+        _print_table(
+            console,
+            "Devices",
+            ["device", "joint values (SI: rad, m)", "active TCP"],
+            [[d, "[" + ", ".join(f"{v:.4g}" for v in q) + "]", summary.active_tcps[d]] for d, q in summary.joints.items()],
+        )
     if summary.conditions:
-        cond_table = Table(title="Frame conditions (calibration)", title_justify="left", show_edge=False, box=None, header_style="bold")
-        cond_table.add_column("frame")
-        cond_table.add_column("condition")
-        cond_table.add_column("features")
-        for c in summary.conditions:
-            cond_table.add_row(c["frame"], f"{c['type']} ({c['code']})", ", ".join(c["features"]))
-        console.print()
-        console.print(cond_table)
+        _print_table(
+            console,
+            "Frame conditions (calibration)",
+            ["frame", "condition", "features"],
+            [[c["frame"], f"{c['type']} ({c['code']})", ", ".join(c["features"])] for c in summary.conditions],
+        )
+
+
+def _print_table(console, title: str, columns: list[str], rows: list[list[str]]) -> None:
+    from rich.table import Table
+
+    table = Table(title=title, title_justify="left", show_edge=False, box=None, header_style="bold")
+    for column in columns:
+        table.add_column(column)
+    for row in rows:
+        table.add_row(*row)
+    console.print()
+    console.print(table)

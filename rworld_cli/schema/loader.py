@@ -282,8 +282,7 @@ class _Builder:
         )
 
     def _owns(self, name, path) -> bool:
-        kind, first = self.primitives.get(name, (None, None))
-        return first == path
+        return self.primitives.get(name, (None, None))[1] == path
 
     def _register_primitives(self):
         groups = (("objects", "object"), ("sensors", "sensor"), ("devices", "device"), ("frames", "free"))
@@ -467,9 +466,9 @@ class _Builder:
         for j, spec in enumerate(link_specs):
             lname = spec.name or f"link{j + 1}"
             lpath = path + ("links", j) if d.links is not None else path + ("joints", j)
-            local(lname, lpath + (("name",) if spec.name else ()))
             qname = f"{d.name}.{lname}"
-            self._add_frame(wm.FrameDecl(qname, "link", d.name, prev), lpath + ("name",))
+            if local(lname, lpath + (("name",) if spec.name else ())):
+                self._add_frame(wm.FrameDecl(qname, "link", d.name, prev), lpath + ("name",))
             prev = qname
             links.append(
                 wm.Link(lname, self._inertial(lpath, spec.mass, spec.com, spec.inertia), self._shape(lpath + ("geometry",), spec.geometry))
