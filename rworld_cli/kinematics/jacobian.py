@@ -1,0 +1,189 @@
+"""Tool pose and geometric Jacobian of a serial chain, batched, from generated code.
+
+Rows of the Jacobian: linear velocity of a point (default the TCP origin),
+then angular velocity, both in the device's base frame (or world, by
+rotating with the base orientation).  Column *i*: revolute
+``[z_i x (p - o_i); z_i]``, prismatic ``[z_i; 0]`` with ``z_i`` the joint
+axis and ``o_i`` a point on it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..codegen import Emitter, Generated, snap
+from ..world.model import DeviceModel
+from .chain import chain_steps, device_key
+
+__all__ = ["ToolMount", "tool_pose", "tool_pose_and_jacobian", "jacobian", "manipulability", "condition_number", "shift_jacobian"]
+
+
+class ToolMount:
+    """Where a tool frame sits on a device: on link ``link`` (1..n; 0 = base) at ``T_link_tool``."""
+
+    def __init__(self, link: int, T_link_tool=None):
+        self.link = int(link)
+        self.T_link_tool = np.eye(4) if T_link_tool is None else np.asarray(T_link_tool, dtype=float)
+
+    def key(self) -> tuple:
+        return (self.link, tuple(np.round(self.T_link_tool, 15).ravel().tolist()))
+
+
+def _generate(device: DeviceModel, mount_key: tuple, with_jacobian: bool) -> Generated:
+    n = device.dof
+    link, T_flat = mount_key
+    T = np.array(T_flat).reshape(4, 4)
+    em = Emitter()
+    q = [f"q{i}" for i in range(n)]
+    steps = chain_steps(em, device, q)
+    R0 = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+    p0 = (0.0, 0.0, 0.0)
+    axes = []
+    for step in steps[:link]:
+        R1 = em.matmul(R0, step.R)
+        p1 = em.vadd(p0, em.matvec(R0, em.vadd(step.A, em.matvec(step.R, step.e))))  # eq. 11
+        axis = em.matvec(R1, step.u)
+        point = em.vsub(p1, em.matvec(R1, step.e))
+        axes.append((axis, point, step.prismatic))
+        R0, p0 = R1, p1
+    Rt = em.matmul(R0, tuple(tuple(snap(float(v)) for v in row) for row in T[:3, :3]))
+    pt = em.vadd(p0, em.matvec(R0, tuple(float(v) for v in T[:3, 3])))
+    outputs = [Rt[i][j] for i in range(3) for j in range(3)] + list(pt)
+    if with_jacobian:
+        cols = []
+        for i in range(n):
+            if i >= link:
+                cols.append((0.0,) * 6)
+                continue
+            axis, point, prismatic = axes[i]
+            if prismatic:
+                cols.append(tuple(axis) + (0.0, 0.0, 0.0))
+            else:
+                cols.append(tuple(em.cross(axis, em.vsub(pt, point))) + tuple(axis))
+        outputs += [cols[c][r] for r in range(6) for c in range(n)]  # row-major 6 x n
+    return em.compile("fk_jacobian", q, outputs)
+
+
+_CACHE: dict[tuple, Generated] = {}
+
+
+def generated(device: DeviceModel, mount: ToolMount | None, with_jacobian: bool) -> Generated:
+    """The compiled tool-pose (and Jacobian) code of ``device``, generated once per geometry."""
+    mount = mount or ToolMount(device.dof)
+    key = (device_key(device), mount.key(), with_jacobian)
+    if key not in _CACHE:
+        _CACHE[key] = _generate(device, mount.key(), with_jacobian)
+    return _CACHE[key]
+
+
+def _evaluate(gen: Generated, q: np.ndarray, n_out: int) -> np.ndarray:
+    """Run generated code on (n,) or (N, n) joint values; returns (n_out,) or (N, n_out)."""
+    q = np.asarray(q, dtype=float)
+    single = q.ndim == 1
+    columns = q.tolist() if single else list(np.ascontiguousarray(q.T))
+    return gen.evaluate(columns, (), n_out, single)
+
+
+def _check_q(device: DeviceModel, q) -> np.ndarray:
+    q = np.asarray(q, dtype=float)
+    if q.shape[-1:] != (device.dof,) or q.ndim not in (1, 2):
+        raise ValueError(f"joint values of '{device.name}' must have shape (n,) or (N, n) with n = {device.dof}, got {q.shape}")
+    return q
+
+
+def tool_pose(device: DeviceModel, q, mount: ToolMount | None = None) -> np.ndarray:
+    """Pose of the tool frame in the device's base frame, ``T_base_tool``.
+
+    Parameters
+    ----------
+    device : DeviceModel
+    q : array_like, shape (n,) or (N, n)
+        Joint values [rad or m].
+    mount : ToolMount, optional
+        Tool frame on its link; default the last link's frame (the flange).
+
+    Returns
+    -------
+    ndarray, shape (4, 4) or (N, 4, 4)
+    """
+    q = _check_q(device, q)
+    flat = _evaluate(generated(device, mount, False), q, 12)
+    return _to_transform(flat)
+
+
+def _to_transform(flat: np.ndarray) -> np.ndarray:
+    T = np.zeros(flat.shape[:-1] + (4, 4))
+    T[..., :3, :3] = flat[..., :9].reshape(flat.shape[:-1] + (3, 3))
+    T[..., :3, 3] = flat[..., 9:12]
+    T[..., 3, 3] = 1.0
+    return T
+
+
+def tool_pose_and_jacobian(device: DeviceModel, q, mount: ToolMount | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``T_base_tool`` and the geometric Jacobian at the tool origin, in the base frame.
+
+    Parameters
+    ----------
+    device : DeviceModel
+    q : array_like, shape (n,) or (N, n)
+    mount : ToolMount, optional
+
+    Returns
+    -------
+    T : ndarray, shape (4, 4) or (N, 4, 4)
+    J : ndarray, shape (6, n) or (N, 6, n)
+        Rows ``[vx, vy, vz, wx, wy, wz]`` of the tool origin, base frame.
+    """
+    q = _check_q(device, q)
+    n = device.dof
+    flat = _evaluate(generated(device, mount, True), q, 12 + 6 * n)
+    return _to_transform(flat), flat[..., 12:].reshape(flat.shape[:-1] + (6, n))
+
+
+def jacobian(device: DeviceModel, q, mount: ToolMount | None = None, point_in_tool=None) -> np.ndarray:
+    """Geometric Jacobian in the base frame, at the tool origin or at a point on the tool.
+
+    Parameters
+    ----------
+    point_in_tool : array_like, shape (3,), optional
+        The point whose linear velocity the top rows give, in tool coordinates [m].
+
+    Returns
+    -------
+    ndarray, shape (6, n) or (N, 6, n)
+    """
+    T, J = tool_pose_and_jacobian(device, q, mount)
+    if point_in_tool is None:
+        return J
+    return shift_jacobian(J, np.einsum("...ij,j->...i", T[..., :3, :3], np.asarray(point_in_tool, dtype=float)))
+
+
+def shift_jacobian(J: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """Move the reference point of a Jacobian by ``offset`` (same frame as J): ``v' = v + w x r``.
+
+    Parameters
+    ----------
+    J : ndarray, shape (..., 6, n)
+    offset : ndarray, shape (..., 3)
+        From the old point to the new one [m].
+    """
+    J = J.copy()
+    r = np.asarray(offset, dtype=float)[..., :, None]
+    w = J[..., 3:, :]
+    J[..., 0, :] += w[..., 1, :] * r[..., 2, :] - w[..., 2, :] * r[..., 1, :]
+    J[..., 1, :] += w[..., 2, :] * r[..., 0, :] - w[..., 0, :] * r[..., 2, :]
+    J[..., 2, :] += w[..., 0, :] * r[..., 1, :] - w[..., 1, :] * r[..., 0, :]
+    return J
+
+
+def manipulability(J: np.ndarray) -> np.ndarray:
+    """Yoshikawa's measure ``sqrt(det(J J^T))`` = product of singular values; shape ``J.shape[:-2]``."""
+    s = np.linalg.svd(J, compute_uv=False)
+    return np.prod(s, axis=-1)
+
+
+def condition_number(J: np.ndarray) -> np.ndarray:
+    """Ratio of the largest to the smallest singular value (``inf`` at a singularity)."""
+    s = np.linalg.svd(J, compute_uv=False)
+    with np.errstate(divide="ignore"):
+        return np.where(s[..., -1] > 0, s[..., 0] / np.maximum(s[..., -1], 1e-300), np.inf)
