@@ -286,3 +286,17 @@ def rotation_error(R) -> np.ndarray:
     orth = np.linalg.norm(np.swapaxes(R, -1, -2) @ R - np.eye(3), axis=(-2, -1))
     det = np.abs(np.linalg.det(R) - 1.0)
     return np.maximum(orth, det)
+
+
+def rotation_vector(R) -> np.ndarray:
+    """Axis-angle vector ``theta * axis`` of rotations ``(..., 3, 3)``; ``theta`` in ``[0, pi]``.
+
+    Via the quaternion, so it stays accurate near 0 and near pi.
+    """
+    q = matrix_to_quat(R)
+    v = q[..., 1:]
+    s = np.linalg.norm(v, axis=-1)
+    angle = 2.0 * np.arctan2(s, q[..., 0])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        scale = np.where(s > 1e-12, angle / np.maximum(s, 1e-300), 2.0)  # small angles: 2 v
+    return v * scale[..., None]

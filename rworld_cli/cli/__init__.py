@@ -17,6 +17,8 @@ COMMANDS = {
     "validate": ("validate", "validate", "Check cell and pose files; exit 2 with file:line:col lines if invalid."),
     "show": ("show", "show", "Print a cell's frame tree with world poses, affixments and masses."),
     "schema": ("schema_cmd", "schema", "Write (or --check) the JSON Schemas of the file formats."),
+    "kinematics": ("kinematics", "kinematics", "Forward kinematics, Jacobians, inverse kinematics (fk | jacobian | ik)."),
+    "dynamics": ("dynamics", "dynamics", "Inverse and forward dynamics, static torques (inverse | forward | static)."),
 }
 
 
@@ -66,6 +68,8 @@ def main(ctx: click.Context, json_output: bool) -> None:
       rworld show workcells/paper_fig9
       rworld --json show workcells/puma560 > tree.json
       rworld schema --check
+      rworld kinematics ik workcells/puma560 --target workpiece.grasp
+      rworld dynamics inverse workcells/puma560 --states states.csv --json
 
     Exit codes: 0 ok, 1 a check failed, 2 bad input or usage, 3 internal error.
     """

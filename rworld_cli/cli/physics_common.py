@@ -1,0 +1,86 @@
+"""Options and I/O shared by the kinematics and dynamics commands."""
+
+from __future__ import annotations
+
+import click
+
+from .common import emit_json
+
+
+def device_options(fn):
+    """CELL argument, --device (optional when the cell has one device) and --tcp."""
+    fn = click.option("--tcp", default=None, metavar="FRAME",
+                      help="Tool frame (default: the device's active TCP); 'tool' means DEVICE.tool.")(fn)
+    fn = click.option("--joints", "other_joints", multiple=True, metavar="DEVICE=q1,...",
+                      help="Joint values (SI) of other devices, e.g. the conveyor carrying the arm; repeatable.")(fn)
+    fn = click.option("--device", "-d", default=None, metavar="NAME", help="Device (default: the cell's only device).")(fn)
+    return click.argument("cell", metavar="CELL")(fn)
+
+
+def output_options(fn):
+    return click.option("-o", "--output", default=None, type=click.Path(dir_okay=False),
+                        help="Write CSV to this file (atomically) instead of stdout.")(fn)
+
+
+def parse_vector(text: str, name: str, length: int | None = None) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise click.BadParameter(f"'{text}': expected numbers separated by commas", param_hint=name) from None
+    if any(v != v or abs(v) == float("inf") for v in values):
+        raise click.BadParameter(f"'{text}': values must be finite", param_hint=name)
+    if length is not None and len(values) != length:
+        raise click.BadParameter(f"'{text}': expected {length} values, got {len(values)}", param_hint=name)
+    return values
+
+
+def context(cell: str, device: str | None, tcp: str | None, other_joints: tuple[str, ...] = ()):
+    from ..api import device_context
+    from ..errors import UserError
+    from ..schema.loader import load_cell
+    from .common import parse_joint_assignments
+
+    if device is None:
+        devices = list(load_cell(cell).cell.devices)
+        if len(devices) != 1:
+            raise UserError(f"the cell has {len(devices)} devices ({', '.join(devices)}); choose one with --device")
+        device = devices[0]
+    return device_context(cell, device, tcp, parse_joint_assignments(other_joints))
+
+
+def joint_rows(ctx, states: str | None, q: str | None, groups: list[str]):
+    """Joint arrays from --states FILE or --q (q only); returns (dict group -> (N, n), source, warnings)."""
+    import numpy as np
+
+    from ..tableio import limit_warnings, read_states
+
+    n = ctx.device.dof
+    if (states is None) == (q is None or groups != ["q"]):
+        if groups == ["q"]:
+            raise click.UsageError("give the joint values with --q q1,...,qn or --states FILE (one of them)")
+        raise click.UsageError("give --states FILE with columns " + ", ".join(f"{g}1..{g}{n}" for g in groups))
+    if states is not None:
+        data = read_states(states, n, groups)
+        source = states
+    else:
+        data = {"q": np.array([parse_vector(q, "--q", n)])}
+        source = "--q"
+    warnings = limit_warnings(source, data["q"], ctx.device.limit_array("lower"), ctx.device.limit_array("upper"))
+    return data, warnings
+
+
+def emit(columns, rows, payload: dict, json_output: bool, output: str | None, warnings) -> None:
+    """JSON on stdout, or CSV to a file or stdout; warnings on stderr (in the JSON with --json)."""
+    from ..tableio import format_csv, write_csv
+
+    if json_output:
+        payload["warnings"] = [w.as_dict() for w in warnings]
+        emit_json(payload)
+        return
+    for w in warnings:
+        click.echo(w.format(), err=True)
+    if output:
+        write_csv(output, columns, rows)
+        click.echo(f"wrote {output} ({len(rows)} row(s))", err=True)
+    else:
+        click.echo(format_csv(columns, rows), nl=False)

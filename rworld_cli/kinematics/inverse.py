@@ -1,0 +1,141 @@
+"""Inverse kinematics by damped least squares (Levenberg-Marquardt), restarts batched.
+
+All starts (the seed and random configurations within the joint limits)
+iterate together as one ``(K, n)`` batch through the generated tool pose
+and Jacobian; each keeps its own damping.  Steps are projected onto the
+joint limits.  Among the starts that converge, the one nearest the seed
+wins - so consecutive targets along a path stay on one branch.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import spatial
+from ..world.model import DeviceModel
+from .jacobian import ToolMount, tool_pose_and_jacobian
+
+
+@dataclass
+class IKResult:
+    """Outcome of :func:`solve_ik`.
+
+    Attributes
+    ----------
+    q : ndarray, shape (n,)
+        The best joint values found (SI).
+    success : bool
+        Both residuals within tolerance.
+    position_error : float
+        Distance from the tool origin to the target [m].
+    rotation_error : float
+        Angle between tool and target orientation [rad] (0 for position-only).
+    iterations : int
+    at_limits : list of (joint index, "lower" | "upper")
+        Joints of ``q`` resting on a position limit.
+    """
+
+    q: np.ndarray
+    success: bool
+    position_error: float
+    rotation_error: float
+    iterations: int
+    at_limits: list = field(default_factory=list)
+
+
+def _errors(T: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """(K, 6): position error, then rotation vector from tool to target, base frame."""
+    e = np.empty(T.shape[:-2] + (6,))
+    e[..., :3] = target[:3, 3] - T[..., :3, 3]
+    e[..., 3:] = spatial.rotation_vector(target[:3, :3] @ np.swapaxes(T[..., :3, :3], -1, -2))
+    return e
+
+
+def solve_ik(
+    device: DeviceModel,
+    T_base_target,
+    mount: ToolMount | None = None,
+    seed=None,
+    position_only: bool = False,
+    restarts: int = 16,
+    position_tolerance: float = 1e-7,
+    rotation_tolerance: float = 1e-7,
+    max_iterations: int = 300,
+    random_seed: int = 0,
+) -> IKResult:
+    """Joint values that put the tool frame on a target.
+
+    Parameters
+    ----------
+    device : DeviceModel
+    T_base_target : array_like, shape (4, 4)
+        Target pose of the tool frame in the device's base frame.
+    mount : ToolMount, optional
+        The tool frame; default the flange.
+    seed : array_like, shape (n,), optional
+        Start (e.g. the current joint values); default the device's home.
+    position_only : bool
+        Match the tool origin only (3 equations).
+    restarts : int
+        Random starts within the limits besides the seed.
+    position_tolerance, rotation_tolerance : float
+        Success thresholds [m], [rad].
+
+    Returns
+    -------
+    IKResult
+        ``success`` False when no start reached the target; ``q`` is then the
+        closest configuration found and the errors say how far off it is.
+    """
+    n = device.dof
+    target = np.asarray(T_base_target, dtype=float)
+    lower = device.limit_array("lower")
+    upper = device.limit_array("upper")
+    lo = np.where(np.isfinite(lower), lower, -np.pi)
+    hi = np.where(np.isfinite(upper), upper, np.pi)
+    seed = device.home if seed is None else np.asarray(seed, dtype=float)
+    rng = np.random.default_rng(random_seed)
+    Q = np.vstack([np.clip(seed, lower, upper), rng.uniform(lo, hi, (restarts, n))])
+    rows = slice(0, 3) if position_only else slice(0, 6)
+    K = Q.shape[0]
+    lam = np.full(K, 1e-2)
+    T, J = tool_pose_and_jacobian(device, Q, mount)
+    err = _errors(T, target)[:, rows]
+    cost = np.einsum("ki,ki->k", err, err)
+    tol = np.array([position_tolerance] * 3 + ([] if position_only else [rotation_tolerance] * 3))
+    eye = np.eye(err.shape[1])
+    iterations = 0
+    for iterations in range(1, max_iterations + 1):  # iterations of the batch, not a loop over samples
+        done = np.all(np.abs(err) <= tol, axis=1)
+        if done.all() or (done[0] and iterations > 1):
+            break
+        Jr = J[:, rows, :]
+        A = Jr @ np.swapaxes(Jr, 1, 2) + (lam**2)[:, None, None] * eye
+        step = np.einsum("kji,kj->ki", Jr, np.linalg.solve(A, err[..., None])[..., 0])
+        Q_new = np.clip(Q + step, lower, upper)
+        T_new, J_new = tool_pose_and_jacobian(device, Q_new, mount)
+        err_new = _errors(T_new, target)[:, rows]
+        cost_new = np.einsum("ki,ki->k", err_new, err_new)
+        better = (cost_new < cost) & ~done
+        Q[better], T[better], J[better], err[better], cost[better] = Q_new[better], T_new[better], J_new[better], err_new[better], cost_new[better]
+        lam = np.where(better, np.maximum(lam / 3, 1e-9), np.minimum(lam * 4, 1e6))
+    done = np.all(np.abs(err) <= tol, axis=1)
+    if done.any():
+        candidates = np.nonzero(done)[0]
+        best = candidates[np.argmin(np.linalg.norm(Q[candidates] - seed, axis=1))]
+    else:
+        best = int(np.argmin(cost))
+    full = _errors(T[best], target)
+    q = Q[best]
+    at_limits = [(i, "lower") for i in np.nonzero(np.isclose(q, lower, atol=1e-9))[0]]
+    at_limits += [(i, "upper") for i in np.nonzero(np.isclose(q, upper, atol=1e-9))[0]]
+    return IKResult(
+        q=q.copy(),
+        success=bool(done[best]),
+        position_error=float(np.linalg.norm(full[:3])),
+        rotation_error=0.0 if position_only else float(np.linalg.norm(full[3:])),
+        iterations=iterations,
+        at_limits=sorted(at_limits),
+    )
