@@ -457,8 +457,11 @@ def resolve_payload(ctx: DeviceContext, object_name: str | None, mass: float | N
 
 
 def device_dynamics(ctx: DeviceContext, payload=None, armature: bool = True, friction: bool = True):
+    """:class:`~rworld_cli.dynamics.DeviceDynamics` of the context's device, payload at its TCP."""
     from .dynamics import DeviceDynamics
 
+    if payload is not None and payload.mass > 0 and ctx.mount.link == 0:
+        raise UserError(f"'{ctx.tcp}' sits on the base of '{ctx.device.name}': a payload there loads no joint; choose a TCP on a link")
     return DeviceDynamics(ctx.device, payload, ctx.mount, armature, friction)
 
 
