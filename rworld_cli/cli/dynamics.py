@@ -16,6 +16,13 @@ def payload_options(fn):
     return fn
 
 
+def model_options(fn):
+    """Payload and the armature / friction switches (inverse and forward dynamics)."""
+    fn = click.option("--no-friction", is_flag=True, help="Leave out viscous and Coulomb friction.")(fn)
+    fn = click.option("--no-armature", is_flag=True, help="Leave out motor armature inertia.")(fn)
+    return payload_options(fn)
+
+
 def _payload(ctx, payload_object, payload_mass, payload_com):
     from ..api import resolve_payload
 
@@ -37,9 +44,7 @@ def dynamics() -> None:
 @dynamics.command()
 @device_options
 @click.option("--states", required=True, type=click.Path(dir_okay=False), help="CSV with q, qd, qdd columns.")
-@payload_options
-@click.option("--no-armature", is_flag=True, help="Leave out motor armature inertia.")
-@click.option("--no-friction", is_flag=True, help="Leave out viscous and Coulomb friction.")
+@model_options
 @output_options
 @json_option
 @handle_errors
@@ -67,9 +72,7 @@ def inverse(cell, device, other_joints, tcp, states, payload_object, payload_mas
 @dynamics.command()
 @device_options
 @click.option("--states", required=True, type=click.Path(dir_okay=False), help="CSV with q, qd, tau columns.")
-@payload_options
-@click.option("--no-armature", is_flag=True, help="Leave out motor armature inertia.")
-@click.option("--no-friction", is_flag=True, help="Leave out viscous and Coulomb friction.")
+@model_options
 @output_options
 @json_option
 @handle_errors
