@@ -267,16 +267,21 @@ def summarize_cell(cell_path: str, joints: dict[str, list[float]] | None = None)
 
 # --------------------------------------------------------------------------- schemas
 
-SCHEMA_FILES = {"cell.schema.json": "CellFile", "poses.schema.json": "PoseFile"}
+SCHEMA_FILES = {
+    "cell.schema.json": ("models", "CellFile"),
+    "poses.schema.json": ("models", "PoseFile"),
+    "program.schema.json": ("program", "ProgramFile"),
+    "run.schema.json": ("program", "RunFile"),
+}
 
 
 def schema_documents() -> dict[str, str]:
     """The JSON Schema text of each file format, keyed by file name."""
-    from .schema import models as sm
+    import importlib
 
     out = {}
-    for filename, model_name in SCHEMA_FILES.items():
-        model = getattr(sm, model_name)
+    for filename, (module, model_name) in SCHEMA_FILES.items():
+        model = getattr(importlib.import_module(f".schema.{module}", __package__), model_name)
         doc = {"$schema": "https://json-schema.org/draft/2020-12/schema", "$id": f"rworld/{filename}"}
         doc.update(model.model_json_schema(mode="validation"))
         out[filename] = json.dumps(doc, indent=2, ensure_ascii=False) + "\n"
@@ -335,15 +340,7 @@ def _tool_mount(world, device, tcp: str):
     """(ToolMount) of frame ``tcp`` on ``device``: the link it rides on and its fixed pose there."""
     from .kinematics.jacobian import ToolMount
 
-    links = list(device.link_frames)
-    node = tcp
-    while node is not None:
-        if node in links:
-            return ToolMount(links.index(node) + 1, world.T(node, tcp))
-        if node == device.name:
-            return ToolMount(0, world.T(node, tcp))
-        node = world.parent(node)
-    raise UserError(f"'{tcp}' is not carried by device '{device.name}'; choose one of its TCPs: {', '.join(device.tcps)}")
+    return ToolMount(*world.mount_of(device.name, tcp))
 
 
 def device_context(cell_path: str, device: str, tcp: str | None = None,

@@ -19,6 +19,8 @@ COMMANDS = {
     "schema": ("schema_cmd", "schema", "Write (or --check) the JSON Schemas of the file formats."),
     "kinematics": ("kinematics", "kinematics", "Forward kinematics, Jacobians, inverse kinematics (fk | jacobian | ik)."),
     "dynamics": ("dynamics", "dynamics", "Inverse and forward dynamics, static torques (inverse | forward | static)."),
+    "simulate": ("simulate", "simulate", "Run programs of several devices on one clock; timelines, events, limits, plots."),
+    "check": ("simulate", "check", "For CI: exit 1 when a run's programs break a joint limit."),
 }
 
 
@@ -68,6 +70,8 @@ def main(ctx: click.Context, json_output: bool) -> None:
       rworld show workcells/paper_fig9
       rworld --json show workcells/puma560 > tree.json
       rworld schema --check
+      rworld simulate workcells/paper_fig9 transfer -o out/fig9 --plot
+      rworld check workcells/puma560 pick_place
       rworld kinematics ik workcells/puma560 --target workpiece.grasp
       rworld dynamics inverse workcells/puma560 --states states.csv --json
 

@@ -108,6 +108,9 @@ class DeviceDynamics:
         Add motor inertia reflected to the joints, ``Jm G^2``, when declared.
     friction : bool
         Add viscous and Coulomb friction torques, when declared.
+    link_loads : dict, optional
+        Link index (1..n) -> list of (Inertial, T_link_body): bodies riding on
+        that link (grasped objects, aggregated devices), folded into its mass properties.
 
     Notes
     -----
@@ -115,7 +118,7 @@ class DeviceDynamics:
     """
 
     def __init__(self, device: DeviceModel, payload: Payload | None = None, mount: ToolMount | None = None,
-                 armature: bool = True, friction: bool = True):
+                 armature: bool = True, friction: bool = True, link_loads: dict | None = None):
         self.device = device
         self.n = device.dof
         mount = mount or ToolMount(device.dof)
@@ -125,6 +128,11 @@ class DeviceDynamics:
                 raise ValueError("a payload on the base does not load the joints")
             k = mount.link - 1
             inertials[k] = combine_inertials(inertials[k], payload.in_link_frame(mount.T_link_tool))
+        for link, bodies in (link_loads or {}).items():
+            if not 1 <= link <= self.n:
+                raise ValueError(f"link_loads: link {link} is not in 1..{self.n}")
+            for inertial, T in bodies:
+                inertials[link - 1] = combine_inertials(inertials[link - 1], Payload.rigid_body(inertial, T).in_link_frame(np.eye(4)))
         self.inertials = inertials
         self.payload = payload
         self.armature = np.array([j.armature for j in device.joints]) if armature else np.zeros(self.n)
@@ -160,8 +168,9 @@ class DeviceDynamics:
         ----------
         q, qd, qdd : array_like, shape (n,) or (N, n)
             Positions [rad, m], velocities [/s], accelerations [/s^2].
-        gravity : array_like, shape (3,)
-            Acceleration of gravity in the base frame [m/s^2].
+        gravity : array_like, shape (3,) or (N, 3)
+            Acceleration of gravity in the base frame [m/s^2]; per sample for
+            a base that accelerates (``g - a_base``, in base axes).
 
         Returns
         -------
@@ -170,7 +179,13 @@ class DeviceDynamics:
         """
         single, (q, qd, qdd) = self._check(q, qd, qdd)
         cols = _columns(q, single) + _columns(qd, single) + _columns(qdd, single)
-        tau = self._gen("full").evaluate(cols, _gravity(gravity), self.n, single)
+        g = np.asarray(gravity, dtype=float)
+        if g.ndim == 2 and not single:
+            if g.shape != (q.shape[0], 3) or not np.all(np.isfinite(g)):
+                raise ValueError(f"per-sample gravity must be finite with shape ({q.shape[0]}, 3), got {g.shape}")
+            tau = self._gen("full").evaluate(cols + list(np.ascontiguousarray(g.T)), (), self.n, single)
+        else:
+            tau = self._gen("full").evaluate(cols, _gravity(g), self.n, single)
         tau += self.armature * qdd
         if self._has_friction:
             tau += self.friction_torque(qd)

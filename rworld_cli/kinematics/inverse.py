@@ -139,3 +139,57 @@ def solve_ik(
         iterations=iterations,
         at_limits=sorted(at_limits),
     )
+
+
+@dataclass
+class TrackResult:
+    """Outcome of :func:`track`: joint values for the poses reached, and where it stopped if it failed."""
+
+    q: np.ndarray  # (K, n) - rows after a failure repeat the last solution
+    failed_at: int | None  # index of the first pose not reached
+    reason: str  # "" | "unreachable" | "singular"
+    error: float  # remaining position error at the failure [m]
+    condition: float  # largest Jacobian condition number met
+
+
+def track(device: DeviceModel, targets: np.ndarray, q0, mount: ToolMount | None = None, position_only: bool = False,
+          tolerance: float = 1e-7, max_iterations: int = 30, max_condition: float = 1e6) -> TrackResult:
+    """Follow a dense sequence of tool poses, each solution seeding the next.
+
+    Why sequential: along a path the previous solution is the right seed and
+    keeps one branch; each step is a few Gauss-Newton iterations on one state.
+
+    Parameters
+    ----------
+    targets : ndarray, shape (K, 4, 4)
+        Tool poses in the base frame, close to each other.
+    q0 : array_like, shape (n,)
+        Joint values at (or near) the first pose.
+    max_condition : float
+        A Jacobian worse conditioned than this is a singularity: the path is refused there.
+    """
+    lower, upper = device.limit_array("lower"), device.limit_array("upper")
+    rows = slice(0, 3) if position_only else slice(0, 6)
+    q = np.asarray(q0, dtype=float).copy()
+    out = np.empty((len(targets), device.dof))
+    worst = 1.0
+    for k, target in enumerate(targets):  # sequential by nature: each pose seeds the next
+        for _ in range(max_iterations):
+            T, J = tool_pose_and_jacobian(device, q, mount)
+            err = _errors(T, target)[rows]
+            if np.all(np.abs(err) <= tolerance):
+                break
+            Jr = J[rows]
+            dq = Jr.T @ np.linalg.solve(Jr @ Jr.T + 1e-10 * np.eye(Jr.shape[0]), err)
+            q = np.clip(q + dq, lower, upper)
+        else:
+            out[k:] = q
+            return TrackResult(out, k, "unreachable", float(np.linalg.norm(err[:3])), worst)
+        s = np.linalg.svd(J[rows], compute_uv=False)
+        cond = s[0] / s[-1] if s[-1] > 0 else np.inf
+        worst = max(worst, cond)
+        if cond > max_condition:
+            out[k:] = q
+            return TrackResult(out, k, "singular", 0.0, cond)
+        out[k] = q
+    return TrackResult(out, None, "", 0.0, worst)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -493,9 +494,35 @@ class _Builder:
                 tcps.append(f"{d.name}.{t.name}")
         self._features(d.name, d.features, path + ("features",))
         home = self._home(path, d, joints)
+        positions = self._positions(path, d, joints, local_names)
         if not ok:
             return None
-        return wm.DeviceModel(d.name, d.dh, tuple(joints), tuple(links), tuple(tcps), home, self._shape(path + ("geometry",), d.geometry))
+        return wm.DeviceModel(
+            d.name, d.dh, tuple(joints), tuple(links), tuple(tcps), home, self._shape(path + ("geometry",), d.geometry), positions
+        )
+
+    def _positions(self, path, d: sm.Device, joints: list[wm.Joint], local_names: dict) -> dict:
+        """Named joint configurations, SI; checked for length, limits and clashes with frame names."""
+        out = {}
+        scale = np.array([self.A if j.kind == "revolute" else self.L for j in joints])
+        lower = np.array([j.limits.lower for j in joints])
+        upper = np.array([j.limits.upper for j in joints])
+        for name, values in d.positions.items():
+            ppath = path + ("positions", name)
+            if not re.match(sm.NAME_PATTERN, name) or name == "home":
+                self.err(ppath, f"invalid position name '{name}': use a name (letters, digits, '_', '-'), not 'home'", prefer="key")
+                continue
+            if name in local_names:
+                self.err(ppath, f"'{name}' is already a frame of '{d.name}'; a position needs its own name", prefer="key")
+                continue
+            if len(values) != len(joints):
+                self.err(ppath, f"position '{name}' has {len(values)} value(s) but the device has {len(joints)} joint(s)")
+                continue
+            q = np.array(values, dtype=float) * scale
+            for k in np.nonzero((q < lower) | (q > upper))[0]:
+                self.err(ppath + (int(k),), f"value {values[k]} of joint {joints[k].name} is outside its position limits")
+            out[name] = q
+        return out
 
     def _joint(self, path, j: int, row: sm.Joint) -> wm.Joint:
         scale = self.A if row.type == "revolute" else self.L

@@ -279,6 +279,10 @@ class Device(Strict):
     links: Optional[list[Link]] = Field(None, description="One per joint; default massless links link1..n.")
     tcps: Annotated[list[Tcp], Len(1)] = Field(description="Tool centre points; the first is the default active TCP.")
     home: Optional[list[float]] = Field(None, description="Initial joint values [angle or length unit]; default 0.")
+    positions: dict[str, list[float]] = Field(
+        default_factory=dict,
+        description="Named joint configurations programs can move to (e.g. open, closed, station_b) [angle or length unit].",
+    )
     geometry: Optional[Geometry] = Field(None, description="Shape of the base.")
     frames: list[AuxFrame] = Field(default_factory=list, description="Auxiliary frames on the base.")
     features: list[Feature] = Field(default_factory=list, description="Features of the base, in the natural frame.")

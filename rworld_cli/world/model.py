@@ -150,6 +150,7 @@ class DeviceModel:
     tcps: tuple[str, ...]
     home: np.ndarray
     shape: Shape | None = None
+    positions: dict = field(default_factory=dict)  # name -> ndarray (n,), SI
 
     @property
     def dof(self) -> int:

@@ -265,6 +265,106 @@ class World:
             raise UserError(f"'{tcp}' is not a TCP carried by '{device}'")
         self._active_tcp[device] = tcp
 
+    def mount_of(self, device: str, frame: str) -> tuple[int, np.ndarray]:
+        """Where ``frame`` rides on ``device``: (link index 1..n, or 0 for the base; ``T_link_frame``).
+
+        Raises
+        ------
+        UserError
+            ``frame`` is not carried by the device.
+        """
+        self._check_device(device)
+        self._check_frame(frame)
+        links = list(self.cell.devices[device].link_frames)
+        node = frame
+        while node is not None:
+            if node in links:
+                return links.index(node) + 1, self.T(node, frame)
+            if node == device:
+                return 0, self.T(node, frame)
+            node = self._parent[node]
+        tcps = ", ".join(self.cell.devices[device].tcps)
+        raise UserError(f"'{frame}' is not carried by device '{device}'; choose one of its TCPs ({tcps}) or a frame of a tool it holds")
+
+    def carried_loads(self, device: str) -> dict[int, list]:
+        """Mass properties riding on each link of ``device``: link index -> [(Inertial, T_link_body)].
+
+        Everything rigidly or non-rigidly below a link - grasped objects,
+        aggregated devices (their links at the current joint values) - except
+        the device's own links.
+        """
+        dev = self.cell.devices[device]
+        links = list(dev.link_frames)
+        loads: dict[int, list] = {}
+        for name in self.frames:
+            kind = self.cell.primitive_kind(name)
+            if kind is None or name == device or kind == "sensor":
+                continue
+            node = self._parent[name]
+            while node is not None and node not in links and node != device:
+                node = self._parent[node]
+            if node is None or node == device:
+                continue
+            k = links.index(node) + 1
+            if kind == "object":
+                loads.setdefault(k, []).append((self.cell.objects[name].inertial, self.T(node, name)))
+            else:
+                other = self.cell.devices[name]
+                for link, frame in zip(other.links, other.link_frames):
+                    loads.setdefault(k, []).append((link.inertial, self.T(node, frame)))
+        return loads
+
+    def snapshot(self) -> dict:
+        """The mutable state (tree, relative poses, joints, active TCPs), for :meth:`restore`."""
+        return {
+            "parent": dict(self._parent),
+            "T_parent": {k: v.copy() for k, v in self._T_parent.items()},
+            "affix": dict(self._affix),
+            "q": {k: v.copy() for k, v in self._q.items()},
+            "active_tcp": dict(self._active_tcp),
+        }
+
+    def restore(self, snap: dict) -> None:
+        self._parent = dict(snap["parent"])
+        self._T_parent = {k: v.copy() for k, v in snap["T_parent"].items()}
+        self._affix = dict(snap["affix"])
+        self._q = {k: v.copy() for k, v in snap["q"].items()}
+        self._active_tcp = dict(snap["active_tcp"])
+        self._invalidate()
+
+    def T_world_batch(self, frame: str, joints: dict[str, np.ndarray]) -> np.ndarray:
+        """``T_world_frame`` for N joint states of the devices on its path to world, shape (N, 4, 4).
+
+        Parameters
+        ----------
+        joints : dict
+            Device name -> joint values (N, n) for every device whose links
+            lie between ``frame`` and world; others keep their current values.
+
+        The tree is the current one (a batch spans no affixment change).
+        """
+        self._check_frame(frame)
+        chain = []
+        node = frame
+        while node is not None and node != WORLD:
+            chain.append(node)
+            node = self._parent[node]
+        N = len(next(iter(joints.values()))) if joints else 1
+        T = np.broadcast_to(np.eye(4), (N, 4, 4)).copy()
+        link_index = {f: (d, i) for d, dev in self.cell.devices.items() for i, f in enumerate(dev.link_frames)}
+        cache: dict[str, np.ndarray] = {}
+        for node in reversed(chain):  # from world down: a loop over frames, vectorised over states
+            if node in link_index:
+                dev, i = link_index[node]
+                if dev not in cache:
+                    q = joints.get(dev)
+                    q = np.broadcast_to(self._q[dev], (N, self.cell.devices[dev].dof)) if q is None else np.asarray(q, dtype=float)
+                    cache[dev] = joint_link_transforms(self.cell.devices[dev], q)
+                T = T @ cache[dev][:, i]
+            else:
+                T = T @ self._T_parent[node]
+        return T
+
     # ------------------------------------------------------------------ internals
     def _invalidate(self):
         self._cache = None

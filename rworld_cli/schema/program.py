@@ -1,0 +1,113 @@
+"""Pydantic models of robot programs and run files.
+
+A program belongs to one device and names only primitives of the cell:
+frames, objects, devices, the device's named positions.  The numbers that
+locate those frames live in the cell's pose files, so calibration moves
+where a program goes without touching the program (the report, section 6).
+The only numbers a program holds are timing (speed fractions, waits) and
+optional offsets relative to a named frame.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal, Optional
+
+from pydantic import Field, field_validator, model_validator
+
+from .models import FrameRef, Name, Pose, Strict, Units
+
+Fraction = Annotated[float, Field(gt=0, le=1)]
+
+
+class MoveSpec(Strict):
+    """Move the device: its TCP to a frame (joint or linear), or its joints to a named position."""
+
+    to: FrameRef = Field(description="A frame of the cell, a named position of the device, or 'home'.")
+    motion: Literal["joint", "linear"] = Field("joint", description="Joint-interpolated, or a straight TCP line.")
+    tcp: Optional[FrameRef] = Field(None, description="The tool frame to bring to the target; default the active TCP.")
+    offset: Optional[Pose] = Field(None, description="Target = the frame moved by this pose, in the frame's own axes.")
+    position_only: bool = Field(False, description="Match the TCP position only (automatic for devices with fewer than 6 joints).")
+    speed: Fraction = Field(1.0, description="Fraction of the velocity limits (joint) or of the linear speed (linear).")
+    acceleration: Fraction = Field(1.0, description="Fraction of the acceleration limits.")
+
+
+class ObjectRef(Strict):
+    object: Name
+    tcp: Optional[FrameRef] = Field(None, description="Grasp: the TCP that takes the object; default the active TCP.")
+
+
+class PlaceSpec(Strict):
+    object: Name
+    on: FrameRef = Field(description="The frame the object now rests on (non-rigid).")
+
+
+class ToolSpec(Strict):
+    tool: Name = Field(description="A device (hand) or object used as a tool.")
+    at: Optional[FrameRef] = Field(None, description="attach_tool: the frame it is affixed to; default the active TCP.")
+    on: Optional[FrameRef] = Field(None, description="detach_tool: the frame it is left resting on; default world.")
+
+
+class WaitSpec(Strict):
+    time: Optional[Annotated[float, Field(ge=0)]] = Field(None, description="Seconds to wait.")
+    for_: Optional[Name] = Field(None, alias="for", description="Wait until this device's program has ended.")
+
+    @model_validator(mode="after")
+    def _one(self):
+        if (self.time is None) == (self.for_ is None):
+            raise ValueError("give either 'time' (seconds) or 'for' (a device), exactly one")
+        return self
+
+
+class Step(Strict):
+    """One program step: exactly one of the keys."""
+
+    move: Optional[MoveSpec] = None
+    grasp: Optional[ObjectRef] = Field(None, description="Rigidly affix the object to the TCP ('grasp: part' for short).")
+    release: Optional[ObjectRef] = Field(None, description="Remove the object's affixment; it stays where it is.")
+    place: Optional[PlaceSpec] = Field(None, description="The object now rests on a frame (non-rigid affixment).")
+    attach_tool: Optional[ToolSpec] = Field(None, description="Tool change: affix a tool; its TCP becomes the active one.")
+    detach_tool: Optional[ToolSpec] = Field(None, description="Tool change: leave the tool (on a frame or in world).")
+    wait: Optional[WaitSpec] = None
+    sync: Optional[Name] = Field(None, description="Meet the other programs at their sync of the same name.")
+
+    @field_validator("grasp", "release", mode="before")
+    @classmethod
+    def _object_shorthand(cls, v):
+        return {"object": v} if isinstance(v, str) else v
+
+    @field_validator("attach_tool", "detach_tool", mode="before")
+    @classmethod
+    def _tool_shorthand(cls, v):
+        return {"tool": v} if isinstance(v, str) else v
+
+    @model_validator(mode="after")
+    def _exactly_one(self):
+        given = [k for k in STEP_KINDS if getattr(self, k) is not None]
+        if len(given) != 1:
+            what = "none" if not given else " and ".join(given)
+            raise ValueError(f"a step does exactly one thing ({', '.join(STEP_KINDS)}); got {what}")
+        return self
+
+    @property
+    def kind(self) -> str:
+        return next(k for k in STEP_KINDS if getattr(self, k) is not None)
+
+
+STEP_KINDS = ("move", "grasp", "release", "place", "attach_tool", "detach_tool", "wait", "sync")
+
+
+class ProgramFile(Strict):
+    """A symbolic program for one device."""
+
+    device: Name
+    description: Optional[str] = None
+    units: Units = Field(default_factory=Units, description="Units of offsets in this file.")
+    steps: Annotated[list[Step], Field(min_length=1)]
+
+
+class RunFile(Strict):
+    """Programs that run together, on one clock."""
+
+    description: Optional[str] = None
+    programs: Annotated[list[str], Field(min_length=1)] = Field(description="Program files, relative to this file.")
+    dt: Annotated[float, Field(gt=0, le=1)] = Field(0.01, description="Time step of the uniform clock [s].")

@@ -1,0 +1,1 @@
+"""Simulation of symbolic programs for several devices on one clock (report, section 5)."""

@@ -1,0 +1,496 @@
+"""Run programs of several devices on one clock (the report's section 5).
+
+Two phases:
+
+1. **Scheduling** - the *device checker*.  Every device with a program is
+   running, waiting (at a sync or for another device) or done.  The checker
+   always advances the running device whose clock is earliest, so steps
+   happen in time order across devices: a move is planned from the world
+   as it is at its start (where carriers and tools are then), an affixment
+   change (grasp, release, place, tool change) takes effect at its time.
+   Syncs are barriers: the k-th ``sync: name`` of every program that has
+   one meets the others; all leave at the latest arrival.  ``wait: {for: X}``
+   is a serial dependency.  Devices that finish leave parallel operation.
+2. **The time-step controller** - every device is sampled on one uniform
+   clock ``t = 0, dt, 2 dt, ...`` (vectorised per device).  Per interval of
+   constant affixment tree: world poses of bases and TCPs, the loads each
+   link carries (grasped objects, aggregated devices), gravity plus the
+   base's own acceleration (a robot on a conveyor), and the joint torques by
+   batched Newton-Euler.  Then the limits are checked.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..dynamics import DeviceDynamics
+from ..errors import UserError
+from ..kinematics.inverse import solve_ik
+from ..kinematics.jacobian import ToolMount
+from ..motion.linear import PathError, linear_move
+from ..motion.trajectory import joint_move, sample_track
+from ..world.tree import AffixmentError, World
+from .load import Program, Run, Step
+
+
+class SimulationError(UserError):
+    """A program cannot run: the message names the device, the step and the cause."""
+
+
+@dataclass
+class Event:
+    t: float
+    device: str
+    step: int | None
+    kind: str
+    detail: str
+    tree: dict | None = None  # affixment change: child, parent (None when detached), type, kind
+
+    def as_dict(self) -> dict:
+        return {"t": self.t, "device": self.device, "step": self.step, "kind": self.kind, "detail": self.detail, "tree": self.tree}
+
+
+@dataclass
+class Violation:
+    """A limit exceeded on ``[t_start, t_end]``; ``peak`` is the worst value, ``limit`` the bound."""
+
+    device: str
+    joint: str
+    kind: str  # position | velocity | acceleration | torque
+    t_start: float
+    t_end: float
+    peak: float
+    limit: float
+    step: int | None
+    step_text: str
+
+    def as_dict(self) -> dict:
+        return {k: getattr(self, k) for k in ("device", "joint", "kind", "t_start", "t_end", "peak", "limit", "step", "step_text")}
+
+    def describe(self) -> str:
+        where = f"step {self.step + 1} ({self.step_text})" if self.step is not None else "at rest"
+        return (f"{self.device} {self.joint}: {self.kind} {self.peak:.4g} beyond its limit {self.limit:.4g} "
+                f"from t = {self.t_start:.3f} s to {self.t_end:.3f} s, {where}")
+
+
+@dataclass
+class DeviceTimeline:
+    """One device on the uniform clock (SI).
+
+    Attributes
+    ----------
+    q, qd, qdd, tau : ndarray, shape (K, n)
+    tcp : ndarray, shape (K, 4, 4)
+        ``T_world_tcp`` of the active TCP.
+    step : ndarray of int, shape (K,)
+        Index of the program step running at each sample (-1: none).
+    ratios : dict
+        'velocity' | 'acceleration' | 'torque' -> ndarray (K, n) of |value| / limit.
+    cycle_time : float
+        When the device's program ended [s].
+    """
+
+    device: str
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    tau: np.ndarray
+    tcp: np.ndarray
+    step: np.ndarray
+    ratios: dict
+    cycle_time: float
+    tcp_names: list = field(default_factory=list)
+
+
+@dataclass
+class SimulationResult:
+    cell: str
+    run: str
+    dt: float
+    times: np.ndarray
+    devices: dict[str, DeviceTimeline]
+    events: list[Event]
+    violations: list[Violation]
+    step_texts: dict[str, list[str]]
+
+    @property
+    def cycle_time(self) -> float:
+        """When the last program ended [s]."""
+        return max((tl.cycle_time for tl in self.devices.values()), default=0.0)
+
+    @property
+    def ok(self) -> bool:
+        return not self.violations
+
+    def peak_ratios(self, device: str) -> dict[str, list[float]]:
+        return {k: np.max(v, axis=0).tolist() if len(v) else [] for k, v in self.devices[device].ratios.items()}
+
+
+@dataclass
+class _Track:
+    program: Program
+    segments: list = field(default_factory=list)
+    q_init: np.ndarray | None = None
+    step_starts: list = field(default_factory=list)  # (t, step index)
+    t: float = 0.0
+    pc: int = 0
+    status: str = "running"  # running | waiting | done
+    waiting_on: object = None
+    sync_counts: dict = field(default_factory=dict)
+    end: float | None = None
+
+
+class _Scheduler:
+    def __init__(self, run: Run):
+        self.run = run
+        self.world = World(run.cell)
+        self.order = [p.device for p in run.programs]
+        self.tracks = {p.device: _Track(p, q_init=self.world.joints(p.device)) for p in run.programs}
+        self.events: list[Event] = []
+        self.snapshots: list[tuple[float, dict]] = [(0.0, self.world.snapshot())]
+        self.barriers: dict[tuple[str, int], dict[str, float]] = {}
+        self.sync_totals = {d: {} for d in self.order}
+        for prog in run.programs:
+            for st in prog.steps:
+                if st.kind == "sync":
+                    self.sync_totals[prog.device][st.spec] = self.sync_totals[prog.device].get(st.spec, 0) + 1
+
+    # ------------------------------------------------------------ world at a time
+    def q_at(self, device: str, t: float) -> np.ndarray:
+        track = self.tracks[device]
+        q = track.q_init
+        for seg in track.segments:
+            if t < seg.t0:
+                break
+            if t < seg.t1:
+                return seg.sample(np.array([t]))[0][0]
+            q = seg.q_end
+        return q
+
+    def set_time(self, t: float) -> None:
+        for device in self.tracks:
+            self.world.set_joints(device, self.q_at(device, t))
+
+    def fail(self, device: str, step: Step, message: str):
+        raise SimulationError(f"{step.where}: {device} step {step.index + 1} ({step.describe()}): {message}")
+
+    # ------------------------------------------------------------ the device checker
+    def run_all(self) -> None:
+        while True:
+            running = [d for d in self.order if self.tracks[d].status == "running"]
+            if not running:
+                waiting = [d for d in self.order if self.tracks[d].status == "waiting"]
+                if not waiting:
+                    return
+                lines = []
+                for d in waiting:
+                    tr = self.tracks[d]
+                    st = tr.program.steps[tr.pc]
+                    lines.append(f"{d} at step {st.index + 1} ({st.describe()}, {st.where}) since t = {tr.t:.3f} s")
+                raise SimulationError("deadlock: the programs wait for each other: " + "; ".join(lines))
+            device = min(running, key=lambda d: (self.tracks[d].t, self.order.index(d)))
+            self.advance(device)
+
+    def advance(self, device: str) -> None:
+        tr = self.tracks[device]
+        if tr.pc >= len(tr.program.steps):
+            self.finish(device)
+            return
+        step = tr.program.steps[tr.pc]
+        self.set_time(tr.t)
+        tr.step_starts.append((tr.t, step.index))
+        handler = getattr(self, f"_{step.kind}")
+        if handler(device, tr, step):  # True: the step completed, go on
+            tr.pc += 1
+            if tr.pc >= len(tr.program.steps):
+                self.finish(device)
+
+    def finish(self, device: str) -> None:
+        tr = self.tracks[device]
+        tr.status, tr.end = "done", tr.t
+        tr.step_starts.append((tr.t, -1))
+        self.events.append(Event(tr.t, device, None, "done", f"{device} finished its program"))
+        for other in self.order:  # serial dependencies on this device
+            o = self.tracks[other]
+            if o.status == "waiting" and o.waiting_on == ("device", device):
+                o.t = max(o.t, tr.t)
+                o.status, o.waiting_on = "running", None
+                o.pc += 1
+                if o.pc >= len(o.program.steps):
+                    self.finish(other)
+
+    # ------------------------------------------------------------ steps
+    def _resolve_tcp(self, device: str, name: str | None) -> str:
+        tcp = name or self.world.active_tcp(device)
+        if tcp not in self.run.cell.frames and f"{device}.{tcp}" in self.run.cell.frames:
+            tcp = f"{device}.{tcp}"
+        return tcp
+
+    def _move(self, device: str, tr: _Track, step: Step) -> bool:
+        spec = step.spec
+        dev = self.run.cell.devices[device]
+        q_now = self.world.joints(device)
+        if spec.to == "home" or spec.to in dev.positions:
+            q_goal = dev.home if spec.to == "home" else dev.positions[spec.to]
+            seg = joint_move(tr.t, q_now, q_goal, dev.limit_array("velocity"), dev.limit_array("acceleration"), spec.speed, spec.acceleration)
+        else:
+            tcp = self._resolve_tcp(device, spec.tcp)
+            try:
+                mount = ToolMount(*self.world.mount_of(device, tcp))
+            except UserError as exc:
+                self.fail(device, step, exc.message)
+            T_base_target = np.linalg.inv(self.world.T_world(device)) @ self.world.T_world(spec.to) @ step.T_offset
+            position_only = spec.position_only or dev.dof < 6
+            if spec.motion == "joint":
+                result = solve_ik(dev, T_base_target, mount, q_now, position_only)
+                if not result.success:
+                    names = [j.name for j in dev.joints]
+                    limits = ", ".join(f"{names[i]} at its {side} limit" for i, side in result.at_limits) or "no joint at a limit"
+                    rot = "" if position_only else f" and {np.degrees(result.rotation_error):.3g} deg"
+                    self.fail(device, step, f"'{spec.to}' is unreachable for {tcp}: the closest pose found is "
+                                            f"{result.position_error * 1000:.4g} mm{rot} away ({limits})")
+                seg = joint_move(tr.t, q_now, result.q, dev.limit_array("velocity"), dev.limit_array("acceleration"), spec.speed, spec.acceleration)
+            else:
+                try:
+                    seg = linear_move(dev, mount, tr.t, q_now, T_base_target, self.run.dt, spec.speed, spec.acceleration, position_only)
+                except PathError as exc:
+                    self.fail(device, step, exc.detail)
+        if seg is None:
+            self.events.append(Event(tr.t, device, step.index, "move", f"{step.describe()}: already there"))
+            return True
+        tr.segments.append(seg)
+        self.events.append(Event(tr.t, device, step.index, "move", f"{step.describe()} ({seg.t1 - seg.t0:.3f} s)"))
+        tr.t = seg.t1
+        return True
+
+    def _tree_change(self, device: str, tr: _Track, step: Step, kind: str, child: str, action) -> bool:
+        try:
+            aff = action()
+        except AffixmentError as exc:
+            self.fail(device, step, exc.message)
+        tree = {"child": child, "parent": aff.parent if aff else None, "type": aff.type if aff else None, "kind": aff.kind if aff else None}
+        self.events.append(Event(tr.t, device, step.index, kind, step.describe(), tree))
+        self.snapshots.append((tr.t, self.world.snapshot()))
+        return True
+
+    def _held_by(self, device: str, child: str) -> bool:
+        return child in self.world.subtree(device) and self.world.affixment(child) is not None
+
+    def _grasp(self, device, tr, step):
+        spec = step.spec
+        tcp = self._resolve_tcp(device, spec.tcp)
+        if tcp not in self.world.subtree(device):
+            self.fail(device, step, f"'{tcp}' is not carried by {device}")
+        aff = self.world.affixment(spec.object)
+        if aff is not None and aff.type == "rigid" and aff.kind == "grasp":
+            self.fail(device, step, f"'{spec.object}' is already held by '{aff.parent}'; release it there first")
+        return self._tree_change(device, tr, step, "grasp", spec.object, lambda: self.world.attach(spec.object, tcp, "rigid", "grasp"))
+
+    def _release(self, device, tr, step):
+        obj = step.spec.object
+        if not self._held_by(device, obj):
+            self.fail(device, step, f"{device} does not hold '{obj}'")
+
+        def act():
+            self.world.detach(obj)
+            return None
+
+        return self._tree_change(device, tr, step, "release", obj, act)
+
+    def _place(self, device, tr, step):
+        spec = step.spec
+        if not self._held_by(device, spec.object):
+            self.fail(device, step, f"{device} does not hold '{spec.object}'")
+        return self._tree_change(device, tr, step, "place", spec.object,
+                                 lambda: self.world.attach(spec.object, spec.on, "non_rigid", "rests_on"))
+
+    def _attach_tool(self, device, tr, step):
+        spec = step.spec
+        at = self._resolve_tcp(device, spec.at)
+        if at not in self.world.subtree(device):
+            self.fail(device, step, f"'{at}' is not carried by {device}")
+        return self._tree_change(device, tr, step, "attach_tool", spec.tool, lambda: self.world.attach(spec.tool, at, "rigid", "tool"))
+
+    def _detach_tool(self, device, tr, step):
+        spec = step.spec
+        if spec.tool not in self.world.subtree(device) or spec.tool == device:
+            self.fail(device, step, f"{device} does not carry '{spec.tool}'")
+        if spec.on is not None:
+            action = lambda: self.world.attach(spec.tool, spec.on, "non_rigid", "rests_on")  # noqa: E731
+        else:
+            def action():
+                self.world.detach(spec.tool)
+                return None
+        return self._tree_change(device, tr, step, "detach_tool", spec.tool, action)
+
+    def _wait(self, device, tr, step):
+        spec = step.spec
+        if spec.time is not None:
+            self.events.append(Event(tr.t, device, step.index, "wait", step.describe()))
+            tr.t += spec.time
+            return True
+        other = self.tracks[spec.for_]
+        if other.status == "done":
+            tr.t = max(tr.t, other.end)
+            self.events.append(Event(tr.t, device, step.index, "wait", f"{spec.for_} has finished"))
+            return True
+        tr.status, tr.waiting_on = "waiting", ("device", spec.for_)
+        self.events.append(Event(tr.t, device, step.index, "wait", f"waiting for {spec.for_} to finish"))
+        return False
+
+    def _sync(self, device, tr, step):
+        name = step.spec
+        k = tr.sync_counts.get(name, 0)
+        tr.sync_counts[name] = k + 1
+        arrivals = self.barriers.setdefault((name, k), {})
+        arrivals[device] = tr.t
+        participants = [d for d in self.order if self.sync_totals[d].get(name, 0) > k]
+        if len(arrivals) < len(participants):
+            tr.status, tr.waiting_on = "waiting", ("sync", name, k)
+            return False
+        t_meet = max(arrivals.values())
+        for d in participants:
+            o = self.tracks[d]
+            o.t = t_meet
+            self.events.append(Event(t_meet, d, o.program.steps[o.pc].index, "sync", f"sync {name} ({', '.join(participants)})"))
+            if d != device:
+                o.status, o.waiting_on = "running", None
+                o.pc += 1
+                if o.pc >= len(o.program.steps):
+                    self.finish(d)
+        return True
+
+
+def simulate(run: Run, progress=None) -> SimulationResult:
+    """Schedule and sample a run; see the module docstring.
+
+    Parameters
+    ----------
+    run : Run
+        From :func:`rworld_cli.simulate.load.load_run`.
+    progress : callable, optional
+        ``progress(done, total, what)`` for long runs (the CLI draws a bar).
+
+    Raises
+    ------
+    SimulationError
+        Unreachable targets, singular or infeasible linear moves, impossible
+        grasps or releases, deadlocks - naming device, step and cause (exit 2).
+    """
+    sched = _Scheduler(run)
+    sched.run_all()
+    return _sample(run, sched, progress)
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """[start, stop) index ranges where ``mask`` is True."""
+    padded = np.concatenate([[False], mask, [False]])
+    edges = np.flatnonzero(padded[1:] != padded[:-1])
+    return list(zip(edges[::2], edges[1::2]))
+
+
+def _sample(run: Run, sched: _Scheduler, progress) -> SimulationResult:
+    cell = run.cell
+    end = max((tr.end for tr in sched.tracks.values()), default=0.0)
+    times = np.arange(0.0, end, run.dt)
+    if len(times) == 0 or end - times[-1] > 1e-9 * max(1.0, end):
+        times = np.append(times, end)  # the last sample is the end of the last program
+    K = len(times)
+    world = sched.world
+    devices = list(cell.devices)
+    q, qd, qdd = {}, {}, {}
+    for d in devices:
+        if d in sched.tracks:
+            tr = sched.tracks[d]
+            q[d], qd[d], qdd[d] = sample_track(tr.segments, tr.q_init, times)
+        else:  # devices without a program hold their home values
+            n = cell.devices[d].dof
+            q[d], qd[d], qdd[d] = np.tile(cell.devices[d].home, (K, 1)), np.zeros((K, n)), np.zeros((K, n))
+    snaps = sched.snapshots
+    bounds = [np.searchsorted(times, t, side="left") for t, _ in snaps[1:]] + [K]
+    starts = [0] + bounds[:-1]
+    run_devices = sched.order
+    T_base = {d: np.empty((K, 4, 4)) for d in run_devices}
+    T_tcp = {d: np.empty((K, 4, 4)) for d in run_devices}
+    tcp_names = {d: [] for d in run_devices}
+    total = len(snaps) * len(run_devices) * 2
+    done = 0
+    for (t_snap, snap), a, b in zip(snaps, starts, bounds):
+        if b <= a:
+            continue
+        world.restore(snap)
+        joints = {d: q[d][a:b] for d in devices}
+        for d in run_devices:
+            T_base[d][a:b] = world.T_world_batch(d, joints)
+            tcp = world.active_tcp(d)
+            T_tcp[d][a:b] = world.T_world_batch(tcp, joints)
+            tcp_names[d].append((float(times[a]), tcp))
+            done += 1
+            if progress:
+                progress(done, total, "poses")
+    gravity = cell.gravity
+    timelines = {}
+    violations: list[Violation] = []
+    step_texts = {d: [st.describe() for st in sched.tracks[d].program.steps] for d in run_devices}
+    for d in run_devices:
+        dev = cell.devices[d]
+        # the base's own acceleration (a conveyor carrying the device) acts like gravity
+        p = T_base[d][:, :3, 3]
+        a_base = np.gradient(np.gradient(p, times, axis=0), times, axis=0) if K > 2 else np.zeros_like(p)
+        g_world = gravity - a_base
+        g_base = np.einsum("kji,kj->ki", T_base[d][:, :3, :3], g_world)  # R^T (g - a)
+        tau = np.empty_like(q[d])
+        for (t_snap, snap), a, b in zip(snaps, starts, bounds):
+            if b <= a:
+                continue
+            world.restore(snap)
+            world.set_joints(d, q[d][a])
+            for other in devices:
+                if other != d:
+                    world.set_joints(other, q[other][a])
+            dyn = DeviceDynamics(dev, link_loads=world.carried_loads(d))
+            tau[a:b] = dyn.inverse(q[d][a:b], qd[d][a:b], qdd[d][a:b], g_base[a:b])
+            done += 1
+            if progress:
+                progress(done, total, "dynamics")
+        step_index = np.full(K, -1)
+        for t0, idx in sched.tracks[d].step_starts:
+            step_index[times >= t0 - 1e-12] = idx
+        ratios = {
+            "velocity": np.abs(qd[d]) / dev.limit_array("velocity"),
+            "acceleration": np.abs(qdd[d]) / dev.limit_array("acceleration"),
+            "torque": np.abs(tau) / dev.limit_array("effort"),
+        }
+        timelines[d] = DeviceTimeline(d, q[d], qd[d], qdd[d], tau, T_tcp[d], step_index, ratios,
+                                      float(sched.tracks[d].end), tcp_names[d])
+        violations += _violations(d, dev, times, q[d], ratios, qd[d], qdd[d], tau, step_index, step_texts[d])
+    world.restore(snaps[-1][1])
+    violations.sort(key=lambda v: (v.t_start, v.device, v.joint))
+    return SimulationResult(cell.name, run.file, run.dt, times, timelines, sched.events, violations, step_texts)
+
+
+def _violations(device, dev, times, q, ratios, qd, qdd, tau, step_index, texts) -> list[Violation]:
+    out = []
+    lower, upper = dev.limit_array("lower"), dev.limit_array("upper")
+    checks = {
+        "position": (np.maximum(lower - q, q - upper) > 1e-9, q, None),
+        "velocity": (ratios["velocity"] > 1 + 1e-6, qd, dev.limit_array("velocity")),
+        "acceleration": (ratios["acceleration"] > 1 + 1e-6, qdd, dev.limit_array("acceleration")),
+        "torque": (ratios["torque"] > 1 + 1e-9, tau, dev.limit_array("effort")),
+    }
+    for kind, (bad, values, limits) in checks.items():
+        for j in range(dev.dof):
+            for a, b in _runs(bad[:, j]):
+                seg = values[a:b, j]
+                k = a + int(np.argmax(np.abs(seg)))
+                if kind == "position":
+                    peak = float(values[k, j])
+                    limit = float(upper[j] if peak > upper[j] else lower[j])
+                else:
+                    peak, limit = float(values[k, j]), float(limits[j])
+                step = int(step_index[k]) if step_index[k] >= 0 else None
+                out.append(Violation(device, dev.joints[j].name, kind, float(times[a]), float(times[b - 1]), peak, limit,
+                                     step, texts[step] if step is not None else ""))
+    return out

@@ -1,0 +1,192 @@
+"""Load a run: its program files, checked against the cell, with located errors."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import Issue, UserError
+from ..schema import program as sp
+from ..schema.loader import ANGLE, LENGTH, load_cell, pose_to_matrix, validate_document
+from ..schema.messages import did_you_mean
+from ..schema.yamlio import Marked, read_yaml
+from ..world.model import CellModel
+
+
+@dataclass
+class Step:
+    """One resolved program step.
+
+    Attributes
+    ----------
+    index : int
+        0-based position in its program.
+    kind : str
+        move | grasp | release | place | attach_tool | detach_tool | wait | sync
+    spec : object
+        The validated step (``schema.program`` model).
+    where : str
+        ``file:line`` of the step, for messages.
+    T_offset : ndarray, shape (4, 4)
+        Move offsets in SI (identity when none).
+    """
+
+    index: int
+    kind: str
+    spec: object
+    where: str
+    T_offset: np.ndarray = field(default_factory=lambda: np.eye(4))
+
+    def describe(self) -> str:
+        s = self.spec
+        if self.kind == "move":
+            return f"move to {s.to}" + (" (linear)" if s.motion == "linear" else "")
+        if self.kind in ("grasp", "release"):
+            return f"{self.kind} {s.object}"
+        if self.kind == "place":
+            return f"place {s.object} on {s.on}"
+        if self.kind in ("attach_tool", "detach_tool"):
+            return f"{self.kind} {s.tool}"
+        if self.kind == "wait":
+            return f"wait {s.time} s" if s.time is not None else f"wait for {s.for_}"
+        return f"sync {s}"
+
+
+@dataclass
+class Program:
+    device: str
+    file: str
+    steps: list[Step]
+
+
+@dataclass
+class Run:
+    """A cell and the programs that run together on it."""
+
+    cell: CellModel
+    programs: list[Program]
+    dt: float
+    file: str
+    warnings: list[Issue] = field(default_factory=list)
+
+
+def _step_spec(step: sp.Step):
+    return getattr(step, step.kind)
+
+
+def _check_program(doc: Marked, pf: sp.ProgramFile, cell: CellModel, run_devices: set[str], issues: list[Issue]) -> Program:
+    L, A = LENGTH[pf.units.length], ANGLE[pf.units.angle]
+    device = cell.devices.get(pf.device)
+    if device is None:
+        issues.append(doc.issue(("device",), f"unknown device '{pf.device}'{did_you_mean(pf.device, cell.devices)}"))
+    primitives = set(cell.objects) | set(cell.devices) | set(cell.sensors)
+
+    def frame(path, name, what="frame"):
+        if name not in cell.frames and f"{pf.device}.{name}" not in cell.frames:
+            issues.append(doc.issue(path, f"unknown {what} '{name}'{did_you_mean(name, cell.frames)}"))
+
+    def obj(path, name, kinds=("object",)):
+        pool = {n for n in primitives if cell.primitive_kind(n) in kinds}
+        if name not in pool:
+            issues.append(doc.issue(path, f"unknown {' or '.join(kinds)} '{name}'{did_you_mean(name, pool)}"))
+
+    steps = []
+    for i, raw in enumerate(pf.steps):
+        spec = _step_spec(raw)
+        path = ("steps", i, raw.kind)
+        line = doc.position(("steps", i))[0]
+        step = Step(i, raw.kind, spec, f"{doc.file}:{line}")
+        if raw.kind == "move":
+            target = spec.to
+            named = device is not None and (target == "home" or target in device.positions)
+            if not named:
+                if target not in cell.frames:
+                    choices = list(cell.frames) + (list(device.positions) + ["home"] if device else [])
+                    where = f" or a position of '{device.name}'" if device else ""
+                    issues.append(doc.issue(path + ("to",), f"'{target}' is not a frame{where}{did_you_mean(target, choices)}"))
+            elif spec.offset is not None or spec.motion == "linear":
+                issues.append(doc.issue(path + ("to",), f"'{target}' is a joint position of '{device.name}': it takes a joint move without offset"))
+            if spec.tcp is not None:
+                frame(path + ("tcp",), spec.tcp)
+            if spec.offset is not None:
+                T, error, warning = pose_to_matrix(spec.offset, L, A)
+                if error:
+                    issues.append(doc.issue(path + ("offset",), error))
+                step.T_offset = T
+            if device is not None:
+                for j in device.joints:
+                    if not (np.isfinite(j.limits.velocity) and np.isfinite(j.limits.acceleration)):
+                        issues.append(doc.issue(path, f"joint {j.name} of '{device.name}' has no velocity or acceleration limit; "
+                                                     "moves are timed by them - add them to the cell"))
+                        break
+        elif raw.kind in ("grasp", "release"):
+            obj(path + ("object",), spec.object, ("object", "sensor"))
+            if raw.kind == "grasp" and spec.tcp is not None:
+                frame(path + ("tcp",), spec.tcp)
+        elif raw.kind == "place":
+            obj(path + ("object",), spec.object, ("object", "sensor"))
+            frame(path + ("on",), spec.on)
+        elif raw.kind in ("attach_tool", "detach_tool"):
+            obj(path + ("tool",), spec.tool, ("device", "object"))
+            if spec.at is not None:
+                frame(path + ("at",), spec.at)
+            if spec.on is not None:
+                frame(path + ("on",), spec.on)
+        elif raw.kind == "wait" and spec.for_ is not None:
+            if spec.for_ not in run_devices:
+                issues.append(doc.issue(path + ("for",), f"no program of this run drives '{spec.for_}': waiting for it would never end"
+                                        + did_you_mean(spec.for_, run_devices)))
+            elif spec.for_ == pf.device:
+                issues.append(doc.issue(path + ("for",), "a device cannot wait for its own program to end"))
+        steps.append(step)
+    return Program(pf.device, doc.file, steps)
+
+
+def load_run(cell_path: str, run_path: str, dt: float | None = None) -> Run:
+    """Load a cell and a run file (and its programs); every problem at once.
+
+    Raises
+    ------
+    UserError
+        Located issues in the cell, run or program files (exit 2).
+    """
+    cell = load_cell(cell_path).cell
+    run_doc = read_yaml(run_path)
+    rf = validate_document(run_doc, sp.RunFile)
+    issues: list[Issue] = []
+    base = Path(run_path).parent
+    docs = []
+    for i, rel in enumerate(rf.programs):
+        path = Path(os.path.normpath(base / rel))
+        if not path.is_file():
+            issues.append(run_doc.issue(("programs", i), f"no such program file: {path}"))
+            continue
+        try:
+            doc = read_yaml(path)
+            docs.append((i, doc, validate_document(doc, sp.ProgramFile)))
+        except UserError as exc:
+            issues.extend(exc.issues)
+    devices_seen: dict[str, int] = {}
+    for i, doc, pf in docs:
+        if pf.device in devices_seen:
+            issues.append(run_doc.issue(("programs", i), f"'{pf.device}' already has a program in this run (entry {devices_seen[pf.device] + 1}); a device runs one program"))
+        devices_seen.setdefault(pf.device, i)
+    run_devices = set(devices_seen)
+    programs = [_check_program(doc, pf, cell, run_devices, issues) for _, doc, pf in docs]
+    warnings = []
+    sync_users: dict[str, set[str]] = {}
+    for prog in programs:
+        for st in prog.steps:
+            if st.kind == "sync":
+                sync_users.setdefault(st.spec, set()).add(prog.device)
+    for prog in programs:
+        for st in prog.steps:
+            if st.kind == "sync" and len(sync_users[st.spec]) < 2:
+                warnings.append(Issue(st.where.rsplit(":", 1)[0], int(st.where.rsplit(":", 1)[1]), 1, f"steps[{st.index}].sync",
+                                      f"sync '{st.spec}' appears in no other program of the run; it passes at once", "warning"))
+    if issues:
+        raise UserError(f"{run_path}: {len(issues)} error(s)", sorted(issues, key=lambda i: (i.file, i.line, i.column)))
+    return Run(cell, programs, dt if dt is not None else rf.dt, run_path, warnings)

@@ -1,0 +1,113 @@
+"""Write a simulation: timelines (CSV), events and summary (JSON), plots (PNG)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..fileio import atomic_write_text
+from ..spatial import matrix_to_quat
+from ..tableio import format_csv
+from .engine import SimulationResult
+
+
+def summary_dict(result: SimulationResult) -> dict:
+    """The stable JSON summary (docs/simulation.md)."""
+    devices = {}
+    for name, tl in result.devices.items():
+        peaks = result.peak_ratios(name)
+        devices[name] = {
+            "cycle_time": tl.cycle_time,
+            "peak_ratio": {k: [float(x) for x in v] for k, v in peaks.items()},
+            "violations": sum(1 for v in result.violations if v.device == name),
+            "steps": len(result.step_texts[name]),
+        }
+    return {
+        "cell": result.cell,
+        "run": result.run,
+        "dt": result.dt,
+        "cycle_time": result.cycle_time,
+        "ok": result.ok,
+        "devices": devices,
+        "violations": [v.as_dict() for v in result.violations],
+        "events": [e.as_dict() for e in result.events],
+    }
+
+
+def timeline_columns(n: int) -> list[str]:
+    cols = ["t", "step"]
+    for group in ("q", "qd", "qdd", "tau"):
+        cols += [f"{group}{i}" for i in range(1, n + 1)]
+    return cols + ["tcp_x", "tcp_y", "tcp_z", "tcp_qw", "tcp_qx", "tcp_qy", "tcp_qz"]
+
+
+def timeline_array(result: SimulationResult, device: str) -> np.ndarray:
+    tl = result.devices[device]
+    step = np.where(tl.step >= 0, tl.step + 1, 0)  # 1-based program step, 0 = none
+    return np.hstack([result.times[:, None], step[:, None], tl.q, tl.qd, tl.qdd, tl.tau, tl.tcp[:, :3, 3], matrix_to_quat(tl.tcp[:, :3, :3])])
+
+
+def write_outputs(result: SimulationResult, directory: str | Path, plots: bool) -> list[Path]:
+    """Write ``timeline_<device>.csv``, ``events.json``, ``summary.json`` (and PNG plots) atomically."""
+    out = Path(directory)
+    written = []
+    for name, tl in result.devices.items():
+        path = out / f"timeline_{name}.csv"
+        atomic_write_text(path, format_csv(timeline_columns(tl.q.shape[1]), timeline_array(result, name)))
+        written.append(path)
+    summary = summary_dict(result)
+    for fname, payload in (("events.json", summary["events"]), ("summary.json", {k: v for k, v in summary.items() if k != "events"})):
+        path = out / fname
+        atomic_write_text(path, json.dumps(payload, indent=2, allow_nan=False) + "\n")
+        written.append(path)
+    if plots:
+        written += write_plots(result, out)
+    return written
+
+
+def write_plots(result: SimulationResult, directory: Path) -> list[Path]:
+    """Per device: joint positions, and torque / velocity ratios to their limits, against time."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    written = []
+    events = [e for e in result.events if e.tree is not None]
+    for name, tl in result.devices.items():
+        fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True, constrained_layout=True)
+        t = result.times
+        for j in range(tl.q.shape[1]):
+            axes[0].plot(t, tl.q[:, j], label=f"q{j + 1}")
+            axes[1].plot(t, tl.ratios["torque"][:, j], label=f"joint {j + 1}")
+            axes[2].plot(t, tl.ratios["velocity"][:, j], label=f"joint {j + 1}")
+        axes[0].set_ylabel("joint value [rad, m]")
+        axes[1].set_ylabel("|torque| / limit")
+        axes[2].set_ylabel("|velocity| / limit")
+        for ax in axes[1:]:
+            ax.axhline(1.0, color="red", linewidth=1, linestyle="--")
+            ax.set_ylim(bottom=0)
+        for ax in axes:
+            ax.grid(alpha=0.3)
+            for e in events:
+                ax.axvline(e.t, color="grey", linewidth=0.8, alpha=0.6)
+        for e in events:
+            axes[0].annotate(f"{e.kind} {e.tree['child']}", (e.t, 1.0), xycoords=("data", "axes fraction"),
+                             rotation=90, fontsize=7, va="top", ha="right", color="grey")
+        for v in result.violations:
+            if v.device == name:
+                axes[1 if v.kind == "torque" else 2].axvspan(v.t_start, v.t_end, color="red", alpha=0.15)
+        axes[0].legend(loc="upper right", fontsize=8, ncol=3)
+        axes[1].legend(loc="upper right", fontsize=8, ncol=3)
+        axes[2].set_xlabel("time [s]")
+        fig.suptitle(f"{result.cell}: {name} (cycle time {tl.cycle_time:.2f} s)")
+        path = directory / f"plot_{name}.png"
+        directory.mkdir(parents=True, exist_ok=True)
+        tmp = directory / f".plot_{name}.png.tmp"
+        fig.savefig(tmp, dpi=110, format="png")
+        plt.close(fig)
+        tmp.replace(path)
+        written.append(path)
+    return written
