@@ -35,7 +35,7 @@ class FileReport:
     """The outcome of validating one file."""
 
     file: str
-    kind: str  # "cell" | "poses" | "unknown"
+    kind: str  # "cell" | "poses" | "program" | "run"
     errors: list[Issue] = field(default_factory=list)
     warnings: list[Issue] = field(default_factory=list)
     summary: str = ""
@@ -65,8 +65,10 @@ def _file_kind(path: Path) -> str:
         data = read_yaml(path).data
     except UserError:
         return "cell"  # the cell loader reports the read error with its location
-    if isinstance(data, dict) and "poses" in data and "name" not in data:
-        return "poses"
+    if isinstance(data, dict) and "name" not in data:
+        for key, kind in (("poses", "poses"), ("steps", "program"), ("programs", "run")):
+            if key in data:
+                return kind
     return "cell"
 
 
@@ -83,7 +85,6 @@ def validate_files(paths: list[str]) -> list[FileReport]:
     list of FileReport
         One per path, in order; ``valid`` is False when a file has errors.
     """
-    from .schema import models as sm
     from .schema.loader import load_cell, load_pose_file_doc, resolve_cell_path
 
     reports = []
@@ -100,10 +101,18 @@ def validate_files(paths: list[str]) -> list[FileReport]:
                     f"{len(c.devices)} device(s), {len(c.objects)} object(s), {len(c.sensors)} sensor(s), "
                     f"{len(c.frames) - 1} frame(s), {len(c.features)} feature(s), {len(c.conditions)} condition(s)"
                 )
-            else:
+            elif kind == "poses":
                 _, pf = load_pose_file_doc(raw)
-                assert isinstance(pf, sm.PoseFile)
                 report.summary = f"{len(pf.poses)} pose(s); frame names are checked when a cell uses this file"
+            else:
+                from .schema import program as sp
+                from .schema.loader import validate_document
+                from .schema.yamlio import read_yaml
+
+                model = sp.ProgramFile if kind == "program" else sp.RunFile
+                parsed = validate_document(read_yaml(raw), model)
+                count = f"{len(parsed.steps)} step(s) for {parsed.device}" if kind == "program" else f"{len(parsed.programs)} program(s)"
+                report.summary = f"{count}; names are checked against the cell by 'rworld simulate' and 'rworld check'"
         except UserError as exc:
             report.errors = [i for i in exc.issues if i.severity == "error"] or [Issue(shown, 0, 0, "(file)", exc.message)]
             report.warnings = [i for i in exc.issues if i.severity == "warning"]

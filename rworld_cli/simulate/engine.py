@@ -270,7 +270,9 @@ class _Scheduler:
             aff = action()
         except AffixmentError as exc:
             self.fail(device, step, exc.message)
-        tree = {"child": child, "parent": aff.parent if aff else None, "type": aff.type if aff else None, "kind": aff.kind if aff else None}
+        tree = {"child": child, "parent": aff.parent if aff else None, "type": aff.type if aff else None, "kind": aff.kind if aff else None,
+                "T_world_child": self.world.T_world(child).tolist(),
+                "T_world_parent": self.world.T_world(aff.parent).tolist() if aff else None}
         self.events.append(Event(tr.t, device, step.index, kind, step.describe(), tree))
         self.snapshots.append((tr.t, self.world.snapshot()))
         return True
