@@ -49,6 +49,23 @@ def timeline_array(result: SimulationResult, device: str) -> np.ndarray:
     return np.hstack([result.times[:, None], step[:, None], tl.q, tl.qd, tl.qdd, tl.tau, tl.tcp[:, :3, 3], matrix_to_quat(tl.tcp[:, :3, :3])])
 
 
+def timeline_dict(result: SimulationResult) -> dict:
+    """All devices on the uniform clock, as JSON (docs/simulation.md)."""
+    devices = {}
+    for name, tl in result.devices.items():
+        devices[name] = {
+            "step": [int(x) + 1 if x >= 0 else 0 for x in tl.step],
+            "q": tl.q.tolist(),
+            "qd": tl.qd.tolist(),
+            "qdd": tl.qdd.tolist(),
+            "tau": tl.tau.tolist(),
+            "tcp_xyz": tl.tcp[:, :3, 3].tolist(),
+            "tcp_quat": matrix_to_quat(tl.tcp[:, :3, :3]).tolist(),
+            "active_tcp": [{"from": t, "tcp": name_} for t, name_ in tl.tcp_names],
+        }
+    return {"t": result.times.tolist(), "devices": devices}
+
+
 def write_outputs(result: SimulationResult, directory: str | Path, plots: bool) -> list[Path]:
     """Write ``timeline_<device>.csv``, ``events.json``, ``summary.json`` (and PNG plots) atomically."""
     out = Path(directory)
@@ -58,7 +75,12 @@ def write_outputs(result: SimulationResult, directory: str | Path, plots: bool) 
         atomic_write_text(path, format_csv(timeline_columns(tl.q.shape[1]), timeline_array(result, name)))
         written.append(path)
     summary = summary_dict(result)
-    for fname, payload in (("events.json", summary["events"]), ("summary.json", {k: v for k, v in summary.items() if k != "events"})):
+    outputs = (
+        ("timeline.json", timeline_dict(result)),
+        ("events.json", summary["events"]),
+        ("summary.json", {k: v for k, v in summary.items() if k != "events"}),
+    )
+    for fname, payload in outputs:
         path = out / fname
         atomic_write_text(path, json.dumps(payload, indent=2, allow_nan=False) + "\n")
         written.append(path)

@@ -190,6 +190,17 @@ def test_release_and_attach_tool_steps(tmp_path):
     assert result.devices["robot"].tcp_names[-1][1] == "hand_b.tcp"
 
 
+def test_wait_time_delays_the_next_step(tmp_path):
+    cell = copy_cell(tmp_path, "paper_fig9")
+    run = write_run(cell, {"w.yaml": "device: hand_a\nsteps:\n  - wait: {time: 0.75}\n  - move: {to: open}\n  - wait: {time: 0.25}\n"})
+    result = simulate(load_run(str(cell), str(run)))
+    move = event(result, "hand_a", "move")
+    assert move.t == pytest.approx(0.75)
+    assert result.devices["hand_a"].cycle_time == pytest.approx(0.75 + 0.346 + 0.25, abs=1e-3)
+    q = result.devices["hand_a"].q[:, 0]
+    assert q[result.times < 0.75].max() == pytest.approx(0.04) and q[-1] == pytest.approx(0.055)
+
+
 def test_grasp_of_an_object_held_elsewhere_is_refused(tmp_path):
     cell = copy_cell(tmp_path, "paper_fig9")
     run = write_run(cell, {"g.yaml": "device: robot\nsteps:\n  - grasp: {object: part, tcp: hand_b.tcp}\n"})
@@ -250,6 +261,9 @@ def test_simulate_writes_timelines_events_summary_and_plots(cli, tmp_path):
         lines = (out / f"timeline_{name}.csv").read_text().splitlines()
         assert lines[0].startswith("t,step,q1")
         assert (out / f"plot_{name}.png").read_bytes()[:4] == b"\x89PNG"
+    timeline = json.loads((out / "timeline.json").read_text())
+    assert len(timeline["t"]) == len(timeline["devices"]["robot"]["q"]) == len(lines) - 1
+    assert timeline["devices"]["robot"]["active_tcp"][0]["tcp"] == "robot.tool_plate"
     summary = json.loads((out / "summary.json").read_text())
     assert summary["ok"] and summary["devices"]["robot"]["steps"] == 18
     events = json.loads((out / "events.json").read_text())
