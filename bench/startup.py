@@ -1,4 +1,4 @@
-"""Start-up and validation wall times of the CLI, beside a bare Python start.
+"""Start-up, validation and simulation wall times of the CLI, beside a bare Python start.
 
 Run:  .venv/bin/python bench/startup.py [--repeat 20]
 
@@ -41,6 +41,8 @@ def main() -> None:
         ("rworld validate (3 example cells)", [rworld, "validate", *cells]),
         ("rworld show workcells/paper_fig9", [rworld, "show", "workcells/paper_fig9"]),
         ("rworld --json show workcells/paper_fig9", [rworld, "--json", "show", "workcells/paper_fig9"]),
+        ("rworld check workcells/puma560 pick_place", [rworld, "check", "workcells/puma560", "pick_place"]),
+        ("rworld check workcells/paper_fig9 transfer", [rworld, "check", "workcells/paper_fig9", "transfer"]),
     ]
     base = None
     print(f"{'command':42s} {'median [s]':>11s} {'x baseline':>11s}")

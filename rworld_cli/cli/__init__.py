@@ -14,7 +14,7 @@ from .. import __version__
 
 # name -> (module, function, one-line help shown by `rworld --help` without importing it)
 COMMANDS = {
-    "validate": ("validate", "validate", "Check cell and pose files; exit 2 with file:line:col lines if invalid."),
+    "validate": ("validate", "validate", "Check cell, pose, program and run files; exit 2 with file:line:col lines."),
     "show": ("show", "show", "Print a cell's frame tree with world poses, affixments and masses."),
     "schema": ("schema_cmd", "schema", "Write (or --check) the JSON Schemas of the file formats."),
     "kinematics": ("kinematics", "kinematics", "Forward kinematics, Jacobians, inverse kinematics (fk | jacobian | ik)."),
@@ -61,8 +61,9 @@ def main(ctx: click.Context, json_output: bool) -> None:
     """rworld - world models, device physics and checks for robot workcells.
 
     A cell is a directory with cell.yaml (structure: devices, objects,
-    sensors, frames, features, affixments, frame conditions) and pose files
-    (the numbers calibration may change).  See docs/formats.md.
+    sensors, frames, features, affixments, frame conditions), pose files
+    (the numbers calibration may change), and symbolic programs that runs
+    combine.  See docs/formats.md and docs/simulation.md.
 
     \b
     Examples:

@@ -14,9 +14,10 @@ from .common import EXIT_BAD_INPUT, emit_json, handle_errors, json_option
 @json_option
 @handle_errors
 def validate(files: tuple[str, ...], json_output: bool) -> None:
-    """Check cell files (with their pose files and meshes) and pose files.
+    """Check cell files (with their pose files and meshes), and pose, program and run files.
 
-    FILE is a cell.yaml, a cell directory, or a pose file.  Every problem of
+    FILE is a cell.yaml, a cell directory, a pose file, a program or a run
+    file (programs and runs are checked against a cell by simulate/check).  Every problem of
     every file is reported at once, one line each, as
     file:line:col: location: message.  Warnings (data that is legal but
     suspicious, e.g. an inertia breaking the triangle inequality) do not fail
@@ -26,6 +27,7 @@ def validate(files: tuple[str, ...], json_output: bool) -> None:
     Examples:
       rworld validate workcells/*/cell.yaml
       rworld validate workcells/puma560          # the directory's cell.yaml
+      rworld validate workcells/paper_fig9/programs/*.yaml
       rworld validate --json workcells/paper_fig9 | jq '.files[0].errors'
 
     Exit codes: 0 all valid, 2 a file is invalid.
