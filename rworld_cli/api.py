@@ -496,3 +496,28 @@ def static_torques(ctx: DeviceContext, q, wrench_world, payload=None, gravity: b
     tau_g = dyn.gravity_torques(q, ctx.gravity_base) if gravity else np.zeros_like(q)
     cap = wrench_capacity(J, w, ctx.device.limit_array("effort"), tau_g)
     return StaticResult(tau_g + tau_w, tau_w, tau_g, cap.scale, cap.limiting_joint)
+
+
+# --------------------------------------------------------------------------- sensing
+
+
+def sense(cell_path: str, joints: dict[str, list[float]] | None = None, sensors: list[str] | None = None,
+          tolerance: float | None = None):
+    """Load a cell, set joint values, and read its sensors by interference checking.
+
+    Returns
+    -------
+    (World, list of SensorReading)
+    """
+    from .schema.messages import did_you_mean
+    from .sensing.geometry import DEFAULT_TOLERANCE
+    from .sensing.sensors import read_sensors
+
+    world, _ = load_world(cell_path, joints)
+    for name in sensors or []:
+        if name not in world.cell.sensors:
+            raise UserError(f"unknown sensor '{name}'{did_you_mean(name, world.cell.sensors)}; the cell has: {', '.join(world.cell.sensors) or 'none'}")
+    tol = DEFAULT_TOLERANCE if tolerance is None else tolerance
+    if not (tol >= 0 and np.isfinite(tol)):
+        raise UserError(f"the tolerance must be a finite length >= 0 (m), got {tolerance}")
+    return world, read_sensors(world, sensors or None, tol)

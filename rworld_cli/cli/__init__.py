@@ -21,6 +21,8 @@ COMMANDS = {
     "dynamics": ("dynamics", "dynamics", "Inverse and forward dynamics, static torques (inverse | forward | static)."),
     "simulate": ("simulate", "simulate", "Run programs of several devices on one clock; timelines, events, limits, plots."),
     "check": ("simulate", "check", "For CI: exit 1 when a run's programs break a joint limit."),
+    "sense": ("sense", "sense", "Read sensors by interference checking: touch, tactile maps, proximity, presence, force."),
+    "render": ("render", "render", "Draw a cell (PNG) or export it as glTF (.glb), sensors colour-coded."),
 }
 
 

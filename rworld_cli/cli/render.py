@@ -1,0 +1,50 @@
+"""rworld render"""
+
+from __future__ import annotations
+
+import click
+
+from .common import emit_json, handle_errors, json_option, parse_joint_assignments
+
+
+@click.command()
+@click.argument("cell", metavar="CELL")
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="A .png picture or a .glb glTF scene.")
+@click.option("--joints", multiple=True, metavar="DEVICE=q1,...", help="Joint values (SI); repeatable. Default: home.")
+@click.option("--view", default="25,-60", show_default=True, metavar="ELEV,AZIM", help="PNG camera elevation and azimuth [deg].")
+@click.option("--no-frames", is_flag=True, help="PNG: leave out the frame triads.")
+@click.option("--tolerance", type=float, default=None, help="Sensor touching tolerance [m] (default 1e-6).")
+@json_option
+@handle_errors
+def render(cell, output, joints, view, no_frames, tolerance, json_output):
+    """Draw CELL: objects, devices, frame triads, sensors with colour-coded cells.
+
+    A sensor cell is red when it senses something, green when free (the
+    report's Fig. 13).  A .glb file opens in any glTF viewer (Blender,
+    three.js, online viewers).
+
+    \b
+    Examples:
+      rworld render workcells/paper_fig9 -o cell.png
+      rworld render workcells/paper_fig9 -o cell.glb
+      rworld render workcells/puma560 --joints puma=0,0.5,-1,0,0.3,0 -o puma.png --view 20,-120
+    """
+    from ..api import sense
+    from ..errors import UserError
+    from ..sensing.render import render_glb, render_png
+    from .physics_common import parse_vector
+
+    suffix = output.lower().rsplit(".", 1)[-1] if "." in output else ""
+    if suffix not in ("png", "glb"):
+        raise UserError(f"cannot tell the format of '{output}': give a .png or .glb file")
+    world, _ = sense(cell, parse_joint_assignments(joints), None, tolerance)
+    tol = 1e-6 if tolerance is None else tolerance
+    if suffix == "png":
+        elev, azim = parse_vector(view, "--view", 2)
+        written = render_png(world, output, tol, (elev, azim), not no_frames)
+    else:
+        written = render_glb(world, output, tol)
+    if json_output:
+        emit_json({"cell": cell, "written": str(written)})
+    else:
+        click.echo(f"wrote {written}")

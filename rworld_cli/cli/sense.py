@@ -1,0 +1,63 @@
+"""rworld sense"""
+
+from __future__ import annotations
+
+import click
+
+from .common import emit_json, handle_errors, json_option, parse_joint_assignments
+
+
+@click.command()
+@click.argument("cell", metavar="CELL")
+@click.option("--joints", multiple=True, metavar="DEVICE=q1,...", help="Joint values (SI); repeatable. Default: home.")
+@click.option("--sensor", "sensors", multiple=True, metavar="NAME", help="Read only these sensors; repeatable.")
+@click.option("--tolerance", type=float, default=None, help="Surfaces this close to a cell touch it [m] (default 1e-6).")
+@click.option("--png", "png", default=None, type=click.Path(dir_okay=False), help="Write the tactile and proximity maps as a PNG.")
+@json_option
+@handle_errors
+def sense(cell, joints, sensors, tolerance, png, json_output):
+    """Read CELL's sensors by interference checking: touch, tactile, proximity, presence, force.
+
+    Tactile maps print as grids ('#' contact, '.' free; top line = the
+    pad's +y edge); proximity gives the nearest slice that meets something
+    (1 = nearest the sensor); force the overlap volume through the
+    sensor's calibration curve.
+
+    \b
+    Examples:
+      rworld sense workcells/paper_fig9
+      rworld sense workcells/paper_fig9 --sensor pad_a --png pad.png
+      rworld sense workcells/paper_fig9 --joints hand_a=0.02 --json
+    """
+    from ..api import sense as read
+
+    _, readings = read(cell, parse_joint_assignments(joints), list(sensors) or None, tolerance)
+    written = None
+    if png:
+        from ..sensing.pictures import write_maps_png
+
+        written = write_maps_png(readings, png)
+    if json_output:
+        emit_json({"cell": cell, "readings": [r.as_dict() for r in readings], "png": str(written) if written else None})
+        return
+    from ..sensing.pictures import text_grid
+
+    for r in readings:
+        what = ", ".join(r.objects) if r.objects else "nothing"
+        if r.type == "force":
+            line = f"{r.sensor} (force): {r.value:.4g} N from {r.overlap_volume * 1e9:.4g} mm^3 of overlap with {what}"
+            if r.saturated:
+                line += " (beyond the calibration curve: clamped)"
+        elif r.type == "proximity":
+            line = f"{r.sensor} (proximity): " + (f"slice {r.value} of {len(r.cells)} - {what}" if r.value else "nothing in range")
+        elif r.type == "tactile":
+            line = f"{r.sensor} (tactile {r.cells.shape[0]}x{r.cells.shape[1]}): {int(r.cells.sum())} cell(s) in contact with {what}"
+        else:
+            state = {"touch": ("touching", "no contact"), "presence": ("present", "nothing in the beam")}[r.type]
+            line = f"{r.sensor} ({r.type}): " + (f"{state[0]} - {what}" if r.active else state[1])
+        click.echo(line)
+        if r.type == "tactile":
+            for row in text_grid(r.cells):
+                click.echo("    " + row)
+    if written:
+        click.echo(f"wrote {written}")

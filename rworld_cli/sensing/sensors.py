@@ -1,0 +1,170 @@
+"""Sensor readings by interference checking (the report's section 7).
+
+* touch - the sensor box meets an object or not, and which;
+* tactile - the pad split into rows x cols cells: a contact map;
+* proximity - the range box split into slices along +z: the nearest slice
+  that meets something, in units of closeness;
+* presence - a light-beam box: an object in the beam or not;
+* force - the overlap volume of sensor and objects (exact, manifold3d),
+  through the cell's calibration curve to a force.
+
+What a sensor can sense: the shapes of objects and of devices' links and
+bases, except the primitive the sensor is mounted on (a pad does not feel
+the finger it sits on, a load cell the table).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import spatial
+from ..world.model import WORLD
+from .geometry import DEFAULT_TOLERANCE, grid_interference, obb_overlap, shape_mesh
+
+
+@dataclass
+class Body:
+    """A sensable shape in world: who owns it, its mesh, its bounding box."""
+
+    owner: str  # primitive name
+    label: str  # object name, or device.link
+    T_world_owner: np.ndarray
+    shape: object  # world.model.Shape
+
+
+@dataclass
+class SensorReading:
+    """One sensor's reading.
+
+    Attributes
+    ----------
+    active : bool
+        Touching (touch, tactile), something in range (proximity), present (presence), loaded (force).
+    objects : list of str
+        What it senses.
+    cells : ndarray of bool, shape (rows, cols) or (slices,) or None
+        Tactile contact map (row 0 at -y) or proximity slices (0 = nearest the sensor).
+    value : float or int or None
+        Proximity: nearest slice hit, 1-based (0 when nothing is in range); force: N.
+    overlap_volume : float or None
+        Force sensors: the overlap volume [m^3].
+    """
+
+    sensor: str
+    type: str
+    active: bool
+    objects: list[str] = field(default_factory=list)
+    cells: np.ndarray | None = None
+    value: float | int | None = None
+    overlap_volume: float | None = None
+    saturated: bool = False
+
+    def as_dict(self) -> dict:
+        return {
+            "sensor": self.sensor,
+            "type": self.type,
+            "active": self.active,
+            "objects": self.objects,
+            "cells": self.cells.astype(int).tolist() if self.cells is not None else None,
+            "value": self.value,
+            "overlap_volume": self.overlap_volume,
+            "saturated": self.saturated,
+        }
+
+
+def sensable_bodies(world) -> list[Body]:
+    """Every shape in the world with its owner and world pose."""
+    cell = world.cell
+    bodies = []
+    for name, obj in cell.objects.items():
+        if obj.shape is not None:
+            bodies.append(Body(name, name, world.T_world(name), obj.shape))
+    for name, dev in cell.devices.items():
+        if dev.shape is not None:
+            bodies.append(Body(name, name, world.T_world(name), dev.shape))
+        for link, frame in zip(dev.links, dev.link_frames):
+            if link.shape is not None:
+                bodies.append(Body(name, frame, world.T_world(frame), link.shape))
+    return bodies
+
+
+def _mount_owner(world, sensor: str) -> str | None:
+    parent = world.parent(sensor)
+    if parent is None or parent == WORLD:
+        return None
+    decl = world.cell.frames[parent]
+    return None if decl.kind in ("world", "free") else decl.owner
+
+
+def read_sensors(world, names: list[str] | None = None, tolerance: float = DEFAULT_TOLERANCE) -> list[SensorReading]:
+    """Readings of the named sensors (default all) in the world's current state.
+
+    Parameters
+    ----------
+    world : World
+    names : list of str, optional
+    tolerance : float
+        Surfaces within this distance of a sensor cell touch it [m].
+    """
+    cell = world.cell
+    names = list(cell.sensors) if names is None else names
+    bodies = sensable_bodies(world)
+    readings = []
+    for name in names:
+        sensor = cell.sensors[name]
+        T_world_sensor = world.T_world(name)
+        mount = _mount_owner(world, name)
+        candidates = [b for b in bodies if b.owner != mount]
+        counts = {"tactile": (sensor.cols, sensor.rows, 1), "proximity": (1, 1, sensor.slices)}.get(sensor.type, (1, 1, 1))
+        grid = np.zeros(counts, dtype=bool)
+        touched: list[str] = []
+        if candidates:
+            box = sensor.box
+            Tb = np.stack([b.T_world_owner @ b.shape.bounding_box.T_owner_box for b in candidates])
+            hb = np.stack([b.shape.bounding_box.half_extents for b in candidates])
+            Ta = np.broadcast_to(T_world_sensor @ box.T_owner_box, Tb.shape)
+            ha = np.broadcast_to(box.half_extents, hb.shape)
+            near = obb_overlap(np.ascontiguousarray(Ta), np.ascontiguousarray(ha), Tb, hb, tolerance)
+            T_sensor_world = spatial.invert_transform(T_world_sensor)
+            for body in (b for b, ok in zip(candidates, near) if ok):
+                tri = shape_mesh(body.shape).triangles(T_sensor_world @ body.T_world_owner)
+                hit = grid_interference(sensor.size, counts, tri, tolerance)
+                if hit.any():
+                    grid |= hit
+                    if body.label not in touched:
+                        touched.append(body.label)
+        readings.append(_reading(name, sensor, grid, touched, world, T_world_sensor, candidates))
+    return readings
+
+
+def _reading(name, sensor, grid, touched, world, T_world_sensor, candidates) -> SensorReading:
+    if sensor.type == "tactile":
+        return SensorReading(name, "tactile", bool(grid.any()), touched, grid[:, :, 0].T.copy())  # rows along y
+    if sensor.type == "proximity":
+        slices = grid[0, 0, :].copy()
+        nearest = int(np.argmax(slices)) + 1 if slices.any() else 0
+        return SensorReading(name, "proximity", bool(slices.any()), touched, slices, nearest)
+    if sensor.type == "force":
+        volume = overlap_volume(sensor, T_world_sensor, [b for b in candidates if b.label in touched]) if touched else 0.0
+        curve = sensor.force_curve
+        force = float(np.interp(volume, curve[:, 0], curve[:, 1]))
+        return SensorReading(name, "force", volume > 0, touched, None, force, volume, bool(volume > curve[-1, 0]))
+    return SensorReading(name, sensor.type, bool(grid.any()), touched)
+
+
+def overlap_volume(sensor, T_world_sensor: np.ndarray, bodies: list[Body]) -> float:
+    """Volume [m^3] of the sensor box that lies inside the bodies (exact boolean intersection, manifold3d)."""
+    import manifold3d as m3
+
+    box = m3.Manifold.cube(sensor.size.tolist(), center=True).translate([0.0, 0.0, float(sensor.size[2] / 2)])
+    T_sensor_world = spatial.invert_transform(T_world_sensor)
+    union = None
+    for body in bodies:
+        mesh = shape_mesh(body.shape)
+        T = T_sensor_world @ body.T_world_owner
+        solid = m3.Manifold(m3.Mesh(vert_properties=np.asarray(mesh.vertices, dtype=np.float32),
+                                    tri_verts=np.asarray(mesh.faces, dtype=np.uint32))).transform(T[:3, :].tolist())
+        union = solid if union is None else union + solid
+    return float((box ^ union).volume()) if union is not None else 0.0
