@@ -121,22 +121,32 @@ def box_triangle_overlap(center: np.ndarray, half: np.ndarray, tri: np.ndarray) 
     -------
     ndarray of bool, shape (P,)
     """
-    v = tri - center[:, None, :]
-    e = np.stack([v[:, 1] - v[:, 0], v[:, 2] - v[:, 1], v[:, 0] - v[:, 2]], axis=1)  # (P, 3 edges, 3)
-    sep = np.zeros(len(v), dtype=bool)
+    v0, v1, v2 = (tri[:, k, :] - center for k in range(3))
+    hx, hy, hz = half[:, 0], half[:, 1], half[:, 2]
     # the box's three face normals: the triangle's bounding box against the box
-    sep |= np.any(v.min(axis=1) > half, axis=1) | np.any(v.max(axis=1) < -half, axis=1)
+    sep = np.zeros(len(v0), dtype=bool)
+    for axis, h in enumerate((hx, hy, hz)):
+        a, b, c = v0[:, axis], v1[:, axis], v2[:, axis]
+        sep |= (np.minimum(np.minimum(a, b), c) > h) | (np.maximum(np.maximum(a, b), c) < -h)
+    e = (v1 - v0, v2 - v1, v0 - v2)
     # the triangle's normal: its plane against the box
-    n = np.cross(e[:, 0], e[:, 1])
-    sep |= np.abs(np.einsum("pi,pi->p", n, v[:, 0])) > np.einsum("pi,pi->p", np.abs(n), half)
-    # the nine edge x axis directions
-    for k in range(3):
-        ex, ey, ez = e[:, k, 0], e[:, k, 1], e[:, k, 2]
-        for axis in ((0.0 * ex, -ez, ey), (ez, 0.0 * ex, -ex), (-ey, ex, 0.0 * ex)):
-            a = np.stack(axis, axis=1)
-            p = np.einsum("pvi,pi->pv", v, a)
-            r = np.einsum("pi,pi->p", np.abs(a), half)
-            sep |= (p.min(axis=1) > r) | (p.max(axis=1) < -r)
+    n = np.cross(e[0], e[1])
+    sep |= np.abs(np.einsum("pi,pi->p", n, v0)) > np.abs(n[:, 0]) * hx + np.abs(n[:, 1]) * hy + np.abs(n[:, 2]) * hz
+    # the nine edge x axis directions: only two vertices project apart for each (the edge's own two coincide)
+    for k, (ek, vi, vj) in enumerate(zip(e, (v0, v1, v2), (v2, v0, v1))):
+        ex, ey, ez = ek[:, 0], ek[:, 1], ek[:, 2]
+        # axis x cross e = (0, -ez, ey)
+        p0, p1 = -ez * vi[:, 1] + ey * vi[:, 2], -ez * vj[:, 1] + ey * vj[:, 2]
+        r = np.abs(ez) * hy + np.abs(ey) * hz
+        sep |= (np.minimum(p0, p1) > r) | (np.maximum(p0, p1) < -r)
+        # axis y cross e = (ez, 0, -ex)
+        p0, p1 = ez * vi[:, 0] - ex * vi[:, 2], ez * vj[:, 0] - ex * vj[:, 2]
+        r = np.abs(ez) * hx + np.abs(ex) * hz
+        sep |= (np.minimum(p0, p1) > r) | (np.maximum(p0, p1) < -r)
+        # axis z cross e = (-ey, ex, 0)
+        p0, p1 = -ey * vi[:, 0] + ex * vi[:, 1], -ey * vj[:, 0] + ex * vj[:, 1]
+        r = np.abs(ey) * hx + np.abs(ex) * hy
+        sep |= (np.minimum(p0, p1) > r) | (np.maximum(p0, p1) < -r)
     return ~sep
 
 
@@ -198,9 +208,14 @@ def grid_interference(size: np.ndarray, counts: tuple[int, int, int], triangles:
         ix = i0[owner, 0] + local // (sy * sz)
         iy = i0[owner, 1] + (local // sz) % sy
         iz = i0[owner, 2] + local % sz
-        cells = np.stack([ix, iy, iz], axis=1)
-        center = lo + (cells + 0.5) * d
-        touching = box_triangle_overlap(center, np.broadcast_to(d / 2 + tolerance, center.shape), tri[owner])
+        center = lo + (np.stack([ix, iy, iz], axis=1) + 0.5) * d
+        half = d / 2 + tolerance
+        # cheap cull first: cells the triangle's plane does not cross (large faces span many cells)
+        normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        offset = np.einsum("ti,ti->t", normal, tri[:, 0])
+        crosses = np.abs(np.einsum("pi,pi->p", normal[owner], center) - offset[owner]) <= np.abs(normal[owner]) @ half
+        owner, ix, iy, iz, center = owner[crosses], ix[crosses], iy[crosses], iz[crosses], center[crosses]
+        touching = box_triangle_overlap(center, np.broadcast_to(half, center.shape), tri[owner])
         hit[ix[touching], iy[touching], iz[touching]] = True
     free = ~hit
     if free.any():
