@@ -10,12 +10,14 @@ from .common import emit_json, handle_errors, json_option, parse_joint_assignmen
 @click.command()
 @click.argument("cell", metavar="CELL")
 @click.option("--joints", multiple=True, metavar="DEVICE=q1,...", help="Joint values (SI); repeatable. Default: home.")
+@click.option("--device", default=None, metavar="NAME", help="With --q: the device whose joint values --q gives.")
+@click.option("--q", default=None, metavar="Q1,...,QN", help="Joint values (SI) of --device.")
 @click.option("--sensor", "sensors", multiple=True, metavar="NAME", help="Read only these sensors; repeatable.")
 @click.option("--tolerance", type=float, default=None, help="Surfaces this close to a cell touch it [m] (default 1e-6).")
 @click.option("--png", "png", default=None, type=click.Path(dir_okay=False), help="Write the tactile and proximity maps as a PNG.")
 @json_option
 @handle_errors
-def sense(cell, joints, sensors, tolerance, png, json_output):
+def sense(cell, joints, device, q, sensors, tolerance, png, json_output):
     """Read CELL's sensors by interference checking: touch, tactile, proximity, presence, force.
 
     Tactile maps print as grids ('#' contact, '.' free; top line = the
@@ -28,10 +30,14 @@ def sense(cell, joints, sensors, tolerance, png, json_output):
       rworld sense workcells/paper_fig9
       rworld sense workcells/paper_fig9 --sensor pad_a --png pad.png
       rworld sense workcells/paper_fig9 --joints hand_a=0.02 --json
+      rworld sense workcells/puma560 --device puma --q 0,0.6,-2.4,0,0.3,0
     """
     from ..api import sense as read
 
-    _, readings = read(cell, parse_joint_assignments(joints), list(sensors) or None, tolerance)
+    if (device is None) != (q is None):
+        raise click.UsageError("--device and --q go together")
+    assignments = parse_joint_assignments(joints + ((f"{device}={q}",) if device else ()))
+    _, readings = read(cell, assignments, list(sensors) or None, tolerance)
     written = None
     if png:
         from ..sensing.pictures import write_maps_png

@@ -128,6 +128,29 @@ class SampledMove(Segment):
         return tuple(cols)
 
 
+@dataclass
+class StoppedMove(Segment):
+    """A move cut short at ``t_stop`` (a guarded move whose sensor triggered): it holds there."""
+
+    inner: Segment
+    t_stop: float
+
+    @property
+    def t0(self) -> float:
+        return self.inner.t0
+
+    @property
+    def t1(self) -> float:
+        return self.t_stop
+
+    @property
+    def q_end(self) -> np.ndarray:
+        return self.inner.sample(np.array([self.t_stop]))[0][0]
+
+    def sample(self, t):
+        return self.inner.sample(t)
+
+
 def sample_track(segments: list[Segment], q_init: np.ndarray, times: np.ndarray):
     """q, qd, qdd of a device over ``times`` from its time-ordered segments (holding between them)."""
     times = np.asarray(times, dtype=float)

@@ -29,6 +29,7 @@ class MoveSpec(Strict):
     position_only: bool = Field(False, description="Match the TCP position only (automatic for devices with fewer than 6 joints).")
     speed: Fraction = Field(1.0, description="Fraction of the velocity limits (joint) or of the linear speed (linear).")
     acceleration: Fraction = Field(1.0, description="Fraction of the acceleration limits.")
+    until: Optional[Name] = Field(None, description="Guarded move: stop where this sensor first senses something.")
 
 
 class ObjectRef(Strict):
@@ -69,6 +70,7 @@ class Step(Strict):
     detach_tool: Optional[ToolSpec] = Field(None, description="Tool change: leave the tool (on a frame or in world).")
     wait: Optional[WaitSpec] = None
     sync: Optional[Name] = Field(None, description="Meet the other programs at their sync of the same name.")
+    sense: Optional[Name] = Field(None, description="Read a sensor; the reading is recorded as an event.")
 
     @field_validator("grasp", "release", mode="before")
     @classmethod
@@ -93,7 +95,7 @@ class Step(Strict):
         return next(k for k in STEP_KINDS if getattr(self, k) is not None)
 
 
-STEP_KINDS = ("move", "grasp", "release", "place", "attach_tool", "detach_tool", "wait", "sync")
+STEP_KINDS = ("move", "grasp", "release", "place", "attach_tool", "detach_tool", "wait", "sync", "sense")
 
 
 class ProgramFile(Strict):

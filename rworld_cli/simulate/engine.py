@@ -30,7 +30,7 @@ from ..errors import UserError
 from ..kinematics.inverse import solve_ik
 from ..kinematics.jacobian import ToolMount
 from ..motion.linear import PathError, linear_move
-from ..motion.trajectory import joint_move, sample_track
+from ..motion.trajectory import StoppedMove, joint_move, sample_track
 from ..world.tree import AffixmentError, World
 from .load import Program, Run, Step
 
@@ -47,9 +47,11 @@ class Event:
     kind: str
     detail: str
     tree: dict | None = None  # affixment change: child, parent (None when detached), type, kind
+    reading: dict | None = None  # sense steps and guarded moves: the sensor reading
 
     def as_dict(self) -> dict:
-        return {"t": self.t, "device": self.device, "step": self.step, "kind": self.kind, "detail": self.detail, "tree": self.tree}
+        return {"t": self.t, "device": self.device, "step": self.step, "kind": self.kind, "detail": self.detail,
+                "tree": self.tree, "reading": self.reading}
 
 
 @dataclass
@@ -260,9 +262,38 @@ class _Scheduler:
         if seg is None:
             self.events.append(Event(tr.t, device, step.index, "move", f"{step.describe()}: already there"))
             return True
+        if spec.until is not None:
+            seg = self._guard(device, tr, step, seg)
         tr.segments.append(seg)
         self.events.append(Event(tr.t, device, step.index, "move", f"{step.describe()} ({seg.t1 - seg.t0:.3f} s)"))
         tr.t = seg.t1
+        return True
+
+    def _guard(self, device: str, tr: _Track, step: Step, seg):
+        """Cut a guarded move at the first clock sample where its sensor senses something."""
+        from ..sensing.sensors import read_sensors
+
+        sensor = step.spec.until
+        times = np.append(np.arange(seg.t0, seg.t1, self.run.dt), seg.t1)
+        q_move = seg.sample(times)[0]
+        for t, q in zip(times, q_move):  # sensing needs the whole world at each instant: one state at a time
+            self.set_time(t)
+            self.world.set_joints(device, q)
+            reading = read_sensors(self.world, [sensor])[0]
+            if reading.active:
+                record = reading.as_dict() | {"q": q.tolist()}  # where the device stopped
+                self.events.append(Event(float(t), device, step.index, "guard", f"{sensor} triggered: stopped", reading=record))
+                return StoppedMove(seg, float(t))
+        self.events.append(Event(seg.t1, device, step.index, "guard", f"{sensor} did not trigger: the move ran to its end"))
+        return seg
+
+    def _sense(self, device, tr, step):
+        from ..sensing.sensors import read_sensors
+
+        reading = read_sensors(self.world, [step.spec])[0]
+        what = ", ".join(reading.objects) if reading.objects else "nothing"
+        self.events.append(Event(tr.t, device, step.index, "sense", f"{step.spec}: {'active' if reading.active else 'inactive'} ({what})",
+                                 reading=reading.as_dict()))
         return True
 
     def _tree_change(self, device: str, tr: _Track, step: Step, kind: str, child: str, action) -> bool:
@@ -470,7 +501,8 @@ def _sample(run: Run, sched: _Scheduler, progress) -> SimulationResult:
         violations += _violations(d, dev, times, q[d], ratios, qd[d], qdd[d], tau, step_index, step_texts[d])
     world.restore(snaps[-1][1])
     violations.sort(key=lambda v: (v.t_start, v.device, v.joint))
-    return SimulationResult(cell.name, run.file, run.dt, times, timelines, sched.events, violations, step_texts)
+    events = sorted(sched.events, key=lambda e: e.t)  # stable: simultaneous events keep their order
+    return SimulationResult(cell.name, run.file, run.dt, times, timelines, events, violations, step_texts)
 
 
 def _violations(device, dev, times, q, ratios, qd, qdd, tau, step_index, texts) -> list[Violation]:

@@ -43,7 +43,7 @@ class Step:
     def describe(self) -> str:
         s = self.spec
         if self.kind == "move":
-            return f"move to {s.to}" + (" (linear)" if s.motion == "linear" else "")
+            return f"move to {s.to}" + (" (linear)" if s.motion == "linear" else "") + (f" until {s.until}" if s.until else "")
         if self.kind in ("grasp", "release"):
             return f"{self.kind} {s.object}"
         if self.kind == "place":
@@ -52,6 +52,8 @@ class Step:
             return f"{self.kind} {s.tool}"
         if self.kind == "wait":
             return f"wait {s.time} s" if s.time is not None else f"wait for {s.for_}"
+        if self.kind == "sense":
+            return f"sense {s}"
         return f"sync {s}"
 
 
@@ -111,6 +113,8 @@ def _check_program(doc: Marked, pf: sp.ProgramFile, cell: CellModel, run_devices
                 issues.append(doc.issue(path + ("to",), f"'{target}' is a joint position of '{device.name}': it takes a joint move without offset"))
             if spec.tcp is not None:
                 frame(path + ("tcp",), spec.tcp)
+            if spec.until is not None and spec.until not in cell.sensors:
+                issues.append(doc.issue(path + ("until",), f"unknown sensor '{spec.until}'{did_you_mean(spec.until, cell.sensors)}"))
             if spec.offset is not None:
                 T, error, warning = pose_to_matrix(spec.offset, L, A)
                 if error:
@@ -135,6 +139,9 @@ def _check_program(doc: Marked, pf: sp.ProgramFile, cell: CellModel, run_devices
                 frame(path + ("at",), spec.at)
             if spec.on is not None:
                 frame(path + ("on",), spec.on)
+        elif raw.kind == "sense":
+            if spec not in cell.sensors:
+                issues.append(doc.issue(("steps", i, "sense"), f"unknown sensor '{spec}'{did_you_mean(spec, cell.sensors)}"))
         elif raw.kind == "wait" and spec.for_ is not None:
             if spec.for_ not in run_devices:
                 issues.append(doc.issue(path + ("for",), f"no program of this run drives '{spec.for_}': waiting for it would never end"

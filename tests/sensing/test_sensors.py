@@ -114,6 +114,13 @@ def test_sense_command(cli, tmp_path):
     assert len(data["readings"]) == 1 and sum(map(sum, data["readings"][0]["cells"])) == 20
 
 
+def test_sense_with_device_and_q(cli):
+    far = json.loads(cli(["sense", "workcells/puma560", "--device", "puma", "--q", "0,0.78,-3.14,0,0.78,0", "--json"]).stdout)
+    assert far["readings"][0]["active"] is False
+    result = cli(["sense", "workcells/puma560", "--device", "puma"])
+    assert result.exit_code == 2 and "--device and --q go together" in result.output
+
+
 def test_render_png_and_glb(cli, tmp_path):
     import trimesh
 

@@ -138,6 +138,36 @@ def test_examples_stay_within_limits(fig9, puma):
             assert max(peaks["torque"]) <= 1 and max(peaks["velocity"]) <= 1 + 1e-6
 
 
+# ---------------------------------------------------------------- sensing in programs
+
+
+def test_guarded_move_stops_where_the_probe_touches():
+    result = simulate(load_run("workcells/puma560", "workcells/puma560/runs/probe.yaml"))
+    guard = event(result, "puma", "guard")
+    assert "triggered" in guard.detail and guard.reading["objects"] == ["workpiece"]
+    from rworld_cli.schema.loader import load_cell
+    from rworld_cli.world.tree import World
+
+    world = World(load_cell("workcells/puma560").cell)
+    top = world.T_world("workpiece.grasp")[2, 3]  # the grasp frame sits on the top face
+    world.set_joints("puma", guard.reading["q"])  # where the guard stopped the arm
+    height = world.T_world("puma.probe")[2, 3] - top
+    # the 10 mm touch cube ahead of the probe meets the face (within the 1 um touching tolerance),
+    # at most one clock step (0.25 mm at this speed) after the first contact
+    assert 0.01 - 3e-4 <= height <= 0.01 + 1e-6
+    sense = event(result, "puma", "sense")
+    assert sense.t == pytest.approx(guard.t) and sense.reading["active"]
+    assert [e.t for e in result.events] == sorted(e.t for e in result.events)
+
+
+def test_guarded_move_without_trigger_runs_to_its_end(tmp_path):
+    cell = copy_cell(tmp_path, "puma560")
+    run = write_run(cell, {"g.yaml": "device: puma\nsteps:\n  - move: {to: ready, until: probe_tip}\n  - sense: probe_tip\n"})
+    result = simulate(load_run(str(cell), str(run)))
+    assert "did not trigger" in event(result, "puma", "guard").detail
+    assert not event(result, "puma", "sense").reading["active"]
+
+
 # ---------------------------------------------------------------- failures
 
 
@@ -218,6 +248,8 @@ def test_grasp_of_an_object_held_elsewhere_is_refused(tmp_path):
         ("device: robot\nsteps:\n  - wait: {for: hand_a}\n", "no program of this run drives 'hand_a'"),
         ("device: robot\nsteps:\n  - move: {to: home}\n    grasp: part\n", "a step does exactly one thing"),
         ("device: robot\nsteps: []\n", "steps: expected at least 1 value, got 0"),
+        ("device: robot\nsteps:\n  - sense: pad_x\n", "g.yaml:3:12: steps[0].sense: unknown sensor 'pad_x' (did you mean 'pad_a'?)"),
+        ("device: robot\nsteps:\n  - move: {to: home, until: bumpr}\n", "steps[0].move.until: unknown sensor 'bumpr' (did you mean 'bumper'?)"),
     ],
 )
 def test_program_errors_are_located(tmp_path, cli, program, message):
