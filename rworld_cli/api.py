@@ -521,3 +521,81 @@ def sense(cell_path: str, joints: dict[str, list[float]] | None = None, sensors:
     if not (tol >= 0 and np.isfinite(tol)):
         raise UserError(f"the tolerance must be a finite length >= 0 (m), got {tolerance}")
     return world, read_sensors(world, sensors or None, tol)
+
+
+# --------------------------------------------------------------------------- calibration
+
+
+def parse_length(text: str, default_unit: str = "mm") -> float:
+    """'0.05mm', '50um', '0.00005m' or a bare number in ``default_unit`` -> metres."""
+    import re
+
+    m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(mm|um|m)?\s*", str(text))
+    if not m:
+        raise UserError(f"'{text}' is not a length: write e.g. 0.05mm, 50um or 0.00005m")
+    try:
+        value = float(m.group(1))
+    except ValueError:
+        raise UserError(f"'{text}' is not a length: write e.g. 0.05mm, 50um or 0.00005m") from None
+    unit = m.group(2) or default_unit
+    return value * {"mm": 1e-3, "um": 1e-6, "m": 1.0}[unit]
+
+
+@dataclass
+class CalibrationRun:
+    result: object  # CalibrationResult
+    written: Path | None
+    output: Path
+    listed: bool  # the output is among the cell's pose files
+
+
+def calibrate_cell(cell_path: str, measurement_paths: list[str], frames: list[str] | None = None, output: str | None = None,
+                   csv_units: str = "mm", dry_run: bool = False) -> CalibrationRun:
+    """Calibrate a cell's conditioned frames and write the overlay (unless ``dry_run`` or a frame is undetermined)."""
+    from .calibration.measurements import load_measurements
+    from .calibration.pipeline import calibrate, overlay_yaml
+    from .fileio import atomic_write_text
+    from .schema.loader import load_cell, resolve_cell_path
+
+    loaded = load_cell(cell_path)
+    cell = loaded.cell
+    real, _ = resolve_cell_path(cell_path)
+    out = Path(output) if output else real.parent / "calibrated.yaml"
+    protected = {real.resolve()} | {p.resolve() for p in cell.pose_files[:1]}
+    if out.resolve() in protected or out.resolve().parent.name in ("programs", "runs"):
+        raise UserError(f"refusing to write calibrated poses to {out}: it is the cell's structure, its nominal pose file or a program; "
+                        "write an overlay (default: calibrated.yaml beside cell.yaml)")
+    measured = load_measurements(measurement_paths, cell, csv_units)
+    result = calibrate(cell, measured, frames)
+    written = None
+    if not dry_run and not result.undetermined:
+        atomic_write_text(out, overlay_yaml(result, measured.files))
+        written = out
+    listed = out.resolve() in {p.resolve() for p in cell.pose_files}
+    return CalibrationRun(result, written, out, listed)
+
+
+def simulate_measurement_file(cell_path: str, truth_path: str, output: str, sigma: float, seed: int = 0,
+                              points: int = 10, frames: list[str] | None = None) -> dict:
+    """Synthetic probe points of the conditioned features, taken on a 'true' cell, written as a measurement file."""
+    from .calibration.pipeline import measurement_yaml, simulate_measurements
+    from .fileio import atomic_write_text
+    from .schema.loader import load_cell
+
+    nominal = load_cell(cell_path).cell
+    truth = load_cell(truth_path).cell
+    if set(nominal.features) != set(truth.features):
+        raise UserError(f"the truth cell {truth_path} must have the same features as {cell_path}")
+    if not (sigma >= 0 and np.isfinite(sigma)):
+        raise UserError(f"sigma must be a finite length >= 0, got {sigma}")
+    if points < 1:
+        raise UserError(f"--points must be at least 1, got {points}")
+    conditions = [c for c in nominal.conditions if frames is None or c.frame in frames]
+    features = sorted({f for c in conditions for f in c.features})
+    if not features:
+        raise UserError("no conditioned features to measure: the cell has no frame conditions (for the frames asked)")
+    minimum = {"point": 1, "line": 2, "plane": 3, "circle": 3}
+    counts = {f: max(points, minimum[nominal.features[f].kind]) for f in features}
+    doc = simulate_measurements(nominal, truth, features, counts, sigma, seed)
+    atomic_write_text(output, measurement_yaml(doc, nominal.name, sigma if sigma > 0 else 1e-12, seed, str(truth_path)))
+    return {"features": features, "points": counts, "written": output}

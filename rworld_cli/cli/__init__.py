@@ -23,6 +23,8 @@ COMMANDS = {
     "check": ("simulate", "check", "For CI: exit 1 when a run's programs break a joint limit."),
     "sense": ("sense", "sense", "Read sensors by interference checking: touch, tactile maps, proximity, presence, force."),
     "render": ("render", "render", "Draw a cell (PNG) or export it as glTF (.glb), sensors colour-coded."),
+    "calibrate": ("calibrate", "calibrate", "Calibrate frames from probe points on features; write an overlay pose file."),
+    "measure": ("calibrate", "measure", "Synthetic probe-point measurements from a 'true' cell (--simulate)."),
 }
 
 

@@ -15,7 +15,7 @@ and gravity are always SI (kg, kg m^2, N m or N, m/s^2).
 
 from __future__ import annotations
 
-from typing import Annotated, Literal, Optional
+from typing import Annotated, Any, Literal, Optional
 
 from annotated_types import Len
 from pydantic import BaseModel, ConfigDict, Field, StringConstraints, field_validator, model_validator
@@ -392,3 +392,6 @@ class PoseFile(Strict):
 
     units: Units = Field(default_factory=Units)
     poses: dict[str, Pose] = Field(description="Frame name -> pose relative to its parent.")
+    provenance: Optional[dict[str, Any]] = Field(
+        None, description="Written by 'rworld calibrate': date, measurement files and their hashes, per-frame residuals and corrections."
+    )

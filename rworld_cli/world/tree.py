@@ -256,6 +256,20 @@ class World:
         self._T_parent[frame] = spatial.invert_transform(self._world_poses()[self._parent[frame]]) @ T
         self._cache = None
 
+    def place(self, frame: str, T_world_frame) -> None:
+        """Correct the numbers of ``frame``: store the relative pose that puts it at ``T_world_frame``.
+
+        Unlike :meth:`move` this ignores affixment semantics: it is what
+        calibration does to a nominal pose (any frame with a stored pose -
+        natural, auxiliary, free, TCP; not world or link frames).  Its subtree follows.
+        """
+        self._check_frame(frame)
+        decl = self.cell.frames[frame]
+        if decl.kind in ("world", "link"):
+            raise UserError(f"'{frame}' is a {decl.kind} frame: it has no pose to correct")
+        self._T_parent[frame] = spatial.invert_transform(self._world_poses()[self._parent[frame]]) @ np.asarray(T_world_frame, dtype=float)
+        self._cache = None
+
     def set_active_tcp(self, device: str, tcp: str) -> None:
         """Make ``tcp`` (a TCP of ``device`` or of a device it carries) the active TCP."""
         self._check_device(device)
