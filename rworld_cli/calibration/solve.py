@@ -35,7 +35,7 @@ from .fit import FeatureFit
 
 ARCSEC = np.pi / (180 * 3600)
 REFUSE_CONDITION = 1e6  # above this the features leave a motion of the frame undetermined
-WARN_CONDITION = 100.0  # above this a motion is weakly determined
+WARN_CONDITION = 30.0  # above this a motion is weakly determined (a good set scores about 5-10)
 
 
 @dataclass

@@ -1,0 +1,252 @@
+"""Calibration: fits, natural and auxiliary frames, degenerate sets, the overlay, the commands."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rworld_cli import spatial
+from rworld_cli.calibration.fit import FitError, fit_circle, fit_line, fit_plane
+from rworld_cli.calibration.measurements import load_measurements
+from rworld_cli.calibration.pipeline import calibrate, measurement_yaml, simulate_measurements
+from rworld_cli.errors import UserError
+from rworld_cli.schema.loader import load_cell
+from rworld_cli.world.tree import World
+from tests.conftest import WORKCELLS
+
+TRUE_BLOCK = "block: {xyz: [-98.7, -76.2, 0.4], rpy: [0.3, -0.2, 15.8]}"
+NOMINAL_BLOCK = "block: {xyz: [-100, -75, 0], rpy: [0, 0, 15]}"
+
+
+def make_truth(tmp_path: Path, replace: dict[str, str] | None = None) -> Path:
+    truth = tmp_path / "truth"
+    shutil.copytree(WORKCELLS / "calibration_example", truth)
+    text = (truth / "poses.yaml").read_text().replace(NOMINAL_BLOCK, TRUE_BLOCK)
+    for a, b in (replace or {}).items():
+        text = text.replace(a, b)
+    (truth / "poses.yaml").write_text(text)
+    return truth
+
+
+def measure(nominal, truth_cell, sigma, seed, n=10, features=None):
+    feats = features or sorted({f for c in nominal.conditions for f in c.features})
+    return simulate_measurements(nominal, truth_cell, feats, {f: n for f in feats}, sigma, seed)
+
+
+def run(tmp_path, nominal, doc, sigma=0.0, name="m.yaml"):
+    path = tmp_path / name
+    path.write_text(measurement_yaml(doc, nominal.name, sigma or 1e-12, 0, "truth"))
+    return calibrate(nominal, load_measurements([str(path)], nominal))
+
+
+# ---------------------------------------------------------------- fits
+
+
+def test_plane_fit_is_the_reports_least_root():
+    rng = np.random.default_rng(0)
+    n = np.array([0.2, -0.3, 0.93])
+    n /= np.linalg.norm(n)
+    u = np.cross(n, [1, 0, 0])
+    u /= np.linalg.norm(u)
+    v = np.cross(n, u)
+    pts = 0.5 * n + rng.uniform(-0.1, 0.1, (40, 1)) * u + rng.uniform(-0.1, 0.1, (40, 1)) * v
+    fit = fit_plane("p", pts, above=n)
+    np.testing.assert_allclose(fit.direction, n, atol=1e-12)
+    assert fit.oriented and fit.rms < 1e-12
+    with pytest.raises(FitError, match="collinear"):
+        fit_plane("p", np.outer(np.linspace(0, 1, 5), [1, 2, 3]))
+
+
+def test_line_and_circle_fits():
+    d = np.array([1.0, 2.0, 2.0]) / 3
+    pts = np.outer(np.linspace(-1, 1, 7), d) + [0.1, 0.2, 0.3]
+    line = fit_line("l", pts[::-1].copy(), ordered=True)
+    np.testing.assert_allclose(line.direction, -d, atol=1e-12)
+    ang = np.linspace(0, 2 * np.pi, 9, endpoint=False)
+    circle = fit_circle("c", np.stack([0.02 * np.cos(ang) + 0.1, 0.02 * np.sin(ang), np.full(9, 0.05)], axis=1), above=[0.1, 0, 1])
+    np.testing.assert_allclose(circle.point, [0.1, 0, 0.05], atol=1e-12)
+    assert circle.radius == pytest.approx(0.02, abs=1e-12)
+    arc = fit_circle("c", np.stack([0.02 * np.cos(ang[:3]), 0.02 * np.sin(ang[:3]), np.zeros(3)], axis=1))
+    assert any("cover only" in w for w in arc.warnings)
+
+
+def test_outliers_flagged():
+    rng = np.random.default_rng(1)
+    pts = np.column_stack([rng.uniform(-1, 1, 30), rng.uniform(-1, 1, 30), rng.normal(0, 1e-5, 30)])
+    pts[7, 2] += 1e-3
+    assert fit_plane("p", pts).outliers == [7]
+
+
+# ---------------------------------------------------------------- frames
+
+
+def test_noiseless_measurements_recover_the_truth_to_1e9(tmp_path):
+    nominal = load_cell(WORKCELLS / "calibration_example").cell
+    truth = load_cell(make_truth(tmp_path)).cell
+    result = run(tmp_path, nominal, measure(nominal, truth, 0.0, 0))
+    world = World(truth)
+    sol = result.solutions["block"]
+    assert sol.determined and sol.closed_form is not None
+    np.testing.assert_allclose(sol.T_world, world.T_world("block"), atol=1e-9)
+    np.testing.assert_allclose(sol.closed_form, world.T_world("block"), atol=1e-9)  # the report's closed form alone
+    for aux in ("block.frame2", "block.frame3", "block.frame5"):
+        np.testing.assert_allclose(result.solutions[aux].T_world, world.T_world(aux), atol=1e-9)
+
+
+def test_noisy_error_within_the_predicted_sigma(tmp_path):
+    """Over seeds, the pose errors scatter like the predicted standard errors say."""
+    nominal = load_cell(WORKCELLS / "calibration_example").cell
+    truth = load_cell(make_truth(tmp_path)).cell
+    T_true = World(truth).T_world("block")
+    z = []
+    for seed in range(40):
+        result = run(tmp_path, nominal, measure(nominal, truth, 5e-5, seed), 5e-5, f"m{seed}.yaml")
+        sol = result.solutions["block"]
+        err_t = sol.T_world[:3, 3] - T_true[:3, 3]
+        z.append(err_t / sol.sigma_translation)
+    z = np.array(z)
+    spread = z.std(axis=0)
+    assert np.all((0.75 < spread) & (spread < 1.25)), spread  # predicted sigma within +-25 % of the observed spread
+    assert np.abs(z).max() < 5
+
+
+def test_auxiliary_conditions_hold_after_calibration(tmp_path):
+    """Nominal auxiliary frames that break their conditions are corrected by the smallest motion."""
+    cell_dir = tmp_path / "cell"
+    shutil.copytree(WORKCELLS / "calibration_example", cell_dir)
+    poses = (cell_dir / "poses.yaml").read_text()
+    poses = poses.replace("block.frame2: {xyz: [200, 75, 50]}", "block.frame2: {xyz: [203, 75, 50], rpy: [2, 3, 4]}")
+    poses = poses.replace("block.frame3: {xyz: [100, 0, 50], rpy: [90, 0, 0]}", "block.frame3: {xyz: [100, 0, 50], rpy: [93, 2, 1]}")
+    poses = poses.replace("block.frame5: {xyz: [100, 75, 100]}", "block.frame5: {xyz: [104, 72, 103], rpy: [3, 0, 0]}")
+    (cell_dir / "poses.yaml").write_text(poses)
+    nominal = load_cell(cell_dir).cell
+    truth = load_cell(make_truth(tmp_path)).cell
+    result = run(tmp_path, nominal, measure(nominal, truth, 0.0, 0))
+    T_block = result.solutions["block"].T_world
+    f2 = T_block[:3, :3] @ nominal.features["block.f2"].direction
+    f3 = T_block[:3, :3] @ nominal.features["block.f3"].direction
+    c6 = nominal.features["block.f6"]
+    R2, R3, T5 = result.solutions["block.frame2"].T_world[:3, :3], result.solutions["block.frame3"].T_world[:3, :3], result.solutions["block.frame5"].T_world
+    assert abs(abs(R2[:, 0] @ f2) - 1) < 1e-12  # C12: the yz plane parallel to f2, i.e. x along its normal
+    assert abs(abs(R3[:, 2] @ f3) - 1) < 1e-12  # C6: z normal to f3
+    np.testing.assert_allclose(T5[:3, 3], T_block[:3, :3] @ c6.point + T_block[:3, 3], atol=1e-9)  # C13: origin at the centre
+    assert abs(abs(T5[:3, 2] @ (T_block[:3, :3] @ c6.direction)) - 1) < 1e-12
+    # frame 4 is chained to frame 3: it follows (its relative pose is unchanged)
+    w = World(nominal)
+    for name, T in result.overlay.items():
+        w._T_parent[name] = T
+    w._invalidate()
+    np.testing.assert_allclose(w.T("block.frame3", "block.frame4"), World(nominal).T("block.frame3", "block.frame4"), atol=1e-12)
+
+
+def test_unobservable_frame_is_refused_with_the_motion(tmp_path):
+    """Two parallel faces cannot locate a block: the motion they leave free is named."""
+    cell_dir = tmp_path / "cell"
+    shutil.copytree(WORKCELLS / "calibration_example", cell_dir)
+    text = (cell_dir / "cell.yaml").read_text().replace("features: [f1, f2, f3, f4, f5]", "features: [f2, f4]")
+    (cell_dir / "cell.yaml").write_text(text)
+    nominal = load_cell(cell_dir).cell
+    truth = load_cell(make_truth(tmp_path)).cell
+    result = run(tmp_path, nominal, measure(nominal, truth, 0.0, 0, features=["block.f2", "block.f4"]))
+    assert "block" in result.undetermined
+    assert "undetermined (condition number" in result.undetermined["block"]
+
+
+def test_weak_set_warns_with_the_figure(tmp_path):
+    """Three faces of which two are nearly parallel: solved, with a warning that gives the condition number."""
+    from rworld_cli.calibration.solve import solve_natural
+    from rworld_cli.calibration.fit import fit_plane as fp
+    from rworld_cli.world.model import Feature
+
+    rng = np.random.default_rng(2)
+    normals = [np.array([0, 0, 1.0]), np.array([1.0, 0, 0]), np.array([0.999, 0.0447, 0])]
+    normals = [n / np.linalg.norm(n) for n in normals]
+    feats, fits = [], {}
+    for k, n in enumerate(normals):
+        p = 0.1 * n
+        u = np.cross(n, [0.3, 0.5, 0.8])
+        u /= np.linalg.norm(u)
+        v = np.cross(n, u)
+        pts = p + rng.uniform(-0.05, 0.05, (12, 1)) * u + rng.uniform(-0.05, 0.05, (12, 1)) * v
+        f = Feature(f"o.p{k}", "o", "plane", p, n)
+        feats.append(f)
+        fits[f.name] = fp(f.name, pts, above=p + n)
+    sol = solve_natural("o", "C2", feats, fits, {}, np.eye(4))
+    assert sol.determined and any("weakly determined: condition number" in w for w in sol.warnings)
+
+
+# ---------------------------------------------------------------- the commands and the overlay
+
+
+def test_calibrate_command_writes_only_the_overlay(cli, tmp_path):
+    cell_dir = tmp_path / "cell"
+    shutil.copytree(WORKCELLS / "calibration_example", cell_dir)
+    truth = make_truth(tmp_path)
+    digests = {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in cell_dir.iterdir() if p.is_file()}
+    m = tmp_path / "m.yaml"
+    assert cli(["measure", "--simulate", str(cell_dir), "--truth", str(truth), "--sigma", "0", "-o", str(m)]).exit_code == 0
+    result = cli(["calibrate", str(cell_dir), str(m)])
+    assert result.exit_code == 0, result.output
+    overlay = cell_dir / "calibrated.yaml"
+    assert overlay.is_file() and "provenance:" in overlay.read_text()
+    assert {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in cell_dir.iterdir() if p.is_file() and p.name != "calibrated.yaml"} == digests
+    # with the overlay listed, the cell's world is the truth
+    text = (cell_dir / "cell.yaml").read_text().replace("pose_files: [poses.yaml]", "pose_files: [poses.yaml, calibrated.yaml]")
+    (cell_dir / "cell.yaml").write_text(text)
+    calibrated, true_world = World(load_cell(cell_dir).cell), World(load_cell(truth).cell)
+    for frame in ("block", "block.frame2", "block.frame4", "block.frame5"):
+        np.testing.assert_allclose(calibrated.T_world(frame), true_world.T_world(frame), atol=1e-9)
+    data = json.loads(cli(["calibrate", str(cell_dir), str(m), "--dry-run", "--json"]).stdout)
+    assert {f["frame"] for f in data["frames"]} == {"block", "block.frame2", "block.frame3", "block.frame5"}
+
+
+def test_refuses_to_overwrite_nominal_or_structure(cli, tmp_path):
+    cell_dir = tmp_path / "cell"
+    shutil.copytree(WORKCELLS / "calibration_example", cell_dir)
+    for target in ("poses.yaml", "cell.yaml"):
+        before = (cell_dir / target).read_text()
+        result = cli(["calibrate", str(cell_dir), "x.yaml", "-o", str(cell_dir / target)])
+        assert result.exit_code == 2 and "refusing to write" in result.output
+        assert (cell_dir / target).read_text() == before
+
+
+def test_undetermined_frame_exits_1_and_writes_nothing(cli, tmp_path):
+    cell_dir = tmp_path / "cell"
+    shutil.copytree(WORKCELLS / "calibration_example", cell_dir)
+    truth = make_truth(tmp_path)
+    m = tmp_path / "m.yaml"
+    cli(["measure", "--simulate", str(cell_dir), "--truth", str(truth), "--frames", "block.frame2", "-o", str(m)])
+    result = cli(["calibrate", str(cell_dir), str(m)])
+    assert result.exit_code == 1
+    assert "not determined" in result.output and "not measured" in result.output
+    assert not (cell_dir / "calibrated.yaml").exists()
+
+
+@pytest.mark.parametrize("content, message", [
+    ("units: {length: mm}\nfeatures:\n  block.f9:\n    points: [[0, 0, 0]]\n", "m.yaml:3:3: features.block.f9: unknown feature 'block.f9' (did you mean"),
+    ("units: {length: mm}\nfeatures:\n  block.f1:\n    points: [[0, 0, 0], [1, 0, 0]]\n", "a plane needs at least 3 point(s), got 2"),
+    ("units: {length: mm}\nfeatures:\n  block.f1:\n    points: [[0, 0]]\n", "m.yaml:4:14: features.block.f1.points[0]: expected exactly 3 values, got 2"),
+    ("units: {length: mm}\nfeatures:\n  block.f1:\n    points: [[0, 0, 0], [1, 1, 1], [2, 2, 2]]\n", "the points are collinear"),
+])
+def test_bad_measurements_exit_2(cli, tmp_path, content, message):
+    (tmp_path / "m.yaml").write_text(content)
+    result = cli(["calibrate", "workcells/calibration_example", str(tmp_path / "m.yaml"), "--dry-run"])
+    assert result.exit_code == 2, result.output
+    assert message in result.output
+
+
+def test_csv_points_import(tmp_path):
+    nominal = load_cell(WORKCELLS / "calibration_example").cell
+    truth = load_cell(make_truth(tmp_path)).cell
+    doc = measure(nominal, truth, 0.0, 0)
+    rows = ["feature,x,y,z,role"]
+    for name, entry in doc.items():
+        rows += [f"{name},{float(p[0]) * 1000!r},{float(p[1]) * 1000!r},{float(p[2]) * 1000!r}," for p in entry["points"]]
+    (tmp_path / "m.csv").write_text("\n".join(rows) + "\n")
+    result = calibrate(nominal, load_measurements([str(tmp_path / "m.csv")], nominal, "mm"))
+    np.testing.assert_allclose(result.solutions["block"].T_world, World(truth).T_world("block"), atol=1e-9)
