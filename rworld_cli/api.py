@@ -599,3 +599,22 @@ def simulate_measurement_file(cell_path: str, truth_path: str, output: str, sigm
     doc = simulate_measurements(nominal, truth, features, counts, sigma, seed)
     atomic_write_text(output, measurement_yaml(doc, nominal.name, sigma if sigma > 0 else 1e-12, seed, str(truth_path)))
     return {"features": features, "points": counts, "written": output}
+
+
+def plan_cell_measurements(cell_path: str, frames: list[str] | None, sigma: float, tolerance: float):
+    """Measuring directives for a cell's conditioned frames (see calibration/plan.py)."""
+    from .calibration.plan import plan_measurements
+    from .schema.loader import load_cell
+    from .schema.messages import did_you_mean
+
+    cell = load_cell(cell_path).cell
+    conditioned = {c.frame for c in cell.conditions}
+    if not conditioned:
+        raise UserError(f"{cell_path} has no frame conditions: nothing to measure (add 'conditions' to the cell)")
+    for f in frames or []:
+        if f not in conditioned:
+            raise UserError(f"'{f}' has no frame condition{did_you_mean(f, conditioned)}; conditioned frames: {', '.join(sorted(conditioned))}")
+    for name, value in (("sigma", sigma), ("tolerance", tolerance)):
+        if not (value > 0 and np.isfinite(value)):
+            raise UserError(f"{name} must be a positive length, got {value}")
+    return cell, plan_measurements(cell, frames, sigma, tolerance)

@@ -25,6 +25,8 @@ COMMANDS = {
     "render": ("render", "render", "Draw a cell (PNG) or export it as glTF (.glb), sensors colour-coded."),
     "calibrate": ("calibrate", "calibrate", "Calibrate frames from probe points on features; write an overlay pose file."),
     "measure": ("calibrate", "measure", "Synthetic probe-point measurements from a 'true' cell (--simulate)."),
+    "plan-measurements": ("plan_measurements", "plan_measurements", "Which features to probe, how many points, where, and the predicted error."),
+    "analyze": ("analyze", "analyze", "The report's accuracy / sensitivity comparison of computing T with or without orthogonality."),
 }
 
 
