@@ -81,10 +81,16 @@ class FrameSolution:
 
 def kabsch(world: np.ndarray, nominal: np.ndarray) -> np.ndarray:
     """Rotation R minimising sum |world_i - R nominal_i|^2, a proper rotation (reflection guard)."""
+    return kabsch_checked(world, nominal)[0]
+
+
+def kabsch_checked(world: np.ndarray, nominal: np.ndarray) -> tuple[np.ndarray, bool]:
+    """(R, mirrored): ``mirrored`` when the best orthogonal fit was a reflection and the guard took the nearest rotation."""
     M = world.T @ nominal  # the report's M = Q A^T
-    U, _, Vt = np.linalg.svd(M)
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt)) or 1.0])
-    return U @ D @ Vt
+    U, s, Vt = np.linalg.svd(M)
+    mirrored = np.linalg.det(U @ Vt) < 0 and s[-1] > 1e-9 * s[0]
+    D = np.diag([1.0, 1.0, -1.0 if np.linalg.det(U @ Vt) < 0 else 1.0])
+    return U @ D @ Vt, bool(mirrored)
 
 
 # --------------------------------------------------------------------------- closed form
@@ -122,15 +128,18 @@ def _intersections(features: list[Feature], fits: dict[str, FeatureFit]) -> tupl
     return np.array(nom).reshape(-1, 3), np.array(wld).reshape(-1, 3)
 
 
+MIRROR = "the data fit a mirror image of the nominal features best (a reflection, not a rotation): check which feature is which"
+
+
 def closed_form(code: str, features: list[Feature], fits: dict[str, FeatureFit]) -> tuple[np.ndarray | None, str]:
-    """The report's closed-form pose, or (None, why not)."""
+    """The report's closed-form pose, or (None, why not); ``how`` ends with the mirror warning when it applies."""
     if code == "C2":
         pairs = [(fits[f.name].direction, f.direction) for f in features
                  if f.kind in ("plane", "line", "circle") and fits[f.name].oriented]
         if len(pairs) >= 2:
             W, A = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
             if np.linalg.matrix_rank(A, tol=0.05) >= 2:
-                R = kabsch(W, A)
+                R, mirrored = kabsch_checked(W, A)
                 rows, rhs = [], []
                 for f in features:
                     fit = fits[f.name]
@@ -145,16 +154,16 @@ def closed_form(code: str, features: list[Feature], fits: dict[str, FeatureFit])
                 Aeq, beq = np.vstack(rows), np.concatenate(rhs)
                 if np.linalg.matrix_rank(Aeq, tol=1e-6) == 3:
                     t = np.linalg.lstsq(Aeq, beq, rcond=None)[0]
-                    return spatial.make_transform(R, t), "closed form (oriented directions, eq. 13)"
+                    return spatial.make_transform(R, t), "closed form (oriented directions, eq. 13)" + (f"; {MIRROR}" if mirrored else "")
         # fall through to the points when orientation information is short
     nominal, world = _intersections(features, fits)
     if len(nominal) >= 3:
         centered = nominal - nominal.mean(axis=0)
         s = np.linalg.svd(centered, compute_uv=False)
         if s[1] > 1e-3 * s[0]:
-            R = kabsch(world - world.mean(axis=0), centered)
+            R, mirrored = kabsch_checked(world - world.mean(axis=0), centered)
             t = world.mean(axis=0) - R @ nominal.mean(axis=0)
-            return spatial.make_transform(R, t), f"closed form ({len(nominal)} intersection points)"
+            return spatial.make_transform(R, t), f"closed form ({len(nominal)} intersection points)" + (f"; {MIRROR}" if mirrored else "")
     return None, "too few oriented directions or non-collinear intersection points for the closed form"
 
 
@@ -265,6 +274,8 @@ def solve_natural(frame: str, code: str, features: list[Feature], fits: dict[str
         if unoriented:
             warnings.append(f"no orientation information for {', '.join(unoriented)} (C2 wants a plane's 'above' point, a line's probing order)")
     T_closed, how = closed_form(code, features, fits)
+    if MIRROR in how:
+        warnings.append(MIRROR)
     T0 = T_closed if T_closed is not None else T_nominal
     if T_closed is None:
         warnings.append(f"{how}; refined from the nominal pose")

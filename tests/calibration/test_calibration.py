@@ -250,3 +250,17 @@ def test_csv_points_import(tmp_path):
     (tmp_path / "m.csv").write_text("\n".join(rows) + "\n")
     result = calibrate(nominal, load_measurements([str(tmp_path / "m.csv")], nominal, "mm"))
     np.testing.assert_allclose(result.solutions["block"].T_world, World(truth).T_world("block"), atol=1e-9)
+
+
+def test_mirrored_points_are_warned():
+    """Four points measured as the mirror image of the nominal ones: no rotation maps them; said so."""
+    from rworld_cli.calibration.fit import fit_point
+    from rworld_cli.calibration.solve import MIRROR, solve_natural
+    from rworld_cli.world.model import Feature
+
+    nominal = np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.08, 0], [0.02, 0.03, 0.05]])
+    mirrored = nominal * [1, 1, -1] + [0.3, 0.1, 0.5]
+    feats = [Feature(f"o.p{k}", "o", "point", p) for k, p in enumerate(nominal)]
+    fits = {f.name: fit_point(f.name, m[None]) for f, m in zip(feats, mirrored)}
+    sol = solve_natural("o", "C1", feats, fits, {}, np.eye(4))
+    assert MIRROR in sol.warnings
