@@ -264,3 +264,21 @@ def test_mirrored_points_are_warned():
     fits = {f.name: fit_point(f.name, m[None]) for f, m in zip(feats, mirrored)}
     sol = solve_natural("o", "C1", feats, fits, {}, np.eye(4))
     assert MIRROR in sol.warnings
+
+
+def test_line_parallel_to_plane_is_refused():
+    """A line parallel to the only plane leaves the translation along the line free."""
+    from rworld_cli.calibration.fit import fit_line as fl
+    from rworld_cli.calibration.fit import fit_plane as fp
+    from rworld_cli.calibration.solve import solve_natural
+    from rworld_cli.world.model import Feature
+
+    plane = Feature("o.top", "o", "plane", np.zeros(3), np.array([0, 0, 1.0]))
+    line = Feature("o.edge", "o", "line", np.array([0, 0.05, 0.02]), np.array([1.0, 0, 0]))
+    g = np.linspace(-0.05, 0.05, 4)
+    plane_pts = np.array([[x, y, 0.0] for x in g for y in g])
+    line_pts = np.column_stack([np.linspace(-0.05, 0.05, 6), np.full(6, 0.05), np.full(6, 0.02)])
+    fits = {"o.top": fp("o.top", plane_pts, above=[0, 0, 1]), "o.edge": fl("o.edge", line_pts, ordered=True)}
+    sol = solve_natural("o", "C2", [plane, line], fits, {}, np.eye(4))
+    assert not sol.determined
+    assert "translation along (1.00, 0.00, 0.00)" in sol.reason or "translation along (-1.00, 0.00, 0.00)" in sol.reason
