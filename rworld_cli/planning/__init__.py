@@ -1,0 +1,1 @@
+"""Trajectory planning: time-optimal timing under torque limits, payload capacity."""

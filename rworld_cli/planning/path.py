@@ -1,0 +1,41 @@
+"""Joint-space paths q(s), s in [0, 1]."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class JointPath:
+    """A cubic spline through joint waypoints.
+
+    Parameters
+    ----------
+    waypoints : array_like, shape (K, n)
+        Joint values [rad or m] at the knots.
+    knots : array_like, shape (K,), optional
+        Path parameters of the waypoints; default equally spaced on [0, 1].
+    boundary : {"clamped", "natural", "not-a-knot"}
+        ``clamped``: dq/ds = 0 at both ends (start and end at rest).
+    """
+
+    def __init__(self, waypoints, knots=None, boundary: str = "clamped"):
+        from scipy.interpolate import CubicSpline
+
+        self.waypoints = np.asarray(waypoints, dtype=float)
+        if self.waypoints.ndim != 2 or len(self.waypoints) < 2:
+            raise ValueError("a path needs at least 2 waypoints of n joint values")
+        self.knots = np.linspace(0.0, 1.0, len(self.waypoints)) if knots is None else np.asarray(knots, dtype=float)
+        if self.knots.shape != (len(self.waypoints),) or np.any(np.diff(self.knots) <= 0) or self.knots[0] != 0 or self.knots[-1] != 1:
+            raise ValueError("knots must rise strictly from 0 to 1, one per waypoint")
+        self.spline = CubicSpline(self.knots, self.waypoints, bc_type=boundary)
+        self.d1 = self.spline.derivative(1)
+        self.d2 = self.spline.derivative(2)
+
+    @property
+    def dof(self) -> int:
+        return self.waypoints.shape[1]
+
+    def evaluate(self, s):
+        """q, dq/ds, d2q/ds2 at ``s`` (shape (N,)), each (N, n)."""
+        s = np.clip(np.asarray(s, dtype=float), 0.0, 1.0)
+        return self.spline(s), self.d1(s), self.d2(s)
