@@ -281,6 +281,7 @@ SCHEMA_FILES = {
     "poses.schema.json": ("models", "PoseFile"),
     "program.schema.json": ("program", "ProgramFile"),
     "run.schema.json": ("program", "RunFile"),
+    "path.schema.json": ("program", "PathFile"),
 }
 
 
@@ -618,3 +619,59 @@ def plan_cell_measurements(cell_path: str, frames: list[str] | None, sigma: floa
         if not (value > 0 and np.isfinite(value)):
             raise UserError(f"{name} must be a positive length, got {value}")
     return cell, plan_measurements(cell, frames, sigma, tolerance)
+
+
+# --------------------------------------------------------------------------- planning
+
+
+def load_joint_path(path_file: str, device):
+    """A :class:`~rworld_cli.planning.path.JointPath` from a path file, checked against the device (located errors)."""
+    from .planning.path import JointPath
+    from .schema.loader import ANGLE, LENGTH, validate_document
+    from .schema.program import PathFile
+    from .schema.yamlio import read_yaml
+
+    doc = read_yaml(path_file)
+    pf = validate_document(doc, PathFile)
+    n = device.dof
+    issues = []
+    for k, row in enumerate(pf.waypoints):
+        if len(row) != n:
+            issues.append(doc.issue(("waypoints", k), f"{len(row)} value(s) but '{device.name}' has {n} joint(s)"))
+    if pf.knots is not None:
+        kn = pf.knots
+        if len(kn) != len(pf.waypoints) or kn[0] != 0 or kn[-1] != 1 or any(b <= a for a, b in zip(kn, kn[1:])):
+            issues.append(doc.issue(("knots",), f"knots must rise strictly from 0 to 1, one per waypoint ({len(pf.waypoints)})"))
+    if issues:
+        raise UserError(f"{path_file}: invalid path", issues)
+    scale = np.array([ANGLE[pf.units.angle] if j.kind == "revolute" else LENGTH[pf.units.length] for j in device.joints])
+    q = np.array(pf.waypoints, dtype=float) * scale
+    lo, hi = device.limit_array("lower"), device.limit_array("upper")
+    bad = np.argwhere((q < lo) | (q > hi))
+    if len(bad):
+        k, j = bad[0]
+        raise UserError(f"{path_file}: waypoint {k + 1} puts joint {device.joints[j].name} outside its position limits",
+                        [doc.issue(("waypoints", int(k), int(j)), f"{pf.waypoints[k][j]} is outside the position limits of {device.joints[j].name}")])
+    return JointPath(q, pf.knots, pf.boundary)
+
+
+def planning_limits(device, torque: bool = True, acceleration: bool = True):
+    from .planning.topp import Limits
+
+    v, a, e = device.limit_array("velocity"), device.limit_array("acceleration"), device.limit_array("effort")
+    if not np.all(np.isfinite(v)):
+        raise UserError(f"every joint of '{device.name}' needs a velocity limit for time-optimal timing")
+    return Limits(v, a if acceleration and np.all(np.isfinite(a)) else None, e if torque and np.any(np.isfinite(e)) else None)
+
+
+def plan_time_optimal(ctx: DeviceContext, path, payload=None, gridpoints: int = 1000, torque: bool = True, friction: bool = False):
+    """Time-optimal timing of ``path`` for the context's device; (timing, info, dynamics, limits)."""
+    from .planning.topp import InfeasiblePath, time_optimal
+
+    limits = planning_limits(ctx.device, torque)
+    dyn = device_dynamics(ctx, payload, armature=True, friction=friction) if limits.effort is not None else None
+    try:
+        timing, info = time_optimal(path, limits, dyn, ctx.gravity_base, gridpoints)
+    except InfeasiblePath as exc:
+        raise UserError(f"no timing of the path stays within the limits: {exc}") from None
+    return timing, info, dyn, limits

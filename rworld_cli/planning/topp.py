@@ -225,7 +225,7 @@ def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, g
         h = 2.0 * ds_l[i]
         xi = x[i]
         ui = (K_hi[i + 1] - xi) / h
-        which = "velocity" if K_hi[i + 1] >= xvel_l[i + 1] - 1e-9 else "reach"
+        which = "velocity" if K_hi[i + 1] >= xvel_l[i + 1] - 1e-9 else "braking ahead"
         for Q, P, k in ups[i]:
             bound = P + Q * xi
             if bound < ui:
@@ -245,7 +245,8 @@ def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, g
         timing = Timing(s, x / scale**2, u / scale**2, _times(s, x / scale**2), scale)
     else:
         raise InfeasiblePath(f"could not bring the dense check within the limits (worst ratio {ratio:.6g})")
-    return timing, {"binding": binding, "dense_ratio": ratio, "grid": gridpoints}
+    return timing, {"binding": binding, "dense_ratio": ratio, "grid": gridpoints,
+                    "x_limit": np.minimum(np.r_[x_hi, x_hi[-1]], xvel) / scale**2, "K_hi": np.array(K_hi) / scale**2}
 
 
 def sample_trajectory(path: JointPath, timing: Timing, samples: int):

@@ -113,3 +113,13 @@ class RunFile(Strict):
     description: Optional[str] = None
     programs: Annotated[list[str], Field(min_length=1)] = Field(description="Program files, relative to this file.")
     dt: Annotated[float, Field(gt=0, le=1)] = Field(0.01, description="Time step of the uniform clock [s].")
+
+
+class PathFile(Strict):
+    """A joint-space path: a cubic spline through waypoints (for 'rworld plan')."""
+
+    device: Optional[Name] = Field(None, description="The device the path is for (informative; --device wins).")
+    units: Units = Field(default_factory=Units, description="Units of the joint values (angle for revolute, length for prismatic joints).")
+    waypoints: Annotated[list[list[float]], Field(min_length=2)] = Field(description="Joint values, one row per waypoint.")
+    knots: Optional[list[float]] = Field(None, description="Path parameter of each waypoint, rising from 0 to 1; default equally spaced.")
+    boundary: Literal["clamped", "natural", "not-a-knot"] = Field("clamped", description="clamped: dq/ds = 0 at both ends.")

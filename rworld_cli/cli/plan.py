@@ -1,0 +1,184 @@
+"""rworld plan time-optimal | payload"""
+
+from __future__ import annotations
+
+import click
+
+from .common import emit_json, handle_errors, json_option
+from .physics_common import context, device_options, output_options, parse_vector
+
+
+@click.group()
+def plan() -> None:
+    """Trajectory planning for a device along a joint path (a spline through waypoints).
+
+    Path files: waypoints in the file's units, optional knots, boundary
+    (docs/planning.md).  Limits are the device's velocity, acceleration and
+    effort limits; torques include the motor armature (Jm G^2).
+    """
+
+
+@plan.command("time-optimal")
+@device_options
+@click.option("--path", "path_file", required=True, type=click.Path(dir_okay=False), help="Path file (YAML).")
+@click.option("--gridpoints", default=1000, show_default=True, type=click.IntRange(10, 100000))
+@click.option("--no-torque", is_flag=True, help="Velocity and acceleration limits only.")
+@click.option("--payload", "payload_object", default=None, metavar="OBJECT", help="An object's mass properties at the TCP.")
+@click.option("--payload-mass", default=None, type=float, metavar="KG", help="A point mass at the TCP (see --payload-com).")
+@click.option("--payload-com", default=None, metavar="X,Y,Z", help="Point mass position in the TCP frame [m].")
+@click.option("--samples", default=1000, show_default=True, type=click.IntRange(2, 1_000_000), help="Rows of the CSV output.")
+@click.option("--plot", default=None, type=click.Path(dir_okay=False), help="PNG: path speed against its limit, torque ratios.")
+@output_options
+@json_option
+@handle_errors
+def time_optimal(cell, device, other_joints, tcp, path_file, gridpoints, no_torque, payload_object, payload_mass, payload_com,
+                 samples, plot, output, json_output):
+    """The fastest rest-to-rest timing of a path within velocity, acceleration and torque limits.
+
+    Reachability analysis (as in TOPP-RA) on a grid, with the limits
+    imposed at both ends of every interval; the result is then checked at
+    20 001 instants and slowed uniformly if anything exceeds a limit there,
+    so the trajectory respects every limit when sampled densely.
+
+    \b
+    Examples:
+      rworld plan time-optimal workcells/puma560 --path workcells/puma560/paths/reference.yaml
+      rworld plan time-optimal workcells/puma560 --path p.yaml --payload-mass 2 --payload-com 0,0,0.1 --plot p.png -o traj.csv
+    """
+    import numpy as np
+
+    from ..api import load_joint_path, plan_time_optimal, resolve_payload
+    from ..planning.topp import limit_ratios, sample_trajectory
+    from ..tableio import format_csv, write_csv
+
+    ctx = context(cell, device, tcp, other_joints)
+    path = load_joint_path(path_file, ctx.device)
+    com = parse_vector(payload_com, "--payload-com", 3) if payload_com else None
+    payload = resolve_payload(ctx, payload_object, payload_mass, com)
+    timing, info, dyn, limits = plan_time_optimal(ctx, path, payload, gridpoints, not no_torque)
+    t, q, qd, qdd = sample_trajectory(path, timing, samples)
+    ratios = limit_ratios(q, qd, qdd, limits, dyn, ctx.gravity_base)
+    counts: dict[str, int] = {}
+    for b in info["binding"]:
+        counts[b] = counts.get(b, 0) + 1
+    binding = {k: v / len(info["binding"]) for k, v in sorted(counts.items(), key=lambda kv: -kv[1])}
+    if plot:
+        _plot(path_file, timing, info, t, ratios, plot)
+    n = ctx.device.dof
+    if output:
+        cols = ["t"] + [f"{g}{i}" for g in ("q", "qd", "qdd") for i in range(1, n + 1)]
+        rows = np.hstack([t[:, None], q, qd, qdd])
+        if dyn is not None:
+            cols += [f"tau{i}" for i in range(1, n + 1)]
+            rows = np.hstack([rows, dyn.inverse(q, qd, qdd, ctx.gravity_base)])
+        write_csv(output, cols, rows)
+    peaks = {k: float(np.max(v)) for k, v in ratios.items()}
+    if json_output:
+        emit_json({"device": ctx.device.name, "path": path_file, "gridpoints": gridpoints, "duration": timing.duration,
+                   "binding": binding, "dense_ratio": info["dense_ratio"], "slowdown": timing.scale, "peak_ratio": peaks,
+                   "written": output, "plot": plot})
+        return
+    click.echo(f"{ctx.device.name}: {path_file}: cycle time {timing.duration:.6f} s ({gridpoints} grid intervals)")
+    click.echo("binding along the path: " + ", ".join(f"{k} {v:.0%}" for k, v in binding.items()))
+    click.echo("peak ratio to the limits (dense): " + ", ".join(f"{k} {v:.6f}" for k, v in peaks.items()))
+    if timing.scale > 1:
+        click.echo(f"slowed by {timing.scale - 1:.2e} (relative) so that no limit is exceeded between grid points")
+    for path_out in (output, plot):
+        if path_out:
+            click.echo(f"wrote {path_out}")
+
+
+@plan.command("payload")
+@device_options
+@click.option("--path", "path_file", required=True, type=click.Path(dir_okay=False), help="Path file (YAML).")
+@click.option("--timing", type=click.Choice(["time-optimal", "quintic"]), default="time-optimal", show_default=True,
+              help="time-optimal (velocity + acceleration limits, no payload) or a quintic time law over --duration.")
+@click.option("--duration", type=float, default=None, help="Quintic: the duration [s].")
+@click.option("--payload-com", default="0,0,0", show_default=True, metavar="X,Y,Z", help="Where the point mass sits, TCP frame [m].")
+@click.option("--payload", "payload_object", default=None, metavar="OBJECT", help="Scale an object's mass properties instead of a point mass.")
+@click.option("--gridpoints", default=1000, show_default=True, type=click.IntRange(10, 100000))
+@click.option("--samples", default=20001, show_default=True, type=click.IntRange(2, 1_000_000))
+@json_option
+@handle_errors
+def payload(cell, device, other_joints, tcp, path_file, timing, duration, payload_com, payload_object, gridpoints, samples, json_output):
+    """The largest payload a timed path can carry within the torque limits - exact (torque is affine in mass).
+
+    \b
+    Examples:
+      rworld plan payload workcells/puma560 --path workcells/puma560/paths/reference.yaml --tcp probe
+      rworld plan payload workcells/puma560 --path workcells/puma560/paths/reference.yaml --tcp probe --timing quintic --duration 5
+    """
+    import numpy as np
+
+    from ..api import load_joint_path, plan_time_optimal
+    from ..dynamics import Payload
+    from ..errors import UserError
+    from ..planning.payload import payload_capacity, quintic_timing
+    from ..planning.topp import sample_trajectory
+
+    ctx = context(cell, device, tcp, other_joints)
+    path = load_joint_path(path_file, ctx.device)
+    if timing == "quintic":
+        if duration is None or not duration > 0:
+            raise UserError("--timing quintic needs --duration SECONDS > 0")
+        t, s, sd, sdd = quintic_timing(duration, samples)
+        q, dq, ddq = path.evaluate(s)
+        qd, qdd = dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None]
+        T = duration
+    else:
+        tm, _, _, _ = plan_time_optimal(ctx, path, None, gridpoints, torque=False)
+        t, q, qd, qdd = sample_trajectory(path, tm, samples)
+        T = tm.duration
+    unit = None
+    if payload_object:
+        obj = ctx.world.cell.objects.get(payload_object)
+        if obj is None or obj.inertial.mass <= 0:
+            raise UserError(f"'{payload_object}' is not an object with mass in the cell")
+        body = Payload.rigid_body(obj.inertial, ctx.world.T(ctx.tcp, payload_object) if payload_object in ctx.world.subtree(ctx.tcp) else None)
+        unit = Payload(1.0, body.com, body.inertia / body.mass)
+    cap = payload_capacity(ctx.device, q, qd, qdd, ctx.gravity_base, parse_vector(payload_com, "--payload-com", 3), ctx.mount,
+                           armature=True, friction=False, unit_payload=unit)
+    joint = ctx.device.joints[cap.joint].name
+    if json_output:
+        emit_json({"device": ctx.device.name, "tcp": ctx.tcp, "timing": timing, "duration": T, "payload_mass": cap.mass,
+                   "binding_joint": joint, "binding_time": float(t[cap.sample]), "binding_side": cap.side})
+        return
+    click.echo(f"{ctx.device.name}: {timing} timing of {path_file} ({T:.6f} s): payload capacity {cap.mass:.4f} kg at {ctx.tcp}")
+    click.echo(f"binding: joint {joint} at t = {t[cap.sample]:.4f} s ({cap.side} torque limit)")
+    if cap.mass < 0:
+        click.echo("negative: the trajectory overloads the joint even without a payload")
+
+
+def _plot(title, timing, info, t, ratios, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from pathlib import Path
+
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 7), constrained_layout=True)
+    ax1.plot(timing.s, np.sqrt(np.maximum(info["x_limit"], 0)), color="grey", label="limit curve (constraints at each s)")
+    ax1.plot(timing.s, np.sqrt(np.maximum(info["K_hi"], 0)), color="orange", linestyle="--", label="controllable (can still stop)")
+    ax1.plot(timing.s, np.sqrt(timing.x), color="C0", linewidth=2, label="time-optimal")
+    ax1.set_xlabel("path parameter s")
+    ax1.set_ylabel("path speed ds/dt [1/s]")
+    top = np.sqrt(np.max(timing.x)) * 1.6
+    ax1.set_ylim(0, top)
+    ax1.legend(loc="upper right", fontsize=8)
+    ax1.set_title(f"{title}: cycle time {timing.duration:.4f} s")
+    for name, style in (("torque", "-"), ("velocity", ":"), ("acceleration", "--")):
+        if name in ratios:
+            for j in range(ratios[name].shape[1]):
+                ax2.plot(t, ratios[name][:, j], style, color=f"C{j}", label=f"{name} {j + 1}" if name == "torque" or j == 0 else None)
+    ax2.axhline(1.0, color="red", linewidth=1)
+    ax2.set_xlabel("time [s]")
+    ax2.set_ylabel("|value| / limit")
+    ax2.set_ylim(0, 1.1)
+    ax2.legend(loc="lower right", fontsize=7, ncol=3)
+    out = Path(path)
+    tmp = out.with_name(f".{out.name}.tmp")
+    fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+    tmp.replace(out)

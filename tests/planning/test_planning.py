@@ -1,0 +1,120 @@
+"""Time-optimal timing and payload capacity against the reference problem (toppra 0.6.10 results)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from rworld_cli.dynamics import DeviceDynamics
+from rworld_cli.planning.path import JointPath
+from rworld_cli.planning.payload import payload_capacity, quintic_timing
+from rworld_cli.planning.topp import InfeasiblePath, Limits, limit_ratios, sample_trajectory, time_optimal
+from rworld_cli.schema.loader import load_cell
+from tests.conftest import REFERENCE, WORKCELLS
+
+REF = json.loads((REFERENCE / "planning" / "puma560_path.json").read_text())
+DEVICE = load_cell(WORKCELLS / "puma560").cell.devices["puma"]
+PATH = JointPath(np.radians(REF["waypoints_deg"]))
+G = np.array(REF["gravity"])
+DYN = DeviceDynamics(DEVICE, armature=True, friction=False)
+V = np.array(REF["vel_lim_rad_s"])
+CONFIGS = {
+    "a_rated": (Limits(V, np.array(REF["acc_lim_rated_rad_s2"]), None), False),
+    "b_rated": (Limits(V, np.array(REF["acc_lim_rated_rad_s2"]), np.array(REF["tau_lim_Nm"])), True),
+    "b_aggr": (Limits(V, np.array(REF["acc_lim_aggressive_rad_s2"]), np.array(REF["tau_lim_Nm"])), True),
+    "c_vtau": (Limits(V, None, np.array(REF["tau_lim_Nm"])), True),
+}
+
+
+def toppra_duration(config, grid):
+    return next(r["duration_s"] for r in REF["toppra_results"] if r["config"] == config and r["gridpoints"] == grid)
+
+
+@pytest.mark.parametrize("config", CONFIGS)
+@pytest.mark.parametrize("grid", [500, 1000])
+def test_cycle_time_within_half_a_percent_of_toppra_and_no_violation(config, grid):
+    limits, torque = CONFIGS[config]
+    timing, info = time_optimal(PATH, limits, DYN if torque else None, G, grid)
+    assert abs(timing.duration / toppra_duration(config, grid) - 1) < 0.005
+    # zero violations on 20 001 samples (the reference's check)
+    _, q, qd, qdd = sample_trajectory(PATH, timing, 20001)
+    for name, r in limit_ratios(q, qd, qdd, limits, DYN if torque else None, G).items():
+        assert r.max() <= 1.0, (name, r.max())
+
+
+def test_finer_grids_converge():
+    limits, _ = CONFIGS["a_rated"]
+    durations = [time_optimal(PATH, limits, None, G, n)[0].duration for n in (250, 1000, 4000)]
+    assert durations[0] > durations[1] > durations[2]
+    assert durations[2] == pytest.approx(toppra_duration("a_rated", 5000), rel=1e-3)
+
+
+def test_starts_and_ends_at_rest_and_follows_the_path():
+    timing, _ = time_optimal(PATH, CONFIGS["b_rated"][0], DYN, G, 1000)
+    t, q, qd, _ = sample_trajectory(PATH, timing, 2001)
+    np.testing.assert_allclose(qd[0], 0, atol=1e-12)
+    np.testing.assert_allclose(qd[-1], 0, atol=1e-6)
+    np.testing.assert_allclose(q[0], np.radians(REF["waypoints_deg"][0]), atol=1e-12)
+    np.testing.assert_allclose(q[-1], np.radians(REF["waypoints_deg"][-1]), atol=1e-9)
+
+
+def test_payload_capacity_on_the_quintic_matches_the_reference():
+    cap_ref = next(c for c in REF["payload_capacity"] if c["label"].startswith("quintic"))
+    t, s, sd, sdd = quintic_timing(5.0, 20001)
+    q, dq, ddq = PATH.evaluate(s)
+    cap = payload_capacity(DEVICE, q, dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None], G, [0, 0, 0.1])
+    assert cap.mass == pytest.approx(cap_ref["m_star_linear_kg"], abs=1e-3)
+    assert cap.joint + 1 == cap_ref["binding_joint"] and cap.side == cap_ref["binding_side"]
+    assert t[cap.sample] == pytest.approx(cap_ref["binding_time_s"], abs=1e-3)
+
+
+def test_payload_capacity_is_exact():
+    """At m* the binding joint sits exactly on its limit; a heavier payload overloads it."""
+    from rworld_cli.dynamics import Payload
+
+    t, s, sd, sdd = quintic_timing(5.0, 2001)
+    q, dq, ddq = PATH.evaluate(s)
+    qd, qdd = dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None]
+    cap = payload_capacity(DEVICE, q, qd, qdd, G, [0, 0, 0.1])
+    at = DeviceDynamics(DEVICE, Payload.point_mass(cap.mass, [0, 0, 0.1]), armature=True, friction=False).inverse(q, qd, qdd, G)
+    ratio = np.abs(at) / DEVICE.limit_array("effort")
+    assert ratio.max() == pytest.approx(1.0, abs=1e-12)
+    over = DeviceDynamics(DEVICE, Payload.point_mass(cap.mass + 1e-6, [0, 0, 0.1]), armature=True, friction=False).inverse(q, qd, qdd, G)
+    assert (np.abs(over) / DEVICE.limit_array("effort")).max() > 1.0
+
+
+def test_payload_slows_the_torque_limited_timing():
+    from rworld_cli.dynamics import Payload
+
+    limits, _ = CONFIGS["c_vtau"]
+    light = time_optimal(PATH, limits, DYN, G, 500)[0].duration
+    heavy_dyn = DeviceDynamics(DEVICE, Payload.point_mass(3.0, [0, 0, 0.1]), armature=True, friction=False)
+    heavy = time_optimal(PATH, limits, heavy_dyn, G, 500)[0].duration
+    assert heavy > light
+
+
+def test_infeasible_when_gravity_exceeds_a_limit():
+    weak = Limits(V, None, np.array(REF["tau_lim_Nm"]) * [1, 0.05, 1, 1, 1, 1])
+    with pytest.raises(InfeasiblePath):
+        time_optimal(PATH, weak, DYN, G, 200)
+
+
+def test_plan_commands(cli, tmp_path):
+    path = "workcells/puma560/paths/reference.yaml"
+    data = json.loads(cli(["plan", "time-optimal", "workcells/puma560", "--path", path, "--json", "-o", str(tmp_path / "t.csv"),
+                           "--plot", str(tmp_path / "t.png")]).stdout)
+    assert data["duration"] == pytest.approx(toppra_duration("b_rated", 1000), rel=0.005)
+    assert max(data["peak_ratio"].values()) <= 1.0
+    assert (tmp_path / "t.png").read_bytes()[:4] == b"\x89PNG"
+    assert (tmp_path / "t.csv").read_text().startswith("t,q1")
+    q = json.loads(cli(["plan", "payload", "workcells/puma560", "--path", path, "--tcp", "probe", "--timing", "quintic",
+                        "--duration", "5", "--json"]).stdout)
+    assert q["payload_mass"] == pytest.approx(11.566531603971516, abs=1e-3) and q["binding_joint"] == "j2"
+
+
+def test_bad_path_file_is_located(cli, tmp_path):
+    (tmp_path / "p.yaml").write_text("units: {angle: deg}\nwaypoints:\n  - [0, 0, 0]\n  - [1, 2, 3, 4, 5, 6]\n")
+    result = cli(["plan", "time-optimal", "workcells/puma560", "--path", str(tmp_path / "p.yaml")])
+    assert result.exit_code == 2 and "p.yaml:3:5: waypoints[0]: 3 value(s) but 'puma' has 6 joint(s)" in result.output
