@@ -182,3 +182,60 @@ def _plot(title, timing, info, t, ratios, path):
     fig.savefig(tmp, dpi=110, format="png")
     plt.close(fig)
     tmp.replace(out)
+
+
+@plan.command("load-optimal")
+@device_options
+@click.option("--path", "path_file", required=True, type=click.Path(dir_okay=False), help="Path file (YAML).")
+@click.option("--duration", required=True, type=float, help="The cycle time [s].")
+@click.option("--payload-com", default="0,0,0", show_default=True, metavar="X,Y,Z", help="Where the point mass sits, TCP frame [m].")
+@click.option("--gridpoints", default=400, show_default=True, type=click.IntRange(10, 100000))
+@click.option("--tolerance", default=1e-4, show_default=True, type=float, help="Mass resolution [kg].")
+@click.option("--samples", default=1000, show_default=True, type=click.IntRange(2, 1_000_000), help="Rows of the CSV output.")
+@output_options
+@json_option
+@handle_errors
+def load_optimal_cmd(cell, device, other_joints, tcp, path_file, duration, payload_com, gridpoints, tolerance, samples, output, json_output):
+    """The timing of a path that carries the heaviest payload within a cycle time (the report's OPTLOAD idea).
+
+    Reports the payload and its gain over the unloaded time-optimal timing
+    and over a quintic time law of the same duration.
+
+    \b
+    Example:
+      rworld plan load-optimal workcells/puma560 --path workcells/puma560/paths/reference.yaml --tcp probe --duration 5
+    """
+    import numpy as np
+
+    from ..api import load_joint_path, planning_limits
+    from ..errors import UserError
+    from ..planning.payload import load_optimal
+    from ..planning.topp import InfeasiblePath, sample_trajectory
+    from ..tableio import write_csv
+
+    if not duration > 0:
+        raise UserError("--duration must be > 0")
+    ctx = context(cell, device, tcp, other_joints)
+    path = load_joint_path(path_file, ctx.device)
+    limits = planning_limits(ctx.device, torque=True)
+    try:
+        r = load_optimal(ctx.device, path, limits, ctx.gravity_base, parse_vector(payload_com, "--payload-com", 3), duration,
+                         ctx.mount, gridpoints, tolerance)
+    except InfeasiblePath as exc:
+        raise UserError(str(exc)) from None
+    if output:
+        t, q, qd, qdd = sample_trajectory(path, r.timing, samples)
+        n = ctx.device.dof
+        write_csv(output, ["t"] + [f"{g}{i}" for g in ("q", "qd", "qdd") for i in range(1, n + 1)], np.hstack([t[:, None], q, qd, qdd]))
+    payload = {"device": ctx.device.name, "tcp": ctx.tcp, "duration": duration, "payload_mass": r.mass,
+               "time_optimal_capacity": r.time_optimal_capacity, "quintic_capacity": r.quintic_capacity,
+               "static_capacity": r.static_capacity, "written": output}
+    if json_output:
+        emit_json(payload)
+        return
+    click.echo(f"{ctx.device.name}: {path_file} in {duration} s carries {r.mass:.4f} kg at {ctx.tcp}")
+    click.echo(f"  a quintic time law over {duration} s: {r.quintic_capacity:.4f} kg ({r.mass - r.quintic_capacity:+.4f} kg)")
+    click.echo(f"  the unloaded time-optimal timing: {r.time_optimal_capacity:.4f} kg ({r.mass - r.time_optimal_capacity:+.4f} kg)")
+    click.echo(f"  at rest (any slower): at most {r.static_capacity:.4f} kg")
+    if output:
+        click.echo(f"wrote {output}")

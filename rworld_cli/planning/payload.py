@@ -52,3 +52,65 @@ def quintic_timing(duration: float, samples: int):
     sd = (30 * r**2 - 60 * r**3 + 30 * r**4) / duration
     sdd = (60 * r - 180 * r**2 + 120 * r**3) / duration**2
     return t, s, sd, sdd
+
+
+@dataclass
+class LoadOptimal:
+    """The heaviest point mass a path can carry within a cycle time, and its timing."""
+
+    mass: float  # [kg]
+    duration: float  # the cycle time asked for [s]
+    timing: object  # planning.topp.Timing of the loaded path (stretched to the cycle time)
+    time_optimal_capacity: float  # capacity of the unloaded time-optimal timing (v + a limits) [kg]
+    quintic_capacity: float  # capacity of a quintic time law over the same duration [kg]
+    static_capacity: float  # the limit as the cycle time grows: gravity only [kg]
+
+
+def load_optimal(device, path, limits, gravity, com_in_tool, duration: float, mount=None, gridpoints: int = 400,
+                 tolerance: float = 1e-4) -> LoadOptimal:
+    """Maximise the payload a path can carry within ``duration`` (the timing is free; the path shape is given).
+
+    A mass m is carryable in time T when the time-optimal timing with m on
+    board (torque limits included) is no longer than T; the time-optimal
+    duration grows with m, so bisection on m finds the largest carryable
+    mass to ``tolerance`` kg.  The resulting timing is stretched to take
+    exactly ``duration``.
+    """
+    from .topp import InfeasiblePath, Limits, Timing, _times, sample_trajectory, time_optimal
+
+    lim = Limits(limits.velocity, limits.acceleration, limits.effort)
+
+    def fastest(m: float):
+        dyn = DeviceDynamics(device, Payload.point_mass(m, com_in_tool), mount, armature=True, friction=False)
+        try:
+            timing, _ = time_optimal(path, lim, dyn, gravity, gridpoints, check_samples=4001)
+            return timing
+        except InfeasiblePath:
+            return None
+
+    s_static = np.linspace(0, 1, 2001)
+    q_static = path.evaluate(s_static)[0]
+    zero = np.zeros_like(q_static)
+    static = payload_capacity(device, q_static, zero, zero, gravity, com_in_tool, mount).mass
+    lo, hi = 0.0, max(static, 0.0)
+    first = fastest(0.0)
+    if first is None or first.duration > duration:
+        raise InfeasiblePath(f"the path cannot be done in {duration} s even without a payload"
+                             + (f" (fastest: {first.duration:.4f} s)" if first is not None else ""))
+    best = first
+    while hi - lo > tolerance:  # bisection on the mass: each probe is one time-optimal solve
+        mid = 0.5 * (lo + hi)
+        timing = fastest(mid)
+        if timing is not None and timing.duration <= duration:
+            lo, best = mid, timing
+        else:
+            hi = mid
+    stretch = duration / best.duration
+    timing = Timing(best.s, best.x / stretch**2, best.u / stretch**2, _times(best.s, best.x / stretch**2), best.scale * stretch)
+    fast, _ = time_optimal(path, Limits(limits.velocity, limits.acceleration, None), None, gravity, gridpoints)
+    _, q, qd, qdd = sample_trajectory(path, fast, 20001)
+    t_opt = payload_capacity(device, q, qd, qdd, gravity, com_in_tool, mount).mass
+    _, s, sd, sdd = quintic_timing(duration, 20001)
+    q, dq, ddq = path.evaluate(s)
+    quint = payload_capacity(device, q, dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None], gravity, com_in_tool, mount).mass
+    return LoadOptimal(lo, duration, timing, t_opt, quint, static)

@@ -118,3 +118,27 @@ def test_bad_path_file_is_located(cli, tmp_path):
     (tmp_path / "p.yaml").write_text("units: {angle: deg}\nwaypoints:\n  - [0, 0, 0]\n  - [1, 2, 3, 4, 5, 6]\n")
     result = cli(["plan", "time-optimal", "workcells/puma560", "--path", str(tmp_path / "p.yaml")])
     assert result.exit_code == 2 and "p.yaml:3:5: waypoints[0]: 3 value(s) but 'puma' has 6 joint(s)" in result.output
+
+
+def test_load_optimal_beats_the_quintic_and_respects_the_limits():
+    from rworld_cli.dynamics import Payload
+    from rworld_cli.planning.payload import load_optimal
+
+    limits = Limits(V, np.array(REF["acc_lim_rated_rad_s2"]), np.array(REF["tau_lim_Nm"]))
+    r = load_optimal(DEVICE, PATH, limits, G, [0, 0, 0.1], 5.0, gridpoints=200, tolerance=1e-3)
+    assert r.quintic_capacity == pytest.approx(11.566531603971516, abs=1e-3)
+    assert r.quintic_capacity < r.mass <= r.static_capacity
+    assert r.timing.duration == pytest.approx(5.0)
+    dyn = DeviceDynamics(DEVICE, Payload.point_mass(r.mass, [0, 0, 0.1]), armature=True, friction=False)
+    _, q, qd, qdd = sample_trajectory(PATH, r.timing, 20001)
+    assert max(np.max(v) for v in limit_ratios(q, qd, qdd, limits, dyn, G).values()) <= 1.0
+    heavier = DeviceDynamics(DEVICE, Payload.point_mass(r.mass + 0.05, [0, 0, 0.1]), armature=True, friction=False)
+    assert time_optimal(PATH, limits, heavier, G, 200)[0].duration > 5.0  # 50 g more no longer fits in 5 s
+
+
+def test_load_optimal_command(cli):
+    data = json.loads(cli(["plan", "load-optimal", "workcells/puma560", "--path", "workcells/puma560/paths/reference.yaml",
+                           "--tcp", "probe", "--duration", "5", "--gridpoints", "100", "--tolerance", "0.01", "--json"]).stdout)
+    assert data["payload_mass"] > data["quintic_capacity"] > data["time_optimal_capacity"]
+    result = cli(["plan", "load-optimal", "workcells/puma560", "--path", "workcells/puma560/paths/reference.yaml", "--duration", "0.5"])
+    assert result.exit_code == 2 and "cannot be done in 0.5 s" in result.output
