@@ -26,7 +26,7 @@ COMMANDS = {
     "calibrate": ("calibrate", "calibrate", "Calibrate frames from probe points on features; write an overlay pose file."),
     "measure": ("calibrate", "measure", "Synthetic probe-point measurements from a 'true' cell (--simulate)."),
     "plan-measurements": ("plan_measurements", "plan_measurements", "Which features to probe, how many points, where, and the predicted error."),
-    "plan": ("plan", "plan", "Time-optimal timing under torque limits; payload capacity of a timed path (time-optimal | payload)."),
+    "plan": ("plan", "plan", "Time-optimal timing, payload capacity, load-optimal timing, maximum impulse (time-optimal | payload | load-optimal | impulse)."),
     "analyze": ("analyze", "analyze", "The report's accuracy / sensitivity comparison of computing T with or without orthogonality."),
 }
 

@@ -239,3 +239,64 @@ def load_optimal_cmd(cell, device, other_joints, tcp, path_file, duration, paylo
     click.echo(f"  at rest (any slower): at most {r.static_capacity:.4f} kg")
     if output:
         click.echo(f"wrote {output}")
+
+
+@plan.command("impulse")
+@device_options
+@click.option("--target", required=True, metavar="FRAME", help="The frame the TCP arrives at.")
+@click.option("--direction", required=True, metavar="X,Y,Z", help="Direction of the impulse, world axes.")
+@click.option("--payload-mass", default=0.0, show_default=True, type=float, help="Mass carried at the TCP [kg].")
+@click.option("--payload-com", default="0,0,0", show_default=True, metavar="X,Y,Z", help="Its position in the TCP frame [m].")
+@click.option("--start", default=None, metavar="Q1,...,QN", help="Start configuration (SI); default the device's current values.")
+@click.option("--gridpoints", default=300, show_default=True, type=click.IntRange(10, 100000))
+@json_option
+@handle_errors
+def impulse(cell, device, other_joints, tcp, target, direction, payload_mass, payload_com, start, gridpoints, json_output):
+    """The motion from rest that reaches a target frame with the most momentum along a direction.
+
+    The arrival direction is built into the path (the tool point moves along
+    the direction at the end); the timing is time-optimal with the end speed
+    free; the path's approach is searched for the largest momentum.  Limits:
+    joint velocity, acceleration and torque (payload and armature included).
+
+    \b
+    Example:
+      rworld plan impulse workcells/puma560 --tcp probe --target table.drop --direction 0,0,-1 --payload-mass 2
+    """
+    import numpy as np
+
+    from ..api import device_dynamics, inverse_kinematics, planning_limits, resolve_payload
+    from ..errors import UserError
+    from ..planning.impulse import max_impulse
+    from ..planning.topp import InfeasiblePath
+    from ..schema.messages import did_you_mean
+
+    ctx = context(cell, device, tcp, other_joints)
+    if target not in ctx.world.cell.frames:
+        raise UserError(f"unknown frame '{target}'{did_you_mean(target, ctx.world.cell.frames)}")
+    d_world = np.array(parse_vector(direction, "--direction", 3))
+    if np.linalg.norm(d_world) < 1e-12:
+        raise UserError("--direction must not be zero")
+    com = parse_vector(payload_com, "--payload-com", 3)
+    q_start = np.array(parse_vector(start, "--start", ctx.device.dof)) if start else ctx.world.joints(ctx.device.name)
+    q_end = inverse_kinematics(ctx, ctx.world.T_world(target), target, q_start).q
+    payload = resolve_payload(ctx, None, payload_mass, com) if payload_mass > 0 else None
+    dyn = device_dynamics(ctx, payload, armature=True, friction=False)
+    d_base = ctx.T_world_base[:3, :3].T @ d_world
+    try:
+        r = max_impulse(ctx.device, q_start, q_end, d_base, payload_mass, com, planning_limits(ctx.device), dyn,
+                        ctx.gravity_base, ctx.mount, gridpoints)
+    except InfeasiblePath as exc:
+        raise UserError(str(exc)) from None
+    v_world = ctx.T_world_base[:3, :3] @ r.end_velocity
+    out = {"device": ctx.device.name, "tcp": ctx.tcp, "target": target, "direction": (d_world / np.linalg.norm(d_world)).tolist(),
+           "momentum": r.momentum if payload_mass > 0 else None, "speed_along": r.speed_along, "end_velocity": v_world.tolist(),
+           "end_joint_velocity": r.end_joint_velocity.tolist(), "duration": r.duration, "binding": r.binding,
+           "q_start": np.asarray(q_start).tolist(), "q_end": q_end.tolist()}
+    if json_output:
+        emit_json(out)
+        return
+    what = f"momentum {r.momentum:.4f} kg m/s ({payload_mass} kg at " if payload_mass > 0 else "speed "
+    click.echo(f"{ctx.device.name}: reaches {target} in {r.duration:.4f} s with {what}"
+               + (f"{r.speed_along:.4f} m/s)" if payload_mass > 0 else f"{r.speed_along:.4f} m/s") + " along the direction")
+    click.echo(f"  end velocity (world): [{', '.join(f'{x:.4f}' for x in v_world)}] m/s; limited at the end by: {r.binding}")

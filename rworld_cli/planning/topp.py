@@ -108,8 +108,11 @@ def _rows(alpha, beta, lo, hi):
 
 
 def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, gridpoints: int = 1000,
-                 check_samples: int = 20001) -> tuple[Timing, dict]:
+                 check_samples: int = 20001, end_at_rest: bool = True) -> tuple[Timing, dict]:
     """The fastest timing of ``path`` from rest to rest within the limits.
+
+    With ``end_at_rest=False`` the path ends at the highest speed the limits
+    allow there (the forward pass maximises sdot at every point, the last one included).
 
     Returns
     -------
@@ -195,6 +198,8 @@ def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, g
     # backward pass: controllable sets, ending at rest
     K_lo = [0.0] * (gridpoints + 1)
     K_hi = [0.0] * (gridpoints + 1)
+    if not end_at_rest:
+        K_hi[-1] = float(min(xvel[-1], 1e12))
     for i in range(gridpoints - 1, -1, -1):  # stage i couples to i+1: sequential by nature
         h = 2.0 * ds_l[i]
         a = -1.0 / h

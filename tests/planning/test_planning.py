@@ -142,3 +142,36 @@ def test_load_optimal_command(cli):
     assert data["payload_mass"] > data["quintic_capacity"] > data["time_optimal_capacity"]
     result = cli(["plan", "load-optimal", "workcells/puma560", "--path", "workcells/puma560/paths/reference.yaml", "--duration", "0.5"])
     assert result.exit_code == 2 and "cannot be done in 0.5 s" in result.output
+
+
+def test_max_impulse_arrives_along_the_direction_within_limits():
+    from rworld_cli.api import device_context, device_dynamics, planning_limits
+    from rworld_cli.dynamics import Payload
+    from rworld_cli.kinematics.inverse import solve_ik
+    from rworld_cli.kinematics.jacobian import jacobian
+    from rworld_cli.planning.impulse import HermitePath, max_impulse
+
+    ctx = device_context("workcells/puma560", "puma", "probe")
+    q_end = solve_ik(ctx.device, np.linalg.inv(ctx.T_world_base) @ ctx.world.T_world("table.drop"), ctx.mount, ctx.device.home).q
+    limits = planning_limits(ctx.device)
+    dyn = device_dynamics(ctx, Payload.point_mass(2.0, [0, 0, 0]), armature=True, friction=False)
+    r = max_impulse(ctx.device, ctx.device.home, q_end, [0, 0, -1], 2.0, [0, 0, 0], limits, dyn, ctx.gravity_base, ctx.mount, 200, 16)
+    assert r.momentum == pytest.approx(2.0 * r.speed_along) and r.speed_along > 0.3
+    np.testing.assert_allclose(r.end_velocity / np.linalg.norm(r.end_velocity), [0, 0, -1], atol=1e-9)
+    np.testing.assert_allclose(jacobian(ctx.device, q_end, ctx.mount)[:3] @ r.end_joint_velocity, r.end_velocity, atol=1e-9)
+    _, q, qd, qdd = sample_trajectory(r.path, r.timing, 20001)
+    assert max(np.max(v) for v in limit_ratios(q, qd, qdd, limits, dyn, ctx.gravity_base).values()) <= 1.0
+    # the search beats the plain tangent length
+    w = np.linalg.pinv(jacobian(ctx.device, q_end, ctx.mount)[:3]) @ np.array([0, 0, -1.0])
+    plain = HermitePath(ctx.device.home, q_end, w * np.linalg.norm(q_end - ctx.device.home) / np.linalg.norm(w))
+    timing, _ = time_optimal(plain, limits, dyn, ctx.gravity_base, 200, end_at_rest=False)
+    plain_speed = float(-(jacobian(ctx.device, q_end, ctx.mount)[:3] @ plain.m1)[2] * np.sqrt(timing.x[-1]))
+    assert r.speed_along >= plain_speed - 1e-9
+
+
+def test_impulse_command(cli):
+    data = json.loads(cli(["plan", "impulse", "workcells/puma560", "--tcp", "probe", "--target", "table.drop", "--direction", "0,0,-1",
+                           "--payload-mass", "2", "--gridpoints", "100", "--json"]).stdout)
+    assert data["momentum"] > 0 and data["end_velocity"][2] < 0
+    bad = cli(["plan", "impulse", "workcells/puma560", "--target", "tabel.drop", "--direction", "0,0,-1"])
+    assert bad.exit_code == 2 and "did you mean 'table.drop'" in bad.output
