@@ -159,31 +159,36 @@ def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, g
     eps = 1e-12
     lower = alpha < -eps  # u >= (gamma - beta x) / alpha  = p + q x
     upper = alpha > eps  # u <= P + Q x
-    with np.errstate(divide="ignore", invalid="ignore"):
-        coef_p = np.where(lower, gamma / alpha, -np.inf)
-        coef_q = np.where(lower, -beta / alpha, 0.0)
-        coef_P = np.where(upper, gamma / alpha, np.inf)
-        coef_Q = np.where(upper, -beta / alpha, 0.0)
-    # intrinsic x interval of each stage: x-only rows, and every (lower, upper) pair
+    # x-only rows, and the velocity bound
     x_hi = np.minimum(xvel[:-1], xvel[1:])
     x_lo = np.zeros(gridpoints)
     xonly = ~(lower | upper)
     with np.errstate(divide="ignore", invalid="ignore"):
-        bound = np.where(xonly & (beta > eps), gamma / beta, np.inf)
-        x_hi = np.minimum(x_hi, bound.min(axis=1, initial=np.inf))
-        bound = np.where(xonly & (beta < -eps), gamma / beta, -np.inf)
-        x_lo = np.maximum(x_lo, bound.max(axis=1, initial=-np.inf))
-        d = coef_q[:, :, None] - coef_Q[:, None, :]  # (N, m, m)
+        x_hi = np.minimum(x_hi, np.where(xonly & (beta > eps), gamma / beta, np.inf).min(axis=1, initial=np.inf))
+        x_lo = np.maximum(x_lo, np.where(xonly & (beta < -eps), gamma / beta, -np.inf).max(axis=1, initial=-np.inf))
+
+    def compact(mask, pad_const, pad_slope):
+        """Each stage's rows of one kind first, padded to a common width with a bound that never binds."""
+        order = np.argsort(~mask, axis=1, kind="stable")[:, : max(int(mask.sum(axis=1).max()), 1)]
+        valid = np.take_along_axis(mask, order, axis=1)
+        a, b, g = (np.take_along_axis(v, order, axis=1) for v in (alpha, beta, gamma))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            const = np.where(valid, g / a, pad_const)
+            slope = np.where(valid, -b / a, pad_slope)
+        return order, valid, const, slope
+
+    up_rows, up_ok, coef_P, coef_Q = compact(upper, np.inf, 0.0)  # u <= P + Q x
+    lw_rows, lw_ok, coef_p, coef_q = compact(lower, -np.inf, 0.0)  # u >= p + q x
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d = coef_q[:, :, None] - coef_Q[:, None, :]  # every (lower, upper) pair of a stage: d x <= rhs
         rhs = coef_P[:, None, :] - coef_p[:, :, None]
-        pair = lower[:, :, None] & upper[:, None, :]
+        pair = lw_ok[:, :, None] & up_ok[:, None, :]
         x_hi = np.minimum(x_hi, np.where(pair & (d > eps), rhs / d, np.inf).min(axis=(1, 2), initial=np.inf))
         x_lo = np.maximum(x_lo, np.where(pair & (d < -eps), rhs / d, -np.inf).max(axis=(1, 2), initial=-np.inf))
         infeasible_pair = pair & (np.abs(d) <= eps) & (rhs < 0)
     if np.any(x_lo > x_hi + 1e-12) or infeasible_pair.any():
         k = int(np.argmax((x_lo > x_hi + 1e-12) | infeasible_pair.any(axis=(1, 2))))
         raise InfeasiblePath(f"no speed satisfies the limits at s = {s[k]:.4f} of the path (even at rest: check gravity against the torque limits)")
-    # per stage, the lower and upper u-bounds as plain lists: the passes below are sequential,
-    # and on a few dozen numbers Python floats beat numpy calls
     def per_stage(mask, *arrays):
         """Row-major flattening groups rows by stage: one tolist, then slices."""
         flat = [a[mask].tolist() for a in arrays]
@@ -191,9 +196,23 @@ def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, g
         starts = [0] + ends[:-1]
         return [list(zip(*(f[a:b] for f in flat))) for a, b in zip(starts, ends)]
 
-    row_index = np.broadcast_to(np.arange(alpha.shape[1]), alpha.shape)
-    ups = per_stage(upper, coef_Q, coef_P, row_index)
-    lws = per_stage(lower, coef_q, coef_p)
+    # Only bounds on the envelope over a stage's x interval matter: a line that another line beats at
+    # both ends of the interval is beaten all along it (exact pruning, vectorised over all stages).
+    ends = np.stack([x_lo, np.minimum(np.maximum(x_hi, x_lo), 1e12)], axis=1)  # (N, 2)
+
+    def undominated(const, slope, ok, better):
+        E = const[:, :, None] + slope[:, :, None] * ends[:, None, :]  # (N, m, 2)
+        idx = np.arange(const.shape[1])
+        earlier = idx[None, :] < idx[:, None]  # (k, j): j before k; of equal lines keep the first
+        with np.errstate(invalid="ignore"):
+            beats = better(E[:, None, :, 0], E[:, :, None, 0], True) & better(E[:, None, :, 1], E[:, :, None, 1], True)
+            strictly = better(E[:, None, :, 0], E[:, :, None, 0], False) | better(E[:, None, :, 1], E[:, :, None, 1], False)
+            return ok & ~(beats & (strictly | earlier[None]) & ok[:, None, :]).any(axis=2)
+
+    keep_up = undominated(coef_P, coef_Q, up_ok, lambda a, b, eq: a <= b if eq else a < b)
+    keep_lw = undominated(coef_p, coef_q, lw_ok, lambda a, b, eq: a >= b if eq else a > b)
+    ups = per_stage(keep_up, coef_Q, coef_P, up_rows)
+    lws = per_stage(keep_lw, coef_q, coef_p)
     xlo_l, xhi_l, ds_l, xvel_l = x_lo.tolist(), x_hi.tolist(), ds.tolist(), xvel.tolist()
     # backward pass: controllable sets, ending at rest
     K_lo = [0.0] * (gridpoints + 1)
