@@ -55,7 +55,6 @@ def _plot(kind, samples, path):
     import matplotlib
 
     matplotlib.use("Agg")
-    from pathlib import Path
 
     import matplotlib.pyplot as plt
     import numpy as np
@@ -67,8 +66,6 @@ def _plot(kind, samples, path):
     ax.set_ylabel("trials")
     ax.set_title(f"{kind}: T with orthogonality enforced (constrained) or not")
     ax.legend()
-    out = Path(path)
-    tmp = out.with_name(f".{out.name}.tmp")
-    fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
-    tmp.replace(out)
+    from ..fileio import save_figure
+
+    save_figure(fig, path)

@@ -109,7 +109,6 @@ def ik(cell, device, other_joints, tcp, target, xyz, rpy, position_only, seed, r
       rworld kinematics ik workcells/puma560 --target workpiece.grasp
       rworld kinematics ik workcells/puma560 --xyz 0.5,0.2,0.6 --position-only --json
     """
-    import numpy as np
 
     from ..api import inverse_kinematics
     from ..errors import UserError

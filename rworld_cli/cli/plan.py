@@ -49,7 +49,7 @@ def time_optimal(cell, device, other_joints, tcp, path_file, gridpoints, no_torq
 
     from ..api import load_joint_path, plan_time_optimal, resolve_payload
     from ..planning.topp import limit_ratios, sample_trajectory
-    from ..tableio import format_csv, write_csv
+    from ..tableio import write_csv
 
     ctx = context(cell, device, tcp, other_joints)
     path = load_joint_path(path_file, ctx.device)
@@ -108,7 +108,6 @@ def payload(cell, device, other_joints, tcp, path_file, timing, duration, payloa
       rworld plan payload workcells/puma560 --path workcells/puma560/paths/reference.yaml --tcp probe
       rworld plan payload workcells/puma560 --path workcells/puma560/paths/reference.yaml --tcp probe --timing quintic --duration 5
     """
-    import numpy as np
 
     from ..api import load_joint_path, plan_time_optimal
     from ..dynamics import Payload
@@ -153,7 +152,6 @@ def _plot(title, timing, info, t, ratios, path):
     import matplotlib
 
     matplotlib.use("Agg")
-    from pathlib import Path
 
     import matplotlib.pyplot as plt
     import numpy as np
@@ -177,11 +175,9 @@ def _plot(title, timing, info, t, ratios, path):
     ax2.set_ylabel("|value| / limit")
     ax2.set_ylim(0, 1.1)
     ax2.legend(loc="lower right", fontsize=7, ncol=3)
-    out = Path(path)
-    tmp = out.with_name(f".{out.name}.tmp")
-    fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
-    tmp.replace(out)
+    from ..fileio import save_figure
+
+    save_figure(fig, path)
 
 
 @plan.command("load-optimal")

@@ -47,10 +47,6 @@ def write_maps_png(readings, path: str | Path) -> Path:
             ax.set_ylabel("slices (+z, away from the sensor)")
         ax.set_title(title + ("\n" + ", ".join(r.objects) if r.objects else ""), fontsize=9)
     fig.text(0.5, 0.005, "red: contact / something in range    green: free", ha="center", va="bottom", fontsize=8, color="#444444")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    fig.savefig(tmp, dpi=120, format="png")
-    plt.close(fig)
-    tmp.replace(path)
-    return path
+    from ..fileio import save_figure
+
+    return save_figure(fig, path, dpi=120)

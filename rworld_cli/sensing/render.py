@@ -96,13 +96,9 @@ def render_png(world, path: str | Path, tolerance: float, view: tuple[float, flo
     ax.set_zlabel("z [m]")
     sensing = [f"{r.sensor}: {'on' if r.active else 'off'}" for r in readings.values()]
     ax.set_title(f"{world.cell.name}" + (f"\nsensors - {', '.join(sensing)}" if sensing else ""), fontsize=9)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
-    tmp.replace(path)
-    return path
+    from ..fileio import save_figure
+
+    return save_figure(fig, path)
 
 
 def render_glb(world, path: str | Path, tolerance: float) -> Path:
@@ -116,10 +112,6 @@ def render_glb(world, path: str | Path, tolerance: float) -> Path:
         rgba = np.array([int(color[i:i + 2], 16) for i in (1, 3, 5)] + [255], dtype=np.uint8)
         mesh.visual.face_colors = np.tile(rgba, (len(f), 1))
         scene.add_geometry(mesh, node_name=name, geom_name=name)
-    data = scene.export(file_type="glb")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_bytes(data)
-    tmp.replace(path)
-    return path
+    from ..fileio import atomic_write_bytes
+
+    return atomic_write_bytes(path, scene.export(file_type="glb"))

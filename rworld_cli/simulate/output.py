@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..fileio import atomic_write_text
+from ..fileio import atomic_write_text, save_figure
 from ..spatial import matrix_to_quat
 from ..tableio import format_csv
 from .engine import SimulationResult
@@ -125,11 +125,5 @@ def write_plots(result: SimulationResult, directory: Path) -> list[Path]:
         axes[1].legend(loc="upper right", fontsize=8, ncol=3)
         axes[2].set_xlabel("time [s]")
         fig.suptitle(f"{result.cell}: {name} (cycle time {tl.cycle_time:.2f} s)")
-        path = directory / f"plot_{name}.png"
-        directory.mkdir(parents=True, exist_ok=True)
-        tmp = directory / f".plot_{name}.png.tmp"
-        fig.savefig(tmp, dpi=110, format="png")
-        plt.close(fig)
-        tmp.replace(path)
-        written.append(path)
+        written.append(save_figure(fig, directory / f"plot_{name}.png"))
     return written

@@ -10,11 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rworld_cli import spatial
 from rworld_cli.calibration.fit import FitError, fit_circle, fit_line, fit_plane
 from rworld_cli.calibration.measurements import load_measurements
 from rworld_cli.calibration.pipeline import calibrate, measurement_yaml, simulate_measurements
-from rworld_cli.errors import UserError
 from rworld_cli.schema.loader import load_cell
 from rworld_cli.world.tree import World
 from tests.conftest import WORKCELLS

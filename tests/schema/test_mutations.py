@@ -49,6 +49,14 @@ def _set(data, path, value=None, delete=False):
         data[path[-1]] = value
 
 
+def mutants(original):
+    """Three wrong values per scalar, rotating (so every kind meets every part of the file), and every key deleted."""
+    scalars, keys = _paths(original)
+    n = len(WRONG_VALUES)
+    out = [(p, WRONG_VALUES[(3 * i + k) % n], False) for i, p in enumerate(scalars) for k in range(3)]
+    return out + [(p, None, True) for p in keys]
+
+
 def _check(result):
     assert result.exit_code in (0, 2), (result.exit_code, result.output)
     assert "Traceback" not in result.output
@@ -65,13 +73,9 @@ def test_every_mutation_is_reported_cleanly(cell_name, file_name, tmp_path):
     work = tmp_path / cell_name
     shutil.copytree(WORKCELLS / cell_name, work)
     original = yaml.safe_load((WORKCELLS / cell_name / file_name).read_text())
-    scalars, keys = _paths(original)
-    # three wrong values per scalar, rotating, so every kind of wrong value meets every part of the file
-    n = len(WRONG_VALUES)
-    mutants = [(p, WRONG_VALUES[(3 * i + k) % n], False) for i, p in enumerate(scalars) for k in range(3)]
-    mutants += [(p, None, True) for p in keys]
+    cases = mutants(original)
     invalid = 0
-    for path, value, delete in mutants:
+    for path, value, delete in cases:
         data = copy.deepcopy(original)
         _set(data, path, value, delete)
         (work / file_name).write_text(yaml.safe_dump(data, sort_keys=False))
@@ -79,4 +83,4 @@ def test_every_mutation_is_reported_cleanly(cell_name, file_name, tmp_path):
         _check(result)
         invalid += result.exit_code == 2
     # the mutations are not toothless: most of them must be refused
-    assert invalid > 0.5 * len(mutants), (invalid, len(mutants))
+    assert invalid > 0.5 * len(cases), (invalid, len(cases))

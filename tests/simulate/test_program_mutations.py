@@ -16,7 +16,7 @@ from rworld_cli.errors import UserError
 from rworld_cli.simulate.engine import simulate
 from rworld_cli.simulate.load import load_run
 from tests.conftest import WORKCELLS
-from tests.schema.test_mutations import WRONG_VALUES, _paths, _set
+from tests.schema.test_mutations import _set, mutants
 
 CASES = [("puma560", "programs/pick_place.yaml", "runs/pick_place.yaml"),
          ("paper_fig9", "programs/robot.yaml", "runs/transfer.yaml"),
@@ -29,12 +29,9 @@ def test_every_program_mutation_is_reported_cleanly(cell_name, file_name, run_na
     work = tmp_path / cell_name
     shutil.copytree(WORKCELLS / cell_name, work)
     original = yaml.safe_load((WORKCELLS / cell_name / file_name).read_text())
-    scalars, keys = _paths(original)
-    n = len(WRONG_VALUES)
-    mutants = [(p, WRONG_VALUES[(3 * i + k) % n], False) for i, p in enumerate(scalars) for k in range(3)]
-    mutants += [(p, None, True) for p in keys]
+    cases = mutants(original)
     refused = 0
-    for path, value, delete in mutants:
+    for path, value, delete in cases:
         data = copy.deepcopy(original)
         _set(data, path, value, delete)
         (work / file_name).write_text(yaml.safe_dump(data, sort_keys=False))
@@ -43,4 +40,4 @@ def test_every_program_mutation_is_reported_cleanly(cell_name, file_name, run_na
         except UserError as exc:  # the located, exit-2 kind of failure
             refused += 1
             assert exc.lines() and all(line.strip() for line in exc.lines())
-    assert refused > 0.5 * len(mutants)
+    assert refused > 0.5 * len(cases)
