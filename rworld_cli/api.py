@@ -55,21 +55,25 @@ class FileReport:
         }
 
 
-def _file_kind(path: Path) -> str:
-    """'cell' or 'poses', from the top-level keys (a directory means its cell.yaml)."""
-    if path.is_dir():
-        return "cell"
-    try:
-        from .schema.yamlio import read_yaml
+def _file_kind(path: Path):
+    """(kind, parsed document or None): 'cell', 'poses', 'program' or 'run', from the top-level keys.
 
-        data = read_yaml(path).data
+    A directory means its cell.yaml.  A file that cannot be read or parsed is
+    treated as a cell, so the cell loader reports the problem with its location.
+    """
+    if path.is_dir():
+        return "cell", None
+    from .schema.yamlio import read_yaml
+
+    try:
+        doc = read_yaml(path)
     except UserError:
-        return "cell"  # the cell loader reports the read error with its location
-    if isinstance(data, dict) and "name" not in data:
+        return "cell", None
+    if isinstance(doc.data, dict) and "name" not in doc.data:
         for key, kind in (("poses", "poses"), ("steps", "program"), ("programs", "run")):
-            if key in data:
-                return kind
-    return "cell"
+            if key in doc.data:
+                return kind, doc
+    return "cell", doc
 
 
 def validate_files(paths: list[str]) -> list[FileReport]:
@@ -85,16 +89,18 @@ def validate_files(paths: list[str]) -> list[FileReport]:
     list of FileReport
         One per path, in order; ``valid`` is False when a file has errors.
     """
-    from .schema.loader import load_cell, load_pose_file_doc, resolve_cell_path
+    from .schema import models as sm
+    from .schema import program as sp
+    from .schema.loader import load_cell, resolve_cell_path, validate_document
 
     reports = []
     for raw in paths:
-        kind = _file_kind(Path(raw))
+        kind, doc = _file_kind(Path(raw))
         shown = resolve_cell_path(raw)[1] if kind == "cell" else raw
         report = FileReport(shown, kind)
         try:
             if kind == "cell":
-                loaded = load_cell(raw)
+                loaded = load_cell(raw, doc)
                 report.warnings = loaded.warnings
                 c = loaded.cell
                 report.summary = (
@@ -102,15 +108,11 @@ def validate_files(paths: list[str]) -> list[FileReport]:
                     f"{len(c.frames) - 1} frame(s), {len(c.features)} feature(s), {len(c.conditions)} condition(s)"
                 )
             elif kind == "poses":
-                _, pf = load_pose_file_doc(raw)
+                pf = validate_document(doc, sm.PoseFile)
                 report.summary = f"{len(pf.poses)} pose(s); frame names are checked when a cell uses this file"
             else:
-                from .schema import program as sp
-                from .schema.loader import validate_document
-                from .schema.yamlio import read_yaml
-
                 model = sp.ProgramFile if kind == "program" else sp.RunFile
-                parsed = validate_document(read_yaml(raw), model)
+                parsed = validate_document(doc, model)
                 count = f"{len(parsed.steps)} step(s) for {parsed.device}" if kind == "program" else f"{len(parsed.programs)} program(s)"
                 report.summary = f"{count}; names are checked against the cell by 'rworld simulate' and 'rworld check'"
         except UserError as exc:

@@ -88,12 +88,6 @@ class UserError(RworldError):
         return [self.message]
 
 
-class CheckFailed(RworldError):
-    """A check ran and its answer is "no" (a limit violated, ...).  Exit code 1."""
-
-    exit_code = 1
-
-
 class InternalError(RworldError):
     """A bug in rworld.  CLI exit code 3."""
 

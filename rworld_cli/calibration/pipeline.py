@@ -246,7 +246,7 @@ def calibrate(cell: CellModel, measured: MeasurementSet, frames: list[str] | Non
     for name in wanted:
         if name not in solutions and name not in undetermined:
             undetermined[name] = "not solved"
-    return CalibrationResult(cell.name, {k: v for k, v in solutions.items()}, fits, overlay,
+    return CalibrationResult(cell.name, solutions, fits, overlay,
                              {k: v for k, v in undetermined.items() if k in wanted}, measured.files)
 
 

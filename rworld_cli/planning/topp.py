@@ -291,11 +291,6 @@ def limit_ratios(q, qd, qdd, limits: Limits, dynamics=None, gravity=None) -> dic
     return out
 
 
-def dense_ratio(path, timing, limits, dynamics, gravity, samples) -> float:
-    _, q, qd, qdd = sample_trajectory(path, timing, samples)
-    return float(max(np.max(r) for r in limit_ratios(q, qd, qdd, limits, dynamics, gravity).values()))
-
-
 def dense_slowdown(path, timing, limits, dynamics, gravity, samples) -> tuple[float, float]:
     """(factor k >= 1 that a uniform slow-down needs, worst limit ratio now) from a dense sampling.
 

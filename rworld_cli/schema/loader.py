@@ -112,13 +112,15 @@ def validate_document(doc: Marked, model: type[BaseModel]):
     return result
 
 
-def load_cell(path: str | Path) -> LoadedCell:
+def load_cell(path: str | Path, doc: Marked | None = None) -> LoadedCell:
     """Load, check and convert a cell file (and the pose files it names).
 
     Parameters
     ----------
     path : str or Path
         ``cell.yaml`` or the directory holding it.
+    doc : Marked, optional
+        The file already parsed (``validate`` reads it once to tell its kind).
 
     Returns
     -------
@@ -130,7 +132,8 @@ def load_cell(path: str | Path) -> LoadedCell:
         With every error (and the warnings) of the cell and its pose files.
     """
     real, shown = resolve_cell_path(path)
-    doc = read_yaml(real, shown)
+    if doc is None:
+        doc = read_yaml(real, shown)
     cell_file = validate_document(doc, sm.CellFile)
     builder = _Builder(doc, cell_file, real.parent, Path(shown).parent)
     cell = builder.build(real)

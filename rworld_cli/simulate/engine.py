@@ -479,10 +479,8 @@ def _sample(run: Run, sched: _Scheduler, progress) -> SimulationResult:
             if b <= a:
                 continue
             world.restore(snap)
-            world.set_joints(d, q[d][a])
-            for other in devices:
-                if other != d:
-                    world.set_joints(other, q[other][a])
+            for other in devices:  # the state at the interval's start fixes the loads' poses
+                world.set_joints(other, q[other][a])
             dyn = DeviceDynamics(dev, link_loads=world.carried_loads(d))
             tau[a:b] = dyn.inverse(q[d][a:b], qd[d][a:b], qdd[d][a:b], g_base[a:b])
             done += 1
