@@ -2,6 +2,8 @@
 
 Run:  .venv/bin/pip install -e ".[bench]" && .venv/bin/python bench/planning.py [--grids 100 500 1000 2000]
 
+Grid sizes count grid points, as toppra and the reference do (N points, N - 1 intervals).
+
 The problem is ../shared/reference/planning/puma560_path.json: the Puma 560
 (rigid body + armature, no friction), a clamped cubic spline through 5
 waypoints, velocity / acceleration / torque limits.  toppra 0.6 runs with
@@ -9,9 +11,12 @@ the seidel solver, ParametrizeConstAccel output and the torque constraint
 discretised by Interpolation (as the reference); its torques come from
 rworld's inverse dynamics (the same model).  Both results are sampled at
 20 001 instants; "worst" is the largest |value| / limit there.  Runtimes:
-best of --repeat, in the same run; rworld's includes its dense check.
-Payload capacity (exact, affine in mass) on toppra's rated timing, on
-rworld's, and on a 5 s quintic, against the reference figures.
+best of --repeat, in the same run; rworld's includes its checks and local
+repairs between grid points.  "grid only" is rworld's solution before those
+repairs - the same problem toppra solves.  Payload capacity (exact, affine in
+mass) on toppra's rated timing, on rworld's, and on a 5 s quintic, against
+the reference figures; "with switches" also evaluates both one-sided limits
+at every grid instant, where the acceleration jumps.
 """
 
 from __future__ import annotations
@@ -82,15 +87,16 @@ def main():
                 return dyn.inverse(np.atleast_2d(q), np.atleast_2d(qd), np.atleast_2d(qdd), g).reshape(np.shape(q))
             cons.append(constraint.JointTorqueConstraint(inv_dyn, np.column_stack([-limits.effort, limits.effort]), np.zeros(6),
                                                          discretization_scheme=constraint.DiscretizationType.Interpolation))
-        instance = algo.TOPPRA(cons, path, gridpoints=np.linspace(0, 1, grid + 1), parametrizer="ParametrizeConstAccel")
+        instance = algo.TOPPRA(cons, path, gridpoints=np.linspace(0, 1, grid), solver_wrapper="seidel", parametrizer="ParametrizeConstAccel")
         return instance.compute_trajectory()
 
     def sampled_toppra(traj):
         t = np.linspace(0, traj.duration, 20001)
         return t, traj(t), traj(t, 1), traj(t, 2)
 
-    print(f"{'config':8s} {'grid':>5s} | {'toppra T [s]':>13s} {'worst':>8s} {'ms':>7s} | {'rworld T [s]':>13s} {'worst':>9s} {'ms':>7s} | "
-          f"{'T ratio':>8s} {'time ratio':>10s}")
+    ref_T = {(r["config"], r["gridpoints"]): r["duration_s"] for r in REF["toppra_results"]}
+    print(f"{'config':8s} {'grid':>5s} | {'toppra T [s]':>13s} {'vs ref':>8s} {'worst':>8s} {'ms':>7s} | {'grid only':>9s} | "
+          f"{'rworld T [s]':>13s} {'worst':>9s} {'ms':>7s} | {'T ratio':>8s} {'time ratio':>10s}")
     toppra_rated = None
     for name, (limits, torque) in configs.items():
         for grid in args.grids:
@@ -99,30 +105,45 @@ def main():
             worst_toppra = max(np.max(r) for r in limit_ratios(q, qd, qdd, limits, dyn if torque else None, g).values())
             if name == "a_rated" and grid == 1000:
                 toppra_rated = traj
-            (timing, info), t_ours = best(lambda: time_optimal(ours_path, limits, dyn if torque else None, g, grid), args.repeat)
-            print(f"{name:8s} {grid:5d} | {traj.duration:13.6f} {worst_toppra:8.5f} {t_toppra * 1000:7.1f} | {timing.duration:13.6f} "
-                  f"{info['dense_ratio']:9.7f} {t_ours * 1000:7.1f} | {timing.duration / traj.duration:8.5f} {t_ours / t_toppra:10.2f}")
+            plain, _ = time_optimal(ours_path, limits, dyn if torque else None, g, grid, repair=False)
+            (timing, _), t_ours = best(lambda: time_optimal(ours_path, limits, dyn if torque else None, g, grid), args.repeat)
+            _, q, qd, qdd = sample_trajectory(ours_path, timing, 20001)
+            worst_ours = max(np.max(r) for r in limit_ratios(q, qd, qdd, limits, dyn if torque else None, g).values())
+            vs_ref = f"{traj.duration / ref_T[(name, grid)] - 1:+8.0e}" if (name, grid) in ref_T else f"{'-':>8s}"
+            print(f"{name:8s} {grid:5d} | {traj.duration:13.6f} {vs_ref} {worst_toppra:8.5f} {t_toppra * 1000:7.1f} | "
+                  f"{plain.duration / traj.duration - 1:+9.0e} | {timing.duration:13.6f} {worst_ours:9.7f} {t_ours * 1000:7.1f} | "
+                  f"{timing.duration / traj.duration:8.5f} {t_ours / t_toppra:10.2f}")
 
-    print("\npayload capacity (point mass at [0, 0, 0.1] m in frame 6), exact:")
+    print("\npayload capacity (point mass at [0, 0, 0.1] m in frame 6), exact (torque is affine in mass):")
     ref = {c["label"]: c for c in REF["payload_capacity"]}
+
+    def capacity(path, timing_or_traj, switches=False):
+        if hasattr(timing_or_traj, "u"):
+            _, q, qd, qdd = sample_trajectory(path, timing_or_traj, 20001, switches=switches)
+        else:
+            _, q, qd, qdd = sampled_toppra(timing_or_traj)
+        return payload_capacity(device, q, qd, qdd, g, [0, 0, 0.1])
+
     if toppra_rated is not None:
-        _, q, qd, qdd = sampled_toppra(toppra_rated)
-        cap = payload_capacity(device, q, qd, qdd, g, [0, 0, 0.1])
+        cap = capacity(None, toppra_rated)
         r = ref["toppra v+a(rated) optimal"]
-        print(f"  on toppra's rated timing ({toppra_rated.duration:.6f} s): {cap.mass:.6f} kg, joint {cap.joint + 1} "
-              f"(reference {r['m_star_linear_kg']:.6f} kg, joint {r['binding_joint']}; difference {cap.mass - r['m_star_linear_kg']:+.1e} kg)")
-    timing, _ = time_optimal(ours_path, configs["a_rated"][0], None, g, 1000)
-    _, q, qd, qdd = sample_trajectory(ours_path, timing, 20001)
-    cap = payload_capacity(device, q, qd, qdd, g, [0, 0, 0.1])
-    print(f"  on rworld's rated timing ({timing.duration:.6f} s): {cap.mass:.6f} kg, joint {cap.joint + 1}")
+        print(f"  on toppra's rated timing, 1000 points ({toppra_rated.duration:.9f} s): {cap.mass:.6f} kg, joint {cap.joint + 1} "
+              f"(reference {r['m_star_linear_kg']:.6f} kg on {r['duration_s']:.9f} s, joint {r['binding_joint']}; "
+              f"difference {cap.mass - r['m_star_linear_kg']:+.1e} kg)")
+    for label, repair in (("grid only", False), ("checked between grid points", True)):
+        timing, _ = time_optimal(ours_path, configs["a_rated"][0], None, g, 1000, repair=repair)
+        sampled, exact = capacity(ours_path, timing), capacity(ours_path, timing, switches=True)
+        print(f"  on rworld's rated timing, 1000 points, {label} ({timing.duration:.9f} s): {sampled.mass:.6f} kg sampled "
+              f"at 20 001 instants, {exact.mass:.6f} kg with switches, joint {exact.joint + 1}")
     t, s, sd, sdd = quintic_timing(5.0, 20001)
     q, dq, ddq = ours_path.evaluate(s)
     cap = payload_capacity(device, q, dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None], g, [0, 0, 0.1])
     r = ref["quintic time law, T=5.0 s"]
     print(f"  on the 5 s quintic: {cap.mass:.6f} kg, joint {cap.joint + 1} (reference {r['m_star_linear_kg']:.6f} kg; "
           f"difference {cap.mass - r['m_star_linear_kg']:+.1e} kg)")
-    print("\nworst = max |value| / limit over 20 001 samples (above 1: a violation); T ratio = rworld / toppra duration; "
-          "time ratio = rworld / toppra runtime")
+    print("\ngrid = grid points; vs ref = toppra's duration here against the reference file's; worst = max |value| / limit "
+          "over 20 001 samples (above 1: a violation); grid only = rworld's grid solution against toppra's duration; "
+          "T ratio = rworld / toppra duration; time ratio = rworld / toppra runtime")
 
 
 if __name__ == "__main__":

@@ -8,6 +8,9 @@ from .common import emit_json, handle_errors, json_option
 from .physics_common import context, device_options, output_options, parse_vector
 
 
+GRID_HELP = "Grid points on the path (N points, N - 1 intervals), as toppra counts them."
+
+
 @click.group()
 def plan() -> None:
     """Trajectory planning for a device along a joint path (a spline through waypoints).
@@ -21,7 +24,7 @@ def plan() -> None:
 @plan.command("time-optimal")
 @device_options
 @click.option("--path", "path_file", required=True, type=click.Path(dir_okay=False), help="Path file (YAML).")
-@click.option("--gridpoints", default=1000, show_default=True, type=click.IntRange(10, 100000))
+@click.option("--gridpoints", default=1000, show_default=True, type=click.IntRange(10, 100000), help=GRID_HELP)
 @click.option("--no-torque", is_flag=True, help="Velocity and acceleration limits only.")
 @click.option("--payload", "payload_object", default=None, metavar="OBJECT", help="An object's mass properties at the TCP.")
 @click.option("--payload-mass", default=None, type=float, metavar="KG", help="A point mass at the TCP (see --payload-com).")
@@ -36,9 +39,11 @@ def time_optimal(cell, device, other_joints, tcp, path_file, gridpoints, no_torq
     """The fastest rest-to-rest timing of a path within velocity, acceleration and torque limits.
 
     Reachability analysis (as in TOPP-RA) on a grid, with the limits
-    imposed at both ends of every interval; the result is then checked at
-    20 001 instants and slowed uniformly if anything exceeds a limit there,
-    so the trajectory respects every limit when sampled densely.
+    imposed at both ends of every interval.  Between grid points the
+    velocity and acceleration maxima are found exactly and torque is checked
+    at 20 001 instants; an interval that exceeds a limit is slowed locally
+    and the grid solved again, so the trajectory respects every limit between
+    grid points as well.
 
     \b
     Examples:
@@ -75,14 +80,17 @@ def time_optimal(cell, device, other_joints, tcp, path_file, gridpoints, no_torq
     peaks = {k: float(np.max(v)) for k, v in ratios.items()}
     if json_output:
         emit_json({"device": ctx.device.name, "path": path_file, "gridpoints": gridpoints, "duration": timing.duration,
-                   "binding": binding, "dense_ratio": info["dense_ratio"], "slowdown": timing.scale, "peak_ratio": peaks,
-                   "written": output, "plot": plot})
+                   "binding": binding, "dense_ratio": info["dense_ratio"], "repaired_gridpoints": info["repaired"],
+                   "rounds": info["rounds"], "slowdown": timing.scale, "peak_ratio": peaks, "written": output, "plot": plot})
         return
-    click.echo(f"{ctx.device.name}: {path_file}: cycle time {timing.duration:.6f} s ({gridpoints} grid intervals)")
+    click.echo(f"{ctx.device.name}: {path_file}: cycle time {timing.duration:.6f} s ({gridpoints} grid points)")
     click.echo("binding along the path: " + ", ".join(f"{k} {v:.0%}" for k, v in binding.items()))
     click.echo("peak ratio to the limits (dense): " + ", ".join(f"{k} {v:.6f}" for k, v in peaks.items()))
+    if info["repaired"]:
+        click.echo(f"slowed locally at {info['repaired']} grid point(s) so that no limit is exceeded between grid points "
+                   f"({info['rounds']} solves)")
     if timing.scale > 1:
-        click.echo(f"slowed by {timing.scale - 1:.2e} (relative) so that no limit is exceeded between grid points")
+        click.echo(f"slowed uniformly by {timing.scale - 1:.2e} (relative): the local repairs did not settle")
     for path_out in (output, plot):
         if path_out:
             click.echo(f"wrote {path_out}")
@@ -96,8 +104,9 @@ def time_optimal(cell, device, other_joints, tcp, path_file, gridpoints, no_torq
 @click.option("--duration", type=float, default=None, help="Quintic: the duration [s].")
 @click.option("--payload-com", default="0,0,0", show_default=True, metavar="X,Y,Z", help="Where the point mass sits, TCP frame [m].")
 @click.option("--payload", "payload_object", default=None, metavar="OBJECT", help="Scale an object's mass properties instead of a point mass.")
-@click.option("--gridpoints", default=1000, show_default=True, type=click.IntRange(10, 100000))
-@click.option("--samples", default=20001, show_default=True, type=click.IntRange(2, 1_000_000))
+@click.option("--gridpoints", default=1000, show_default=True, type=click.IntRange(10, 100000), help=GRID_HELP)
+@click.option("--samples", default=20001, show_default=True, type=click.IntRange(2, 1_000_000),
+              help="Instants checked; a time-optimal timing adds both sides of every grid instant, where the acceleration jumps.")
 @json_option
 @handle_errors
 def payload(cell, device, other_joints, tcp, path_file, timing, duration, payload_com, payload_object, gridpoints, samples, json_output):
@@ -126,7 +135,8 @@ def payload(cell, device, other_joints, tcp, path_file, timing, duration, payloa
         T = duration
     else:
         tm, _, _, _ = plan_time_optimal(ctx, path, None, gridpoints, torque=False)
-        t, q, qd, qdd = sample_trajectory(path, tm, samples)
+        # the acceleration jumps at grid instants: both one-sided limits count, not only the samples
+        t, q, qd, qdd = sample_trajectory(path, tm, samples, switches=True)
         T = tm.duration
     unit = None
     if payload_object:
@@ -185,7 +195,7 @@ def _plot(title, timing, info, t, ratios, path):
 @click.option("--path", "path_file", required=True, type=click.Path(dir_okay=False), help="Path file (YAML).")
 @click.option("--duration", required=True, type=float, help="The cycle time [s].")
 @click.option("--payload-com", default="0,0,0", show_default=True, metavar="X,Y,Z", help="Where the point mass sits, TCP frame [m].")
-@click.option("--gridpoints", default=400, show_default=True, type=click.IntRange(10, 100000))
+@click.option("--gridpoints", default=400, show_default=True, type=click.IntRange(10, 100000), help=GRID_HELP)
 @click.option("--tolerance", default=1e-4, show_default=True, type=float, help="Mass resolution [kg].")
 @click.option("--samples", default=1000, show_default=True, type=click.IntRange(2, 1_000_000), help="Rows of the CSV output.")
 @output_options
@@ -244,7 +254,7 @@ def load_optimal_cmd(cell, device, other_joints, tcp, path_file, duration, paylo
 @click.option("--payload-mass", default=0.0, show_default=True, type=float, help="Mass carried at the TCP [kg].")
 @click.option("--payload-com", default="0,0,0", show_default=True, metavar="X,Y,Z", help="Its position in the TCP frame [m].")
 @click.option("--start", default=None, metavar="Q1,...,QN", help="Start configuration (SI); default the device's current values.")
-@click.option("--gridpoints", default=300, show_default=True, type=click.IntRange(10, 100000))
+@click.option("--gridpoints", default=300, show_default=True, type=click.IntRange(10, 100000), help=GRID_HELP)
 @json_option
 @handle_errors
 def impulse(cell, device, other_joints, tcp, target, direction, payload_mass, payload_com, start, gridpoints, json_output):

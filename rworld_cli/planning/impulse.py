@@ -27,16 +27,14 @@ class HermitePath(JointPath):
     """q(s) from q0 (tangent 0) to q1 (tangent m1), cubic Hermite, s in [0, 1]."""
 
     def __init__(self, q0, q1, m1):
-        self.waypoints = np.stack([q0, q1])
-        self.q0, self.q1, self.m1 = (np.asarray(v, dtype=float) for v in (q0, q1, m1))
+        from scipy.interpolate import PPoly
 
-    def evaluate(self, s):
-        s = np.clip(np.asarray(s, dtype=float), 0.0, 1.0)[:, None]
-        h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
-        d01, d11 = -6 * s**2 + 6 * s, 3 * s**2 - 2 * s
-        dd01, dd11 = -12 * s + 6, 6 * s - 2
+        self.q0, self.q1, self.m1 = (np.asarray(v, dtype=float) for v in (q0, q1, m1))
+        self.waypoints = np.stack([self.q0, self.q1])
         dq = self.q1 - self.q0
-        return self.q0 + h01 * dq + h11 * self.m1, d01 * dq + d11 * self.m1, dd01 * dq + dd11 * self.m1
+        # q0 + (3 s^2 - 2 s^3) dq + (s^3 - s^2) m1, highest power first
+        coefficients = np.stack([-2 * dq + self.m1, 3 * dq - self.m1, np.zeros_like(dq), self.q0])[:, None, :]
+        self._set_polynomial(PPoly(coefficients, np.array([0.0, 1.0])))
 
 
 @dataclass

@@ -108,7 +108,7 @@ def load_optimal(device, path, limits, gravity, com_in_tool, duration: float, mo
     stretch = duration / best.duration
     timing = Timing(best.s, best.x / stretch**2, best.u / stretch**2, _times(best.s, best.x / stretch**2), best.scale * stretch)
     fast, _ = time_optimal(path, Limits(limits.velocity, limits.acceleration, None), None, gravity, gridpoints)
-    _, q, qd, qdd = sample_trajectory(path, fast, 20001)
+    _, q, qd, qdd = sample_trajectory(path, fast, 20001, switches=True)
     t_opt = payload_capacity(device, q, qd, qdd, gravity, com_in_tool, mount).mass
     _, s, sd, sdd = quintic_timing(duration, 20001)
     q, dq, ddq = path.evaluate(s)

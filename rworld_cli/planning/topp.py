@@ -9,19 +9,30 @@ q(s), s in [0, 1], with x = sdot^2 and u = sddot:
   with a_t = M q', b_t = M q'' + C(q, q') q', c_t = g(q) from the batched
   Newton-Euler (``DeviceDynamics``: armature in M, payload folded in).
 
-On a grid s_0 < ... < s_N, u is constant on each interval and x is linear
-in s (x_{i+1} = x_i + 2 ds u).  Constraints are imposed at both ends of each
-interval ("interpolation").  Each stage's constraints are linear in (u, x);
-eliminating u (Fourier-Motzkin) gives the feasible x as an interval - the
-part that does not depend on the neighbouring stage is computed for all
-stages at once, vectorised.  A backward pass builds the controllable sets
-K_i (from rest at the end); a forward pass takes the largest u that stays
-controllable (from rest at the start).
+On a grid s_0 < ... < s_N (``gridpoints`` = N + 1 points, as in toppra), u is
+constant on each interval and x is linear in s (x_{i+1} = x_i + 2 ds u).
+Acceleration and torque limits are imposed at both ends of each interval
+("interpolation"), velocity limits at the grid points.  Each stage's
+constraints are linear in (u, x); eliminating u (Fourier-Motzkin) gives the
+feasible x as an interval - the part that does not depend on the
+neighbouring stage is computed for all stages at once, vectorised.  A
+backward pass builds the controllable sets K_i (from rest at the end); a
+forward pass takes the largest u that stays controllable (from rest at the
+start).
 
-Between grid points the spline's curvature varies, so the profile is
-checked at ``check_samples`` times and, if any limit is exceeded there,
-slowed uniformly until none is - the trajectory respects every limit when
-sampled densely, not only at grid points.
+Between grid points the path's curvature varies, so a limit can be exceeded
+there.  After each solve the exact maxima of joint velocity and acceleration
+on every interval are found in closed form (on a cubic piece with x linear
+in s, qdd is a quadratic in s and d(qd^2)/ds = 2 q' qdd, so the candidates are
+the ends, the vertex and the roots of qdd), and torque is sampled at
+``check_samples`` instants.  An interval that exceeds a limit gets its two
+grid points capped at the speed that fixes it (scaling x on an interval
+scales qd by sqrt, qdd and the motion torque linearly), and the passes run
+again - a local slow-down, where the excess is.  If that has not settled
+after a few rounds, the whole timing is slowed uniformly by the factor the
+check asks for.  Either way the returned trajectory respects every limit
+between grid points as well (velocity and acceleration exactly, torque at
+the check samples).
 """
 
 from __future__ import annotations
@@ -73,10 +84,16 @@ class Timing:
     def duration(self) -> float:
         return float(self.t[-1])
 
-    def sample(self, times: np.ndarray):
-        """s, sdot, sddot at ``times`` (vectorised)."""
+    def sample(self, times: np.ndarray, interval: np.ndarray | None = None):
+        """s, sdot, sddot at ``times`` (vectorised).
+
+        ``interval`` (same shape, optional) names the grid interval whose sddot applies - at a grid
+        instant, ``k - 1`` gives the limit from the left; by default the interval that starts there.
+        """
         times = np.clip(np.asarray(times, dtype=float), 0.0, self.duration)
-        k = np.clip(np.searchsorted(self.t, times, side="right") - 1, 0, len(self.u) - 1)
+        if interval is None:
+            interval = np.searchsorted(self.t, times, side="right") - 1
+        k = np.clip(interval, 0, len(self.u) - 1)
         tau = times - self.t[k]
         sd0 = np.sqrt(np.maximum(self.x[k], 0.0))
         u = self.u[k]
@@ -107,176 +124,399 @@ def _rows(alpha, beta, lo, hi):
     return np.concatenate([np.stack([alpha, beta, hi], axis=-1), np.stack([-alpha, -beta, -lo], axis=-1)], axis=1)
 
 
+_MARGIN = 1e-9  # the grid solution and the repairs aim this far (relative) inside the limits
+
+
+class _Stages:
+    """The grid problem: per stage i (interval [s_i, s_i+1]) the bounds on u as lines in x_i, pruned.
+
+    ``up_Q[i]``, ``up_P[i]``, ``up_row[i]``: u <= P + Q x_i (and the constraint row it came from);
+    ``lw_q[i]``, ``lw_p[i]``: u >= p + q x_i; lists padded with bounds that never bind;
+    ``x_lo``, ``x_hi``: the x_i interval where the stage is feasible at all.
+    """
+
+    EPS = 1e-12
+
+    def __init__(self, path: JointPath, s: np.ndarray, limits: Limits, dynamics=None, gravity=None):
+        # the grid solution sits a hair inside every limit, so rounding never puts a grid point just over it
+        limits = Limits(*(None if v is None else np.asarray(v, dtype=float) * (1.0 - _MARGIN)
+                          for v in (limits.velocity, limits.acceleration, limits.effort)))
+        self.s = s
+        self.ds = np.diff(s)
+        stages = len(s) - 1
+        q, dq, ddq, torque = path_coefficients(path, s, dynamics, gravity)
+        n = q.shape[1]
+        rows = []  # per grid point: alpha u + beta x <= gamma
+        labels = []
+        if limits.acceleration is not None:
+            amax = np.broadcast_to(limits.acceleration, (len(s), n))
+            rows.append(_rows(dq, ddq, -amax, amax))
+            labels += [f"acceleration {j + 1}" for j in range(n)] * 2
+        if torque is not None and limits.effort is not None:
+            a_t, b_t, c_t = torque
+            tmax = np.broadcast_to(limits.effort, (len(s), n))
+            finite = np.isfinite(tmax)
+            rows.append(_rows(a_t, b_t, np.where(finite, -tmax - c_t, -np.inf), np.where(finite, tmax - c_t, np.inf)))
+            labels += [f"torque {j + 1}" for j in range(n)] * 2
+        with np.errstate(divide="ignore"):
+            self.xvel = np.min(np.where(np.abs(dq) > 1e-12, (limits.velocity / np.abs(dq)) ** 2, np.inf), axis=1)
+        if rows:
+            R = np.concatenate(rows, axis=1)  # (N+1, m, 3)
+            # interpolation: stage i holds the constraints of point i and of point i+1 with x_{i+1} = x_i + 2 ds u
+            here = R[:-1]
+            there = R[1:].copy()
+            there[..., 0] = there[..., 0] + 2.0 * self.ds[:, None] * there[..., 1]
+            stage = np.concatenate([here, there], axis=1)  # (N, 2m, 3)
+            self.labels = labels + labels
+        else:
+            stage = np.zeros((stages, 0, 3))
+            self.labels = []
+        stage = np.where(np.isfinite(stage), stage, np.where(stage > 0, 1e300, -1e300))
+        alpha, beta, gamma = stage[..., 0], stage[..., 1], stage[..., 2]
+        eps = self.EPS
+        lower = alpha < -eps  # u >= (gamma - beta x) / alpha  = p + q x
+        upper = alpha > eps  # u <= P + Q x
+        # x-only rows, and the velocity bound at the stage's own point (point i+1 is stage i+1's)
+        x_hi = self.xvel[:-1].copy()
+        x_lo = np.zeros(stages)
+        xonly = ~(lower | upper)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x_hi = np.minimum(x_hi, np.where(xonly & (beta > eps), gamma / beta, np.inf).min(axis=1, initial=np.inf))
+            x_lo = np.maximum(x_lo, np.where(xonly & (beta < -eps), gamma / beta, -np.inf).max(axis=1, initial=-np.inf))
+
+        with np.errstate(divide="ignore", invalid="ignore"):
+            const_all, slope_all = gamma / alpha, -beta / alpha  # u <= (or >=) const + slope x
+
+        def compact(mask, *arrays, pads):
+            """Each stage's rows where ``mask`` first, cut to the widest stage; the rest padded with bounds that never bind."""
+            width = max(int(mask.sum(axis=1).max()), 1)
+            order = np.argsort(~mask, axis=1, kind="stable")[:, :width]
+            valid = np.take_along_axis(mask, order, axis=1)
+            return order, valid, [np.where(valid, np.take_along_axis(v, order, axis=1), pad) for v, pad in zip(arrays, pads)]
+
+        # Only bounds on the envelope over a stage's x interval matter: a line that another line beats at
+        # both ends of the interval is beaten all along it (exact pruning, vectorised over all stages).
+        # It runs over the x range the velocity allows, before pairing, so pairing sees few lines;
+        # the stage's final interval and any caps added later lie inside it, so the pruning stays exact.
+        ends = np.stack([x_lo, np.minimum(np.maximum(x_hi, x_lo), 1e12)], axis=1)  # (N, 2)
+
+        def undominated(const, slope, ok, better):
+            E = const[:, :, None] + slope[:, :, None] * ends[:, None, :]  # (N, m, 2)
+            idx = np.arange(const.shape[1])
+            earlier = idx[None, :] < idx[:, None]  # (k, j): j before k; of equal lines keep the first
+            with np.errstate(invalid="ignore"):
+                beats = better(E[:, None, :, 0], E[:, :, None, 0], True) & better(E[:, None, :, 1], E[:, :, None, 1], True)
+                strictly = better(E[:, None, :, 0], E[:, :, None, 0], False) | better(E[:, None, :, 1], E[:, :, None, 1], False)
+                return ok & ~(beats & (strictly | earlier[None]) & ok[:, None, :]).any(axis=2)
+
+        rows = np.broadcast_to(np.arange(alpha.shape[1]), alpha.shape)
+        up_ok, (coef_P, coef_Q, up_rows) = compact(upper, const_all, slope_all, rows, pads=(np.inf, 0.0, 0))[1:]
+        lw_ok, (coef_p, coef_q) = compact(lower, const_all, slope_all, pads=(-np.inf, 0.0))[1:]
+        keep_up = undominated(coef_P, coef_Q, up_ok, lambda a, b, eq: a <= b if eq else a < b)
+        keep_lw = undominated(coef_p, coef_q, lw_ok, lambda a, b, eq: a >= b if eq else a > b)
+        _, up_ok, (coef_Q, coef_P, up_rows) = compact(keep_up, coef_Q, coef_P, up_rows, pads=(0.0, np.inf, 0))  # u <= P + Q x
+        _, lw_ok, (coef_q, coef_p) = compact(keep_lw, coef_q, coef_p, pads=(0.0, -np.inf))  # u >= p + q x
+        with np.errstate(divide="ignore", invalid="ignore"):
+            d = coef_q[:, :, None] - coef_Q[:, None, :]  # every (lower, upper) pair of a stage: d x <= rhs
+            rhs = coef_P[:, None, :] - coef_p[:, :, None]
+            pair = lw_ok[:, :, None] & up_ok[:, None, :]
+            x_hi = np.minimum(x_hi, np.where(pair & (d > eps), rhs / d, np.inf).min(axis=(1, 2), initial=np.inf))
+            x_lo = np.maximum(x_lo, np.where(pair & (d < -eps), rhs / d, -np.inf).max(axis=(1, 2), initial=-np.inf))
+            infeasible_pair = pair & (np.abs(d) <= eps) & (rhs < 0)
+        if np.any(x_lo > x_hi + 1e-12) or infeasible_pair.any():
+            k = int(np.argmax((x_lo > x_hi + 1e-12) | infeasible_pair.any(axis=(1, 2))))
+            raise InfeasiblePath(f"no speed satisfies the limits at s = {s[k]:.4f} of the path (even at rest: check gravity against the torque limits)")
+        self.x_lo, self.x_hi = x_lo, x_hi
+        # per stage, plain lists of the surviving lines for the sequential passes
+        n_up, n_lw = up_ok.sum(axis=1).tolist(), lw_ok.sum(axis=1).tolist()
+        self.up_Q, self.up_P, self.up_row = ([r[:c] for r, c in zip(v.tolist(), n_up)] for v in (coef_Q, coef_P, up_rows))
+        self.lw_q, self.lw_p = ([r[:c] for r, c in zip(v.tolist(), n_lw)] for v in (coef_q, coef_p))
+
+    def backward(self, caps: np.ndarray, end_at_rest: bool) -> tuple[list, list]:
+        """Controllable sets [K_lo_i, K_hi_i] of x_i, from the end (at rest, or at any allowed speed).
+
+        ``caps`` (N + 1,): extra upper bounds on x at the grid points (inf: none).
+        """
+        N = len(self.ds)
+        s = self.s
+        eps = self.EPS
+        xlo_l, ds_l, caps_l = self.x_lo.tolist(), self.ds.tolist(), caps.tolist()
+        xhi_l = np.minimum(self.x_hi, caps[:-1]).tolist()
+        up_Q, up_P, lw_q, lw_p = self.up_Q, self.up_P, self.lw_q, self.lw_p
+        K_lo = [0.0] * (N + 1)
+        K_hi = [0.0] * (N + 1)
+        if not end_at_rest:
+            K_hi[-1] = float(min(self.xvel[-1], caps_l[-1], 1e12))
+        for i in range(N - 1, -1, -1):  # stage i couples to i+1: sequential by nature
+            h = 2.0 * ds_l[i]
+            a = -1.0 / h
+            lo_r, hi_r = K_lo[i + 1] / h, K_hi[i + 1] / h  # u >= lo_r + a x, u <= hi_r + a x
+            lo_i, hi_i = xlo_l[i], xhi_l[i]
+            for Q, P in zip(up_Q[i], up_P[i]):  # reach-lower against each upper: (a - Q) x <= P - lo_r
+                dd = a - Q
+                if dd > eps:
+                    hi_i = min(hi_i, (P - lo_r) / dd)
+                elif dd < -eps:
+                    lo_i = max(lo_i, (P - lo_r) / dd)
+            for q_, p_ in zip(lw_q[i], lw_p[i]):  # each lower against reach-upper: (q - a) x <= hi_r - p
+                dd = q_ - a
+                if dd > eps:
+                    hi_i = min(hi_i, (hi_r - p_) / dd)
+                elif dd < -eps:
+                    lo_i = max(lo_i, (hi_r - p_) / dd)
+            if lo_i > hi_i + 1e-12:
+                raise InfeasiblePath(f"the path cannot be followed to rest from s = {s[i]:.4f}: the limits leave no speed there")
+            K_lo[i], K_hi[i] = max(lo_i, 0.0), max(hi_i, 0.0)
+        if K_lo[0] > 1e-12:
+            raise InfeasiblePath("the path cannot start from rest within the limits")
+        return K_lo, K_hi
+
+    def forward(self, K_lo: list, K_hi: list, caps: np.ndarray, cap_cause: list) -> tuple[np.ndarray, np.ndarray, list]:
+        """From rest, the largest u on every stage that keeps x controllable; (x, u, what binds per stage)."""
+        N = len(self.ds)
+        ds_l, xvel_l, caps_l = self.ds.tolist(), self.xvel.tolist(), caps.tolist()
+        labels, up_Q, up_P, up_row = self.labels, self.up_Q, self.up_P, self.up_row
+        x = [0.0] * (N + 1)
+        u = [0.0] * N
+        binding = []
+        for i in range(N):
+            h = 2.0 * ds_l[i]
+            xi = x[i]
+            ui = (K_hi[i + 1] - xi) / h
+            if K_hi[i + 1] >= xvel_l[i + 1] - 1e-9:
+                which = "velocity"
+            elif K_hi[i + 1] >= caps_l[i + 1]:
+                which = cap_cause[i + 1]
+            else:
+                which = "braking ahead"
+            for Q, P, k in zip(up_Q[i], up_P[i], up_row[i]):
+                bound = P + Q * xi
+                if bound < ui:
+                    ui, which = bound, labels[k]
+            ui = max(ui, (K_lo[i + 1] - xi) / h)
+            x[i + 1] = min(max(xi + h * ui, K_lo[i + 1]), K_hi[i + 1])
+            u[i] = (x[i + 1] - xi) / h
+            binding.append(which)
+        return np.array(x), np.array(u), binding
+
+
+class _Segments:
+    """The grid intervals cut at the path's polynomial breaks: per segment its interval and the local cubic.
+
+    On a segment starting at s_a, with sigma = s - s_a: q'(sigma) = d1 + d2 sigma + d3 sigma^2.
+    """
+
+    def __init__(self, path: JointPath, s: np.ndarray):
+        breaks, coef = path.pieces
+        cuts = np.union1d(s, breaks[(breaks > s[0]) & (breaks < s[-1])])
+        sa, sb = cuts[:-1], cuts[1:]
+        mid = 0.5 * (sa + sb)
+        self.interval = np.clip(np.searchsorted(s, mid) - 1, 0, len(s) - 2)
+        piece = np.clip(np.searchsorted(breaks, mid) - 1, 0, coef.shape[1] - 1)
+        tau = (sa - breaks[piece])[:, None]
+        c3, c2, c1 = coef[0, piece], coef[1, piece], coef[2, piece]  # (S, n)
+        self.d1 = (3.0 * c3 * tau + 2.0 * c2) * tau + c1  # q'(s_a)
+        self.d2 = 6.0 * c3 * tau + 2.0 * c2  # q''(s_a)
+        self.d3 = 3.0 * c3  # q'''/2
+        self.offset = sa - s[self.interval]  # s_a - s_i
+        self.length = (sb - sa)[:, None]
+
+
+def _quadratic_roots(c0, c1, c2):
+    """Both roots of c0 + c1 t + c2 t^2 (nan where there are none), stable for c2 -> 0 (then one root)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        disc = c1 * c1 - 4.0 * c2 * c0
+        root = np.sqrt(np.where(disc >= 0, disc, np.nan))
+        qq = -0.5 * (c1 + np.copysign(root, c1))
+        return qq / c2, c0 / qq
+
+
+def interval_excess(path, timing: Timing, limits: Limits, dynamics, gravity, segments: _Segments, check_samples: int):
+    """Per grid interval, the factor f <= 1 on x (at both its ends) that keeps every limit inside it.
+
+    Returns
+    -------
+    factor : ndarray, shape (N,)
+        1 where the interval is within its limits; below 1 where scaling x (and u) on the
+        interval by f brings it back (velocity: 1 / ratio^2; acceleration and motion torque: 1 / ratio).
+    cause : list of str
+        Per interval the limit that asks for the smallest factor ('' where none).
+    worst : float
+        The largest |value| / limit found (velocity and acceleration exact, torque at the samples).
+    """
+    N = len(timing.u)
+    factor = np.ones(N)
+    seg = segments
+    x, u = timing.x, timing.u
+    k = seg.interval
+    uu = u[k][:, None]
+    xa = (x[k] + 2.0 * u[k] * seg.offset)[:, None]
+    L = seg.length
+    # joint acceleration on the segment: A0 + A1 sigma + A2 sigma^2
+    A0 = uu * seg.d1 + seg.d2 * xa
+    A1 = 3.0 * uu * seg.d2 + 2.0 * seg.d3 * xa
+    A2 = 5.0 * uu * seg.d3
+
+    def acc(t):
+        return A0 + (A1 + A2 * t) * t
+
+    def speed2(t):
+        qs = seg.d1 + (seg.d2 + seg.d3 * t) * t
+        return qs * qs * np.maximum(xa + 2.0 * uu * t, 0.0)
+
+    def inside(t):
+        return np.isfinite(t) & (t > 0) & (t < L)
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        vertex = -A1 / (2.0 * A2)
+    acc_peak = np.maximum(np.abs(A0), np.abs(acc(L)))
+    acc_peak = np.where(inside(vertex), np.maximum(acc_peak, np.abs(acc(np.where(inside(vertex), vertex, 0.0)))), acc_peak)
+    v2 = np.maximum(speed2(0.0), speed2(L))
+    for r in _quadratic_roots(A0, A1, A2):  # d(qd^2)/ds = 2 q' qdd: interior maxima sit where qdd = 0
+        ok = inside(r)
+        v2 = np.where(ok, np.maximum(v2, speed2(np.where(ok, r, 0.0))), v2)
+    n = A0.shape[1]
+    ratios = [np.sqrt(v2) / limits.velocity]
+    scale = [1.0 / np.maximum(ratios[0], 1e-300) ** 2]
+    names = [f"velocity {j + 1}" for j in range(n)]
+    if limits.acceleration is not None:
+        ratios.append(acc_peak / limits.acceleration)
+        scale.append(1.0 / np.maximum(ratios[-1], 1e-300))
+        names += [f"acceleration {j + 1}" for j in range(n)]
+    ratio = np.concatenate(ratios, axis=1)  # (S, kinds * n)
+    seg_scale = np.concatenate(scale, axis=1)
+    worst = float(ratio.max(initial=0.0))
+    bad = ratio > 1.0
+    cause = [""] * N
+    if bad.any():
+        f = np.where(bad, seg_scale * (1.0 - _MARGIN), 1.0)
+        col = np.argmin(f, axis=1)
+        fmin = f[np.arange(len(f)), col]
+        np.minimum.at(factor, k, fmin)
+        for si in np.flatnonzero(fmin < 1.0):
+            if fmin[si] <= factor[k[si]]:
+                cause[k[si]] = names[col[si]] + " between grid points"
+    if dynamics is not None and limits.effort is not None:
+        t = np.linspace(0.0, timing.duration, check_samples)
+        _, q, qd, qdd = sample_trajectory(path, timing, t)
+        tau = dynamics.inverse(q, qd, qdd, gravity)
+        r = np.abs(tau) / limits.effort
+        worst = max(worst, float(r.max()))
+        rows, cols = np.nonzero(r > 1.0)
+        if len(rows):
+            tau_g = dynamics.gravity_torques(q[rows], gravity)[np.arange(len(rows)), cols]
+            over = tau[rows, cols]
+            room = np.sign(over) * limits.effort[cols] - tau_g  # what the motion part may use
+            if np.any(room * np.sign(over) <= 0):
+                raise InfeasiblePath("gravity alone exceeds a torque limit on the path")
+            f = room / (over - tau_g) * (1.0 - _MARGIN)
+            ki = np.clip(np.searchsorted(timing.t, t[rows], side="right") - 1, 0, N - 1)
+            before = factor.copy()
+            np.minimum.at(factor, ki, f)
+            for idx in np.flatnonzero(factor < before):
+                cause[idx] = ""
+            for ri in range(len(rows)):
+                if f[ri] <= factor[ki[ri]] and not cause[ki[ri]]:
+                    cause[ki[ri]] = f"torque {cols[ri] + 1} between grid points"
+    return factor, cause, worst
+
+
 def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, gridpoints: int = 1000,
-                 check_samples: int = 20001, end_at_rest: bool = True) -> tuple[Timing, dict]:
+                 check_samples: int = 20001, end_at_rest: bool = True, repair: bool = True,
+                 max_rounds: int = 8) -> tuple[Timing, dict]:
     """The fastest timing of ``path`` from rest to rest within the limits.
 
-    With ``end_at_rest=False`` the path ends at the highest speed the limits
-    allow there (the forward pass maximises sdot at every point, the last one included).
+    Parameters
+    ----------
+    path : JointPath
+    limits : Limits
+    dynamics : DeviceDynamics, optional
+        Needed for torque limits (payload and armature as configured there).
+    gravity : array_like, shape (3,), optional
+        In the device's base frame [m/s^2].
+    gridpoints : int
+        Grid points on s in [0, 1] (``gridpoints - 1`` intervals), as toppra counts them.
+    check_samples : int
+        Instants at which torque is checked between grid points.
+    end_at_rest : bool
+        False: the path ends at the highest speed the limits allow there (the forward
+        pass maximises sdot at every point, the last one included).
+    repair : bool
+        False: the plain grid solution (limits hold at the grid points only), as toppra returns it.
+    max_rounds : int
+        Local repairs before falling back to a uniform slow-down.
 
     Returns
     -------
     (Timing, info)
-        ``info``: ``binding`` - per grid interval the constraint that limits
-        it ('velocity j', 'acceleration j', 'torque j'), ``dense_ratio`` -
-        the worst limit ratio when sampled densely, ``grid`` used.
+        ``info``: ``binding`` - per grid interval the constraint that limits it
+        ('velocity', 'acceleration j', 'torque j', '... between grid points', 'braking ahead'),
+        ``dense_ratio`` - the worst limit ratio between grid points (<= 1 unless ``repair=False``),
+        ``grid`` (points), ``rounds`` (solves), ``repaired`` (intervals capped), ``x_limit``, ``K_hi``.
 
     Raises
     ------
     InfeasiblePath
     """
-    s = np.linspace(0.0, 1.0, gridpoints + 1)
-    ds = np.diff(s)
-    q, dq, ddq, torque = path_coefficients(path, s, dynamics, gravity)
-    n = q.shape[1]
-    rows = []  # per grid point: alpha u + beta x <= gamma
-    labels = []
-    if limits.acceleration is not None:
-        amax = np.broadcast_to(limits.acceleration, (len(s), n))
-        rows.append(_rows(dq, ddq, -amax, amax))
-        labels += [f"acceleration {j + 1}" for j in range(n)] * 2
-    if torque is not None and limits.effort is not None:
-        a_t, b_t, c_t = torque
-        tmax = np.broadcast_to(limits.effort, (len(s), n))
-        finite = np.isfinite(tmax)
-        rows.append(_rows(a_t, b_t, np.where(finite, -tmax - c_t, -np.inf), np.where(finite, tmax - c_t, np.inf)))
-        labels += [f"torque {j + 1}" for j in range(n)] * 2
-    with np.errstate(divide="ignore"):
-        xvel = np.min(np.where(np.abs(dq) > 1e-12, (limits.velocity / np.abs(dq)) ** 2, np.inf), axis=1)
-    if rows:
-        R = np.concatenate(rows, axis=1)  # (N+1, m, 3)
-        # interpolation: stage i holds the constraints of point i and of point i+1 with x_{i+1} = x_i + 2 ds u
-        here = R[:-1]
-        there = R[1:].copy()
-        there[..., 0] = there[..., 0] + 2.0 * ds[:, None] * there[..., 1]
-        stage = np.concatenate([here, there], axis=1)  # (N, 2m, 3)
-        stage_labels = labels + labels
-    else:
-        stage = np.zeros((gridpoints, 0, 3))
-        stage_labels = []
-    stage = np.where(np.isfinite(stage), stage, np.where(stage > 0, 1e300, -1e300))
-    alpha, beta, gamma = stage[..., 0], stage[..., 1], stage[..., 2]
-    eps = 1e-12
-    lower = alpha < -eps  # u >= (gamma - beta x) / alpha  = p + q x
-    upper = alpha > eps  # u <= P + Q x
-    # x-only rows, and the velocity bound
-    x_hi = np.minimum(xvel[:-1], xvel[1:])
-    x_lo = np.zeros(gridpoints)
-    xonly = ~(lower | upper)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x_hi = np.minimum(x_hi, np.where(xonly & (beta > eps), gamma / beta, np.inf).min(axis=1, initial=np.inf))
-        x_lo = np.maximum(x_lo, np.where(xonly & (beta < -eps), gamma / beta, -np.inf).max(axis=1, initial=-np.inf))
-
-    def compact(mask, pad_const, pad_slope):
-        """Each stage's rows of one kind first, padded to a common width with a bound that never binds."""
-        order = np.argsort(~mask, axis=1, kind="stable")[:, : max(int(mask.sum(axis=1).max()), 1)]
-        valid = np.take_along_axis(mask, order, axis=1)
-        a, b, g = (np.take_along_axis(v, order, axis=1) for v in (alpha, beta, gamma))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            const = np.where(valid, g / a, pad_const)
-            slope = np.where(valid, -b / a, pad_slope)
-        return order, valid, const, slope
-
-    up_rows, up_ok, coef_P, coef_Q = compact(upper, np.inf, 0.0)  # u <= P + Q x
-    lw_rows, lw_ok, coef_p, coef_q = compact(lower, -np.inf, 0.0)  # u >= p + q x
-    with np.errstate(divide="ignore", invalid="ignore"):
-        d = coef_q[:, :, None] - coef_Q[:, None, :]  # every (lower, upper) pair of a stage: d x <= rhs
-        rhs = coef_P[:, None, :] - coef_p[:, :, None]
-        pair = lw_ok[:, :, None] & up_ok[:, None, :]
-        x_hi = np.minimum(x_hi, np.where(pair & (d > eps), rhs / d, np.inf).min(axis=(1, 2), initial=np.inf))
-        x_lo = np.maximum(x_lo, np.where(pair & (d < -eps), rhs / d, -np.inf).max(axis=(1, 2), initial=-np.inf))
-        infeasible_pair = pair & (np.abs(d) <= eps) & (rhs < 0)
-    if np.any(x_lo > x_hi + 1e-12) or infeasible_pair.any():
-        k = int(np.argmax((x_lo > x_hi + 1e-12) | infeasible_pair.any(axis=(1, 2))))
-        raise InfeasiblePath(f"no speed satisfies the limits at s = {s[k]:.4f} of the path (even at rest: check gravity against the torque limits)")
-    def per_stage(mask, *arrays):
-        """Row-major flattening groups rows by stage: one tolist, then slices."""
-        flat = [a[mask].tolist() for a in arrays]
-        ends = np.cumsum(mask.sum(axis=1)).tolist()
-        starts = [0] + ends[:-1]
-        return [list(zip(*(f[a:b] for f in flat))) for a, b in zip(starts, ends)]
-
-    # Only bounds on the envelope over a stage's x interval matter: a line that another line beats at
-    # both ends of the interval is beaten all along it (exact pruning, vectorised over all stages).
-    ends = np.stack([x_lo, np.minimum(np.maximum(x_hi, x_lo), 1e12)], axis=1)  # (N, 2)
-
-    def undominated(const, slope, ok, better):
-        E = const[:, :, None] + slope[:, :, None] * ends[:, None, :]  # (N, m, 2)
-        idx = np.arange(const.shape[1])
-        earlier = idx[None, :] < idx[:, None]  # (k, j): j before k; of equal lines keep the first
-        with np.errstate(invalid="ignore"):
-            beats = better(E[:, None, :, 0], E[:, :, None, 0], True) & better(E[:, None, :, 1], E[:, :, None, 1], True)
-            strictly = better(E[:, None, :, 0], E[:, :, None, 0], False) | better(E[:, None, :, 1], E[:, :, None, 1], False)
-            return ok & ~(beats & (strictly | earlier[None]) & ok[:, None, :]).any(axis=2)
-
-    keep_up = undominated(coef_P, coef_Q, up_ok, lambda a, b, eq: a <= b if eq else a < b)
-    keep_lw = undominated(coef_p, coef_q, lw_ok, lambda a, b, eq: a >= b if eq else a > b)
-    ups = per_stage(keep_up, coef_Q, coef_P, up_rows)
-    lws = per_stage(keep_lw, coef_q, coef_p)
-    xlo_l, xhi_l, ds_l, xvel_l = x_lo.tolist(), x_hi.tolist(), ds.tolist(), xvel.tolist()
-    # backward pass: controllable sets, ending at rest
-    K_lo = [0.0] * (gridpoints + 1)
-    K_hi = [0.0] * (gridpoints + 1)
-    if not end_at_rest:
-        K_hi[-1] = float(min(xvel[-1], 1e12))
-    for i in range(gridpoints - 1, -1, -1):  # stage i couples to i+1: sequential by nature
-        h = 2.0 * ds_l[i]
-        a = -1.0 / h
-        lo_r, hi_r = K_lo[i + 1] / h, K_hi[i + 1] / h  # u >= lo_r + a x, u <= hi_r + a x
-        lo_i, hi_i = xlo_l[i], xhi_l[i]
-        for Q, P, _ in ups[i]:  # reach-lower against each upper: (a - Q) x <= P - lo_r
-            dd = a - Q
-            if dd > eps:
-                hi_i = min(hi_i, (P - lo_r) / dd)
-            elif dd < -eps:
-                lo_i = max(lo_i, (P - lo_r) / dd)
-        for q_, p_ in lws[i]:  # each lower against reach-upper: (q - a) x <= hi_r - p
-            dd = q_ - a
-            if dd > eps:
-                hi_i = min(hi_i, (hi_r - p_) / dd)
-            elif dd < -eps:
-                lo_i = max(lo_i, (hi_r - p_) / dd)
-        if lo_i > hi_i + 1e-12:
-            raise InfeasiblePath(f"the path cannot be followed to rest from s = {s[i]:.4f}: the limits leave no speed there")
-        K_lo[i], K_hi[i] = max(lo_i, 0.0), max(hi_i, 0.0)
-    if K_lo[0] > 1e-12:
-        raise InfeasiblePath("the path cannot start from rest within the limits")
-    # forward pass: the largest u that keeps x controllable
-    x = [0.0] * (gridpoints + 1)
-    u = [0.0] * gridpoints
-    binding = []
-    for i in range(gridpoints):
-        h = 2.0 * ds_l[i]
-        xi = x[i]
-        ui = (K_hi[i + 1] - xi) / h
-        which = "velocity" if K_hi[i + 1] >= xvel_l[i + 1] - 1e-9 else "braking ahead"
-        for Q, P, k in ups[i]:
-            bound = P + Q * xi
-            if bound < ui:
-                ui, which = bound, stage_labels[k]
-        ui = max(ui, (K_lo[i + 1] - xi) / h)
-        x[i + 1] = min(max(xi + h * ui, K_lo[i + 1]), K_hi[i + 1])
-        u[i] = (x[i + 1] - xi) / h
-        binding.append(which)
-    x, u = np.array(x), np.array(u)
-    timing = Timing(s, x, u, _times(s, x))
-    scale = 1.0
-    for _ in range(5):  # a uniform slow-down by the factor the dense check asks for (parts per million)
-        k, ratio = dense_slowdown(path, timing, limits, dynamics, gravity, check_samples)
-        if ratio <= 1.0:
+    if gridpoints < 2:
+        raise ValueError("time-optimal timing needs at least 2 grid points")
+    s = np.linspace(0.0, 1.0, gridpoints)
+    stages = _Stages(path, s, limits, dynamics, gravity)
+    segments = _Segments(path, s)
+    caps = np.full(gridpoints, np.inf)
+    cap_cause = [""] * gridpoints
+    rounds = 0
+    while True:
+        rounds += 1
+        K_lo, K_hi = stages.backward(caps, end_at_rest)
+        x, u, binding = stages.forward(K_lo, K_hi, caps, cap_cause)
+        timing = Timing(s, x, u, _times(s, x))
+        if not repair:
+            _, _, ratio = interval_excess(path, timing, limits, dynamics, gravity, segments, check_samples)
             break
-        scale *= k * (1 + 1e-9)
-        timing = Timing(s, x / scale**2, u / scale**2, _times(s, x / scale**2), scale)
-    else:
-        raise InfeasiblePath(f"could not bring the dense check within the limits (worst ratio {ratio:.6g})")
-    return timing, {"binding": binding, "dense_ratio": ratio, "grid": gridpoints,
-                    "x_limit": np.minimum(np.r_[x_hi, x_hi[-1]], xvel) / scale**2, "K_hi": np.array(K_hi) / scale**2}
+        factor, cause, ratio = interval_excess(path, timing, limits, dynamics, gravity, segments, check_samples)
+        bad = np.flatnonzero(factor < 1.0)
 
 
-def sample_trajectory(path: JointPath, timing: Timing, samples: int):
-    """t, q, qd, qdd at ``samples`` equally spaced times over the timing."""
-    t = np.linspace(0.0, timing.duration, samples)
-    s, sd, sdd = timing.sample(t)
+        if not len(bad):
+            break
+        if rounds >= max_rounds:  # not settled locally: slow the whole timing by what the check asks for
+            scale = 1.0
+            for _ in range(5):
+                scale /= np.sqrt(factor.min())
+                timing = Timing(s, x / scale**2, u / scale**2, _times(s, x / scale**2), scale)
+                factor, _, ratio = interval_excess(path, timing, limits, dynamics, gravity, segments, check_samples)
+                if factor.min() >= 1.0:
+                    break
+            else:
+                raise InfeasiblePath(f"could not bring the dense check within the limits (worst ratio {ratio:.6g})")
+            break
+        for i in bad:  # cap both ends of each offending interval at the speed that fixes it
+            for p in (i, i + 1):
+                if factor[i] * x[p] < caps[p]:
+                    caps[p] = factor[i] * x[p]
+                    cap_cause[p] = cause[i]
+    repaired = int(np.isfinite(caps).sum())
+    return timing, {"binding": binding, "dense_ratio": ratio, "grid": gridpoints, "rounds": rounds, "repaired": repaired,
+                    "x_limit": np.minimum(np.r_[stages.x_hi, stages.x_hi[-1]], stages.xvel) / timing.scale**2,
+                    "K_hi": np.array(K_hi) / timing.scale**2}
+
+
+def sample_trajectory(path: JointPath, timing: Timing, samples, switches: bool = False):
+    """t, q, qd, qdd at ``samples`` equally spaced instants (an int) or at the given times (an array).
+
+    ``switches=True`` adds both one-sided limits at every interior grid instant, where sddot
+    jumps, so a minimum or maximum at a switch is not missed; the result stays sorted by time.
+    """
+    t = np.linspace(0.0, timing.duration, samples) if np.isscalar(samples) else np.asarray(samples, dtype=float)
+    interval = None
+    if switches:
+        inner = np.arange(1, len(timing.u))
+        t_all = np.concatenate([t, timing.t[inner], timing.t[inner]])
+        k_all = np.concatenate([np.searchsorted(timing.t, t, side="right") - 1, inner - 1, inner])
+        order = np.argsort(t_all, kind="stable")
+        t, interval = t_all[order], k_all[order]
+    s, sd, sdd = timing.sample(t, interval)
     q, dq, ddq = path.evaluate(s)
     return t, q, dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None]
 
@@ -289,27 +529,3 @@ def limit_ratios(q, qd, qdd, limits: Limits, dynamics=None, gravity=None) -> dic
     if dynamics is not None and limits.effort is not None:
         out["torque"] = np.abs(dynamics.inverse(q, qd, qdd, gravity)) / limits.effort
     return out
-
-
-def dense_slowdown(path, timing, limits, dynamics, gravity, samples) -> tuple[float, float]:
-    """(factor k >= 1 that a uniform slow-down needs, worst limit ratio now) from a dense sampling.
-
-    Slowing time by k divides velocities by k, accelerations and the motion
-    part of the torque by k^2; gravity torque stays.
-    """
-    _, q, qd, qdd = sample_trajectory(path, timing, samples)
-    need = [np.max(np.abs(qd) / limits.velocity)]
-    worst = need[0]
-    if limits.acceleration is not None:
-        r = np.max(np.abs(qdd) / limits.acceleration)
-        worst = max(worst, r)
-        need.append(np.sqrt(r))
-    if dynamics is not None and limits.effort is not None:
-        tau_g = dynamics.gravity_torques(q, gravity)
-        tau = dynamics.inverse(q, qd, qdd, gravity)
-        worst = max(worst, np.max(np.abs(tau) / limits.effort))
-        room = limits.effort - np.abs(tau_g)
-        if np.any(room <= 0):
-            raise InfeasiblePath("gravity alone exceeds a torque limit on the path")
-        need.append(np.sqrt(np.max(np.abs(tau - tau_g) / room)))
-    return float(max(1.0, max(need))), float(worst)

@@ -33,22 +33,82 @@ def toppra_duration(config, grid):
 
 
 @pytest.mark.parametrize("config", CONFIGS)
-@pytest.mark.parametrize("grid", [500, 1000])
-def test_cycle_time_within_half_a_percent_of_toppra_and_no_violation(config, grid):
+@pytest.mark.parametrize("grid", [100, 500, 1000])
+def test_grid_solution_is_toppras(config, grid):
+    """Before the checks between grid points, the grid problem is the one toppra solves (same grid points)."""
+    limits, torque = CONFIGS[config]
+    timing, info = time_optimal(PATH, limits, DYN if torque else None, G, grid, repair=False)
+    assert timing.duration == pytest.approx(toppra_duration(config, grid), rel=1e-6)
+    assert info["rounds"] == 1 and info["repaired"] == 0
+
+
+@pytest.mark.parametrize("config", CONFIGS)
+@pytest.mark.parametrize("grid", [100, 500, 1000])
+def test_cycle_time_within_a_tenth_of_a_percent_of_toppra_and_no_violation(config, grid):
     limits, torque = CONFIGS[config]
     timing, info = time_optimal(PATH, limits, DYN if torque else None, G, grid)
-    assert abs(timing.duration / toppra_duration(config, grid) - 1) < 0.005
+    assert 1.0 <= timing.duration / toppra_duration(config, grid) < 1.001  # issue target: 0.5 %
+    assert info["dense_ratio"] <= 1.0 and timing.scale == 1.0  # settled by local repairs, no uniform slow-down
     # zero violations on 20 001 samples (the reference's check)
     _, q, qd, qdd = sample_trajectory(PATH, timing, 20001)
     for name, r in limit_ratios(q, qd, qdd, limits, DYN if torque else None, G).items():
         assert r.max() <= 1.0, (name, r.max())
 
 
+@pytest.mark.parametrize("grid", [17, 60])
+def test_exact_maxima_between_grid_points(grid):
+    """The closed-form interval maxima of velocity and acceleration bound a fine sampling and are attained."""
+    from rworld_cli.planning.topp import _Segments, interval_excess
+
+    limits, _ = CONFIGS["a_rated"]
+    timing, _ = time_optimal(PATH, limits, None, G, grid, repair=False)  # coarse: the grid solution overshoots inside
+    loose = Limits(np.ones(6), np.ones(6), None)  # unit limits: the ratios are the values themselves
+    _, _, worst = interval_excess(PATH, timing, loose, None, G, _Segments(PATH, timing.s), 2)
+    _, q, qd, qdd = sample_trajectory(PATH, timing, 400001, switches=True)
+    sampled = max(np.abs(qd).max(), np.abs(qdd).max())
+    assert sampled <= worst * (1 + 1e-12)
+    assert sampled == pytest.approx(worst, rel=1e-6)
+    ratios = limit_ratios(q, qd, qdd, limits)
+    assert max(r.max() for r in ratios.values()) > 1.001  # the unrepaired grid solution exceeds a limit between grid points
+
+
+def test_payload_capacity_on_the_rated_time_optimal_timing_matches_the_reference():
+    """The reference's 6.577 kg: toppra's timing at 1000 grid points, sampled at 20 001 instants."""
+    cap_ref = next(c for c in REF["payload_capacity"] if c["label"] == "toppra v+a(rated) optimal")
+    limits, _ = CONFIGS["a_rated"]
+    for repair in (False, True):
+        timing, _ = time_optimal(PATH, limits, None, G, 1000, repair=repair)
+        t, q, qd, qdd = sample_trajectory(PATH, timing, 20001)
+        cap = payload_capacity(DEVICE, q, qd, qdd, G, [0, 0, 0.1])
+        assert cap.mass == pytest.approx(cap_ref["m_star_linear_kg"], abs=1e-4)
+        assert cap.joint + 1 == cap_ref["binding_joint"] and cap.side == cap_ref["binding_side"]
+        assert t[cap.sample] == pytest.approx(cap_ref["binding_time_s"], abs=1e-3)
+        # the acceleration jumps at grid instants; with both sides of each counted, the capacity is a little lower
+        exact = payload_capacity(DEVICE, *sample_trajectory(PATH, timing, 20001, switches=True)[1:], G, [0, 0, 0.1])
+        fine = payload_capacity(DEVICE, *sample_trajectory(PATH, timing, 400001)[1:], G, [0, 0, 0.1])
+        assert exact.mass <= fine.mass <= cap.mass  # finer sampling creeps down towards it (the sawtooth is steep)
+        assert fine.mass - exact.mass < 2e-4 < cap.mass - exact.mass
+
+
+def test_switch_samples_take_both_sides_of_each_grid_instant():
+    limits, _ = CONFIGS["a_rated"]
+    timing, _ = time_optimal(PATH, limits, None, G, 50)
+    t, q, qd, qdd = sample_trajectory(PATH, timing, 11, switches=True)
+    assert len(t) == 11 + 2 * 48 and np.all(np.diff(t) >= 0)
+    k = 10  # grid instant 10: the last sample of interval 9, then the first of interval 10
+    i = int(np.flatnonzero(t == timing.t[k])[0])
+    np.testing.assert_allclose(q[i], q[i + 1], atol=1e-12)
+    np.testing.assert_allclose(qd[i], qd[i + 1], atol=1e-12)
+    s, dq, ddq = PATH.evaluate(np.array([timing.s[k]]))
+    np.testing.assert_allclose(qdd[i], ddq[0] * timing.x[k] + dq[0] * timing.u[k - 1], atol=1e-9)
+    np.testing.assert_allclose(qdd[i + 1], ddq[0] * timing.x[k] + dq[0] * timing.u[k], atol=1e-9)
+
+
 def test_finer_grids_converge():
     limits, _ = CONFIGS["a_rated"]
     durations = [time_optimal(PATH, limits, None, G, n)[0].duration for n in (250, 1000, 4000)]
     assert durations[0] > durations[1] > durations[2]
-    assert durations[2] == pytest.approx(toppra_duration("a_rated", 5000), rel=1e-3)
+    assert durations[2] == pytest.approx(toppra_duration("a_rated", 5000), rel=3e-4)
 
 
 def test_starts_and_ends_at_rest_and_follows_the_path():
