@@ -119,19 +119,22 @@ def path_coefficients(path: JointPath, s: np.ndarray, dynamics=None, gravity=Non
     return q, dq, ddq, (a_t, b_t, c_t)
 
 
-def _rows(alpha, beta, lo, hi):
-    """lo <= alpha u + beta x <= hi as rows (alpha, beta, gamma) of alpha u + beta x <= gamma, shape (N, 2m, 3)."""
-    return np.concatenate([np.stack([alpha, beta, hi], axis=-1), np.stack([-alpha, -beta, -lo], axis=-1)], axis=1)
-
-
 _MARGIN = 1e-9  # the grid solution and the repairs aim this far (relative) inside the limits
+
+
+def _per_stage(mask, *arrays):
+    """For each array (N, w): per row i, the plain list of its elements where ``mask`` (one tolist, then slices)."""
+    stops = np.cumsum(mask.sum(axis=1)).tolist()
+    starts = [0] + stops[:-1]
+    return tuple([flat[a:b] for a, b in zip(starts, stops)] for flat in (v[mask].tolist() for v in arrays))
 
 
 class _Stages:
     """The grid problem: per stage i (interval [s_i, s_i+1]) the bounds on u as lines in x_i, pruned.
 
     ``up_Q[i]``, ``up_P[i]``, ``up_row[i]``: u <= P + Q x_i (and the constraint row it came from);
-    ``lw_q[i]``, ``lw_p[i]``: u >= p + q x_i; lists padded with bounds that never bind;
+    ``lw_hi``, ``lw_lo``: (G0, G1), the stage's lower bounds on u met with reachability:
+    x_i <= (resp. >=) g0 + g1 K_hi_i+1 for g0, g1 in zip(G0[i], G1[i]);
     ``x_lo``, ``x_hi``: the x_i interval where the stage is feasible at all.
     """
 
@@ -144,78 +147,83 @@ class _Stages:
         self.s = s
         self.ds = np.diff(s)
         stages = len(s) - 1
+        eps = self.EPS
         q, dq, ddq, torque = path_coefficients(path, s, dynamics, gravity)
         n = q.shape[1]
-        rows = []  # per grid point: alpha u + beta x <= gamma
-        labels = []
+        # per grid point, constraints lo <= A u + B x <= hi, shape (N + 1, C)
+        A, B, LO, HI, labels = [], [], [], [], []
         if limits.acceleration is not None:
-            amax = np.broadcast_to(limits.acceleration, (len(s), n))
-            rows.append(_rows(dq, ddq, -amax, amax))
-            labels += [f"acceleration {j + 1}" for j in range(n)] * 2
+            amax = np.broadcast_to(limits.acceleration, q.shape)
+            A.append(dq), B.append(ddq), LO.append(-amax), HI.append(amax)
+            labels += [f"acceleration {j + 1}" for j in range(n)]
         if torque is not None and limits.effort is not None:
             a_t, b_t, c_t = torque
-            tmax = np.broadcast_to(limits.effort, (len(s), n))
-            finite = np.isfinite(tmax)
-            rows.append(_rows(a_t, b_t, np.where(finite, -tmax - c_t, -np.inf), np.where(finite, tmax - c_t, np.inf)))
-            labels += [f"torque {j + 1}" for j in range(n)] * 2
+            tmax = np.broadcast_to(limits.effort, q.shape)
+            A.append(a_t), B.append(b_t), LO.append(-tmax - c_t), HI.append(tmax - c_t)  # inf where no limit
+            labels += [f"torque {j + 1}" for j in range(n)]
         with np.errstate(divide="ignore"):
             self.xvel = np.min(np.where(np.abs(dq) > 1e-12, (limits.velocity / np.abs(dq)) ** 2, np.inf), axis=1)
-        if rows:
-            R = np.concatenate(rows, axis=1)  # (N+1, m, 3)
-            # interpolation: stage i holds the constraints of point i and of point i+1 with x_{i+1} = x_i + 2 ds u
-            here = R[:-1]
-            there = R[1:].copy()
-            there[..., 0] = there[..., 0] + 2.0 * self.ds[:, None] * there[..., 1]
-            stage = np.concatenate([here, there], axis=1)  # (N, 2m, 3)
-            self.labels = labels + labels
-        else:
-            stage = np.zeros((stages, 0, 3))
-            self.labels = []
-        stage = np.where(np.isfinite(stage), stage, np.where(stage > 0, 1e300, -1e300))
-        alpha, beta, gamma = stage[..., 0], stage[..., 1], stage[..., 2]
-        eps = self.EPS
-        lower = alpha < -eps  # u >= (gamma - beta x) / alpha  = p + q x
-        upper = alpha > eps  # u <= P + Q x
-        # x-only rows, and the velocity bound at the stage's own point (point i+1 is stage i+1's)
-        x_hi = self.xvel[:-1].copy()
+        x_hi = self.xvel[:-1].copy()  # the velocity bound at the stage's own point (point i+1 is stage i+1's)
         x_lo = np.zeros(stages)
-        xonly = ~(lower | upper)
+        if A:
+            A, B, LO, HI = (np.concatenate(v, axis=1) for v in (A, B, LO, HI))
+            # interpolation: stage i holds the constraints of point i and of point i+1 with x_{i+1} = x_i + 2 ds u
+            two_ds = 2.0 * self.ds[:, None]
+            alpha = np.concatenate([A[:-1], A[1:] + two_ds * B[1:]], axis=1)  # (N, 2C)
+            beta = np.concatenate([B[:-1], B[1:]], axis=1)
+            lo = np.concatenate([LO[:-1], LO[1:]], axis=1)
+            hi = np.concatenate([HI[:-1], HI[1:]], axis=1)
+        else:
+            alpha = beta = lo = hi = np.zeros((stages, 0))
+        self.labels = labels + labels
         with np.errstate(divide="ignore", invalid="ignore"):
-            x_hi = np.minimum(x_hi, np.where(xonly & (beta > eps), gamma / beta, np.inf).min(axis=1, initial=np.inf))
-            x_lo = np.maximum(x_lo, np.where(xonly & (beta < -eps), gamma / beta, -np.inf).max(axis=1, initial=-np.inf))
-
-        with np.errstate(divide="ignore", invalid="ignore"):
-            const_all, slope_all = gamma / alpha, -beta / alpha  # u <= (or >=) const + slope x
-
-        def compact(mask, *arrays, pads):
-            """Each stage's rows where ``mask`` first, cut to the widest stage; the rest padded with bounds that never bind."""
-            width = max(int(mask.sum(axis=1).max()), 1)
-            order = np.argsort(~mask, axis=1, kind="stable")[:, :width]
-            valid = np.take_along_axis(mask, order, axis=1)
-            return order, valid, [np.where(valid, np.take_along_axis(v, order, axis=1), pad) for v, pad in zip(arrays, pads)]
+            # a constraint without u bounds x alone
+            xonly = np.abs(alpha) <= eps
+            bound_hi = np.where(beta > eps, hi / beta, np.where(beta < -eps, lo / beta, np.inf))
+            bound_lo = np.where(beta > eps, lo / beta, np.where(beta < -eps, hi / beta, -np.inf))
+            x_hi = np.minimum(x_hi, np.where(xonly, bound_hi, np.inf).min(axis=1, initial=np.inf))
+            x_lo = np.maximum(x_lo, np.where(xonly, bound_lo, -np.inf).max(axis=1, initial=-np.inf))
+            # otherwise each constraint is one upper and one lower bound on u, lines in x with the same slope
+            positive = alpha > 0
+            slope = np.where(xonly, 0.0, -beta / alpha)
+            coef_P = np.where(xonly, np.inf, np.where(positive, hi, lo) / alpha)  # u <= P + Q x
+            coef_p = np.where(xonly, -np.inf, np.where(positive, lo, hi) / alpha)  # u >= p + q x
 
         # Only bounds on the envelope over a stage's x interval matter: a line that another line beats at
-        # both ends of the interval is beaten all along it (exact pruning, vectorised over all stages).
-        # It runs over the x range the velocity allows, before pairing, so pairing sees few lines;
+        # both ends of the interval is beaten all along it.  Sorted by the value at one end, a line
+        # survives when it is strictly better at the other end than every line before it (exact pruning,
+        # vectorised over all stages).  It runs over the x range the velocity allows, before pairing;
         # the stage's final interval and any caps added later lie inside it, so the pruning stays exact.
         ends = np.stack([x_lo, np.minimum(np.maximum(x_hi, x_lo), 1e12)], axis=1)  # (N, 2)
 
-        def undominated(const, slope, ok, better):
-            E = const[:, :, None] + slope[:, :, None] * ends[:, None, :]  # (N, m, 2)
-            idx = np.arange(const.shape[1])
-            earlier = idx[None, :] < idx[:, None]  # (k, j): j before k; of equal lines keep the first
+        def envelope(const, sign):
+            """Lines of ``const + slope x`` that can attain the min (sign 1) or max (sign -1), compacted first."""
             with np.errstate(invalid="ignore"):
-                beats = better(E[:, None, :, 0], E[:, :, None, 0], True) & better(E[:, None, :, 1], E[:, :, None, 1], True)
-                strictly = better(E[:, None, :, 0], E[:, :, None, 0], False) | better(E[:, None, :, 1], E[:, :, None, 1], False)
-                return ok & ~(beats & (strictly | earlier[None]) & ok[:, None, :]).any(axis=2)
+                at_lo = sign * (const + slope * ends[:, :1])
+                at_hi = sign * (const + slope * ends[:, 1:])
+            at_lo = np.where(np.isfinite(at_lo), at_lo, np.inf)  # never binds
+            at_hi = np.where(np.isfinite(at_lo), at_hi, np.inf)
+            order = np.argsort(at_lo, axis=1)  # ties in any order: a line dropped is still beaten at both ends
+            hi_sorted = np.take_along_axis(at_hi, order, axis=1)
+            best_before = np.minimum.accumulate(np.concatenate([np.full((len(order), 1), np.inf), hi_sorted[:, :-1]], axis=1), axis=1)
+            keep = (hi_sorted < best_before) & np.isfinite(np.take_along_axis(at_lo, order, axis=1))
+            width = max(int(keep.sum(axis=1).max(initial=0)), 1)
+            first = np.argsort(~keep, axis=1, kind="stable")[:, :width]
+            pick = np.take_along_axis(order, first, axis=1)
+            ok = np.take_along_axis(keep, first, axis=1)
+            return pick, ok
 
-        rows = np.broadcast_to(np.arange(alpha.shape[1]), alpha.shape)
-        up_ok, (coef_P, coef_Q, up_rows) = compact(upper, const_all, slope_all, rows, pads=(np.inf, 0.0, 0))[1:]
-        lw_ok, (coef_p, coef_q) = compact(lower, const_all, slope_all, pads=(-np.inf, 0.0))[1:]
-        keep_up = undominated(coef_P, coef_Q, up_ok, lambda a, b, eq: a <= b if eq else a < b)
-        keep_lw = undominated(coef_p, coef_q, lw_ok, lambda a, b, eq: a >= b if eq else a > b)
-        _, up_ok, (coef_Q, coef_P, up_rows) = compact(keep_up, coef_Q, coef_P, up_rows, pads=(0.0, np.inf, 0))  # u <= P + Q x
-        _, lw_ok, (coef_q, coef_p) = compact(keep_lw, coef_q, coef_p, pads=(0.0, -np.inf))  # u >= p + q x
+        if alpha.shape[1]:
+            up_pick, up_ok = envelope(coef_P, 1.0)
+            lw_pick, lw_ok = envelope(coef_p, -1.0)
+        else:
+            up_pick = lw_pick = np.zeros((stages, 1), dtype=int)
+            up_ok = lw_ok = np.zeros((stages, 1), dtype=bool)
+            slope = coef_P = coef_p = np.zeros((stages, 1))
+        coef_Q = np.where(up_ok, np.take_along_axis(slope, up_pick, axis=1), 0.0)
+        coef_P = np.where(up_ok, np.take_along_axis(coef_P, up_pick, axis=1), np.inf)
+        coef_q = np.where(lw_ok, np.take_along_axis(slope, lw_pick, axis=1), 0.0)
+        coef_p = np.where(lw_ok, np.take_along_axis(coef_p, lw_pick, axis=1), -np.inf)
         with np.errstate(divide="ignore", invalid="ignore"):
             d = coef_q[:, :, None] - coef_Q[:, None, :]  # every (lower, upper) pair of a stage: d x <= rhs
             rhs = coef_P[:, None, :] - coef_p[:, :, None]
@@ -228,9 +236,23 @@ class _Stages:
             raise InfeasiblePath(f"no speed satisfies the limits at s = {s[k]:.4f} of the path (even at rest: check gravity against the torque limits)")
         self.x_lo, self.x_hi = x_lo, x_hi
         # per stage, plain lists of the surviving lines for the sequential passes
-        n_up, n_lw = up_ok.sum(axis=1).tolist(), lw_ok.sum(axis=1).tolist()
-        self.up_Q, self.up_P, self.up_row = ([r[:c] for r, c in zip(v.tolist(), n_up)] for v in (coef_Q, coef_P, up_rows))
-        self.lw_q, self.lw_p = ([r[:c] for r, c in zip(v.tolist(), n_lw)] for v in (coef_q, coef_p))
+        self.up_Q, self.up_P, self.up_row = _per_stage(up_ok, coef_Q, coef_P, up_pick)
+        # The backward pass meets each line with the reachability lines of slope a = -1 / (2 ds).
+        # An upper line against reach-lower gives a bound (P - K_lo' / h) / (a - Q): a constant while
+        # K_lo' = 0 (the usual case), precomputed here.  A lower line against reach-upper gives
+        # g0 + g1 K_hi' with g0 = -p / (q - a), g1 = 1 / (h (q - a)).
+        h = 2.0 * self.ds[:, None]
+        slope_a = -1.0 / h
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dd = slope_a - coef_Q
+            bound = coef_P / dd
+            self.up_hi0 = np.where(up_ok & (dd > eps), bound, np.inf).min(axis=1)
+            self.up_lo0 = np.where(up_ok & (dd < -eps), bound, -np.inf).max(axis=1)
+            dd = coef_q - slope_a
+            g0, g1 = -coef_p / dd, 1.0 / (h * dd)
+
+        self.lw_hi = _per_stage(lw_ok & (dd > eps), g0, g1)  # x_i <= g0 + g1 K_hi'
+        self.lw_lo = _per_stage(lw_ok & (dd < -eps), g0, g1)  # x_i >= g0 + g1 K_hi'
 
     def backward(self, caps: np.ndarray, end_at_rest: bool) -> tuple[list, list]:
         """Controllable sets [K_lo_i, K_hi_i] of x_i, from the end (at rest, or at any allowed speed).
@@ -242,28 +264,37 @@ class _Stages:
         eps = self.EPS
         xlo_l, ds_l, caps_l = self.x_lo.tolist(), self.ds.tolist(), caps.tolist()
         xhi_l = np.minimum(self.x_hi, caps[:-1]).tolist()
-        up_Q, up_P, lw_q, lw_p = self.up_Q, self.up_P, self.lw_q, self.lw_p
+        hi0_l = np.minimum(np.minimum(self.x_hi, caps[:-1]), self.up_hi0).tolist()
+        lo0_l = np.maximum(self.x_lo, self.up_lo0).tolist()
+        up_Q, up_P = self.up_Q, self.up_P
+        (hi_g0, hi_g1), (lo_g0, lo_g1) = self.lw_hi, self.lw_lo
         K_lo = [0.0] * (N + 1)
         K_hi = [0.0] * (N + 1)
         if not end_at_rest:
             K_hi[-1] = float(min(self.xvel[-1], caps_l[-1], 1e12))
         for i in range(N - 1, -1, -1):  # stage i couples to i+1: sequential by nature
-            h = 2.0 * ds_l[i]
-            a = -1.0 / h
-            lo_r, hi_r = K_lo[i + 1] / h, K_hi[i + 1] / h  # u >= lo_r + a x, u <= hi_r + a x
-            lo_i, hi_i = xlo_l[i], xhi_l[i]
-            for Q, P in zip(up_Q[i], up_P[i]):  # reach-lower against each upper: (a - Q) x <= P - lo_r
-                dd = a - Q
-                if dd > eps:
-                    hi_i = min(hi_i, (P - lo_r) / dd)
-                elif dd < -eps:
-                    lo_i = max(lo_i, (P - lo_r) / dd)
-            for q_, p_ in zip(lw_q[i], lw_p[i]):  # each lower against reach-upper: (q - a) x <= hi_r - p
-                dd = q_ - a
-                if dd > eps:
-                    hi_i = min(hi_i, (hi_r - p_) / dd)
-                elif dd < -eps:
-                    lo_i = max(lo_i, (hi_r - p_) / dd)
+            K_lo1, K_hi1 = K_lo[i + 1], K_hi[i + 1]
+            if K_lo1 == 0.0:
+                lo_i, hi_i = lo0_l[i], hi0_l[i]
+            else:  # reach-lower against each upper: (a - Q) x <= P - K_lo' / h
+                h = 2.0 * ds_l[i]
+                a = -1.0 / h
+                lo_r = K_lo1 / h
+                lo_i, hi_i = xlo_l[i], xhi_l[i]
+                for Q, P in zip(up_Q[i], up_P[i]):
+                    dd = a - Q
+                    if dd > eps:
+                        hi_i = min(hi_i, (P - lo_r) / dd)
+                    elif dd < -eps:
+                        lo_i = max(lo_i, (P - lo_r) / dd)
+            for g0, g1 in zip(hi_g0[i], hi_g1[i]):  # each lower against reach-upper
+                v = g0 + g1 * K_hi1
+                if v < hi_i:
+                    hi_i = v
+            for g0, g1 in zip(lo_g0[i], lo_g1[i]):
+                v = g0 + g1 * K_hi1
+                if v > lo_i:
+                    lo_i = v
             if lo_i > hi_i + 1e-12:
                 raise InfeasiblePath(f"the path cannot be followed to rest from s = {s[i]:.4f}: the limits leave no speed there")
             K_lo[i], K_hi[i] = max(lo_i, 0.0), max(hi_i, 0.0)
