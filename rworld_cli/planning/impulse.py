@@ -83,7 +83,7 @@ def max_impulse(device, q_start, q_end, direction, mass: float, com_in_tool, lim
     a, b = np.log(0.05), np.log(20.0)
     c, e = b - golden * (b - a), a + golden * (b - a)
     fc, fe = evaluate(c)[0], evaluate(e)[0]
-    for _ in range(evaluations):  # golden-section search over the log tangent length (a cheaper dense check while searching)
+    for _ in range(evaluations):  # golden-section search over the log tangent length (a cheaper torque check while searching)
         if fc >= fe:
             b, e, fe = e, c, fc
             c = b - golden * (b - a)

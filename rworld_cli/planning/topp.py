@@ -71,7 +71,7 @@ class Timing:
     t : ndarray, shape (N + 1,)
         Time at the grid points [s].
     scale : float
-        The uniform slow-down applied after the dense check (1 = none).
+        The uniform slow-down, applied only when the local repairs did not settle (1 = none).
     """
 
     s: np.ndarray
