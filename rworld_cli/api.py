@@ -657,6 +657,25 @@ def load_joint_path(path_file: str, device):
     return JointPath(q, pf.knots, pf.boundary)
 
 
+def write_path_with_knots(path_file: str, knots, output: str, note: str = "") -> None:
+    """Write ``path_file`` again with new ``knots`` (same waypoints, units and boundary), atomically."""
+    from .fileio import atomic_write_text
+    from .schema.loader import validate_document
+    from .schema.program import PathFile
+    from .schema.yamlio import read_yaml
+
+    pf = validate_document(read_yaml(path_file), PathFile)
+    lines = [f"# {path_file} with new knots{': ' + note if note else ''}"]
+    if pf.device:
+        lines.append(f"device: {pf.device}")
+    lines.append(f"units: {{length: {pf.units.length}, angle: {pf.units.angle}}}")
+    lines.append("waypoints:")
+    lines += ["  - [" + ", ".join(repr(float(v)) for v in row) + "]" for row in pf.waypoints]
+    lines.append("knots: [" + ", ".join(f"{float(k):.9g}" for k in knots) + "]")
+    lines.append(f"boundary: {pf.boundary}")
+    atomic_write_text(output, "\n".join(lines) + "\n")
+
+
 def planning_limits(device, torque: bool = True, acceleration: bool = True):
     from .planning.topp import Limits
 

@@ -197,23 +197,35 @@ def _plot(title, timing, info, t, ratios, path):
 @click.option("--payload-com", default="0,0,0", show_default=True, metavar="X,Y,Z", help="Where the point mass sits, TCP frame [m].")
 @click.option("--gridpoints", default=400, show_default=True, type=click.IntRange(10, 100000), help=GRID_HELP)
 @click.option("--tolerance", default=1e-4, show_default=True, type=float, help="Mass resolution [kg].")
+@click.option("--shape", is_flag=True,
+              help="Also optimise the path parameters of the waypoints (knots): the spline still passes through every waypoint.")
+@click.option("--evaluations", default=80, show_default=True, type=click.IntRange(5, 10000), help="--shape: path shapes tried.")
+@click.option("--shape-output", default=None, type=click.Path(dir_okay=False), metavar="FILE",
+              help="--shape: write the path file with the optimised knots here.")
 @click.option("--samples", default=1000, show_default=True, type=click.IntRange(2, 1_000_000), help="Rows of the CSV output.")
 @output_options
 @json_option
 @handle_errors
-def load_optimal_cmd(cell, device, other_joints, tcp, path_file, duration, payload_com, gridpoints, tolerance, samples, output, json_output):
+def load_optimal_cmd(cell, device, other_joints, tcp, path_file, duration, payload_com, gridpoints, tolerance, shape, evaluations,
+                     shape_output, samples, output, json_output):
     """The timing of a path that carries the heaviest payload within a cycle time (the report's OPTLOAD idea).
 
     Reports the payload and its gain over the unloaded time-optimal timing
-    and over a quintic time law of the same duration.
+    and over a quintic time law of the same duration.  With --shape the
+    knots move too (Nelder-Mead on the cycle time at the payload, a few
+    seconds), and the gain over the path as given is reported.
 
     \b
-    Example:
+    Examples:
       rworld plan load-optimal workcells/puma560 --path workcells/puma560/paths/reference.yaml --tcp probe --duration 5
+      rworld plan load-optimal workcells/puma560 --path workcells/puma560/paths/reference.yaml --tcp probe --duration 2.2 \\
+          --shape --shape-output faster.yaml
     """
     import numpy as np
 
-    from ..api import load_joint_path, planning_limits
+    import sys
+
+    from ..api import load_joint_path, planning_limits, write_path_with_knots
     from ..errors import UserError
     from ..planning.payload import load_optimal
     from ..planning.topp import InfeasiblePath, sample_trajectory
@@ -221,21 +233,38 @@ def load_optimal_cmd(cell, device, other_joints, tcp, path_file, duration, paylo
 
     if not duration > 0:
         raise UserError("--duration must be > 0")
+    if shape_output and not shape:
+        raise UserError("--shape-output needs --shape")
     ctx = context(cell, device, tcp, other_joints)
     path = load_joint_path(path_file, ctx.device)
     limits = planning_limits(ctx.device, torque=True)
+    com = parse_vector(payload_com, "--payload-com", 3)
+
+    def run(progress=None):
+        return load_optimal(ctx.device, path, limits, ctx.gravity_base, com, duration, ctx.mount, gridpoints, tolerance,
+                            shape=shape, evaluations=evaluations, progress=progress)
+
     try:
-        r = load_optimal(ctx.device, path, limits, ctx.gravity_base, parse_vector(payload_com, "--payload-com", 3), duration,
-                         ctx.mount, gridpoints, tolerance)
+        if shape and not json_output and sys.stderr.isatty():
+            from rich.progress import Progress
+
+            with Progress(transient=True) as bar:
+                task = bar.add_task("trying path shapes", total=evaluations)
+                r = run(lambda done, total: bar.update(task, completed=done, total=total))
+        else:
+            r = run()
     except InfeasiblePath as exc:
         raise UserError(str(exc)) from None
+    if shape_output:
+        write_path_with_knots(path_file, r.path.knots, shape_output, f"they carry {r.mass:.4f} kg in {duration} s at {ctx.tcp}")
     if output:
-        t, q, qd, qdd = sample_trajectory(path, r.timing, samples)
+        t, q, qd, qdd = sample_trajectory(r.path, r.timing, samples)
         n = ctx.device.dof
         write_csv(output, ["t"] + [f"{g}{i}" for g in ("q", "qd", "qdd") for i in range(1, n + 1)], np.hstack([t[:, None], q, qd, qdd]))
     payload = {"device": ctx.device.name, "tcp": ctx.tcp, "duration": duration, "payload_mass": r.mass,
                "time_optimal_capacity": r.time_optimal_capacity, "quintic_capacity": r.quintic_capacity,
-               "static_capacity": r.static_capacity, "written": output}
+               "static_capacity": r.static_capacity, "knots": r.path.knots.tolist(), "given_shape_mass": r.given_shape_mass,
+               "written": [f for f in (output, shape_output) if f]}
     if json_output:
         emit_json(payload)
         return
@@ -243,8 +272,15 @@ def load_optimal_cmd(cell, device, other_joints, tcp, path_file, duration, paylo
     click.echo(f"  a quintic time law over {duration} s: {r.quintic_capacity:.4f} kg ({r.mass - r.quintic_capacity:+.4f} kg)")
     click.echo(f"  the unloaded time-optimal timing: {r.time_optimal_capacity:.4f} kg ({r.mass - r.time_optimal_capacity:+.4f} kg)")
     click.echo(f"  at rest (any slower): at most {r.static_capacity:.4f} kg")
-    if output:
-        click.echo(f"wrote {output}")
+    if shape:
+        knots = ", ".join(f"{k:.4f}" for k in r.path.knots)
+        if r.given_shape_mass is not None and r.mass > r.given_shape_mass:
+            click.echo(f"  knots [{knots}]: {r.mass - r.given_shape_mass:+.4f} kg over the path as given ({r.given_shape_mass:.4f} kg)")
+        else:
+            click.echo(f"  no other knots carry more; kept [{knots}]")
+    for written in (shape_output, output):
+        if written:
+            click.echo(f"wrote {written}")
 
 
 @plan.command("impulse")

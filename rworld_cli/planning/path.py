@@ -24,6 +24,7 @@ class JointPath:
         self.waypoints = np.asarray(waypoints, dtype=float)
         if self.waypoints.ndim != 2 or len(self.waypoints) < 2:
             raise ValueError("a path needs at least 2 waypoints of n joint values")
+        self.boundary = boundary
         self.knots = np.linspace(0.0, 1.0, len(self.waypoints)) if knots is None else np.asarray(knots, dtype=float)
         if self.knots.shape != (len(self.waypoints),) or np.any(np.diff(self.knots) <= 0) or self.knots[0] != 0 or self.knots[-1] != 1:
             raise ValueError("knots must rise strictly from 0 to 1, one per waypoint")

@@ -64,26 +64,28 @@ class LoadOptimal:
     time_optimal_capacity: float  # capacity of the unloaded time-optimal timing (v + a limits) [kg]
     quintic_capacity: float  # capacity of a quintic time law over the same duration [kg]
     static_capacity: float  # the limit as the cycle time grows: gravity only [kg]
+    path: object = None  # the JointPath timed (reshaped when the knots were optimised)
+    given_shape_mass: float | None = None  # with the knots optimised: the mass on the path as given [kg]
 
 
-def load_optimal(device, path, limits, gravity, com_in_tool, duration: float, mount=None, gridpoints: int = 400,
-                 tolerance: float = 1e-4) -> LoadOptimal:
-    """Maximise the payload a path can carry within ``duration`` (the timing is free; the path shape is given).
+def _heaviest(device, path, limits, gravity, com_in_tool, duration, mount, gridpoints, tolerance, check_samples=4001):
+    """(mass, timing, static bound) of the heaviest point mass ``path`` carries within ``duration``.
 
-    A mass m is carryable in time T when the time-optimal timing with m on
-    board (torque limits included) is no longer than T; the time-optimal
-    duration grows with m, so bisection on m finds the largest carryable
-    mass to ``tolerance`` kg.  The resulting timing is stretched to take
-    exactly ``duration``.
+    A mass m is carryable in time T when the time-optimal timing with m on board (torque limits
+    included) is no longer than T; that duration grows with m, so bisection on m finds the largest
+    carryable mass to ``tolerance`` kg, never above the static bound (gravity alone along the path).
+
+    Raises
+    ------
+    InfeasiblePath
+        Not even an empty tool makes it in ``duration``.
     """
-    from .topp import InfeasiblePath, Limits, Timing, _times, sample_trajectory, time_optimal
-
-    lim = Limits(limits.velocity, limits.acceleration, limits.effort)
+    from .topp import InfeasiblePath, time_optimal
 
     def fastest(m: float):
         dyn = DeviceDynamics(device, Payload.point_mass(m, com_in_tool), mount, armature=True, friction=False)
         try:
-            timing, _ = time_optimal(path, lim, dyn, gravity, gridpoints, check_samples=4001)
+            timing, _ = time_optimal(path, limits, dyn, gravity, gridpoints, check_samples=check_samples)
             return timing
         except InfeasiblePath:
             return None
@@ -105,6 +107,115 @@ def load_optimal(device, path, limits, gravity, com_in_tool, duration: float, mo
             lo, best = mid, timing
         else:
             hi = mid
+    return lo, best, static
+
+
+def _knots_from(z: np.ndarray) -> np.ndarray:
+    """Knots on [0, 1] from unconstrained log-spacings z (K - 2 of them; the first spacing is the unit)."""
+    d = np.exp(np.concatenate([[0.0], np.clip(z, -5.0, 5.0)]))
+    return np.concatenate([[0.0], np.cumsum(d) / d.sum()])
+
+
+def optimise_knots(device, path, limits, gravity, com_in_tool, duration, mass, mount=None, gridpoints: int = 200,
+                   tolerance: float = 1e-3, evaluations: int = 80, progress=None):
+    """The knots (path parameters of the waypoints) whose spline carries the most within ``duration``.
+
+    The spline still passes through every waypoint; moving the knots changes its shape between
+    them (its boundary conditions keep holding).  The heaviest payload for a cycle time and the
+    fastest cycle for a payload are the same question asked two ways: a shape that does ``mass`` in
+    less than ``duration`` carries more.  So Nelder-Mead minimises the time-optimal duration with
+    ``mass`` on board over the log-spacings of the knots (one solve per shape), then the mass of the
+    best shape is found by bisection, and the two steps repeat while the mass grows.  A shape that
+    leaves the joint position limits between the waypoints, or cannot be followed, is refused.
+
+    Returns
+    -------
+    (knots, mass) : the best knots, shape (K,), and the payload they carry at this search
+        resolution (``gridpoints``, ``tolerance``) - the given knots if none is better.
+    """
+    from scipy.optimize import minimize
+
+    from .path import JointPath
+    from .topp import InfeasiblePath, time_optimal
+
+    lower, upper = device.limit_array("lower"), device.limit_array("upper")
+    spacing = np.diff(path.knots)
+    z = np.log(spacing[1:] / spacing[0])
+    s_check = np.linspace(0, 1, 2001)
+    used = 0
+
+    def shaped(zz):
+        candidate = JointPath(path.waypoints, _knots_from(zz), path.boundary)
+        q = candidate.evaluate(s_check)[0]
+        return candidate if np.all(q >= lower - 1e-9) and np.all(q <= upper + 1e-9) else None
+
+    best_knots = path.knots
+    try:  # the given shape at the search resolution: the figure to beat
+        best_mass = _heaviest(device, path, limits, gravity, com_in_tool, duration, mount, gridpoints, tolerance)[0]
+    except InfeasiblePath:
+        best_mass = mass
+    for _ in range(3):
+        dyn = DeviceDynamics(device, Payload.point_mass(best_mass, com_in_tool), mount, armature=True, friction=False)
+
+        def cycle_time(zz):
+            nonlocal used
+            used += 1
+            if progress is not None:
+                progress(min(used, evaluations), evaluations)
+            candidate = shaped(zz)
+            if candidate is None:
+                return 10.0 * duration
+            try:
+                return time_optimal(candidate, limits, dyn, gravity, gridpoints, check_samples=4001)[0].duration
+            except InfeasiblePath:
+                return 10.0 * duration
+
+        budget = evaluations - used
+        if budget < len(z) + 2:
+            break
+        simplex = np.vstack([z] + [z + 0.25 * np.eye(len(z))[k] for k in range(len(z))])
+        found = minimize(cycle_time, z, method="Nelder-Mead",
+                         options={"maxfev": budget, "initial_simplex": simplex, "xatol": 1e-3, "fatol": 1e-6 * duration})
+        candidate = shaped(found.x)
+        if candidate is None or found.fun >= cycle_time(z):
+            break
+        try:
+            m = _heaviest(device, candidate, limits, gravity, com_in_tool, duration, mount, gridpoints, tolerance)[0]
+        except InfeasiblePath:
+            break
+        if m <= best_mass + tolerance:
+            break
+        z, best_knots, best_mass = found.x, _knots_from(found.x), m
+    if progress is not None:
+        progress(evaluations, evaluations)
+    return best_knots, best_mass
+
+
+def load_optimal(device, path, limits, gravity, com_in_tool, duration: float, mount=None, gridpoints: int = 400,
+                 tolerance: float = 1e-4, shape: bool = False, evaluations: int = 80, progress=None) -> LoadOptimal:
+    """Maximise the payload a path can carry within ``duration``: the timing, and with ``shape`` the knots.
+
+    The timing is free; bisection on the mass (:func:`_heaviest`) to ``tolerance`` kg.  The resulting
+    timing is stretched to take exactly ``duration``.  With ``shape=True`` the waypoints' path
+    parameters are optimised as well (:func:`optimise_knots`, ``evaluations`` shapes at a coarser
+    grid), the spline still passing through every waypoint; the result keeps the given shape
+    when no other carries more.
+    """
+    from .path import JointPath
+    from .topp import Limits, Timing, _times, sample_trajectory, time_optimal
+
+    lim = Limits(limits.velocity, limits.acceleration, limits.effort)
+    mass, best, static = _heaviest(device, path, lim, gravity, com_in_tool, duration, mount, gridpoints, tolerance)
+    given_mass = None
+    if shape and len(path.waypoints) > 2:
+        knots, _ = optimise_knots(device, path, lim, gravity, com_in_tool, duration, mass, mount, min(gridpoints, 200),
+                                  max(tolerance, 1e-3), evaluations, progress)
+        if not np.allclose(knots, path.knots, atol=1e-12):
+            reshaped = JointPath(path.waypoints, knots, path.boundary)
+            m2, best2, static2 = _heaviest(device, reshaped, lim, gravity, com_in_tool, duration, mount, gridpoints, tolerance)
+            given_mass = mass
+            if m2 > mass:
+                path, mass, best, static = reshaped, m2, best2, static2
     stretch = duration / best.duration
     timing = Timing(best.s, best.x / stretch**2, best.u / stretch**2, _times(best.s, best.x / stretch**2), best.scale * stretch)
     fast, _ = time_optimal(path, Limits(limits.velocity, limits.acceleration, None), None, gravity, gridpoints)
@@ -113,4 +224,4 @@ def load_optimal(device, path, limits, gravity, com_in_tool, duration: float, mo
     _, s, sd, sdd = quintic_timing(duration, 20001)
     q, dq, ddq = path.evaluate(s)
     quint = payload_capacity(device, q, dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None], gravity, com_in_tool, mount).mass
-    return LoadOptimal(lo, duration, timing, t_opt, quint, static)
+    return LoadOptimal(mass, duration, timing, t_opt, quint, static, path, given_mass)

@@ -235,3 +235,34 @@ def test_impulse_command(cli):
     assert data["momentum"] > 0 and data["end_velocity"][2] < 0
     bad = cli(["plan", "impulse", "workcells/puma560", "--target", "tabel.drop", "--direction", "0,0,-1"])
     assert bad.exit_code == 2 and "did you mean 'table.drop'" in bad.output
+
+
+def test_load_optimal_shape_moves_the_knots_and_keeps_the_waypoints():
+    from rworld_cli.dynamics import Payload
+    from rworld_cli.planning.payload import load_optimal
+
+    limits = Limits(V, np.array(REF["acc_lim_rated_rad_s2"]), np.array(REF["tau_lim_Nm"]))
+    r = load_optimal(DEVICE, PATH, limits, G, [0, 0, 0.1], 2.2, gridpoints=150, tolerance=1e-3, shape=True, evaluations=40)
+    assert r.given_shape_mass is not None and r.mass > r.given_shape_mass + 0.01  # 13.30 against 13.25 kg at full resolution
+    knots = r.path.knots
+    assert knots[0] == 0 and knots[-1] == 1 and np.all(np.diff(knots) > 0) and not np.allclose(knots, PATH.knots)
+    np.testing.assert_allclose(r.path.evaluate(knots)[0], PATH.waypoints, atol=1e-12)  # still through every waypoint
+    dyn = DeviceDynamics(DEVICE, Payload.point_mass(r.mass, [0, 0, 0.1]), armature=True, friction=False)
+    _, q, qd, qdd = sample_trajectory(r.path, r.timing, 20001)
+    assert max(np.max(v) for v in limit_ratios(q, qd, qdd, limits, dyn, G).values()) <= 1.0
+    assert r.timing.duration == pytest.approx(2.2)
+
+
+def test_load_optimal_shape_command_writes_a_path_file(cli, tmp_path):
+    path = "workcells/puma560/paths/reference.yaml"
+    out = tmp_path / "reshaped.yaml"
+    bad = cli(["plan", "load-optimal", "workcells/puma560", "--path", path, "--duration", "3", "--shape-output", str(out)])
+    assert bad.exit_code == 2 and "--shape-output needs --shape" in bad.output and not out.exists()
+    data = json.loads(cli(["plan", "load-optimal", "workcells/puma560", "--path", path, "--tcp", "probe", "--duration", "2.2",
+                           "--gridpoints", "100", "--tolerance", "0.01", "--shape", "--evaluations", "20",
+                           "--shape-output", str(out), "--json"]).stdout)
+    assert data["payload_mass"] >= data["given_shape_mass"] and data["written"] == [str(out)]
+    again = json.loads(cli(["plan", "load-optimal", "workcells/puma560", "--path", str(out), "--tcp", "probe", "--duration", "2.2",
+                            "--gridpoints", "100", "--tolerance", "0.01", "--json"]).stdout)
+    assert again["knots"] == pytest.approx(data["knots"], abs=1e-8)
+    assert again["payload_mass"] == pytest.approx(data["payload_mass"], abs=2e-2)
