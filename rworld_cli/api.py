@@ -465,13 +465,30 @@ def resolve_payload(ctx: DeviceContext, object_name: str | None, mass: float | N
     return None
 
 
-def device_dynamics(ctx: DeviceContext, payload=None, armature: bool = True, friction: bool = True):
-    """:class:`~rworld_cli.dynamics.DeviceDynamics` of the context's device, payload at its TCP."""
+def carried_loads(ctx: DeviceContext, exclude=()) -> dict[int, list]:
+    """What rides on the device's links in the cell's state - aggregated devices (a hand on the
+    flange), grasped objects - as ``DeviceDynamics`` link loads; ``exclude`` names primitives to leave
+    out (an object given as the payload)."""
+    return ctx.world.carried_loads(ctx.device.name, set(exclude))
+
+
+def carried_summary(ctx: DeviceContext, exclude=()) -> list[dict]:
+    """[{"name", "link", "mass"}] of what rides on the device's links (see :func:`carried_loads`)."""
+    return [{"name": name, "link": link, "mass": float(sum(inertial.mass for inertial, _ in bodies))}
+            for name, link, bodies in ctx.world.carried(ctx.device.name, set(exclude))]
+
+
+def device_dynamics(ctx: DeviceContext, payload=None, armature: bool = True, friction: bool = True, exclude=()):
+    """:class:`~rworld_cli.dynamics.DeviceDynamics` of the context's device, payload at its TCP.
+
+    What the cell's state puts on its links (hands, grasped objects) is included, as the simulator
+    includes it, except the primitives named in ``exclude`` (an object given as the payload).
+    """
     from .dynamics import DeviceDynamics
 
     if payload is not None and payload.mass > 0 and ctx.mount.link == 0:
         raise UserError(f"'{ctx.tcp}' sits on the base of '{ctx.device.name}': a payload there loads no joint; choose a TCP on a link")
-    return DeviceDynamics(ctx.device, payload, ctx.mount, armature, friction)
+    return DeviceDynamics(ctx.device, payload, ctx.mount, armature, friction, link_loads=carried_loads(ctx, exclude))
 
 
 @dataclass
@@ -483,7 +500,7 @@ class StaticResult:
     limiting_joint: np.ndarray  # (N,)
 
 
-def static_torques(ctx: DeviceContext, q, wrench_world, payload=None, gravity: bool = True) -> StaticResult:
+def static_torques(ctx: DeviceContext, q, wrench_world, payload=None, gravity: bool = True, exclude=()) -> StaticResult:
     """Joint torques holding the device (and payload) still while the tool exerts ``wrench_world``.
 
     Also the largest multiple of the wrench the effort limits allow, and the joint that binds.
@@ -495,7 +512,7 @@ def static_torques(ctx: DeviceContext, q, wrench_world, payload=None, gravity: b
     w = np.asarray(wrench_world, dtype=float)
     J = jacobians(ctx, q, "world").jacobian
     tau_w = wrench_torques(J, w)
-    dyn = device_dynamics(ctx, payload, armature=False, friction=False)
+    dyn = device_dynamics(ctx, payload, armature=False, friction=False, exclude=exclude)
     tau_g = dyn.gravity_torques(q, ctx.gravity_base) if gravity else np.zeros_like(q)
     cap = wrench_capacity(J, w, ctx.device.limit_array("effort"), tau_g)
     return StaticResult(tau_g + tau_w, tau_w, tau_g, cap.scale, cap.limiting_joint)
@@ -685,12 +702,16 @@ def planning_limits(device, torque: bool = True, acceleration: bool = True):
     return Limits(v, a if acceleration and np.all(np.isfinite(a)) else None, e if torque and np.any(np.isfinite(e)) else None)
 
 
-def plan_time_optimal(ctx: DeviceContext, path, payload=None, gridpoints: int = 1000, torque: bool = True, friction: bool = False):
-    """Time-optimal timing of ``path`` for the context's device; (timing, info, dynamics, limits)."""
+def plan_time_optimal(ctx: DeviceContext, path, payload=None, gridpoints: int = 1000, torque: bool = True, friction: bool = False,
+                      exclude=()):
+    """Time-optimal timing of ``path`` for the context's device; (timing, info, dynamics, limits).
+
+    The torques include what the cell's state puts on the device's links, except ``exclude``.
+    """
     from .planning.topp import InfeasiblePath, time_optimal
 
     limits = planning_limits(ctx.device, torque)
-    dyn = device_dynamics(ctx, payload, armature=True, friction=friction) if limits.effort is not None else None
+    dyn = device_dynamics(ctx, payload, armature=True, friction=friction, exclude=exclude) if limits.effort is not None else None
     try:
         timing, info = time_optimal(path, limits, dyn, ctx.gravity_base, gridpoints)
     except InfeasiblePath as exc:

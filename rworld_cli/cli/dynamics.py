@@ -63,7 +63,8 @@ def inverse(cell, device, other_joints, tcp, states, payload_object, payload_mas
 
     ctx = context(cell, device, tcp, other_joints)
     data, warnings = joint_rows(ctx, states, None, ["q", "qd", "qdd"])
-    dyn = device_dynamics(ctx, _payload(ctx, payload_object, payload_mass, payload_com), not no_armature, not no_friction)
+    dyn = device_dynamics(ctx, _payload(ctx, payload_object, payload_mass, payload_com), not no_armature, not no_friction,
+                          exclude=[payload_object] if payload_object else ())
     tau = dyn.inverse(data["q"], data["qd"], data["qdd"], ctx.gravity_base)
     emit([f"tau{i}" for i in range(1, ctx.device.dof + 1)], tau, {"device": ctx.device.name, "tau": tau.tolist()},
          json_output, output, warnings)
@@ -89,7 +90,8 @@ def forward(cell, device, other_joints, tcp, states, payload_object, payload_mas
 
     ctx = context(cell, device, tcp, other_joints)
     data, warnings = joint_rows(ctx, states, None, ["q", "qd", "tau"])
-    dyn = device_dynamics(ctx, _payload(ctx, payload_object, payload_mass, payload_com), not no_armature, not no_friction)
+    dyn = device_dynamics(ctx, _payload(ctx, payload_object, payload_mass, payload_com), not no_armature, not no_friction,
+                          exclude=[payload_object] if payload_object else ())
     qdd = dyn.forward(data["q"], data["qd"], data["tau"], ctx.gravity_base)
     emit([f"qdd{i}" for i in range(1, ctx.device.dof + 1)], qdd, {"device": ctx.device.name, "qdd": qdd.tolist()},
          json_output, output, warnings)
@@ -125,7 +127,8 @@ def static(cell, device, other_joints, tcp, q, states, wrench, no_gravity, paylo
     ctx = context(cell, device, tcp, other_joints)
     data, warnings = joint_rows(ctx, states, q, ["q"])
     w = parse_vector(wrench, "--wrench", 6)
-    res = static_torques(ctx, data["q"], w, _payload(ctx, payload_object, payload_mass, payload_com), not no_gravity)
+    res = static_torques(ctx, data["q"], w, _payload(ctx, payload_object, payload_mass, payload_com), not no_gravity,
+                         exclude=[payload_object] if payload_object else ())
     names = [j.name for j in ctx.device.joints]
     limiting = [names[i] if i >= 0 else None for i in res.limiting_joint]
     scale = [float(s) if np.isfinite(s) else None for s in res.max_scale]

@@ -52,7 +52,7 @@ def time_optimal(cell, device, other_joints, tcp, path_file, gridpoints, no_torq
     """
     import numpy as np
 
-    from ..api import load_joint_path, plan_time_optimal, resolve_payload
+    from ..api import carried_summary, load_joint_path, plan_time_optimal, resolve_payload
     from ..planning.topp import limit_ratios, sample_trajectory
     from ..tableio import write_csv
 
@@ -60,7 +60,9 @@ def time_optimal(cell, device, other_joints, tcp, path_file, gridpoints, no_torq
     path = load_joint_path(path_file, ctx.device)
     com = parse_vector(payload_com, "--payload-com", 3) if payload_com else None
     payload = resolve_payload(ctx, payload_object, payload_mass, com)
-    timing, info, dyn, limits = plan_time_optimal(ctx, path, payload, gridpoints, not no_torque)
+    timing, info, dyn, limits = plan_time_optimal(ctx, path, payload, gridpoints, not no_torque,
+                                                  exclude=[payload_object] if payload_object else ())
+    carried = carried_summary(ctx, [payload_object] if payload_object else ()) if dyn is not None else []
     t, q, qd, qdd = sample_trajectory(path, timing, samples)
     ratios = limit_ratios(q, qd, qdd, limits, dyn, ctx.gravity_base)
     counts: dict[str, int] = {}
@@ -81,9 +83,11 @@ def time_optimal(cell, device, other_joints, tcp, path_file, gridpoints, no_torq
     if json_output:
         emit_json({"device": ctx.device.name, "path": path_file, "gridpoints": gridpoints, "duration": timing.duration,
                    "binding": binding, "dense_ratio": info["dense_ratio"], "repaired_gridpoints": info["repaired"],
-                   "rounds": info["rounds"], "slowdown": timing.scale, "peak_ratio": peaks, "written": output, "plot": plot})
+                   "rounds": info["rounds"], "slowdown": timing.scale, "peak_ratio": peaks, "carried": carried,
+                   "written": output, "plot": plot})
         return
     click.echo(f"{ctx.device.name}: {path_file}: cycle time {timing.duration:.6f} s ({gridpoints} grid points)")
+    _echo_carried(carried)
     click.echo("binding along the path: " + ", ".join(f"{k} {v:.0%}" for k, v in binding.items()))
     click.echo("peak ratio to the limits (dense): " + ", ".join(f"{k} {v:.6f}" for k, v in peaks.items()))
     if info["repaired"]:
@@ -118,7 +122,7 @@ def payload(cell, device, other_joints, tcp, path_file, timing, duration, payloa
       rworld plan payload workcells/puma560 --path workcells/puma560/paths/reference.yaml --tcp probe --timing quintic --duration 5
     """
 
-    from ..api import load_joint_path, plan_time_optimal
+    from ..api import carried_loads, carried_summary, load_joint_path, plan_time_optimal
     from ..dynamics import Payload
     from ..errors import UserError
     from ..planning.payload import payload_capacity, quintic_timing
@@ -145,17 +149,26 @@ def payload(cell, device, other_joints, tcp, path_file, timing, duration, payloa
             raise UserError(f"'{payload_object}' is not an object with mass in the cell")
         body = Payload.rigid_body(obj.inertial, ctx.world.T(ctx.tcp, payload_object) if payload_object in ctx.world.subtree(ctx.tcp) else None)
         unit = Payload(1.0, body.com, body.inertia / body.mass)
+    exclude = [payload_object] if payload_object else ()
+    carried = carried_summary(ctx, exclude)
     cap = payload_capacity(ctx.device, q, qd, qdd, ctx.gravity_base, parse_vector(payload_com, "--payload-com", 3), ctx.mount,
-                           armature=True, friction=False, unit_payload=unit)
+                           armature=True, friction=False, unit_payload=unit, link_loads=carried_loads(ctx, exclude))
     joint = ctx.device.joints[cap.joint].name
     if json_output:
         emit_json({"device": ctx.device.name, "tcp": ctx.tcp, "timing": timing, "duration": T, "payload_mass": cap.mass,
-                   "binding_joint": joint, "binding_time": float(t[cap.sample]), "binding_side": cap.side})
+                   "binding_joint": joint, "binding_time": float(t[cap.sample]), "binding_side": cap.side, "carried": carried})
         return
     click.echo(f"{ctx.device.name}: {timing} timing of {path_file} ({T:.6f} s): payload capacity {cap.mass:.4f} kg at {ctx.tcp}")
+    _echo_carried(carried)
     click.echo(f"binding: joint {joint} at t = {t[cap.sample]:.4f} s ({cap.side} torque limit)")
     if cap.mass < 0:
         click.echo("negative: the trajectory overloads the joint even without a payload")
+
+
+def _echo_carried(carried: list[dict]) -> None:
+    """One line on what the cell's state puts on the device's links (included in every torque)."""
+    if carried:
+        click.echo("  also carrying (the cell's state): " + ", ".join(f"{c['name']} {c['mass']:.3f} kg on link {c['link']}" for c in carried))
 
 
 def _plot(title, timing, info, t, ratios, path):
@@ -225,7 +238,7 @@ def load_optimal_cmd(cell, device, other_joints, tcp, path_file, duration, paylo
 
     import sys
 
-    from ..api import load_joint_path, planning_limits, write_path_with_knots
+    from ..api import carried_loads, carried_summary, load_joint_path, planning_limits, write_path_with_knots
     from ..errors import UserError
     from ..planning.payload import load_optimal
     from ..planning.topp import InfeasiblePath, sample_trajectory
@@ -242,7 +255,7 @@ def load_optimal_cmd(cell, device, other_joints, tcp, path_file, duration, paylo
 
     def run(progress=None):
         return load_optimal(ctx.device, path, limits, ctx.gravity_base, com, duration, ctx.mount, gridpoints, tolerance,
-                            shape=shape, evaluations=evaluations, progress=progress)
+                            shape=shape, evaluations=evaluations, progress=progress, link_loads=carried_loads(ctx))
 
     try:
         if shape and not json_output and sys.stderr.isatty():
@@ -264,11 +277,12 @@ def load_optimal_cmd(cell, device, other_joints, tcp, path_file, duration, paylo
     payload = {"device": ctx.device.name, "tcp": ctx.tcp, "duration": duration, "payload_mass": r.mass,
                "time_optimal_capacity": r.time_optimal_capacity, "quintic_capacity": r.quintic_capacity,
                "static_capacity": r.static_capacity, "knots": r.path.knots.tolist(), "given_shape_mass": r.given_shape_mass,
-               "written": [f for f in (output, shape_output) if f]}
+               "carried": carried_summary(ctx), "written": [f for f in (output, shape_output) if f]}
     if json_output:
         emit_json(payload)
         return
     click.echo(f"{ctx.device.name}: {path_file} in {duration} s carries {r.mass:.4f} kg at {ctx.tcp}")
+    _echo_carried(payload["carried"])
     click.echo(f"  a quintic time law over {duration} s: {r.quintic_capacity:.4f} kg ({r.mass - r.quintic_capacity:+.4f} kg)")
     click.echo(f"  the unloaded time-optimal timing: {r.time_optimal_capacity:.4f} kg ({r.mass - r.time_optimal_capacity:+.4f} kg)")
     click.echo(f"  at rest (any slower): at most {r.static_capacity:.4f} kg")

@@ -25,14 +25,16 @@ class Capacity:
     side: str  # "upper" | "lower": which torque limit binds
 
 
-def payload_capacity(device, q, qd, qdd, gravity, com_in_tool, mount=None, armature=True, friction=False, unit_payload=None) -> Capacity:
+def payload_capacity(device, q, qd, qdd, gravity, com_in_tool, mount=None, armature=True, friction=False, unit_payload=None,
+                     link_loads=None) -> Capacity:
     """The largest point-mass payload (at ``com_in_tool``) the samples can carry within the effort limits.
 
     ``unit_payload`` overrides the point mass: a 1 kg-scaled Payload (an object's mass properties per kg).
+    ``link_loads``: what else rides on the links (``DeviceDynamics``), carried in any case.
     """
-    bare = DeviceDynamics(device, None, mount, armature, friction)
+    bare = DeviceDynamics(device, None, mount, armature, friction, link_loads=link_loads)
     one = unit_payload if unit_payload is not None else Payload.point_mass(1.0, com_in_tool)
-    loaded = DeviceDynamics(device, one, mount, armature, friction)
+    loaded = DeviceDynamics(device, one, mount, armature, friction, link_loads=link_loads)
     tau0 = bare.inverse(q, qd, qdd, gravity)
     tau1 = loaded.inverse(q, qd, qdd, gravity) - tau0
     tmax = device.limit_array("effort")
@@ -68,7 +70,7 @@ class LoadOptimal:
     given_shape_mass: float | None = None  # with the knots optimised: the mass on the path as given [kg]
 
 
-def _heaviest(device, path, limits, gravity, com_in_tool, duration, mount, gridpoints, tolerance, check_samples=4001):
+def _heaviest(device, path, limits, gravity, com_in_tool, duration, mount, gridpoints, tolerance, check_samples=4001, link_loads=None):
     """(mass, timing, static bound) of the heaviest point mass ``path`` carries within ``duration``.
 
     A mass m is carryable in time T when the time-optimal timing with m on board (torque limits
@@ -83,7 +85,7 @@ def _heaviest(device, path, limits, gravity, com_in_tool, duration, mount, gridp
     from .topp import InfeasiblePath, time_optimal
 
     def fastest(m: float):
-        dyn = DeviceDynamics(device, Payload.point_mass(m, com_in_tool), mount, armature=True, friction=False)
+        dyn = DeviceDynamics(device, Payload.point_mass(m, com_in_tool), mount, armature=True, friction=False, link_loads=link_loads)
         try:
             timing, _ = time_optimal(path, limits, dyn, gravity, gridpoints, check_samples=check_samples)
             return timing
@@ -93,7 +95,7 @@ def _heaviest(device, path, limits, gravity, com_in_tool, duration, mount, gridp
     s_static = np.linspace(0, 1, 2001)
     q_static = path.evaluate(s_static)[0]
     zero = np.zeros_like(q_static)
-    static = payload_capacity(device, q_static, zero, zero, gravity, com_in_tool, mount).mass
+    static = payload_capacity(device, q_static, zero, zero, gravity, com_in_tool, mount, link_loads=link_loads).mass
     lo, hi = 0.0, max(static, 0.0)
     first = fastest(0.0)
     if first is None or first.duration > duration:
@@ -117,7 +119,7 @@ def _knots_from(z: np.ndarray) -> np.ndarray:
 
 
 def optimise_knots(device, path, limits, gravity, com_in_tool, duration, mass, mount=None, gridpoints: int = 200,
-                   tolerance: float = 1e-3, evaluations: int = 80, progress=None):
+                   tolerance: float = 1e-3, evaluations: int = 80, progress=None, link_loads=None):
     """The knots (path parameters of the waypoints) whose spline carries the most within ``duration``.
 
     The spline still passes through every waypoint; moving the knots changes its shape between
@@ -151,11 +153,13 @@ def optimise_knots(device, path, limits, gravity, com_in_tool, duration, mass, m
 
     best_knots = path.knots
     try:  # the given shape at the search resolution: the figure to beat
-        best_mass = _heaviest(device, path, limits, gravity, com_in_tool, duration, mount, gridpoints, tolerance)[0]
+        best_mass = _heaviest(device, path, limits, gravity, com_in_tool, duration, mount, gridpoints, tolerance,
+                              link_loads=link_loads)[0]
     except InfeasiblePath:
         best_mass = mass
     for _ in range(3):
-        dyn = DeviceDynamics(device, Payload.point_mass(best_mass, com_in_tool), mount, armature=True, friction=False)
+        dyn = DeviceDynamics(device, Payload.point_mass(best_mass, com_in_tool), mount, armature=True, friction=False,
+                             link_loads=link_loads)
 
         def cycle_time(zz):
             nonlocal used
@@ -180,7 +184,8 @@ def optimise_knots(device, path, limits, gravity, com_in_tool, duration, mass, m
         if candidate is None or found.fun >= cycle_time(z):
             break
         try:
-            m = _heaviest(device, candidate, limits, gravity, com_in_tool, duration, mount, gridpoints, tolerance)[0]
+            m = _heaviest(device, candidate, limits, gravity, com_in_tool, duration, mount, gridpoints, tolerance,
+                          link_loads=link_loads)[0]
         except InfeasiblePath:
             break
         if m <= best_mass + tolerance:
@@ -192,27 +197,30 @@ def optimise_knots(device, path, limits, gravity, com_in_tool, duration, mass, m
 
 
 def load_optimal(device, path, limits, gravity, com_in_tool, duration: float, mount=None, gridpoints: int = 400,
-                 tolerance: float = 1e-4, shape: bool = False, evaluations: int = 80, progress=None) -> LoadOptimal:
+                 tolerance: float = 1e-4, shape: bool = False, evaluations: int = 80, progress=None,
+                 link_loads=None) -> LoadOptimal:
     """Maximise the payload a path can carry within ``duration``: the timing, and with ``shape`` the knots.
 
     The timing is free; bisection on the mass (:func:`_heaviest`) to ``tolerance`` kg.  The resulting
     timing is stretched to take exactly ``duration``.  With ``shape=True`` the waypoints' path
     parameters are optimised as well (:func:`optimise_knots`, ``evaluations`` shapes at a coarser
     grid), the spline still passing through every waypoint; the result keeps the given shape
-    when no other carries more.
+    when no other carries more.  ``link_loads`` (``DeviceDynamics``) ride on the links throughout.
     """
     from .path import JointPath
     from .topp import Limits, Timing, _times, sample_trajectory, time_optimal
 
     lim = Limits(limits.velocity, limits.acceleration, limits.effort)
-    mass, best, static = _heaviest(device, path, lim, gravity, com_in_tool, duration, mount, gridpoints, tolerance)
+    mass, best, static = _heaviest(device, path, lim, gravity, com_in_tool, duration, mount, gridpoints, tolerance,
+                                   link_loads=link_loads)
     given_mass = None
     if shape and len(path.waypoints) > 2:
         knots, _ = optimise_knots(device, path, lim, gravity, com_in_tool, duration, mass, mount, min(gridpoints, 200),
-                                  max(tolerance, 1e-3), evaluations, progress)
+                                  max(tolerance, 1e-3), evaluations, progress, link_loads)
         if not np.allclose(knots, path.knots, atol=1e-12):
             reshaped = JointPath(path.waypoints, knots, path.boundary)
-            m2, best2, static2 = _heaviest(device, reshaped, lim, gravity, com_in_tool, duration, mount, gridpoints, tolerance)
+            m2, best2, static2 = _heaviest(device, reshaped, lim, gravity, com_in_tool, duration, mount, gridpoints, tolerance,
+                                           link_loads=link_loads)
             given_mass = mass
             if m2 > mass:
                 path, mass, best, static = reshaped, m2, best2, static2
@@ -220,8 +228,9 @@ def load_optimal(device, path, limits, gravity, com_in_tool, duration: float, mo
     timing = Timing(best.s, best.x / stretch**2, best.u / stretch**2, _times(best.s, best.x / stretch**2), best.scale * stretch)
     fast, _ = time_optimal(path, Limits(limits.velocity, limits.acceleration, None), None, gravity, gridpoints)
     _, q, qd, qdd = sample_trajectory(path, fast, 20001, switches=True)
-    t_opt = payload_capacity(device, q, qd, qdd, gravity, com_in_tool, mount).mass
+    t_opt = payload_capacity(device, q, qd, qdd, gravity, com_in_tool, mount, link_loads=link_loads).mass
     _, s, sd, sdd = quintic_timing(duration, 20001)
     q, dq, ddq = path.evaluate(s)
-    quint = payload_capacity(device, q, dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None], gravity, com_in_tool, mount).mass
+    quint = payload_capacity(device, q, dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None], gravity, com_in_tool, mount,
+                             link_loads=link_loads).mass
     return LoadOptimal(mass, duration, timing, t_opt, quint, static, path, given_mass)

@@ -300,19 +300,19 @@ class World:
         tcps = ", ".join(self.cell.devices[device].tcps)
         raise UserError(f"'{frame}' is not carried by device '{device}'; choose one of its TCPs ({tcps}) or a frame of a tool it holds")
 
-    def carried_loads(self, device: str) -> dict[int, list]:
-        """Mass properties riding on each link of ``device``: link index -> [(Inertial, T_link_body)].
+    def carried(self, device: str, exclude=()) -> list[tuple[str, int, list]]:
+        """What rides on the links of ``device``: [(primitive name, link index, [(Inertial, T_link_body)])].
 
         Everything rigidly or non-rigidly below a link - grasped objects,
         aggregated devices (their links at the current joint values) - except
-        the device's own links.
+        the device's own links, sensors, and the primitives named in ``exclude``.
         """
         dev = self.cell.devices[device]
         links = list(dev.link_frames)
-        loads: dict[int, list] = {}
+        out = []
         for name in self.frames:
             kind = self.cell.primitive_kind(name)
-            if kind is None or name == device or kind == "sensor":
+            if kind is None or name == device or kind == "sensor" or name in exclude:
                 continue
             node = self._parent[name]
             while node is not None and node not in links and node != device:
@@ -321,11 +321,17 @@ class World:
                 continue
             k = links.index(node) + 1
             if kind == "object":
-                loads.setdefault(k, []).append((self.cell.objects[name].inertial, self.T(node, name)))
+                out.append((name, k, [(self.cell.objects[name].inertial, self.T(node, name))]))
             else:
                 other = self.cell.devices[name]
-                for link, frame in zip(other.links, other.link_frames):
-                    loads.setdefault(k, []).append((link.inertial, self.T(node, frame)))
+                out.append((name, k, [(link.inertial, self.T(node, frame)) for link, frame in zip(other.links, other.link_frames)]))
+        return out
+
+    def carried_loads(self, device: str, exclude=()) -> dict[int, list]:
+        """Mass properties riding on each link of ``device``: link index -> [(Inertial, T_link_body)] (see :meth:`carried`)."""
+        loads: dict[int, list] = {}
+        for _, k, bodies in self.carried(device, exclude):
+            loads.setdefault(k, []).extend(bodies)
         return loads
 
     def snapshot(self) -> dict:

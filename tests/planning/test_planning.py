@@ -266,3 +266,44 @@ def test_load_optimal_shape_command_writes_a_path_file(cli, tmp_path):
                             "--gridpoints", "100", "--tolerance", "0.01", "--json"]).stdout)
     assert again["knots"] == pytest.approx(data["knots"], abs=1e-8)
     assert again["payload_mass"] == pytest.approx(data["payload_mass"], abs=2e-2)
+
+
+def test_uniform_slowdown_when_the_local_repairs_do_not_settle():
+    limits, _ = CONFIGS["b_aggr"]
+    timing, info = time_optimal(PATH, limits, DYN, G, 100, max_rounds=1)  # no local repair allowed
+    local, _ = time_optimal(PATH, limits, DYN, G, 100)
+    assert timing.scale > 1.0 and info["dense_ratio"] <= 1.0
+    assert timing.duration > local.duration  # slowing everywhere costs more than slowing where needed
+    _, q, qd, qdd = sample_trajectory(PATH, timing, 20001)
+    assert max(np.max(v) for v in limit_ratios(q, qd, qdd, limits, DYN, G).values()) <= 1.0
+
+
+def test_what_the_cell_puts_on_the_links_is_carried_by_dynamics_and_planning(cli):
+    """paper_fig9's robot holds two hands, a part and an assembly (2.02 kg on link 6): every torque includes them."""
+    from rworld_cli.api import carried_summary, device_context, device_dynamics
+    from rworld_cli.dynamics import Payload
+    from rworld_cli.kinematics.jacobian import ToolMount
+
+    ctx = device_context(WORKCELLS / "paper_fig9", "robot", None)
+    carried = carried_summary(ctx)
+    assert {c["name"] for c in carried} == {"hand_a", "part", "hand_b", "housing", "shaft", "cap"}
+    assert sum(c["mass"] for c in carried) == pytest.approx(2.02) and {c["link"] for c in carried} == {6}
+    # the same bodies given as rigid payloads at the flange give the same torques
+    link6 = ctx.device.link_frames[-1]
+    bodies = [(ctx.world.cell.objects[n].inertial, ctx.world.T(link6, n)) for n in ("part", "housing", "shaft", "cap")]
+    for hand in ("hand_a", "hand_b"):
+        dev = ctx.world.cell.devices[hand]
+        bodies += [(link.inertial, ctx.world.T(link6, f)) for link, f in zip(dev.links, dev.link_frames)]
+    mount6 = ToolMount(6, np.eye(4))  # payloads given in the flange frame
+    rng = np.random.default_rng(3)
+    q, qd, qdd = (rng.uniform(-1, 1, (20, 6)) for _ in range(3))
+    with_loads = device_dynamics(ctx, armature=False, friction=False).inverse(q, qd, qdd, ctx.gravity_base)
+    by_payloads = DeviceDynamics(ctx.device, None, ctx.mount, False, False).inverse(q, qd, qdd, ctx.gravity_base)
+    for inertial, T in bodies:
+        one = DeviceDynamics(ctx.device, Payload.rigid_body(inertial, T), mount6, False, False)
+        by_payloads += one.inverse(q, qd, qdd, ctx.gravity_base) - DeviceDynamics(ctx.device, None, mount6, False, False).inverse(
+            q, qd, qdd, ctx.gravity_base)
+    np.testing.assert_allclose(with_loads, by_payloads, atol=1e-10)
+    out = json.loads(cli(["plan", "payload", "workcells/paper_fig9", "-d", "robot", "--path", "workcells/puma560/paths/reference.yaml",
+                          "--timing", "quintic", "--duration", "5", "--json"]).stdout)
+    assert {c["name"] for c in out["carried"]} == {c["name"] for c in carried}
