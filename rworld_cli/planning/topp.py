@@ -483,7 +483,7 @@ def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, g
         ``info``: ``binding`` - per grid interval the constraint that limits it
         ('velocity', 'acceleration j', 'torque j', '... between grid points', 'braking ahead'),
         ``dense_ratio`` - the worst limit ratio between grid points (<= 1 unless ``repair=False``),
-        ``grid`` (points), ``rounds`` (solves), ``repaired`` (intervals capped), ``x_limit``, ``K_hi``.
+        ``grid`` (points), ``rounds`` (solves), ``repaired`` (grid points capped), ``x_limit``, ``K_hi``.
 
     Raises
     ------
@@ -502,14 +502,9 @@ def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, g
         K_lo, K_hi = stages.backward(caps, end_at_rest)
         x, u, binding = stages.forward(K_lo, K_hi, caps, cap_cause)
         timing = Timing(s, x, u, _times(s, x))
-        if not repair:
-            _, _, ratio = interval_excess(path, timing, limits, dynamics, gravity, segments, check_samples)
-            break
         factor, cause, ratio = interval_excess(path, timing, limits, dynamics, gravity, segments, check_samples)
         bad = np.flatnonzero(factor < 1.0)
-
-
-        if not len(bad):
+        if not repair or not len(bad):
             break
         if rounds >= max_rounds:  # not settled locally: slow the whole timing by what the check asks for
             scale = 1.0
