@@ -30,6 +30,14 @@ def _payload(ctx, payload_object, payload_mass, payload_com):
     return resolve_payload(ctx, payload_object, payload_mass, com)
 
 
+def _model(ctx, payload_object, payload_mass, payload_com, no_armature, no_friction):
+    """The device's dynamics with the payload options; a payload object is not counted again as carried."""
+    from ..api import device_dynamics
+
+    return device_dynamics(ctx, _payload(ctx, payload_object, payload_mass, payload_com), not no_armature, not no_friction,
+                           exclude=[payload_object] if payload_object else ())
+
+
 @click.group()
 def dynamics() -> None:
     """Inverse and forward dynamics and static force transmission of a device.
@@ -59,12 +67,9 @@ def inverse(cell, device, other_joints, tcp, states, payload_object, payload_mas
       rworld dynamics inverse workcells/puma560 --states states.csv --payload workpiece -o tau.csv
       rworld dynamics inverse workcells/puma560 --states states.csv --payload-mass 2.5 --no-friction
     """
-    from ..api import device_dynamics
-
     ctx = context(cell, device, tcp, other_joints)
     data, warnings = joint_rows(ctx, states, None, ["q", "qd", "qdd"])
-    dyn = device_dynamics(ctx, _payload(ctx, payload_object, payload_mass, payload_com), not no_armature, not no_friction,
-                          exclude=[payload_object] if payload_object else ())
+    dyn = _model(ctx, payload_object, payload_mass, payload_com, no_armature, no_friction)
     tau = dyn.inverse(data["q"], data["qd"], data["qdd"], ctx.gravity_base)
     emit([f"tau{i}" for i in range(1, ctx.device.dof + 1)], tau, {"device": ctx.device.name, "tau": tau.tolist()},
          json_output, output, warnings)
@@ -86,12 +91,9 @@ def forward(cell, device, other_joints, tcp, states, payload_object, payload_mas
     Example:
       rworld dynamics forward workcells/puma560 --states torques.csv --json
     """
-    from ..api import device_dynamics
-
     ctx = context(cell, device, tcp, other_joints)
     data, warnings = joint_rows(ctx, states, None, ["q", "qd", "tau"])
-    dyn = device_dynamics(ctx, _payload(ctx, payload_object, payload_mass, payload_com), not no_armature, not no_friction,
-                          exclude=[payload_object] if payload_object else ())
+    dyn = _model(ctx, payload_object, payload_mass, payload_com, no_armature, no_friction)
     qdd = dyn.forward(data["q"], data["qd"], data["tau"], ctx.gravity_base)
     emit([f"qdd{i}" for i in range(1, ctx.device.dof + 1)], qdd, {"device": ctx.device.name, "qdd": qdd.tolist()},
          json_output, output, warnings)

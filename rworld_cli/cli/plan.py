@@ -60,9 +60,9 @@ def time_optimal(cell, device, other_joints, tcp, path_file, gridpoints, no_torq
     path = load_joint_path(path_file, ctx.device)
     com = parse_vector(payload_com, "--payload-com", 3) if payload_com else None
     payload = resolve_payload(ctx, payload_object, payload_mass, com)
-    timing, info, dyn, limits = plan_time_optimal(ctx, path, payload, gridpoints, not no_torque,
-                                                  exclude=[payload_object] if payload_object else ())
-    carried = carried_summary(ctx, [payload_object] if payload_object else ()) if dyn is not None else []
+    exclude = [payload_object] if payload_object else ()  # an object given as the payload is not also carried
+    timing, info, dyn, limits = plan_time_optimal(ctx, path, payload, gridpoints, not no_torque, exclude=exclude)
+    carried = carried_summary(ctx, exclude) if dyn is not None else []
     t, q, qd, qdd = sample_trajectory(path, timing, samples)
     ratios = limit_ratios(q, qd, qdd, limits, dyn, ctx.gravity_base)
     counts: dict[str, int] = {}

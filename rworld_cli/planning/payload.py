@@ -161,18 +161,24 @@ def optimise_knots(device, path, limits, gravity, com_in_tool, duration, mass, m
         dyn = DeviceDynamics(device, Payload.point_mass(best_mass, com_in_tool), mount, armature=True, friction=False,
                              link_loads=link_loads)
 
+        seen: dict[tuple, float] = {}
+
         def cycle_time(zz):
             nonlocal used
+            key = tuple(np.asarray(zz).tolist())
+            if key in seen:
+                return seen[key]
             used += 1
             if progress is not None:
                 progress(min(used, evaluations), evaluations)
             candidate = shaped(zz)
-            if candidate is None:
-                return 10.0 * duration
-            try:
-                return time_optimal(candidate, limits, dyn, gravity, gridpoints, check_samples=4001)[0].duration
-            except InfeasiblePath:
-                return 10.0 * duration
+            seen[key] = 10.0 * duration  # refused: outside the position limits, or no timing at all
+            if candidate is not None:
+                try:
+                    seen[key] = time_optimal(candidate, limits, dyn, gravity, gridpoints, check_samples=4001)[0].duration
+                except InfeasiblePath:
+                    pass
+            return seen[key]
 
         budget = evaluations - used
         if budget < len(z) + 2:

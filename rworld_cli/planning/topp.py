@@ -417,16 +417,12 @@ def interval_excess(path, timing: Timing, limits: Limits, dynamics, gravity, seg
     ratio = np.concatenate(ratios, axis=1)  # (S, kinds * n)
     seg_scale = np.concatenate(scale, axis=1)
     worst = float(ratio.max(initial=0.0))
-    bad = ratio > 1.0
-    cause = [""] * N
-    if bad.any():
-        f = np.where(bad, seg_scale * (1.0 - _MARGIN), 1.0)
-        col = np.argmin(f, axis=1)
-        fmin = f[np.arange(len(f)), col]
-        np.minimum.at(factor, k, fmin)
-        for si in np.flatnonzero(fmin < 1.0):
-            if fmin[si] <= factor[k[si]]:
-                cause[k[si]] = names[col[si]] + " between grid points"
+    # candidate repairs: (interval, factor, what asks for it), from the segments and from the torque samples
+    f = np.where(ratio > 1.0, seg_scale * (1.0 - _MARGIN), 1.0)
+    col = np.argmin(f, axis=1)
+    f_seg = f[np.arange(len(f)), col]
+    over = f_seg < 1.0
+    where, factors, labels = [k[over]], [f_seg[over]], [np.array(names, dtype=object)[col[over]]]
     if dynamics is not None and limits.effort is not None:
         t = np.linspace(0.0, timing.duration, check_samples)
         _, q, qd, qdd = sample_trajectory(path, timing, t)
@@ -436,19 +432,21 @@ def interval_excess(path, timing: Timing, limits: Limits, dynamics, gravity, seg
         rows, cols = np.nonzero(r > 1.0)
         if len(rows):
             tau_g = dynamics.gravity_torques(q[rows], gravity)[np.arange(len(rows)), cols]
-            over = tau[rows, cols]
-            room = np.sign(over) * limits.effort[cols] - tau_g  # what the motion part may use
-            if np.any(room * np.sign(over) <= 0):
+            excess = tau[rows, cols]
+            room = np.sign(excess) * limits.effort[cols] - tau_g  # what the motion part may use
+            if np.any(room * np.sign(excess) <= 0):
                 raise InfeasiblePath("gravity alone exceeds a torque limit on the path")
-            f = room / (over - tau_g) * (1.0 - _MARGIN)
-            ki = np.clip(np.searchsorted(timing.t, t[rows], side="right") - 1, 0, N - 1)
-            before = factor.copy()
-            np.minimum.at(factor, ki, f)
-            for idx in np.flatnonzero(factor < before):
-                cause[idx] = ""
-            for ri in range(len(rows)):
-                if f[ri] <= factor[ki[ri]] and not cause[ki[ri]]:
-                    cause[ki[ri]] = f"torque {cols[ri] + 1} between grid points"
+            where.append(np.clip(np.searchsorted(timing.t, t[rows], side="right") - 1, 0, N - 1))
+            factors.append(room / (excess - tau_g) * (1.0 - _MARGIN))
+            labels.append(np.array([f"torque {j + 1}" for j in range(n)], dtype=object)[cols])
+    where, factors, labels = np.concatenate(where), np.concatenate(factors), np.concatenate(labels)
+    cause = [""] * N
+    if len(where):
+        order = np.lexsort((factors, where))  # by interval, smallest factor first
+        first = order[np.r_[True, np.diff(where[order]) != 0]]
+        factor[where[first]] = factors[first]
+        for i, label in zip(where[first].tolist(), labels[first].tolist()):
+            cause[i] = label + " between grid points"
     return factor, cause, worst
 
 
