@@ -7,6 +7,7 @@ as :class:`~rworld_cli.errors.UserError`.
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -70,19 +71,58 @@ def _file_kind(path: Path):
     except UserError:
         return "cell", None
     if isinstance(doc.data, dict) and "name" not in doc.data:
-        for key, kind in (("poses", "poses"), ("steps", "program"), ("programs", "run")):
+        for key, kind in (("poses", "poses"), ("steps", "program"), ("programs", "run"), ("waypoints", "path")):
             if key in doc.data:
                 return kind, doc
     return "cell", doc
 
 
-def validate_files(paths: list[str]) -> list[FileReport]:
-    """Validate cell files (with the pose files and meshes they name) and pose files.
+def _cell_of(path: Path, cell: str | None) -> str | None:
+    """The cell a path file is checked against: ``cell``, else the cell whose ``paths/`` folder holds it."""
+    if cell is not None:
+        return cell
+    home = path.resolve().parent
+    if home.name == "paths" and (home.parent / "cell.yaml").is_file():
+        return os.path.relpath(home.parent / "cell.yaml")
+    return None
+
+
+def _validate_path_file(raw: str, doc, cell: str | None) -> str:
+    """Check a path file (and against its cell, when one is known); returns the summary."""
+    from .schema.loader import load_cell, validate_document
+    from .schema.messages import did_you_mean
+    from .schema.program import PathFile
+
+    pf = validate_document(doc, PathFile)
+    cell_path = _cell_of(Path(raw), cell)
+    if cell_path is None:
+        return (f"{len(pf.waypoints)} waypoint(s); checked against a cell with --cell CELL "
+                "(or when the file is in the cell's paths/ folder)")
+    devices = load_cell(cell_path).cell.devices
+    name = pf.device or (next(iter(devices)) if len(devices) == 1 else None)
+    if name is None:
+        raise UserError(f"{raw}: name the device", [doc.issue((), f"the cell has {len(devices)} devices ({', '.join(devices)}): "
+                                                                  "say which one the path is for with 'device:'")])
+    if name not in devices:
+        raise UserError(f"{raw}: unknown device", [doc.issue(("device",), f"'{name}' is not a device of {cell_path}"
+                                                                           f"{did_you_mean(name, devices)}")])
+    path, doc2, _, scale = _read_path(raw, devices[name])
+    issues = path_range_issues(path, devices[name], raw, doc2, scale)
+    if issues:
+        raise UserError(f"{raw}: the path leaves a joint's position range between waypoints", issues)
+    return f"{len(pf.waypoints)} waypoint(s) for {name}, within its position range all along (checked against {cell_path})"
+
+
+def validate_files(paths: list[str], cell: str | None = None) -> list[FileReport]:
+    """Validate cell files (with the pose files and meshes they name), pose, program, run and path files.
 
     Parameters
     ----------
     paths : list of str
-        Cell files, cell directories or pose files, as the user named them.
+        Cell files, cell directories, pose, program, run or path files, as the user named them.
+    cell : str, optional
+        The cell that path files are checked against (default: the cell whose ``paths/``
+        folder holds the file).
 
     Returns
     -------
@@ -107,6 +147,8 @@ def validate_files(paths: list[str]) -> list[FileReport]:
                     f"{len(c.devices)} device(s), {len(c.objects)} object(s), {len(c.sensors)} sensor(s), "
                     f"{len(c.frames) - 1} frame(s), {len(c.features)} feature(s), {len(c.conditions)} condition(s)"
                 )
+            elif kind == "path":
+                report.summary = _validate_path_file(raw, doc, cell)
             elif kind == "poses":
                 pf = validate_document(doc, sm.PoseFile)
                 report.summary = f"{len(pf.poses)} pose(s); frame names are checked when a cell uses this file"
@@ -643,8 +685,8 @@ def plan_cell_measurements(cell_path: str, frames: list[str] | None, sigma: floa
 # --------------------------------------------------------------------------- planning
 
 
-def load_joint_path(path_file: str, device):
-    """A :class:`~rworld_cli.planning.path.JointPath` from a path file, checked against the device (located errors)."""
+def _read_path(path_file: str, device):
+    """(JointPath, doc, PathFile, scale): a path file checked against the device (located errors, exit 2)."""
     from .planning.path import JointPath
     from .schema.loader import ANGLE, LENGTH, validate_document
     from .schema.program import PathFile
@@ -668,10 +710,63 @@ def load_joint_path(path_file: str, device):
     lo, hi = device.limit_array("lower"), device.limit_array("upper")
     bad = np.argwhere((q < lo) | (q > hi))
     if len(bad):
+        issues = [doc.issue(("waypoints", int(k), int(j)), f"{pf.waypoints[k][j]} is outside the position limits of {device.joints[j].name} "
+                            f"[{lo[j] / scale[j]:.6g}, {hi[j] / scale[j]:.6g}]") for k, j in bad]
         k, j = bad[0]
-        raise UserError(f"{path_file}: waypoint {k + 1} puts joint {device.joints[j].name} outside its position limits",
-                        [doc.issue(("waypoints", int(k), int(j)), f"{pf.waypoints[k][j]} is outside the position limits of {device.joints[j].name}")])
-    return JointPath(q, pf.knots, pf.boundary)
+        raise UserError(f"{path_file}: waypoint {k + 1} puts joint {device.joints[j].name} outside its position limits", issues)
+    return JointPath(q, pf.knots, pf.boundary), doc, pf, scale
+
+
+def path_range_issues(path, device, path_file: str, doc=None, scale=None) -> list[Issue]:
+    """Located issues for joints that leave their position range between the path's waypoints.
+
+    The extrema are exact (the roots of q' on every cubic piece).  Each issue points at the
+    waypoint that ends the piece where the joint peaks, with the value and limit in the file's units.
+    """
+    from .planning.path import range_excursions
+
+    out = []
+    scale = np.ones(device.dof) if scale is None else scale
+    for e in range_excursions(path, device.limit_array("lower"), device.limit_array("upper")):
+        piece = int(np.clip(np.searchsorted(path.knots, e.s, side="right") - 1, 0, len(path.knots) - 2))
+        name = device.joints[e.joint].name
+        where = "above its upper" if e.side == "upper" else "below its lower"
+        message = (f"joint {name} leaves its position range between waypoints {piece + 1} and {piece + 2}: "
+                   f"{e.value / scale[e.joint]:.6g} at s = {e.s:.4f}, {where} limit {e.limit / scale[e.joint]:.6g}")
+        if doc is not None:
+            out.append(doc.issue(("waypoints", piece + 1, e.joint), message))
+        else:
+            out.append(Issue(path_file, 0, 0, "(path)", message))
+    return out
+
+
+def load_joint_path(path_file: str, device, check_range: bool = True):
+    """A :class:`~rworld_cli.planning.path.JointPath` from a path file, checked against the device.
+
+    Raises
+    ------
+    UserError
+        The file is malformed, or a waypoint is outside its joint's range (exit 2).
+    CheckFailed
+        ``check_range`` and the spline leaves a joint's range between waypoints (exit 1).
+    """
+    from .errors import CheckFailed
+
+    path, doc, _, scale = _read_path(path_file, device)
+    if check_range:
+        issues = path_range_issues(path, device, path_file, doc, scale)
+        if issues:
+            raise CheckFailed(f"{path_file}: the path leaves a joint's position range between waypoints", issues)
+    return path
+
+
+def check_path_range(path, device, what: str) -> None:
+    """Raise CheckFailed (exit 1) when ``path`` (built in code, e.g. reshaped knots) leaves a joint's range."""
+    from .errors import CheckFailed
+
+    issues = path_range_issues(path, device, what)
+    if issues:
+        raise CheckFailed(f"{what}: the path leaves a joint's position range", issues)
 
 
 def write_path_with_knots(path_file: str, knots, output: str, note: str = "") -> None:
@@ -694,12 +789,23 @@ def write_path_with_knots(path_file: str, knots, output: str, note: str = "") ->
 
 
 def planning_limits(device, torque: bool = True, acceleration: bool = True):
+    """The device's limits for planning.  A joint with no limit of a kind is unlimited in that kind,
+    alone (``inf``); the other joints keep theirs.  ``torque=False`` / ``acceleration=False`` leave
+    the kind out for every joint."""
     from .planning.topp import Limits
 
     v, a, e = device.limit_array("velocity"), device.limit_array("acceleration"), device.limit_array("effort")
-    if not np.all(np.isfinite(v)):
-        raise UserError(f"every joint of '{device.name}' needs a velocity limit for time-optimal timing")
-    return Limits(v, a if acceleration and np.all(np.isfinite(a)) else None, e if torque and np.any(np.isfinite(e)) else None)
+    return Limits(v, a if acceleration and np.any(np.isfinite(a)) else None, e if torque and np.any(np.isfinite(e)) else None)
+
+
+def unlimited_joints(device, limits) -> dict[str, list[str]]:
+    """Per kind, the names of the joints that run unlimited in a plan with ``limits`` (no limit in the cell)."""
+    names = [j.name for j in device.joints]
+    out = {kind: [names[j] for j in joints] for kind, joints in limits.unlimited().items()}
+    position = device.unlimited().get("position")
+    if position:
+        out = {"position": position, **out}
+    return out
 
 
 def plan_time_optimal(ctx: DeviceContext, path, payload=None, gridpoints: int = 1000, torque: bool = True, friction: bool = False,
@@ -717,3 +823,129 @@ def plan_time_optimal(ctx: DeviceContext, path, payload=None, gridpoints: int = 
     except InfeasiblePath as exc:
         raise UserError(f"no timing of the path stays within the limits: {exc}") from None
     return timing, info, dyn, limits
+
+
+def parse_period(text: str) -> float:
+    """'8ms', '0.008s' or a bare number of seconds -> seconds (> 0)."""
+    import re
+
+    m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(ms|s|us)?\s*", str(text))
+    try:
+        value = float(m.group(1)) * {"ms": 1e-3, "s": 1.0, "us": 1e-6}[m.group(2) or "s"] if m else float("nan")
+    except ValueError:
+        value = float("nan")
+    if not (value > 0 and np.isfinite(value)):
+        raise UserError(f"--period '{text}' is not a positive duration: write e.g. 8ms, 0.004s or 0.002")
+    return value
+
+
+def sample_timed_path(path, timing, samples: int | None = None, period: float | None = None, grid_instants: bool = False):
+    """The rows a plan writes: ``samples`` equally spaced instants or every ``period`` seconds,
+    plus both sides of every grid instant (where sddot jumps) with ``grid_instants``."""
+    from .planning.topp import sample_instants, sample_path
+
+    return sample_path(path, timing, sample_instants(timing, samples, period), switches=grid_instants)
+
+
+def trajectory_table(samples, dynamics=None, gravity=None) -> tuple[list[str], np.ndarray]:
+    """(columns, rows) of a trajectory CSV: t, s, sd, sdd, q1..qn, qd1..qdn, qdd1..qddn[, tau1..taun] (SI)."""
+    n = samples.q.shape[1]
+    cols = ["t", "s", "sd", "sdd"] + [f"{g}{i}" for g in ("q", "qd", "qdd") for i in range(1, n + 1)]
+    blocks = [samples.t[:, None], samples.s[:, None], samples.sd[:, None], samples.sdd[:, None], samples.q, samples.qd, samples.qdd]
+    if dynamics is not None:
+        cols += [f"tau{i}" for i in range(1, n + 1)]
+        blocks.append(dynamics.inverse(samples.q, samples.qd, samples.qdd, gravity))
+    return cols, np.hstack(blocks)
+
+
+@dataclass
+class TimedTrajectory:
+    """A trajectory timed elsewhere, read from CSV (SI)."""
+
+    t: np.ndarray  # (K,)
+    q: np.ndarray  # (K, n)
+    qd: np.ndarray
+    qdd: np.ndarray
+    source: str
+
+    @property
+    def duration(self) -> float:
+        return float(self.t[-1] - self.t[0])
+
+
+def read_trajectory(csv_path: str, device) -> TimedTrajectory:
+    """A trajectory CSV (columns t, q1..qn, qd1..qdn, qdd1..qddn in SI; others ignored), checked.
+
+    Raises
+    ------
+    UserError
+        Missing columns, bad values, time that does not increase, or joint values outside their
+        position limits - located as ``file:line:col``; nothing is evaluated.
+    """
+    from .tableio import read_states
+
+    data = read_states(csv_path, device.dof, ["q", "qd", "qdd"], scalars=("t",))
+    t, lines, tcol = data["t"], data["_line"], data["_column"]["t"]
+    issues = []
+    back = np.flatnonzero(np.diff(t) <= 0)
+    for k in back[:10]:
+        issues.append(Issue(csv_path, int(lines[k + 1]), int(tcol[k + 1]), "column 't'",
+                            f"time {t[k + 1]!r} does not come after the row before ({t[k]!r}): a trajectory's time must increase"))
+    lo, hi = device.limit_array("lower"), device.limit_array("upper")
+    for k, j in np.argwhere((data["q"] < lo - 1e-9) | (data["q"] > hi + 1e-9))[:10]:
+        issues.append(Issue(csv_path, int(lines[k]), 0, f"column 'q{j + 1}'",
+                            f"{data['q'][k, j]:.6g} is outside the position limits of {device.joints[j].name} [{lo[j]:.6g}, {hi[j]:.6g}]"))
+    if issues:
+        raise UserError(f"{csv_path}: {len(issues)} error(s)", issues)
+    if len(t) < 2:
+        raise UserError(f"{csv_path}: a trajectory needs at least 2 rows", [Issue(csv_path, int(lines[0]), 1, "(rows)", "only one row")])
+    return TimedTrajectory(t, data["q"], data["qd"], data["qdd"], csv_path)
+
+
+@dataclass
+class PayloadResult:
+    capacity: object  # planning.payload.Capacity
+    duration: float  # [s]
+    binding_time: float  # [s] from the start of the motion
+    instants: int  # instants checked
+
+
+def plan_payload(ctx: DeviceContext, path_file: str | None, trajectory_file: str | None, timing: str = "time-optimal",
+                 duration: float | None = None, com=(0.0, 0.0, 0.0), payload_object: str | None = None,
+                 gridpoints: int = 1000, samples: int = 20001) -> PayloadResult:
+    """The exact payload capacity of a motion: a path timed here (time-optimal or quintic) or a trajectory CSV.
+
+    The torques include what the cell's state puts on the device's links (except ``payload_object``).
+    """
+    from .dynamics import Payload
+    from .planning.payload import payload_capacity, quintic_timing
+
+    if trajectory_file is not None:
+        tr = read_trajectory(trajectory_file, ctx.device)
+        t, q, qd, qdd, T = tr.t - tr.t[0], tr.q, tr.qd, tr.qdd, tr.duration
+    else:
+        path = load_joint_path(path_file, ctx.device)
+        if timing == "quintic":
+            if duration is None or not duration > 0:
+                raise UserError("--timing quintic needs --duration SECONDS > 0")
+            t, s, sd, sdd = quintic_timing(duration, samples)
+            q, dq, ddq = path.evaluate(s)
+            qd, qdd = dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None]
+            T = duration
+        else:
+            tm, _, _, _ = plan_time_optimal(ctx, path, None, gridpoints, torque=False)
+            # the acceleration jumps at grid instants: both one-sided limits count, not only the samples
+            rows = sample_timed_path(path, tm, samples, grid_instants=True)
+            t, q, qd, qdd, T = rows.t, rows.q, rows.qd, rows.qdd, tm.duration
+    unit = None
+    if payload_object:
+        obj = ctx.world.cell.objects.get(payload_object)
+        if obj is None or obj.inertial.mass <= 0:
+            raise UserError(f"'{payload_object}' is not an object with mass in the cell")
+        held = payload_object in ctx.world.subtree(ctx.tcp)
+        body = Payload.rigid_body(obj.inertial, ctx.world.T(ctx.tcp, payload_object) if held else None)
+        unit = Payload(1.0, body.com, body.inertia / body.mass)
+    exclude = [payload_object] if payload_object else ()
+    cap = payload_capacity(ctx.device, q, qd, qdd, ctx.gravity_base, com, ctx.mount, armature=True, friction=False,
+                           unit_payload=unit, link_loads=carried_loads(ctx, exclude))
+    return PayloadResult(cap, float(T), float(t[cap.sample]), len(t))

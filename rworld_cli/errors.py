@@ -3,8 +3,9 @@
 Every problem found in a user's file becomes an :class:`Issue` that knows its
 file, line and column, so the CLI can print ``file:line:col: where: message``
 lines that editors and CI logs link to.  Library code raises
-:class:`UserError` (bad input: exit code 2) or :class:`InternalError` (a bug:
-exit code 3); only the CLI prints and exits.
+:class:`UserError` (bad input: exit code 2), :class:`CheckFailed` (a check
+failed: exit code 1) or :class:`InternalError` (a bug: exit code 3); only the
+CLI prints and exits.
 """
 
 from __future__ import annotations
@@ -86,6 +87,13 @@ class UserError(RworldError):
         if self.issues:
             return [i.format() for i in self.issues]
         return [self.message]
+
+
+class CheckFailed(UserError):
+    """The input is well formed but fails a check the command makes (e.g. a path that leaves a
+    joint's range between its waypoints).  CLI exit code 1, with the located issues."""
+
+    exit_code = 1
 
 
 class InternalError(RworldError):

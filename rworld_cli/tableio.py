@@ -22,13 +22,17 @@ def column_names(group: str, n: int) -> list[str]:
     return [f"{group}{i}" for i in range(1, n + 1)]
 
 
-def read_states(path: str, n: int, groups: list[str]) -> dict[str, np.ndarray]:
+def read_states(path: str, n: int, groups: list[str], scalars: tuple[str, ...] = ()) -> dict[str, np.ndarray]:
     """Read the column groups (e.g. ``["q", "qd", "qdd"]``) of an n-joint device.
+
+    ``scalars`` names single columns to read as well (e.g. ``("t",)``).
 
     Returns
     -------
     dict
-        group -> ndarray of shape (N, n).
+        group -> ndarray of shape (N, n); each scalar column -> shape (N,); ``"_line"`` -> the
+        1-based line of each row in the file, ``"_column"`` -> scalar name -> its 1-based column
+        on each row (for located errors about the values).
 
     Raises
     ------
@@ -47,7 +51,7 @@ def read_states(path: str, n: int, groups: list[str]) -> dict[str, np.ndarray]:
     if header_index is None:
         raise UserError(f"{path}: empty", [Issue(path, 1, 1, "(header)", "the file is empty; expected a header row such as " + ",".join(column_names("q", n)))])
     header = [h.strip() for h in lines[header_index].split(",")]
-    wanted = [name for g in groups for name in column_names(g, n)]
+    wanted = list(scalars) + [name for g in groups for name in column_names(g, n)]
     missing = [w for w in wanted if w not in header]
     if missing:
         extra = [h for h in header if h and h[:1] in "qt" and h not in wanted]
@@ -59,6 +63,8 @@ def read_states(path: str, n: int, groups: list[str]) -> dict[str, np.ndarray]:
         raise UserError(f"{path}: duplicate columns", [Issue(path, header_index + 1, 1, "(header)", f"duplicate column(s) {', '.join(duplicated)}")])
     index = {name: header.index(name) for name in wanted}
     rows: list[list[float]] = []
+    row_lines: list[int] = []
+    scalar_cols: dict[str, list[int]] = {name: [] for name in scalars}
     for lineno, line in enumerate(lines[header_index + 1 :], start=header_index + 2):
         if not line.strip() or line.lstrip().startswith("#"):
             continue
@@ -68,10 +74,12 @@ def read_states(path: str, n: int, groups: list[str]) -> dict[str, np.ndarray]:
             continue
         starts = np.cumsum([0] + [len(f) + 1 for f in fields[:-1]])
         row = []
+        cols = {}
         for name in wanted:
             k = index[name]
             raw = fields[k].strip()
             col = int(starts[k]) + 1 + (len(fields[k]) - len(fields[k].lstrip()))
+            cols[name] = col
             try:
                 value = float(raw)
             except ValueError:
@@ -83,12 +91,20 @@ def read_states(path: str, n: int, groups: list[str]) -> dict[str, np.ndarray]:
             row.append(value)
         if len(row) == len(wanted):
             rows.append(row)
+            row_lines.append(lineno)
+            for name in scalars:
+                scalar_cols[name].append(cols[name])
     if issues:
         raise UserError(f"{path}: {len(issues)} error(s)", issues[:50])
     if not rows:
         raise UserError(f"{path}: no data", [Issue(path, header_index + 1, 1, "(rows)", "the header is followed by no data rows")])
     data = np.array(rows, dtype=float)
-    return {g: data[:, i * n : (i + 1) * n] for i, g in enumerate(groups)}
+    out: dict = {name: data[:, i] for i, name in enumerate(scalars)}
+    data = data[:, len(scalars):]
+    out.update({g: data[:, i * n : (i + 1) * n] for i, g in enumerate(groups)})
+    out["_line"] = np.array(row_lines)
+    out["_column"] = {name: np.array(c) for name, c in scalar_cols.items()}
+    return out
 
 
 def limit_warnings(path: str, q: np.ndarray, lower: np.ndarray, upper: np.ndarray, first_line: int = 2) -> list[Issue]:

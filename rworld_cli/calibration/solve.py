@@ -242,11 +242,11 @@ def _jacobian(features, fits, radii, T: np.ndarray, h: float = 1e-7) -> np.ndarr
 
 def _describe_motion(v: np.ndarray, scale: float) -> str:
     rot, trans = v[:3] / scale, v[3:]
-    if np.linalg.norm(rot) * scale >= np.linalg.norm(trans):
-        axis = rot / np.linalg.norm(rot)
-        return f"a rotation about ({axis[0]:.2f}, {axis[1]:.2f}, {axis[2]:.2f})"
-    axis = trans / np.linalg.norm(trans)
-    return f"a translation along ({axis[0]:.2f}, {axis[1]:.2f}, {axis[2]:.2f})"
+    rotation = np.linalg.norm(rot) * scale >= np.linalg.norm(trans)
+    axis = rot / np.linalg.norm(rot) if rotation else trans / np.linalg.norm(trans)
+    axis = np.round(axis, 2) + 0.0  # + 0.0: no "-0.00" for a component that rounds to zero
+    what = "a rotation about" if rotation else "a translation along"
+    return f"{what} ({axis[0]:.2f}, {axis[1]:.2f}, {axis[2]:.2f})"
 
 
 def solve_natural(frame: str, code: str, features: list[Feature], fits: dict[str, FeatureFit], radii: dict[str, float],

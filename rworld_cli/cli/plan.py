@@ -9,6 +9,30 @@ from .physics_common import context, device_options, output_options, parse_vecto
 
 
 GRID_HELP = "Grid points on the path (N points, N - 1 intervals), as toppra counts them."
+SAMPLES_DEFAULT = 20001
+
+
+def sampling_options(fn):
+    """--samples / --period / --grid-instants: the rows of a trajectory CSV (and the instants checked)."""
+    fn = click.option("--grid-instants", is_flag=True,
+                      help="Also write both sides of every grid instant, where the path acceleration jumps.")(fn)
+    fn = click.option("--period", default=None, metavar="DT",
+                      help="A row every DT (e.g. 8ms, 0.004s) from t = 0 for fixed-rate controllers, instead of --samples; "
+                           "the last row, at or after the end, is at rest.")(fn)
+    return click.option("--samples", default=None, type=click.IntRange(2, 10_000_000), metavar="N",
+                        help=f"Equally spaced instants, ends included  [default: {SAMPLES_DEFAULT}].")(fn)
+
+
+def _sampling(samples, period):
+    from ..api import parse_period
+
+    if samples is not None and period is not None:
+        raise click.UsageError("give --samples N or --period DT, not both")
+    return (SAMPLES_DEFAULT if samples is None and period is None else samples), (parse_period(period) if period else None)
+
+
+def _unlimited_line(unlimited: dict) -> str:
+    return "unlimited (no limit in the cell): " + "; ".join(f"{kind} of {', '.join(joints)}" for kind, joints in unlimited.items())
 
 
 @click.group()
@@ -29,33 +53,43 @@ def plan() -> None:
 @click.option("--payload", "payload_object", default=None, metavar="OBJECT", help="An object's mass properties at the TCP.")
 @click.option("--payload-mass", default=None, type=float, metavar="KG", help="A point mass at the TCP (see --payload-com).")
 @click.option("--payload-com", default=None, metavar="X,Y,Z", help="Point mass position in the TCP frame [m].")
-@click.option("--samples", default=1000, show_default=True, type=click.IntRange(2, 1_000_000), help="Rows of the CSV output.")
+@sampling_options
 @click.option("--plot", default=None, type=click.Path(dir_okay=False), help="PNG: path speed against its limit, torque ratios.")
 @output_options
 @json_option
 @handle_errors
 def time_optimal(cell, device, other_joints, tcp, path_file, gridpoints, no_torque, payload_object, payload_mass, payload_com,
-                 samples, plot, output, json_output):
+                 samples, period, grid_instants, plot, output, json_output):
     """The fastest rest-to-rest timing of a path within velocity, acceleration and torque limits.
 
     Reachability analysis (as in TOPP-RA) on a grid, with the limits
     imposed at both ends of every interval.  Between grid points the
-    velocity and acceleration maxima are found exactly and torque is checked
-    at 20 001 instants; an interval that exceeds a limit is slowed locally
-    and the grid solved again, so the trajectory respects every limit between
-    grid points as well.
+    velocity and acceleration maxima are found exactly and torque is bounded
+    on a fine grid (20 001 points, with the interpolation error bound); an
+    interval over a limit is slowed locally and the grid solved again, so
+    the trajectory respects every limit between grid points as well.
+
+    A joint with no limit of a kind in the cell runs unlimited in that kind
+    (the output names it); the other joints keep their limits.  A path whose
+    spline leaves a joint's position range between waypoints exits 1.
+
+    The CSV (-o) has t, s, sd, sdd, q, qd, qdd and tau columns (SI), at
+    --samples instants or every --period.
 
     \b
     Examples:
       rworld plan time-optimal workcells/puma560 --path workcells/puma560/paths/reference.yaml
       rworld plan time-optimal workcells/puma560 --path p.yaml --payload-mass 2 --payload-com 0,0,0.1 --plot p.png -o traj.csv
+      rworld plan time-optimal workcells/puma560 --path p.yaml --period 8ms --grid-instants -o traj.csv
     """
     import numpy as np
 
-    from ..api import carried_summary, load_joint_path, plan_time_optimal, resolve_payload
-    from ..planning.topp import limit_ratios, sample_trajectory
+    from ..api import (carried_summary, load_joint_path, plan_time_optimal, resolve_payload, sample_timed_path, trajectory_table,
+                       unlimited_joints)
+    from ..planning.topp import limit_ratios
     from ..tableio import write_csv
 
+    samples, period = _sampling(samples, period)
     ctx = context(cell, device, tcp, other_joints)
     path = load_joint_path(path_file, ctx.device)
     com = parse_vector(payload_com, "--payload-com", 3) if payload_com else None
@@ -63,33 +97,30 @@ def time_optimal(cell, device, other_joints, tcp, path_file, gridpoints, no_torq
     exclude = [payload_object] if payload_object else ()  # an object given as the payload is not also carried
     timing, info, dyn, limits = plan_time_optimal(ctx, path, payload, gridpoints, not no_torque, exclude=exclude)
     carried = carried_summary(ctx, exclude) if dyn is not None else []
-    t, q, qd, qdd = sample_trajectory(path, timing, samples)
-    ratios = limit_ratios(q, qd, qdd, limits, dyn, ctx.gravity_base)
+    unlimited = unlimited_joints(ctx.device, limits)
+    rows = sample_timed_path(path, timing, samples, period, grid_instants)
+    ratios = limit_ratios(rows.q, rows.qd, rows.qdd, limits, dyn, ctx.gravity_base)
     counts: dict[str, int] = {}
     for b in info["binding"]:
         counts[b] = counts.get(b, 0) + 1
     binding = {k: v / len(info["binding"]) for k, v in sorted(counts.items(), key=lambda kv: -kv[1])}
     if plot:
-        _plot(path_file, timing, info, t, ratios, plot)
-    n = ctx.device.dof
+        _plot(path_file, timing, info, rows.t, ratios, plot)
     if output:
-        cols = ["t"] + [f"{g}{i}" for g in ("q", "qd", "qdd") for i in range(1, n + 1)]
-        rows = np.hstack([t[:, None], q, qd, qdd])
-        if dyn is not None:
-            cols += [f"tau{i}" for i in range(1, n + 1)]
-            rows = np.hstack([rows, dyn.inverse(q, qd, qdd, ctx.gravity_base)])
-        write_csv(output, cols, rows)
-    peaks = {k: float(np.max(v)) for k, v in ratios.items()}
+        write_csv(output, *trajectory_table(rows, dyn, ctx.gravity_base))
+    peaks = {k: float(np.max(np.where(np.isfinite(v), v, 0.0))) for k, v in ratios.items()}
     if json_output:
         emit_json({"device": ctx.device.name, "path": path_file, "gridpoints": gridpoints, "duration": timing.duration,
                    "binding": binding, "dense_ratio": info["dense_ratio"], "repaired_gridpoints": info["repaired"],
-                   "rounds": info["rounds"], "slowdown": timing.scale, "peak_ratio": peaks, "carried": carried,
-                   "written": output, "plot": plot})
+                   "rounds": info["rounds"], "slowdown": timing.scale, "peak_ratio": peaks, "unlimited": unlimited,
+                   "carried": carried, "rows": len(rows.t), "written": output, "plot": plot})
         return
     click.echo(f"{ctx.device.name}: {path_file}: cycle time {timing.duration:.6f} s ({gridpoints} grid points)")
     _echo_carried(carried)
+    if unlimited:
+        click.echo(_unlimited_line(unlimited))
     click.echo("binding along the path: " + ", ".join(f"{k} {v:.0%}" for k, v in binding.items()))
-    click.echo("peak ratio to the limits (dense): " + ", ".join(f"{k} {v:.6f}" for k, v in peaks.items()))
+    click.echo(f"peak ratio to the limits ({len(rows.t)} rows): " + ", ".join(f"{k} {v:.6f}" for k, v in peaks.items()))
     if info["repaired"]:
         click.echo(f"slowed locally at {info['repaired']} grid point(s) so that no limit is exceeded between grid points "
                    f"({info['rounds']} solves)")
@@ -102,66 +133,61 @@ def time_optimal(cell, device, other_joints, tcp, path_file, gridpoints, no_torq
 
 @plan.command("payload")
 @device_options
-@click.option("--path", "path_file", required=True, type=click.Path(dir_okay=False), help="Path file (YAML).")
+@click.option("--path", "path_file", default=None, type=click.Path(dir_okay=False), help="Path file (YAML), timed by --timing.")
+@click.option("--trajectory", "trajectory_file", default=None, type=click.Path(dir_okay=False), metavar="CSV",
+              help="Or a trajectory timed elsewhere: CSV with t, q1..qn, qd1..qdn, qdd1..qddn (SI), e.g. a plan's -o.")
 @click.option("--timing", type=click.Choice(["time-optimal", "quintic"]), default="time-optimal", show_default=True,
-              help="time-optimal (velocity + acceleration limits, no payload) or a quintic time law over --duration.")
+              help="--path: time-optimal (velocity + acceleration limits, no payload) or a quintic time law over --duration.")
 @click.option("--duration", type=float, default=None, help="Quintic: the duration [s].")
 @click.option("--payload-com", default="0,0,0", show_default=True, metavar="X,Y,Z", help="Where the point mass sits, TCP frame [m].")
 @click.option("--payload", "payload_object", default=None, metavar="OBJECT", help="Scale an object's mass properties instead of a point mass.")
 @click.option("--gridpoints", default=1000, show_default=True, type=click.IntRange(10, 100000), help=GRID_HELP)
-@click.option("--samples", default=20001, show_default=True, type=click.IntRange(2, 1_000_000),
-              help="Instants checked; a time-optimal timing adds both sides of every grid instant, where the acceleration jumps.")
+@click.option("--samples", default=SAMPLES_DEFAULT, show_default=True, type=click.IntRange(2, 10_000_000), metavar="N",
+              help="--path: instants checked; a time-optimal timing adds both sides of every grid instant, where the acceleration jumps.")
 @json_option
 @handle_errors
-def payload(cell, device, other_joints, tcp, path_file, timing, duration, payload_com, payload_object, gridpoints, samples, json_output):
+def payload(cell, device, other_joints, tcp, path_file, trajectory_file, timing, duration, payload_com, payload_object, gridpoints,
+            samples, json_output):
     """The largest payload a timed path can carry within the torque limits - exact (torque is affine in mass).
+
+    The path is timed here (--path with --timing) or was timed elsewhere
+    (--trajectory CSV: every row is checked).  A joint with no effort limit
+    in the cell is unlimited in torque; a path that leaves a joint's position
+    range between waypoints exits 1.
 
     \b
     Examples:
       rworld plan payload workcells/puma560 --path workcells/puma560/paths/reference.yaml --tcp probe
       rworld plan payload workcells/puma560 --path workcells/puma560/paths/reference.yaml --tcp probe --timing quintic --duration 5
+      rworld plan payload workcells/puma560 --trajectory traj.csv --tcp probe
     """
-
-    from ..api import carried_loads, carried_summary, load_joint_path, plan_time_optimal
-    from ..dynamics import Payload
+    from ..api import carried_summary, plan_payload
     from ..errors import UserError
-    from ..planning.payload import payload_capacity, quintic_timing
-    from ..planning.topp import sample_trajectory
 
+    if (path_file is None) == (trajectory_file is None):
+        raise click.UsageError("give the motion as --path FILE (timed here) or --trajectory CSV (timed elsewhere)")
+    if timing == "quintic" and (duration is None or not duration > 0):
+        raise UserError("--timing quintic needs --duration SECONDS > 0")
     ctx = context(cell, device, tcp, other_joints)
-    path = load_joint_path(path_file, ctx.device)
-    if timing == "quintic":
-        if duration is None or not duration > 0:
-            raise UserError("--timing quintic needs --duration SECONDS > 0")
-        t, s, sd, sdd = quintic_timing(duration, samples)
-        q, dq, ddq = path.evaluate(s)
-        qd, qdd = dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None]
-        T = duration
-    else:
-        tm, _, _, _ = plan_time_optimal(ctx, path, None, gridpoints, torque=False)
-        # the acceleration jumps at grid instants: both one-sided limits count, not only the samples
-        t, q, qd, qdd = sample_trajectory(path, tm, samples, switches=True)
-        T = tm.duration
-    unit = None
-    if payload_object:
-        obj = ctx.world.cell.objects.get(payload_object)
-        if obj is None or obj.inertial.mass <= 0:
-            raise UserError(f"'{payload_object}' is not an object with mass in the cell")
-        body = Payload.rigid_body(obj.inertial, ctx.world.T(ctx.tcp, payload_object) if payload_object in ctx.world.subtree(ctx.tcp) else None)
-        unit = Payload(1.0, body.com, body.inertia / body.mass)
+    r = plan_payload(ctx, path_file, trajectory_file, timing, duration, parse_vector(payload_com, "--payload-com", 3),
+                     payload_object, gridpoints, samples)
     exclude = [payload_object] if payload_object else ()
     carried = carried_summary(ctx, exclude)
-    cap = payload_capacity(ctx.device, q, qd, qdd, ctx.gravity_base, parse_vector(payload_com, "--payload-com", 3), ctx.mount,
-                           armature=True, friction=False, unit_payload=unit, link_loads=carried_loads(ctx, exclude))
-    joint = ctx.device.joints[cap.joint].name
+    joint = ctx.device.joints[r.capacity.joint].name
+    unlimited = {k: v for k, v in ctx.device.unlimited().items() if k == "torque"}
+    source = trajectory_file or path_file
+    label = "external" if trajectory_file else timing
     if json_output:
-        emit_json({"device": ctx.device.name, "tcp": ctx.tcp, "timing": timing, "duration": T, "payload_mass": cap.mass,
-                   "binding_joint": joint, "binding_time": float(t[cap.sample]), "binding_side": cap.side, "carried": carried})
+        emit_json({"device": ctx.device.name, "tcp": ctx.tcp, "timing": label, "source": source, "duration": r.duration,
+                   "payload_mass": r.capacity.mass, "binding_joint": joint, "binding_time": r.binding_time,
+                   "binding_side": r.capacity.side, "instants": r.instants, "unlimited": unlimited, "carried": carried})
         return
-    click.echo(f"{ctx.device.name}: {timing} timing of {path_file} ({T:.6f} s): payload capacity {cap.mass:.4f} kg at {ctx.tcp}")
+    click.echo(f"{ctx.device.name}: {label} timing of {source} ({r.duration:.6f} s): payload capacity {r.capacity.mass:.4f} kg at {ctx.tcp}")
     _echo_carried(carried)
-    click.echo(f"binding: joint {joint} at t = {t[cap.sample]:.4f} s ({cap.side} torque limit)")
-    if cap.mass < 0:
+    if unlimited:
+        click.echo(_unlimited_line(unlimited))
+    click.echo(f"binding: joint {joint} at t = {r.binding_time:.4f} s ({r.capacity.side} torque limit; {r.instants} instants checked)")
+    if r.capacity.mass < 0:
         click.echo("negative: the trajectory overloads the joint even without a payload")
 
 
@@ -215,12 +241,12 @@ def _plot(title, timing, info, t, ratios, path):
 @click.option("--evaluations", default=80, show_default=True, type=click.IntRange(5, 10000), help="--shape: path shapes tried.")
 @click.option("--shape-output", default=None, type=click.Path(dir_okay=False), metavar="FILE",
               help="--shape: write the path file with the optimised knots here.")
-@click.option("--samples", default=1000, show_default=True, type=click.IntRange(2, 1_000_000), help="Rows of the CSV output.")
+@sampling_options
 @output_options
 @json_option
 @handle_errors
 def load_optimal_cmd(cell, device, other_joints, tcp, path_file, duration, payload_com, gridpoints, tolerance, shape, evaluations,
-                     shape_output, samples, output, json_output):
+                     shape_output, samples, period, grid_instants, output, json_output):
     """The timing of a path that carries the heaviest payload within a cycle time (the report's OPTLOAD idea).
 
     Reports the payload and its gain over the unloaded time-optimal timing
@@ -234,16 +260,16 @@ def load_optimal_cmd(cell, device, other_joints, tcp, path_file, duration, paylo
       rworld plan load-optimal workcells/puma560 --path workcells/puma560/paths/reference.yaml --tcp probe --duration 2.2 \\
           --shape --shape-output faster.yaml
     """
-    import numpy as np
-
     import sys
 
-    from ..api import carried_loads, carried_summary, load_joint_path, planning_limits, write_path_with_knots
+    from ..api import (carried_loads, carried_summary, load_joint_path, planning_limits, sample_timed_path, trajectory_table,
+                       unlimited_joints, write_path_with_knots)
     from ..errors import UserError
     from ..planning.payload import load_optimal
-    from ..planning.topp import InfeasiblePath, sample_trajectory
+    from ..planning.topp import InfeasiblePath
     from ..tableio import write_csv
 
+    samples, period = _sampling(samples, period)
     if not duration > 0:
         raise UserError("--duration must be > 0")
     if shape_output and not shape:
@@ -271,10 +297,9 @@ def load_optimal_cmd(cell, device, other_joints, tcp, path_file, duration, paylo
     if shape_output:
         write_path_with_knots(path_file, r.path.knots, shape_output, f"they carry {r.mass:.4f} kg in {duration} s at {ctx.tcp}")
     if output:
-        t, q, qd, qdd = sample_trajectory(r.path, r.timing, samples)
-        n = ctx.device.dof
-        write_csv(output, ["t"] + [f"{g}{i}" for g in ("q", "qd", "qdd") for i in range(1, n + 1)], np.hstack([t[:, None], q, qd, qdd]))
-    payload = {"device": ctx.device.name, "tcp": ctx.tcp, "duration": duration, "payload_mass": r.mass,
+        write_csv(output, *trajectory_table(sample_timed_path(r.path, r.timing, samples, period, grid_instants)))
+    unlimited = unlimited_joints(ctx.device, limits)
+    payload = {"device": ctx.device.name, "tcp": ctx.tcp, "duration": duration, "payload_mass": r.mass, "unlimited": unlimited,
                "time_optimal_capacity": r.time_optimal_capacity, "quintic_capacity": r.quintic_capacity,
                "static_capacity": r.static_capacity, "knots": r.path.knots.tolist(), "given_shape_mass": r.given_shape_mass,
                "carried": carried_summary(ctx), "written": [f for f in (output, shape_output) if f]}
@@ -283,6 +308,8 @@ def load_optimal_cmd(cell, device, other_joints, tcp, path_file, duration, paylo
         return
     click.echo(f"{ctx.device.name}: {path_file} in {duration} s carries {r.mass:.4f} kg at {ctx.tcp}")
     _echo_carried(payload["carried"])
+    if unlimited:
+        click.echo(_unlimited_line(unlimited))
     click.echo(f"  a quintic time law over {duration} s: {r.quintic_capacity:.4f} kg ({r.mass - r.quintic_capacity:+.4f} kg)")
     click.echo(f"  the unloaded time-optimal timing: {r.time_optimal_capacity:.4f} kg ({r.mass - r.time_optimal_capacity:+.4f} kg)")
     click.echo(f"  at rest (any slower): at most {r.static_capacity:.4f} kg")
@@ -321,7 +348,7 @@ def impulse(cell, device, other_joints, tcp, target, direction, payload_mass, pa
     """
     import numpy as np
 
-    from ..api import device_dynamics, inverse_kinematics, planning_limits, resolve_payload
+    from ..api import device_dynamics, inverse_kinematics, planning_limits, resolve_payload, unlimited_joints
     from ..errors import UserError
     from ..planning.impulse import max_impulse
     from ..planning.topp import InfeasiblePath
@@ -344,11 +371,12 @@ def impulse(cell, device, other_joints, tcp, target, direction, payload_mass, pa
                         ctx.gravity_base, ctx.mount, gridpoints)
     except InfeasiblePath as exc:
         raise UserError(str(exc)) from None
+    unlimited = unlimited_joints(ctx.device, planning_limits(ctx.device))
     v_world = ctx.T_world_base[:3, :3] @ r.end_velocity
     out = {"device": ctx.device.name, "tcp": ctx.tcp, "target": target, "direction": (d_world / np.linalg.norm(d_world)).tolist(),
            "momentum": r.momentum if payload_mass > 0 else None, "speed_along": r.speed_along, "end_velocity": v_world.tolist(),
            "end_joint_velocity": r.end_joint_velocity.tolist(), "duration": r.duration, "binding": r.binding,
-           "q_start": np.asarray(q_start).tolist(), "q_end": q_end.tolist()}
+           "q_start": np.asarray(q_start).tolist(), "q_end": q_end.tolist(), "unlimited": unlimited}
     if json_output:
         emit_json(out)
         return
@@ -356,3 +384,5 @@ def impulse(cell, device, other_joints, tcp, target, direction, payload_mass, pa
     click.echo(f"{ctx.device.name}: reaches {target} in {r.duration:.4f} s with {what}"
                + (f"{r.speed_along:.4f} m/s)" if payload_mass > 0 else f"{r.speed_along:.4f} m/s") + " along the direction")
     click.echo(f"  end velocity (world): [{', '.join(f'{x:.4f}' for x in v_world)}] m/s; limited at the end by: {r.binding}")
+    if unlimited:
+        click.echo("  " + _unlimited_line(unlimited))

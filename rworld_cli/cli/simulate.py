@@ -96,13 +96,18 @@ def check(cell, run, dt, json_output):
     Example:
       rworld check workcells/paper_fig9 transfer
     """
-    from ..simulate.output import summary_dict
+    from ..simulate.output import summary_dict, unlimited_lines
 
     _, result = _simulate(cell, run, dt, False)
     if json_output:
         summary = summary_dict(result)
-        emit_json({k: summary[k] for k in ("cell", "run", "ok", "cycle_time", "violations")})
-    elif result.ok:
+        emit_json({k: summary[k] for k in ("cell", "run", "ok", "cycle_time", "violations", "unlimited")})
+        if not result.ok:
+            sys.exit(EXIT_CHECK_FAILED)
+        return
+    for line in unlimited_lines(result.unlimited):
+        click.echo(f"note: {line}", err=True)
+    if result.ok:
         click.echo(f"ok: {result.run}: {len(result.devices)} device(s) within all limits, cycle time {result.cycle_time:.3f} s")
     else:
         for v in result.violations:
@@ -136,6 +141,10 @@ def _render(result) -> None:
                       fmt(peaks["velocity"]), f"[red]{n_viol}[/]" if n_viol else "0")
     console.print(table)
     console.print(f"total cycle time {result.cycle_time:.3f} s, clock step {result.dt} s, {len(result.times)} samples")
+    from ..simulate.output import unlimited_lines
+
+    for line in unlimited_lines(result.unlimited):
+        console.print(f"[yellow]note[/]: {line}", markup=True)
     console.print()
     events = Table(title="Events", title_justify="left", box=None, header_style="bold")
     for col in ("t [s]", "device", "step", "event"):

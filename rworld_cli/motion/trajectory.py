@@ -82,6 +82,14 @@ class JointMove(Segment):
         return self.q_start + s[:, None] * delta, ds[:, None] * delta, dds[:, None] * delta
 
 
+class UntimedMove(ValueError):
+    """No moving joint has an acceleration limit, so nothing bounds how fast the move could be."""
+
+    def __init__(self, joints: list[int]):
+        super().__init__(f"no acceleration limit on the moving joints {joints}")
+        self.joints = joints
+
+
 def joint_move(t0: float, q_start, q_end, v_max, a_max, speed: float = 1.0, acceleration: float = 1.0) -> JointMove | None:
     """Synchronised trapezoidal move within velocity and acceleration limits (scaled), or None if no motion.
 
@@ -89,9 +97,15 @@ def joint_move(t0: float, q_start, q_end, v_max, a_max, speed: float = 1.0, acce
     ----------
     q_start, q_end : array_like, shape (n,)
     v_max, a_max : array_like, shape (n,)
-        Joint velocity and acceleration limits (finite, > 0).
+        Joint velocity and acceleration limits (> 0); ``inf`` for a joint that has none, which
+        is then unlimited in that kind while the other joints keep theirs.
     speed, acceleration : float
         Fractions (0, 1] of those limits.
+
+    Raises
+    ------
+    UntimedMove
+        None of the moving joints has an acceleration limit.
     """
     q_start = np.asarray(q_start, dtype=float)
     q_end = np.asarray(q_end, dtype=float)
@@ -99,8 +113,10 @@ def joint_move(t0: float, q_start, q_end, v_max, a_max, speed: float = 1.0, acce
     moving = delta > 1e-12
     if not moving.any():
         return None
-    V = np.min(np.asarray(v_max)[moving] * speed / delta[moving])
-    A = np.min(np.asarray(a_max)[moving] * acceleration / delta[moving])
+    V = np.min(np.asarray(v_max, dtype=float)[moving] * speed / delta[moving])
+    A = np.min(np.asarray(a_max, dtype=float)[moving] * acceleration / delta[moving])
+    if not np.isfinite(A):
+        raise UntimedMove(np.flatnonzero(moving).tolist())
     return JointMove(t0, q_start, q_end, TrapezoidProfile.fit(V, A))
 
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..kinematics.jacobian import jacobian
-from .path import JointPath
+from .path import JointPath, range_excursions
 from .topp import InfeasiblePath, Limits, time_optimal
 
 
@@ -68,9 +68,13 @@ def max_impulse(device, q_start, q_end, direction, mass: float, com_in_tool, lim
     span = max(float(np.linalg.norm(np.asarray(q_end) - np.asarray(q_start))), 0.1)
     base = span / np.linalg.norm(w)
 
+    lower, upper = device.limit_array("lower"), device.limit_array("upper")
+
     def evaluate(log_l: float, check_samples: int = 4001):
         L = base * np.exp(log_l)
         path = HermitePath(q_start, q_end, L * w)
+        if range_excursions(path, lower, upper):  # the approach swings a joint out of its range (exact extrema)
+            return -np.inf, None
         try:
             timing, info = time_optimal(path, limits, dynamics, gravity, gridpoints, check_samples=check_samples, end_at_rest=False)
         except InfeasiblePath:
@@ -94,7 +98,8 @@ def max_impulse(device, q_start, q_end, direction, mass: float, com_in_tool, lim
             fe = evaluate(e)[0]
     speed, found = evaluate(c if fc >= fe else e, check_samples=20001)  # the chosen motion gets the full dense guarantee
     if found is None or not np.isfinite(speed) or speed <= 0:
-        raise InfeasiblePath("no motion to the target within the limits")
+        raise InfeasiblePath("no motion to the target within the limits (every approach tried leaves a joint's position "
+                             "range or exceeds a limit)")
     L, path, timing, info, v, qd_end = found
     return ImpulseResult(mass * speed if mass > 0 else speed, speed, v, qd_end, timing.duration, L,
                          info["binding"][-1] if info["binding"] else "", path, timing)

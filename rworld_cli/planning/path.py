@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 
@@ -53,3 +55,56 @@ class JointPath:
         """q, dq/ds, d2q/ds2 at ``s`` (shape (N,)), each (N, n)."""
         s = np.clip(np.asarray(s, dtype=float), 0.0, 1.0)
         return self.spline(s), self.d1(s), self.d2(s)
+
+    def extrema(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The exact range of every joint over s in [0, 1]: (q_min, s_min, q_max, s_max), each shape (n,).
+
+        On each cubic piece the candidates are its two ends and the roots of q'(s) inside it
+        (a quadratic), so an excursion between waypoints is found wherever it peaks.
+        """
+        breaks, c = self.pieces  # c: (4, P, n), powers of (s - breaks[p]), highest first
+        h = np.diff(breaks)[:, None]  # (P, 1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            roots = quadratic_roots(c[2], 2.0 * c[1], 3.0 * c[0])  # q' = c2 + 2 c1 sigma + 3 c0 sigma^2
+        candidates = [np.zeros_like(c[0]), np.broadcast_to(h, c[0].shape)]
+        for r in roots:
+            candidates.append(np.where(np.isfinite(r) & (r > 0) & (r < h), r, 0.0))
+        sigma = np.stack(candidates)  # (4, P, n)
+        value = ((c[0] * sigma + c[1]) * sigma + c[2]) * sigma + c[3]
+        s_at = breaks[:-1][None, :, None] + sigma
+        value, s_at = value.reshape(-1, self.dof), s_at.reshape(-1, self.dof)
+        lo, hi = np.argmin(value, axis=0), np.argmax(value, axis=0)
+        cols = np.arange(self.dof)
+        return value[lo, cols], s_at[lo, cols], value[hi, cols], s_at[hi, cols]
+
+
+@dataclass
+class RangeExcursion:
+    """A joint that leaves its position range along a path (SI)."""
+
+    joint: int  # 0-based
+    s: float  # path parameter where it peaks
+    value: float  # its value there [rad or m]
+    limit: float  # the limit it passes
+    side: str  # "lower" | "upper"
+
+
+def range_excursions(path: JointPath, lower, upper, tolerance: float = 1e-9) -> list[RangeExcursion]:
+    """Joints whose exact extremum along ``path`` passes ``lower`` / ``upper`` (shape (n,), inf: none)."""
+    q_min, s_min, q_max, s_max = path.extrema()
+    out = []
+    for j in range(path.dof):
+        if q_min[j] < lower[j] - tolerance:
+            out.append(RangeExcursion(j, float(s_min[j]), float(q_min[j]), float(lower[j]), "lower"))
+        if q_max[j] > upper[j] + tolerance:
+            out.append(RangeExcursion(j, float(s_max[j]), float(q_max[j]), float(upper[j]), "upper"))
+    return out
+
+
+def quadratic_roots(c0, c1, c2):
+    """Both roots of c0 + c1 t + c2 t^2 (nan where there are none), stable for c2 -> 0 (then one root)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        disc = c1 * c1 - 4.0 * c2 * c0
+        root = np.sqrt(np.where(disc >= 0, disc, np.nan))
+        qq = -0.5 * (c1 + np.copysign(root, c1))
+        return qq / c2, c0 / qq

@@ -137,19 +137,17 @@ def optimise_knots(device, path, limits, gravity, com_in_tool, duration, mass, m
     """
     from scipy.optimize import minimize
 
-    from .path import JointPath
+    from .path import JointPath, range_excursions
     from .topp import InfeasiblePath, time_optimal
 
     lower, upper = device.limit_array("lower"), device.limit_array("upper")
     spacing = np.diff(path.knots)
     z = np.log(spacing[1:] / spacing[0])
-    s_check = np.linspace(0, 1, 2001)
     used = 0
 
     def shaped(zz):
         candidate = JointPath(path.waypoints, _knots_from(zz), path.boundary)
-        q = candidate.evaluate(s_check)[0]
-        return candidate if np.all(q >= lower - 1e-9) and np.all(q <= upper + 1e-9) else None
+        return None if range_excursions(candidate, lower, upper) else candidate  # exact extrema, not samples
 
     best_knots = path.knots
     try:  # the given shape at the search resolution: the figure to beat

@@ -24,15 +24,24 @@ Between grid points the path's curvature varies, so a limit can be exceeded
 there.  After each solve the exact maxima of joint velocity and acceleration
 on every interval are found in closed form (on a cubic piece with x linear
 in s, qdd is a quadratic in s and d(qd^2)/ds = 2 q' qdd, so the candidates are
-the ends, the vertex and the roots of qdd), and torque is sampled at
-``check_samples`` instants.  An interval that exceeds a limit gets its two
-grid points capped at the speed that fixes it (scaling x on an interval
-scales qd by sqrt, qdd and the motion torque linearly), and the passes run
-again - a local slow-down, where the excess is.  If that has not settled
-after a few rounds, the whole timing is slowed uniformly by the factor the
-check asks for.  Either way the returned trajectory respects every limit
-between grid points as well (velocity and acceleration exactly, torque at
-the check samples).
+the ends, the vertex and the roots of qdd).  Torque is bounded on a fine grid
+of s fixed before the first solve (``check_samples`` points, every grid point
+and spline break among them): its coefficients a_t, b_t, c_t are computed
+there once, so every later check is arithmetic, not Newton-Euler.  On each
+fine cell, with u and the interval's x known, |tau| is at most the larger of
+its two ends plus h^2/8 max|d2 tau/ds2| (the error bound of linear
+interpolation), and d2 tau/ds2 = a_t'' u + b_t'' x + 4 b_t' u + c_t'' is
+bounded from second differences of the coefficients, doubled.  An interval
+whose bound exceeds a limit gets its two grid points capped at the speed
+that fixes it (scaling x on an interval scales qd by sqrt, qdd and the
+motion torque linearly), and the passes run again - a local slow-down, where
+the excess is.  If that has not settled after a few rounds, the whole timing
+is slowed uniformly by the factor the check asks for.  Either way the
+returned trajectory respects every limit between grid points as well
+(velocity and acceleration exactly, torque by the bound).
+
+A joint with no limit of a kind (``inf``) is unlimited in that kind, for that
+joint alone; the other joints' limits of the kind still hold.
 """
 
 from __future__ import annotations
@@ -41,7 +50,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .path import JointPath
+from .path import JointPath, quadratic_roots
 
 
 class InfeasiblePath(Exception):
@@ -50,11 +59,25 @@ class InfeasiblePath(Exception):
 
 @dataclass
 class Limits:
-    """Joint limits for planning (SI); ``inf`` (or None) where a limit does not apply."""
+    """Joint limits for planning (SI), shape (n,) each.
+
+    ``inf`` for one joint: that joint is unlimited in that kind, the others keep theirs.
+    ``None`` for a kind: no joint is limited in it (e.g. torque limits switched off).
+    """
 
     velocity: np.ndarray
     acceleration: np.ndarray | None
     effort: np.ndarray | None
+
+    def unlimited(self) -> dict[str, list[int]]:
+        """Per kind ('velocity', 'acceleration', 'torque'), the 0-based joints with no limit of it."""
+        out = {}
+        for kind, values in (("velocity", self.velocity), ("acceleration", self.acceleration), ("torque", self.effort)):
+            if values is not None:
+                free = np.flatnonzero(~np.isfinite(np.asarray(values, dtype=float))).tolist()
+                if free:
+                    out[kind] = free
+        return out
 
 
 @dataclass
@@ -119,7 +142,10 @@ def path_coefficients(path: JointPath, s: np.ndarray, dynamics=None, gravity=Non
     return q, dq, ddq, (a_t, b_t, c_t)
 
 
-_MARGIN = 1e-9  # the grid solution and the repairs aim this far (relative) inside the limits
+_MARGIN = 1e-9  # the grid solution aims this far (relative) inside the limits
+# A repair aims this far inside: capping one interval moves its neighbours' sddot a little, and a margin
+# well above the torque bound's own (about 1e-7 relative) keeps them from needing another round.
+_REPAIR_MARGIN = 1e-6
 
 
 def _per_stage(mask, *arrays):
@@ -140,7 +166,8 @@ class _Stages:
 
     EPS = 1e-12
 
-    def __init__(self, path: JointPath, s: np.ndarray, limits: Limits, dynamics=None, gravity=None):
+    def __init__(self, s: np.ndarray, limits: Limits, coefficients):
+        """``coefficients``: q, q', q'' and the torque coefficients (or None) at the grid points (:func:`path_coefficients`)."""
         # the grid solution sits a hair inside every limit, so rounding never puts a grid point just over it
         limits = Limits(*(None if v is None else np.asarray(v, dtype=float) * (1.0 - _MARGIN)
                           for v in (limits.velocity, limits.acceleration, limits.effort)))
@@ -148,7 +175,7 @@ class _Stages:
         self.ds = np.diff(s)
         stages = len(s) - 1
         eps = self.EPS
-        q, dq, ddq, torque = path_coefficients(path, s, dynamics, gravity)
+        q, dq, ddq, torque = coefficients
         n = q.shape[1]
         # per grid point, constraints lo <= A u + B x <= hi, shape (N + 1, C)
         A, B, LO, HI, labels = [], [], [], [], []
@@ -161,7 +188,7 @@ class _Stages:
             tmax = np.broadcast_to(limits.effort, q.shape)
             A.append(a_t), B.append(b_t), LO.append(-tmax - c_t), HI.append(tmax - c_t)  # inf where no limit
             labels += [f"torque {j + 1}" for j in range(n)]
-        with np.errstate(divide="ignore"):
+        with np.errstate(divide="ignore", over="ignore"):
             self.xvel = np.min(np.where(np.abs(dq) > 1e-12, (limits.velocity / np.abs(dq)) ** 2, np.inf), axis=1)
         x_hi = self.xvel[:-1].copy()  # the velocity bound at the stage's own point (point i+1 is stage i+1's)
         x_lo = np.zeros(stages)
@@ -331,6 +358,90 @@ class _Stages:
         return np.array(x), np.array(u), binding
 
 
+class _TorqueBound:
+    """Torque coefficients on a fine grid of s, fixed before the first solve; bounds |tau| on each fine cell.
+
+    The fine grid holds every grid point and spline break, and ``per_interval`` points in each grid
+    interval, so every fine cell lies inside one grid interval (u constant, x linear) and one cubic
+    piece (the coefficients smooth).  ``grid_index`` locates the grid points in it.
+    """
+
+    SAFETY = 2.0  # on the curvature estimated by second differences
+
+    def __init__(self, path: JointPath, s: np.ndarray, dynamics, gravity, check_samples: int):
+        N = len(s) - 1
+        per_interval = max(1, int(np.ceil((check_samples - 1) / N)))
+        sub = (s[:-1, None] + np.diff(s)[:, None] * (np.arange(per_interval) / per_interval)).ravel()
+        breaks = path.pieces[0]
+        inner = breaks[(breaks > s[0]) & (breaks < s[-1])]
+        fine = np.union1d(np.append(sub, s[-1]), inner)
+        self.s = fine
+        self.grid_index = np.searchsorted(fine, s)
+        q, dq, ddq, torque = path_coefficients(path, fine, dynamics, gravity)
+        self.q, self.dq, self.ddq, self.torque = q, dq, ddq, torque
+        if torque is None:
+            return
+        a, b, c = torque
+        h = np.diff(fine)
+        mid = 0.5 * (fine[:-1] + fine[1:])
+        self.interval = np.clip(np.searchsorted(s, mid, side="right") - 1, 0, N - 1)
+        self.offset0 = fine[:-1] - s[self.interval]  # a fine cell's ends, from its grid interval's start
+        self.offset1 = fine[1:] - s[self.interval]
+        # second differences at interior fine points (non-uniform spacing); none across a spline break
+        smooth = ~np.isin(fine[1:-1], inner)
+
+        def second(f):
+            d = 2.0 * ((f[2:] - f[1:-1]) / h[1:, None] - (f[1:-1] - f[:-2]) / h[:-1, None]) / (h[1:] + h[:-1])[:, None]
+            d = np.where(smooth[:, None], np.abs(d), 0.0)
+            at = np.vstack([d[:1], d, d[-1:]])  # (P, n): an estimate at every fine point
+            before = np.vstack([at[:1], at[:-1]])
+            after = np.vstack([at[1:], at[-1:]])
+            near = np.maximum(np.maximum(at, before), after)  # each point and its neighbours
+            return self.SAFETY * np.maximum(near[:-1], near[1:])  # per cell
+
+        a2, b2, c2 = second(a), second(b), second(c)
+        b1 = np.abs(np.diff(b, axis=0)) / h[:, None] + h[:, None] * b2
+        w = (h * h / 8.0)[:, None]
+        # d2 tau/ds2 = a'' u + b'' x + 4 b' u + c'': the margin is e_u |u| + e_x x + e_c
+        self.e_u = w * (a2 + 4.0 * b1)
+        self.e_x = w * b2
+        self.e_c = w * c2
+
+    @property
+    def grid_coefficients(self):
+        """q, q', q'' and the torque coefficients (or None) at the grid points, for the grid problem."""
+        k = self.grid_index
+        return (self.q[k], self.dq[k], self.ddq[k], None if self.torque is None else tuple(v[k] for v in self.torque))
+
+    def excess(self, timing: Timing, effort: np.ndarray, n: int):
+        """(interval, factor, label) of each fine cell whose torque bound is over its limit, and the worst bound / limit."""
+        a, b, c = self.torque
+        k = self.interval
+        u = timing.u[k][:, None]
+        x0 = (timing.x[k] + 2.0 * timing.u[k] * self.offset0)[:, None]
+        x1 = (timing.x[k] + 2.0 * timing.u[k] * self.offset1)[:, None]
+        t0 = a[:-1] * u + b[:-1] * x0 + c[:-1]
+        t1 = a[1:] * u + b[1:] * x1 + c[1:]
+        margin = self.e_u * np.abs(u) + self.e_x * np.maximum(x0, x1) + self.e_c
+        right = np.abs(t1) > np.abs(t0)
+        tau = np.where(right, t1, t0)
+        grav = np.where(right, c[1:], c[:-1])
+        bound = np.abs(tau) + margin
+        ratio = bound / effort
+        worst = float(ratio.max(initial=0.0))
+        rows, cols = np.nonzero(ratio > 1.0)
+        if not len(rows):
+            return np.zeros(0, dtype=int), np.zeros(0), np.zeros(0, dtype=object), worst
+        side = np.where(tau[rows, cols] >= 0, 1.0, -1.0)
+        room = side * effort[cols] - grav[rows, cols]  # what the motion part may use
+        if np.any(room * side <= 0):
+            raise InfeasiblePath("gravity alone exceeds a torque limit on the path")
+        motion = side * bound[rows, cols] - grav[rows, cols]  # the bound less gravity: it scales with the timing
+        factors = room / motion * (1.0 - _REPAIR_MARGIN)
+        labels = np.array([f"torque {j + 1}" for j in range(n)], dtype=object)[cols]
+        return k[rows], factors, labels, worst
+
+
 class _Segments:
     """The grid intervals cut at the path's polynomial breaks: per segment its interval and the local cubic.
 
@@ -353,17 +464,13 @@ class _Segments:
         self.length = (sb - sa)[:, None]
 
 
-def _quadratic_roots(c0, c1, c2):
-    """Both roots of c0 + c1 t + c2 t^2 (nan where there are none), stable for c2 -> 0 (then one root)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        disc = c1 * c1 - 4.0 * c2 * c0
-        root = np.sqrt(np.where(disc >= 0, disc, np.nan))
-        qq = -0.5 * (c1 + np.copysign(root, c1))
-        return qq / c2, c0 / qq
-
-
-def interval_excess(path, timing: Timing, limits: Limits, dynamics, gravity, segments: _Segments, check_samples: int):
+def interval_excess(path, timing: Timing, limits: Limits, segments: _Segments, torque: _TorqueBound | None = None):
     """Per grid interval, the factor f <= 1 on x (at both its ends) that keeps every limit inside it.
+
+    Parameters
+    ----------
+    torque : _TorqueBound, optional
+        The fine-grid torque coefficients; torque is checked when they and ``limits.effort`` are given.
 
     Returns
     -------
@@ -371,9 +478,9 @@ def interval_excess(path, timing: Timing, limits: Limits, dynamics, gravity, seg
         1 where the interval is within its limits; below 1 where scaling x (and u) on the
         interval by f brings it back (velocity: 1 / ratio^2; acceleration and motion torque: 1 / ratio).
     cause : list of str
-        Per interval the limit that asks for the smallest factor ('' where none).
+        Per interval the limit that asks for the smallest factor (empty where none).
     worst : float
-        The largest |value| / limit found (velocity and acceleration exact, torque at the samples).
+        The largest |value| / limit found (velocity and acceleration exact, torque its bound).
     """
     N = len(timing.u)
     factor = np.ones(N)
@@ -403,7 +510,7 @@ def interval_excess(path, timing: Timing, limits: Limits, dynamics, gravity, seg
     acc_peak = np.maximum(np.abs(A0), np.abs(acc(L)))
     acc_peak = np.where(inside(vertex), np.maximum(acc_peak, np.abs(acc(np.where(inside(vertex), vertex, 0.0)))), acc_peak)
     v2 = np.maximum(speed2(0.0), speed2(L))
-    for r in _quadratic_roots(A0, A1, A2):  # d(qd^2)/ds = 2 q' qdd: interior maxima sit where qdd = 0
+    for r in quadratic_roots(A0, A1, A2):  # d(qd^2)/ds = 2 q' qdd: interior maxima sit where qdd = 0
         ok = inside(r)
         v2 = np.where(ok, np.maximum(v2, speed2(np.where(ok, r, 0.0))), v2)
     n = A0.shape[1]
@@ -417,28 +524,16 @@ def interval_excess(path, timing: Timing, limits: Limits, dynamics, gravity, seg
     ratio = np.concatenate(ratios, axis=1)  # (S, kinds * n)
     seg_scale = np.concatenate(scale, axis=1)
     worst = float(ratio.max(initial=0.0))
-    # candidate repairs: (interval, factor, what asks for it), from the segments and from the torque samples
-    f = np.where(ratio > 1.0, seg_scale * (1.0 - _MARGIN), 1.0)
+    # candidate repairs: (interval, factor, what asks for it), from the segments and from the torque bound
+    f = np.where(ratio > 1.0, seg_scale * (1.0 - _REPAIR_MARGIN), 1.0)
     col = np.argmin(f, axis=1)
     f_seg = f[np.arange(len(f)), col]
     over = f_seg < 1.0
     where, factors, labels = [k[over]], [f_seg[over]], [np.array(names, dtype=object)[col[over]]]
-    if dynamics is not None and limits.effort is not None:
-        t = np.linspace(0.0, timing.duration, check_samples)
-        _, q, qd, qdd = sample_trajectory(path, timing, t)
-        tau = dynamics.inverse(q, qd, qdd, gravity)
-        r = np.abs(tau) / limits.effort
-        worst = max(worst, float(r.max()))
-        rows, cols = np.nonzero(r > 1.0)
-        if len(rows):
-            tau_g = dynamics.gravity_torques(q[rows], gravity)[np.arange(len(rows)), cols]
-            excess = tau[rows, cols]
-            room = np.sign(excess) * limits.effort[cols] - tau_g  # what the motion part may use
-            if np.any(room * np.sign(excess) <= 0):
-                raise InfeasiblePath("gravity alone exceeds a torque limit on the path")
-            where.append(np.clip(np.searchsorted(timing.t, t[rows], side="right") - 1, 0, N - 1))
-            factors.append(room / (excess - tau_g) * (1.0 - _MARGIN))
-            labels.append(np.array([f"torque {j + 1}" for j in range(n)], dtype=object)[cols])
+    if torque is not None and torque.torque is not None and limits.effort is not None:
+        w, f_t, lab, worst_t = torque.excess(timing, limits.effort, n)
+        worst = max(worst, worst_t)
+        where.append(w), factors.append(f_t), labels.append(lab)
     where, factors, labels = np.concatenate(where), np.concatenate(factors), np.concatenate(labels)
     cause = [""] * N
     if len(where):
@@ -450,23 +545,29 @@ def interval_excess(path, timing: Timing, limits: Limits, dynamics, gravity, seg
     return factor, cause, worst
 
 
+_SPEED_CEILING = 1e12  # sdot^2 beyond this: nothing limits the path speed there
+
+
 def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, gridpoints: int = 1000,
                  check_samples: int = 20001, end_at_rest: bool = True, repair: bool = True,
-                 max_rounds: int = 8) -> tuple[Timing, dict]:
+                 max_rounds: int = 12) -> tuple[Timing, dict]:
     """The fastest timing of ``path`` from rest to rest within the limits.
 
     Parameters
     ----------
     path : JointPath
     limits : Limits
+        A joint with ``inf`` in a kind is unlimited in that kind, alone.
     dynamics : DeviceDynamics, optional
-        Needed for torque limits (payload and armature as configured there).
+        Needed for torque limits (payload and armature as configured there).  Without
+        friction: friction torque is not affine in (sddot, sdot^2).
     gravity : array_like, shape (3,), optional
         In the device's base frame [m/s^2].
     gridpoints : int
         Grid points on s in [0, 1] (``gridpoints - 1`` intervals), as toppra counts them.
     check_samples : int
-        Instants at which torque is checked between grid points.
+        Points of the fine s grid on which torque is bounded between grid points (at least
+        one per grid interval; every grid point and spline break is among them).
     end_at_rest : bool
         False: the path ends at the highest speed the limits allow there (the forward
         pass maximises sdot at every point, the last one included).
@@ -480,17 +581,23 @@ def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, g
     (Timing, info)
         ``info``: ``binding`` - per grid interval the constraint that limits it
         ('velocity', 'acceleration j', 'torque j', '... between grid points', 'braking ahead'),
-        ``dense_ratio`` - the worst limit ratio between grid points (<= 1 unless ``repair=False``),
-        ``grid`` (points), ``rounds`` (solves), ``repaired`` (grid points capped), ``x_limit``, ``K_hi``.
+        ``dense_ratio`` - the worst limit ratio between grid points (velocity and acceleration
+        exact, torque its bound; <= 1 unless ``repair=False``), ``grid`` (points), ``rounds``
+        (solves), ``repaired`` (grid points capped), ``x_limit``, ``K_hi``.
 
     Raises
     ------
     InfeasiblePath
+        No timing keeps the limits, or nothing limits the path speed somewhere (every joint
+        that moves there is unlimited in velocity, acceleration and torque).
     """
     if gridpoints < 2:
         raise ValueError("time-optimal timing needs at least 2 grid points")
+    if dynamics is not None and getattr(dynamics, "_has_friction", False):
+        raise ValueError("time-optimal timing takes dynamics without friction (friction is not affine in sddot and sdot^2)")
     s = np.linspace(0.0, 1.0, gridpoints)
-    stages = _Stages(path, s, limits, dynamics, gravity)
+    torque = _TorqueBound(path, s, dynamics if limits.effort is not None else None, gravity, check_samples)
+    stages = _Stages(s, limits, torque.grid_coefficients)
     segments = _Segments(path, s)
     caps = np.full(gridpoints, np.inf)
     cap_cause = [""] * gridpoints
@@ -498,9 +605,13 @@ def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, g
     while True:
         rounds += 1
         K_lo, K_hi = stages.backward(caps, end_at_rest)
+        unbounded = np.flatnonzero(~(np.asarray(K_hi) < _SPEED_CEILING))
+        if len(unbounded):
+            raise InfeasiblePath(f"nothing limits the path speed at s = {s[unbounded[0]]:.4f}: every joint that moves there "
+                                 "is unlimited in velocity, acceleration and torque")
         x, u, binding = stages.forward(K_lo, K_hi, caps, cap_cause)
         timing = Timing(s, x, u, _times(s, x))
-        factor, cause, ratio = interval_excess(path, timing, limits, dynamics, gravity, segments, check_samples)
+        factor, cause, ratio = interval_excess(path, timing, limits, segments, torque)
         bad = np.flatnonzero(factor < 1.0)
         if not repair or not len(bad):
             break
@@ -509,14 +620,17 @@ def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, g
             for _ in range(5):
                 scale /= np.sqrt(factor.min())
                 timing = Timing(s, x / scale**2, u / scale**2, _times(s, x / scale**2), scale)
-                factor, _, ratio = interval_excess(path, timing, limits, dynamics, gravity, segments, check_samples)
+                factor, _, ratio = interval_excess(path, timing, limits, segments, torque)
                 if factor.min() >= 1.0:
                     break
             else:
                 raise InfeasiblePath(f"could not bring the dense check within the limits (worst ratio {ratio:.6g})")
             break
-        for i in bad:  # cap both ends of each offending interval at the speed that fixes it
-            for p in (i, i + 1):
+        # cap both ends of each offending interval at the speed that fixes it; from the third solve on,
+        # its neighbours' too, so a cap does not just move the excess next door (shifting their sddot)
+        reach = 0 if rounds < 3 else 1
+        for i in bad:
+            for p in range(max(i - reach, 0), min(i + 1 + reach, gridpoints - 1) + 1):
                 if factor[i] * x[p] < caps[p]:
                     caps[p] = factor[i] * x[p]
                     cap_cause[p] = cause[i]
@@ -526,23 +640,66 @@ def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, g
                     "K_hi": np.array(K_hi) / timing.scale**2}
 
 
-def sample_trajectory(path: JointPath, timing: Timing, samples, switches: bool = False):
-    """t, q, qd, qdd at ``samples`` equally spaced instants (an int) or at the given times (an array).
+@dataclass
+class Samples:
+    """A timed path sampled: the time law and the joint trajectory, one row per instant (SI).
+
+    Attributes
+    ----------
+    t, s, sd, sdd : ndarray, shape (K,)
+        Time [s], path parameter, its first and second time derivatives.  At a grid instant
+        given twice (``switches``), the first row holds sddot from the left, the second from the right.
+    q, qd, qdd : ndarray, shape (K, n)
+    """
+
+    t: np.ndarray
+    s: np.ndarray
+    sd: np.ndarray
+    sdd: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+
+
+def sample_instants(timing: Timing, samples=None, period: float | None = None) -> np.ndarray:
+    """Times to sample at: ``samples`` equally spaced instants (an int), the given times (an array),
+    or every ``period`` seconds from 0 until the end is covered (the last row at or after it, at rest)."""
+    if period is not None:
+        count = int(np.ceil(timing.duration / period - 1e-9)) + 1
+        return np.arange(count) * period
+    if np.isscalar(samples):
+        return np.linspace(0.0, timing.duration, int(samples))
+    return np.asarray(samples, dtype=float)
+
+
+def sample_path(path: JointPath, timing: Timing, times, switches: bool = False) -> Samples:
+    """The trajectory at ``times`` (clipped to [0, duration]); see :class:`Samples`.
 
     ``switches=True`` adds both one-sided limits at every interior grid instant, where sddot
-    jumps, so a minimum or maximum at a switch is not missed; the result stays sorted by time.
+    jumps, so a minimum or maximum at a switch is not missed; the rows stay sorted by time.
     """
-    t = np.linspace(0.0, timing.duration, samples) if np.isscalar(samples) else np.asarray(samples, dtype=float)
+    t = np.asarray(times, dtype=float)
     interval = None
     if switches:
         inner = np.arange(1, len(timing.u))
         t_all = np.concatenate([t, timing.t[inner], timing.t[inner]])
-        k_all = np.concatenate([np.searchsorted(timing.t, t, side="right") - 1, inner - 1, inner])
+        k_all = np.concatenate([np.searchsorted(timing.t, np.clip(t, 0.0, timing.duration), side="right") - 1, inner - 1, inner])
         order = np.argsort(t_all, kind="stable")
         t, interval = t_all[order], k_all[order]
     s, sd, sdd = timing.sample(t, interval)
+    after = t > timing.duration  # fixed-rate rows past the end: at rest there
+    sd, sdd = np.where(after, 0.0, sd), np.where(after, 0.0, sdd)
     q, dq, ddq = path.evaluate(s)
-    return t, q, dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None]
+    return Samples(t, s, sd, sdd, q, dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None])
+
+
+def sample_trajectory(path: JointPath, timing: Timing, samples, switches: bool = False):
+    """t, q, qd, qdd at ``samples`` equally spaced instants (an int) or at the given times (an array).
+
+    ``switches``: see :func:`sample_path`.
+    """
+    out = sample_path(path, timing, sample_instants(timing, samples), switches)
+    return out.t, out.q, out.qd, out.qdd
 
 
 def limit_ratios(q, qd, qdd, limits: Limits, dynamics=None, gravity=None) -> dict:

@@ -30,7 +30,7 @@ from ..errors import UserError
 from ..kinematics.inverse import solve_ik
 from ..kinematics.jacobian import ToolMount
 from ..motion.linear import PathError, linear_move
-from ..motion.trajectory import StoppedMove, joint_move, sample_track
+from ..motion.trajectory import StoppedMove, UntimedMove, joint_move, sample_track
 from ..world.tree import AffixmentError, World
 from .load import Program, Run, Step
 
@@ -116,6 +116,7 @@ class SimulationResult:
     events: list[Event]
     violations: list[Violation]
     step_texts: dict[str, list[str]]
+    unlimited: dict[str, dict[str, list[str]]] = field(default_factory=dict)  # device -> kind -> joints with no limit
 
     @property
     def cycle_time(self) -> float:
@@ -236,7 +237,7 @@ class _Scheduler:
         q_now = self.world.joints(device)
         if spec.to == "home" or spec.to in dev.positions:
             q_goal = dev.home if spec.to == "home" else dev.positions[spec.to]
-            seg = joint_move(tr.t, q_now, q_goal, dev.limit_array("velocity"), dev.limit_array("acceleration"), spec.speed, spec.acceleration)
+            seg = self._joint_move(device, tr, step, q_now, q_goal)
         else:
             tcp = self._resolve_tcp(device, spec.tcp)
             try:
@@ -253,7 +254,7 @@ class _Scheduler:
                     rot = "" if position_only else f" and {np.degrees(result.rotation_error):.3g} deg"
                     self.fail(device, step, f"'{spec.to}' is unreachable for {tcp}: the closest pose found is "
                                             f"{result.position_error * 1000:.4g} mm{rot} away ({limits})")
-                seg = joint_move(tr.t, q_now, result.q, dev.limit_array("velocity"), dev.limit_array("acceleration"), spec.speed, spec.acceleration)
+                seg = self._joint_move(device, tr, step, q_now, result.q)
             else:
                 try:
                     seg = linear_move(dev, mount, tr.t, q_now, T_base_target, self.run.dt, spec.speed, spec.acceleration, position_only)
@@ -268,6 +269,17 @@ class _Scheduler:
         self.events.append(Event(tr.t, device, step.index, "move", f"{step.describe()} ({seg.t1 - seg.t0:.3f} s)"))
         tr.t = seg.t1
         return True
+
+    def _joint_move(self, device: str, tr: _Track, step: Step, q_now, q_goal):
+        """A synchronised joint move; a joint with no velocity or acceleration limit is unlimited in it, alone."""
+        dev = self.run.cell.devices[device]
+        try:
+            return joint_move(tr.t, q_now, q_goal, dev.limit_array("velocity"), dev.limit_array("acceleration"),
+                              step.spec.speed, step.spec.acceleration)
+        except UntimedMove as exc:
+            names = ", ".join(dev.joints[j].name for j in exc.joints)
+            self.fail(device, step, f"nothing times this move: the joints that move ({names}) have no acceleration limit; "
+                                    "add one to the cell")
 
     def _guard(self, device: str, tr: _Track, step: Step, seg):
         """Cut a guarded move at the first clock sample where its sensor senses something."""
@@ -500,7 +512,8 @@ def _sample(run: Run, sched: _Scheduler, progress) -> SimulationResult:
     world.restore(snaps[-1][1])
     violations.sort(key=lambda v: (v.t_start, v.device, v.joint))
     events = sorted(sched.events, key=lambda e: e.t)  # stable: simultaneous events keep their order
-    return SimulationResult(cell.name, run.file, run.dt, times, timelines, events, violations, step_texts)
+    unlimited = {d: cell.devices[d].unlimited() for d in timelines if cell.devices[d].unlimited()}
+    return SimulationResult(cell.name, run.file, run.dt, times, timelines, events, violations, step_texts, unlimited)
 
 
 def _violations(device, dev, times, q, ratios, qd, qdd, tau, step_index, texts) -> list[Violation]:

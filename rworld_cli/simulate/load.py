@@ -120,12 +120,9 @@ def _check_program(doc: Marked, pf: sp.ProgramFile, cell: CellModel, run_devices
                 if error:
                     issues.append(doc.issue(path + ("offset",), error))
                 step.T_offset = T
-            if device is not None:
-                for j in device.joints:
-                    if not (np.isfinite(j.limits.velocity) and np.isfinite(j.limits.acceleration)):
-                        issues.append(doc.issue(path, f"joint {j.name} of '{device.name}' has no velocity or acceleration limit; "
-                                                     "moves are timed by them - add them to the cell"))
-                        break
+            if device is not None and not np.isfinite(device.limit_array("acceleration")).any():
+                issues.append(doc.issue(path, f"no joint of '{device.name}' has an acceleration limit, so nothing times its moves; "
+                                             "add them to the cell"))
         elif raw.kind in ("grasp", "release"):
             obj(path + ("object",), spec.object, ("object", "sensor"))
             if raw.kind == "grasp" and spec.tcp is not None:

@@ -32,8 +32,15 @@ def summary_dict(result: SimulationResult) -> dict:
         "ok": result.ok,
         "devices": devices,
         "violations": [v.as_dict() for v in result.violations],
+        "unlimited": result.unlimited,
         "events": [e.as_dict() for e in result.events],
     }
+
+
+def unlimited_lines(unlimited: dict[str, dict[str, list[str]]]) -> list[str]:
+    """One line per device naming the joints the cell gives no limit of a kind (they run unlimited in it)."""
+    return [f"{device}: no limit in the cell, so unchecked: " + "; ".join(f"{kind} of {', '.join(joints)}" for kind, joints in kinds.items())
+            for device, kinds in unlimited.items()]
 
 
 def timeline_columns(n: int) -> list[str]:

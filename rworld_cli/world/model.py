@@ -174,6 +174,19 @@ class DeviceModel:
         """One limit for all joints, shape (n,): 'lower', 'upper', 'velocity', 'acceleration' or 'effort'."""
         return np.array([getattr(j.limits, which) for j in self.joints], dtype=float)
 
+    def unlimited(self) -> dict[str, list[str]]:
+        """Per kind ('position', 'velocity', 'acceleration', 'torque'), the joints the cell gives no limit of it.
+
+        Such a joint is unlimited in that kind, alone: every other joint keeps its limit.
+        """
+        kinds = {"position": ("lower", "upper"), "velocity": ("velocity",), "acceleration": ("acceleration",), "torque": ("effort",)}
+        out = {}
+        for kind, fields in kinds.items():
+            free = [j.name for j in self.joints if all(not np.isfinite(getattr(j.limits, f)) for f in fields)]
+            if free:
+                out[kind] = free
+        return out
+
     @property
     def total_mass(self) -> float:
         return float(sum(link.inertial.mass for link in self.links))

@@ -63,7 +63,7 @@ def test_exact_maxima_between_grid_points(grid):
     limits, _ = CONFIGS["a_rated"]
     timing, _ = time_optimal(PATH, limits, None, G, grid, repair=False)  # coarse: the grid solution overshoots inside
     loose = Limits(np.ones(6), np.ones(6), None)  # unit limits: the ratios are the values themselves
-    _, _, worst = interval_excess(PATH, timing, loose, None, G, _Segments(PATH, timing.s), 2)
+    _, _, worst = interval_excess(PATH, timing, loose, _Segments(PATH, timing.s))
     _, q, qd, qdd = sample_trajectory(PATH, timing, 400001, switches=True)
     sampled = max(np.abs(qd).max(), np.abs(qdd).max())
     assert sampled <= worst * (1 + 1e-12)
@@ -168,7 +168,7 @@ def test_plan_commands(cli, tmp_path):
     assert data["duration"] == pytest.approx(toppra_duration("b_rated", 1000), rel=0.005)
     assert max(data["peak_ratio"].values()) <= 1.0
     assert (tmp_path / "t.png").read_bytes()[:4] == b"\x89PNG"
-    assert (tmp_path / "t.csv").read_text().startswith("t,q1")
+    assert (tmp_path / "t.csv").read_text().startswith("t,s,sd,sdd,q1,")
     q = json.loads(cli(["plan", "payload", "workcells/puma560", "--path", path, "--tcp", "probe", "--timing", "quintic",
                         "--duration", "5", "--json"]).stdout)
     assert q["payload_mass"] == pytest.approx(11.566531603971516, abs=1e-3) and q["binding_joint"] == "j2"

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import zlib
+
 import numpy as np
 import pytest
 import trimesh
@@ -21,7 +23,7 @@ def random_pose(rng, spread=0.03):
 @pytest.mark.parametrize("counts", [(8, 8, 1), (16, 12, 1), (1, 1, 6)])
 def test_zero_wrong_cells_against_overlap_volumes(solid, counts):
     vertices, faces, manifold = SOLIDS[solid]()
-    rng = np.random.default_rng(hash((solid, counts)) % 2**32)
+    rng = np.random.default_rng(zlib.crc32(repr((solid, counts)).encode()))  # str hashes change per process
     size = np.array([0.08, 0.08, 0.012]) if counts[2] == 1 else np.array([0.03, 0.03, 0.09])
     hits = cells = 0
     for _ in range(4):  # pads cutting into the solid at random poses, partly buried
