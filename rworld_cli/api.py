@@ -879,7 +879,7 @@ def read_trajectory(csv_path: str, device) -> TimedTrajectory:
     Raises
     ------
     UserError
-        Missing columns, bad values, time that does not increase, or joint values outside their
+        Missing columns, bad values, time that goes back, or joint values outside their
         position limits - located as ``file:line:col``; nothing is evaluated.
     """
     from .tableio import read_states
@@ -887,18 +887,19 @@ def read_trajectory(csv_path: str, device) -> TimedTrajectory:
     data = read_states(csv_path, device.dof, ["q", "qd", "qdd"], scalars=("t",))
     t, lines, tcol = data["t"], data["_line"], data["_column"]["t"]
     issues = []
-    back = np.flatnonzero(np.diff(t) <= 0)
+    back = np.flatnonzero(np.diff(t) < 0)  # a repeated instant is allowed: both sides of a switch in the acceleration
     for k in back[:10]:
         issues.append(Issue(csv_path, int(lines[k + 1]), int(tcol[k + 1]), "column 't'",
-                            f"time {t[k + 1]!r} does not come after the row before ({t[k]!r}): a trajectory's time must increase"))
+                            f"time {float(t[k + 1])!r} comes before the row above ({float(t[k])!r}): a trajectory's time must not go back"))
     lo, hi = device.limit_array("lower"), device.limit_array("upper")
     for k, j in np.argwhere((data["q"] < lo - 1e-9) | (data["q"] > hi + 1e-9))[:10]:
         issues.append(Issue(csv_path, int(lines[k]), 0, f"column 'q{j + 1}'",
                             f"{data['q'][k, j]:.6g} is outside the position limits of {device.joints[j].name} [{lo[j]:.6g}, {hi[j]:.6g}]"))
     if issues:
         raise UserError(f"{csv_path}: {len(issues)} error(s)", issues)
-    if len(t) < 2:
-        raise UserError(f"{csv_path}: a trajectory needs at least 2 rows", [Issue(csv_path, int(lines[0]), 1, "(rows)", "only one row")])
+    if not t[-1] > t[0]:
+        raise UserError(f"{csv_path}: a trajectory needs rows at two instants at least",
+                        [Issue(csv_path, int(lines[0]), 1, "(rows)", "every row is at the same instant")])
     return TimedTrajectory(t, data["q"], data["qd"], data["qdd"], csv_path)
 
 

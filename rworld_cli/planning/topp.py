@@ -515,7 +515,7 @@ def interval_excess(path, timing: Timing, limits: Limits, segments: _Segments, t
         v2 = np.where(ok, np.maximum(v2, speed2(np.where(ok, r, 0.0))), v2)
     n = A0.shape[1]
     ratios = [np.sqrt(v2) / limits.velocity]
-    scale = [1.0 / np.maximum(ratios[0], 1e-300) ** 2]
+    scale = [1.0 / np.maximum(ratios[0] ** 2, 1e-300)]
     names = [f"velocity {j + 1}" for j in range(n)]
     if limits.acceleration is not None:
         ratios.append(acc_peak / limits.acceleration)
@@ -605,11 +605,11 @@ def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, g
     while True:
         rounds += 1
         K_lo, K_hi = stages.backward(caps, end_at_rest)
-        unbounded = np.flatnonzero(~(np.asarray(K_hi) < _SPEED_CEILING))
+        x, u, binding = stages.forward(K_lo, K_hi, caps, cap_cause)
+        unbounded = np.flatnonzero(~(x < _SPEED_CEILING))
         if len(unbounded):
             raise InfeasiblePath(f"nothing limits the path speed at s = {s[unbounded[0]]:.4f}: every joint that moves there "
                                  "is unlimited in velocity, acceleration and torque")
-        x, u, binding = stages.forward(K_lo, K_hi, caps, cap_cause)
         timing = Timing(s, x, u, _times(s, x))
         factor, cause, ratio = interval_excess(path, timing, limits, segments, torque)
         bad = np.flatnonzero(factor < 1.0)
