@@ -27,28 +27,7 @@ sys.path.insert(0, str(REPO))
 from rworld_cli.dynamics import DeviceDynamics  # noqa: E402
 from rworld_cli.kinematics.jacobian import tool_pose_and_jacobian  # noqa: E402
 from rworld_cli.schema.loader import load_cell  # noqa: E402
-from rworld_cli.spatial import dh_standard  # noqa: E402
-
-
-def pinocchio_model(device):
-    """The device as a Pinocchio model: revolute-z joints at DH frame i-1, bodies in DH frame i."""
-    import pinocchio as pin
-
-    model = pin.Model()
-    parent = 0
-    placement = pin.SE3.Identity()
-    for joint, link in zip(device.joints, device.links):
-        if joint.kind != "revolute" or joint.theta != 0.0:
-            raise SystemExit("this bench builds revolute chains without angle offsets only")
-        jid = model.addJoint(parent, pin.JointModelRZ(), placement, joint.name)
-        fixed = dh_standard(joint.a, joint.alpha, joint.d, 0.0)  # Tz(d) Tx(a) Rx(alpha)
-        M = pin.SE3(fixed[:3, :3], fixed[:3, 3])
-        inertial = link.inertial
-        model.appendBodyToJoint(jid, pin.Inertia(inertial.mass, inertial.com, inertial.inertia), M)
-        placement, parent = M, jid
-    tool = model.addFrame(pin.Frame("tool", parent, 0, placement, pin.FrameType.OP_FRAME))
-    model.gravity.linear = np.array([0.0, 0.0, -9.81])
-    return model, tool
+from peers import pinocchio_model  # noqa: E402
 
 
 def best_time(fn, repeat: int) -> float:

@@ -1,22 +1,30 @@
-"""Time-optimal timing and payload capacity: rworld beside toppra, on the reference problem, in one run.
+"""Time-optimal timing and payload capacity: rworld beside toppra, on two problems, in one run.
 
 Run:  .venv/bin/pip install -e ".[bench]" && .venv/bin/python bench/planning.py [--grids 100 500 1000 2000]
 
 Grid sizes count grid points, as toppra and the reference do (N points, N - 1 intervals).
 
-The problem is ../shared/reference/planning/puma560_path.json: the Puma 560
-(rigid body + armature, no friction), a clamped cubic spline through 5
-waypoints, velocity / acceleration / torque limits.  toppra 0.6 runs with
-the seidel solver, ParametrizeConstAccel output and the torque constraint
-discretised by Interpolation (as the reference); its torques come from
-rworld's inverse dynamics (the same model).  Both results are sampled at
-20 001 instants; "worst" is the largest |value| / limit there.  Runtimes:
-best of --repeat, in the same run; rworld's includes its checks and local
-repairs between grid points.  "grid only" is rworld's solution before those
-repairs - the same problem toppra solves.  Payload capacity (exact, affine in
-mass) on toppra's rated timing, on rworld's, and on a 5 s quintic, against
-the reference figures; "with switches" also evaluates both one-sided limits
-at every grid instant, where the acceleration jumps.
+Problems:
+
+* ``puma``: ../shared/reference/planning/puma560_path.json - the Puma 560
+  (rigid body + armature, no friction), a clamped cubic spline through 5
+  equally spaced waypoints, velocity / acceleration / torque limits in four
+  sets (a: v + a rated; b: v + a + torque, rated and aggressive; c: v + torque).
+* ``ur5``: the UR5 of ../shared/reference/dynamics/ur5.json, a *natural*
+  spline through 5 waypoints at uneven knots [0, 0.12, 0.47, 0.71, 1],
+  UR's velocity limits (pi rad/s) and torque limits (150 / 28 N m).
+
+toppra 0.6 runs in its best ordinary setup: the seidel solver,
+ParametrizeConstAccel output, the torque constraint discretised by
+Interpolation (as the reference), and its torques from Pinocchio's ``rnea``
+(the same model: rigid bodies, armature Jm G^2, no friction).  Both results
+are sampled at 20 001 instants (and both sides of every grid instant for
+rworld); "worst" is the largest |value| / limit there.  Runtimes: best of
+--repeat, in the same run; rworld's includes its checks and local repairs
+between grid points.  "grid only" is rworld's solution before those repairs -
+the same problem toppra solves.  Payload capacity (exact, affine in mass) on
+toppra's rated timing, on rworld's, and on a 5 s quintic, against the
+reference figures.
 """
 
 from __future__ import annotations
@@ -32,6 +40,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from peers import pinocchio_with_armature  # noqa: E402
 from rworld_cli.dynamics import DeviceDynamics  # noqa: E402
 from rworld_cli.planning.path import JointPath  # noqa: E402
 from rworld_cli.planning.payload import payload_capacity, quintic_timing  # noqa: E402
@@ -50,42 +59,62 @@ def best(fn, repeat):
     return out, t
 
 
+def ur5_device():
+    sys.path.insert(0, str(REPO))
+    from tests.reference import device_from_reference, load_reference
+
+    return device_from_reference(load_reference("ur5.json")["model"])
+
+
+def problems():
+    """name -> (device, knots, waypoints, boundary, gravity, {config: (Limits, torque?)})"""
+    puma = load_cell(REPO / "workcells" / "puma560").cell.devices["puma"]
+    v, a_rated, a_aggr, tmax = (np.array(REF[k]) for k in ("vel_lim_rad_s", "acc_lim_rated_rad_s2", "acc_lim_aggressive_rad_s2", "tau_lim_Nm"))
+    waypoints = np.radians(REF["waypoints_deg"])
+    out = {"puma": (puma, np.linspace(0, 1, len(waypoints)), waypoints, "clamped", np.array(REF["gravity"]), {
+        "a_rated": (Limits(v, a_rated, None), False),
+        "b_rated": (Limits(v, a_rated, tmax), True),
+        "b_aggr": (Limits(v, a_aggr, tmax), True),
+        "c_vtau": (Limits(v, None, tmax), True),
+    })}
+    ur5_waypoints = np.array([[0, -1.6, 1.4, -1.4, -1.57, 0], [0.9, -1.0, 1.9, -2.2, -1.2, 0.7], [1.8, -1.9, 0.6, -0.8, -1.9, 1.6],
+                              [2.4, -1.2, 1.5, -1.6, -1.0, 0.2], [3.0, -1.57, 1.57, -1.57, -1.57, 0]])
+    out["ur5"] = (ur5_device(), np.array([0, 0.12, 0.47, 0.71, 1.0]), ur5_waypoints, "natural", np.array([0, 0, -9.81]), {
+        "ur5_vtau": (Limits(np.full(6, np.pi), None, np.array([150, 150, 150, 28, 28, 28.0])), True),
+    })
+    return out
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--grids", type=int, nargs="+", default=[100, 500, 1000, 2000])
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
     try:
+        import pinocchio as pin
         import toppra as ta
         import toppra.algorithm as algo
         import toppra.constraint as constraint
     except ImportError:
-        raise SystemExit("toppra is not installed: .venv/bin/pip install -e '.[bench]'") from None
+        raise SystemExit("toppra and pin are not installed: .venv/bin/pip install -e '.[bench]'") from None
     ta.setup_logging("WARNING")
+    from importlib.metadata import version
 
-    device = load_cell(REPO / "workcells" / "puma560").cell.devices["puma"]
-    dyn = DeviceDynamics(device, armature=True, friction=False)
-    g = np.array(REF["gravity"])
-    waypoints = np.radians(REF["waypoints_deg"])
-    knots = np.linspace(0, 1, len(waypoints))
-    ours_path = JointPath(waypoints, knots)
-    v, a_rated, a_aggr, tmax = (np.array(REF[k]) for k in ("vel_lim_rad_s", "acc_lim_rated_rad_s2", "acc_lim_aggressive_rad_s2", "tau_lim_Nm"))
-    configs = {
-        "a_rated": (Limits(v, a_rated, None), False),
-        "b_rated": (Limits(v, a_rated, tmax), True),
-        "b_aggr": (Limits(v, a_aggr, tmax), True),
-        "c_vtau": (Limits(v, None, tmax), True),
-    }
+    print(f"toppra {version('toppra')}, pinocchio {pin.__version__}, numpy {np.__version__}; best of {args.repeat}\n")
 
-    def toppra_solve(limits: Limits, torque: bool, grid: int):
-        path = ta.SplineInterpolator(knots, waypoints, bc_type="clamped")
+    def toppra_solve(knots, waypoints, boundary, limits, torque, grid, model):
+        path = ta.SplineInterpolator(knots, waypoints, bc_type=boundary)
         cons = [constraint.JointVelocityConstraint(np.column_stack([-limits.velocity, limits.velocity]))]
         if limits.acceleration is not None:
             cons.append(constraint.JointAccelerationConstraint(np.column_stack([-limits.acceleration, limits.acceleration])))
         if torque:
-            def inv_dyn(q, qd, qdd):
-                return dyn.inverse(np.atleast_2d(q), np.atleast_2d(qd), np.atleast_2d(qdd), g).reshape(np.shape(q))
-            cons.append(constraint.JointTorqueConstraint(inv_dyn, np.column_stack([-limits.effort, limits.effort]), np.zeros(6),
+            data = model.createData()
+
+            def inv_dyn(q, qd, qdd):  # toppra calls this with one state at a time
+                return pin.rnea(model, data, q, qd, qdd)
+
+            cons.append(constraint.JointTorqueConstraint(inv_dyn, np.column_stack([-limits.effort, limits.effort]),
+                                                         np.zeros(len(limits.velocity)),
                                                          discretization_scheme=constraint.DiscretizationType.Interpolation))
         instance = algo.TOPPRA(cons, path, gridpoints=np.linspace(0, 1, grid), solver_wrapper="seidel", parametrizer="ParametrizeConstAccel")
         return instance.compute_trajectory()
@@ -97,24 +126,32 @@ def main():
     ref_T = {(r["config"], r["gridpoints"]): r["duration_s"] for r in REF["toppra_results"]}
     print(f"{'config':8s} {'grid':>5s} | {'toppra T [s]':>13s} {'vs ref':>8s} {'worst':>8s} {'ms':>7s} | {'grid only':>9s} | "
           f"{'rworld T [s]':>13s} {'worst':>9s} {'ms':>7s} | {'T ratio':>8s} {'time ratio':>10s}")
-    toppra_rated = None
-    for name, (limits, torque) in configs.items():
-        for grid in args.grids:
-            traj, t_toppra = best(lambda: toppra_solve(limits, torque, grid), args.repeat)
-            _, q, qd, qdd = sampled_toppra(traj)
-            worst_toppra = max(np.max(r) for r in limit_ratios(q, qd, qdd, limits, dyn if torque else None, g).values())
-            if name == "a_rated" and grid == 1000:
-                toppra_rated = traj
-            plain, _ = time_optimal(ours_path, limits, dyn if torque else None, g, grid, repair=False)
-            (timing, _), t_ours = best(lambda: time_optimal(ours_path, limits, dyn if torque else None, g, grid), args.repeat)
-            _, q, qd, qdd = sample_trajectory(ours_path, timing, 20001)
-            worst_ours = max(np.max(r) for r in limit_ratios(q, qd, qdd, limits, dyn if torque else None, g).values())
-            vs_ref = f"{traj.duration / ref_T[(name, grid)] - 1:+8.0e}" if (name, grid) in ref_T else f"{'-':>8s}"
-            print(f"{name:8s} {grid:5d} | {traj.duration:13.6f} {vs_ref} {worst_toppra:8.5f} {t_toppra * 1000:7.1f} | "
-                  f"{plain.duration / traj.duration - 1:+9.0e} | {timing.duration:13.6f} {worst_ours:9.7f} {t_ours * 1000:7.1f} | "
-                  f"{timing.duration / traj.duration:8.5f} {t_ours / t_toppra:10.2f}")
+    toppra_rated, ratios_T = None, []
+    for name, (device, knots, waypoints, boundary, g, configs) in problems().items():
+        dyn = DeviceDynamics(device, armature=True, friction=False)
+        model, _ = pinocchio_with_armature(device, g)
+        ours_path = JointPath(waypoints, knots, boundary)
+        for config, (limits, torque) in configs.items():
+            for grid in args.grids:
+                traj, t_toppra = best(lambda: toppra_solve(knots, waypoints, boundary, limits, torque, grid, model), args.repeat)
+                _, q, qd, qdd = sampled_toppra(traj)
+                worst_toppra = max(np.max(r) for r in limit_ratios(q, qd, qdd, limits, dyn if torque else None, g).values())
+                if config == "a_rated" and grid == 1000:
+                    toppra_rated = traj
+                plain, _ = time_optimal(ours_path, limits, dyn if torque else None, g, grid, repair=False)
+                (timing, _), t_ours = best(lambda: time_optimal(ours_path, limits, dyn if torque else None, g, grid), args.repeat)
+                _, q, qd, qdd = sample_trajectory(ours_path, timing, 20001, switches=True)
+                worst_ours = max(np.max(r) for r in limit_ratios(q, qd, qdd, limits, dyn if torque else None, g).values())
+                vs_ref = f"{traj.duration / ref_T[(config, grid)] - 1:+8.0e}" if (config, grid) in ref_T else f"{'-':>8s}"
+                ratios_T.append(timing.duration / traj.duration)
+                print(f"{config:8s} {grid:5d} | {traj.duration:13.6f} {vs_ref} {worst_toppra:8.5f} {t_toppra * 1000:7.1f} | "
+                      f"{plain.duration / traj.duration - 1:+9.0e} | {timing.duration:13.6f} {worst_ours:9.7f} {t_ours * 1000:7.1f} | "
+                      f"{timing.duration / traj.duration:8.5f} {t_ours / t_toppra:10.2f}")
+    print(f"\ncycle time over toppra's, every problem and grid above: {min(ratios_T):.5f} .. {max(ratios_T):.5f}")
 
     print("\npayload capacity (point mass at [0, 0, 0.1] m in frame 6), exact (torque is affine in mass):")
+    device, knots, waypoints, _, g, configs = problems()["puma"]
+    ours_path = JointPath(waypoints, knots)
     ref = {c["label"]: c for c in REF["payload_capacity"]}
 
     def capacity(path, timing_or_traj, switches=False):

@@ -1,0 +1,45 @@
+"""The peers' models, built once for every bench: the same device as rworld's, each peer in its best ordinary setup."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from rworld_cli.spatial import dh_standard  # noqa: E402
+
+
+def pinocchio_model(device):
+    """The device as a Pinocchio model: revolute-z joints at DH frame i-1, bodies in DH frame i."""
+    import pinocchio as pin
+
+    model = pin.Model()
+    parent = 0
+    placement = pin.SE3.Identity()
+    for joint, link in zip(device.joints, device.links):
+        if joint.kind != "revolute" or joint.theta != 0.0:
+            raise SystemExit("this bench builds revolute chains without angle offsets only")
+        jid = model.addJoint(parent, pin.JointModelRZ(), placement, joint.name)
+        fixed = dh_standard(joint.a, joint.alpha, joint.d, 0.0)  # Tz(d) Tx(a) Rx(alpha)
+        M = pin.SE3(fixed[:3, :3], fixed[:3, 3])
+        inertial = link.inertial
+        model.appendBodyToJoint(jid, pin.Inertia(inertial.mass, inertial.com, inertial.inertia), M)
+        placement, parent = M, jid
+    tool = model.addFrame(pin.Frame("tool", parent, 0, placement, pin.FrameType.OP_FRAME))
+    model.gravity.linear = np.array([0.0, 0.0, -9.81])
+    return model, tool
+
+
+def pinocchio_with_armature(device, gravity=(0.0, 0.0, -9.81)):
+    """The Pinocchio model with the motors' reflected inertia Jm G^2 as its armature (rworld's planning model:
+    rigid bodies + armature, no friction)."""
+    model, tool = pinocchio_model(device)
+    model.armature = np.array([j.armature for j in device.joints])
+    model.gravity.linear = np.asarray(gravity, dtype=float)
+    return model, tool
+
+
+
