@@ -28,7 +28,7 @@ sys.path.insert(0, str(REPO))
 from rworld_cli import spatial  # noqa: E402
 from rworld_cli.calibration.fit import fit_circle, fit_line, fit_plane  # noqa: E402
 from rworld_cli.calibration.solve import _jacobian, closed_form, solve_natural  # noqa: E402
-from rworld_cli.world.model import Feature  # noqa: E402
+from rworld_cli.model.cell import Feature  # noqa: E402
 
 ARCSEC = np.pi / 648000
 TRUTH = spatial.make_transform(spatial.rpy_to_matrix(np.radians([3.0, -2.0, 25.0])), [0.4, -0.1, 0.75])

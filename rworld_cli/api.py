@@ -90,7 +90,7 @@ def _cell_of(path: Path, cell: str | None) -> str | None:
 def _validate_path_file(raw: str, doc, cell: str | None) -> str:
     """Check a path file (and against its cell, when one is known); returns the summary."""
     from .schema.loader import load_cell, validate_document
-    from .schema.messages import did_you_mean
+    from .errors import did_you_mean
     from .schema.program import PathFile
 
     pf = validate_document(doc, PathFile)
@@ -410,7 +410,7 @@ def device_context(cell_path: str, device: str, tcp: str | None = None,
         A frame carried by the device (default its active TCP); local names
         (``tool``) are qualified with the device name.
     """
-    from .schema.messages import did_you_mean
+    from .errors import did_you_mean
 
     world, warnings = load_world(cell_path, joints)
     cell = world.cell
@@ -476,20 +476,15 @@ def inverse_kinematics(ctx: DeviceContext, T_world_target: np.ndarray, target_na
     _check_joint_count(ctx, np.asarray(seed), "the seed")
     result = solve_ik(ctx.device, T_base_target, ctx.mount, seed, position_only, restarts)
     if not result.success:
-        names = [j.name for j in ctx.device.joints]
-        limits = ", ".join(f"{names[i]} at its {side} limit" for i, side in result.at_limits) or "no joint at a limit"
-        rot = "" if position_only else f" and {np.degrees(result.rotation_error):.3g} deg"
-        raise UserError(
-            f"target '{target_name}' is unreachable for {ctx.tcp}: the closest pose found is "
-            f"{result.position_error * 1000:.4g} mm{rot} away ({limits}; {restarts + 1} starts)"
-        )
+        why = result.unreachable(target_name, ctx.tcp, [j.name for j in ctx.device.joints], position_only)
+        raise UserError(f"target {why[:-1]}; {restarts + 1} starts)")
     return result
 
 
 def resolve_payload(ctx: DeviceContext, object_name: str | None, mass: float | None, com=None):
     """A Payload from an object of the cell (at its current pose relative to the TCP, or at the TCP) or a point mass."""
     from .dynamics import Payload
-    from .schema.messages import did_you_mean
+    from .errors import did_you_mean
 
     if object_name and mass is not None:
         raise UserError("give --payload OBJECT or --payload-mass KG, not both")
@@ -571,7 +566,7 @@ def sense(cell_path: str, joints: dict[str, list[float]] | None = None, sensors:
     -------
     (World, list of SensorReading)
     """
-    from .schema.messages import did_you_mean
+    from .errors import did_you_mean
     from .sensing.geometry import DEFAULT_TOLERANCE
     from .sensing.sensors import read_sensors
 
@@ -656,8 +651,9 @@ def simulate_measurement_file(cell_path: str, truth_path: str, output: str, sigm
     features = sorted({f for c in conditions for f in c.features})
     if not features:
         raise UserError("no conditioned features to measure: the cell has no frame conditions (for the frames asked)")
-    minimum = {"point": 1, "line": 2, "plane": 3, "circle": 3}
-    counts = {f: max(points, minimum[nominal.features[f].kind]) for f in features}
+    from .units import MIN_POINTS
+
+    counts = {f: max(points, MIN_POINTS[nominal.features[f].kind]) for f in features}
     doc = simulate_measurements(nominal, truth, features, counts, sigma, seed)
     atomic_write_text(output, measurement_yaml(doc, nominal.name, sigma if sigma > 0 else 1e-12, seed, str(truth_path)))
     return {"features": features, "points": counts, "written": output}
@@ -667,7 +663,7 @@ def plan_cell_measurements(cell_path: str, frames: list[str] | None, sigma: floa
     """Measuring directives for a cell's conditioned frames (see calibration/plan.py)."""
     from .calibration.plan import plan_measurements
     from .schema.loader import load_cell
-    from .schema.messages import did_you_mean
+    from .errors import did_you_mean
 
     cell = load_cell(cell_path).cell
     conditioned = {c.frame for c in cell.conditions}

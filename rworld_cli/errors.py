@@ -10,6 +10,7 @@ CLI prints and exits.
 
 from __future__ import annotations
 
+import difflib
 from dataclasses import dataclass
 from typing import Iterable, Literal
 
@@ -100,3 +101,9 @@ class InternalError(RworldError):
     """A bug in rworld.  CLI exit code 3."""
 
     exit_code = 3
+
+
+def did_you_mean(word: str, choices, cutoff: float = 0.6) -> str:
+    """`` (did you mean 'x'?)`` for the closest choice, or an empty string."""
+    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=cutoff)
+    return f" (did you mean '{close[0]}'?)" if close else ""

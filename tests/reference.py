@@ -8,7 +8,7 @@ import numpy as np
 
 from rworld_cli.dynamics import Payload
 from rworld_cli.kinematics.jacobian import ToolMount
-from rworld_cli.world.model import DeviceModel, Inertial, Joint, JointLimits, Link
+from rworld_cli.model.cell import DeviceModel, Inertial, Joint, JointLimits, Link
 from tests.conftest import REFERENCE
 
 

@@ -32,12 +32,12 @@ from pydantic import Field
 
 from ..errors import Issue, UserError
 from ..schema.loader import LENGTH, validate_document
-from ..schema.messages import did_you_mean
+from ..errors import did_you_mean
 from ..schema.models import NonNegative, Strict, Units, Vec3
 from ..schema.yamlio import read_yaml
-from ..world.model import CellModel
+from ..model.cell import CellModel
 
-MINIMUM_POINTS = {"point": 1, "line": 2, "plane": 3, "circle": 3}
+from ..units import MIN_POINTS as MINIMUM_POINTS  # noqa: E402
 
 
 class FeaturePoints(Strict):

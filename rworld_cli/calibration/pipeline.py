@@ -16,7 +16,8 @@ import numpy as np
 
 from .. import spatial
 from ..errors import UserError
-from ..world.model import CellModel, Feature
+from ..units import ARCSEC
+from ..model.cell import CellModel, Feature
 from ..world.tree import World
 from .fit import FeatureFit, FitError, fit_circle, fit_line, fit_plane, fit_point
 from .measurements import Measurement, MeasurementSet
@@ -26,21 +27,21 @@ from .solve import FrameSolution, apply_condition, solve_natural
 
 
 def feature_extent(cell: CellModel, feature: Feature):
-    """The owner's bounding box (T_owner_box, half extents) or None."""
+    """The owner's bounding box (a :class:`~rworld_cli.model.cell.Box`) or None."""
     shape = None
     if feature.owner in cell.objects:
         shape = cell.objects[feature.owner].shape
     elif feature.owner in cell.devices:
         shape = cell.devices[feature.owner].shape
-    return (shape.bounding_box.T_owner_box, shape.bounding_box.half_extents) if shape is not None else None
+    return shape.bounding_box if shape is not None else None
 
 
 def _inside(points, box, margin=1e-9):
     if box is None:
         return np.ones(len(points), dtype=bool)
-    T, h = box
+    T = box.T_owner_box
     local = (points - T[:3, 3]) @ T[:3, :3]
-    return np.all(np.abs(local) <= h + margin, axis=1)
+    return np.all(np.abs(local) <= box.half_extents + margin, axis=1)
 
 
 def probe_points(cell: CellModel, feature: Feature, n: int, inset: float = 0.15):
@@ -69,8 +70,7 @@ def probe_points(cell: CellModel, feature: Feature, n: int, inset: float = 0.15)
     if feature.kind == "line":
         d = feature.direction
         if box is not None:
-            corners = (np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * box[1]) @ box[0][:3, :3].T + box[0][:3, 3]
-            s = (corners - feature.point) @ d
+            s = (box.corners() - feature.point) @ d
             lo, hi = s.min(), s.max()
         else:
             lo, hi = -default, default
@@ -82,7 +82,7 @@ def probe_points(cell: CellModel, feature: Feature, n: int, inset: float = 0.15)
     u /= np.linalg.norm(u)
     v = np.cross(nrm, u)
     if box is not None:
-        corners = (np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * box[1]) @ box[0][:3, :3].T + box[0][:3, 3]
+        corners = box.corners()
         cu, cv = (corners - feature.point) @ u, (corners - feature.point) @ v
         (u0, u1), (v0, v1) = (cu.min(), cu.max()), (cv.min(), cv.max())
     else:
@@ -190,7 +190,7 @@ def calibrate(cell: CellModel, measured: MeasurementSet, frames: list[str] | Non
     wanted = list(conditions) if frames is None else frames
     for name in wanted:
         if name not in conditions:
-            from ..schema.messages import did_you_mean
+            from ..errors import did_you_mean
 
             raise UserError(f"'{name}' has no frame condition in the cell{did_you_mean(name, conditions)}; conditioned frames: {', '.join(conditions)}")
     fits: dict[str, FeatureFit] = {}
@@ -276,6 +276,6 @@ def overlay_yaml(result: CalibrationResult, measurement_files: list[dict]) -> st
                  f"correction_mm: {dt * 1000:.6g}", f"correction_deg: {np.degrees(dr):.6g}"]
         if sol.sigma_translation is not None:
             entry.append(f"sigma_mm: {float(np.linalg.norm(sol.sigma_translation)) * 1000:.6g}")
-            entry.append(f"sigma_arcsec: {float(np.linalg.norm(sol.sigma_rotation)) / (np.pi / 648000):.6g}")
+            entry.append(f"sigma_arcsec: {float(np.linalg.norm(sol.sigma_rotation)) / ARCSEC:.6g}")
         lines.append(f"    {name}: {{{', '.join(entry)}}}")
     return "\n".join(lines) + "\n"

@@ -14,14 +14,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..world.model import CellModel
+from ..model.cell import CellModel
 from ..world.tree import World
 from .fit import fit_circle, fit_line, fit_plane, fit_point
 from .pipeline import probe_points
 from .solve import REFUSE_CONDITION, _jacobian
 
 LADDER = [3, 4, 6, 8, 10, 15, 20, 30, 50]
-MINIMUM = {"point": 1, "line": 2, "plane": 3, "circle": 3}
+from ..units import MIN_POINTS as MINIMUM  # noqa: E402
 
 
 @dataclass

@@ -30,7 +30,7 @@ from itertools import combinations
 import numpy as np
 
 from .. import spatial
-from ..world.model import Feature
+from ..model.cell import Feature
 from .fit import FeatureFit
 
 ARCSEC = np.pi / (180 * 3600)

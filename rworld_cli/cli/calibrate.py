@@ -13,7 +13,7 @@ def _solution_dict(sol) -> dict:
     import numpy as np
 
     dt, dr = sol.correction
-    arcsec = np.pi / 648000
+    from ..units import ARCSEC as arcsec
     return {
         "frame": sol.frame, "condition": sol.code, "determined": sol.determined,
         "T_world": sol.T_world.tolist(), "correction_mm": dt * 1000, "correction_deg": float(np.degrees(dr)),
@@ -80,7 +80,7 @@ def _render(run) -> None:
     table = Table(title=f"{res.cell}: calibrated frames", title_justify="left", box=None, header_style="bold")
     for col in ("frame", "condition", "correction", "residual rms", "predicted sigma", "cond."):
         table.add_column(col, justify="left" if col in ("frame", "condition") else "right")
-    arcsec = np.pi / 648000
+    from ..units import ARCSEC as arcsec
     for sol in res.solutions.values():
         if not sol.determined:
             continue

@@ -119,7 +119,7 @@ def ik(cell, device, other_joints, tcp, target, xyz, rpy, position_only, seed, r
         raise click.UsageError("give --target FRAME or --xyz X,Y,Z (one of them)")
     if target is not None:
         if target not in ctx.world.cell.frames:
-            from ..schema.messages import did_you_mean
+            from ..errors import did_you_mean
 
             raise UserError(f"unknown frame '{target}'{did_you_mean(target, ctx.world.cell.frames)}")
         T_target, name = ctx.world.T_world(target), target

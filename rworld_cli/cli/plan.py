@@ -352,7 +352,7 @@ def impulse(cell, device, other_joints, tcp, target, direction, payload_mass, pa
     from ..errors import UserError
     from ..planning.impulse import max_impulse
     from ..planning.topp import InfeasiblePath
-    from ..schema.messages import did_you_mean
+    from ..errors import did_you_mean
 
     ctx = context(cell, device, tcp, other_joints)
     if target not in ctx.world.cell.frames:

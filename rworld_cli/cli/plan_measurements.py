@@ -6,6 +6,7 @@ import sys
 
 import click
 
+from ..units import ARCSEC
 from .common import EXIT_CHECK_FAILED, emit_json, handle_errors, json_option
 
 
@@ -15,7 +16,7 @@ def _plan_dict(plan) -> dict:
     return {
         "frame": plan.frame, "condition": plan.code, "determined": plan.determined, "reason": plan.reason,
         "predicted_sigma_mm": plan.sigma_translation * 1000 if np.isfinite(plan.sigma_translation) else None,
-        "predicted_sigma_arcsec": plan.sigma_rotation / (np.pi / 648000) if np.isfinite(plan.sigma_rotation) else None,
+        "predicted_sigma_arcsec": plan.sigma_rotation / ARCSEC if np.isfinite(plan.sigma_rotation) else None,
         "condition_number": plan.condition if np.isfinite(plan.condition) else None, "warnings": plan.warnings,
         "directives": [{"feature": d.feature, "kind": d.kind, "how": d.how, "points_mm": (d.points * 1000).tolist(),
                         "above_mm": (d.above * 1000).tolist() if d.above is not None else None, "ordered": d.ordered}
@@ -91,7 +92,7 @@ def _render(name, plans, output) -> None:
         if p.determined:
             sigma = f"predicted sigma {p.sigma_translation * 1000:.4f} mm"
             if p.code in ("C1", "C2"):
-                sigma += f", {p.sigma_rotation / (np.pi / 648000):.1f} arcsec (condition number {p.condition:.3g})"
+                sigma += f", {p.sigma_rotation / ARCSEC:.1f} arcsec (condition number {p.condition:.3g})"
             console.print(f"\n[bold]{p.frame}[/] ({p.code}): {sigma}")
         else:
             console.print(f"\n[bold]{p.frame}[/] ({p.code}): [red]cannot be determined[/]: {p.reason}")

@@ -13,7 +13,7 @@ from .common import emit_json, handle_errors, json_option, parse_joint_assignmen
 @click.option("--joints", multiple=True, metavar="DEVICE=q1,...", help="Joint values (SI); repeatable. Default: home.")
 @click.option("--view", default="25,-60", show_default=True, metavar="ELEV,AZIM", help="PNG camera elevation and azimuth [deg].")
 @click.option("--no-frames", is_flag=True, help="PNG: leave out the frame triads.")
-@click.option("--tolerance", type=float, default=None, help="Sensor touching tolerance [m] (default 1e-6).")
+@click.option("--tolerance", type=float, default=None, help="Sensor touching tolerance [m] (default 1e-6, docs/sensing.md).")
 @json_option
 @handle_errors
 def render(cell, output, joints, view, no_frames, tolerance, json_output):
@@ -37,8 +37,10 @@ def render(cell, output, joints, view, no_frames, tolerance, json_output):
     suffix = output.lower().rsplit(".", 1)[-1] if "." in output else ""
     if suffix not in ("png", "glb"):
         raise UserError(f"cannot tell the format of '{output}': give a .png or .glb file")
+    from ..units import SENSING_TOLERANCE
+
     world, _ = sense(cell, parse_joint_assignments(joints), None, tolerance)
-    tol = 1e-6 if tolerance is None else tolerance
+    tol = SENSING_TOLERANCE if tolerance is None else tolerance
     if suffix == "png":
         elev, azim = parse_vector(view, "--view", 2)
         written = render_png(world, output, tol, (elev, azim), not no_frames)

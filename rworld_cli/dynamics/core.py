@@ -17,7 +17,7 @@ import numpy as np
 from ..codegen import Generated
 from ..kinematics.forward import link_poses
 from ..kinematics.jacobian import ToolMount
-from ..world.model import DeviceModel, Inertial
+from ..model.cell import DeviceModel, Inertial
 from .rnea import generate_rnea
 
 DEFAULT_GRAVITY = np.array([0.0, 0.0, -9.81])

@@ -34,7 +34,7 @@ import numpy as np
 
 from ..codegen import Emitter, Generated, Num
 from ..kinematics.chain import chain_steps, device_key
-from ..world.model import DeviceModel, Inertial
+from ..model.cell import DeviceModel, Inertial
 
 _CACHE: dict[tuple, Generated] = {}
 

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..codegen import Emitter, Num, Vec, snap
-from ..world.model import DeviceModel
+from ..model.cell import DeviceModel
 
 
 @dataclass(frozen=True)

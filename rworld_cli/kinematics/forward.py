@@ -12,35 +12,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import spatial
-from ..world.model import DeviceModel
+from ..model.cell import DeviceModel
 
 __all__ = ["joint_link_transforms", "link_poses"]
 
 
 def joint_link_transforms(device: DeviceModel, q) -> np.ndarray:
-    """Link transforms ``A_i = T_{i-1}_{i}`` for joint values ``q``.
-
-    Parameters
-    ----------
-    device : DeviceModel
-    q : array_like, shape (n,) or (N, n)
-        Joint values [rad or m].
-
-    Returns
-    -------
-    ndarray, shape (n, 4, 4) or (N, n, 4, 4)
-        Pose of DH frame *i* in frame *i-1*; frame 0 is the device's natural frame.
-    """
-    q = np.asarray(q, dtype=float)
-    dh = device.dh_arrays()
-    prismatic = dh["prismatic"]
-    theta = dh["theta"] + np.where(prismatic, 0.0, q)
-    d = dh["d"] + np.where(prismatic, q, 0.0)
-    a = np.broadcast_to(dh["a"], q.shape)
-    alpha = np.broadcast_to(dh["alpha"], q.shape)
-    step = spatial.dh_standard if device.convention == "standard" else spatial.dh_modified
-    return step(a, alpha, d, theta)
+    """Link transforms ``A_i = T_{i-1}_{i}`` for joint values ``q``: see :meth:`DeviceModel.joint_transforms`."""
+    return device.joint_transforms(q)
 
 
 def link_poses(device: DeviceModel, q) -> np.ndarray:

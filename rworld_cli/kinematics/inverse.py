@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import spatial
-from ..world.model import DeviceModel
+from ..model.cell import DeviceModel
 from .jacobian import ToolMount, tool_pose_and_jacobian
 
 
@@ -43,6 +43,13 @@ class IKResult:
     rotation_error: float
     iterations: int
     at_limits: list = field(default_factory=list)
+
+    def unreachable(self, target: str, tcp: str, joint_names, position_only: bool = False) -> str:
+        """Why the target was not reached, with the figures: the closest pose found and the joints at a limit."""
+        limits = ", ".join(f"{joint_names[i]} at its {side} limit" for i, side in self.at_limits) or "no joint at a limit"
+        rot = "" if position_only else f" and {np.degrees(self.rotation_error):.3g} deg"
+        return (f"'{target}' is unreachable for {tcp}: the closest pose found is "
+                f"{self.position_error * 1000:.4g} mm{rot} away ({limits})")
 
 
 def _errors(T: np.ndarray, target: np.ndarray) -> np.ndarray:

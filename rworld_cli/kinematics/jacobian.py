@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..codegen import Emitter, Generated, snap
-from ..world.model import DeviceModel
+from ..model.cell import DeviceModel
 from .chain import chain_steps, device_key
 
 __all__ = ["ToolMount", "tool_pose", "tool_pose_and_jacobian", "jacobian", "manipulability", "condition_number", "shift_jacobian"]

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..kinematics.inverse import track
 from ..kinematics.jacobian import ToolMount, tool_pose
-from ..world.model import DeviceModel
+from ..model.cell import DeviceModel
 from .trajectory import SampledMove, TrapezoidProfile, interpolate_poses
 from .. import spatial
 

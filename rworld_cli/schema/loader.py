@@ -24,14 +24,14 @@ from pydantic import BaseModel, ValidationError
 
 from .. import spatial
 from ..errors import Issue, UserError
-from ..world import model as wm
-from ..world import rules
+from ..model import cell as wm
+from ..model import rules
 from . import models as sm
-from .messages import did_you_mean, pydantic_issues
+from ..errors import did_you_mean
+from .messages import pydantic_issues
 from .yamlio import Marked, read_yaml
 
-LENGTH = {"m": 1.0, "mm": 1e-3}
-ANGLE = {"rad": 1.0, "deg": math.pi / 180.0}
+from ..units import ANGLE, LENGTH  # noqa: E402  (one home for unit factors)
 
 # Which feature kinds each condition accepts (calibration report, section 5).
 CONDITION_FEATURE_KINDS = {

@@ -8,22 +8,15 @@ or - for a missing key - on the mapping that lacks it.
 
 from __future__ import annotations
 
-import difflib
 import types
 import typing
 from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-from ..errors import Issue
+from ..errors import Issue, did_you_mean
 from .models import NAME_PATTERN, REF_PATTERN
 from .yamlio import Marked, format_path
-
-
-def did_you_mean(word: str, choices, cutoff: float = 0.6) -> str:
-    """`` (did you mean 'x'?)`` for the closest choice, or an empty string."""
-    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=cutoff)
-    return f" (did you mean '{close[0]}'?)" if close else ""
 
 
 def describe(value: Any) -> str:

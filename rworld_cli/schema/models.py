@@ -2,7 +2,7 @@
 
 These models describe the *files* (numbers in the file's declared units); the
 loader converts them to SI and builds the runtime model
-(:mod:`rworld_cli.world.model`).  Every field carries a description: they
+(:mod:`rworld_cli.model.cell`).  Every field carries a description: they
 become the JSON Schemas in ``schemas/`` that editors use for completion.
 
 Units (``docs/formats.md``): a file's ``units.length`` applies to every

@@ -28,7 +28,7 @@ from functools import lru_cache
 
 import numpy as np
 
-DEFAULT_TOLERANCE = 1e-6  # m: surfaces this close to a cell touch it
+from ..units import SENSING_TOLERANCE as DEFAULT_TOLERANCE  # noqa: E402  (m: surfaces this close to a cell touch it)
 
 
 @dataclass(frozen=True)
@@ -61,7 +61,7 @@ def _primitive_mesh(kind: str, size: tuple, mesh_file: str | None, scale: float)
 
 
 def shape_mesh(shape) -> MeshData:
-    """The polyhedral model of a :class:`~rworld_cli.world.model.Shape`, in its owner's frame."""
+    """The polyhedral model of a :class:`~rworld_cli.model.cell.Shape`, in its owner's frame."""
     base = _primitive_mesh(shape.kind, tuple(float(x) for x in shape.size),
                            str(shape.mesh_file) if shape.mesh_file else None, float(shape.mesh_scale))
     T = shape.T_owner_shape

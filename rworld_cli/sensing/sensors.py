@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import spatial
-from ..world.model import WORLD
+from ..model.cell import WORLD
 from .geometry import DEFAULT_TOLERANCE, grid_interference, obb_overlap, shape_mesh
 
 
@@ -31,7 +31,7 @@ class Body:
     owner: str  # primitive name
     label: str  # object name, or device.link
     T_world_owner: np.ndarray
-    shape: object  # world.model.Shape
+    shape: object  # model.cell.Shape
 
 
 @dataclass

@@ -249,11 +249,7 @@ class _Scheduler:
             if spec.motion == "joint":
                 result = solve_ik(dev, T_base_target, mount, q_now, position_only)
                 if not result.success:
-                    names = [j.name for j in dev.joints]
-                    limits = ", ".join(f"{names[i]} at its {side} limit" for i, side in result.at_limits) or "no joint at a limit"
-                    rot = "" if position_only else f" and {np.degrees(result.rotation_error):.3g} deg"
-                    self.fail(device, step, f"'{spec.to}' is unreachable for {tcp}: the closest pose found is "
-                                            f"{result.position_error * 1000:.4g} mm{rot} away ({limits})")
+                    self.fail(device, step, result.unreachable(spec.to, tcp, [j.name for j in dev.joints], position_only))
                 seg = self._joint_move(device, tr, step, q_now, result.q)
             else:
                 try:

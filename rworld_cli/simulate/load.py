@@ -11,9 +11,9 @@ import numpy as np
 from ..errors import Issue, UserError
 from ..schema import program as sp
 from ..schema.loader import ANGLE, LENGTH, load_cell, pose_to_matrix, validate_document
-from ..schema.messages import did_you_mean
+from ..errors import did_you_mean
 from ..schema.yamlio import Marked, read_yaml
-from ..world.model import CellModel
+from ..model.cell import CellModel
 
 
 @dataclass

@@ -25,9 +25,8 @@ import numpy as np
 
 from .. import spatial
 from ..errors import UserError
-from ..kinematics.forward import joint_link_transforms
-from . import rules
-from .model import WORLD, CellModel
+from ..model import rules
+from ..model.cell import WORLD, CellModel
 
 
 class AffixmentError(UserError):
@@ -379,7 +378,7 @@ class World:
                 if dev not in cache:
                     q = joints.get(dev)
                     q = np.broadcast_to(self._q[dev], (N, self.cell.devices[dev].dof)) if q is None else np.asarray(q, dtype=float)
-                    cache[dev] = joint_link_transforms(self.cell.devices[dev], q)
+                    cache[dev] = self.cell.devices[dev].joint_transforms(q)
                 T = T @ cache[dev][:, i]
             else:
                 T = T @ self._T_parent[node]
@@ -392,13 +391,13 @@ class World:
 
     def _check_frame(self, frame: str):
         if frame not in self._parent:
-            from ..schema.messages import did_you_mean
+            from ..errors import did_you_mean
 
             raise UserError(f"unknown frame '{frame}'{did_you_mean(frame, self._parent)}")
 
     def _check_device(self, device: str):
         if device not in self.cell.devices:
-            from ..schema.messages import did_you_mean
+            from ..errors import did_you_mean
 
             raise UserError(f"unknown device '{device}'{did_you_mean(device, self.cell.devices)}")
 
@@ -429,7 +428,7 @@ class World:
             return self._cache
         link_T = {}
         for name, dev in self.cell.devices.items():
-            A = joint_link_transforms(dev, self._q[name])
+            A = dev.joint_transforms(self._q[name])
             for frame, Ai in zip(dev.link_frames, A):
                 link_T[frame] = Ai
         kids = self._children()

@@ -159,7 +159,7 @@ def test_weak_set_warns_with_the_figure(tmp_path):
     """Three faces of which two are nearly parallel: solved, with a warning that gives the condition number."""
     from rworld_cli.calibration.solve import solve_natural
     from rworld_cli.calibration.fit import fit_plane as fp
-    from rworld_cli.world.model import Feature
+    from rworld_cli.model.cell import Feature
 
     rng = np.random.default_rng(2)
     normals = [np.array([0, 0, 1.0]), np.array([1.0, 0, 0]), np.array([0.999, 0.0447, 0])]
@@ -254,7 +254,7 @@ def test_mirrored_points_are_warned():
     """Four points measured as the mirror image of the nominal ones: no rotation maps them; said so."""
     from rworld_cli.calibration.fit import fit_point
     from rworld_cli.calibration.solve import MIRROR, solve_natural
-    from rworld_cli.world.model import Feature
+    from rworld_cli.model.cell import Feature
 
     nominal = np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.08, 0], [0.02, 0.03, 0.05]])
     mirrored = nominal * [1, 1, -1] + [0.3, 0.1, 0.5]
@@ -269,7 +269,7 @@ def test_line_parallel_to_plane_is_refused():
     from rworld_cli.calibration.fit import fit_line as fl
     from rworld_cli.calibration.fit import fit_plane as fp
     from rworld_cli.calibration.solve import solve_natural
-    from rworld_cli.world.model import Feature
+    from rworld_cli.model.cell import Feature
 
     plane = Feature("o.top", "o", "plane", np.zeros(3), np.array([0, 0, 1.0]))
     line = Feature("o.edge", "o", "line", np.array([0, 0.05, 0.02]), np.array([1.0, 0, 0]))

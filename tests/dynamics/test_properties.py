@@ -10,7 +10,7 @@ from rworld_cli import spatial
 from rworld_cli.dynamics import DeviceDynamics, Payload, integrate
 from rworld_cli.kinematics.jacobian import ToolMount, jacobian, tool_pose, tool_pose_and_jacobian
 from rworld_cli.schema.loader import load_cell
-from rworld_cli.world.model import DeviceModel, Inertial, Joint, JointLimits, Link
+from rworld_cli.model.cell import DeviceModel, Inertial, Joint, JointLimits, Link
 
 
 def random_device(seed: int, convention: str, kinds: str) -> DeviceModel:

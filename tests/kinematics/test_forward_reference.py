@@ -9,7 +9,7 @@ import pytest
 
 from rworld_cli.kinematics.forward import link_poses
 from rworld_cli.schema.loader import load_cell
-from rworld_cli.world.model import DeviceModel, Inertial, Joint, JointLimits, Link
+from rworld_cli.model.cell import DeviceModel, Inertial, Joint, JointLimits, Link
 from rworld_cli.world.tree import World
 from tests.conftest import REFERENCE
 

@@ -9,7 +9,7 @@ from rworld_cli import spatial
 from rworld_cli.kinematics.inverse import solve_ik
 from rworld_cli.kinematics.jacobian import ToolMount, tool_pose
 from rworld_cli.schema.loader import load_cell
-from rworld_cli.world.model import JointLimits
+from rworld_cli.model.cell import JointLimits
 from tests.dynamics.test_properties import random_device
 
 

@@ -47,7 +47,7 @@ def test_presence_beam_sees_the_housing_and_then_nothing(world):
 
 def test_proximity_slices_step_with_distance(world):
     """Move a ball along the range box's axis: the nearest hit slice counts the distance in slices."""
-    from rworld_cli.world.model import Inertial, ObjectModel, Shape, Box
+    from rworld_cli.model.cell import Inertial, ObjectModel, Shape, Box
 
     sensor = world.cell.sensors["range_wrist"]
     world.detach("range_wrist")
@@ -56,7 +56,7 @@ def test_proximity_slices_step_with_distance(world):
     ball = ObjectModel("ball", Inertial.zero(), Shape("sphere", np.eye(4), np.full(3, 2 * r), Box(np.eye(4), np.full(3, r))))
     cell = world.cell
     cell.objects["ball"] = ball
-    from rworld_cli.world.model import FrameDecl
+    from rworld_cli.model.cell import FrameDecl
 
     cell.frames["ball"] = FrameDecl("ball", "natural", "ball", None)
     world2 = World(cell)

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from rworld_cli import spatial
 from rworld_cli.schema.loader import load_cell
-from rworld_cli.world.model import WORLD, CellModel, FrameDecl, Inertial, ObjectModel
+from rworld_cli.model.cell import WORLD, CellModel, FrameDecl, Inertial, ObjectModel
 from rworld_cli.world.tree import AffixmentError, World
 
 
@@ -27,7 +27,7 @@ def synthetic_cell(n: int, parents: list[int], seed: int) -> CellModel:
     rng = np.random.default_rng(seed)
     frames = {WORLD: FrameDecl(WORLD, "world", WORLD, None)}
     objects, poses, affix = {}, {}, []
-    from rworld_cli.world.model import AffixmentDecl
+    from rworld_cli.model.cell import AffixmentDecl
 
     for i in range(n):
         name = f"o{i}"

@@ -170,6 +170,31 @@ class DeviceModel:
             "prismatic": np.array([j.kind == "prismatic" for j in self.joints]),
         }
 
+    def joint_transforms(self, q) -> np.ndarray:
+        """Link transforms ``A_i = T_{i-1}_{i}`` for joint values ``q`` (the chain's description as matrices).
+
+        Parameters
+        ----------
+        q : array_like, shape (n,) or (N, n)
+            Joint values [rad or m].
+
+        Returns
+        -------
+        ndarray, shape (n, 4, 4) or (N, n, 4, 4)
+            Pose of DH frame *i* in frame *i-1*; frame 0 is the device's natural frame.
+        """
+        from .. import spatial
+
+        q = np.asarray(q, dtype=float)
+        dh = self.dh_arrays()
+        prismatic = dh["prismatic"]
+        theta = dh["theta"] + np.where(prismatic, 0.0, q)
+        d = dh["d"] + np.where(prismatic, q, 0.0)
+        a = np.broadcast_to(dh["a"], q.shape)
+        alpha = np.broadcast_to(dh["alpha"], q.shape)
+        step = spatial.dh_standard if self.convention == "standard" else spatial.dh_modified
+        return step(a, alpha, d, theta)
+
     def limit_array(self, which: str) -> np.ndarray:
         """One limit for all joints, shape (n,): 'lower', 'upper', 'velocity', 'acceleration' or 'effort'."""
         return np.array([getattr(j.limits, which) for j in self.joints], dtype=float)
