@@ -9,18 +9,15 @@ overlay of calibrated poses; nominal pose files are never rewritten.
 
 from __future__ import annotations
 
-import datetime as _dt
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import spatial
 from ..errors import UserError
-from ..units import ARCSEC
 from ..model.cell import CellModel, Feature
 from ..world.tree import World
 from .fit import FeatureFit, FitError, fit_circle, fit_line, fit_plane, fit_point
-from .measurements import Measurement, MeasurementSet
+from ..model.measurements import FeatureProbes, Measurement, MeasurementSet
 from .solve import FrameSolution, apply_condition, solve_natural
 
 # --------------------------------------------------------------------------- where to probe
@@ -108,7 +105,7 @@ def probe_points(cell: CellModel, feature: Feature, n: int, inset: float = 0.15)
 
 def simulate_measurements(nominal: CellModel, truth: CellModel, features: list[str], n_points: dict[str, int],
                           sigma: float, seed: int) -> dict:
-    """A measurement document (SI) probing ``features`` of the truth cell, with Gaussian noise ``sigma`` [m]."""
+    """Probe points (SI, world) of ``features`` of the truth cell, with Gaussian noise ``sigma`` [m]."""
     rng = np.random.default_rng(seed)
     world = World(truth)
     out = {}
@@ -117,37 +114,8 @@ def simulate_measurements(nominal: CellModel, truth: CellModel, features: list[s
         pts, above, ordered = probe_points(nominal, f, n_points.get(name, 8))
         T = world.T_world(f.owner)
         pw = pts @ T[:3, :3].T + T[:3, 3] + rng.normal(0.0, sigma, pts.shape)
-        entry = {"points": pw}
-        if above is not None:
-            entry["above"] = T[:3, :3] @ above + T[:3, 3]
-        if ordered:
-            entry["ordered"] = True
-        out[name] = entry
+        out[name] = FeatureProbes(pw, T[:3, :3] @ above + T[:3, 3] if above is not None else None, bool(ordered))
     return out
-
-
-def measurement_yaml(doc: dict, cell_name: str, sigma: float, seed: int, truth: str) -> str:
-    """Measurement file text in mm (``docs/calibration.md``)."""
-    lines = [
-        "# Synthetic measurements (rworld measure --simulate)",
-        f"# truth: {truth}, sigma: {sigma * 1000:g} mm, seed: {seed}",
-        f"cell: {cell_name}",
-        "units: {length: mm}",
-        f"date: '{_dt.date.today().isoformat()}'",
-        "instrument: simulated",
-        f"sigma: {sigma * 1000!r}",
-        "features:",
-    ]
-    for name, entry in doc.items():
-        lines.append(f"  {name}:")
-        lines.append("    points:")
-        for p in entry["points"]:
-            lines.append("      - [" + ", ".join(repr(float(x * 1000)) for x in p) + "]")
-        if "above" in entry:
-            lines.append("    above: [" + ", ".join(repr(float(x * 1000)) for x in entry["above"]) + "]")
-        if entry.get("ordered"):
-            lines.append("    ordered: true")
-    return "\n".join(lines) + "\n"
 
 
 # --------------------------------------------------------------------------- calibrate
@@ -248,34 +216,3 @@ def calibrate(cell: CellModel, measured: MeasurementSet, frames: list[str] | Non
             undetermined[name] = "not solved"
     return CalibrationResult(cell.name, solutions, fits, overlay,
                              {k: v for k, v in undetermined.items() if k in wanted}, measured.files)
-
-
-def overlay_yaml(result: CalibrationResult, measurement_files: list[dict]) -> str:
-    """The calibrated poses as a pose file (mm, deg) with provenance; the nominal files stay as they are."""
-    lines = [
-        "# Calibrated poses written by 'rworld calibrate'.  List this file after the",
-        "# nominal pose file(s) in the cell's pose_files; the nominal values stay there.",
-        "units: {length: mm, angle: deg}",
-        "poses:",
-    ]
-    for name, T in result.overlay.items():
-        xyz = ", ".join(repr(float(x) * 1000) for x in T[:3, 3])
-        rpy = ", ".join(repr(float(x)) for x in np.degrees(spatial.matrix_to_rpy(T[:3, :3])))
-        lines.append(f"  {name}: {{xyz: [{xyz}], rpy: [{rpy}]}}")
-    lines.append("provenance:")
-    lines.append(f"  date: '{_dt.datetime.now().replace(microsecond=0).isoformat()}'")
-    lines.append("  measurements:")
-    for f in measurement_files:
-        lines.append(f"    - {{path: '{f['path']}', sha256: {f['sha256']}}}")
-    lines.append("  frames:")
-    for name, sol in result.solutions.items():
-        if not sol.determined:
-            continue
-        dt, dr = sol.correction
-        entry = [f"condition: {sol.code}", f"residual_rms_mm: {sol.residual_rms * 1000:.6g}",
-                 f"correction_mm: {dt * 1000:.6g}", f"correction_deg: {np.degrees(dr):.6g}"]
-        if sol.sigma_translation is not None:
-            entry.append(f"sigma_mm: {float(np.linalg.norm(sol.sigma_translation)) * 1000:.6g}")
-            entry.append(f"sigma_arcsec: {float(np.linalg.norm(sol.sigma_rotation)) / ARCSEC:.6g}")
-        lines.append(f"    {name}: {{{', '.join(entry)}}}")
-    return "\n".join(lines) + "\n"

@@ -28,11 +28,9 @@ def analyze(kind, trials, planes, seed, plot, json_output):
       rworld analyze accuracy
       rworld analyze sensitivity --trials 5000 --seed 1 --plot sensitivity.png
     """
-    from ..calibration.analysis import run_analysis
+    from ..api import analyze_calibration
 
-    rows, samples = run_analysis(kind, trials, planes, seed)
-    if plot:
-        _plot(kind, samples, plot)
+    rows = analyze_calibration(kind, trials, planes, seed, plot)
     if json_output:
         emit_json({"kind": kind, "trials": trials, "planes": planes, "seed": seed,
                    "methods": [r.__dict__ for r in rows], "plot": plot})
@@ -49,23 +47,3 @@ def analyze(kind, trials, planes, seed, plot, json_output):
     Console(highlight=False).print(table)
     if plot:
         click.echo(f"wrote {plot}")
-
-
-def _plot(kind, samples, path):
-    import matplotlib
-
-    matplotlib.use("Agg")
-
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
-    for name, (errors, _) in samples.items():
-        ax.hist(np.log10(np.maximum(errors, 1e-18)), bins=50, alpha=0.6, label=name)
-    ax.set_xlabel("log10 median relative element error per trial")
-    ax.set_ylabel("trials")
-    ax.set_title(f"{kind}: T with orthogonality enforced (constrained) or not")
-    ax.legend()
-    from ..fileio import save_figure
-
-    save_figure(fig, path)

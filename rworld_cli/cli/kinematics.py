@@ -35,15 +35,12 @@ def fk(cell, device, other_joints, tcp, q, states, output, json_output):
       rworld kinematics fk workcells/puma560 --q 0,0.5,-1,0,0.3,0
       rworld kinematics fk workcells/paper_fig9 -d robot --tcp hand_a.tcp --states q.csv -o poses.csv
     """
-    import numpy as np
-
-    from ..api import forward_kinematics
-    from ..spatial import matrix_to_quat
+    from ..api import forward_kinematics, pose_rows
 
     ctx = context(cell, device, tcp, other_joints)
     data, warnings = joint_rows(ctx, states, q, ["q"])
     T = forward_kinematics(ctx, data["q"])
-    rows = np.hstack([T[:, :3, 3], matrix_to_quat(T[:, :3, :3])])
+    rows = pose_rows(T)
     payload = {"device": ctx.device.name, "tcp": ctx.tcp, "frame": "world", "T_world_tool": T.tolist()}
     emit(["x", "y", "z", "qw", "qx", "qy", "qz"], rows, payload, json_output, output, warnings)
 
@@ -110,24 +107,17 @@ def ik(cell, device, other_joints, tcp, target, xyz, rpy, position_only, seed, r
       rworld kinematics ik workcells/puma560 --xyz 0.5,0.2,0.6 --position-only --json
     """
 
-    from ..api import inverse_kinematics
-    from ..errors import UserError
-    from ..spatial import make_transform, rpy_to_matrix
+    from ..api import inverse_kinematics, target_pose
 
     ctx = context(cell, device, tcp, other_joints)
     if (target is None) == (xyz is None):
         raise click.UsageError("give --target FRAME or --xyz X,Y,Z (one of them)")
-    if target is not None:
-        if target not in ctx.world.cell.frames:
-            from ..errors import did_you_mean
-
-            raise UserError(f"unknown frame '{target}'{did_you_mean(target, ctx.world.cell.frames)}")
-        T_target, name = ctx.world.T_world(target), target
-    else:
-        R = rpy_to_matrix(parse_vector(rpy, "--rpy", 3)) if rpy else None
-        if R is None and not position_only:
-            raise click.UsageError("--xyz needs --rpy, or --position-only")
-        T_target, name = make_transform(R, parse_vector(xyz, "--xyz", 3)), f"xyz {xyz}"
+    if xyz is not None and rpy is None and not position_only:
+        raise click.UsageError("--xyz needs --rpy, or --position-only")
+    T_target, name = target_pose(ctx, target, parse_vector(xyz, "--xyz", 3) if xyz else None,
+                                 parse_vector(rpy, "--rpy", 3) if rpy else None, position_only)
+    if xyz is not None:
+        name = f"xyz {xyz}"
     seed_q = parse_vector(seed, "--seed", ctx.device.dof) if seed else None
     result = inverse_kinematics(ctx, T_target, name, seed_q, position_only, restarts)
     payload = {

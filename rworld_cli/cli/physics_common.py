@@ -35,43 +35,27 @@ def parse_vector(text: str, name: str, length: int | None = None) -> list[float]
 
 
 def context(cell: str, device: str | None, tcp: str | None, other_joints: tuple[str, ...] = ()):
-    from ..api import device_context
-    from ..errors import UserError
-    from ..schema.loader import load_cell
+    from ..api import device_context, the_device
     from .common import parse_joint_assignments
 
-    if device is None:
-        devices = list(load_cell(cell).cell.devices)
-        if len(devices) != 1:
-            raise UserError(f"the cell has {len(devices)} devices ({', '.join(devices)}); choose one with --device")
-        device = devices[0]
-    return device_context(cell, device, tcp, parse_joint_assignments(other_joints))
+    return device_context(cell, the_device(cell, device), tcp, parse_joint_assignments(other_joints))
 
 
 def joint_rows(ctx, states: str | None, q: str | None, groups: list[str]):
-    """Joint arrays from --states FILE or --q (q only); returns (dict group -> (N, n), source, warnings)."""
-    import numpy as np
-
-    from ..tableio import limit_warnings, read_states
+    """Joint arrays from --states FILE or --q (q only); returns (dict group -> (N, n), warnings)."""
+    from ..api import joint_states
 
     n = ctx.device.dof
     if (states is None) == (q is None or groups != ["q"]):
         if groups == ["q"]:
             raise click.UsageError("give the joint values with --q q1,...,qn or --states FILE (one of them)")
         raise click.UsageError("give --states FILE with columns " + ", ".join(f"{g}1..{g}{n}" for g in groups))
-    if states is not None:
-        data = read_states(states, n, groups)
-        source = states
-    else:
-        data = {"q": np.array([parse_vector(q, "--q", n)])}
-        source = "--q"
-    warnings = limit_warnings(source, data["q"], ctx.device.limit_array("lower"), ctx.device.limit_array("upper"))
-    return data, warnings
+    return joint_states(ctx, states, parse_vector(q, "--q", n) if states is None else None, groups)
 
 
 def emit(columns, rows, payload: dict, json_output: bool, output: str | None, warnings) -> None:
     """JSON on stdout, or CSV to a file or stdout; warnings on stderr (in the JSON with --json)."""
-    from ..tableio import format_csv, write_csv
+    from ..api import table_text, write_table
 
     if json_output:
         payload["warnings"] = [w.as_dict() for w in warnings]
@@ -80,7 +64,7 @@ def emit(columns, rows, payload: dict, json_output: bool, output: str | None, wa
     for w in warnings:
         click.echo(w.format(), err=True)
     if output:
-        write_csv(output, columns, rows)
+        write_table(output, columns, rows)
         click.echo(f"wrote {output} ({len(rows)} row(s))", err=True)
     else:
-        click.echo(format_csv(columns, rows), nl=False)
+        click.echo(table_text(columns, rows), nl=False)

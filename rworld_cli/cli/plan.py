@@ -82,45 +82,23 @@ def time_optimal(cell, device, other_joints, tcp, path_file, gridpoints, no_torq
       rworld plan time-optimal workcells/puma560 --path p.yaml --payload-mass 2 --payload-com 0,0,0.1 --plot p.png -o traj.csv
       rworld plan time-optimal workcells/puma560 --path p.yaml --period 8ms --grid-instants -o traj.csv
     """
-    import numpy as np
-
-    from ..api import (carried_summary, load_joint_path, plan_time_optimal, resolve_payload, sample_timed_path, trajectory_table,
-                       unlimited_joints)
-    from ..planning.topp import limit_ratios
-    from ..tableio import write_csv
+    from ..api import time_optimal_plan
 
     samples, period = _sampling(samples, period)
     ctx = context(cell, device, tcp, other_joints)
-    path = load_joint_path(path_file, ctx.device)
     com = parse_vector(payload_com, "--payload-com", 3) if payload_com else None
-    payload = resolve_payload(ctx, payload_object, payload_mass, com)
-    exclude = [payload_object] if payload_object else ()  # an object given as the payload is not also carried
-    timing, info, dyn, limits = plan_time_optimal(ctx, path, payload, gridpoints, not no_torque, exclude=exclude)
-    carried = carried_summary(ctx, exclude) if dyn is not None else []
-    unlimited = unlimited_joints(ctx.device, limits)
-    rows = sample_timed_path(path, timing, samples, period, grid_instants)
-    ratios = limit_ratios(rows.q, rows.qd, rows.qdd, limits, dyn, ctx.gravity_base)
-    counts: dict[str, int] = {}
-    for b in info["binding"]:
-        counts[b] = counts.get(b, 0) + 1
-    binding = {k: v / len(info["binding"]) for k, v in sorted(counts.items(), key=lambda kv: -kv[1])}
-    if plot:
-        _plot(path_file, timing, info, rows.t, ratios, plot)
-    if output:
-        write_csv(output, *trajectory_table(rows, dyn, ctx.gravity_base))
-    peaks = {k: float(np.max(np.where(np.isfinite(v), v, 0.0))) for k, v in ratios.items()}
+    p = time_optimal_plan(ctx, path_file, gridpoints, not no_torque, payload_object, payload_mass, com, samples, period,
+                          grid_instants, output, plot)
+    timing, info, carried, unlimited, binding, peaks = p.timing, p.info, p.carried, p.unlimited, p.binding, p.peak_ratio
     if json_output:
-        emit_json({"device": ctx.device.name, "path": path_file, "gridpoints": gridpoints, "duration": timing.duration,
-                   "binding": binding, "dense_ratio": info["dense_ratio"], "repaired_gridpoints": info["repaired"],
-                   "rounds": info["rounds"], "slowdown": timing.scale, "peak_ratio": peaks, "unlimited": unlimited,
-                   "carried": carried, "rows": len(rows.t), "written": output, "plot": plot})
+        emit_json({"device": ctx.device.name, "path": path_file, "gridpoints": gridpoints, **p.as_dict(), "written": output, "plot": plot})
         return
     click.echo(f"{ctx.device.name}: {path_file}: cycle time {timing.duration:.6f} s ({gridpoints} grid points)")
     _echo_carried(carried)
     if unlimited:
         click.echo(_unlimited_line(unlimited))
     click.echo("binding along the path: " + ", ".join(f"{k} {v:.0%}" for k, v in binding.items()))
-    click.echo(f"peak ratio to the limits ({len(rows.t)} rows): " + ", ".join(f"{k} {v:.6f}" for k, v in peaks.items()))
+    click.echo(f"peak ratio to the limits ({len(p.rows.t)} rows): " + ", ".join(f"{k} {v:.6f}" for k, v in peaks.items()))
     if info["repaired"]:
         click.echo(f"slowed locally at {info['repaired']} grid point(s) so that no limit is exceeded between grid points "
                    f"({info['rounds']} solves)")
@@ -197,38 +175,6 @@ def _echo_carried(carried: list[dict]) -> None:
         click.echo("  also carrying (the cell's state): " + ", ".join(f"{c['name']} {c['mass']:.3f} kg on link {c['link']}" for c in carried))
 
 
-def _plot(title, timing, info, t, ratios, path):
-    import matplotlib
-
-    matplotlib.use("Agg")
-
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 7), constrained_layout=True)
-    ax1.plot(timing.s, np.sqrt(np.maximum(info["x_limit"], 0)), color="grey", label="limit curve (constraints at each s)")
-    ax1.plot(timing.s, np.sqrt(np.maximum(info["K_hi"], 0)), color="orange", linestyle="--", label="controllable (can still stop)")
-    ax1.plot(timing.s, np.sqrt(timing.x), color="C0", linewidth=2, label="time-optimal")
-    ax1.set_xlabel("path parameter s")
-    ax1.set_ylabel("path speed ds/dt [1/s]")
-    top = np.sqrt(np.max(timing.x)) * 1.6
-    ax1.set_ylim(0, top)
-    ax1.legend(loc="upper right", fontsize=8)
-    ax1.set_title(f"{title}: cycle time {timing.duration:.4f} s")
-    for name, style in (("torque", "-"), ("velocity", ":"), ("acceleration", "--")):
-        if name in ratios:
-            for j in range(ratios[name].shape[1]):
-                ax2.plot(t, ratios[name][:, j], style, color=f"C{j}", label=f"{name} {j + 1}" if name == "torque" or j == 0 else None)
-    ax2.axhline(1.0, color="red", linewidth=1)
-    ax2.set_xlabel("time [s]")
-    ax2.set_ylabel("|value| / limit")
-    ax2.set_ylim(0, 1.1)
-    ax2.legend(loc="lower right", fontsize=7, ncol=3)
-    from ..fileio import save_figure
-
-    save_figure(fig, path)
-
-
 @plan.command("load-optimal")
 @device_options
 @click.option("--path", "path_file", required=True, type=click.Path(dir_okay=False), help="Path file (YAML).")
@@ -262,43 +208,24 @@ def load_optimal_cmd(cell, device, other_joints, tcp, path_file, duration, paylo
     """
     import sys
 
-    from ..api import (carried_loads, carried_summary, load_joint_path, planning_limits, sample_timed_path, trajectory_table,
-                       unlimited_joints, write_path_with_knots)
-    from ..errors import UserError
-    from ..planning.payload import load_optimal
-    from ..planning.topp import InfeasiblePath
-    from ..tableio import write_csv
+    from ..api import carried_summary, load_optimal_plan
 
     samples, period = _sampling(samples, period)
-    if not duration > 0:
-        raise UserError("--duration must be > 0")
-    if shape_output and not shape:
-        raise UserError("--shape-output needs --shape")
     ctx = context(cell, device, tcp, other_joints)
-    path = load_joint_path(path_file, ctx.device)
-    limits = planning_limits(ctx.device, torque=True)
     com = parse_vector(payload_com, "--payload-com", 3)
 
     def run(progress=None):
-        return load_optimal(ctx.device, path, limits, ctx.gravity_base, com, duration, ctx.mount, gridpoints, tolerance,
-                            shape=shape, evaluations=evaluations, progress=progress, link_loads=carried_loads(ctx))
+        return load_optimal_plan(ctx, path_file, duration, com, gridpoints, tolerance, shape, evaluations, shape_output,
+                                 samples, period, grid_instants, output, progress)
 
-    try:
-        if shape and not json_output and sys.stderr.isatty():
-            from rich.progress import Progress
+    if shape and not json_output and sys.stderr.isatty():
+        from rich.progress import Progress
 
-            with Progress(transient=True) as bar:
-                task = bar.add_task("trying path shapes", total=evaluations)
-                r = run(lambda done, total: bar.update(task, completed=done, total=total))
-        else:
-            r = run()
-    except InfeasiblePath as exc:
-        raise UserError(str(exc)) from None
-    if shape_output:
-        write_path_with_knots(path_file, r.path.knots, shape_output, f"they carry {r.mass:.4f} kg in {duration} s at {ctx.tcp}")
-    if output:
-        write_csv(output, *trajectory_table(sample_timed_path(r.path, r.timing, samples, period, grid_instants)))
-    unlimited = unlimited_joints(ctx.device, limits)
+        with Progress(transient=True) as bar:
+            task = bar.add_task("trying path shapes", total=evaluations)
+            r, unlimited = run(lambda done, total: bar.update(task, completed=done, total=total))
+    else:
+        r, unlimited = run()
     payload = {"device": ctx.device.name, "tcp": ctx.tcp, "duration": duration, "payload_mass": r.mass, "unlimited": unlimited,
                "time_optimal_capacity": r.time_optimal_capacity, "quintic_capacity": r.quintic_capacity,
                "static_capacity": r.static_capacity, "knots": r.path.knots.tolist(), "given_shape_mass": r.given_shape_mass,
@@ -346,37 +273,16 @@ def impulse(cell, device, other_joints, tcp, target, direction, payload_mass, pa
     Example:
       rworld plan impulse workcells/puma560 --tcp probe --target table.drop --direction 0,0,-1 --payload-mass 2
     """
-    import numpy as np
-
-    from ..api import device_dynamics, inverse_kinematics, planning_limits, resolve_payload, unlimited_joints
-    from ..errors import UserError
-    from ..planning.impulse import max_impulse
-    from ..planning.topp import InfeasiblePath
-    from ..errors import did_you_mean
+    from ..api import impulse_plan
 
     ctx = context(cell, device, tcp, other_joints)
-    if target not in ctx.world.cell.frames:
-        raise UserError(f"unknown frame '{target}'{did_you_mean(target, ctx.world.cell.frames)}")
-    d_world = np.array(parse_vector(direction, "--direction", 3))
-    if np.linalg.norm(d_world) < 1e-12:
-        raise UserError("--direction must not be zero")
-    com = parse_vector(payload_com, "--payload-com", 3)
-    q_start = np.array(parse_vector(start, "--start", ctx.device.dof)) if start else ctx.world.joints(ctx.device.name)
-    q_end = inverse_kinematics(ctx, ctx.world.T_world(target), target, q_start).q
-    payload = resolve_payload(ctx, None, payload_mass, com) if payload_mass > 0 else None
-    dyn = device_dynamics(ctx, payload, armature=True, friction=False)
-    d_base = ctx.T_world_base[:3, :3].T @ d_world
-    try:
-        r = max_impulse(ctx.device, q_start, q_end, d_base, payload_mass, com, planning_limits(ctx.device), dyn,
-                        ctx.gravity_base, ctx.mount, gridpoints)
-    except InfeasiblePath as exc:
-        raise UserError(str(exc)) from None
-    unlimited = unlimited_joints(ctx.device, planning_limits(ctx.device))
-    v_world = ctx.T_world_base[:3, :3] @ r.end_velocity
-    out = {"device": ctx.device.name, "tcp": ctx.tcp, "target": target, "direction": (d_world / np.linalg.norm(d_world)).tolist(),
+    p = impulse_plan(ctx, target, parse_vector(direction, "--direction", 3), payload_mass, parse_vector(payload_com, "--payload-com", 3),
+                     parse_vector(start, "--start", ctx.device.dof) if start else None, gridpoints)
+    r, v_world, unlimited = p.result, p.end_velocity_world, p.unlimited
+    out = {"device": ctx.device.name, "tcp": ctx.tcp, "target": target, "direction": p.direction_world.tolist(),
            "momentum": r.momentum if payload_mass > 0 else None, "speed_along": r.speed_along, "end_velocity": v_world.tolist(),
            "end_joint_velocity": r.end_joint_velocity.tolist(), "duration": r.duration, "binding": r.binding,
-           "q_start": np.asarray(q_start).tolist(), "q_end": q_end.tolist(), "unlimited": unlimited}
+           "q_start": p.q_start.tolist(), "q_end": p.q_end.tolist(), "unlimited": unlimited}
     if json_output:
         emit_json(out)
         return

@@ -24,26 +24,6 @@ def _plan_dict(plan) -> dict:
     }
 
 
-def _template(cell_name: str, plans) -> str:
-    """A measurement file whose points are the nominal probe targets (mm): fill in the measured values."""
-    seen, lines = set(), [f"# Probe targets for {cell_name} from 'rworld plan-measurements' (nominal, world, mm).",
-                          "# Replace each point by the measured one; keep the order of ordered lines.",
-                          f"cell: {cell_name}", "units: {length: mm}", "probe_radius: 0", "features:"]
-    for plan in plans:
-        for d in plan.directives:
-            if d.feature in seen:
-                continue
-            seen.add(d.feature)
-            lines.append(f"  {d.feature}:   # {d.how}")
-            lines.append("    points:")
-            lines += ["      - [" + ", ".join(f"{float(x) * 1000:.3f}" for x in p) + "]" for p in d.points]
-            if d.above is not None:
-                lines.append("    above: [" + ", ".join(f"{float(x) * 1000:.3f}" for x in d.above) + "]")
-            if d.ordered:
-                lines.append("    ordered: true")
-    return "\n".join(lines) + "\n"
-
-
 @click.command("plan-measurements")
 @click.argument("cell", metavar="CELL")
 @click.option("--frames", default=None, metavar="F1,F2,...", help="Only these conditioned frames (default: all).")
@@ -68,12 +48,11 @@ def plan_measurements(cell, frames, sigma, tolerance, output, json_output):
 
     Exit codes: 0 every frame can be determined, 1 a frame's conditions cannot determine it, 2 bad input.
     """
-    from ..api import parse_length, plan_cell_measurements
-    from ..fileio import atomic_write_text
+    from ..api import parse_length, plan_cell_measurements, write_measurement_template
 
     cell_model, plans = plan_cell_measurements(cell, frames.split(",") if frames else None, parse_length(sigma), parse_length(tolerance))
     if output:
-        atomic_write_text(output, _template(cell_model.name, plans))
+        write_measurement_template(output, cell_model.name, plans)
     if json_output:
         emit_json({"cell": cell_model.name, "frames": [_plan_dict(p) for p in plans], "written": output})
     else:
@@ -83,7 +62,6 @@ def plan_measurements(cell, frames, sigma, tolerance, output, json_output):
 
 
 def _render(name, plans, output) -> None:
-    import numpy as np
     from rich.console import Console
 
     console = Console(highlight=False)

@@ -29,23 +29,11 @@ def render(cell, output, joints, view, no_frames, tolerance, json_output):
       rworld render workcells/paper_fig9 -o cell.glb
       rworld render workcells/puma560 --joints puma=0,0.5,-1,0,0.3,0 -o puma.png --view 20,-120
     """
-    from ..api import sense
-    from ..errors import UserError
-    from ..sensing.render import render_glb, render_png
+    from ..api import render_scene
     from .physics_common import parse_vector
 
-    suffix = output.lower().rsplit(".", 1)[-1] if "." in output else ""
-    if suffix not in ("png", "glb"):
-        raise UserError(f"cannot tell the format of '{output}': give a .png or .glb file")
-    from ..units import SENSING_TOLERANCE
-
-    world, _ = sense(cell, parse_joint_assignments(joints), None, tolerance)
-    tol = SENSING_TOLERANCE if tolerance is None else tolerance
-    if suffix == "png":
-        elev, azim = parse_vector(view, "--view", 2)
-        written = render_png(world, output, tol, (elev, azim), not no_frames)
-    else:
-        written = render_glb(world, output, tol)
+    elev, azim = parse_vector(view, "--view", 2)
+    written = render_scene(cell, output, parse_joint_assignments(joints), tolerance, (elev, azim), not no_frames)
     if json_output:
         emit_json({"cell": cell, "written": str(written)})
     else:

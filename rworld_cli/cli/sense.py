@@ -32,38 +32,18 @@ def sense(cell, joints, device, q, sensors, tolerance, png, json_output):
       rworld sense workcells/paper_fig9 --joints hand_a=0.02 --json
       rworld sense workcells/puma560 --device puma --q 0,0.6,-2.4,0,0.3,0
     """
-    from ..api import sense as read
+    from ..api import describe_reading, sense, write_sensor_maps
 
     if (device is None) != (q is None):
         raise click.UsageError("--device and --q go together")
     assignments = parse_joint_assignments(joints + ((f"{device}={q}",) if device else ()))
-    _, readings = read(cell, assignments, list(sensors) or None, tolerance)
-    written = None
-    if png:
-        from ..sensing.pictures import write_maps_png
-
-        written = write_maps_png(readings, png)
+    _, readings = sense(cell, assignments, list(sensors) or None, tolerance)
+    written = write_sensor_maps(readings, png) if png else None
     if json_output:
         emit_json({"cell": cell, "readings": [r.as_dict() for r in readings], "png": str(written) if written else None})
         return
-    from ..sensing.pictures import text_grid
-
     for r in readings:
-        what = ", ".join(r.objects) if r.objects else "nothing"
-        if r.type == "force":
-            line = f"{r.sensor} (force): {r.value:.4g} N from {r.overlap_volume * 1e9:.4g} mm^3 of overlap with {what}"
-            if r.saturated:
-                line += " (beyond the calibration curve: clamped)"
-        elif r.type == "proximity":
-            line = f"{r.sensor} (proximity): " + (f"slice {r.value} of {len(r.cells)} - {what}" if r.value else "nothing in range")
-        elif r.type == "tactile":
-            line = f"{r.sensor} (tactile {r.cells.shape[0]}x{r.cells.shape[1]}): {int(r.cells.sum())} cell(s) in contact with {what}"
-        else:
-            state = {"touch": ("touching", "no contact"), "presence": ("present", "nothing in the beam")}[r.type]
-            line = f"{r.sensor} ({r.type}): " + (f"{state[0]} - {what}" if r.active else state[1])
-        click.echo(line)
-        if r.type == "tactile":
-            for row in text_grid(r.cells):
-                click.echo("    " + row)
+        for line in describe_reading(r):
+            click.echo(line)
     if written:
         click.echo(f"wrote {written}")

@@ -58,8 +58,6 @@ def _render(summary, units: str) -> None:
     from rich.table import Table
     from rich.text import Text
 
-    from ..spatial import matrix_to_rpy
-
     scale = 1000.0 if units == "mm" else 1.0
     digits = 2 if units == "mm" else 5
     console = Console(highlight=False)
@@ -92,7 +90,7 @@ def _render(summary, units: str) -> None:
             what += ", held " + aff["type"].replace("_", "-") + (f" ({aff['kind']})" if aff["kind"] else "")
         # round first so -1e-14 prints as 0.00, not -0.00
         xyz = " ".join(f"{v:.{digits}f}" for v in np.round(node.T_world[:3, 3] * scale, digits) + 0.0)
-        rpy = " ".join(f"{v:.2f}" for v in np.round(np.degrees(matrix_to_rpy(node.T_world[:3, :3])), 2) + 0.0)
+        rpy = " ".join(f"{v:.2f}" for v in np.round(np.degrees(node.rpy), 2) + 0.0)
         table.add_row(name, what, xyz, rpy)
     console.print(table)
 

@@ -9,25 +9,11 @@ import click
 from .common import EXIT_CHECK_FAILED, emit_json, handle_errors, json_option
 
 
-def _run_path(cell: str, run: str) -> str:
-    """RUN may be a file, or the name of CELL/runs/RUN.yaml."""
-    from pathlib import Path
-
-    p = Path(run)
-    if p.is_file() or p.suffix:
-        return run
-    base = Path(cell) if Path(cell).is_dir() else Path(cell).parent
-    candidate = base / "runs" / f"{run}.yaml"
-    return str(candidate) if candidate.is_file() else run
-
-
 def _simulate(cell: str, run: str, dt: float | None, show_progress: bool):
-    from ..simulate.engine import simulate as run_simulation
-    from ..simulate.load import load_run
+    from ..api import simulate_run
 
-    loaded = load_run(cell, _run_path(cell, run), dt)
     if not show_progress:
-        return loaded, run_simulation(loaded)
+        return simulate_run(cell, run, dt)
     from rich.progress import Progress
 
     with Progress(transient=True) as bar:
@@ -36,7 +22,7 @@ def _simulate(cell: str, run: str, dt: float | None, show_progress: bool):
         def progress(done, total, what):
             bar.update(task, completed=done, total=total, description=what)
 
-        return loaded, run_simulation(loaded, progress)
+        return simulate_run(cell, run, dt, progress)
 
 
 @click.command()
@@ -62,14 +48,14 @@ def simulate(cell, run, output, dt, plot, json_output):
       rworld simulate workcells/paper_fig9 transfer -o out/fig9 --plot
       rworld simulate workcells/paper_fig9 transfer --json | jq .cycle_time
     """
-    from ..simulate.output import summary_dict, write_outputs
+    from ..api import run_summary, write_run_outputs
 
     if plot and not output:
         raise click.UsageError("--plot writes PNG files: give the directory with -o DIR")
     loaded, result = _simulate(cell, run, dt, not json_output and sys.stderr.isatty())
-    written = write_outputs(result, output, plot) if output else []
+    written = write_run_outputs(result, output, plot) if output else []
     if json_output:
-        payload = summary_dict(result)
+        payload = run_summary(result)
         payload["written"] = [str(p) for p in written]
         payload["warnings"] = [w.as_dict() for w in loaded.warnings]
         emit_json(payload)
@@ -96,16 +82,16 @@ def check(cell, run, dt, json_output):
     Example:
       rworld check workcells/paper_fig9 transfer
     """
-    from ..simulate.output import summary_dict, unlimited_lines
+    from ..api import run_summary, unlimited_notes
 
     _, result = _simulate(cell, run, dt, False)
     if json_output:
-        summary = summary_dict(result)
+        summary = run_summary(result)
         emit_json({k: summary[k] for k in ("cell", "run", "ok", "cycle_time", "violations", "unlimited")})
         if not result.ok:
             sys.exit(EXIT_CHECK_FAILED)
         return
-    for line in unlimited_lines(result.unlimited):
+    for line in unlimited_notes(result):
         click.echo(f"note: {line}", err=True)
     if result.ok:
         click.echo(f"ok: {result.run}: {len(result.devices)} device(s) within all limits, cycle time {result.cycle_time:.3f} s")
@@ -141,9 +127,9 @@ def _render(result) -> None:
                       fmt(peaks["velocity"]), f"[red]{n_viol}[/]" if n_viol else "0")
     console.print(table)
     console.print(f"total cycle time {result.cycle_time:.3f} s, clock step {result.dt} s, {len(result.times)} samples")
-    from ..simulate.output import unlimited_lines
+    from ..api import unlimited_notes
 
-    for line in unlimited_lines(result.unlimited):
+    for line in unlimited_notes(result):
         console.print(f"[yellow]note[/]: {line}", markup=True)
     console.print()
     events = Table(title="Events", title_justify="left", box=None, header_style="bold")

@@ -11,7 +11,8 @@ from .common import EXIT_BAD_INPUT, emit_json, handle_errors, json_option
 
 @click.command()
 @click.argument("files", nargs=-1, required=True, metavar="FILE...")
-@click.option("--cell", default=None, metavar="CELL", help="The cell path files are checked against (default: the cell whose paths/ folder holds them).")
+@click.option("--cell", default=None, metavar="CELL",
+              help="The cell path and measurement files are checked against (path files: default the cell whose paths/ folder holds them).")
 @json_option
 @handle_errors
 def validate(files: tuple[str, ...], cell: str | None, json_output: bool) -> None:
@@ -19,8 +20,9 @@ def validate(files: tuple[str, ...], cell: str | None, json_output: bool) -> Non
 
     FILE is a cell.yaml, a cell directory, a pose file, a program or a run
     file (programs and runs are checked against a cell by simulate/check),
-    or a path file (checked against its cell: waypoints within the joints'
-    ranges, and the spline between them too, exactly).  Every problem of
+    a path file (checked against its cell: waypoints within the joints'
+    ranges, and the spline between them too, exactly), or a measurement
+    file (with --cell: every feature known, enough points).  Every problem of
     every file is reported at once, one line each, as
     file:line:col: location: message.  Warnings (data that is legal but
     suspicious, e.g. an inertia breaking the triangle inequality) do not fail
@@ -32,6 +34,7 @@ def validate(files: tuple[str, ...], cell: str | None, json_output: bool) -> Non
       rworld validate workcells/puma560          # the directory's cell.yaml
       rworld validate workcells/paper_fig9/programs/*.yaml
       rworld validate workcells/puma560/paths/*.yaml  # against workcells/puma560
+      rworld validate --cell workcells/calibration_example measurements/calibration_example/*.yaml
       rworld validate --json workcells/paper_fig9 | jq '.files[0].errors'
 
     Exit codes: 0 all valid, 2 a file is invalid.

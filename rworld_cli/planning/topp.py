@@ -50,11 +50,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .path import JointPath, quadratic_roots
+from .constraints import (BetweenGridPoints, Constraint, InfeasiblePath,  # noqa: F401  (Constraint: the protocol, re-exported)
+                          JointAcceleration, JointTorque, JointVelocity,
+                          PathGrid, Segments)
+from .path import JointPath
 
-
-class InfeasiblePath(Exception):
-    """No timing satisfies the limits (e.g. gravity alone exceeds a torque limit)."""
+__all__ = ["InfeasiblePath", "Limits", "Timing", "time_optimal", "time_optimal_constrained", "constraints_from_limits",
+           "sample_path", "sample_instants", "sample_trajectory", "limit_ratios", "Samples"]
 
 
 @dataclass
@@ -129,19 +131,6 @@ def _times(s: np.ndarray, x: np.ndarray) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(dt)])
 
 
-def path_coefficients(path: JointPath, s: np.ndarray, dynamics=None, gravity=None):
-    """Per grid point: q', q'', and the torque coefficients (a_t, b_t, c_t) if dynamics is given."""
-    q, dq, ddq = path.evaluate(s)
-    if dynamics is None:
-        return q, dq, ddq, None
-    zero = np.zeros_like(q)
-    g = np.zeros(3)
-    a_t = dynamics.inverse(q, zero, dq, g)  # M q' (armature included)
-    b_t = dynamics.inverse(q, dq, ddq, g)  # M q'' + C(q, q') q'
-    c_t = dynamics.gravity_torques(q, gravity)
-    return q, dq, ddq, (a_t, b_t, c_t)
-
-
 _MARGIN = 1e-9  # the grid solution aims this far (relative) inside the limits
 # A repair aims this far inside: capping one interval moves its neighbours' sddot a little, and a margin
 # well above the torque bound's own (about 1e-7 relative) keeps them from needing another round.
@@ -166,30 +155,23 @@ class _Stages:
 
     EPS = 1e-12
 
-    def __init__(self, s: np.ndarray, limits: Limits, coefficients):
-        """``coefficients``: q, q', q'' and the torque coefficients (or None) at the grid points (:func:`path_coefficients`)."""
-        # the grid solution sits a hair inside every limit, so rounding never puts a grid point just over it
-        limits = Limits(*(None if v is None else np.asarray(v, dtype=float) * (1.0 - _MARGIN)
-                          for v in (limits.velocity, limits.acceleration, limits.effort)))
+    def __init__(self, grid: PathGrid, constraints: list):
+        s = grid.s
         self.s = s
         self.ds = np.diff(s)
         stages = len(s) - 1
         eps = self.EPS
-        q, dq, ddq, torque = coefficients
-        n = q.shape[1]
-        # per grid point, constraints lo <= A u + B x <= hi, shape (N + 1, C)
+        # the grid solution sits a hair inside every limit, so rounding never puts a grid point just over it
+        self.xvel = np.full(len(s), np.inf)
         A, B, LO, HI, labels = [], [], [], [], []
-        if limits.acceleration is not None:
-            amax = np.broadcast_to(limits.acceleration, q.shape)
-            A.append(dq), B.append(ddq), LO.append(-amax), HI.append(amax)
-            labels += [f"acceleration {j + 1}" for j in range(n)]
-        if torque is not None and limits.effort is not None:
-            a_t, b_t, c_t = torque
-            tmax = np.broadcast_to(limits.effort, q.shape)
-            A.append(a_t), B.append(b_t), LO.append(-tmax - c_t), HI.append(tmax - c_t)  # inf where no limit
-            labels += [f"torque {j + 1}" for j in range(n)]
-        with np.errstate(divide="ignore", over="ignore"):
-            self.xvel = np.min(np.where(np.abs(dq) > 1e-12, (limits.velocity / np.abs(dq)) ** 2, np.inf), axis=1)
+        for c in constraints:
+            bound = c.x_bound(grid, _MARGIN)
+            if bound is not None:
+                self.xvel = np.minimum(self.xvel, bound)
+            rows = c.grid_rows(grid, _MARGIN)
+            if rows is not None:  # per grid point, lo <= A u + B x <= hi, shape (N + 1, C)
+                A.append(rows.A), B.append(rows.B), LO.append(rows.lo), HI.append(rows.hi)
+                labels += rows.labels
         x_hi = self.xvel[:-1].copy()  # the velocity bound at the stage's own point (point i+1 is stage i+1's)
         x_lo = np.zeros(stages)
         if A:
@@ -358,119 +340,8 @@ class _Stages:
         return np.array(x), np.array(u), binding
 
 
-class _TorqueBound:
-    """Torque coefficients on a fine grid of s, fixed before the first solve; bounds |tau| on each fine cell.
-
-    The fine grid holds every grid point and spline break, and ``per_interval`` points in each grid
-    interval, so every fine cell lies inside one grid interval (u constant, x linear) and one cubic
-    piece (the coefficients smooth).  ``grid_index`` locates the grid points in it.
-    """
-
-    SAFETY = 2.0  # on the curvature estimated by second differences
-
-    def __init__(self, path: JointPath, s: np.ndarray, dynamics, gravity, check_samples: int):
-        N = len(s) - 1
-        per_interval = max(1, int(np.ceil((check_samples - 1) / N)))
-        sub = (s[:-1, None] + np.diff(s)[:, None] * (np.arange(per_interval) / per_interval)).ravel()
-        breaks = path.pieces[0]
-        inner = breaks[(breaks > s[0]) & (breaks < s[-1])]
-        fine = np.union1d(np.append(sub, s[-1]), inner)
-        self.s = fine
-        self.grid_index = np.searchsorted(fine, s)
-        q, dq, ddq, torque = path_coefficients(path, fine, dynamics, gravity)
-        self.q, self.dq, self.ddq, self.torque = q, dq, ddq, torque
-        if torque is None:
-            return
-        a, b, c = torque
-        h = np.diff(fine)
-        mid = 0.5 * (fine[:-1] + fine[1:])
-        self.interval = np.clip(np.searchsorted(s, mid, side="right") - 1, 0, N - 1)
-        self.offset0 = fine[:-1] - s[self.interval]  # a fine cell's ends, from its grid interval's start
-        self.offset1 = fine[1:] - s[self.interval]
-        # second differences at interior fine points (non-uniform spacing); none across a spline break
-        smooth = ~np.isin(fine[1:-1], inner)
-
-        def second(f):
-            d = 2.0 * ((f[2:] - f[1:-1]) / h[1:, None] - (f[1:-1] - f[:-2]) / h[:-1, None]) / (h[1:] + h[:-1])[:, None]
-            d = np.where(smooth[:, None], np.abs(d), 0.0)
-            at = np.vstack([d[:1], d, d[-1:]])  # (P, n): an estimate at every fine point
-            before = np.vstack([at[:1], at[:-1]])
-            after = np.vstack([at[1:], at[-1:]])
-            near = np.maximum(np.maximum(at, before), after)  # each point and its neighbours
-            return self.SAFETY * np.maximum(near[:-1], near[1:])  # per cell
-
-        a2, b2, c2 = second(a), second(b), second(c)
-        b1 = np.abs(np.diff(b, axis=0)) / h[:, None] + h[:, None] * b2
-        w = (h * h / 8.0)[:, None]
-        # d2 tau/ds2 = a'' u + b'' x + 4 b' u + c'': the margin is e_u |u| + e_x x + e_c
-        self.e_u = w * (a2 + 4.0 * b1)
-        self.e_x = w * b2
-        self.e_c = w * c2
-
-    @property
-    def grid_coefficients(self):
-        """q, q', q'' and the torque coefficients (or None) at the grid points, for the grid problem."""
-        k = self.grid_index
-        return (self.q[k], self.dq[k], self.ddq[k], None if self.torque is None else tuple(v[k] for v in self.torque))
-
-    def excess(self, timing: Timing, effort: np.ndarray, n: int):
-        """(interval, factor, label) of each fine cell whose torque bound is over its limit, and the worst bound / limit."""
-        a, b, c = self.torque
-        k = self.interval
-        u = timing.u[k][:, None]
-        x0 = (timing.x[k] + 2.0 * timing.u[k] * self.offset0)[:, None]
-        x1 = (timing.x[k] + 2.0 * timing.u[k] * self.offset1)[:, None]
-        t0 = a[:-1] * u + b[:-1] * x0 + c[:-1]
-        t1 = a[1:] * u + b[1:] * x1 + c[1:]
-        margin = self.e_u * np.abs(u) + self.e_x * np.maximum(x0, x1) + self.e_c
-        right = np.abs(t1) > np.abs(t0)
-        tau = np.where(right, t1, t0)
-        grav = np.where(right, c[1:], c[:-1])
-        bound = np.abs(tau) + margin
-        ratio = bound / effort
-        worst = float(ratio.max(initial=0.0))
-        rows, cols = np.nonzero(ratio > 1.0)
-        if not len(rows):
-            return np.zeros(0, dtype=int), np.zeros(0), np.zeros(0, dtype=object), worst
-        side = np.where(tau[rows, cols] >= 0, 1.0, -1.0)
-        room = side * effort[cols] - grav[rows, cols]  # what the motion part may use
-        if np.any(room * side <= 0):
-            raise InfeasiblePath("gravity alone exceeds a torque limit on the path")
-        motion = side * bound[rows, cols] - grav[rows, cols]  # the bound less gravity: it scales with the timing
-        factors = room / motion * (1.0 - _REPAIR_MARGIN)
-        labels = np.array([f"torque {j + 1}" for j in range(n)], dtype=object)[cols]
-        return k[rows], factors, labels, worst
-
-
-class _Segments:
-    """The grid intervals cut at the path's polynomial breaks: per segment its interval and the local cubic.
-
-    On a segment starting at s_a, with sigma = s - s_a: q'(sigma) = d1 + d2 sigma + d3 sigma^2.
-    """
-
-    def __init__(self, path: JointPath, s: np.ndarray):
-        breaks, coef = path.pieces
-        cuts = np.union1d(s, breaks[(breaks > s[0]) & (breaks < s[-1])])
-        sa, sb = cuts[:-1], cuts[1:]
-        mid = 0.5 * (sa + sb)
-        self.interval = np.clip(np.searchsorted(s, mid) - 1, 0, len(s) - 2)
-        piece = np.clip(np.searchsorted(breaks, mid) - 1, 0, coef.shape[1] - 1)
-        tau = (sa - breaks[piece])[:, None]
-        c3, c2, c1 = coef[0, piece], coef[1, piece], coef[2, piece]  # (S, n)
-        self.d1 = (3.0 * c3 * tau + 2.0 * c2) * tau + c1  # q'(s_a)
-        self.d2 = 6.0 * c3 * tau + 2.0 * c2  # q''(s_a)
-        self.d3 = 3.0 * c3  # q'''/2
-        self.offset = sa - s[self.interval]  # s_a - s_i
-        self.length = (sb - sa)[:, None]
-
-
-def interval_excess(path, timing: Timing, limits: Limits, segments: _Segments, torque: _TorqueBound | None = None):
-    """Per grid interval, the factor f <= 1 on x (at both its ends) that keeps every limit inside it.
-
-    Parameters
-    ----------
-    torque : _TorqueBound, optional
-        The fine-grid torque coefficients; torque is checked when they and ``limits.effort`` are given.
+def interval_excess(timing: Timing, constraints: list, segments: Segments):
+    """Per grid interval, the factor f <= 1 on x (at both its ends) that keeps every constraint inside it.
 
     Returns
     -------
@@ -480,61 +351,16 @@ def interval_excess(path, timing: Timing, limits: Limits, segments: _Segments, t
     cause : list of str
         Per interval the limit that asks for the smallest factor (empty where none).
     worst : float
-        The largest |value| / limit found (velocity and acceleration exact, torque its bound).
+        The largest |value| / limit found between grid points.
     """
     N = len(timing.u)
     factor = np.ones(N)
-    seg = segments
-    x, u = timing.x, timing.u
-    k = seg.interval
-    uu = u[k][:, None]
-    xa = (x[k] + 2.0 * u[k] * seg.offset)[:, None]
-    L = seg.length
-    # joint acceleration on the segment: A0 + A1 sigma + A2 sigma^2
-    A0 = uu * seg.d1 + seg.d2 * xa
-    A1 = 3.0 * uu * seg.d2 + 2.0 * seg.d3 * xa
-    A2 = 5.0 * uu * seg.d3
-
-    def acc(t):
-        return A0 + (A1 + A2 * t) * t
-
-    def speed2(t):
-        qs = seg.d1 + (seg.d2 + seg.d3 * t) * t
-        return qs * qs * np.maximum(xa + 2.0 * uu * t, 0.0)
-
-    def inside(t):
-        return np.isfinite(t) & (t > 0) & (t < L)
-
-    with np.errstate(divide="ignore", invalid="ignore"):
-        vertex = -A1 / (2.0 * A2)
-    acc_peak = np.maximum(np.abs(A0), np.abs(acc(L)))
-    acc_peak = np.where(inside(vertex), np.maximum(acc_peak, np.abs(acc(np.where(inside(vertex), vertex, 0.0)))), acc_peak)
-    v2 = np.maximum(speed2(0.0), speed2(L))
-    for r in quadratic_roots(A0, A1, A2):  # d(qd^2)/ds = 2 q' qdd: interior maxima sit where qdd = 0
-        ok = inside(r)
-        v2 = np.where(ok, np.maximum(v2, speed2(np.where(ok, r, 0.0))), v2)
-    n = A0.shape[1]
-    ratios = [np.sqrt(v2) / limits.velocity]
-    scale = [1.0 / np.maximum(ratios[0] ** 2, 1e-300)]
-    names = [f"velocity {j + 1}" for j in range(n)]
-    if limits.acceleration is not None:
-        ratios.append(acc_peak / limits.acceleration)
-        scale.append(1.0 / np.maximum(ratios[-1], 1e-300))
-        names += [f"acceleration {j + 1}" for j in range(n)]
-    ratio = np.concatenate(ratios, axis=1)  # (S, kinds * n)
-    seg_scale = np.concatenate(scale, axis=1)
-    worst = float(ratio.max(initial=0.0))
-    # candidate repairs: (interval, factor, what asks for it), from the segments and from the torque bound
-    f = np.where(ratio > 1.0, seg_scale * (1.0 - _REPAIR_MARGIN), 1.0)
-    col = np.argmin(f, axis=1)
-    f_seg = f[np.arange(len(f)), col]
-    over = f_seg < 1.0
-    where, factors, labels = [k[over]], [f_seg[over]], [np.array(names, dtype=object)[col[over]]]
-    if torque is not None and torque.torque is not None and limits.effort is not None:
-        w, f_t, lab, worst_t = torque.excess(timing, limits.effort, n)
-        worst = max(worst, worst_t)
-        where.append(w), factors.append(f_t), labels.append(lab)
-    where, factors, labels = np.concatenate(where), np.concatenate(factors), np.concatenate(labels)
+    between = BetweenGridPoints(timing, segments)
+    found = [c.excess(timing, between, _REPAIR_MARGIN) for c in constraints]
+    worst = max((e.worst for e in found), default=0.0)
+    where = np.concatenate([e.interval for e in found]) if found else np.zeros(0, dtype=int)
+    factors = np.concatenate([e.factor for e in found]) if found else np.zeros(0)
+    labels = np.concatenate([e.label for e in found]) if found else np.zeros(0, dtype=object)
     cause = [""] * N
     if len(where):
         order = np.lexsort((factors, where))  # by interval, smallest factor first
@@ -545,13 +371,23 @@ def interval_excess(path, timing: Timing, limits: Limits, segments: _Segments, t
     return factor, cause, worst
 
 
+def constraints_from_limits(limits: Limits, dynamics=None, gravity=None, check_samples: int = 20001) -> list:
+    """The constraint objects of joint limits: velocity, and acceleration and torque where given."""
+    out: list = [JointVelocity(limits.velocity)]
+    if limits.acceleration is not None:
+        out.append(JointAcceleration(limits.acceleration))
+    if limits.effort is not None and dynamics is not None:
+        out.append(JointTorque(limits.effort, dynamics, gravity, check_samples))
+    return out
+
+
 _SPEED_CEILING = 1e12  # sdot^2 beyond this: nothing limits the path speed there
 
 
 def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, gridpoints: int = 1000,
                  check_samples: int = 20001, end_at_rest: bool = True, repair: bool = True,
                  max_rounds: int = 12) -> tuple[Timing, dict]:
-    """The fastest timing of ``path`` from rest to rest within the limits.
+    """The fastest timing of ``path`` from rest to rest within joint limits.
 
     Parameters
     ----------
@@ -568,6 +404,23 @@ def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, g
     check_samples : int
         Points of the fine s grid on which torque is bounded between grid points (at least
         one per grid interval; every grid point and spline break is among them).
+    end_at_rest, repair, max_rounds
+        See :func:`time_optimal_constrained`.
+
+    Returns
+    -------
+    (Timing, info) : see :func:`time_optimal_constrained`.
+    """
+    constraints = constraints_from_limits(limits, dynamics, gravity, check_samples)
+    return time_optimal_constrained(path, constraints, gridpoints, end_at_rest, repair, max_rounds)
+
+
+def time_optimal_constrained(path: JointPath, constraints: list, gridpoints: int = 1000, end_at_rest: bool = True,
+                             repair: bool = True, max_rounds: int = 12) -> tuple[Timing, dict]:
+    """The fastest timing of ``path`` from rest within ``constraints`` (objects of ``constraints.py``).
+
+    Parameters
+    ----------
     end_at_rest : bool
         False: the path ends at the highest speed the limits allow there (the forward
         pass maximises sdot at every point, the last one included).
@@ -581,24 +434,23 @@ def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, g
     (Timing, info)
         ``info``: ``binding`` - per grid interval the constraint that limits it
         ('velocity', 'acceleration j', 'torque j', '... between grid points', 'braking ahead'),
-        ``dense_ratio`` - the worst limit ratio between grid points (velocity and acceleration
-        exact, torque its bound; <= 1 unless ``repair=False``), ``grid`` (points), ``rounds``
-        (solves), ``repaired`` (grid points capped), ``x_limit``, ``K_hi``.
+        ``dense_ratio`` - the worst limit ratio between grid points (<= 1 unless ``repair=False``),
+        ``grid`` (points), ``rounds`` (solves), ``repaired`` (grid points capped), ``x_limit``, ``K_hi``.
 
     Raises
     ------
     InfeasiblePath
         No timing keeps the limits, or nothing limits the path speed somewhere (every joint
-        that moves there is unlimited in velocity, acceleration and torque).
+        that moves there is unconstrained).
     """
     if gridpoints < 2:
         raise ValueError("time-optimal timing needs at least 2 grid points")
-    if dynamics is not None and getattr(dynamics, "_has_friction", False):
-        raise ValueError("time-optimal timing takes dynamics without friction (friction is not affine in sddot and sdot^2)")
     s = np.linspace(0.0, 1.0, gridpoints)
-    torque = _TorqueBound(path, s, dynamics if limits.effort is not None else None, gravity, check_samples)
-    stages = _Stages(s, limits, torque.grid_coefficients)
-    segments = _Segments(path, s)
+    for c in constraints:
+        c.prepare(path, s)
+    grid = PathGrid(s, *path.evaluate(s))
+    stages = _Stages(grid, constraints)
+    segments = Segments(path, s)
     caps = np.full(gridpoints, np.inf)
     cap_cause = [""] * gridpoints
     rounds = 0
@@ -611,7 +463,7 @@ def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, g
             raise InfeasiblePath(f"nothing limits the path speed at s = {s[unbounded[0]]:.4f}: every joint that moves there "
                                  "is unlimited in velocity, acceleration and torque")
         timing = Timing(s, x, u, _times(s, x))
-        factor, cause, ratio = interval_excess(path, timing, limits, segments, torque)
+        factor, cause, ratio = interval_excess(timing, constraints, segments)
         bad = np.flatnonzero(factor < 1.0)
         if not repair or not len(bad):
             break
@@ -620,7 +472,7 @@ def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, g
             for _ in range(5):
                 scale /= np.sqrt(factor.min())
                 timing = Timing(s, x / scale**2, u / scale**2, _times(s, x / scale**2), scale)
-                factor, _, ratio = interval_excess(path, timing, limits, segments, torque)
+                factor, _, ratio = interval_excess(timing, constraints, segments)
                 if factor.min() >= 1.0:
                     break
             else:

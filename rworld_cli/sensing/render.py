@@ -14,21 +14,18 @@ import numpy as np
 
 from .geometry import shape_mesh
 from .sensors import read_sensors, sensable_bodies
+from .types import sensor_type
 
 COLORS = {"object": "#9aa5b1", "device": "#4c78a8", "contact": "#d62728", "free": "#3a9d5d"}
 
 
 def _cell_boxes(sensor, reading):
     """(T_sensor_cell, size, sensed) for every cell of a sensor."""
-    counts = {"tactile": (sensor.cols, sensor.rows, 1), "proximity": (1, 1, sensor.slices)}.get(sensor.type, (1, 1, 1))
+    kind = sensor_type(sensor.type)
+    counts = kind.counts(sensor)
     d = sensor.size / np.array(counts)
     lo = np.array([-sensor.size[0] / 2, -sensor.size[1] / 2, 0.0])
-    if reading.type == "tactile":
-        grid = reading.cells.T[:, :, None]
-    elif reading.type == "proximity":
-        grid = reading.cells[None, None, :]
-    else:
-        grid = np.full((1, 1, 1), reading.active)
+    grid = kind.cell_grid(reading)
     out = []
     for idx in np.ndindex(*counts):
         T = np.eye(4)

@@ -1,12 +1,8 @@
 """Sensor readings by interference checking (the report's section 7).
 
-* touch - the sensor box meets an object or not, and which;
-* tactile - the pad split into rows x cols cells: a contact map;
-* proximity - the range box split into slices along +z: the nearest slice
-  that meets something, in units of closeness;
-* presence - a light-beam box: an object in the beam or not;
-* force - the overlap volume of sensor and objects (exact, manifold3d),
-  through the cell's calibration curve to a force.
+Each sensor type (``types/``: touch, tactile, proximity, presence, force)
+splits its box into cells; here every cell is checked for interference with
+every sensable shape, and the type turns the cells into its reading.
 
 What a sensor can sense: the shapes of objects and of devices' links and
 bases, except the primitive the sensor is mounted on (a pad does not feel
@@ -15,13 +11,15 @@ the finger it sits on, a load cell the table).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from .. import spatial
 from ..model.cell import WORLD
 from .geometry import DEFAULT_TOLERANCE, grid_interference, obb_overlap, shape_mesh
+from .readings import SensorReading
+from .types import sensor_type
 
 
 @dataclass
@@ -32,46 +30,6 @@ class Body:
     label: str  # object name, or device.link
     T_world_owner: np.ndarray
     shape: object  # model.cell.Shape
-
-
-@dataclass
-class SensorReading:
-    """One sensor's reading.
-
-    Attributes
-    ----------
-    active : bool
-        Touching (touch, tactile), something in range (proximity), present (presence), loaded (force).
-    objects : list of str
-        What it senses.
-    cells : ndarray of bool, shape (rows, cols) or (slices,) or None
-        Tactile contact map (row 0 at -y) or proximity slices (0 = nearest the sensor).
-    value : float or int or None
-        Proximity: nearest slice hit, 1-based (0 when nothing is in range); force: N.
-    overlap_volume : float or None
-        Force sensors: the overlap volume [m^3].
-    """
-
-    sensor: str
-    type: str
-    active: bool
-    objects: list[str] = field(default_factory=list)
-    cells: np.ndarray | None = None
-    value: float | int | None = None
-    overlap_volume: float | None = None
-    saturated: bool = False
-
-    def as_dict(self) -> dict:
-        return {
-            "sensor": self.sensor,
-            "type": self.type,
-            "active": self.active,
-            "objects": self.objects,
-            "cells": self.cells.astype(int).tolist() if self.cells is not None else None,
-            "value": self.value,
-            "overlap_volume": self.overlap_volume,
-            "saturated": self.saturated,
-        }
 
 
 def sensable_bodies(world) -> list[Body]:
@@ -117,7 +75,8 @@ def read_sensors(world, names: list[str] | None = None, tolerance: float = DEFAU
         T_world_sensor = world.T_world(name)
         mount = _mount_owner(world, name)
         candidates = [b for b in bodies if b.owner != mount]
-        counts = {"tactile": (sensor.cols, sensor.rows, 1), "proximity": (1, 1, sensor.slices)}.get(sensor.type, (1, 1, 1))
+        kind = sensor_type(sensor.type)
+        counts = kind.counts(sensor)
         grid = np.zeros(counts, dtype=bool)
         touched: list[str] = []
         if candidates:
@@ -135,23 +94,11 @@ def read_sensors(world, names: list[str] | None = None, tolerance: float = DEFAU
                     grid |= hit
                     if body.label not in touched:
                         touched.append(body.label)
-        readings.append(_reading(name, sensor, grid, touched, world, T_world_sensor, candidates))
+        def overlap(sensor=sensor, T=T_world_sensor, touched=touched, candidates=candidates):
+            return overlap_volume(sensor, T, [b for b in candidates if b.label in touched])
+
+        readings.append(kind.reading(name, sensor, grid, touched, overlap))
     return readings
-
-
-def _reading(name, sensor, grid, touched, world, T_world_sensor, candidates) -> SensorReading:
-    if sensor.type == "tactile":
-        return SensorReading(name, "tactile", bool(grid.any()), touched, grid[:, :, 0].T.copy())  # rows along y
-    if sensor.type == "proximity":
-        slices = grid[0, 0, :].copy()
-        nearest = int(np.argmax(slices)) + 1 if slices.any() else 0
-        return SensorReading(name, "proximity", bool(slices.any()), touched, slices, nearest)
-    if sensor.type == "force":
-        volume = overlap_volume(sensor, T_world_sensor, [b for b in candidates if b.label in touched]) if touched else 0.0
-        curve = sensor.force_curve
-        force = float(np.interp(volume, curve[:, 0], curve[:, 1]))
-        return SensorReading(name, "force", volume > 0, touched, None, force, volume, bool(volume > curve[-1, 0]))
-    return SensorReading(name, sensor.type, bool(grid.any()), touched)
 
 
 def overlap_volume(sensor, T_world_sensor: np.ndarray, bodies: list[Body]) -> float:

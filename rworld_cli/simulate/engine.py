@@ -32,7 +32,7 @@ from ..kinematics.jacobian import ToolMount
 from ..motion.linear import PathError, linear_move
 from ..motion.trajectory import StoppedMove, UntimedMove, joint_move, sample_track
 from ..world.tree import AffixmentError, World
-from .load import Program, Run, Step
+from ..model.program import Program, Run, Step
 
 
 class SimulationError(UserError):
@@ -410,7 +410,7 @@ def simulate(run: Run, progress=None) -> SimulationResult:
     Parameters
     ----------
     run : Run
-        From :func:`rworld_cli.simulate.load.load_run`.
+        From :func:`rworld_cli.schema.programs.load_run`.
     progress : callable, optional
         ``progress(done, total, what)`` for long runs (the CLI draws a bar).
 

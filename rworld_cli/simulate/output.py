@@ -1,15 +1,15 @@
-"""Write a simulation: timelines (CSV), events and summary (JSON), plots (PNG)."""
+"""What a simulation gives: the summary, timelines and events as tables and documents, and plots (PNG).
+
+The files are written by ``schema/results.py``."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
-from ..fileio import atomic_write_text, save_figure
+from ..fileio import save_figure
 from ..spatial import matrix_to_quat
-from ..tableio import format_csv
 from .engine import SimulationResult
 
 
@@ -73,27 +73,17 @@ def timeline_dict(result: SimulationResult) -> dict:
     return {"t": result.times.tolist(), "devices": devices}
 
 
-def write_outputs(result: SimulationResult, directory: str | Path, plots: bool) -> list[Path]:
-    """Write ``timeline_<device>.csv``, ``events.json``, ``summary.json`` (and PNG plots) atomically."""
-    out = Path(directory)
-    written = []
-    for name, tl in result.devices.items():
-        path = out / f"timeline_{name}.csv"
-        atomic_write_text(path, format_csv(timeline_columns(tl.q.shape[1]), timeline_array(result, name)))
-        written.append(path)
+def output_files(result: SimulationResult) -> tuple[dict, dict]:
+    """What a run writes: ({file name: (columns, rows)} CSV tables, {file name: payload} JSON documents)."""
+    tables = {f"timeline_{name}.csv": (timeline_columns(tl.q.shape[1]), timeline_array(result, name))
+              for name, tl in result.devices.items()}
     summary = summary_dict(result)
-    outputs = (
-        ("timeline.json", timeline_dict(result)),
-        ("events.json", summary["events"]),
-        ("summary.json", {k: v for k, v in summary.items() if k != "events"}),
-    )
-    for fname, payload in outputs:
-        path = out / fname
-        atomic_write_text(path, json.dumps(payload, indent=2, allow_nan=False) + "\n")
-        written.append(path)
-    if plots:
-        written += write_plots(result, out)
-    return written
+    documents = {
+        "timeline.json": timeline_dict(result),
+        "events.json": summary["events"],
+        "summary.json": {k: v for k, v in summary.items() if k != "events"},
+    }
+    return tables, documents
 
 
 def write_plots(result: SimulationResult, directory: Path) -> list[Path]:

@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 from rworld_cli.calibration.fit import FitError, fit_circle, fit_line, fit_plane
-from rworld_cli.calibration.measurements import load_measurements
-from rworld_cli.calibration.pipeline import calibrate, measurement_yaml, simulate_measurements
+from rworld_cli.schema.measurements import load_measurements
+from rworld_cli.calibration.pipeline import calibrate, simulate_measurements
+from rworld_cli.schema.measurements import measurement_text
 from rworld_cli.schema.loader import load_cell
 from rworld_cli.world.tree import World
 from tests.conftest import WORKCELLS
@@ -38,7 +39,7 @@ def measure(nominal, truth_cell, sigma, seed, n=10, features=None):
 
 def run(tmp_path, nominal, doc, sigma=0.0, name="m.yaml"):
     path = tmp_path / name
-    path.write_text(measurement_yaml(doc, nominal.name, sigma or 1e-12, 0, "truth"))
+    path.write_text(measurement_text(doc, nominal.name, [], sigma=sigma or 1e-12))
     return calibrate(nominal, load_measurements([str(path)], nominal))
 
 
@@ -244,7 +245,7 @@ def test_csv_points_import(tmp_path):
     doc = measure(nominal, truth, 0.0, 0)
     rows = ["feature,x,y,z,role"]
     for name, entry in doc.items():
-        rows += [f"{name},{float(p[0]) * 1000!r},{float(p[1]) * 1000!r},{float(p[2]) * 1000!r}," for p in entry["points"]]
+        rows += [f"{name},{float(p[0]) * 1000!r},{float(p[1]) * 1000!r},{float(p[2]) * 1000!r}," for p in entry.points]
     (tmp_path / "m.csv").write_text("\n".join(rows) + "\n")
     result = calibrate(nominal, load_measurements([str(tmp_path / "m.csv")], nominal, "mm"))
     np.testing.assert_allclose(result.solutions["block"].T_world, World(truth).T_world("block"), atol=1e-9)

@@ -8,7 +8,7 @@ import shutil
 import numpy as np
 
 from rworld_cli.calibration.analysis import constrained, run_analysis, unconstrained
-from rworld_cli.calibration.measurements import load_measurements
+from rworld_cli.schema.measurements import load_measurements
 from rworld_cli.calibration.pipeline import calibrate
 from rworld_cli.schema.loader import load_cell
 from tests.conftest import WORKCELLS

@@ -58,12 +58,13 @@ def test_cycle_time_within_a_tenth_of_a_percent_of_toppra_and_no_violation(confi
 @pytest.mark.parametrize("grid", [17, 60])
 def test_exact_maxima_between_grid_points(grid):
     """The closed-form interval maxima of velocity and acceleration bound a fine sampling and are attained."""
-    from rworld_cli.planning.topp import _Segments, interval_excess
+    from rworld_cli.planning.constraints import Segments
+    from rworld_cli.planning.topp import constraints_from_limits, interval_excess
 
     limits, _ = CONFIGS["a_rated"]
     timing, _ = time_optimal(PATH, limits, None, G, grid, repair=False)  # coarse: the grid solution overshoots inside
     loose = Limits(np.ones(6), np.ones(6), None)  # unit limits: the ratios are the values themselves
-    _, _, worst = interval_excess(PATH, timing, loose, _Segments(PATH, timing.s))
+    _, _, worst = interval_excess(timing, constraints_from_limits(loose), Segments(PATH, timing.s))
     _, q, qd, qdd = sample_trajectory(PATH, timing, 400001, switches=True)
     sampled = max(np.abs(qd).max(), np.abs(qdd).max())
     assert sampled <= worst * (1 + 1e-12)

@@ -14,7 +14,7 @@ import yaml
 
 from rworld_cli.errors import UserError
 from rworld_cli.simulate.engine import simulate
-from rworld_cli.simulate.load import load_run
+from rworld_cli.schema.programs import load_run
 from tests.conftest import WORKCELLS
 from tests.schema.test_mutations import _set, mutants
 

@@ -13,7 +13,7 @@ import pytest
 from rworld_cli.dynamics import DeviceDynamics
 from rworld_cli.errors import UserError
 from rworld_cli.simulate.engine import simulate
-from rworld_cli.simulate.load import load_run
+from rworld_cli.schema.programs import load_run
 from tests.conftest import WORKCELLS
 
 

@@ -21,8 +21,8 @@ unit comes from the caller (default mm).
 
 from __future__ import annotations
 
+import datetime as _dt
 import hashlib
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -30,14 +30,14 @@ import numpy as np
 from annotated_types import Len
 from pydantic import Field
 
-from ..errors import Issue, UserError
-from ..schema.loader import LENGTH, validate_document
-from ..errors import did_you_mean
-from ..schema.models import NonNegative, Strict, Units, Vec3
-from ..schema.yamlio import read_yaml
+from ..errors import Issue, UserError, did_you_mean
+from ..fileio import atomic_write_text
 from ..model.cell import CellModel
-
-from ..units import MIN_POINTS as MINIMUM_POINTS  # noqa: E402
+from ..model.measurements import FeatureProbes, Measurement, MeasurementSet
+from ..units import LENGTH, MIN_POINTS
+from .loader import validate_document
+from .models import NonNegative, Strict, Units, Vec3
+from .yamlio import read_yaml
 
 
 class FeaturePoints(Strict):
@@ -56,25 +56,6 @@ class MeasurementFile(Strict):
     probe_radius: NonNegative = Field(0.0, description="Probe ball radius [length unit]; compensated.")
     sigma: Optional[Annotated[float, Field(gt=0)]] = Field(None, description="Known probing noise (1 sigma) [length unit], if any.")
     features: dict[str, FeaturePoints]
-
-
-@dataclass
-class Measurement:
-    """One feature's probe points (SI, world)."""
-
-    feature: str
-    points: np.ndarray
-    above: np.ndarray | None
-    ordered: bool
-    probe_radius: float
-    source: str
-
-
-@dataclass
-class MeasurementSet:
-    measurements: dict[str, Measurement]
-    files: list[dict]  # provenance: path, sha256, date, instrument
-    sigma: float | None
 
 
 def _digest(path: Path) -> str:
@@ -163,7 +144,7 @@ def load_measurements(paths: list[str], cell: CellModel, csv_units: str = "mm") 
                 issues.append(Issue(where.file, where.line, where.column, where.location, f"'{name}' is measured again (first in {out[name].source})"))
                 continue
             pts = np.array(points, dtype=float).reshape(-1, 3)
-            need = MINIMUM_POINTS[feature.kind]
+            need = MIN_POINTS[feature.kind]
             if len(pts) < need:
                 issues.append(Issue(where.file, where.line, where.column, where.location,
                                     f"a {feature.kind} needs at least {need} point(s), got {len(pts)}"))
@@ -172,3 +153,43 @@ def load_measurements(paths: list[str], cell: CellModel, csv_units: str = "mm") 
     if issues:
         raise UserError(f"{len(issues)} problem(s) in the measurements", sorted(issues, key=lambda i: (i.file, i.line, i.column)))
     return MeasurementSet(out, files, float(np.mean(sigmas)) if sigmas else None)
+
+
+def measurement_text(features: dict[str, FeatureProbes], cell: str, comments: list[str], *, sigma: float | None = None,
+                     probe_radius: float = 0.0, instrument: str | None = None, date: str | None = None,
+                     digits: int | None = None) -> str:
+    """A measurement file (mm) for ``features`` (SI, world): the format :func:`load_measurements` reads.
+
+    ``digits``: decimals of the mm values (None: round-trip exact).
+    """
+
+    def mm(values) -> str:
+        return "[" + ", ".join(repr(float(x) * 1000) if digits is None else f"{float(x) * 1000:.{digits}f}" for x in values) + "]"
+
+    lines = [f"# {c}" for c in comments] + [f"cell: {cell}", "units: {length: mm}"]
+    if date is not None:
+        lines.append(f"date: '{date}'")
+    if instrument is not None:
+        lines.append(f"instrument: {instrument}")
+    if sigma is not None:
+        lines.append(f"sigma: {sigma * 1000!r}")
+    lines.append(f"probe_radius: {probe_radius * 1000:g}")
+    lines.append("features:")
+    for name, f in features.items():
+        lines.append(f"  {name}:" + (f"   # {f.comment}" if f.comment else ""))
+        lines.append("    points:")
+        lines += ["      - " + mm(p) for p in f.points]
+        if f.above is not None:
+            lines.append("    above: " + mm(f.above))
+        if f.ordered:
+            lines.append("    ordered: true")
+    return "\n".join(lines) + "\n"
+
+
+def write_measurements(path: str, features: dict[str, FeatureProbes], cell: str, comments: list[str], **fields) -> None:
+    """Write :func:`measurement_text` to ``path`` atomically."""
+    atomic_write_text(path, measurement_text(features, cell, comments, **fields))
+
+
+def today() -> str:
+    return _dt.date.today().isoformat()

@@ -1,78 +1,19 @@
-"""Load a run: its program files, checked against the cell, with located errors."""
+"""Program and run files: read and checked against the cell, with located errors, into ``model.program``."""
 
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import Issue, UserError
-from ..schema import program as sp
-from ..schema.loader import ANGLE, LENGTH, load_cell, pose_to_matrix, validate_document
-from ..errors import did_you_mean
-from ..schema.yamlio import Marked, read_yaml
+from ..errors import Issue, UserError, did_you_mean
 from ..model.cell import CellModel
-
-
-@dataclass
-class Step:
-    """One resolved program step.
-
-    Attributes
-    ----------
-    index : int
-        0-based position in its program.
-    kind : str
-        move | grasp | release | place | attach_tool | detach_tool | wait | sync
-    spec : object
-        The validated step (``schema.program`` model).
-    where : str
-        ``file:line`` of the step, for messages.
-    T_offset : ndarray, shape (4, 4)
-        Move offsets in SI (identity when none).
-    """
-
-    index: int
-    kind: str
-    spec: object
-    where: str
-    T_offset: np.ndarray = field(default_factory=lambda: np.eye(4))
-
-    def describe(self) -> str:
-        s = self.spec
-        if self.kind == "move":
-            return f"move to {s.to}" + (" (linear)" if s.motion == "linear" else "") + (f" until {s.until}" if s.until else "")
-        if self.kind in ("grasp", "release"):
-            return f"{self.kind} {s.object}"
-        if self.kind == "place":
-            return f"place {s.object} on {s.on}"
-        if self.kind in ("attach_tool", "detach_tool"):
-            return f"{self.kind} {s.tool}"
-        if self.kind == "wait":
-            return f"wait {s.time} s" if s.time is not None else f"wait for {s.for_}"
-        if self.kind == "sense":
-            return f"sense {s}"
-        return f"sync {s}"
-
-
-@dataclass
-class Program:
-    device: str
-    file: str
-    steps: list[Step]
-
-
-@dataclass
-class Run:
-    """A cell and the programs that run together on it."""
-
-    cell: CellModel
-    programs: list[Program]
-    dt: float
-    file: str
-    warnings: list[Issue] = field(default_factory=list)
+from ..model.program import Program, Run, Step
+from ..units import ANGLE, LENGTH
+from . import program as sp
+from .loader import load_cell, pose_to_matrix, validate_document
+from .yamlio import Marked, read_yaml
 
 
 def _step_spec(step: sp.Step):

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import Issue, UserError
-from .fileio import atomic_write_text
+from ..errors import Issue, UserError
+from ..fileio import atomic_write_text
 
 
 def column_names(group: str, n: int) -> list[str]:

@@ -1,0 +1,68 @@
+"""Sensing tasks: read a cell's sensors by interference checking, render the scene."""
+
+from __future__ import annotations
+
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UserError
+from .cells import load_world
+
+
+# --------------------------------------------------------------------------- sensing
+
+
+def sense(cell_path: str, joints: dict[str, list[float]] | None = None, sensors: list[str] | None = None,
+          tolerance: float | None = None):
+    """Load a cell, set joint values, and read its sensors by interference checking.
+
+    Returns
+    -------
+    (World, list of SensorReading)
+    """
+    from ..errors import did_you_mean
+    from ..sensing.geometry import DEFAULT_TOLERANCE
+    from ..sensing.sensors import read_sensors
+
+    world, _ = load_world(cell_path, joints)
+    for name in sensors or []:
+        if name not in world.cell.sensors:
+            raise UserError(f"unknown sensor '{name}'{did_you_mean(name, world.cell.sensors)}; the cell has: {', '.join(world.cell.sensors) or 'none'}")
+    tol = DEFAULT_TOLERANCE if tolerance is None else tolerance
+    if not (tol >= 0 and np.isfinite(tol)):
+        raise UserError(f"the tolerance must be a finite length >= 0 (m), got {tolerance}")
+    return world, read_sensors(world, sensors or None, tol)
+
+
+
+
+def describe_reading(reading) -> list[str]:
+    """Lines for a terminal: the reading in words, then any text picture (its type says how)."""
+    from ..sensing.types import sensor_type
+
+    return sensor_type(reading.type).describe(reading)
+
+
+def write_sensor_maps(readings, path: str) -> Path:
+    """One PNG panel per sensor whose type draws a map (tactile, proximity), in the report's Fig. 13 colours."""
+    from ..sensing.pictures import write_maps_png
+
+    return write_maps_png(readings, path)
+
+
+def render_scene(cell_path: str, output: str, joints: dict[str, list[float]] | None = None, tolerance: float | None = None,
+                 view: tuple[float, float] = (25.0, -60.0), frames: bool = True) -> Path:
+    """Draw the cell with its sensors' readings: a PNG (matplotlib) or a glTF binary (.glb), by the file's suffix."""
+    from ..sensing.render import render_glb, render_png
+    from ..units import SENSING_TOLERANCE
+
+    suffix = output.lower().rsplit(".", 1)[-1] if "." in output else ""
+    if suffix not in ("png", "glb"):
+        raise UserError(f"cannot tell the format of '{output}': give a .png or .glb file")
+    world, _ = sense(cell_path, joints, None, tolerance)
+    tol = SENSING_TOLERANCE if tolerance is None else tolerance
+    if suffix == "png":
+        return render_png(world, output, tol, view, frames)
+    return render_glb(world, output, tol)

@@ -1,0 +1,18 @@
+"""Joint paths as data: waypoints in SI, their knots, the spline's boundary condition."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class PathSpec:
+    """A joint-space path: a cubic spline through ``waypoints`` (K, n) [rad or m] at ``knots`` (K,) on [0, 1]
+    (None: equally spaced), with ``boundary`` 'clamped' (at rest at both ends), 'natural' or 'not-a-knot'."""
+
+    waypoints: np.ndarray
+    knots: np.ndarray | None
+    boundary: str
+    device: str | None = None

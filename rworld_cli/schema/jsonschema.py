@@ -1,0 +1,26 @@
+"""JSON Schemas of every file format, generated from the pydantic models (editor completion, CI)."""
+
+from __future__ import annotations
+
+import importlib
+import json
+
+SCHEMA_FILES = {
+    "cell.schema.json": ("models", "CellFile"),
+    "poses.schema.json": ("models", "PoseFile"),
+    "program.schema.json": ("program", "ProgramFile"),
+    "run.schema.json": ("program", "RunFile"),
+    "path.schema.json": ("program", "PathFile"),
+    "measurements.schema.json": ("measurements", "MeasurementFile"),
+}
+
+
+def schema_documents() -> dict[str, str]:
+    """The JSON Schema text of each file format, keyed by file name."""
+    out = {}
+    for filename, (module, model_name) in SCHEMA_FILES.items():
+        model = getattr(importlib.import_module(f"{__package__}.{module}"), model_name)
+        doc = {"$schema": "https://json-schema.org/draft/2020-12/schema", "$id": f"rworld/{filename}"}
+        doc.update(model.model_json_schema(mode="validation"))
+        out[filename] = json.dumps(doc, indent=2, ensure_ascii=False) + "\n"
+    return out

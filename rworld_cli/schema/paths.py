@@ -1,0 +1,85 @@
+"""Path files (``paths/*.yaml``): read with located errors against a device, written with new knots."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import Issue, UserError
+from ..fileio import atomic_write_text
+from ..model.paths import PathSpec
+from ..units import ANGLE, LENGTH
+from .loader import validate_document
+from .program import PathFile
+from .yamlio import Marked, read_yaml
+
+
+@dataclass
+class LoadedPath:
+    """A path file read against a device: the path in SI, and where each value sits in the file."""
+
+    spec: PathSpec
+    file: str
+    scale: np.ndarray  # (n,): file unit -> SI per joint
+    doc: Marked
+    raw: PathFile
+
+    def issue(self, waypoint: int, joint: int, message: str) -> Issue:
+        """A problem located at waypoint ``waypoint``'s value of joint ``joint`` (0-based)."""
+        return self.doc.issue(("waypoints", waypoint, joint), message)
+
+
+def read_path(path_file: str, device) -> LoadedPath:
+    """Read a path file for ``device`` (a DeviceModel).
+
+    Raises
+    ------
+    UserError
+        Located problems: syntax and types, waypoints of the wrong length, knots that do not
+        rise from 0 to 1, waypoints outside their joint's position limits.
+    """
+    doc = read_yaml(path_file)
+    pf = validate_document(doc, PathFile)
+    n = device.dof
+    issues = []
+    for k, row in enumerate(pf.waypoints):
+        if len(row) != n:
+            issues.append(doc.issue(("waypoints", k), f"{len(row)} value(s) but '{device.name}' has {n} joint(s)"))
+    if pf.knots is not None:
+        kn = pf.knots
+        if len(kn) != len(pf.waypoints) or kn[0] != 0 or kn[-1] != 1 or any(b <= a for a, b in zip(kn, kn[1:])):
+            issues.append(doc.issue(("knots",), f"knots must rise strictly from 0 to 1, one per waypoint ({len(pf.waypoints)})"))
+    if issues:
+        raise UserError(f"{path_file}: invalid path", issues)
+    scale = np.array([ANGLE[pf.units.angle] if j.kind == "revolute" else LENGTH[pf.units.length] for j in device.joints])
+    q = np.array(pf.waypoints, dtype=float) * scale
+    lo, hi = device.limit_array("lower"), device.limit_array("upper")
+    bad = np.argwhere((q < lo) | (q > hi))
+    if len(bad):
+        issues = [doc.issue(("waypoints", int(k), int(j)), f"{pf.waypoints[k][j]} is outside the position limits of "
+                            f"{device.joints[j].name} [{lo[j] / scale[j]:.6g}, {hi[j] / scale[j]:.6g}]") for k, j in bad]
+        k, j = bad[0]
+        raise UserError(f"{path_file}: waypoint {k + 1} puts joint {device.joints[j].name} outside its position limits", issues)
+    knots = None if pf.knots is None else np.array(pf.knots, dtype=float)
+    return LoadedPath(PathSpec(q, knots, pf.boundary, pf.device), path_file, scale, doc, pf)
+
+
+def read_path_file(path_file: str) -> tuple[PathFile, Marked]:
+    """The path file's form alone (no device): (PathFile, its document)."""
+    doc = read_yaml(path_file)
+    return validate_document(doc, PathFile), doc
+
+
+def write_path_with_knots(path_file: str, knots, output: str, note: str = "") -> None:
+    """Write ``path_file`` again with new ``knots`` (same waypoints, units and boundary), atomically."""
+    pf = validate_document(read_yaml(path_file), PathFile)
+    lines = [f"# {path_file} with new knots{': ' + note if note else ''}"]
+    if pf.device:
+        lines.append(f"device: {pf.device}")
+    lines.append(f"units: {{length: {pf.units.length}, angle: {pf.units.angle}}}")
+    lines.append("waypoints:")
+    lines += ["  - [" + ", ".join(repr(float(v)) for v in row) + "]" for row in pf.waypoints]
+    lines.append("knots: [" + ", ".join(f"{float(k):.9g}" for k in knots) + "]")
+    lines.append(f"boundary: {pf.boundary}")
+    atomic_write_text(output, "\n".join(lines) + "\n")
