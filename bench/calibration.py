@@ -31,7 +31,9 @@ from rworld_cli.calibration.solve import _jacobian, closed_form, solve_natural  
 from rworld_cli.model.cell import Feature  # noqa: E402
 
 ARCSEC = np.pi / 648000
-TRUTH = spatial.make_transform(spatial.rpy_to_matrix(np.radians([3.0, -2.0, 25.0])), [0.4, -0.1, 0.75])
+TRUTH = spatial.make_transform(
+    spatial.rpy_to_matrix(np.radians([3.0, -2.0, 25.0])), [0.4, -0.1, 0.75]
+)
 
 
 def plane(name, point, normal, u_extent, v_extent, n):
@@ -40,14 +42,18 @@ def plane(name, point, normal, u_extent, v_extent, n):
     u /= np.linalg.norm(u)
     v = np.cross(normal, u)
     k = int(np.ceil(np.sqrt(n)))
-    gu, gv = np.meshgrid(np.linspace(-0.35, 0.35, k) * u_extent, np.linspace(-0.35, 0.35, k) * v_extent)
+    gu, gv = np.meshgrid(
+        np.linspace(-0.35, 0.35, k) * u_extent, np.linspace(-0.35, 0.35, k) * v_extent
+    )
     pts = np.asarray(point) + gu.ravel()[:n, None] * u + gv.ravel()[:n, None] * v
     return Feature(name, "o", "plane", np.asarray(point, float), normal), pts
 
 
 def line(name, point, direction, length, n):
     d = np.asarray(direction, float) / np.linalg.norm(direction)
-    return Feature(name, "o", "line", np.asarray(point, float), d), np.asarray(point) + np.linspace(-0.35, 0.35, n)[:, None] * length * d
+    return Feature(name, "o", "line", np.asarray(point, float), d), np.asarray(point) + np.linspace(
+        -0.35, 0.35, n
+    )[:, None] * length * d
 
 
 def circle(name, center, normal, radius, n):
@@ -56,22 +62,44 @@ def circle(name, center, normal, radius, n):
     u /= np.linalg.norm(u)
     v = np.cross(normal, u)
     a = np.linspace(0, 2 * np.pi, n, endpoint=False)
-    return Feature(name, "o", "circle", np.asarray(center, float), normal, radius), np.asarray(center) + radius * (np.cos(a)[:, None] * u + np.sin(a)[:, None] * v)
+    return Feature(name, "o", "circle", np.asarray(center, float), normal, radius), np.asarray(
+        center
+    ) + radius * (np.cos(a)[:, None] * u + np.sin(a)[:, None] * v)
 
 
 def scenarios(n=10):
     L, W, H = 0.2, 0.15, 0.1  # the box, centred
-    faces = [((0, 0, H / 2), (0, 0, 1), L, W), ((0, 0, -H / 2), (0, 0, -1), L, W), ((L / 2, 0, 0), (1, 0, 0), W, H),
-             ((-L / 2, 0, 0), (-1, 0, 0), W, H), ((0, W / 2, 0), (0, 1, 0), L, H), ((0, -W / 2, 0), (0, -1, 0), L, H)]
+    faces = [
+        ((0, 0, H / 2), (0, 0, 1), L, W),
+        ((0, 0, -H / 2), (0, 0, -1), L, W),
+        ((L / 2, 0, 0), (1, 0, 0), W, H),
+        ((-L / 2, 0, 0), (-1, 0, 0), W, H),
+        ((0, W / 2, 0), (0, 1, 0), L, H),
+        ((0, -W / 2, 0), (0, -1, 0), L, H),
+    ]
     box6 = [plane(f"p{k}", *f, n) for k, f in enumerate(faces)]
     box3 = [plane(f"p{k}", *faces[k], n) for k in (0, 2, 5)]
-    lines2 = [line("e0", (0, -W / 2, H / 2), (1, 0, 0), L, n), line("e1", (L / 2, 0, H / 2), (0, 1, 0), W, n)]
-    bracket = [line("e0", (0, 0, 0.05), (1, 0, 0), 0.12, n), plane("p0", (0, -0.02, 0.0), (0, -1, 0), 0.12, 0.05, n),
-               plane("p1", (0.06, 0.0, 0.025), (1, 0, 0), 0.04, 0.05, n)]
-    plate = [plane("p0", (0, 0, 0.005), (0, 0, 1), 0.2, 0.2, n), plane("p1", (0.1, 0, 0), (1, 0, 0), 0.2, 0.01, n),
-             circle("c0", (0.03, 0.04, 0.005), (0, 0, 1), 0.02, n)]
-    return {"box, 6 planes": box6, "box, 3 planes": box3, "box, 2 lines": lines2, "L-bracket, line + 2 planes": bracket,
-            "plate, 2 planes + hole": plate}
+    lines2 = [
+        line("e0", (0, -W / 2, H / 2), (1, 0, 0), L, n),
+        line("e1", (L / 2, 0, H / 2), (0, 1, 0), W, n),
+    ]
+    bracket = [
+        line("e0", (0, 0, 0.05), (1, 0, 0), 0.12, n),
+        plane("p0", (0, -0.02, 0.0), (0, -1, 0), 0.12, 0.05, n),
+        plane("p1", (0.06, 0.0, 0.025), (1, 0, 0), 0.04, 0.05, n),
+    ]
+    plate = [
+        plane("p0", (0, 0, 0.005), (0, 0, 1), 0.2, 0.2, n),
+        plane("p1", (0.1, 0, 0), (1, 0, 0), 0.2, 0.01, n),
+        circle("c0", (0.03, 0.04, 0.005), (0, 0, 1), 0.02, n),
+    ]
+    return {
+        "box, 6 planes": box6,
+        "box, 3 planes": box3,
+        "box, 2 lines": lines2,
+        "L-bracket, line + 2 planes": bracket,
+        "plate, 2 planes + hole": plate,
+    }
 
 
 def fits_for(items, T, rng, sigma):
@@ -100,8 +128,14 @@ def main():
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
     sigma = args.sigma / 1000
-    print(f"sigma {args.sigma} mm, 10 points per feature, {args.trials} trials; median rotation error in arcsec\n")
-    print(f"{'scenario':28s} {'CRB':>7s} {'rworld':>7s} {'ratio':>6s} {'closed':>7s} {'ratio':>6s} {'pred/obs sigma':>15s} {'noiseless':>10s}")
+    print(
+        f"sigma {args.sigma} mm, 10 points per feature, {args.trials} trials; median rotation "
+        "error in arcsec\n"
+    )
+    print(
+        f"{'scenario':28s} {'CRB':>7s} {'rworld':>7s} {'ratio':>6s} {'closed':>7s} {'ratio':>6s} "
+        f"{'pred/obs sigma':>15s} {'noiseless':>10s}"
+    )
     rng = np.random.default_rng(args.seed)
     for name, items in scenarios().items():
         features = [f for f, _ in items]
@@ -123,10 +157,17 @@ def main():
             dR = spatial.rotation_vector(sol.T_world[:3, :3] @ TRUTH[:3, :3].T)
             deviations.append(np.r_[dR, sol.T_world[:3, 3] - TRUTH[:3, 3]])
         ratio_spread = np.median(np.array(predicted), axis=0) / np.std(np.array(deviations), axis=0)
-        print(f"{name:28s} {crb_rot:7.1f} {np.median(ml):7.1f} {np.median(ml) / crb_rot:6.3f} {np.median(cf):7.1f} "
-              f"{np.median(cf) / crb_rot:6.3f} {ratio_spread.min():7.2f}..{ratio_spread.max():<5.2f} {noiseless_err:10.1e}")
-    print("\nratio = median error / Cramer-Rao median; pred/obs sigma = predicted standard error / observed spread "
-          "(range over the 6 pose coordinates); noiseless = max |T - T_true| element")
+        print(
+            f"{name:28s} {crb_rot:7.1f} {np.median(ml):7.1f} {np.median(ml) / crb_rot:6.3f} "
+            f"{np.median(cf):7.1f} "
+            f"{np.median(cf) / crb_rot:6.3f} "
+            f"{ratio_spread.min():7.2f}..{ratio_spread.max():<5.2f} {noiseless_err:10.1e}"
+        )
+    print(
+        "\nratio = median error / Cramer-Rao median; pred/obs sigma = predicted standard error / "
+        "observed spread "
+        "(range over the 6 pose coordinates); noiseless = max |T - T_true| element"
+    )
 
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
 """rworld's batched device physics beside Pinocchio, on the Puma 560, in one run.
 
-Run:  .venv/bin/pip install -e ".[bench]" && .venv/bin/python bench/dynamics.py [--sizes 1000 10000 100000]
+Run:  .venv/bin/pip install -e ".[bench]" && .venv/bin/python bench/dynamics.py [--sizes 1000 10000
+100000]
 
 Same model in both (workcells/puma560, rigid body: no armature, no
 friction; Pinocchio's model is built from the same DH table and mass
@@ -24,10 +25,11 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from peers import pinocchio_model  # noqa: E402
+
 from rworld_cli.dynamics import DeviceDynamics  # noqa: E402
 from rworld_cli.kinematics.jacobian import tool_pose_and_jacobian  # noqa: E402
 from rworld_cli.schema.loader import load_cell  # noqa: E402
-from peers import pinocchio_model  # noqa: E402
 
 
 def best_time(fn, repeat: int) -> float:
@@ -47,7 +49,9 @@ def main() -> None:
     try:
         import pinocchio as pin
     except ImportError:
-        raise SystemExit("Pinocchio is not installed: .venv/bin/pip install -e '.[bench]'") from None
+        raise SystemExit(
+            "Pinocchio is not installed: .venv/bin/pip install -e '.[bench]'"
+        ) from None
 
     device = load_cell(REPO / "workcells" / "puma560").cell.devices["puma"]
     dyn = DeviceDynamics(device, armature=False, friction=False)
@@ -66,13 +70,24 @@ def main() -> None:
     J_pin = []
     for a in q:
         pin.forwardKinematics(model, data, a)
-        J_pin.append(pin.computeFrameJacobian(model, data, a, tool, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED))
+        J_pin.append(
+            pin.computeFrameJacobian(model, data, a, tool, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        )
     qdd_fd = dyn.forward(q, qd, tau, g)
-    print(f"agreement: tau {np.abs(tau - tau_pin).max():.1e}, jacobian {np.abs(J - np.array(J_pin)).max():.1e}, "
-          f"forward dynamics {np.abs(qdd_fd - qdd).max():.1e}")
-    print(f"pinocchio {pin.__version__}, numpy {np.__version__}; best of {args.repeat}; per-sample times in microseconds\n")
+    print(
+        f"agreement: tau {np.abs(tau - tau_pin).max():.1e}, jacobian "
+        f"{np.abs(J - np.array(J_pin)).max():.1e}, "
+        f"forward dynamics {np.abs(qdd_fd - qdd).max():.1e}"
+    )
+    print(
+        f"pinocchio {pin.__version__}, numpy {np.__version__}; best of {args.repeat}; per-sample "
+        "times in microseconds\n"
+    )
 
-    header = f"{'operation':22s} {'N':>7s} {'rworld':>9s} {'pin loop':>9s} {'pin batch':>10s} {'ratio':>7s}"
+    header = (
+        f"{'operation':22s} {'N':>7s} {'rworld':>9s} {'pin loop':>9s} {'pin batch':>10s} "
+        f"{'ratio':>7s}"
+    )
     print(header)
     print("-" * len(header))
     for N in args.sizes:
@@ -88,7 +103,9 @@ def main() -> None:
         def pin_fkj_loop():
             for a in q:
                 pin.forwardKinematics(model, data, a)
-                pin.computeFrameJacobian(model, data, a, tool, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+                pin.computeFrameJacobian(
+                    model, data, a, tool, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+                )
 
         def pin_aba_loop():
             for a, b, c in zip(q, qd, tau):
@@ -96,27 +113,56 @@ def main() -> None:
 
         tauT = np.asfortranarray(tau.T)
         rows = [
-            ("inverse dynamics", lambda: dyn.inverse(q, qd, qdd, g), pin_rnea_loop,
-             lambda: pin.rneaInParallel(1, pool, qT, qdT, qddT, out)),
+            (
+                "inverse dynamics",
+                lambda: dyn.inverse(q, qd, qdd, g),
+                pin_rnea_loop,
+                lambda: pin.rneaInParallel(1, pool, qT, qdT, qddT, out),
+            ),
             ("FK + Jacobian", lambda: tool_pose_and_jacobian(device, q), pin_fkj_loop, None),
-            ("forward dynamics", lambda: dyn.forward(q, qd, tau, g), pin_aba_loop,
-             lambda: pin.abaInParallel(1, pool, qT, qdT, tauT, out)),
+            (
+                "forward dynamics",
+                lambda: dyn.forward(q, qd, tau, g),
+                pin_aba_loop,
+                lambda: pin.abaInParallel(1, pool, qT, qdT, tauT, out),
+            ),
         ]
         for label, ours, loop, batch in rows:
             t_ours = best_time(ours, args.repeat) / N * 1e6
             t_loop = best_time(loop, args.repeat) / N * 1e6
             t_batch = best_time(batch, args.repeat) / N * 1e6 if batch else float("nan")
             reference = t_batch if batch else t_loop
-            print(f"{label:22s} {N:7d} {t_ours:9.3f} {t_loop:9.3f} {t_batch:10.3f} {t_ours / reference:7.2f}")
+            print(
+                f"{label:22s} {N:7d} {t_ours:9.3f} {t_loop:9.3f} {t_batch:10.3f} "
+                f"{t_ours / reference:7.2f}"
+            )
 
     q1, qd1, qdd1 = q[0], qd[0], qdd[0]
     reps = 2000
-    t_single = best_time(lambda: [dyn.inverse(q1, qd1, qdd1, g) for _ in range(reps)], args.repeat) / reps * 1e6
-    t_pin = best_time(lambda: [pin.rnea(model, data, q1, qd1, qdd1) for _ in range(reps)], args.repeat) / reps * 1e6
-    t_fkj = best_time(lambda: [tool_pose_and_jacobian(device, q1) for _ in range(reps)], args.repeat) / reps * 1e6
-    print(f"\nsingle state: rworld inverse dynamics {t_single:.1f} us (pinocchio rnea call {t_pin:.1f} us), "
-          f"rworld FK + Jacobian {t_fkj:.1f} us")
-    print("ratio = rworld / pinocchio batched (inverse and forward dynamics) or / pinocchio loop (FK + Jacobian)")
+    t_single = (
+        best_time(lambda: [dyn.inverse(q1, qd1, qdd1, g) for _ in range(reps)], args.repeat)
+        / reps
+        * 1e6
+    )
+    t_pin = (
+        best_time(lambda: [pin.rnea(model, data, q1, qd1, qdd1) for _ in range(reps)], args.repeat)
+        / reps
+        * 1e6
+    )
+    t_fkj = (
+        best_time(lambda: [tool_pose_and_jacobian(device, q1) for _ in range(reps)], args.repeat)
+        / reps
+        * 1e6
+    )
+    print(
+        f"\nsingle state: rworld inverse dynamics {t_single:.1f} us (pinocchio rnea call "
+        f"{t_pin:.1f} us), "
+        f"rworld FK + Jacobian {t_fkj:.1f} us"
+    )
+    print(
+        "ratio = rworld / pinocchio batched (inverse and forward dynamics) or / pinocchio loop "
+        "(FK + Jacobian)"
+    )
 
 
 if __name__ == "__main__":

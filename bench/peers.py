@@ -1,4 +1,6 @@
-"""The peers' models, built once for every bench: the same device as rworld's, each peer in its best ordinary setup."""
+"""The peers' models, built once for every bench: the same device as rworld's, each peer in its
+best ordinary setup.
+"""
 
 from __future__ import annotations
 
@@ -34,12 +36,10 @@ def pinocchio_model(device):
 
 
 def pinocchio_with_armature(device, gravity=(0.0, 0.0, -9.81)):
-    """The Pinocchio model with the motors' reflected inertia Jm G^2 as its armature (rworld's planning model:
+    """The Pinocchio model with the motors' reflected inertia Jm G^2 as its armature (rworld's
+    planning model:
     rigid bodies + armature, no friction)."""
     model, tool = pinocchio_model(device)
     model.armature = np.array([j.armature for j in device.joints])
     model.gravity.linear = np.asarray(gravity, dtype=float)
     return model, tool
-
-
-

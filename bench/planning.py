@@ -1,6 +1,7 @@
 """Time-optimal timing and payload capacity: rworld beside toppra, on two problems, in one run.
 
-Run:  .venv/bin/pip install -e ".[bench]" && .venv/bin/python bench/planning.py [--grids 100 500 1000 2000]
+Run:  .venv/bin/pip install -e ".[bench]" && .venv/bin/python bench/planning.py [--grids 100 500
+1000 2000]
 
 Grid sizes count grid points, as toppra and the reference do (N points, N - 1 intervals).
 
@@ -41,13 +42,16 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from peers import pinocchio_with_armature  # noqa: E402
+
 from rworld_cli.dynamics import DeviceDynamics  # noqa: E402
 from rworld_cli.planning.path import JointPath  # noqa: E402
 from rworld_cli.planning.payload import payload_capacity, quintic_timing  # noqa: E402
 from rworld_cli.planning.topp import Limits, limit_ratios, sample_trajectory, time_optimal  # noqa: E402
 from rworld_cli.schema.loader import load_cell  # noqa: E402
 
-REF = json.loads((REPO.parent / "shared" / "reference" / "planning" / "puma560_path.json").read_text())
+REF = json.loads(
+    (REPO.parent / "shared" / "reference" / "planning" / "puma560_path.json").read_text()
+)
 
 
 def best(fn, repeat):
@@ -69,19 +73,53 @@ def ur5_device():
 def problems():
     """name -> (device, knots, waypoints, boundary, gravity, {config: (Limits, torque?)})"""
     puma = load_cell(REPO / "workcells" / "puma560").cell.devices["puma"]
-    v, a_rated, a_aggr, tmax = (np.array(REF[k]) for k in ("vel_lim_rad_s", "acc_lim_rated_rad_s2", "acc_lim_aggressive_rad_s2", "tau_lim_Nm"))
+    v, a_rated, a_aggr, tmax = (
+        np.array(REF[k])
+        for k in (
+            "vel_lim_rad_s",
+            "acc_lim_rated_rad_s2",
+            "acc_lim_aggressive_rad_s2",
+            "tau_lim_Nm",
+        )
+    )
     waypoints = np.radians(REF["waypoints_deg"])
-    out = {"puma": (puma, np.linspace(0, 1, len(waypoints)), waypoints, "clamped", np.array(REF["gravity"]), {
-        "a_rated": (Limits(v, a_rated, None), False),
-        "b_rated": (Limits(v, a_rated, tmax), True),
-        "b_aggr": (Limits(v, a_aggr, tmax), True),
-        "c_vtau": (Limits(v, None, tmax), True),
-    })}
-    ur5_waypoints = np.array([[0, -1.6, 1.4, -1.4, -1.57, 0], [0.9, -1.0, 1.9, -2.2, -1.2, 0.7], [1.8, -1.9, 0.6, -0.8, -1.9, 1.6],
-                              [2.4, -1.2, 1.5, -1.6, -1.0, 0.2], [3.0, -1.57, 1.57, -1.57, -1.57, 0]])
-    out["ur5"] = (ur5_device(), np.array([0, 0.12, 0.47, 0.71, 1.0]), ur5_waypoints, "natural", np.array([0, 0, -9.81]), {
-        "ur5_vtau": (Limits(np.full(6, np.pi), None, np.array([150, 150, 150, 28, 28, 28.0])), True),
-    })
+    out = {
+        "puma": (
+            puma,
+            np.linspace(0, 1, len(waypoints)),
+            waypoints,
+            "clamped",
+            np.array(REF["gravity"]),
+            {
+                "a_rated": (Limits(v, a_rated, None), False),
+                "b_rated": (Limits(v, a_rated, tmax), True),
+                "b_aggr": (Limits(v, a_aggr, tmax), True),
+                "c_vtau": (Limits(v, None, tmax), True),
+            },
+        )
+    }
+    ur5_waypoints = np.array(
+        [
+            [0, -1.6, 1.4, -1.4, -1.57, 0],
+            [0.9, -1.0, 1.9, -2.2, -1.2, 0.7],
+            [1.8, -1.9, 0.6, -0.8, -1.9, 1.6],
+            [2.4, -1.2, 1.5, -1.6, -1.0, 0.2],
+            [3.0, -1.57, 1.57, -1.57, -1.57, 0],
+        ]
+    )
+    out["ur5"] = (
+        ur5_device(),
+        np.array([0, 0.12, 0.47, 0.71, 1.0]),
+        ur5_waypoints,
+        "natural",
+        np.array([0, 0, -9.81]),
+        {
+            "ur5_vtau": (
+                Limits(np.full(6, np.pi), None, np.array([150, 150, 150, 28, 28, 28.0])),
+                True,
+            ),
+        },
+    )
     return out
 
 
@@ -96,27 +134,49 @@ def main():
         import toppra.algorithm as algo
         import toppra.constraint as constraint
     except ImportError:
-        raise SystemExit("toppra and pin are not installed: .venv/bin/pip install -e '.[bench]'") from None
+        raise SystemExit(
+            "toppra and pin are not installed: .venv/bin/pip install -e '.[bench]'"
+        ) from None
     ta.setup_logging("WARNING")
     from importlib.metadata import version
 
-    print(f"toppra {version('toppra')}, pinocchio {pin.__version__}, numpy {np.__version__}; best of {args.repeat}\n")
+    print(
+        f"toppra {version('toppra')}, pinocchio {pin.__version__}, numpy {np.__version__}; best "
+        f"of {args.repeat}\n"
+    )
 
     def toppra_solve(knots, waypoints, boundary, limits, torque, grid, model):
         path = ta.SplineInterpolator(knots, waypoints, bc_type=boundary)
-        cons = [constraint.JointVelocityConstraint(np.column_stack([-limits.velocity, limits.velocity]))]
+        cons = [
+            constraint.JointVelocityConstraint(np.column_stack([-limits.velocity, limits.velocity]))
+        ]
         if limits.acceleration is not None:
-            cons.append(constraint.JointAccelerationConstraint(np.column_stack([-limits.acceleration, limits.acceleration])))
+            cons.append(
+                constraint.JointAccelerationConstraint(
+                    np.column_stack([-limits.acceleration, limits.acceleration])
+                )
+            )
         if torque:
             data = model.createData()
 
             def inv_dyn(q, qd, qdd):  # toppra calls this with one state at a time
                 return pin.rnea(model, data, q, qd, qdd)
 
-            cons.append(constraint.JointTorqueConstraint(inv_dyn, np.column_stack([-limits.effort, limits.effort]),
-                                                         np.zeros(len(limits.velocity)),
-                                                         discretization_scheme=constraint.DiscretizationType.Interpolation))
-        instance = algo.TOPPRA(cons, path, gridpoints=np.linspace(0, 1, grid), solver_wrapper="seidel", parametrizer="ParametrizeConstAccel")
+            cons.append(
+                constraint.JointTorqueConstraint(
+                    inv_dyn,
+                    np.column_stack([-limits.effort, limits.effort]),
+                    np.zeros(len(limits.velocity)),
+                    discretization_scheme=constraint.DiscretizationType.Interpolation,
+                )
+            )
+        instance = algo.TOPPRA(
+            cons,
+            path,
+            gridpoints=np.linspace(0, 1, grid),
+            solver_wrapper="seidel",
+            parametrizer="ParametrizeConstAccel",
+        )
         return instance.compute_trajectory()
 
     def sampled_toppra(traj):
@@ -124,8 +184,11 @@ def main():
         return t, traj(t), traj(t, 1), traj(t, 2)
 
     ref_T = {(r["config"], r["gridpoints"]): r["duration_s"] for r in REF["toppra_results"]}
-    print(f"{'config':8s} {'grid':>5s} | {'toppra T [s]':>13s} {'vs ref':>8s} {'worst':>8s} {'ms':>7s} | {'grid only':>9s} | "
-          f"{'rworld T [s]':>13s} {'worst':>9s} {'ms':>7s} | {'T ratio':>8s} {'time ratio':>10s}")
+    print(
+        f"{'config':8s} {'grid':>5s} | {'toppra T [s]':>13s} {'vs ref':>8s} {'worst':>8s} "
+        f"{'ms':>7s} | {'grid only':>9s} | "
+        f"{'rworld T [s]':>13s} {'worst':>9s} {'ms':>7s} | {'T ratio':>8s} {'time ratio':>10s}"
+    )
     toppra_rated, ratios_T = None, []
     for name, (device, knots, waypoints, boundary, g, configs) in problems().items():
         dyn = DeviceDynamics(device, armature=True, friction=False)
@@ -133,23 +196,51 @@ def main():
         ours_path = JointPath(waypoints, knots, boundary)
         for config, (limits, torque) in configs.items():
             for grid in args.grids:
-                traj, t_toppra = best(lambda: toppra_solve(knots, waypoints, boundary, limits, torque, grid, model), args.repeat)
+                traj, t_toppra = best(
+                    lambda: toppra_solve(knots, waypoints, boundary, limits, torque, grid, model),
+                    args.repeat,
+                )
                 _, q, qd, qdd = sampled_toppra(traj)
-                worst_toppra = max(np.max(r) for r in limit_ratios(q, qd, qdd, limits, dyn if torque else None, g).values())
+                worst_toppra = max(
+                    np.max(r)
+                    for r in limit_ratios(q, qd, qdd, limits, dyn if torque else None, g).values()
+                )
                 if config == "a_rated" and grid == 1000:
                     toppra_rated = traj
-                plain, _ = time_optimal(ours_path, limits, dyn if torque else None, g, grid, repair=False)
-                (timing, _), t_ours = best(lambda: time_optimal(ours_path, limits, dyn if torque else None, g, grid), args.repeat)
+                plain, _ = time_optimal(
+                    ours_path, limits, dyn if torque else None, g, grid, repair=False
+                )
+                (timing, _), t_ours = best(
+                    lambda: time_optimal(ours_path, limits, dyn if torque else None, g, grid),
+                    args.repeat,
+                )
                 _, q, qd, qdd = sample_trajectory(ours_path, timing, 20001, switches=True)
-                worst_ours = max(np.max(r) for r in limit_ratios(q, qd, qdd, limits, dyn if torque else None, g).values())
-                vs_ref = f"{traj.duration / ref_T[(config, grid)] - 1:+8.0e}" if (config, grid) in ref_T else f"{'-':>8s}"
+                worst_ours = max(
+                    np.max(r)
+                    for r in limit_ratios(q, qd, qdd, limits, dyn if torque else None, g).values()
+                )
+                vs_ref = (
+                    f"{traj.duration / ref_T[(config, grid)] - 1:+8.0e}"
+                    if (config, grid) in ref_T
+                    else f"{'-':>8s}"
+                )
                 ratios_T.append(timing.duration / traj.duration)
-                print(f"{config:8s} {grid:5d} | {traj.duration:13.6f} {vs_ref} {worst_toppra:8.5f} {t_toppra * 1000:7.1f} | "
-                      f"{plain.duration / traj.duration - 1:+9.0e} | {timing.duration:13.6f} {worst_ours:9.7f} {t_ours * 1000:7.1f} | "
-                      f"{timing.duration / traj.duration:8.5f} {t_ours / t_toppra:10.2f}")
-    print(f"\ncycle time over toppra's, every problem and grid above: {min(ratios_T):.5f} .. {max(ratios_T):.5f}")
+                print(
+                    f"{config:8s} {grid:5d} | {traj.duration:13.6f} {vs_ref} {worst_toppra:8.5f} "
+                    f"{t_toppra * 1000:7.1f} | "
+                    f"{plain.duration / traj.duration - 1:+9.0e} | {timing.duration:13.6f} "
+                    f"{worst_ours:9.7f} {t_ours * 1000:7.1f} | "
+                    f"{timing.duration / traj.duration:8.5f} {t_ours / t_toppra:10.2f}"
+                )
+    print(
+        f"\ncycle time over toppra's, every problem and grid above: {min(ratios_T):.5f} .. "
+        f"{max(ratios_T):.5f}"
+    )
 
-    print("\npayload capacity (point mass at [0, 0, 0.1] m in frame 6), exact (torque is affine in mass):")
+    print(
+        "\npayload capacity (point mass at [0, 0, 0.1] m in frame 6), exact (torque is affine in "
+        "mass):"
+    )
     device, knots, waypoints, _, g, configs = problems()["puma"]
     ours_path = JointPath(waypoints, knots)
     ref = {c["label"]: c for c in REF["payload_capacity"]}
@@ -164,23 +255,39 @@ def main():
     if toppra_rated is not None:
         cap = capacity(None, toppra_rated)
         r = ref["toppra v+a(rated) optimal"]
-        print(f"  on toppra's rated timing, 1000 points ({toppra_rated.duration:.9f} s): {cap.mass:.6f} kg, joint {cap.joint + 1} "
-              f"(reference {r['m_star_linear_kg']:.6f} kg on {r['duration_s']:.9f} s, joint {r['binding_joint']}; "
-              f"difference {cap.mass - r['m_star_linear_kg']:+.1e} kg)")
+        print(
+            f"  on toppra's rated timing, 1000 points ({toppra_rated.duration:.9f} s): "
+            f"{cap.mass:.6f} kg, joint {cap.joint + 1} "
+            f"(reference {r['m_star_linear_kg']:.6f} kg on {r['duration_s']:.9f} s, joint "
+            f"{r['binding_joint']}; "
+            f"difference {cap.mass - r['m_star_linear_kg']:+.1e} kg)"
+        )
     for label, repair in (("grid only", False), ("checked between grid points", True)):
         timing, _ = time_optimal(ours_path, configs["a_rated"][0], None, g, 1000, repair=repair)
         sampled, exact = capacity(ours_path, timing), capacity(ours_path, timing, switches=True)
-        print(f"  on rworld's rated timing, 1000 points, {label} ({timing.duration:.9f} s): {sampled.mass:.6f} kg sampled "
-              f"at 20 001 instants, {exact.mass:.6f} kg with switches, joint {exact.joint + 1}")
+        print(
+            f"  on rworld's rated timing, 1000 points, {label} ({timing.duration:.9f} s): "
+            f"{sampled.mass:.6f} kg sampled "
+            f"at 20 001 instants, {exact.mass:.6f} kg with switches, joint {exact.joint + 1}"
+        )
     t, s, sd, sdd = quintic_timing(5.0, 20001)
     q, dq, ddq = ours_path.evaluate(s)
-    cap = payload_capacity(device, q, dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None], g, [0, 0, 0.1])
+    cap = payload_capacity(
+        device, q, dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None], g, [0, 0, 0.1]
+    )
     r = ref["quintic time law, T=5.0 s"]
-    print(f"  on the 5 s quintic: {cap.mass:.6f} kg, joint {cap.joint + 1} (reference {r['m_star_linear_kg']:.6f} kg; "
-          f"difference {cap.mass - r['m_star_linear_kg']:+.1e} kg)")
-    print("\ngrid = grid points; vs ref = toppra's duration here against the reference file's; worst = max |value| / limit "
-          "over 20 001 samples (above 1: a violation); grid only = rworld's grid solution against toppra's duration; "
-          "T ratio = rworld / toppra duration; time ratio = rworld / toppra runtime")
+    print(
+        f"  on the 5 s quintic: {cap.mass:.6f} kg, joint {cap.joint + 1} (reference "
+        f"{r['m_star_linear_kg']:.6f} kg; "
+        f"difference {cap.mass - r['m_star_linear_kg']:+.1e} kg)"
+    )
+    print(
+        "\ngrid = grid points; vs ref = toppra's duration here against the reference file's; "
+        "worst = max |value| / limit "
+        "over 20 001 samples (above 1: a violation); grid only = rworld's grid solution against "
+        "toppra's duration; "
+        "T ratio = rworld / toppra duration; time ratio = rworld / toppra runtime"
+    )
 
 
 if __name__ == "__main__":

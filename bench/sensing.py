@@ -29,8 +29,12 @@ from tests.sensing.truth import holed_box, icosphere, truth_grid  # noqa: E402
 
 PAD = np.array([0.08, 0.08, 0.006])
 POSES = {  # T_solid_pad: the pad tilted and cutting into the solid
-    "icosphere": spatial.make_transform(spatial.rpy_to_matrix([0.25, -0.15, 0.1]), [0.004, -0.006, 0.02]),
-    "holed_box": spatial.make_transform(spatial.rpy_to_matrix([0.12, 0.08, 0.3]), [0.005, 0.003, -0.025]),
+    "icosphere": spatial.make_transform(
+        spatial.rpy_to_matrix([0.25, -0.15, 0.1]), [0.004, -0.006, 0.02]
+    ),
+    "holed_box": spatial.make_transform(
+        spatial.rpy_to_matrix([0.12, 0.08, 0.3]), [0.005, 0.003, -0.025]
+    ),
 }
 
 
@@ -63,10 +67,16 @@ def main() -> None:
         import fcl
         import trimesh
     except ImportError:
-        raise SystemExit("python-fcl is not installed: .venv/bin/pip install -e '.[bench]'") from None
+        raise SystemExit(
+            "python-fcl is not installed: .venv/bin/pip install -e '.[bench]'"
+        ) from None
 
-    print(f"{'solid':10s} {'pad':>6s} {'cells':>6s} {'truth':>6s} | {'rworld cells/s':>15s} {'wrong':>5s} | "
-          f"{'fcl cells/s':>12s} {'wrong':>5s} | {'trimesh cells/s':>16s} {'wrong':>5s} | {'rworld/fcl':>10s}")
+    print(
+        f"{'solid':10s} {'pad':>6s} {'cells':>6s} {'truth':>6s} | {'rworld cells/s':>15s} "
+        f"{'wrong':>5s} | "
+        f"{'fcl cells/s':>12s} {'wrong':>5s} | {'trimesh cells/s':>16s} {'wrong':>5s} | "
+        f"{'rworld/fcl':>10s}"
+    )
     for solid_name, make in (("icosphere", icosphere), ("holed_box", holed_box)):
         vertices, faces, manifold = make()
         T_solid_pad = POSES[solid_name]
@@ -81,19 +91,28 @@ def main() -> None:
         for n in args.sizes:
             cells = n * n
             truth = truth_grid(PAD, (n, n, 1), manifold.transform(T_pad_solid[:3, :].tolist()))
-            ours, t_ours = best(lambda: grid_interference(PAD, (n, n, 1), tri_pad, tolerance=1e-9), args.repeat)
+            ours, t_ours = best(
+                lambda: grid_interference(PAD, (n, n, 1), tri_pad, tolerance=1e-9), args.repeat
+            )
             wrong_ours = int((ours != truth).sum())
 
             transforms, d = cell_transforms(n, T_solid_pad)
-            geoms = [fcl.Box(*d) for _ in transforms]  # contacts name geometries: keep them to map back
-            boxes = [fcl.CollisionObject(g, fcl.Transform(T[:3, :3], T[:3, 3])) for g, T in zip(geoms, transforms)]
+            geoms = [
+                fcl.Box(*d) for _ in transforms
+            ]  # contacts name geometries: keep them to map back
+            boxes = [
+                fcl.CollisionObject(g, fcl.Transform(T[:3, :3], T[:3, 3]))
+                for g, T in zip(geoms, transforms)
+            ]
             index = {id(g): i for i, g in enumerate(geoms)}
             manager = fcl.DynamicAABBTreeCollisionManager()
             manager.registerObjects(boxes)
             manager.setup()
 
             def fcl_query():
-                data = fcl.CollisionData(request=fcl.CollisionRequest(num_max_contacts=10 * cells, enable_contact=True))
+                data = fcl.CollisionData(
+                    request=fcl.CollisionRequest(num_max_contacts=10 * cells, enable_contact=True)
+                )
                 manager.collide(solid_obj, data, fcl.defaultCollisionCallback)
                 hit = np.zeros((n, n, 1), dtype=bool)
                 for contact in data.result.contacts:
@@ -123,9 +142,16 @@ def main() -> None:
 
             tm_hit, t_tm = best(trimesh_query, args.repeat)
             wrong_tm = int((tm_hit != truth).sum())
-            print(f"{solid_name:10s} {n:>3d}x{n:<2d} {cells:6d} {int(truth.sum()):6d} | {cells / t_ours:15,.0f} {wrong_ours:5d} | "
-                  f"{cells / t_fcl:12,.0f} {wrong_fcl:5d} | {cells / t_tm:16,.0f} {wrong_tm:5d} | {(cells / t_ours) / (cells / t_fcl):10.2f}")
-    print("\nrworld/fcl = throughput ratio (above 1: rworld faster); 'truth' = cells that interfere (overlap volume)")
+            print(
+                f"{solid_name:10s} {n:>3d}x{n:<2d} {cells:6d} {int(truth.sum()):6d} | "
+                f"{cells / t_ours:15,.0f} {wrong_ours:5d} | "
+                f"{cells / t_fcl:12,.0f} {wrong_fcl:5d} | {cells / t_tm:16,.0f} {wrong_tm:5d} | "
+                f"{(cells / t_ours) / (cells / t_fcl):10.2f}"
+            )
+    print(
+        "\nrworld/fcl = throughput ratio (above 1: rworld faster); 'truth' = cells that interfere "
+        "(overlap volume)"
+    )
 
 
 if __name__ == "__main__":

@@ -24,7 +24,9 @@ def median_time(cmd: list[str], repeat: int) -> float:
     times = []
     for _ in range(repeat):
         t0 = time.perf_counter()
-        subprocess.run(cmd, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False)
+        subprocess.run(
+            cmd, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=False
+        )
         times.append(time.perf_counter() - t0)
     return statistics.median(times)
 
@@ -40,9 +42,18 @@ def main() -> None:
         ("rworld --help", [rworld, "--help"]),
         ("rworld validate (3 example cells)", [rworld, "validate", *cells]),
         ("rworld show workcells/paper_fig9", [rworld, "show", "workcells/paper_fig9"]),
-        ("rworld --json show workcells/paper_fig9", [rworld, "--json", "show", "workcells/paper_fig9"]),
-        ("rworld check workcells/puma560 pick_place", [rworld, "check", "workcells/puma560", "pick_place"]),
-        ("rworld check workcells/paper_fig9 transfer", [rworld, "check", "workcells/paper_fig9", "transfer"]),
+        (
+            "rworld --json show workcells/paper_fig9",
+            [rworld, "--json", "show", "workcells/paper_fig9"],
+        ),
+        (
+            "rworld check workcells/puma560 pick_place",
+            [rworld, "check", "workcells/puma560", "pick_place"],
+        ),
+        (
+            "rworld check workcells/paper_fig9 transfer",
+            [rworld, "check", "workcells/paper_fig9", "transfer"],
+        ),
     ]
     base = None
     print(f"{'command':42s} {'median [s]':>11s} {'x baseline':>11s}")

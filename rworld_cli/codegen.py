@@ -20,11 +20,11 @@ name (``str``) of a generated variable or argument.
 from __future__ import annotations
 
 import math
-from typing import Callable, Sequence, Union
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
-Num = Union[float, str]
+Num = float | str
 Vec = tuple  # tuple[Num, Num, Num]
 
 _SNAP = 1e-14  # cos(pi/2) = 6e-17 is a zero twist term, not a number to multiply by
@@ -135,14 +135,20 @@ class Emitter:
         return tuple(self.dot((M[0][j], M[1][j], M[2][j]), v) for j in range(3))
 
     def matmul(self, A, B):
-        return tuple(tuple(self.dot(tuple(A[i]), (B[0][j], B[1][j], B[2][j])) for j in range(3)) for i in range(3))
+        return tuple(
+            tuple(self.dot(tuple(A[i]), (B[0][j], B[1][j], B[2][j])) for j in range(3))
+            for i in range(3)
+        )
 
     # ---------------------------------------------------------------- compile
-    def compile(self, name: str, args: Sequence[str], outputs: Sequence[Num]) -> "Generated":
+    def compile(self, name: str, args: Sequence[str], outputs: Sequence[Num]) -> Generated:
         """Compile to two functions (numpy and math) returning the outputs as a tuple."""
         body = "\n".join(self.lines)
         ret = ", ".join(o if isinstance(o, str) else repr(o) for o in outputs)
-        source = f"def {name}({', '.join(args)}):\n{body}\n    return ({ret}{',' if len(outputs) == 1 else ''})\n"
+        source = (
+            f"def {name}({', '.join(args)}):\n{body}\n    return "
+            f"({ret}{',' if len(outputs) == 1 else ''})\n"
+        )
         code = compile(source, f"<rworld generated {name}>", "exec")
         fns = {}
         for label, lib in (("array", np), ("scalar", math)):
@@ -164,7 +170,9 @@ class Generated:
         self.scalar = scalar_fn
         self.operations = operations
 
-    def evaluate(self, columns: Sequence, constants: Sequence[float], n_out: int, single: bool) -> np.ndarray:
+    def evaluate(
+        self, columns: Sequence, constants: Sequence[float], n_out: int, single: bool
+    ) -> np.ndarray:
         """Run on one state or a batch.
 
         Parameters

@@ -153,7 +153,12 @@ def matrix_to_quat(R) -> np.ndarray:
         if case == 3:
             s = 2.0 * np.sqrt(1.0 + tr[m])
             out[m] = np.stack(
-                [0.25 * s, (r[:, 2, 1] - r[:, 1, 2]) / s, (r[:, 0, 2] - r[:, 2, 0]) / s, (r[:, 1, 0] - r[:, 0, 1]) / s],
+                [
+                    0.25 * s,
+                    (r[:, 2, 1] - r[:, 1, 2]) / s,
+                    (r[:, 0, 2] - r[:, 2, 0]) / s,
+                    (r[:, 1, 0] - r[:, 0, 1]) / s,
+                ],
                 axis=1,
             )
         else:
@@ -223,7 +228,9 @@ def dh_standard(a, alpha, d, theta) -> np.ndarray:
     -------
     ndarray, shape (broadcast shape) + (4, 4)
     """
-    a, alpha, d, theta = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (a, alpha, d, theta)))
+    a, alpha, d, theta = np.broadcast_arrays(
+        *(np.asarray(v, dtype=float) for v in (a, alpha, d, theta))
+    )
     ct, st = np.cos(theta), np.sin(theta)
     ca, sa = np.cos(alpha), np.sin(alpha)
     T = np.zeros(a.shape + (4, 4))
@@ -258,7 +265,9 @@ def dh_modified(a, alpha, d, theta) -> np.ndarray:
     -------
     ndarray, shape (broadcast shape) + (4, 4)
     """
-    a, alpha, d, theta = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (a, alpha, d, theta)))
+    a, alpha, d, theta = np.broadcast_arrays(
+        *(np.asarray(v, dtype=float) for v in (a, alpha, d, theta))
+    )
     ct, st = np.cos(theta), np.sin(theta)
     ca, sa = np.cos(alpha), np.sin(alpha)
     T = np.zeros(a.shape + (4, 4))

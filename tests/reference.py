@@ -17,16 +17,41 @@ def load_reference(name: str) -> dict:
 
 
 def device_from_reference(model: dict) -> DeviceModel:
-    """The reference model as a DeviceModel: DH rows, link mass properties, no motors or friction."""
+    """The reference model as a DeviceModel: DH rows, link mass properties, no motors or
+    friction.
+    """
     joints, links = [], []
     for i, row in enumerate(model["links"]):
         prismatic = row["joint"] != "R"
         offset = row["offset"] or 0.0
         d = offset if prismatic else (row["d"] or 0.0)
         theta = (row["theta"] or 0.0) if prismatic else offset
-        joints.append(Joint(f"j{i + 1}", "prismatic" if prismatic else "revolute", row["a"], row["alpha"], d, theta, JointLimits()))
-        links.append(Link(f"link{i + 1}", Inertial(row["m"], np.array(row["r"], float), np.array(row["I"], float)), None))
-    return DeviceModel(model["name"], model["dh_convention"], tuple(joints), tuple(links), (), np.zeros(len(joints)))
+        joints.append(
+            Joint(
+                f"j{i + 1}",
+                "prismatic" if prismatic else "revolute",
+                row["a"],
+                row["alpha"],
+                d,
+                theta,
+                JointLimits(),
+            )
+        )
+        links.append(
+            Link(
+                f"link{i + 1}",
+                Inertial(row["m"], np.array(row["r"], float), np.array(row["I"], float)),
+                None,
+            )
+        )
+    return DeviceModel(
+        model["name"],
+        model["dh_convention"],
+        tuple(joints),
+        tuple(links),
+        (),
+        np.zeros(len(joints)),
+    )
 
 
 def mount_and_payload(model: dict) -> tuple[ToolMount, Payload | None]:

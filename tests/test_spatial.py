@@ -33,14 +33,24 @@ def test_closed_forms():
     np.testing.assert_allclose(spatial.rot_z(np.pi / 2) @ [1, 0, 0], [0, 1, 0], atol=1e-15)
     np.testing.assert_allclose(spatial.rpy_to_matrix([0, 0, np.pi / 2]), spatial.rot_z(np.pi / 2))
     # quaternion of 90 deg about x: (cos 45, sin 45, 0, 0)
-    np.testing.assert_allclose(spatial.quat_to_matrix([np.cos(np.pi / 4), np.sin(np.pi / 4), 0, 0]), spatial.rot_x(np.pi / 2), atol=1e-15)
-    np.testing.assert_allclose(spatial.matrix_to_rpy(spatial.rpy_to_matrix([0.1, np.pi / 2, 0.3]))[1], np.pi / 2)
+    np.testing.assert_allclose(
+        spatial.quat_to_matrix([np.cos(np.pi / 4), np.sin(np.pi / 4), 0, 0]),
+        spatial.rot_x(np.pi / 2),
+        atol=1e-15,
+    )
+    np.testing.assert_allclose(
+        spatial.matrix_to_rpy(spatial.rpy_to_matrix([0.1, np.pi / 2, 0.3]))[1], np.pi / 2
+    )
 
 
 def test_batched_invert_and_compose():
     rng = np.random.default_rng(1)
-    T = spatial.make_transform(spatial.rpy_to_matrix(rng.uniform(-3, 3, (50, 3))), rng.normal(size=(50, 3)))
-    np.testing.assert_allclose(T @ spatial.invert_transform(T), np.broadcast_to(np.eye(4), (50, 4, 4)), atol=1e-12)
+    T = spatial.make_transform(
+        spatial.rpy_to_matrix(rng.uniform(-3, 3, (50, 3))), rng.normal(size=(50, 3))
+    )
+    np.testing.assert_allclose(
+        T @ spatial.invert_transform(T), np.broadcast_to(np.eye(4), (50, 4, 4)), atol=1e-12
+    )
     np.testing.assert_allclose(spatial.invert_transform(T), np.linalg.inv(T), atol=1e-12)
 
 

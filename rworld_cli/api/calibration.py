@@ -9,7 +9,6 @@ import numpy as np
 
 from ..errors import UserError
 
-
 # --------------------------------------------------------------------------- calibration
 
 
@@ -36,9 +35,17 @@ class CalibrationRun:
     listed: bool  # the output is among the cell's pose files
 
 
-def calibrate_cell(cell_path: str, measurement_paths: list[str], frames: list[str] | None = None, output: str | None = None,
-                   csv_units: str = "mm", dry_run: bool = False) -> CalibrationRun:
-    """Calibrate a cell's conditioned frames and write the overlay (unless ``dry_run`` or a frame is undetermined)."""
+def calibrate_cell(
+    cell_path: str,
+    measurement_paths: list[str],
+    frames: list[str] | None = None,
+    output: str | None = None,
+    csv_units: str = "mm",
+    dry_run: bool = False,
+) -> CalibrationRun:
+    """Calibrate a cell's conditioned frames and write the overlay (unless ``dry_run`` or a
+    frame is undetermined).
+    """
     from ..calibration.pipeline import calibrate
     from ..schema.loader import load_cell, resolve_cell_path
     from ..schema.measurements import load_measurements
@@ -50,8 +57,11 @@ def calibrate_cell(cell_path: str, measurement_paths: list[str], frames: list[st
     out = Path(output) if output else real.parent / "calibrated.yaml"
     protected = {real.resolve()} | {p.resolve() for p in cell.pose_files[:1]}
     if out.resolve() in protected or out.resolve().parent.name in ("programs", "runs"):
-        raise UserError(f"refusing to write calibrated poses to {out}: it is the cell's structure, its nominal pose file or a program; "
-                        "write an overlay (default: calibrated.yaml beside cell.yaml)")
+        raise UserError(
+            f"refusing to write calibrated poses to {out}: it is the cell's structure, its "
+            "nominal pose file or a program; "
+            "write an overlay (default: calibrated.yaml beside cell.yaml)"
+        )
     measured = load_measurements(measurement_paths, cell, csv_units)
     result = calibrate(cell, measured, frames)
     written = None
@@ -62,9 +72,18 @@ def calibrate_cell(cell_path: str, measurement_paths: list[str], frames: list[st
     return CalibrationRun(result, written, out, listed)
 
 
-def simulate_measurement_file(cell_path: str, truth_path: str, output: str, sigma: float, seed: int = 0,
-                              points: int = 10, frames: list[str] | None = None) -> dict:
-    """Synthetic probe points of the conditioned features, taken on a 'true' cell, written as a measurement file."""
+def simulate_measurement_file(
+    cell_path: str,
+    truth_path: str,
+    output: str,
+    sigma: float,
+    seed: int = 0,
+    points: int = 10,
+    frames: list[str] | None = None,
+) -> dict:
+    """Synthetic probe points of the conditioned features, taken on a 'true' cell, written as a
+    measurement file.
+    """
     from ..calibration.pipeline import simulate_measurements
     from ..schema.loader import load_cell
     from ..schema.measurements import today, write_measurements
@@ -81,38 +100,58 @@ def simulate_measurement_file(cell_path: str, truth_path: str, output: str, sigm
     conditions = [c for c in nominal.conditions if frames is None or c.frame in frames]
     features = sorted({f for c in conditions for f in c.features})
     if not features:
-        raise UserError("no conditioned features to measure: the cell has no frame conditions (for the frames asked)")
+        raise UserError(
+            "no conditioned features to measure: the cell has no frame conditions (for the frames "
+            "asked)"
+        )
     counts = {f: max(points, MIN_POINTS[nominal.features[f].kind]) for f in features}
     probes = simulate_measurements(nominal, truth, features, counts, sigma, seed)
-    write_measurements(output, probes, nominal.name, ["Synthetic measurements (rworld measure --simulate)",
-                                                      f"truth: {truth_path}, sigma: {sigma * 1000:g} mm, seed: {seed}"],
-                       sigma=sigma if sigma > 0 else 1e-12, instrument="simulated", date=today())
+    write_measurements(
+        output,
+        probes,
+        nominal.name,
+        [
+            "Synthetic measurements (rworld measure --simulate)",
+            f"truth: {truth_path}, sigma: {sigma * 1000:g} mm, seed: {seed}",
+        ],
+        sigma=sigma if sigma > 0 else 1e-12,
+        instrument="simulated",
+        date=today(),
+    )
     return {"features": features, "points": counts, "written": output}
 
 
-def plan_cell_measurements(cell_path: str, frames: list[str] | None, sigma: float, tolerance: float):
+def plan_cell_measurements(
+    cell_path: str, frames: list[str] | None, sigma: float, tolerance: float
+):
     """Measuring directives for a cell's conditioned frames (see calibration/plan.py)."""
     from ..calibration.plan import plan_measurements
-    from ..schema.loader import load_cell
     from ..errors import did_you_mean
+    from ..schema.loader import load_cell
 
     cell = load_cell(cell_path).cell
     conditioned = {c.frame for c in cell.conditions}
     if not conditioned:
-        raise UserError(f"{cell_path} has no frame conditions: nothing to measure (add 'conditions' to the cell)")
+        raise UserError(
+            f"{cell_path} has no frame conditions: nothing to measure (add 'conditions' to the "
+            "cell)"
+        )
     for f in frames or []:
         if f not in conditioned:
-            raise UserError(f"'{f}' has no frame condition{did_you_mean(f, conditioned)}; conditioned frames: {', '.join(sorted(conditioned))}")
+            raise UserError(
+                f"'{f}' has no frame condition{did_you_mean(f, conditioned)}; conditioned frames: "
+                f"{', '.join(sorted(conditioned))}"
+            )
     for name, value in (("sigma", sigma), ("tolerance", tolerance)):
         if not (value > 0 and np.isfinite(value)):
             raise UserError(f"{name} must be a positive length, got {value}")
     return cell, plan_measurements(cell, frames, sigma, tolerance)
 
 
-
-
 def write_measurement_template(output: str, cell_name: str, plans) -> None:
-    """A measurement file whose points are the planned probe targets (nominal, world): fill in the measured values."""
+    """A measurement file whose points are the planned probe targets (nominal, world): fill in
+    the measured values.
+    """
     from ..model.measurements import FeatureProbes
     from ..schema.measurements import write_measurements
 
@@ -120,13 +159,22 @@ def write_measurement_template(output: str, cell_name: str, plans) -> None:
     for plan in plans:
         for d in plan.directives:
             features.setdefault(d.feature, FeatureProbes(d.points, d.above, d.ordered, d.how))
-    write_measurements(output, features, cell_name, [f"Probe targets for {cell_name} from 'rworld plan-measurements' (nominal, world, mm).",
-                                                     "Replace each point by the measured one; keep the order of ordered lines."],
-                       digits=3)
+    write_measurements(
+        output,
+        features,
+        cell_name,
+        [
+            f"Probe targets for {cell_name} from 'rworld plan-measurements' (nominal, world, mm).",
+            "Replace each point by the measured one; keep the order of ordered lines.",
+        ],
+        digits=3,
+    )
 
 
 def analyze_calibration(kind: str, trials: int, planes: int, seed: int, plot: str | None = None):
-    """The report's accuracy or sensitivity comparison (calibration/analysis.py); rows per method, and a PNG with ``plot``."""
+    """The report's accuracy or sensitivity comparison (calibration/analysis.py); rows per
+    method, and a PNG with ``plot``.
+    """
     from ..calibration.analysis import run_analysis
 
     rows, samples = run_analysis(kind, trials, planes, seed)

@@ -10,7 +10,6 @@ import numpy as np
 
 from ..errors import Issue, UserError
 
-
 # --------------------------------------------------------------------------- validate
 
 
@@ -40,7 +39,8 @@ class FileReport:
 
 
 def _file_kind(path: Path):
-    """(kind, parsed document or None): 'cell', 'poses', 'program' or 'run', from the top-level keys.
+    """(kind, parsed document or None): 'cell', 'poses', 'program' or 'run', from the top-level
+    keys.
 
     A directory means its cell.yaml.  A file that cannot be read or parsed is
     treated as a cell, so the cell loader reports the problem with its location.
@@ -54,15 +54,22 @@ def _file_kind(path: Path):
     except UserError:
         return "cell", None
     if isinstance(doc.data, dict) and "name" not in doc.data:
-        for key, kind in (("poses", "poses"), ("steps", "program"), ("programs", "run"), ("waypoints", "path"),
-                          ("features", "measurements")):
+        for key, kind in (
+            ("poses", "poses"),
+            ("steps", "program"),
+            ("programs", "run"),
+            ("waypoints", "path"),
+            ("features", "measurements"),
+        ):
             if key in doc.data:
                 return kind, doc
     return "cell", doc
 
 
 def _cell_of(path: Path, cell: str | None) -> str | None:
-    """The cell a path file is checked against: ``cell``, else the cell whose ``paths/`` folder holds it."""
+    """The cell a path file is checked against: ``cell``, else the cell whose ``paths/`` folder
+    holds it.
+    """
     if cell is not None:
         return cell
     home = path.resolve().parent
@@ -73,46 +80,77 @@ def _cell_of(path: Path, cell: str | None) -> str | None:
 
 def _validate_path_file(raw: str, doc, cell: str | None) -> str:
     """Check a path file (and against its cell, when one is known); returns the summary."""
-    from ..schema.loader import load_cell, validate_document
     from ..errors import did_you_mean
+    from ..schema.loader import load_cell, validate_document
     from ..schema.program import PathFile
 
     pf = validate_document(doc, PathFile)
     cell_path = _cell_of(Path(raw), cell)
     if cell_path is None:
-        return (f"{len(pf.waypoints)} waypoint(s); checked against a cell with --cell CELL "
-                "(or when the file is in the cell's paths/ folder)")
+        return (
+            f"{len(pf.waypoints)} waypoint(s); checked against a cell with --cell CELL "
+            "(or when the file is in the cell's paths/ folder)"
+        )
     devices = load_cell(cell_path).cell.devices
     name = pf.device or (next(iter(devices)) if len(devices) == 1 else None)
     if name is None:
-        raise UserError(f"{raw}: name the device", [doc.issue((), f"the cell has {len(devices)} devices ({', '.join(devices)}): "
-                                                                  "say which one the path is for with 'device:'")])
+        raise UserError(
+            f"{raw}: name the device",
+            [
+                doc.issue(
+                    (),
+                    f"the cell has {len(devices)} devices ({', '.join(devices)}): "
+                    "say which one the path is for with 'device:'",
+                )
+            ],
+        )
     if name not in devices:
-        raise UserError(f"{raw}: unknown device", [doc.issue(("device",), f"'{name}' is not a device of {cell_path}"
-                                                                           f"{did_you_mean(name, devices)}")])
+        raise UserError(
+            f"{raw}: unknown device",
+            [
+                doc.issue(
+                    ("device",),
+                    f"'{name}' is not a device of {cell_path}{did_you_mean(name, devices)}",
+                )
+            ],
+        )
     from .planning import path_file_issues
 
     issues = path_file_issues(raw, devices[name])
     if issues:
-        raise UserError(f"{raw}: the path leaves a joint's position range between waypoints", issues)
-    return f"{len(pf.waypoints)} waypoint(s) for {name}, within its position range all along (checked against {cell_path})"
+        raise UserError(
+            f"{raw}: the path leaves a joint's position range between waypoints", issues
+        )
+    return (
+        f"{len(pf.waypoints)} waypoint(s) for {name}, within its position range all along "
+        f"(checked against {cell_path})"
+    )
 
 
 def _validate_measurement_file(raw: str, doc, cell: str | None) -> str:
-    """Check a measurement file's form, and against ``cell`` (its features, point counts) when given."""
+    """Check a measurement file's form, and against ``cell`` (its features, point counts) when
+    given.
+    """
     from ..schema.loader import load_cell, validate_document
     from ..schema.measurements import MeasurementFile, load_measurements
 
     mf = validate_document(doc, MeasurementFile)
     points = sum(len(f.points) for f in mf.features.values())
     if cell is None:
-        return f"{len(mf.features)} feature(s), {points} point(s); checked against a cell with --cell CELL (or by 'rworld calibrate')"
+        return (
+            f"{len(mf.features)} feature(s), {points} point(s); checked against a cell with "
+            "--cell CELL (or by 'rworld calibrate')"
+        )
     load_measurements([raw], load_cell(cell).cell)
-    return f"{len(mf.features)} feature(s), {points} point(s), every one a feature of {cell} with enough points"
+    return (
+        f"{len(mf.features)} feature(s), {points} point(s), every one a feature of {cell} with "
+        "enough points"
+    )
 
 
 def validate_files(paths: list[str], cell: str | None = None) -> list[FileReport]:
-    """Validate cell files (with the pose files and meshes they name), pose, program, run and path files.
+    """Validate cell files (with the pose files and meshes they name), pose, program, run and path
+    files.
 
     Parameters
     ----------
@@ -142,8 +180,10 @@ def validate_files(paths: list[str], cell: str | None = None) -> list[FileReport
                 report.warnings = loaded.warnings
                 c = loaded.cell
                 report.summary = (
-                    f"{len(c.devices)} device(s), {len(c.objects)} object(s), {len(c.sensors)} sensor(s), "
-                    f"{len(c.frames) - 1} frame(s), {len(c.features)} feature(s), {len(c.conditions)} condition(s)"
+                    f"{len(c.devices)} device(s), {len(c.objects)} object(s), {len(c.sensors)} "
+                    "sensor(s), "
+                    f"{len(c.frames) - 1} frame(s), {len(c.features)} feature(s), "
+                    f"{len(c.conditions)} condition(s)"
                 )
             elif kind == "path":
                 report.summary = _validate_path_file(raw, doc, cell)
@@ -151,14 +191,25 @@ def validate_files(paths: list[str], cell: str | None = None) -> list[FileReport
                 report.summary = _validate_measurement_file(raw, doc, cell)
             elif kind == "poses":
                 pf = validate_document(doc, sm.PoseFile)
-                report.summary = f"{len(pf.poses)} pose(s); frame names are checked when a cell uses this file"
+                report.summary = (
+                    f"{len(pf.poses)} pose(s); frame names are checked when a cell uses this file"
+                )
             else:
                 model = sp.ProgramFile if kind == "program" else sp.RunFile
                 parsed = validate_document(doc, model)
-                count = f"{len(parsed.steps)} step(s) for {parsed.device}" if kind == "program" else f"{len(parsed.programs)} program(s)"
-                report.summary = f"{count}; names are checked against the cell by 'rworld simulate' and 'rworld check'"
+                count = (
+                    f"{len(parsed.steps)} step(s) for {parsed.device}"
+                    if kind == "program"
+                    else f"{len(parsed.programs)} program(s)"
+                )
+                report.summary = (
+                    f"{count}; names are checked against the cell by 'rworld "
+                    "simulate' and 'rworld check'"
+                )
         except UserError as exc:
-            report.errors = [i for i in exc.issues if i.severity == "error"] or [Issue(shown, 0, 0, "(file)", exc.message)]
+            report.errors = [i for i in exc.issues if i.severity == "error"] or [
+                Issue(shown, 0, 0, "(file)", exc.message)
+            ]
             report.warnings = [i for i in exc.issues if i.severity == "warning"]
         reports.append(report)
     return reports
@@ -205,7 +256,7 @@ class FrameNode:
     T_world: np.ndarray
     mass: float | None = None
     detail: str = ""
-    children: list["FrameNode"] = field(default_factory=list)
+    children: list[FrameNode] = field(default_factory=list)
 
     @property
     def rpy(self) -> np.ndarray:
@@ -271,7 +322,9 @@ def _detail(cell, name: str) -> tuple[str | None, float | None, str]:
         return kind, o.inertial.mass, shape
     if kind == "sensor":
         s = cell.sensors[name]
-        seg = {"tactile": f" {s.rows}x{s.cols} cells", "proximity": f" {s.slices} slices"}.get(s.type, "")
+        seg = {"tactile": f" {s.rows}x{s.cols} cells", "proximity": f" {s.slices} slices"}.get(
+            s.type, ""
+        )
         return kind, None, f"{s.type}{seg}"
     if kind == "device":
         d = cell.devices[name]
@@ -296,7 +349,9 @@ def summarize_cell(cell_path: str, joints: dict[str, list[float]] | None = None)
 
     def build(name: str) -> FrameNode:
         decl = cell.frames[name]
-        primitive, mass, detail = _detail(cell, name) if decl.kind == "natural" else (None, None, "")
+        primitive, mass, detail = (
+            _detail(cell, name) if decl.kind == "natural" else (None, None, "")
+        )
         aff = world.affixment(name)
         node = FrameNode(
             name=name,
@@ -319,11 +374,15 @@ def summarize_cell(cell_path: str, joints: dict[str, list[float]] | None = None)
         joints={d: world.joints(d).tolist() for d in cell.devices},
         active_tcps={d: world.active_tcp(d) for d in cell.devices},
         warnings=warnings,
-        conditions=[{"frame": c.frame, "code": c.code, "type": c.name, "features": list(c.features)} for c in cell.conditions],
+        conditions=[
+            {"frame": c.frame, "code": c.code, "type": c.name, "features": list(c.features)}
+            for c in cell.conditions
+        ],
     )
 
 
 # --------------------------------------------------------------------------- schemas
+
 
 def schema_documents() -> dict[str, str]:
     """The JSON Schema text of each file format, keyed by file name."""
@@ -352,5 +411,3 @@ def stale_schemas(directory: str | Path) -> list[str]:
         if not path.is_file() or path.read_text(encoding="utf-8") != text:
             stale.append(filename)
     return stale
-
-

@@ -1,4 +1,6 @@
-"""Device physics tasks: a device in its cell, kinematics, dynamics, statics, payloads, carried loads."""
+"""Device physics tasks: a device in its cell, kinematics, dynamics, statics, payloads, carried
+loads.
+"""
 
 from __future__ import annotations
 
@@ -9,13 +11,14 @@ import numpy as np
 from ..errors import Issue, UserError
 from .cells import load_world
 
-
 # --------------------------------------------------------------------------- device physics
 
 
 @dataclass
 class DeviceContext:
-    """A device in its cell: the model, where its base is, which tool frame, and gravity in its base."""
+    """A device in its cell: the model, where its base is, which tool frame, and gravity in its
+    base.
+    """
 
     world: object  # World
     device: object  # DeviceModel
@@ -43,8 +46,12 @@ def _tool_mount(world, device, tcp: str):
     return ToolMount(*world.mount_of(device.name, tcp))
 
 
-def device_context(cell_path: str, device: str, tcp: str | None = None,
-                   joints: dict[str, list[float]] | None = None) -> DeviceContext:
+def device_context(
+    cell_path: str,
+    device: str,
+    tcp: str | None = None,
+    joints: dict[str, list[float]] | None = None,
+) -> DeviceContext:
     """Load a cell and prepare one device for kinematics and dynamics.
 
     Parameters
@@ -61,7 +68,10 @@ def device_context(cell_path: str, device: str, tcp: str | None = None,
     world, warnings = load_world(cell_path, joints)
     cell = world.cell
     if device not in cell.devices:
-        raise UserError(f"unknown device '{device}'{did_you_mean(device, cell.devices)}; the cell has: {', '.join(cell.devices) or 'none'}")
+        raise UserError(
+            f"unknown device '{device}'{did_you_mean(device, cell.devices)}; the cell has: "
+            f"{', '.join(cell.devices) or 'none'}"
+        )
     model = cell.devices[device]
     if tcp is None:
         tcp = world.active_tcp(device)
@@ -99,7 +109,9 @@ class JacobianResult:
 
 
 def jacobians(ctx: DeviceContext, q, frame: str = "world", point_in_tool=None) -> JacobianResult:
-    """Geometric Jacobians at the TCP origin (or a point on the tool), with manipulability and conditioning."""
+    """Geometric Jacobians at the TCP origin (or a point on the tool), with manipulability and
+    conditioning.
+    """
     from ..kinematics.jacobian import condition_number, jacobian, manipulability
 
     q = np.atleast_2d(np.asarray(q, dtype=float))
@@ -112,9 +124,17 @@ def jacobians(ctx: DeviceContext, q, frame: str = "world", point_in_tool=None) -
     return JacobianResult(J, manipulability(J), condition_number(J), frame)
 
 
-def inverse_kinematics(ctx: DeviceContext, T_world_target: np.ndarray, target_name: str, seed=None,
-                       position_only: bool = False, restarts: int = 16):
-    """Solve IK for the context's TCP; raise UserError (exit 2) with the figures when unreachable."""
+def inverse_kinematics(
+    ctx: DeviceContext,
+    T_world_target: np.ndarray,
+    target_name: str,
+    seed=None,
+    position_only: bool = False,
+    restarts: int = 16,
+):
+    """Solve IK for the context's TCP; raise UserError (exit 2) with the figures when
+    unreachable.
+    """
     from ..kinematics.inverse import solve_ik
 
     T_base_target = np.linalg.inv(ctx.T_world_base) @ T_world_target
@@ -122,13 +142,17 @@ def inverse_kinematics(ctx: DeviceContext, T_world_target: np.ndarray, target_na
     _check_joint_count(ctx, np.asarray(seed), "the seed")
     result = solve_ik(ctx.device, T_base_target, ctx.mount, seed, position_only, restarts)
     if not result.success:
-        why = result.unreachable(target_name, ctx.tcp, [j.name for j in ctx.device.joints], position_only)
+        why = result.unreachable(
+            target_name, ctx.tcp, [j.name for j in ctx.device.joints], position_only
+        )
         raise UserError(f"target {why[:-1]}; {restarts + 1} starts)")
     return result
 
 
 def resolve_payload(ctx: DeviceContext, object_name: str | None, mass: float | None, com=None):
-    """A Payload from an object of the cell (at its current pose relative to the TCP, or at the TCP) or a point mass."""
+    """A Payload from an object of the cell (at its current pose relative to the TCP, or at the
+    TCP) or a point mass.
+    """
     from ..dynamics import Payload
     from ..errors import did_you_mean
 
@@ -150,18 +174,25 @@ def resolve_payload(ctx: DeviceContext, object_name: str | None, mass: float | N
 
 def carried_loads(ctx: DeviceContext, exclude=()) -> dict[int, list]:
     """What rides on the device's links in the cell's state - aggregated devices (a hand on the
-    flange), grasped objects - as ``DeviceDynamics`` link loads; ``exclude`` names primitives to leave
+    flange), grasped objects - as ``DeviceDynamics`` link loads; ``exclude`` names primitives to
+    leave
     out (an object given as the payload)."""
     return ctx.world.carried_loads(ctx.device.name, set(exclude))
 
 
 def carried_summary(ctx: DeviceContext, exclude=()) -> list[dict]:
-    """[{"name", "link", "mass"}] of what rides on the device's links (see :func:`carried_loads`)."""
-    return [{"name": name, "link": link, "mass": float(sum(inertial.mass for inertial, _ in bodies))}
-            for name, link, bodies in ctx.world.carried(ctx.device.name, set(exclude))]
+    """[{"name", "link", "mass"}] of what rides on the device's links (see
+    :func:`carried_loads`).
+    """
+    return [
+        {"name": name, "link": link, "mass": float(sum(inertial.mass for inertial, _ in bodies))}
+        for name, link, bodies in ctx.world.carried(ctx.device.name, set(exclude))
+    ]
 
 
-def device_dynamics(ctx: DeviceContext, payload=None, armature: bool = True, friction: bool = True, exclude=()):
+def device_dynamics(
+    ctx: DeviceContext, payload=None, armature: bool = True, friction: bool = True, exclude=()
+):
     """:class:`~rworld_cli.dynamics.DeviceDynamics` of the context's device, payload at its TCP.
 
     What the cell's state puts on its links (hands, grasped objects) is included, as the simulator
@@ -170,8 +201,13 @@ def device_dynamics(ctx: DeviceContext, payload=None, armature: bool = True, fri
     from ..dynamics import DeviceDynamics
 
     if payload is not None and payload.mass > 0 and ctx.mount.link == 0:
-        raise UserError(f"'{ctx.tcp}' sits on the base of '{ctx.device.name}': a payload there loads no joint; choose a TCP on a link")
-    return DeviceDynamics(ctx.device, payload, ctx.mount, armature, friction, link_loads=carried_loads(ctx, exclude))
+        raise UserError(
+            f"'{ctx.tcp}' sits on the base of '{ctx.device.name}': a payload there loads no "
+            "joint; choose a TCP on a link"
+        )
+    return DeviceDynamics(
+        ctx.device, payload, ctx.mount, armature, friction, link_loads=carried_loads(ctx, exclude)
+    )
 
 
 @dataclass
@@ -183,7 +219,9 @@ class StaticResult:
     limiting_joint: np.ndarray  # (N,)
 
 
-def static_torques(ctx: DeviceContext, q, wrench_world, payload=None, gravity: bool = True, exclude=()) -> StaticResult:
+def static_torques(
+    ctx: DeviceContext, q, wrench_world, payload=None, gravity: bool = True, exclude=()
+) -> StaticResult:
     """Joint torques holding the device (and payload) still while the tool exerts ``wrench_world``.
 
     Also the largest multiple of the wrench the effort limits allow, and the joint that binds.
@@ -201,8 +239,6 @@ def static_torques(ctx: DeviceContext, q, wrench_world, payload=None, gravity: b
     return StaticResult(tau_g + tau_w, tau_w, tau_g, cap.scale, cap.limiting_joint)
 
 
-
-
 def the_device(cell_path: str, device: str | None) -> str:
     """``device``, or the cell's only device when none is named."""
     from ..schema.loader import load_cell
@@ -211,12 +247,15 @@ def the_device(cell_path: str, device: str | None) -> str:
         return device
     devices = list(load_cell(cell_path).cell.devices)
     if len(devices) != 1:
-        raise UserError(f"the cell has {len(devices)} devices ({', '.join(devices)}); choose one with --device")
+        raise UserError(
+            f"the cell has {len(devices)} devices ({', '.join(devices)}); choose one with --device"
+        )
     return devices[0]
 
 
 def joint_states(ctx: DeviceContext, states_file: str | None, q_values=None, groups=("q",)):
-    """Joint arrays from a CSV state file (columns ``q1..qn``, ``qd1..``, ...) or one set of q values.
+    """Joint arrays from a CSV state file (columns ``q1..qn``, ``qd1..``, ...) or one set of q
+    values.
 
     Returns
     -------
@@ -233,7 +272,9 @@ def joint_states(ctx: DeviceContext, states_file: str | None, q_values=None, gro
         q = np.asarray(q_values, dtype=float).reshape(1, -1)
         _check_joint_count(ctx, q)
         data, source = {"q": q}, "--q"
-    return data, limit_warnings(source, data["q"], ctx.device.limit_array("lower"), ctx.device.limit_array("upper"))
+    return data, limit_warnings(
+        source, data["q"], ctx.device.limit_array("lower"), ctx.device.limit_array("upper")
+    )
 
 
 def table_text(columns: list[str], rows) -> str:
@@ -258,8 +299,12 @@ def pose_rows(T) -> np.ndarray:
     return np.hstack([T[:, :3, 3], matrix_to_quat(T[:, :3, :3])])
 
 
-def target_pose(ctx: DeviceContext, target: str | None = None, xyz=None, rpy=None, position_only: bool = False):
-    """(T_world_target, name): a frame of the cell, or a point (and fixed-axis roll, pitch, yaw [rad]) in world."""
+def target_pose(
+    ctx: DeviceContext, target: str | None = None, xyz=None, rpy=None, position_only: bool = False
+):
+    """(T_world_target, name): a frame of the cell, or a point (and fixed-axis roll, pitch, yaw
+    [rad]) in world.
+    """
     from ..errors import did_you_mean
     from ..spatial import make_transform, rpy_to_matrix
 
@@ -267,7 +312,9 @@ def target_pose(ctx: DeviceContext, target: str | None = None, xyz=None, rpy=Non
         raise UserError("give --target FRAME or --xyz X,Y,Z (one of them)")
     if target is not None:
         if target not in ctx.world.cell.frames:
-            raise UserError(f"unknown frame '{target}'{did_you_mean(target, ctx.world.cell.frames)}")
+            raise UserError(
+                f"unknown frame '{target}'{did_you_mean(target, ctx.world.cell.frames)}"
+            )
         return ctx.world.T_world(target), target
     if rpy is None and not position_only:
         raise UserError("--xyz needs --rpy, or --position-only")

@@ -1,4 +1,6 @@
-"""Planning tasks: path files, limits, time-optimal timing, payload, trajectories for controllers."""
+"""Planning tasks: path files, limits, time-optimal timing, payload, trajectories for
+controllers.
+"""
 
 from __future__ import annotations
 
@@ -8,7 +10,6 @@ import numpy as np
 
 from ..errors import Issue, UserError
 from .physics import DeviceContext, carried_loads, device_dynamics
-
 
 # --------------------------------------------------------------------------- planning
 
@@ -25,12 +26,22 @@ def path_range_issues(path, device, path_file: str, located=None) -> list[Issue]
     out = []
     scale = np.ones(device.dof) if located is None else located.scale
     for e in range_excursions(path, device.limit_array("lower"), device.limit_array("upper")):
-        piece = int(np.clip(np.searchsorted(path.knots, e.s, side="right") - 1, 0, len(path.knots) - 2))
+        piece = int(
+            np.clip(np.searchsorted(path.knots, e.s, side="right") - 1, 0, len(path.knots) - 2)
+        )
         name = device.joints[e.joint].name
         where = "above its upper" if e.side == "upper" else "below its lower"
-        message = (f"joint {name} leaves its position range between waypoints {piece + 1} and {piece + 2}: "
-                   f"{e.value / scale[e.joint]:.6g} at s = {e.s:.4f}, {where} limit {e.limit / scale[e.joint]:.6g}")
-        out.append(located.issue(piece + 1, e.joint, message) if located is not None else Issue(path_file, 0, 0, "(path)", message))
+        message = (
+            f"joint {name} leaves its position range between waypoints {piece + 1} and "
+            f"{piece + 2}: "
+            f"{e.value / scale[e.joint]:.6g} at s = {e.s:.4f}, {where} limit "
+            f"{e.limit / scale[e.joint]:.6g}"
+        )
+        out.append(
+            located.issue(piece + 1, e.joint, message)
+            if located is not None
+            else Issue(path_file, 0, 0, "(path)", message)
+        )
     return out
 
 
@@ -59,12 +70,16 @@ def load_joint_path(path_file: str, device, check_range: bool = True):
     if check_range:
         issues = path_range_issues(path, device, path_file, loaded)
         if issues:
-            raise CheckFailed(f"{path_file}: the path leaves a joint's position range between waypoints", issues)
+            raise CheckFailed(
+                f"{path_file}: the path leaves a joint's position range between waypoints", issues
+            )
     return path
 
 
 def path_file_issues(path_file: str, device) -> list[Issue]:
-    """For ``rworld validate``: the located range excursions of a path file (read errors are raised)."""
+    """For ``rworld validate``: the located range excursions of a path file (read errors are
+    raised).
+    """
     from ..schema.paths import read_path
 
     loaded = read_path(path_file, device)
@@ -72,7 +87,9 @@ def path_file_issues(path_file: str, device) -> list[Issue]:
 
 
 def write_path_with_knots(path_file: str, knots, output: str, note: str = "") -> None:
-    """Write ``path_file`` again with new ``knots`` (same waypoints, units and boundary), atomically."""
+    """Write ``path_file`` again with new ``knots`` (same waypoints, units and boundary),
+    atomically.
+    """
     from ..schema.paths import write_path_with_knots as write
 
     write(path_file, knots, output, note)
@@ -84,12 +101,22 @@ def planning_limits(device, torque: bool = True, acceleration: bool = True):
     the kind out for every joint."""
     from ..planning.topp import Limits
 
-    v, a, e = device.limit_array("velocity"), device.limit_array("acceleration"), device.limit_array("effort")
-    return Limits(v, a if acceleration and np.any(np.isfinite(a)) else None, e if torque and np.any(np.isfinite(e)) else None)
+    v, a, e = (
+        device.limit_array("velocity"),
+        device.limit_array("acceleration"),
+        device.limit_array("effort"),
+    )
+    return Limits(
+        v,
+        a if acceleration and np.any(np.isfinite(a)) else None,
+        e if torque and np.any(np.isfinite(e)) else None,
+    )
 
 
 def unlimited_joints(device, limits) -> dict[str, list[str]]:
-    """Per kind, the names of the joints that run unlimited in a plan with ``limits`` (no limit in the cell)."""
+    """Per kind, the names of the joints that run unlimited in a plan with ``limits`` (no limit
+    in the cell).
+    """
     names = [j.name for j in device.joints]
     out = {kind: [names[j] for j in joints] for kind, joints in limits.unlimited().items()}
     position = device.unlimited().get("position")
@@ -98,8 +125,15 @@ def unlimited_joints(device, limits) -> dict[str, list[str]]:
     return out
 
 
-def plan_time_optimal(ctx: DeviceContext, path, payload=None, gridpoints: int = 1000, torque: bool = True, friction: bool = False,
-                      exclude=()):
+def plan_time_optimal(
+    ctx: DeviceContext,
+    path,
+    payload=None,
+    gridpoints: int = 1000,
+    torque: bool = True,
+    friction: bool = False,
+    exclude=(),
+):
     """Time-optimal timing of ``path`` for the context's device; (timing, info, dynamics, limits).
 
     The torques include what the cell's state puts on the device's links, except ``exclude``.
@@ -107,7 +141,11 @@ def plan_time_optimal(ctx: DeviceContext, path, payload=None, gridpoints: int = 
     from ..planning.topp import InfeasiblePath, time_optimal
 
     limits = planning_limits(ctx.device, torque)
-    dyn = device_dynamics(ctx, payload, armature=True, friction=friction, exclude=exclude) if limits.effort is not None else None
+    dyn = (
+        device_dynamics(ctx, payload, armature=True, friction=friction, exclude=exclude)
+        if limits.effort is not None
+        else None
+    )
     try:
         timing, info = time_optimal(path, limits, dyn, ctx.gravity_base, gridpoints)
     except InfeasiblePath as exc:
@@ -121,27 +159,53 @@ def parse_period(text: str) -> float:
 
     m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(ms|s|us)?\s*", str(text))
     try:
-        value = float(m.group(1)) * {"ms": 1e-3, "s": 1.0, "us": 1e-6}[m.group(2) or "s"] if m else float("nan")
+        value = (
+            float(m.group(1)) * {"ms": 1e-3, "s": 1.0, "us": 1e-6}[m.group(2) or "s"]
+            if m
+            else float("nan")
+        )
     except ValueError:
         value = float("nan")
     if not (value > 0 and np.isfinite(value)):
-        raise UserError(f"--period '{text}' is not a positive duration: write e.g. 8ms, 0.004s or 0.002")
+        raise UserError(
+            f"--period '{text}' is not a positive duration: write e.g. 8ms, 0.004s or 0.002"
+        )
     return value
 
 
-def sample_timed_path(path, timing, samples: int | None = None, period: float | None = None, grid_instants: bool = False):
+def sample_timed_path(
+    path,
+    timing,
+    samples: int | None = None,
+    period: float | None = None,
+    grid_instants: bool = False,
+):
     """The rows a plan writes: ``samples`` equally spaced instants or every ``period`` seconds,
     plus both sides of every grid instant (where sddot jumps) with ``grid_instants``."""
     from ..planning.topp import sample_instants, sample_path
 
-    return sample_path(path, timing, sample_instants(timing, samples, period), switches=grid_instants)
+    return sample_path(
+        path, timing, sample_instants(timing, samples, period), switches=grid_instants
+    )
 
 
 def trajectory_table(samples, dynamics=None, gravity=None) -> tuple[list[str], np.ndarray]:
-    """(columns, rows) of a trajectory CSV: t, s, sd, sdd, q1..qn, qd1..qdn, qdd1..qddn[, tau1..taun] (SI)."""
+    """(columns, rows) of a trajectory CSV: t, s, sd, sdd, q1..qn, qd1..qdn, qdd1..qddn[,
+    tau1..taun] (SI).
+    """
     n = samples.q.shape[1]
-    cols = ["t", "s", "sd", "sdd"] + [f"{g}{i}" for g in ("q", "qd", "qdd") for i in range(1, n + 1)]
-    blocks = [samples.t[:, None], samples.s[:, None], samples.sd[:, None], samples.sdd[:, None], samples.q, samples.qd, samples.qdd]
+    cols = ["t", "s", "sd", "sdd"] + [
+        f"{g}{i}" for g in ("q", "qd", "qdd") for i in range(1, n + 1)
+    ]
+    blocks = [
+        samples.t[:, None],
+        samples.s[:, None],
+        samples.sd[:, None],
+        samples.sdd[:, None],
+        samples.q,
+        samples.qd,
+        samples.qdd,
+    ]
     if dynamics is not None:
         cols += [f"tau{i}" for i in range(1, n + 1)]
         blocks.append(dynamics.inverse(samples.q, samples.qd, samples.qdd, gravity))
@@ -177,19 +241,39 @@ def read_trajectory(csv_path: str, device) -> TimedTrajectory:
     data = read_states(csv_path, device.dof, ["q", "qd", "qdd"], scalars=("t",))
     t, lines, tcol = data["t"], data["_line"], data["_column"]["t"]
     issues = []
-    back = np.flatnonzero(np.diff(t) < 0)  # a repeated instant is allowed: both sides of a switch in the acceleration
+    back = np.flatnonzero(
+        np.diff(t) < 0
+    )  # a repeated instant is allowed: both sides of a switch in the acceleration
     for k in back[:10]:
-        issues.append(Issue(csv_path, int(lines[k + 1]), int(tcol[k + 1]), "column 't'",
-                            f"time {float(t[k + 1])!r} comes before the row above ({float(t[k])!r}): a trajectory's time must not go back"))
+        issues.append(
+            Issue(
+                csv_path,
+                int(lines[k + 1]),
+                int(tcol[k + 1]),
+                "column 't'",
+                f"time {float(t[k + 1])!r} comes before the row above ({float(t[k])!r}): a "
+                "trajectory's time must not go back",
+            )
+        )
     lo, hi = device.limit_array("lower"), device.limit_array("upper")
     for k, j in np.argwhere((data["q"] < lo - 1e-9) | (data["q"] > hi + 1e-9))[:10]:
-        issues.append(Issue(csv_path, int(lines[k]), 0, f"column 'q{j + 1}'",
-                            f"{data['q'][k, j]:.6g} is outside the position limits of {device.joints[j].name} [{lo[j]:.6g}, {hi[j]:.6g}]"))
+        issues.append(
+            Issue(
+                csv_path,
+                int(lines[k]),
+                0,
+                f"column 'q{j + 1}'",
+                f"{data['q'][k, j]:.6g} is outside the position limits of {device.joints[j].name} "
+                f"[{lo[j]:.6g}, {hi[j]:.6g}]",
+            )
+        )
     if issues:
         raise UserError(f"{csv_path}: {len(issues)} error(s)", issues)
     if not t[-1] > t[0]:
-        raise UserError(f"{csv_path}: a trajectory needs rows at two instants at least",
-                        [Issue(csv_path, int(lines[0]), 1, "(rows)", "every row is at the same instant")])
+        raise UserError(
+            f"{csv_path}: a trajectory needs rows at two instants at least",
+            [Issue(csv_path, int(lines[0]), 1, "(rows)", "every row is at the same instant")],
+        )
     return TimedTrajectory(t, data["q"], data["qd"], data["qdd"], csv_path)
 
 
@@ -201,12 +285,22 @@ class PayloadResult:
     instants: int  # instants checked
 
 
-def plan_payload(ctx: DeviceContext, path_file: str | None, trajectory_file: str | None, timing: str = "time-optimal",
-                 duration: float | None = None, com=(0.0, 0.0, 0.0), payload_object: str | None = None,
-                 gridpoints: int = 1000, samples: int = 20001) -> PayloadResult:
-    """The exact payload capacity of a motion: a path timed here (time-optimal or quintic) or a trajectory CSV.
+def plan_payload(
+    ctx: DeviceContext,
+    path_file: str | None,
+    trajectory_file: str | None,
+    timing: str = "time-optimal",
+    duration: float | None = None,
+    com=(0.0, 0.0, 0.0),
+    payload_object: str | None = None,
+    gridpoints: int = 1000,
+    samples: int = 20001,
+) -> PayloadResult:
+    """The exact payload capacity of a motion: a path timed here (time-optimal or quintic) or a
+    trajectory CSV.
 
-    The torques include what the cell's state puts on the device's links (except ``payload_object``).
+    The torques include what the cell's state puts on the device's links (except
+    ``payload_object``).
     """
     from ..dynamics import Payload
     from ..planning.payload import payload_capacity, quintic_timing
@@ -225,7 +319,8 @@ def plan_payload(ctx: DeviceContext, path_file: str | None, trajectory_file: str
             T = duration
         else:
             tm, _, _, _ = plan_time_optimal(ctx, path, None, gridpoints, torque=False)
-            # the acceleration jumps at grid instants: both one-sided limits count, not only the samples
+            # the acceleration jumps at grid instants: both one-sided limits count, not only the
+            # samples
             rows = sample_timed_path(path, tm, samples, grid_instants=True)
             t, q, qd, qdd, T = rows.t, rows.q, rows.qd, rows.qdd, tm.duration
     unit = None
@@ -234,11 +329,24 @@ def plan_payload(ctx: DeviceContext, path_file: str | None, trajectory_file: str
         if obj is None or obj.inertial.mass <= 0:
             raise UserError(f"'{payload_object}' is not an object with mass in the cell")
         held = payload_object in ctx.world.subtree(ctx.tcp)
-        body = Payload.rigid_body(obj.inertial, ctx.world.T(ctx.tcp, payload_object) if held else None)
+        body = Payload.rigid_body(
+            obj.inertial, ctx.world.T(ctx.tcp, payload_object) if held else None
+        )
         unit = Payload(1.0, body.com, body.inertia / body.mass)
     exclude = [payload_object] if payload_object else ()
-    cap = payload_capacity(ctx.device, q, qd, qdd, ctx.gravity_base, com, ctx.mount, armature=True, friction=False,
-                           unit_payload=unit, link_loads=carried_loads(ctx, exclude))
+    cap = payload_capacity(
+        ctx.device,
+        q,
+        qd,
+        qdd,
+        ctx.gravity_base,
+        com,
+        ctx.mount,
+        armature=True,
+        friction=False,
+        unit_payload=unit,
+        link_loads=carried_loads(ctx, exclude),
+    )
     return PayloadResult(cap, float(T), float(t[cap.sample]), len(t))
 
 
@@ -259,9 +367,18 @@ class TimeOptimalPlan:
     written: list  # files written
 
     def as_dict(self) -> dict:
-        return {"duration": self.timing.duration, "binding": self.binding, "dense_ratio": self.info["dense_ratio"],
-                "repaired_gridpoints": self.info["repaired"], "rounds": self.info["rounds"], "slowdown": self.timing.scale,
-                "peak_ratio": self.peak_ratio, "unlimited": self.unlimited, "carried": self.carried, "rows": len(self.rows.t)}
+        return {
+            "duration": self.timing.duration,
+            "binding": self.binding,
+            "dense_ratio": self.info["dense_ratio"],
+            "repaired_gridpoints": self.info["repaired"],
+            "rounds": self.info["rounds"],
+            "slowdown": self.timing.scale,
+            "peak_ratio": self.peak_ratio,
+            "unlimited": self.unlimited,
+            "carried": self.carried,
+            "rows": len(self.rows.t),
+        }
 
 
 def binding_shares(binding: list[str]) -> dict[str, float]:
@@ -272,19 +389,35 @@ def binding_shares(binding: list[str]) -> dict[str, float]:
     return {k: v / len(binding) for k, v in sorted(counts.items(), key=lambda kv: -kv[1])}
 
 
-def time_optimal_plan(ctx: DeviceContext, path_file: str, gridpoints: int = 1000, torque: bool = True,
-                      payload_object: str | None = None, payload_mass: float | None = None, payload_com=None,
-                      samples: int | None = 20001, period: float | None = None, grid_instants: bool = False,
-                      output: str | None = None, plot: str | None = None) -> TimeOptimalPlan:
-    """``rworld plan time-optimal``: the fastest timing of a path file, sampled, checked and written (CSV, PNG)."""
+def time_optimal_plan(
+    ctx: DeviceContext,
+    path_file: str,
+    gridpoints: int = 1000,
+    torque: bool = True,
+    payload_object: str | None = None,
+    payload_mass: float | None = None,
+    payload_com=None,
+    samples: int | None = 20001,
+    period: float | None = None,
+    grid_instants: bool = False,
+    output: str | None = None,
+    plot: str | None = None,
+) -> TimeOptimalPlan:
+    """``rworld plan time-optimal``: the fastest timing of a path file, sampled, checked and
+    written (CSV, PNG).
+    """
     from ..planning.topp import limit_ratios
     from ..schema.tables import write_csv
     from .physics import carried_summary, resolve_payload
 
     path = load_joint_path(path_file, ctx.device)
     payload = resolve_payload(ctx, payload_object, payload_mass, payload_com)
-    exclude = [payload_object] if payload_object else ()  # an object given as the payload is not also carried
-    timing, info, dyn, limits = plan_time_optimal(ctx, path, payload, gridpoints, torque, exclude=exclude)
+    exclude = (
+        [payload_object] if payload_object else ()
+    )  # an object given as the payload is not also carried
+    timing, info, dyn, limits = plan_time_optimal(
+        ctx, path, payload, gridpoints, torque, exclude=exclude
+    )
     rows = sample_timed_path(path, timing, samples, period, grid_instants)
     ratios = limit_ratios(rows.q, rows.qd, rows.qdd, limits, dyn, ctx.gravity_base)
     written = []
@@ -297,16 +430,39 @@ def time_optimal_plan(ctx: DeviceContext, path_file: str, gridpoints: int = 1000
         write_csv(output, *trajectory_table(rows, dyn, ctx.gravity_base))
         written.append(output)
     peaks = {k: float(np.max(np.where(np.isfinite(v), v, 0.0))) for k, v in ratios.items()}
-    return TimeOptimalPlan(timing, info, rows, peaks, binding_shares(info["binding"]), unlimited_joints(ctx.device, limits),
-                           carried_summary(ctx, exclude) if dyn is not None else [], written)
+    return TimeOptimalPlan(
+        timing,
+        info,
+        rows,
+        peaks,
+        binding_shares(info["binding"]),
+        unlimited_joints(ctx.device, limits),
+        carried_summary(ctx, exclude) if dyn is not None else [],
+        written,
+    )
 
 
-def load_optimal_plan(ctx: DeviceContext, path_file: str, duration: float, com=(0.0, 0.0, 0.0), gridpoints: int = 400,
-                      tolerance: float = 1e-4, shape: bool = False, evaluations: int = 80, shape_output: str | None = None,
-                      samples: int | None = 20001, period: float | None = None, grid_instants: bool = False,
-                      output: str | None = None, progress=None):
-    """``rworld plan load-optimal``: (LoadOptimal, unlimited joints) - the heaviest payload within ``duration``,
-    its timing (and with ``shape`` its knots); writes the reshaped path file and the CSV when asked."""
+def load_optimal_plan(
+    ctx: DeviceContext,
+    path_file: str,
+    duration: float,
+    com=(0.0, 0.0, 0.0),
+    gridpoints: int = 400,
+    tolerance: float = 1e-4,
+    shape: bool = False,
+    evaluations: int = 80,
+    shape_output: str | None = None,
+    samples: int | None = 20001,
+    period: float | None = None,
+    grid_instants: bool = False,
+    output: str | None = None,
+    progress=None,
+):
+    """``rworld plan load-optimal``: (LoadOptimal, unlimited joints).
+
+    The heaviest payload within ``duration``, its timing (and with ``shape`` its knots); writes the
+    reshaped path file and the CSV when asked.
+    """
     from ..planning.payload import load_optimal
     from ..planning.topp import InfeasiblePath
     from ..schema.tables import write_csv
@@ -318,14 +474,35 @@ def load_optimal_plan(ctx: DeviceContext, path_file: str, duration: float, com=(
     path = load_joint_path(path_file, ctx.device)
     limits = planning_limits(ctx.device, torque=True)
     try:
-        r = load_optimal(ctx.device, path, limits, ctx.gravity_base, com, duration, ctx.mount, gridpoints, tolerance,
-                         shape=shape, evaluations=evaluations, progress=progress, link_loads=carried_loads(ctx))
+        r = load_optimal(
+            ctx.device,
+            path,
+            limits,
+            ctx.gravity_base,
+            com,
+            duration,
+            ctx.mount,
+            gridpoints,
+            tolerance,
+            shape=shape,
+            evaluations=evaluations,
+            progress=progress,
+            link_loads=carried_loads(ctx),
+        )
     except InfeasiblePath as exc:
         raise UserError(str(exc)) from None
     if shape_output:
-        write_path_with_knots(path_file, r.path.knots, shape_output, f"they carry {r.mass:.4f} kg in {duration} s at {ctx.tcp}")
+        write_path_with_knots(
+            path_file,
+            r.path.knots,
+            shape_output,
+            f"they carry {r.mass:.4f} kg in {duration} s at {ctx.tcp}",
+        )
     if output:
-        write_csv(output, *trajectory_table(sample_timed_path(r.path, r.timing, samples, period, grid_instants)))
+        write_csv(
+            output,
+            *trajectory_table(sample_timed_path(r.path, r.timing, samples, period, grid_instants)),
+        )
     return r, unlimited_joints(ctx.device, limits)
 
 
@@ -339,9 +516,18 @@ class ImpulsePlan:
     unlimited: dict
 
 
-def impulse_plan(ctx: DeviceContext, target: str, direction_world, payload_mass: float = 0.0, com=(0.0, 0.0, 0.0),
-                 q_start=None, gridpoints: int = 300) -> ImpulsePlan:
-    """``rworld plan impulse``: the motion from rest to ``target`` with the most momentum along ``direction_world``."""
+def impulse_plan(
+    ctx: DeviceContext,
+    target: str,
+    direction_world,
+    payload_mass: float = 0.0,
+    com=(0.0, 0.0, 0.0),
+    q_start=None,
+    gridpoints: int = 300,
+) -> ImpulsePlan:
+    """``rworld plan impulse``: the motion from rest to ``target`` with the most momentum along
+    ``direction_world``.
+    """
     from ..errors import did_you_mean
     from ..planning.impulse import max_impulse
     from ..planning.topp import InfeasiblePath
@@ -352,15 +538,35 @@ def impulse_plan(ctx: DeviceContext, target: str, direction_world, payload_mass:
     d_world = np.asarray(direction_world, dtype=float)
     if np.linalg.norm(d_world) < 1e-12:
         raise UserError("--direction must not be zero")
-    q_start = ctx.world.joints(ctx.device.name) if q_start is None else np.asarray(q_start, dtype=float)
+    q_start = (
+        ctx.world.joints(ctx.device.name) if q_start is None else np.asarray(q_start, dtype=float)
+    )
     q_end = inverse_kinematics(ctx, ctx.world.T_world(target), target, q_start).q
     payload = resolve_payload(ctx, None, payload_mass, com) if payload_mass > 0 else None
     dyn = device_dynamics(ctx, payload, armature=True, friction=False)
     d_base = ctx.T_world_base[:3, :3].T @ d_world
     limits = planning_limits(ctx.device)
     try:
-        r = max_impulse(ctx.device, q_start, q_end, d_base, payload_mass, com, limits, dyn, ctx.gravity_base, ctx.mount, gridpoints)
+        r = max_impulse(
+            ctx.device,
+            q_start,
+            q_end,
+            d_base,
+            payload_mass,
+            com,
+            limits,
+            dyn,
+            ctx.gravity_base,
+            ctx.mount,
+            gridpoints,
+        )
     except InfeasiblePath as exc:
         raise UserError(str(exc)) from None
-    return ImpulsePlan(r, d_world / np.linalg.norm(d_world), ctx.T_world_base[:3, :3] @ r.end_velocity, np.asarray(q_start),
-                       q_end, unlimited_joints(ctx.device, limits))
+    return ImpulsePlan(
+        r,
+        d_world / np.linalg.norm(d_world),
+        ctx.T_world_base[:3, :3] @ r.end_velocity,
+        np.asarray(q_start),
+        q_end,
+        unlimited_joints(ctx.device, limits),
+    )

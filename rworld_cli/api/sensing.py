@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-
 from pathlib import Path
 
 import numpy as np
@@ -10,12 +9,15 @@ import numpy as np
 from ..errors import UserError
 from .cells import load_world
 
-
 # --------------------------------------------------------------------------- sensing
 
 
-def sense(cell_path: str, joints: dict[str, list[float]] | None = None, sensors: list[str] | None = None,
-          tolerance: float | None = None):
+def sense(
+    cell_path: str,
+    joints: dict[str, list[float]] | None = None,
+    sensors: list[str] | None = None,
+    tolerance: float | None = None,
+):
     """Load a cell, set joint values, and read its sensors by interference checking.
 
     Returns
@@ -29,13 +31,14 @@ def sense(cell_path: str, joints: dict[str, list[float]] | None = None, sensors:
     world, _ = load_world(cell_path, joints)
     for name in sensors or []:
         if name not in world.cell.sensors:
-            raise UserError(f"unknown sensor '{name}'{did_you_mean(name, world.cell.sensors)}; the cell has: {', '.join(world.cell.sensors) or 'none'}")
+            raise UserError(
+                f"unknown sensor '{name}'{did_you_mean(name, world.cell.sensors)}; the cell has: "
+                f"{', '.join(world.cell.sensors) or 'none'}"
+            )
     tol = DEFAULT_TOLERANCE if tolerance is None else tolerance
     if not (tol >= 0 and np.isfinite(tol)):
         raise UserError(f"the tolerance must be a finite length >= 0 (m), got {tolerance}")
     return world, read_sensors(world, sensors or None, tol)
-
-
 
 
 def describe_reading(reading) -> list[str]:
@@ -46,15 +49,25 @@ def describe_reading(reading) -> list[str]:
 
 
 def write_sensor_maps(readings, path: str) -> Path:
-    """One PNG panel per sensor whose type draws a map (tactile, proximity), in the report's Fig. 13 colours."""
+    """One PNG panel per sensor whose type draws a map (tactile, proximity), in the report's
+    Fig. 13 colours.
+    """
     from ..sensing.pictures import write_maps_png
 
     return write_maps_png(readings, path)
 
 
-def render_scene(cell_path: str, output: str, joints: dict[str, list[float]] | None = None, tolerance: float | None = None,
-                 view: tuple[float, float] = (25.0, -60.0), frames: bool = True) -> Path:
-    """Draw the cell with its sensors' readings: a PNG (matplotlib) or a glTF binary (.glb), by the file's suffix."""
+def render_scene(
+    cell_path: str,
+    output: str,
+    joints: dict[str, list[float]] | None = None,
+    tolerance: float | None = None,
+    view: tuple[float, float] = (25.0, -60.0),
+    frames: bool = True,
+) -> Path:
+    """Draw the cell with its sensors' readings: a PNG (matplotlib) or a glTF binary (.glb), by
+    the file's suffix.
+    """
     from ..sensing.render import render_glb, render_png
     from ..units import SENSING_TOLERANCE
 

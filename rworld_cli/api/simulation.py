@@ -1,4 +1,6 @@
-"""Simulation tasks: run a cell's programs together (simulate, check), and write what the run gives."""
+"""Simulation tasks: run a cell's programs together (simulate, check), and write what the run
+gives.
+"""
 
 from __future__ import annotations
 
@@ -35,7 +37,9 @@ def simulate_run(cell: str, run: str, dt: float | None = None, progress=None):
 
 
 def write_run_outputs(result, directory: str, plots: bool = False) -> list[Path]:
-    """Timelines (CSV, JSON), events, summary and (``plots``) PNG plots of a run, written atomically."""
+    """Timelines (CSV, JSON), events, summary and (``plots``) PNG plots of a run, written
+    atomically.
+    """
     from ..schema.results import write_results
     from ..simulate.output import output_files, write_plots
 

@@ -26,8 +26,12 @@ from .solve import kabsch
 def constrained(A: np.ndarray, Q: np.ndarray) -> np.ndarray:
     """T from plane rows A (object) and Q (world), (n, 4) each, with R orthogonal."""
     nA, nQ = A[:, :3], Q[:, :3]
-    R = kabsch(nQ / np.linalg.norm(nQ, axis=1, keepdims=True), nA / np.linalg.norm(nA, axis=1, keepdims=True))
-    # q_c = n_q . t + a_c with the rows scaled alike: (Q[:, :3]) t = Q[:, 3] - A[:, 3] * |n_q| / |n_a|
+    R = kabsch(
+        nQ / np.linalg.norm(nQ, axis=1, keepdims=True),
+        nA / np.linalg.norm(nA, axis=1, keepdims=True),
+    )
+    # q_c = n_q . t + a_c with the rows scaled alike: (Q[:, :3]) t = Q[:, 3] - A[:, 3] * |n_q| /
+    # |n_a|
     scale = np.linalg.norm(nQ, axis=1) / np.linalg.norm(nA, axis=1)
     t = np.linalg.lstsq(-nQ, Q[:, 3] - A[:, 3] * scale, rcond=None)[0]
     return spatial.make_transform(R, t)
@@ -54,12 +58,18 @@ def _planes(rng, n: int) -> np.ndarray:
     return np.column_stack([normals, rng.uniform(-1, 1, n)])
 
 
-def run_analysis(kind: str, trials: int = 1000, planes: int = 5, seed: int = 0) -> tuple[list[AnalysisRow], dict]:
-    """Accuracy (exact data) or sensitivity (coefficients off by 0.1 .. 1 %) of both methods over random trials."""
+def run_analysis(
+    kind: str, trials: int = 1000, planes: int = 5, seed: int = 0
+) -> tuple[list[AnalysisRow], dict]:
+    """Accuracy (exact data) or sensitivity (coefficients off by 0.1 .. 1 %) of both methods
+    over random trials.
+    """
     rng = np.random.default_rng(seed)
     errors = {"constrained": ([], []), "unconstrained": ([], [])}
     for _ in range(trials):
-        T = spatial.make_transform(spatial.rpy_to_matrix(rng.uniform(-np.pi, np.pi, 3)), rng.uniform(-1, 1, 3))
+        T = spatial.make_transform(
+            spatial.rpy_to_matrix(rng.uniform(-np.pi, np.pi, 3)), rng.uniform(-1, 1, 3)
+        )
         A = _planes(rng, planes)
         Q = A @ np.linalg.inv(T)
         if kind == "sensitivity":
@@ -72,6 +82,10 @@ def run_analysis(kind: str, trials: int = 1000, planes: int = 5, seed: int = 0) 
             R = Te[:3, :3]
             errors[name][0].append(np.median(rel))
             errors[name][1].append(np.linalg.norm(R.T @ R - np.eye(3)))
-    rows = [AnalysisRow(name, float(np.median(e)), float(np.max(e)), float(np.median(o)), float(np.max(o)))
-            for name, (e, o) in errors.items()]
+    rows = [
+        AnalysisRow(
+            name, float(np.median(e)), float(np.max(e)), float(np.median(o)), float(np.max(o))
+        )
+        for name, (e, o) in errors.items()
+    ]
     return rows, {name: (np.array(e), np.array(o)) for name, (e, o) in errors.items()}

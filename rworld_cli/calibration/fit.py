@@ -73,7 +73,9 @@ def _outliers(residuals: np.ndarray) -> tuple[float, list[int]]:
     return rms, [int(i) for i in np.nonzero(np.abs(residuals) > 3.0 * rms)[0]]
 
 
-def fit_plane(name: str, points: np.ndarray, above=None, probe_radius: float = 0.0, side=None) -> FeatureFit:
+def fit_plane(
+    name: str, points: np.ndarray, above=None, probe_radius: float = 0.0, side=None
+) -> FeatureFit:
     """Total-least-squares plane; normal toward ``above`` (or ``side``, a hint vector) when given.
 
     ``probe_radius`` moves the plane from the probe-ball centres to the surface, against the normal.
@@ -83,7 +85,11 @@ def fit_plane(name: str, points: np.ndarray, above=None, probe_radius: float = 0
     centroid, values, vectors = _scatter(points)
     spread = np.sqrt(values)
     if spread[2] == 0 or spread[1] / spread[2] < 1e-6:
-        raise FitError(f"the points are collinear (in-plane spread ratio {spread[1] / max(spread[2], 1e-300):.2g}); a plane needs points spread in two directions")
+        raise FitError(
+            "the points are collinear (in-plane spread ratio "
+            f"{spread[1] / max(spread[2], 1e-300):.2g}); a plane needs points spread in two "
+            "directions"
+        )
     normal = vectors[:, 0]
     oriented = above is not None
     reference = np.asarray(above, float) - centroid if above is not None else side
@@ -96,13 +102,32 @@ def fit_plane(name: str, points: np.ndarray, above=None, probe_radius: float = 0
     residuals = (points - centroid) @ normal
     if probe_radius:
         if reference is None:
-            raise FitError("probe-radius compensation needs the plane's outside: give an 'above' point")
+            raise FitError(
+                "probe-radius compensation needs the plane's outside: give an 'above' point"
+            )
         centroid = centroid - probe_radius * normal
     rms, outliers = _outliers(residuals)
     condition = float(spread[1] / spread[2])
     if condition < 0.05:
-        warnings.append(f"the points lie almost on a line (in-plane spread ratio {condition:.3f}): the plane's tilt about it is weakly determined")
-    return FeatureFit(name, "plane", centroid, normal, oriented, None, residuals, rms, outliers, condition, len(points), points, warnings)
+        warnings.append(
+            f"the points lie almost on a line (in-plane spread ratio {condition:.3f}): the "
+            "plane's tilt about it is weakly determined"
+        )
+    return FeatureFit(
+        name,
+        "plane",
+        centroid,
+        normal,
+        oriented,
+        None,
+        residuals,
+        rms,
+        outliers,
+        condition,
+        len(points),
+        points,
+        warnings,
+    )
 
 
 def fit_line(name: str, points: np.ndarray, ordered: bool = False) -> FeatureFit:
@@ -120,14 +145,34 @@ def fit_line(name: str, points: np.ndarray, ordered: bool = False) -> FeatureFit
     residuals = np.linalg.norm(perp, axis=1)
     rms, outliers = _outliers(residuals)
     condition = float(1.0 - np.sqrt(values[1] / values[2]))
-    warnings = [] if len(points) >= 3 else ["2 points define the line but leave no residual to check it"]
-    return FeatureFit(name, "line", centroid, direction, ordered, None, residuals, rms, outliers, condition, len(points), points, warnings)
+    warnings = (
+        [] if len(points) >= 3 else ["2 points define the line but leave no residual to check it"]
+    )
+    return FeatureFit(
+        name,
+        "line",
+        centroid,
+        direction,
+        ordered,
+        None,
+        residuals,
+        rms,
+        outliers,
+        condition,
+        len(points),
+        points,
+        warnings,
+    )
 
 
-def fit_circle(name: str, points: np.ndarray, above=None, probe_radius: float = 0.0, side=None) -> FeatureFit:
-    """Circle in 3D: the plane of the points, then a circle in it (algebraic, refined geometrically).
+def fit_circle(
+    name: str, points: np.ndarray, above=None, probe_radius: float = 0.0, side=None
+) -> FeatureFit:
+    """Circle in 3D: the plane of the points, then a circle in it (algebraic, refined
+    geometrically).
 
-    ``probe_radius``: the points are ball centres touching the inside of a hole; the rim's radius is larger by it.
+    ``probe_radius``: the points are ball centres touching the inside of a hole; the rim's radius is
+    larger by it.
     """
     from scipy.optimize import least_squares
 
@@ -140,10 +185,18 @@ def fit_circle(name: str, points: np.ndarray, above=None, probe_radius: float = 
     v = np.cross(n, u)
     xy = np.stack([(points - plane.point) @ u, (points - plane.point) @ v], axis=1)
     A = np.column_stack([2 * xy, np.ones(len(xy))])
-    sol, *_ = np.linalg.lstsq(A, (xy**2).sum(axis=1), rcond=None)  # Kasa: x^2 + y^2 = 2 a x + 2 b y + c
+    sol, *_ = np.linalg.lstsq(
+        A, (xy**2).sum(axis=1), rcond=None
+    )  # Kasa: x^2 + y^2 = 2 a x + 2 b y + c
     c0 = sol[:2]
     r0 = np.sqrt(max(sol[2] + c0 @ c0, 0.0))
-    res = least_squares(lambda p: np.linalg.norm(xy - p[:2], axis=1) - p[2], np.r_[c0, r0], xtol=1e-15, ftol=1e-15, gtol=1e-15)
+    res = least_squares(
+        lambda p: np.linalg.norm(xy - p[:2], axis=1) - p[2],
+        np.r_[c0, r0],
+        xtol=1e-15,
+        ftol=1e-15,
+        gtol=1e-15,
+    )
     cx, cy, r = res.x
     center = plane.point + cx * u + cy * v
     residuals = np.linalg.norm(xy - [cx, cy], axis=1) - r
@@ -153,9 +206,25 @@ def fit_circle(name: str, points: np.ndarray, above=None, probe_radius: float = 
     rms, outliers = _outliers(residuals)
     warnings = list(plane.warnings)
     if span < np.radians(120):
-        warnings.append(f"the points cover only {np.degrees(span):.0f} deg of the circle: its centre is weakly determined; spread them round the rim")
-    return FeatureFit(name, "circle", center, n, plane.oriented, float(r + probe_radius), residuals, rms, outliers,
-                      float(span / (2 * np.pi)), len(points), points, warnings)
+        warnings.append(
+            f"the points cover only {np.degrees(span):.0f} deg of the circle: its centre is "
+            "weakly determined; spread them round the rim"
+        )
+    return FeatureFit(
+        name,
+        "circle",
+        center,
+        n,
+        plane.oriented,
+        float(r + probe_radius),
+        residuals,
+        rms,
+        outliers,
+        float(span / (2 * np.pi)),
+        len(points),
+        points,
+        warnings,
+    )
 
 
 def fit_point(name: str, points: np.ndarray) -> FeatureFit:
@@ -165,4 +234,18 @@ def fit_point(name: str, points: np.ndarray) -> FeatureFit:
     center = points.mean(axis=0)
     residuals = np.linalg.norm(points - center, axis=1)
     rms, outliers = _outliers(residuals)
-    return FeatureFit(name, "point", center, None, False, None, residuals, rms, outliers, 1.0, len(points), points, [])
+    return FeatureFit(
+        name,
+        "point",
+        center,
+        None,
+        False,
+        None,
+        residuals,
+        rms,
+        outliers,
+        1.0,
+        len(points),
+        points,
+        [],
+    )

@@ -15,9 +15,9 @@ import numpy as np
 
 from ..errors import UserError
 from ..model.cell import CellModel, Feature
+from ..model.measurements import FeatureProbes, Measurement, MeasurementSet
 from ..world.tree import World
 from .fit import FeatureFit, FitError, fit_circle, fit_line, fit_plane, fit_point
-from ..model.measurements import FeatureProbes, Measurement, MeasurementSet
 from .solve import FrameSolution, apply_condition, solve_natural
 
 # --------------------------------------------------------------------------- where to probe
@@ -97,15 +97,26 @@ def probe_points(cell: CellModel, feature: Feature, n: int, inset: float = 0.15)
             centre = on_face.mean(axis=0)
             return on_face[pick], centre + 0.01 * nrm, False
         k += 1
-    raise UserError(f"feature '{feature.name}' does not meet its owner's geometry: cannot place probe points on it")
+    raise UserError(
+        f"feature '{feature.name}' does not meet its owner's geometry: cannot place probe points "
+        "on it"
+    )
 
 
 # --------------------------------------------------------------------------- simulated probing
 
 
-def simulate_measurements(nominal: CellModel, truth: CellModel, features: list[str], n_points: dict[str, int],
-                          sigma: float, seed: int) -> dict:
-    """Probe points (SI, world) of ``features`` of the truth cell, with Gaussian noise ``sigma`` [m]."""
+def simulate_measurements(
+    nominal: CellModel,
+    truth: CellModel,
+    features: list[str],
+    n_points: dict[str, int],
+    sigma: float,
+    seed: int,
+) -> dict:
+    """Probe points (SI, world) of ``features`` of the truth cell, with Gaussian noise ``sigma``
+    [m].
+    """
     rng = np.random.default_rng(seed)
     world = World(truth)
     out = {}
@@ -114,7 +125,9 @@ def simulate_measurements(nominal: CellModel, truth: CellModel, features: list[s
         pts, above, ordered = probe_points(nominal, f, n_points.get(name, 8))
         T = world.T_world(f.owner)
         pw = pts @ T[:3, :3].T + T[:3, 3] + rng.normal(0.0, sigma, pts.shape)
-        out[name] = FeatureProbes(pw, T[:3, :3] @ above + T[:3, 3] if above is not None else None, bool(ordered))
+        out[name] = FeatureProbes(
+            pw, T[:3, :3] @ above + T[:3, 3] if above is not None else None, bool(ordered)
+        )
     return out
 
 
@@ -123,7 +136,9 @@ def simulate_measurements(nominal: CellModel, truth: CellModel, features: list[s
 
 @dataclass
 class CalibrationResult:
-    """Solutions per conditioned frame, and the overlay of calibrated poses (relative to parents, SI)."""
+    """Solutions per conditioned frame, and the overlay of calibrated poses (relative to
+    parents, SI).
+    """
 
     cell: str
     solutions: dict[str, FrameSolution]
@@ -145,7 +160,9 @@ def _fit(feature: Feature, m: Measurement, T_nominal_owner: np.ndarray) -> Featu
     return fit_point(feature.name, m.points)
 
 
-def calibrate(cell: CellModel, measured: MeasurementSet, frames: list[str] | None = None) -> CalibrationResult:
+def calibrate(
+    cell: CellModel, measured: MeasurementSet, frames: list[str] | None = None
+) -> CalibrationResult:
     """Calibrate the conditioned frames of ``cell`` from the measurements.
 
     Raises
@@ -160,7 +177,10 @@ def calibrate(cell: CellModel, measured: MeasurementSet, frames: list[str] | Non
         if name not in conditions:
             from ..errors import did_you_mean
 
-            raise UserError(f"'{name}' has no frame condition in the cell{did_you_mean(name, conditions)}; conditioned frames: {', '.join(conditions)}")
+            raise UserError(
+                f"'{name}' has no frame condition in the cell{did_you_mean(name, conditions)}; "
+                f"conditioned frames: {', '.join(conditions)}"
+            )
     fits: dict[str, FeatureFit] = {}
     problems = []
     for name, m in measured.measurements.items():
@@ -173,8 +193,12 @@ def calibrate(cell: CellModel, measured: MeasurementSet, frames: list[str] | Non
         raise UserError("measured points do not define their features:\n  " + "\n  ".join(problems))
     solutions: dict[str, FrameSolution] = {}
     undetermined: dict[str, str] = {}
-    # natural frames first, then auxiliary frames parents-first (a frame's parent may be conditioned too)
-    order = sorted(conditions.values(), key=lambda c: (c.code not in ("C1", "C2"), len(world.subtree(c.frame)) * -1))
+    # natural frames first, then auxiliary frames parents-first (a frame's parent may be conditioned
+    # too)
+    order = sorted(
+        conditions.values(),
+        key=lambda c: (c.code not in ("C1", "C2"), len(world.subtree(c.frame)) * -1),
+    )
     radii = {n: m.probe_radius for n, m in measured.measurements.items()}
     for c in order:
         missing = [f for f in c.features if f not in fits]
@@ -184,7 +208,15 @@ def calibrate(cell: CellModel, measured: MeasurementSet, frames: list[str] | Non
         T_nom = world.T_world(c.frame)
         if c.code in ("C1", "C2"):
             feats = [cell.features[f] for f in c.features]
-            sol = solve_natural(c.frame, c.code, feats, {f: fits[f] for f in c.features}, radii, T_nom, measured.sigma)
+            sol = solve_natural(
+                c.frame,
+                c.code,
+                feats,
+                {f: fits[f] for f in c.features},
+                radii,
+                T_nom,
+                measured.sigma,
+            )
             if not sol.determined:
                 undetermined[c.frame] = sol.reason
                 solutions[c.frame] = sol
@@ -202,9 +234,20 @@ def calibrate(cell: CellModel, measured: MeasurementSet, frames: list[str] | Non
             T_owner_frame = world.T(owner, c.frame)
             T_new_owner = apply_condition(c.code, T_owner_frame, f.kind, p, d)
             T_new = T_owner @ T_new_owner
-            sol = FrameSolution(c.frame, c.code, True, T_new, T_nom, residual_rms=fit.rms, warnings=list(fit.warnings))
+            sol = FrameSolution(
+                c.frame,
+                c.code,
+                True,
+                T_new,
+                T_nom,
+                residual_rms=fit.rms,
+                warnings=list(fit.warnings),
+            )
             if owner not in solutions:
-                sol.warnings.append(f"the owner '{owner}' is not calibrated: the condition is applied in its nominal frame")
+                sol.warnings.append(
+                    f"the owner '{owner}' is not calibrated: the condition is applied in its "
+                    "nominal frame"
+                )
             world.place(c.frame, T_new)
             solutions[c.frame] = sol
     overlay = {}
@@ -214,5 +257,11 @@ def calibrate(cell: CellModel, measured: MeasurementSet, frames: list[str] | Non
     for name in wanted:
         if name not in solutions and name not in undetermined:
             undetermined[name] = "not solved"
-    return CalibrationResult(cell.name, solutions, fits, overlay,
-                             {k: v for k, v in undetermined.items() if k in wanted}, measured.files)
+    return CalibrationResult(
+        cell.name,
+        solutions,
+        fits,
+        overlay,
+        {k: v for k, v in undetermined.items() if k in wanted},
+        measured.files,
+    )

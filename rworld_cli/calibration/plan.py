@@ -35,9 +35,15 @@ class Directive:
     @property
     def how(self) -> str:
         if self.kind == "plane":
-            return f"{len(self.points)} points spread over the face, then 1 point above it (outside the object)"
+            return (
+                f"{len(self.points)} points spread over the face, then 1 point above it "
+                "(outside the object)"
+            )
         if self.kind == "line":
-            return f"{len(self.points)} points along the edge, in the listed order (first -> last gives the direction)"
+            return (
+                f"{len(self.points)} points along the edge, in the listed order (first -> last "
+                "gives the direction)"
+            )
         if self.kind == "circle":
             return f"{len(self.points)} points round the rim, then 1 point above its plane"
         return f"{len(self.points)} probe(s) of the point"
@@ -78,7 +84,9 @@ def _fits(cell: CellModel, world: World, names: list[str], n: int):
     return fits, directives
 
 
-def plan_measurements(cell: CellModel, frames: list[str] | None = None, sigma: float = 5e-5, tolerance: float = 1e-4) -> list[FramePlan]:
+def plan_measurements(
+    cell: CellModel, frames: list[str] | None = None, sigma: float = 5e-5, tolerance: float = 1e-4
+) -> list[FramePlan]:
     """Directives per conditioned frame (all by default), with predicted errors."""
     world = World(cell)
     plans = []
@@ -87,7 +95,15 @@ def plan_measurements(cell: CellModel, frames: list[str] | None = None, sigma: f
             continue
         if c.code not in ("C1", "C2"):
             f = cell.features[c.features[0]]
-            n = next(k for k in LADDER if k >= MINIMUM[f.kind] and sigma / np.sqrt(k) * 2 <= tolerance) if sigma * 2 / np.sqrt(50) <= tolerance else 50
+            n = (
+                next(
+                    k
+                    for k in LADDER
+                    if k >= MINIMUM[f.kind] and sigma / np.sqrt(k) * 2 <= tolerance
+                )
+                if sigma * 2 / np.sqrt(50) <= tolerance
+                else 50
+            )
             _, directives = _fits(cell, world, list(c.features), n)
             plans.append(FramePlan(c.frame, c.code, directives, True, sigma / np.sqrt(n), 0.0))
             continue
@@ -104,8 +120,17 @@ def plan_measurements(cell: CellModel, frames: list[str] | None = None, sigma: f
             s = np.linalg.svd(Jn, compute_uv=False)
             condition = float(s[0] / s[-1]) if len(J) >= 6 and s[-1] > 0 else np.inf
             if condition > REFUSE_CONDITION:
-                chosen = FramePlan(c.frame, c.code, directives, False, np.inf, np.inf, condition,
-                                   f"the conditions cannot determine this frame (condition number {condition:.3g}): add features")
+                chosen = FramePlan(
+                    c.frame,
+                    c.code,
+                    directives,
+                    False,
+                    np.inf,
+                    np.inf,
+                    condition,
+                    "the conditions cannot determine this frame (condition number "
+                    f"{condition:.3g}): add features",
+                )
                 break
             cov = sigma**2 * np.linalg.inv(J.T @ J)
             sig_t = float(np.sqrt(np.trace(cov[3:, 3:])))
@@ -114,7 +139,9 @@ def plan_measurements(cell: CellModel, frames: list[str] | None = None, sigma: f
             if 2 * np.sqrt(np.max(np.diag(cov[3:, 3:]))) <= tolerance:
                 break
         else:
-            chosen.warnings.append(f"even {LADDER[-1]} points per feature leave a predicted error above the tolerance")
+            chosen.warnings.append(
+                f"even {LADDER[-1]} points per feature leave a predicted error above the tolerance"
+            )
         plans.append(chosen)
     # a feature serving several frames is probed once, with the most points any of them needs
     most: dict[str, int] = {}
@@ -123,7 +150,9 @@ def plan_measurements(cell: CellModel, frames: list[str] | None = None, sigma: f
             most[d.feature] = max(most.get(d.feature, 0), len(d.points))
     for plan in plans:
         if any(len(d.points) < most[d.feature] for d in plan.directives):
-            plan.directives = [_fits(cell, world, [d.feature], most[d.feature])[1][0] for d in plan.directives]
+            plan.directives = [
+                _fits(cell, world, [d.feature], most[d.feature])[1][0] for d in plan.directives
+            ]
             if plan.code not in ("C1", "C2"):
                 plan.sigma_translation = sigma / np.sqrt(most[plan.directives[0].feature])
     return plans

@@ -76,7 +76,9 @@ class FrameSolution:
     def correction(self) -> tuple[float, float]:
         """(translation [m], rotation angle [rad]) from nominal to calibrated."""
         delta = np.linalg.inv(self.T_nominal) @ self.T_world
-        return float(np.linalg.norm(delta[:3, 3])), float(np.linalg.norm(spatial.rotation_vector(delta[:3, :3])))
+        return float(np.linalg.norm(delta[:3, 3])), float(
+            np.linalg.norm(spatial.rotation_vector(delta[:3, :3]))
+        )
 
 
 def kabsch(world: np.ndarray, nominal: np.ndarray) -> np.ndarray:
@@ -85,7 +87,9 @@ def kabsch(world: np.ndarray, nominal: np.ndarray) -> np.ndarray:
 
 
 def kabsch_checked(world: np.ndarray, nominal: np.ndarray) -> tuple[np.ndarray, bool]:
-    """(R, mirrored): ``mirrored`` when the best orthogonal fit was a reflection and the guard took the nearest rotation."""
+    """(R, mirrored): ``mirrored`` when the best orthogonal fit was a reflection and the guard
+    took the nearest rotation.
+    """
     M = world.T @ nominal  # the report's M = Q A^T
     U, s, Vt = np.linalg.svd(M)
     mirrored = np.linalg.det(U @ Vt) < 0 and s[-1] > 1e-9 * s[0]
@@ -96,8 +100,12 @@ def kabsch_checked(world: np.ndarray, nominal: np.ndarray) -> tuple[np.ndarray, 
 # --------------------------------------------------------------------------- closed form
 
 
-def _intersections(features: list[Feature], fits: dict[str, FeatureFit]) -> tuple[np.ndarray, np.ndarray]:
-    """Corresponding points (nominal, world) from points, circle centres and feature intersections."""
+def _intersections(
+    features: list[Feature], fits: dict[str, FeatureFit]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Corresponding points (nominal, world) from points, circle centres and feature
+    intersections.
+    """
     nom, wld = [], []
     for f in features:
         fit = fits[f.name]
@@ -110,11 +118,18 @@ def _intersections(features: list[Feature], fits: dict[str, FeatureFit]) -> tupl
         if abs(np.linalg.det(N)) > 0.1:
             Nw = np.stack([fits[x.name].direction for x in (a, b, c)])
             nom.append(np.linalg.solve(N, [x.direction @ x.point for x in (a, b, c)]))
-            wld.append(np.linalg.solve(Nw, [fits[x.name].direction @ fits[x.name].point for x in (a, b, c)]))
+            wld.append(
+                np.linalg.solve(
+                    Nw, [fits[x.name].direction @ fits[x.name].point for x in (a, b, c)]
+                )
+            )
     for line in lines:
         for plane in planes:
             if abs(line.direction @ plane.direction) > 0.1:
-                for src, out, L, P in ((line, nom, line, plane), (None, wld, fits[line.name], fits[plane.name])):
+                for src, out, L, P in (
+                    (line, nom, line, plane),
+                    (None, wld, fits[line.name], fits[plane.name]),
+                ):
                     d, p, n, q = L.direction, L.point, P.direction, P.point
                     out.append(p + d * ((q - p) @ n) / (d @ n))
     for a, b in combinations(lines, 2):
@@ -128,14 +143,24 @@ def _intersections(features: list[Feature], fits: dict[str, FeatureFit]) -> tupl
     return np.array(nom).reshape(-1, 3), np.array(wld).reshape(-1, 3)
 
 
-MIRROR = "the data fit a mirror image of the nominal features best (a reflection, not a rotation): check which feature is which"
+MIRROR = (
+    "the data fit a mirror image of the nominal features best (a reflection, not a "
+    "rotation): check which feature is which"
+)
 
 
-def closed_form(code: str, features: list[Feature], fits: dict[str, FeatureFit]) -> tuple[np.ndarray | None, str]:
-    """The report's closed-form pose, or (None, why not); ``how`` ends with the mirror warning when it applies."""
+def closed_form(
+    code: str, features: list[Feature], fits: dict[str, FeatureFit]
+) -> tuple[np.ndarray | None, str]:
+    """The report's closed-form pose, or (None, why not); ``how`` ends with the mirror warning
+    when it applies.
+    """
     if code == "C2":
-        pairs = [(fits[f.name].direction, f.direction) for f in features
-                 if f.kind in ("plane", "line", "circle") and fits[f.name].oriented]
+        pairs = [
+            (fits[f.name].direction, f.direction)
+            for f in features
+            if f.kind in ("plane", "line", "circle") and fits[f.name].oriented
+        ]
         if len(pairs) >= 2:
             W, A = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
             if np.linalg.matrix_rank(A, tol=0.05) >= 2:
@@ -154,7 +179,11 @@ def closed_form(code: str, features: list[Feature], fits: dict[str, FeatureFit])
                 Aeq, beq = np.vstack(rows), np.concatenate(rhs)
                 if np.linalg.matrix_rank(Aeq, tol=1e-6) == 3:
                     t = np.linalg.lstsq(Aeq, beq, rcond=None)[0]
-                    return spatial.make_transform(R, t), "closed form (oriented directions, eq. 13)" + (f"; {MIRROR}" if mirrored else "")
+                    return spatial.make_transform(
+                        R, t
+                    ), "closed form (oriented directions, eq. 13)" + (
+                        f"; {MIRROR}" if mirrored else ""
+                    )
         # fall through to the points when orientation information is short
     nominal, world = _intersections(features, fits)
     if len(nominal) >= 3:
@@ -163,14 +192,23 @@ def closed_form(code: str, features: list[Feature], fits: dict[str, FeatureFit])
         if s[1] > 1e-3 * s[0]:
             R, mirrored = kabsch_checked(world - world.mean(axis=0), centered)
             t = world.mean(axis=0) - R @ nominal.mean(axis=0)
-            return spatial.make_transform(R, t), f"closed form ({len(nominal)} intersection points)" + (f"; {MIRROR}" if mirrored else "")
-    return None, "too few oriented directions or non-collinear intersection points for the closed form"
+            return spatial.make_transform(
+                R, t
+            ), f"closed form ({len(nominal)} intersection points)" + (
+                f"; {MIRROR}" if mirrored else ""
+            )
+    return (
+        None,
+        "too few oriented directions or non-collinear intersection points for the closed form",
+    )
 
 
 # --------------------------------------------------------------------------- maximum likelihood
 
 
-def _residuals(features: list[Feature], fits: dict[str, FeatureFit], radii: dict[str, float], T: np.ndarray) -> np.ndarray:
+def _residuals(
+    features: list[Feature], fits: dict[str, FeatureFit], radii: dict[str, float], T: np.ndarray
+) -> np.ndarray:
     """Probe points' deviations from the nominal features under pose T (object -> world)."""
     R, t = T[:3, :3], T[:3, 3]
     out = []
@@ -200,14 +238,16 @@ def _perpendicular_basis(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return e1, np.cross(d, e1)
 
 
-def point_distances(features: list[Feature], fits: dict[str, FeatureFit], radii: dict[str, float], T: np.ndarray) -> np.ndarray:
+def point_distances(
+    features: list[Feature], fits: dict[str, FeatureFit], radii: dict[str, float], T: np.ndarray
+) -> np.ndarray:
     """Each probe point's distance from its nominal feature under pose T [m]."""
     r = _residuals(features, fits, radii, T)
     out, k = [], 0
     for f in features:
         n = fits[f.name].n_points
         width = {"plane": 1, "line": 2, "circle": 2, "point": 3}[f.kind]
-        block = r[k:k + n * width]
+        block = r[k : k + n * width]
         k += n * width
         if f.kind == "circle":  # axial values first, then radial
             out.append(np.hypot(block[:n], block[n:]))
@@ -236,7 +276,10 @@ def _jacobian(features, fits, radii, T: np.ndarray, h: float = 1e-7) -> np.ndarr
     for k in range(6):
         dp = np.zeros(6)
         dp[k] = h
-        J[:, k] = (_residuals(features, fits, radii, _pose(dp, T)) - _residuals(features, fits, radii, _pose(-dp, T))) / (2 * h)
+        J[:, k] = (
+            _residuals(features, fits, radii, _pose(dp, T))
+            - _residuals(features, fits, radii, _pose(-dp, T))
+        ) / (2 * h)
     return J
 
 
@@ -249,8 +292,15 @@ def _describe_motion(v: np.ndarray, scale: float) -> str:
     return f"{what} ({axis[0]:.2f}, {axis[1]:.2f}, {axis[2]:.2f})"
 
 
-def solve_natural(frame: str, code: str, features: list[Feature], fits: dict[str, FeatureFit], radii: dict[str, float],
-                  T_nominal: np.ndarray, sigma: float | None = None) -> FrameSolution:
+def solve_natural(
+    frame: str,
+    code: str,
+    features: list[Feature],
+    fits: dict[str, FeatureFit],
+    radii: dict[str, float],
+    T_nominal: np.ndarray,
+    sigma: float | None = None,
+) -> FrameSolution:
     """Calibrate a natural frame from its measured features.
 
     Parameters
@@ -270,9 +320,14 @@ def solve_natural(frame: str, code: str, features: list[Feature], fits: dict[str
 
     warnings: list[str] = []
     if code == "C2":
-        unoriented = [f.name for f in features if f.kind in ("plane", "line") and not fits[f.name].oriented]
+        unoriented = [
+            f.name for f in features if f.kind in ("plane", "line") and not fits[f.name].oriented
+        ]
         if unoriented:
-            warnings.append(f"no orientation information for {', '.join(unoriented)} (C2 wants a plane's 'above' point, a line's probing order)")
+            warnings.append(
+                f"no orientation information for {', '.join(unoriented)} (C2 wants a plane's "
+                "'above' point, a line's probing order)"
+            )
     T_closed, how = closed_form(code, features, fits)
     if MIRROR in how:
         warnings.append(MIRROR)
@@ -283,17 +338,38 @@ def solve_natural(frame: str, code: str, features: list[Feature], fits: dict[str
     scale = max(float(np.sqrt(((points - points.mean(axis=0)) ** 2).sum(axis=1).mean())), 1e-6)
     J = _jacobian(features, fits, radii, T0)
     Jn = J.copy()
-    Jn[:, :3] /= scale  # dimensionless: rotations as the displacement they cause at the points' scale
+    Jn[:, :3] /= (
+        scale  # dimensionless: rotations as the displacement they cause at the points' scale
+    )
     _, s, Vt = np.linalg.svd(Jn, full_matrices=False)
     condition = float(s[0] / s[-1]) if s[-1] > 0 else np.inf
     if len(J) < 6 or condition > REFUSE_CONDITION:
         motion = _describe_motion(Vt[-1], scale)
-        return FrameSolution(frame, code, False, T0, T_nominal, T_closed, condition=condition, warnings=warnings,
-                             reason=f"the features leave {motion} undetermined (condition number {condition:.3g})")
+        return FrameSolution(
+            frame,
+            code,
+            False,
+            T0,
+            T_nominal,
+            T_closed,
+            condition=condition,
+            warnings=warnings,
+            reason=f"the features leave {motion} undetermined (condition number {condition:.3g})",
+        )
     if condition > WARN_CONDITION:
-        warnings.append(f"weakly determined: condition number {condition:.3g} ({_describe_motion(Vt[-1], scale)} is least constrained)")
-    result = least_squares(lambda p: _residuals(features, fits, radii, _pose(p, T0)), np.zeros(6), method="lm",
-                           x_scale=np.r_[np.full(3, 1.0 / scale), np.ones(3)], xtol=1e-15, ftol=1e-15, gtol=1e-15)
+        warnings.append(
+            f"weakly determined: condition number {condition:.3g} "
+            f"({_describe_motion(Vt[-1], scale)} is least constrained)"
+        )
+    result = least_squares(
+        lambda p: _residuals(features, fits, radii, _pose(p, T0)),
+        np.zeros(6),
+        method="lm",
+        x_scale=np.r_[np.full(3, 1.0 / scale), np.ones(3)],
+        xtol=1e-15,
+        ftol=1e-15,
+        gtol=1e-15,
+    )
     T = _pose(result.x, T0)
     r = _residuals(features, fits, radii, T)
     J = _jacobian(features, fits, radii, T)
@@ -302,9 +378,19 @@ def solve_natural(frame: str, code: str, features: list[Feature], fits: dict[str
     covariance = var * np.linalg.inv(J.T @ J)
     distances = point_distances(features, fits, radii, T)
     return FrameSolution(
-        frame, code, True, T, T_nominal, T_closed, covariance,
-        np.sqrt(np.diag(covariance)[3:]), np.sqrt(np.diag(covariance)[:3]),
-        float(np.sqrt(np.mean(distances**2))), condition, "", warnings,
+        frame,
+        code,
+        True,
+        T,
+        T_nominal,
+        T_closed,
+        covariance,
+        np.sqrt(np.diag(covariance)[3:]),
+        np.sqrt(np.diag(covariance)[:3]),
+        float(np.sqrt(np.mean(distances**2))),
+        condition,
+        "",
+        warnings,
     )
 
 
@@ -329,8 +415,11 @@ def _align(R: np.ndarray, axis: int, target: np.ndarray) -> np.ndarray:
 AXIS = {"x": 0, "y": 1, "z": 2}
 
 
-def apply_condition(code: str, T_owner_frame: np.ndarray, kind: str, point: np.ndarray, direction: np.ndarray | None) -> np.ndarray:
-    """The frame moved (least) to satisfy condition ``code`` for a feature given in the owner's frame.
+def apply_condition(
+    code: str, T_owner_frame: np.ndarray, kind: str, point: np.ndarray, direction: np.ndarray | None
+) -> np.ndarray:
+    """The frame moved (least) to satisfy condition ``code`` for a feature given in the owner's
+    frame.
 
     C3 origin on the line/plane; C4-C6 the x/y/z axis normal to the plane;
     C7-C9 the xy/xz/yz plane perpendicular to the line/plane; C10-C12 that
@@ -349,10 +438,14 @@ def apply_condition(code: str, T_owner_frame: np.ndarray, kind: str, point: np.n
     elif code in ("C7", "C8", "C9"):
         normal_axis = {"C7": 2, "C8": 1, "C9": 0}[code]  # the normal of the xy / xz / yz plane
         if kind == "line":
-            R = _align(R, normal_axis, n)  # the plane is perpendicular to the line: its normal along it
+            R = _align(
+                R, normal_axis, n
+            )  # the plane is perpendicular to the line: its normal along it
         else:
             a = R[:, normal_axis]
-            inplane = a - (a @ n) * n  # the plane is perpendicular to the plane: its normal lies in it
+            inplane = (
+                a - (a @ n) * n
+            )  # the plane is perpendicular to the plane: its normal lies in it
             if np.linalg.norm(inplane) > 1e-12:
                 R = _align(R, normal_axis, inplane)
     elif code in ("C10", "C11", "C12"):

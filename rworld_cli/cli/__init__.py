@@ -14,20 +14,66 @@ from .. import __version__
 
 # name -> (module, function, one-line help shown by `rworld --help` without importing it)
 COMMANDS = {
-    "validate": ("validate", "validate", "Check cell, pose, program and run files; exit 2 with file:line:col lines."),
+    "validate": (
+        "validate",
+        "validate",
+        "Check cell, pose, program and run files; exit 2 with file:line:col lines.",
+    ),
     "show": ("show", "show", "Print a cell's frame tree with world poses, affixments and masses."),
     "schema": ("schema_cmd", "schema", "Write (or --check) the JSON Schemas of the file formats."),
-    "kinematics": ("kinematics", "kinematics", "Forward kinematics, Jacobians, inverse kinematics (fk | jacobian | ik)."),
-    "dynamics": ("dynamics", "dynamics", "Inverse and forward dynamics, static torques (inverse | forward | static)."),
-    "simulate": ("simulate", "simulate", "Run programs of several devices on one clock; timelines, events, limits, plots."),
+    "kinematics": (
+        "kinematics",
+        "kinematics",
+        "Forward kinematics, Jacobians, inverse kinematics (fk | jacobian | ik).",
+    ),
+    "dynamics": (
+        "dynamics",
+        "dynamics",
+        "Inverse and forward dynamics, static torques (inverse | forward | static).",
+    ),
+    "simulate": (
+        "simulate",
+        "simulate",
+        "Run programs of several devices on one clock; timelines, events, limits, plots.",
+    ),
     "check": ("simulate", "check", "For CI: exit 1 when a run's programs break a joint limit."),
-    "sense": ("sense", "sense", "Read sensors by interference checking: touch, tactile maps, proximity, presence, force."),
-    "render": ("render", "render", "Draw a cell (PNG) or export it as glTF (.glb), sensors colour-coded."),
-    "calibrate": ("calibrate", "calibrate", "Calibrate frames from probe points on features; write an overlay pose file."),
-    "measure": ("calibrate", "measure", "Synthetic probe-point measurements from a 'true' cell (--simulate)."),
-    "plan-measurements": ("plan_measurements", "plan_measurements", "Which features to probe, how many points, where, and the predicted error."),
-    "plan": ("plan", "plan", "Time-optimal timing, payload capacity, load-optimal timing, maximum impulse (time-optimal | payload | load-optimal | impulse)."),
-    "analyze": ("analyze", "analyze", "The report's accuracy / sensitivity comparison of computing T with or without orthogonality."),
+    "sense": (
+        "sense",
+        "sense",
+        "Read sensors by interference checking: touch, tactile maps, proximity, presence, force.",
+    ),
+    "render": (
+        "render",
+        "render",
+        "Draw a cell (PNG) or export it as glTF (.glb), sensors colour-coded.",
+    ),
+    "calibrate": (
+        "calibrate",
+        "calibrate",
+        "Calibrate frames from probe points on features; write an overlay pose file.",
+    ),
+    "measure": (
+        "calibrate",
+        "measure",
+        "Synthetic probe-point measurements from a 'true' cell (--simulate).",
+    ),
+    "plan-measurements": (
+        "plan_measurements",
+        "plan_measurements",
+        "Which features to probe, how many points, where, and the predicted error.",
+    ),
+    "plan": (
+        "plan",
+        "plan",
+        "Time-optimal timing, payload capacity, load-optimal timing, maximum impulse "
+        "(time-optimal | payload | load-optimal | impulse).",
+    ),
+    "analyze": (
+        "analyze",
+        "analyze",
+        "The report's accuracy / sensitivity comparison of computing T with or without "
+        "orthogonality.",
+    ),
 }
 
 
@@ -60,9 +106,17 @@ class LazyGroup(click.Group):
             raise
 
 
-@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.group(
+    cls=LazyGroup,
+    context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
+)
 @click.version_option(__version__, prog_name="rworld")
-@click.option("--json", "json_output", is_flag=True, help="Machine-readable JSON on stdout (same as each command's --json).")
+@click.option(
+    "--json",
+    "json_output",
+    is_flag=True,
+    help="Machine-readable JSON on stdout (same as each command's --json).",
+)
 @click.pass_context
 def main(ctx: click.Context, json_output: bool) -> None:
     """rworld - world models, device physics and checks for robot workcells.

@@ -10,9 +10,20 @@ from .common import emit_json, handle_errors, json_option
 @click.command()
 @click.argument("kind", type=click.Choice(["accuracy", "sensitivity"]))
 @click.option("--trials", default=1000, show_default=True, type=click.IntRange(1, 1_000_000))
-@click.option("--planes", default=5, show_default=True, type=click.IntRange(4, 1000), help="Random planes per trial.")
+@click.option(
+    "--planes",
+    default=5,
+    show_default=True,
+    type=click.IntRange(4, 1000),
+    help="Random planes per trial.",
+)
 @click.option("--seed", default=0, show_default=True, type=int)
-@click.option("--plot", default=None, type=click.Path(dir_okay=False), help="PNG histogram of the element errors.")
+@click.option(
+    "--plot",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="PNG histogram of the element errors.",
+)
 @json_option
 @handle_errors
 def analyze(kind, trials, planes, seed, plot, json_output):
@@ -32,18 +43,42 @@ def analyze(kind, trials, planes, seed, plot, json_output):
 
     rows = analyze_calibration(kind, trials, planes, seed, plot)
     if json_output:
-        emit_json({"kind": kind, "trials": trials, "planes": planes, "seed": seed,
-                   "methods": [r.__dict__ for r in rows], "plot": plot})
+        emit_json(
+            {
+                "kind": kind,
+                "trials": trials,
+                "planes": planes,
+                "seed": seed,
+                "methods": [r.__dict__ for r in rows],
+                "plot": plot,
+            }
+        )
         return
     from rich.console import Console
     from rich.table import Table
 
-    table = Table(title=f"{kind}: {trials} trials, {planes} planes each, seed {seed}", title_justify="left", box=None, header_style="bold")
-    for col in ("method", "median rel. element error", "max rel. element error", "median |R^T R - I|", "max |R^T R - I|"):
+    table = Table(
+        title=f"{kind}: {trials} trials, {planes} planes each, seed {seed}",
+        title_justify="left",
+        box=None,
+        header_style="bold",
+    )
+    for col in (
+        "method",
+        "median rel. element error",
+        "max rel. element error",
+        "median |R^T R - I|",
+        "max |R^T R - I|",
+    ):
         table.add_column(col, justify="left" if col == "method" else "right")
     for r in rows:
-        table.add_row(r.method, f"{r.median_element_error:.3g}", f"{r.max_element_error:.3g}",
-                      f"{r.median_orthogonality:.3g}", f"{r.max_orthogonality:.3g}")
+        table.add_row(
+            r.method,
+            f"{r.median_element_error:.3g}",
+            f"{r.max_element_error:.3g}",
+            f"{r.median_orthogonality:.3g}",
+            f"{r.max_orthogonality:.3g}",
+        )
     Console(highlight=False).print(table)
     if plot:
         click.echo(f"wrote {plot}")

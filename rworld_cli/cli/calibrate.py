@@ -14,23 +14,50 @@ def _solution_dict(sol) -> dict:
 
     dt, dr = sol.correction
     from ..units import ARCSEC as arcsec
+
     return {
-        "frame": sol.frame, "condition": sol.code, "determined": sol.determined,
-        "T_world": sol.T_world.tolist(), "correction_mm": dt * 1000, "correction_deg": float(np.degrees(dr)),
-        "residual_rms_mm": sol.residual_rms * 1000, "condition_number": sol.condition,
-        "sigma_mm": (sol.sigma_translation * 1000).tolist() if sol.sigma_translation is not None else None,
-        "sigma_arcsec": (sol.sigma_rotation / arcsec).tolist() if sol.sigma_rotation is not None else None,
-        "warnings": sol.warnings, "reason": sol.reason,
+        "frame": sol.frame,
+        "condition": sol.code,
+        "determined": sol.determined,
+        "T_world": sol.T_world.tolist(),
+        "correction_mm": dt * 1000,
+        "correction_deg": float(np.degrees(dr)),
+        "residual_rms_mm": sol.residual_rms * 1000,
+        "condition_number": sol.condition,
+        "sigma_mm": (sol.sigma_translation * 1000).tolist()
+        if sol.sigma_translation is not None
+        else None,
+        "sigma_arcsec": (sol.sigma_rotation / arcsec).tolist()
+        if sol.sigma_rotation is not None
+        else None,
+        "warnings": sol.warnings,
+        "reason": sol.reason,
     }
 
 
 @click.command()
 @click.argument("cell", metavar="CELL")
 @click.argument("measurements", nargs=-1, required=True, metavar="MEASUREMENTS...")
-@click.option("-o", "--output", default=None, type=click.Path(dir_okay=False),
-              help="Overlay pose file to write (default: calibrated.yaml beside cell.yaml).")
-@click.option("--frames", default=None, metavar="F1,F2,...", help="Only these conditioned frames (default: all).")
-@click.option("--csv-units", type=click.Choice(["mm", "m"]), default="mm", show_default=True, help="Length unit of CSV point files.")
+@click.option(
+    "-o",
+    "--output",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Overlay pose file to write (default: calibrated.yaml beside cell.yaml).",
+)
+@click.option(
+    "--frames",
+    default=None,
+    metavar="F1,F2,...",
+    help="Only these conditioned frames (default: all).",
+)
+@click.option(
+    "--csv-units",
+    type=click.Choice(["mm", "m"]),
+    default="mm",
+    show_default=True,
+    help="Length unit of CSV point files.",
+)
 @click.option("--dry-run", is_flag=True, help="Report, write nothing.")
 @json_option
 @handle_errors
@@ -56,14 +83,29 @@ def calibrate(cell, measurements, output, frames, csv_units, dry_run, json_outpu
     """
     from ..api import calibrate_cell
 
-    run = calibrate_cell(cell, list(measurements), frames.split(",") if frames else None, output, csv_units, dry_run)
+    run = calibrate_cell(
+        cell, list(measurements), frames.split(",") if frames else None, output, csv_units, dry_run
+    )
     res = run.result
     if json_output:
-        emit_json({"cell": res.cell, "written": str(run.written) if run.written else None,
-                   "frames": [_solution_dict(s) for s in res.solutions.values()],
-                   "undetermined": res.undetermined,
-                   "features": {n: {"kind": f.kind, "rms_mm": f.rms * 1000, "points": f.n_points, "outliers": f.outliers,
-                                    "warnings": f.warnings} for n, f in res.fits.items()}})
+        emit_json(
+            {
+                "cell": res.cell,
+                "written": str(run.written) if run.written else None,
+                "frames": [_solution_dict(s) for s in res.solutions.values()],
+                "undetermined": res.undetermined,
+                "features": {
+                    n: {
+                        "kind": f.kind,
+                        "rms_mm": f.rms * 1000,
+                        "points": f.n_points,
+                        "outliers": f.outliers,
+                        "warnings": f.warnings,
+                    }
+                    for n, f in res.fits.items()
+                },
+            }
+        )
     else:
         _render(run)
     if res.undetermined:
@@ -77,24 +119,40 @@ def _render(run) -> None:
 
     res = run.result
     console = Console(highlight=False)
-    table = Table(title=f"{res.cell}: calibrated frames", title_justify="left", box=None, header_style="bold")
+    table = Table(
+        title=f"{res.cell}: calibrated frames", title_justify="left", box=None, header_style="bold"
+    )
     for col in ("frame", "condition", "correction", "residual rms", "predicted sigma", "cond."):
         table.add_column(col, justify="left" if col in ("frame", "condition") else "right")
     from ..units import ARCSEC as arcsec
+
     for sol in res.solutions.values():
         if not sol.determined:
             continue
         dt, dr = sol.correction
-        sigma = "" if sol.sigma_translation is None else \
-            f"{np.linalg.norm(sol.sigma_translation) * 1000:.4f} mm, {np.linalg.norm(sol.sigma_rotation) / arcsec:.1f}\""
-        table.add_row(sol.frame, sol.code, f"{dt * 1000:.4f} mm, {np.degrees(dr):.4f} deg", f"{sol.residual_rms * 1000:.4f} mm",
-                      sigma, f"{sol.condition:.3g}" if sol.code in ("C1", "C2") else "")
+        sigma = (
+            ""
+            if sol.sigma_translation is None
+            else f"{np.linalg.norm(sol.sigma_translation) * 1000:.4f} mm, "
+            f'{np.linalg.norm(sol.sigma_rotation) / arcsec:.1f}"'
+        )
+        table.add_row(
+            sol.frame,
+            sol.code,
+            f"{dt * 1000:.4f} mm, {np.degrees(dr):.4f} deg",
+            f"{sol.residual_rms * 1000:.4f} mm",
+            sigma,
+            f"{sol.condition:.3g}" if sol.code in ("C1", "C2") else "",
+        )
     console.print(table)
     for name, fit in res.fits.items():
         for w in fit.warnings:
             console.print(f"[yellow]warning[/]: feature {name}: {w}")
         if fit.outliers:
-            console.print(f"[yellow]warning[/]: feature {name}: point(s) {', '.join(str(i + 1) for i in fit.outliers)} lie beyond 3 rms")
+            console.print(
+                f"[yellow]warning[/]: feature {name}: point(s) "
+                f"{', '.join(str(i + 1) for i in fit.outliers)} lie beyond 3 rms"
+            )
     for sol in res.solutions.values():
         for w in sol.warnings:
             console.print(f"[yellow]warning[/]: {sol.frame}: {w}")
@@ -103,20 +161,60 @@ def _render(run) -> None:
     if run.written:
         console.print(f"wrote {run.written}")
         if not run.listed:
-            console.print(f"to use it, list it after the nominal pose file: pose_files: [poses.yaml, {run.written.name}]", markup=False)
+            console.print(
+                "to use it, list it after the nominal pose file: pose_files: [poses.yaml, "
+                f"{run.written.name}]",
+                markup=False,
+            )
     elif res.undetermined:
-        console.print("nothing written: a requested frame is not determined (restrict with --frames, or measure more)")
+        console.print(
+            "nothing written: a requested frame is not determined (restrict with --frames, or "
+            "measure more)"
+        )
 
 
 @click.command()
 @click.argument("cell", metavar="CELL")
-@click.option("--simulate", "simulate_flag", is_flag=True, required=True, help="Synthetic measurements (the only mode).")
-@click.option("--truth", required=True, metavar="TRUE_CELL", help="A cell whose poses are the 'real' ones (same features).")
-@click.option("--sigma", default="0.05mm", show_default=True, help="Probing noise, 1 sigma (mm, um or m; a bare number is mm).")
+@click.option(
+    "--simulate",
+    "simulate_flag",
+    is_flag=True,
+    required=True,
+    help="Synthetic measurements (the only mode).",
+)
+@click.option(
+    "--truth",
+    required=True,
+    metavar="TRUE_CELL",
+    help="A cell whose poses are the 'real' ones (same features).",
+)
+@click.option(
+    "--sigma",
+    default="0.05mm",
+    show_default=True,
+    help="Probing noise, 1 sigma (mm, um or m; a bare number is mm).",
+)
 @click.option("--seed", default=0, show_default=True, type=int)
-@click.option("--points", default=10, show_default=True, type=int, help="Points per feature (at least each kind's minimum).")
-@click.option("--frames", default=None, metavar="F1,F2,...", help="Only the features of these frames' conditions.")
-@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="Measurement file to write (YAML).")
+@click.option(
+    "--points",
+    default=10,
+    show_default=True,
+    type=int,
+    help="Points per feature (at least each kind's minimum).",
+)
+@click.option(
+    "--frames",
+    default=None,
+    metavar="F1,F2,...",
+    help="Only the features of these frames' conditions.",
+)
+@click.option(
+    "-o",
+    "--output",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Measurement file to write (YAML).",
+)
 @json_option
 @handle_errors
 def measure(cell, simulate_flag, truth, sigma, seed, points, frames, output, json_output):
@@ -129,12 +227,24 @@ def measure(cell, simulate_flag, truth, sigma, seed, points, frames, output, jso
 
     \b
     Example:
-      rworld measure --simulate workcells/calibration_example --truth trial/ --sigma 0.05mm --seed 1 -o m.yaml
+      rworld measure --simulate workcells/calibration_example --truth trial/ --sigma 0.05mm --seed 1
+      -o m.yaml
     """
     from ..api import parse_length, simulate_measurement_file
 
-    info = simulate_measurement_file(cell, truth, output, parse_length(sigma), seed, points, frames.split(",") if frames else None)
+    info = simulate_measurement_file(
+        cell,
+        truth,
+        output,
+        parse_length(sigma),
+        seed,
+        points,
+        frames.split(",") if frames else None,
+    )
     if json_output:
         emit_json(info)
     else:
-        click.echo(f"wrote {output}: {len(info['features'])} feature(s), {sum(info['points'].values())} point(s)")
+        click.echo(
+            f"wrote {output}: {len(info['features'])} feature(s), {sum(info['points'].values())} "
+            "point(s)"
+        )

@@ -5,7 +5,8 @@ from __future__ import annotations
 import functools
 import json
 import sys
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import click
 
@@ -15,7 +16,9 @@ EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
 def json_option(fn: Callable) -> Callable:
     """Add ``--json`` to a command; it is also on when the group got ``rworld --json``."""
 
-    @click.option("--json", "json_output", is_flag=True, help="Print machine-readable JSON on stdout.")
+    @click.option(
+        "--json", "json_output", is_flag=True, help="Print machine-readable JSON on stdout."
+    )
     @functools.wraps(fn)
     def wrapper(*args, json_output: bool = False, **kwargs):
         ctx = click.get_current_context()
@@ -67,7 +70,8 @@ def handle_errors(fn: Callable) -> Callable:
                 traceback.print_exc()
             click.echo(
                 f"internal error: {type(exc).__name__}: {exc}\n"
-                "This is a bug in rworld; please report it with the command and files (RWORLD_DEBUG=1 shows the traceback).",
+                "This is a bug in rworld; please report it with the command and files "
+                "(RWORLD_DEBUG=1 shows the traceback).",
                 err=True,
             )
             sys.exit(EXIT_INTERNAL)
@@ -81,12 +85,18 @@ def parse_joint_assignments(values: tuple[str, ...]) -> dict[str, list[float]]:
     for item in values:
         name, sep, rest = item.partition("=")
         if not sep or not name:
-            raise click.BadParameter(f"'{item}': expected DEVICE=q1,q2,... (SI: rad or m)", param_hint="--joints")
+            raise click.BadParameter(
+                f"'{item}': expected DEVICE=q1,q2,... (SI: rad or m)", param_hint="--joints"
+            )
         try:
             q = [float(v) for v in rest.split(",")]
         except ValueError:
-            raise click.BadParameter(f"'{item}': joint values must be numbers separated by commas", param_hint="--joints") from None
+            raise click.BadParameter(
+                f"'{item}': joint values must be numbers separated by commas", param_hint="--joints"
+            ) from None
         if any(v != v or v in (float("inf"), float("-inf")) for v in q):
-            raise click.BadParameter(f"'{item}': joint values must be finite", param_hint="--joints")
+            raise click.BadParameter(
+                f"'{item}': joint values must be finite", param_hint="--joints"
+            )
         out[name] = q
     return out

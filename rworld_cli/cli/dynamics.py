@@ -9,16 +9,30 @@ from .physics_common import context, device_options, emit, joint_rows, output_op
 
 
 def payload_options(fn):
-    fn = click.option("--payload-com", default=None, metavar="X,Y,Z", help="Point mass position in the TCP frame [m].")(fn)
-    fn = click.option("--payload-mass", default=None, type=float, metavar="KG", help="A point mass at the TCP.")(fn)
-    fn = click.option("--payload", "payload_object", default=None, metavar="OBJECT",
-                      help="An object's mass properties, held at the TCP (where the cell holds it there).")(fn)
+    fn = click.option(
+        "--payload-com",
+        default=None,
+        metavar="X,Y,Z",
+        help="Point mass position in the TCP frame [m].",
+    )(fn)
+    fn = click.option(
+        "--payload-mass", default=None, type=float, metavar="KG", help="A point mass at the TCP."
+    )(fn)
+    fn = click.option(
+        "--payload",
+        "payload_object",
+        default=None,
+        metavar="OBJECT",
+        help="An object's mass properties, held at the TCP (where the cell holds it there).",
+    )(fn)
     return fn
 
 
 def model_options(fn):
     """Payload and the armature / friction switches (inverse and forward dynamics)."""
-    fn = click.option("--no-friction", is_flag=True, help="Leave out viscous and Coulomb friction.")(fn)
+    fn = click.option(
+        "--no-friction", is_flag=True, help="Leave out viscous and Coulomb friction."
+    )(fn)
     fn = click.option("--no-armature", is_flag=True, help="Leave out motor armature inertia.")(fn)
     return payload_options(fn)
 
@@ -31,11 +45,18 @@ def _payload(ctx, payload_object, payload_mass, payload_com):
 
 
 def _model(ctx, payload_object, payload_mass, payload_com, no_armature, no_friction):
-    """The device's dynamics with the payload options; a payload object is not counted again as carried."""
+    """The device's dynamics with the payload options; a payload object is not counted again as
+    carried.
+    """
     from ..api import device_dynamics
 
-    return device_dynamics(ctx, _payload(ctx, payload_object, payload_mass, payload_com), not no_armature, not no_friction,
-                           exclude=[payload_object] if payload_object else ())
+    return device_dynamics(
+        ctx,
+        _payload(ctx, payload_object, payload_mass, payload_com),
+        not no_armature,
+        not no_friction,
+        exclude=[payload_object] if payload_object else (),
+    )
 
 
 @click.group()
@@ -51,12 +72,27 @@ def dynamics() -> None:
 
 @dynamics.command()
 @device_options
-@click.option("--states", required=True, type=click.Path(dir_okay=False), help="CSV with q, qd, qdd columns.")
+@click.option(
+    "--states", required=True, type=click.Path(dir_okay=False), help="CSV with q, qd, qdd columns."
+)
 @model_options
 @output_options
 @json_option
 @handle_errors
-def inverse(cell, device, other_joints, tcp, states, payload_object, payload_mass, payload_com, no_armature, no_friction, output, json_output):
+def inverse(
+    cell,
+    device,
+    other_joints,
+    tcp,
+    states,
+    payload_object,
+    payload_mass,
+    payload_com,
+    no_armature,
+    no_friction,
+    output,
+    json_output,
+):
     """Joint torques for each state, by recursive Newton-Euler (batched).
 
     CSV out: tau1..taun [N m or N].  JSON: {"device": NAME, "tau": [[...], ...]}.
@@ -71,18 +107,39 @@ def inverse(cell, device, other_joints, tcp, states, payload_object, payload_mas
     data, warnings = joint_rows(ctx, states, None, ["q", "qd", "qdd"])
     dyn = _model(ctx, payload_object, payload_mass, payload_com, no_armature, no_friction)
     tau = dyn.inverse(data["q"], data["qd"], data["qdd"], ctx.gravity_base)
-    emit([f"tau{i}" for i in range(1, ctx.device.dof + 1)], tau, {"device": ctx.device.name, "tau": tau.tolist()},
-         json_output, output, warnings)
+    emit(
+        [f"tau{i}" for i in range(1, ctx.device.dof + 1)],
+        tau,
+        {"device": ctx.device.name, "tau": tau.tolist()},
+        json_output,
+        output,
+        warnings,
+    )
 
 
 @dynamics.command()
 @device_options
-@click.option("--states", required=True, type=click.Path(dir_okay=False), help="CSV with q, qd, tau columns.")
+@click.option(
+    "--states", required=True, type=click.Path(dir_okay=False), help="CSV with q, qd, tau columns."
+)
 @model_options
 @output_options
 @json_option
 @handle_errors
-def forward(cell, device, other_joints, tcp, states, payload_object, payload_mass, payload_com, no_armature, no_friction, output, json_output):
+def forward(
+    cell,
+    device,
+    other_joints,
+    tcp,
+    states,
+    payload_object,
+    payload_mass,
+    payload_com,
+    no_armature,
+    no_friction,
+    output,
+    json_output,
+):
     """Joint accelerations for given torques: qdd = M(q)^-1 (tau - C qd - g - friction).
 
     CSV out: qdd1..qddn.  JSON: {"device": NAME, "qdd": [[...], ...]}.
@@ -95,22 +152,49 @@ def forward(cell, device, other_joints, tcp, states, payload_object, payload_mas
     data, warnings = joint_rows(ctx, states, None, ["q", "qd", "tau"])
     dyn = _model(ctx, payload_object, payload_mass, payload_com, no_armature, no_friction)
     qdd = dyn.forward(data["q"], data["qd"], data["tau"], ctx.gravity_base)
-    emit([f"qdd{i}" for i in range(1, ctx.device.dof + 1)], qdd, {"device": ctx.device.name, "qdd": qdd.tolist()},
-         json_output, output, warnings)
+    emit(
+        [f"qdd{i}" for i in range(1, ctx.device.dof + 1)],
+        qdd,
+        {"device": ctx.device.name, "qdd": qdd.tolist()},
+        json_output,
+        output,
+        warnings,
+    )
 
 
 @dynamics.command()
 @device_options
 @click.option("--q", default=None, metavar="Q1,...,QN", help="One configuration.")
 @click.option("--states", default=None, type=click.Path(dir_okay=False), help="CSV with q columns.")
-@click.option("--wrench", default="0,0,0,0,0,0", show_default=True, metavar="FX,FY,FZ,MX,MY,MZ",
-              help="Wrench the tool exerts on its surroundings, at the TCP origin, world axes [N, N m].")
-@click.option("--no-gravity", is_flag=True, help="Leave out the torques that hold the device against gravity.")
+@click.option(
+    "--wrench",
+    default="0,0,0,0,0,0",
+    show_default=True,
+    metavar="FX,FY,FZ,MX,MY,MZ",
+    help="Wrench the tool exerts on its surroundings, at the TCP origin, world axes [N, N m].",
+)
+@click.option(
+    "--no-gravity", is_flag=True, help="Leave out the torques that hold the device against gravity."
+)
 @payload_options
 @output_options
 @json_option
 @handle_errors
-def static(cell, device, other_joints, tcp, q, states, wrench, no_gravity, payload_object, payload_mass, payload_com, output, json_output):
+def static(
+    cell,
+    device,
+    other_joints,
+    tcp,
+    q,
+    states,
+    wrench,
+    no_gravity,
+    payload_object,
+    payload_mass,
+    payload_com,
+    output,
+    json_output,
+):
     """Joint torques to hold still while the tool pushes with a wrench: tau = g(q) + J^T w.
 
     Also the largest multiple of the wrench the effort limits allow
@@ -129,13 +213,33 @@ def static(cell, device, other_joints, tcp, q, states, wrench, no_gravity, paylo
     ctx = context(cell, device, tcp, other_joints)
     data, warnings = joint_rows(ctx, states, q, ["q"])
     w = parse_vector(wrench, "--wrench", 6)
-    res = static_torques(ctx, data["q"], w, _payload(ctx, payload_object, payload_mass, payload_com), not no_gravity,
-                         exclude=[payload_object] if payload_object else ())
+    res = static_torques(
+        ctx,
+        data["q"],
+        w,
+        _payload(ctx, payload_object, payload_mass, payload_com),
+        not no_gravity,
+        exclude=[payload_object] if payload_object else (),
+    )
     names = [j.name for j in ctx.device.joints]
     limiting = [names[i] if i >= 0 else None for i in res.limiting_joint]
     scale = [float(s) if np.isfinite(s) else None for s in res.max_scale]
-    payload = {"device": ctx.device.name, "tcp": ctx.tcp, "wrench": w, "tau": res.tau.tolist(),
-               "tau_wrench": res.tau_wrench.tolist(), "tau_gravity": res.tau_gravity.tolist(),
-               "max_scale": scale, "limiting_joint": limiting}
+    payload = {
+        "device": ctx.device.name,
+        "tcp": ctx.tcp,
+        "wrench": w,
+        "tau": res.tau.tolist(),
+        "tau_wrench": res.tau_wrench.tolist(),
+        "tau_gravity": res.tau_gravity.tolist(),
+        "max_scale": scale,
+        "limiting_joint": limiting,
+    }
     rows = np.hstack([res.tau, res.max_scale[:, None], (res.limiting_joint + 1)[:, None]])
-    emit([f"tau{i}" for i in range(1, ctx.device.dof + 1)] + ["max_scale", "limiting_joint"], rows, payload, json_output, output, warnings)
+    emit(
+        [f"tau{i}" for i in range(1, ctx.device.dof + 1)] + ["max_scale", "limiting_joint"],
+        rows,
+        payload,
+        json_output,
+        output,
+        warnings,
+    )

@@ -20,7 +20,9 @@ def kinematics() -> None:
 @kinematics.command()
 @device_options
 @click.option("--q", default=None, metavar="Q1,...,QN", help="One set of joint values.")
-@click.option("--states", default=None, type=click.Path(dir_okay=False), help="CSV with columns q1..qn.")
+@click.option(
+    "--states", default=None, type=click.Path(dir_okay=False), help="CSV with columns q1..qn."
+)
 @output_options
 @json_option
 @handle_errors
@@ -33,7 +35,8 @@ def fk(cell, device, other_joints, tcp, q, states, output, json_output):
     \b
     Examples:
       rworld kinematics fk workcells/puma560 --q 0,0.5,-1,0,0.3,0
-      rworld kinematics fk workcells/paper_fig9 -d robot --tcp hand_a.tcp --states q.csv -o poses.csv
+      rworld kinematics fk workcells/paper_fig9 -d robot --tcp hand_a.tcp --states q.csv -o
+      poses.csv
     """
     from ..api import forward_kinematics, pose_rows
 
@@ -41,17 +44,34 @@ def fk(cell, device, other_joints, tcp, q, states, output, json_output):
     data, warnings = joint_rows(ctx, states, q, ["q"])
     T = forward_kinematics(ctx, data["q"])
     rows = pose_rows(T)
-    payload = {"device": ctx.device.name, "tcp": ctx.tcp, "frame": "world", "T_world_tool": T.tolist()}
+    payload = {
+        "device": ctx.device.name,
+        "tcp": ctx.tcp,
+        "frame": "world",
+        "T_world_tool": T.tolist(),
+    }
     emit(["x", "y", "z", "qw", "qx", "qy", "qz"], rows, payload, json_output, output, warnings)
 
 
 @kinematics.command()
 @device_options
 @click.option("--q", default=None, metavar="Q1,...,QN", help="One set of joint values.")
-@click.option("--states", default=None, type=click.Path(dir_okay=False), help="CSV with columns q1..qn.")
-@click.option("--frame", type=click.Choice(["world", "base"]), default="world", show_default=True,
-              help="Frame the velocity rows are expressed in.")
-@click.option("--point", default=None, metavar="X,Y,Z", help="Point on the tool (tool coordinates, m) whose velocity the top rows give.")
+@click.option(
+    "--states", default=None, type=click.Path(dir_okay=False), help="CSV with columns q1..qn."
+)
+@click.option(
+    "--frame",
+    type=click.Choice(["world", "base"]),
+    default="world",
+    show_default=True,
+    help="Frame the velocity rows are expressed in.",
+)
+@click.option(
+    "--point",
+    default=None,
+    metavar="X,Y,Z",
+    help="Point on the tool (tool coordinates, m) whose velocity the top rows give.",
+)
 @output_options
 @json_option
 @handle_errors
@@ -73,10 +93,22 @@ def jacobian(cell, device, other_joints, tcp, q, states, frame, point, output, j
     data, warnings = joint_rows(ctx, states, q, ["q"])
     res = jacobians(ctx, data["q"], frame, parse_vector(point, "--point", 3) if point else None)
     n = ctx.device.dof
-    cols = [f"J{r}{c}" for r in range(1, 7) for c in range(1, n + 1)] + ["manipulability", "condition_number"]
-    rows = np.hstack([res.jacobian.reshape(len(res.jacobian), -1), res.manipulability[:, None], res.condition_number[:, None]])
+    cols = [f"J{r}{c}" for r in range(1, 7) for c in range(1, n + 1)] + [
+        "manipulability",
+        "condition_number",
+    ]
+    rows = np.hstack(
+        [
+            res.jacobian.reshape(len(res.jacobian), -1),
+            res.manipulability[:, None],
+            res.condition_number[:, None],
+        ]
+    )
     payload = {
-        "device": ctx.device.name, "tcp": ctx.tcp, "frame": frame, "jacobian": res.jacobian.tolist(),
+        "device": ctx.device.name,
+        "tcp": ctx.tcp,
+        "frame": frame,
+        "jacobian": res.jacobian.tolist(),
         "manipulability": res.manipulability.tolist(),
         "condition_number": [float(c) if np.isfinite(c) else None for c in res.condition_number],
     }
@@ -85,16 +117,55 @@ def jacobian(cell, device, other_joints, tcp, q, states, frame, point, output, j
 
 @kinematics.command()
 @device_options
-@click.option("--target", default=None, metavar="FRAME", help="A frame of the cell to reach (e.g. workpiece.grasp).")
-@click.option("--xyz", default=None, metavar="X,Y,Z", help="Target position in world [m] (instead of --target).")
-@click.option("--rpy", default=None, metavar="R,P,Y", help="Target roll, pitch, yaw in world [rad] (with --xyz).")
+@click.option(
+    "--target",
+    default=None,
+    metavar="FRAME",
+    help="A frame of the cell to reach (e.g. workpiece.grasp).",
+)
+@click.option(
+    "--xyz",
+    default=None,
+    metavar="X,Y,Z",
+    help="Target position in world [m] (instead of --target).",
+)
+@click.option(
+    "--rpy",
+    default=None,
+    metavar="R,P,Y",
+    help="Target roll, pitch, yaw in world [rad] (with --xyz).",
+)
 @click.option("--position-only", is_flag=True, help="Match the TCP origin only.")
-@click.option("--seed", default=None, metavar="Q1,...,QN", help="Start (default: the device's current values).")
-@click.option("--restarts", default=16, show_default=True, type=click.IntRange(0, 10000), help="Random starts besides the seed.")
+@click.option(
+    "--seed",
+    default=None,
+    metavar="Q1,...,QN",
+    help="Start (default: the device's current values).",
+)
+@click.option(
+    "--restarts",
+    default=16,
+    show_default=True,
+    type=click.IntRange(0, 10000),
+    help="Random starts besides the seed.",
+)
 @output_options
 @json_option
 @handle_errors
-def ik(cell, device, other_joints, tcp, target, xyz, rpy, position_only, seed, restarts, output, json_output):
+def ik(
+    cell,
+    device,
+    other_joints,
+    tcp,
+    target,
+    xyz,
+    rpy,
+    position_only,
+    seed,
+    restarts,
+    output,
+    json_output,
+):
     """Joint values that put the TCP on a target frame.
 
     Damped least squares within the joint limits, all starts batched; of the
@@ -114,16 +185,26 @@ def ik(cell, device, other_joints, tcp, target, xyz, rpy, position_only, seed, r
         raise click.UsageError("give --target FRAME or --xyz X,Y,Z (one of them)")
     if xyz is not None and rpy is None and not position_only:
         raise click.UsageError("--xyz needs --rpy, or --position-only")
-    T_target, name = target_pose(ctx, target, parse_vector(xyz, "--xyz", 3) if xyz else None,
-                                 parse_vector(rpy, "--rpy", 3) if rpy else None, position_only)
+    T_target, name = target_pose(
+        ctx,
+        target,
+        parse_vector(xyz, "--xyz", 3) if xyz else None,
+        parse_vector(rpy, "--rpy", 3) if rpy else None,
+        position_only,
+    )
     if xyz is not None:
         name = f"xyz {xyz}"
     seed_q = parse_vector(seed, "--seed", ctx.device.dof) if seed else None
     result = inverse_kinematics(ctx, T_target, name, seed_q, position_only, restarts)
     payload = {
-        "device": ctx.device.name, "tcp": ctx.tcp, "target": name, "q": result.q.tolist(),
-        "position_error": result.position_error, "rotation_error": result.rotation_error,
-        "iterations": result.iterations, "success": result.success,
+        "device": ctx.device.name,
+        "tcp": ctx.tcp,
+        "target": name,
+        "q": result.q.tolist(),
+        "position_error": result.position_error,
+        "rotation_error": result.rotation_error,
+        "iterations": result.iterations,
+        "success": result.success,
     }
     if not json_output:
         click.echo(
@@ -131,4 +212,11 @@ def ik(cell, device, other_joints, tcp, target, xyz, rpy, position_only, seed, r
             f"rotation error {result.rotation_error:.3g} rad ({result.iterations} iterations)",
             err=True,
         )
-    emit([f"q{i}" for i in range(1, ctx.device.dof + 1)], result.q[None, :], payload, json_output, output, [])
+    emit(
+        [f"q{i}" for i in range(1, ctx.device.dof + 1)],
+        result.q[None, :],
+        payload,
+        json_output,
+        output,
+        [],
+    )

@@ -9,11 +9,33 @@ from .common import emit_json, handle_errors, json_option, parse_joint_assignmen
 
 @click.command()
 @click.argument("cell", metavar="CELL")
-@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="A .png picture or a .glb glTF scene.")
-@click.option("--joints", multiple=True, metavar="DEVICE=q1,...", help="Joint values (SI); repeatable. Default: home.")
-@click.option("--view", default="25,-60", show_default=True, metavar="ELEV,AZIM", help="PNG camera elevation and azimuth [deg].")
+@click.option(
+    "-o",
+    "--output",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="A .png picture or a .glb glTF scene.",
+)
+@click.option(
+    "--joints",
+    multiple=True,
+    metavar="DEVICE=q1,...",
+    help="Joint values (SI); repeatable. Default: home.",
+)
+@click.option(
+    "--view",
+    default="25,-60",
+    show_default=True,
+    metavar="ELEV,AZIM",
+    help="PNG camera elevation and azimuth [deg].",
+)
 @click.option("--no-frames", is_flag=True, help="PNG: leave out the frame triads.")
-@click.option("--tolerance", type=float, default=None, help="Sensor touching tolerance [m] (default 1e-6, docs/sensing.md).")
+@click.option(
+    "--tolerance",
+    type=float,
+    default=None,
+    help="Sensor touching tolerance [m] (default 1e-6, docs/sensing.md).",
+)
 @json_option
 @handle_errors
 def render(cell, output, joints, view, no_frames, tolerance, json_output):
@@ -33,7 +55,9 @@ def render(cell, output, joints, view, no_frames, tolerance, json_output):
     from .physics_common import parse_vector
 
     elev, azim = parse_vector(view, "--view", 2)
-    written = render_scene(cell, output, parse_joint_assignments(joints), tolerance, (elev, azim), not no_frames)
+    written = render_scene(
+        cell, output, parse_joint_assignments(joints), tolerance, (elev, azim), not no_frames
+    )
     if json_output:
         emit_json({"cell": cell, "written": str(written)})
     else:

@@ -10,9 +10,20 @@ from .common import EXIT_CHECK_FAILED, emit_json, handle_errors, json_option
 
 
 @click.command()
-@click.option("-o", "--output", "output", default="schemas", show_default=True, type=click.Path(file_okay=False),
-              help="Directory to write the schemas into.")
-@click.option("--check", is_flag=True, help="Write nothing; exit 1 if the files in the directory are missing or stale.")
+@click.option(
+    "-o",
+    "--output",
+    "output",
+    default="schemas",
+    show_default=True,
+    type=click.Path(file_okay=False),
+    help="Directory to write the schemas into.",
+)
+@click.option(
+    "--check",
+    is_flag=True,
+    help="Write nothing; exit 1 if the files in the directory are missing or stale.",
+)
 @json_option
 @handle_errors
 def schema(output: str, check: bool, json_output: bool) -> None:
@@ -35,7 +46,10 @@ def schema(output: str, check: bool, json_output: bool) -> None:
         if json_output:
             emit_json({"directory": output, "stale": stale, "up_to_date": not stale})
         elif stale:
-            click.echo(f"stale schemas in {output}: {', '.join(stale)} (run 'rworld schema -o {output}')", err=True)
+            click.echo(
+                f"stale schemas in {output}: {', '.join(stale)} (run 'rworld schema -o {output}')",
+                err=True,
+            )
         else:
             click.echo(f"ok: schemas in {output} are up to date")
         if stale:

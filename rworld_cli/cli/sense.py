@@ -9,12 +9,39 @@ from .common import emit_json, handle_errors, json_option, parse_joint_assignmen
 
 @click.command()
 @click.argument("cell", metavar="CELL")
-@click.option("--joints", multiple=True, metavar="DEVICE=q1,...", help="Joint values (SI); repeatable. Default: home.")
-@click.option("--device", default=None, metavar="NAME", help="With --q: the device whose joint values --q gives.")
+@click.option(
+    "--joints",
+    multiple=True,
+    metavar="DEVICE=q1,...",
+    help="Joint values (SI); repeatable. Default: home.",
+)
+@click.option(
+    "--device",
+    default=None,
+    metavar="NAME",
+    help="With --q: the device whose joint values --q gives.",
+)
 @click.option("--q", default=None, metavar="Q1,...,QN", help="Joint values (SI) of --device.")
-@click.option("--sensor", "sensors", multiple=True, metavar="NAME", help="Read only these sensors; repeatable.")
-@click.option("--tolerance", type=float, default=None, help="Surfaces this close to a cell touch it [m] (default 1e-6).")
-@click.option("--png", "png", default=None, type=click.Path(dir_okay=False), help="Write the tactile and proximity maps as a PNG.")
+@click.option(
+    "--sensor",
+    "sensors",
+    multiple=True,
+    metavar="NAME",
+    help="Read only these sensors; repeatable.",
+)
+@click.option(
+    "--tolerance",
+    type=float,
+    default=None,
+    help="Surfaces this close to a cell touch it [m] (default 1e-6).",
+)
+@click.option(
+    "--png",
+    "png",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Write the tactile and proximity maps as a PNG.",
+)
 @json_option
 @handle_errors
 def sense(cell, joints, device, q, sensors, tolerance, png, json_output):
@@ -40,7 +67,13 @@ def sense(cell, joints, device, q, sensors, tolerance, png, json_output):
     _, readings = sense(cell, assignments, list(sensors) or None, tolerance)
     written = write_sensor_maps(readings, png) if png else None
     if json_output:
-        emit_json({"cell": cell, "readings": [r.as_dict() for r in readings], "png": str(written) if written else None})
+        emit_json(
+            {
+                "cell": cell,
+                "readings": [r.as_dict() for r in readings],
+                "png": str(written) if written else None,
+            }
+        )
         return
     for r in readings:
         for line in describe_reading(r):

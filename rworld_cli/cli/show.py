@@ -7,15 +7,32 @@ import click
 from .common import emit_json, handle_errors, json_option, parse_joint_assignments
 
 KIND_STYLE = {"device": "bold cyan", "object": "bold green", "sensor": "bold magenta"}
-FRAME_STYLE = {"auxiliary": "yellow", "tcp": "bold yellow", "link": "blue", "free": "white", "world": "bold"}
+FRAME_STYLE = {
+    "auxiliary": "yellow",
+    "tcp": "bold yellow",
+    "link": "blue",
+    "free": "white",
+    "world": "bold",
+}
 
 
 @click.command()
 @click.argument("cell", metavar="CELL")
-@click.option("--joints", "joints", multiple=True, metavar="DEVICE=q1,q2,...",
-              help="Joint values (SI: rad or m) instead of the device's home; repeatable.")
-@click.option("--units", "units", type=click.Choice(["mm", "m"]), default="mm", show_default=True,
-              help="Length unit of the printed positions (angles print in degrees).")
+@click.option(
+    "--joints",
+    "joints",
+    multiple=True,
+    metavar="DEVICE=q1,q2,...",
+    help="Joint values (SI: rad or m) instead of the device's home; repeatable.",
+)
+@click.option(
+    "--units",
+    "units",
+    type=click.Choice(["mm", "m"]),
+    default="mm",
+    show_default=True,
+    help="Length unit of the printed positions (angles print in degrees).",
+)
 @json_option
 @handle_errors
 def show(cell: str, joints: tuple[str, ...], units: str, json_output: bool) -> None:
@@ -66,10 +83,19 @@ def _render(summary, units: str) -> None:
         err_console.print(w.format(), style="yellow", markup=False)
 
     title = summary.name + (f" - {summary.description}" if summary.description else "")
-    table = Table(title=title, title_justify="left", show_edge=False, pad_edge=False, box=None, header_style="bold")
+    table = Table(
+        title=title,
+        title_justify="left",
+        show_edge=False,
+        pad_edge=False,
+        box=None,
+        header_style="bold",
+    )
     rows = list(_rows(summary.root))
     name_width = max((2 * (d - 1) + (2 if d > 1 else 0) + len(n.name) for n, d in rows), default=5)
-    table.add_column("frame", no_wrap=True, min_width=name_width)  # names are what users type: never cut
+    table.add_column(
+        "frame", no_wrap=True, min_width=name_width
+    )  # names are what users type: never cut
     table.add_column("what", overflow="fold")
     # numbers stay whole; the descriptive columns wrap in narrow terminals
     table.add_column(f"x y z [{units}]", justify="right", no_wrap=True)
@@ -87,9 +113,15 @@ def _render(summary, units: str) -> None:
             what += f", {node.mass:.4g} kg"
         if node.affixment:
             aff = node.affixment
-            what += ", held " + aff["type"].replace("_", "-") + (f" ({aff['kind']})" if aff["kind"] else "")
+            what += (
+                ", held "
+                + aff["type"].replace("_", "-")
+                + (f" ({aff['kind']})" if aff["kind"] else "")
+            )
         # round first so -1e-14 prints as 0.00, not -0.00
-        xyz = " ".join(f"{v:.{digits}f}" for v in np.round(node.T_world[:3, 3] * scale, digits) + 0.0)
+        xyz = " ".join(
+            f"{v:.{digits}f}" for v in np.round(node.T_world[:3, 3] * scale, digits) + 0.0
+        )
         rpy = " ".join(f"{v:.2f}" for v in np.round(np.degrees(node.rpy), 2) + 0.0)
         table.add_row(name, what, xyz, rpy)
     console.print(table)
@@ -99,14 +131,20 @@ def _render(summary, units: str) -> None:
             console,
             "Devices",
             ["device", "joint values (SI: rad, m)", "active TCP"],
-            [[d, "[" + ", ".join(f"{v:.4g}" for v in q) + "]", summary.active_tcps[d]] for d, q in summary.joints.items()],
+            [
+                [d, "[" + ", ".join(f"{v:.4g}" for v in q) + "]", summary.active_tcps[d]]
+                for d, q in summary.joints.items()
+            ],
         )
     if summary.conditions:
         _print_table(
             console,
             "Frame conditions (calibration)",
             ["frame", "condition", "features"],
-            [[c["frame"], f"{c['type']} ({c['code']})", ", ".join(c["features"])] for c in summary.conditions],
+            [
+                [c["frame"], f"{c['type']} ({c['code']})", ", ".join(c["features"])]
+                for c in summary.conditions
+            ],
         )
 
 

@@ -28,10 +28,24 @@ def _simulate(cell: str, run: str, dt: float | None, show_progress: bool):
 @click.command()
 @click.argument("cell", metavar="CELL")
 @click.argument("run", metavar="RUN")
-@click.option("-o", "--output", default=None, type=click.Path(file_okay=False),
-              help="Write timelines (CSV), events.json, summary.json here.")
-@click.option("--dt", type=click.FloatRange(1e-4, 1.0), default=None, help="Clock step [s] (default: the run file's).")
-@click.option("--plot", is_flag=True, help="Also write PNG plots of joint positions and limit ratios (needs -o).")
+@click.option(
+    "-o",
+    "--output",
+    default=None,
+    type=click.Path(file_okay=False),
+    help="Write timelines (CSV), events.json, summary.json here.",
+)
+@click.option(
+    "--dt",
+    type=click.FloatRange(1e-4, 1.0),
+    default=None,
+    help="Clock step [s] (default: the run file's).",
+)
+@click.option(
+    "--plot",
+    is_flag=True,
+    help="Also write PNG plots of joint positions and limit ratios (needs -o).",
+)
 @json_option
 @handle_errors
 def simulate(cell, run, output, dt, plot, json_output):
@@ -70,11 +84,17 @@ def simulate(cell, run, output, dt, plot, json_output):
 @click.command()
 @click.argument("cell", metavar="CELL")
 @click.argument("run", metavar="RUN")
-@click.option("--dt", type=click.FloatRange(1e-4, 1.0), default=None, help="Clock step [s] (default: the run file's).")
+@click.option(
+    "--dt",
+    type=click.FloatRange(1e-4, 1.0),
+    default=None,
+    help="Clock step [s] (default: the run file's).",
+)
 @json_option
 @handle_errors
 def check(cell, run, dt, json_output):
-    """For CI: exit 0 when every program of RUN runs within all limits, 1 with the violations otherwise.
+    """For CI: exit 0 when every program of RUN runs within all limits, 1 with the violations
+    otherwise.
 
     Bad input (files, names, unreachable targets) exits 2 as everywhere.
 
@@ -87,14 +107,19 @@ def check(cell, run, dt, json_output):
     _, result = _simulate(cell, run, dt, False)
     if json_output:
         summary = run_summary(result)
-        emit_json({k: summary[k] for k in ("cell", "run", "ok", "cycle_time", "violations", "unlimited")})
+        emit_json(
+            {k: summary[k] for k in ("cell", "run", "ok", "cycle_time", "violations", "unlimited")}
+        )
         if not result.ok:
             sys.exit(EXIT_CHECK_FAILED)
         return
     for line in unlimited_notes(result):
         click.echo(f"note: {line}", err=True)
     if result.ok:
-        click.echo(f"ok: {result.run}: {len(result.devices)} device(s) within all limits, cycle time {result.cycle_time:.3f} s")
+        click.echo(
+            f"ok: {result.run}: {len(result.devices)} device(s) within all limits, cycle time "
+            f"{result.cycle_time:.3f} s"
+        )
     else:
         for v in result.violations:
             click.echo(f"violation: {v.describe()}", err=True)
@@ -108,9 +133,17 @@ def _render(result) -> None:
     from rich.table import Table
 
     console = Console(highlight=False)
-    table = Table(title=f"{result.cell}: {result.run}", title_justify="left", box=None, header_style="bold")
-    for col, justify in (("device", "left"), ("cycle time [s]", "right"), ("steps", "right"),
-                         ("peak |torque|/limit", "right"), ("peak |velocity|/limit", "right"), ("violations", "right")):
+    table = Table(
+        title=f"{result.cell}: {result.run}", title_justify="left", box=None, header_style="bold"
+    )
+    for col, justify in (
+        ("device", "left"),
+        ("cycle time [s]", "right"),
+        ("steps", "right"),
+        ("peak |torque|/limit", "right"),
+        ("peak |velocity|/limit", "right"),
+        ("violations", "right"),
+    ):
         table.add_column(col, justify=justify)
     for name, tl in result.devices.items():
         peaks = result.peak_ratios(name)
@@ -123,10 +156,19 @@ def _render(result) -> None:
             text = f"{worst:.2f} (joint {j})"
             return f"[{style}]{text}[/]" if style else text
 
-        table.add_row(name, f"{tl.cycle_time:.3f}", str(len(result.step_texts[name])), fmt(peaks["torque"]),
-                      fmt(peaks["velocity"]), f"[red]{n_viol}[/]" if n_viol else "0")
+        table.add_row(
+            name,
+            f"{tl.cycle_time:.3f}",
+            str(len(result.step_texts[name])),
+            fmt(peaks["torque"]),
+            fmt(peaks["velocity"]),
+            f"[red]{n_viol}[/]" if n_viol else "0",
+        )
     console.print(table)
-    console.print(f"total cycle time {result.cycle_time:.3f} s, clock step {result.dt} s, {len(result.times)} samples")
+    console.print(
+        f"total cycle time {result.cycle_time:.3f} s, clock step {result.dt} s, "
+        f"{len(result.times)} samples"
+    )
     from ..api import unlimited_notes
 
     for line in unlimited_notes(result):
@@ -136,7 +178,12 @@ def _render(result) -> None:
     for col in ("t [s]", "device", "step", "event"):
         events.add_column(col, justify="right" if col == "t [s]" else "left")
     for e in result.events:
-        events.add_row(f"{e.t:.3f}", e.device, str(e.step + 1) if e.step is not None else "", f"{e.kind}: {e.detail}")
+        events.add_row(
+            f"{e.t:.3f}",
+            e.device,
+            str(e.step + 1) if e.step is not None else "",
+            f"{e.kind}: {e.detail}",
+        )
     console.print(events)
     if result.violations:
         console.print()

@@ -11,8 +11,13 @@ from .common import EXIT_BAD_INPUT, emit_json, handle_errors, json_option
 
 @click.command()
 @click.argument("files", nargs=-1, required=True, metavar="FILE...")
-@click.option("--cell", default=None, metavar="CELL",
-              help="The cell path and measurement files are checked against (path files: default the cell whose paths/ folder holds them).")
+@click.option(
+    "--cell",
+    default=None,
+    metavar="CELL",
+    help="The cell path and measurement files are checked against (path files: default the cell "
+    "whose paths/ folder holds them).",
+)
 @json_option
 @handle_errors
 def validate(files: tuple[str, ...], cell: str | None, json_output: bool) -> None:
@@ -46,7 +51,9 @@ def validate(files: tuple[str, ...], cell: str | None, json_output: bool) -> Non
         emit_json({"valid": all(r.valid for r in reports), "files": [r.as_dict() for r in reports]})
     else:
         for r in reports:
-            for issue in sorted(r.errors + r.warnings, key=lambda i: (i.file != r.file, i.file, i.line, i.column)):
+            for issue in sorted(
+                r.errors + r.warnings, key=lambda i: (i.file != r.file, i.file, i.line, i.column)
+            ):
                 click.echo(issue.format(), err=True)
             if r.valid:
                 click.echo(f"ok: {r.file}: {r.summary}")

@@ -1,4 +1,6 @@
-"""Device dynamics: Newton-Euler inverse dynamics, mass matrix, forward dynamics, statics, payloads."""
+"""Device dynamics: Newton-Euler inverse dynamics, mass matrix, forward dynamics, statics,
+payloads.
+"""
 
 from .core import DEFAULT_GRAVITY, DeviceDynamics, Payload, combine_inertials, integrate
 

@@ -42,12 +42,12 @@ class Payload:
     inertia: np.ndarray
 
     @staticmethod
-    def point_mass(mass: float, com=(0.0, 0.0, 0.0)) -> "Payload":
+    def point_mass(mass: float, com=(0.0, 0.0, 0.0)) -> Payload:
         """A lumped mass at ``com`` (tool frame)."""
         return Payload(float(mass), np.asarray(com, dtype=float), np.zeros((3, 3)))
 
     @staticmethod
-    def rigid_body(inertial: Inertial, T_tool_body=None) -> "Payload":
+    def rigid_body(inertial: Inertial, T_tool_body=None) -> Payload:
         """A body with mass properties ``inertial`` (in its own frame) held at ``T_tool_body``."""
         T = np.eye(4) if T_tool_body is None else np.asarray(T_tool_body, dtype=float)
         R = T[:3, :3]
@@ -117,8 +117,15 @@ class DeviceDynamics:
     Coulomb friction uses ``sign(qd)`` with ``sign(0) = 0``: no stiction.
     """
 
-    def __init__(self, device: DeviceModel, payload: Payload | None = None, mount: ToolMount | None = None,
-                 armature: bool = True, friction: bool = True, link_loads: dict | None = None):
+    def __init__(
+        self,
+        device: DeviceModel,
+        payload: Payload | None = None,
+        mount: ToolMount | None = None,
+        armature: bool = True,
+        friction: bool = True,
+        link_loads: dict | None = None,
+    ):
         self.device = device
         self.n = device.dof
         mount = mount or ToolMount(device.dof)
@@ -132,17 +139,23 @@ class DeviceDynamics:
             if not 1 <= link <= self.n:
                 raise ValueError(f"link_loads: link {link} is not in 1..{self.n}")
             for inertial, T in bodies:
-                inertials[link - 1] = combine_inertials(inertials[link - 1], Payload.rigid_body(inertial, T).in_link_frame(np.eye(4)))
+                inertials[link - 1] = combine_inertials(
+                    inertials[link - 1], Payload.rigid_body(inertial, T).in_link_frame(np.eye(4))
+                )
         self.inertials = inertials
         self.payload = payload
-        self.armature = np.array([j.armature for j in device.joints]) if armature else np.zeros(self.n)
+        self.armature = (
+            np.array([j.armature for j in device.joints]) if armature else np.zeros(self.n)
+        )
         if friction:
             self.viscous = np.array([j.viscous for j in device.joints])
             self.coulomb_positive = np.array([j.coulomb_positive for j in device.joints])
             self.coulomb_negative = np.array([j.coulomb_negative for j in device.joints])
         else:
             self.viscous = self.coulomb_positive = self.coulomb_negative = np.zeros(self.n)
-        self._has_friction = bool(np.any(self.viscous) or np.any(self.coulomb_positive) or np.any(self.coulomb_negative))
+        self._has_friction = bool(
+            np.any(self.viscous) or np.any(self.coulomb_positive) or np.any(self.coulomb_negative)
+        )
 
     def _gen(self, mode: str) -> Generated:
         return generate_rnea(self.device, self.inertials, mode)
@@ -151,7 +164,10 @@ class DeviceDynamics:
         single, arrays = _as_batch(*arrays)
         for a in arrays:
             if a.shape != arrays[0].shape or a.shape[-1] != self.n or a.ndim not in (1, 2):
-                raise ValueError(f"joint arrays of '{self.device.name}' must all have shape (n,) or (N, n), n = {self.n}; got {[x.shape for x in arrays]}")
+                raise ValueError(
+                    f"joint arrays of '{self.device.name}' must all have shape (n,) or (N, n), n "
+                    f"= {self.n}; got {[x.shape for x in arrays]}"
+                )
         return single, arrays
 
     def friction_torque(self, qd) -> np.ndarray:
@@ -159,7 +175,11 @@ class DeviceDynamics:
         qd = np.asarray(qd, dtype=float)
         if not self._has_friction:
             return np.zeros_like(qd)
-        return self.viscous * qd + np.where(qd > 0, self.coulomb_positive, 0.0) - np.where(qd < 0, self.coulomb_negative, 0.0)
+        return (
+            self.viscous * qd
+            + np.where(qd > 0, self.coulomb_positive, 0.0)
+            - np.where(qd < 0, self.coulomb_negative, 0.0)
+        )
 
     def inverse(self, q, qd, qdd, gravity=DEFAULT_GRAVITY) -> np.ndarray:
         """Joint torques for a motion, by recursive Newton-Euler.
@@ -182,8 +202,12 @@ class DeviceDynamics:
         g = np.asarray(gravity, dtype=float)
         if g.ndim == 2 and not single:
             if g.shape != (q.shape[0], 3) or not np.all(np.isfinite(g)):
-                raise ValueError(f"per-sample gravity must be finite with shape ({q.shape[0]}, 3), got {g.shape}")
-            tau = self._gen("full").evaluate(cols + list(np.ascontiguousarray(g.T)), (), self.n, single)
+                raise ValueError(
+                    f"per-sample gravity must be finite with shape ({q.shape[0]}, 3), got {g.shape}"
+                )
+            tau = self._gen("full").evaluate(
+                cols + list(np.ascontiguousarray(g.T)), (), self.n, single
+            )
         else:
             tau = self._gen("full").evaluate(cols, _gravity(g), self.n, single)
         tau += self.armature * qdd
@@ -246,8 +270,18 @@ class DeviceDynamics:
         return kinetic, potential
 
 
-def integrate(dynamics: DeviceDynamics, q0, qd0, times, tau, gravity=DEFAULT_GRAVITY, method: str = "rk4",
-              substeps: int = 1, rtol: float = 1e-9, atol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
+def integrate(
+    dynamics: DeviceDynamics,
+    q0,
+    qd0,
+    times,
+    tau,
+    gravity=DEFAULT_GRAVITY,
+    method: str = "rk4",
+    substeps: int = 1,
+    rtol: float = 1e-9,
+    atol: float = 1e-9,
+) -> tuple[np.ndarray, np.ndarray]:
     """Simulate the device under a torque profile.
 
     Parameters
@@ -296,7 +330,9 @@ def integrate(dynamics: DeviceDynamics, q0, qd0, times, tau, gravity=DEFAULT_GRA
         return out[:, :n], out[:, n:]
     from scipy.integrate import solve_ivp
 
-    sol = solve_ivp(rhs, (times[0], times[-1]), y0, method=method, t_eval=times, rtol=rtol, atol=atol)
+    sol = solve_ivp(
+        rhs, (times[0], times[-1]), y0, method=method, t_eval=times, rtol=rtol, atol=atol
+    )
     if not sol.success:
         raise RuntimeError(f"integration failed: {sol.message}")
     return sol.y[:n].T, sol.y[n:].T

@@ -40,10 +40,19 @@ _CACHE: dict[tuple, Generated] = {}
 
 
 def _inertial_key(inertials: list[Inertial]) -> tuple:
-    return tuple((float(i.mass), tuple(np.asarray(i.com, float).tolist()), tuple(np.asarray(i.inertia, float).ravel().tolist())) for i in inertials)
+    return tuple(
+        (
+            float(i.mass),
+            tuple(np.asarray(i.com, float).tolist()),
+            tuple(np.asarray(i.inertia, float).ravel().tolist()),
+        )
+        for i in inertials
+    )
 
 
-def _rnea_outputs(em: Emitter, device: DeviceModel, inertials: list[Inertial], q, qd, qdd, g) -> list[Num]:
+def _rnea_outputs(
+    em: Emitter, device: DeviceModel, inertials: list[Inertial], q, qd, qdd, g
+) -> list[Num]:
     """Emit one Newton-Euler pass; returns the n joint torques (symbolic)."""
     steps = chain_steps(em, device, q)
     zero = (0.0, 0.0, 0.0)
@@ -58,7 +67,9 @@ def _rnea_outputs(em: Emitter, device: DeviceModel, inertials: list[Inertial], q
             uqd = em.vscale(qd[i], st.u)
             wi = em.vadd(wp, uqd)
             dwi = em.vadd(em.vadd(em.mattvec(st.R, dw), em.cross(wp, uqd)), em.vscale(qdd[i], st.u))
-        dvi = em.vadd(em.mattvec(st.R, a_axis), em.vadd(em.cross(dwi, st.e), em.cross(wi, em.cross(wi, st.e))))
+        dvi = em.vadd(
+            em.mattvec(st.R, a_axis), em.vadd(em.cross(dwi, st.e), em.cross(wi, em.cross(wi, st.e)))
+        )
         if st.prismatic:
             uqd = em.vscale(qd[i], st.u)
             dvi = em.vadd(dvi, em.vadd(em.vscale(2.0, em.cross(wi, uqd)), em.vscale(qdd[i], st.u)))

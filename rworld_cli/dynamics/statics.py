@@ -29,7 +29,9 @@ def wrench_torques(J, wrench) -> np.ndarray:
     ndarray, shape (n,) or (N, n)
     """
     J = np.asarray(J, dtype=float)
-    return np.einsum("...ji,...j->...i", J, np.broadcast_to(np.asarray(wrench, dtype=float), J.shape[:-2] + (6,)))
+    return np.einsum(
+        "...ji,...j->...i", J, np.broadcast_to(np.asarray(wrench, dtype=float), J.shape[:-2] + (6,))
+    )
 
 
 @dataclass
@@ -67,7 +69,9 @@ def wrench_capacity(J, wrench, tau_max, tau_hold=None) -> WrenchCapacity:
     per_unit = wrench_torques(J, wrench)  # (N, n)
     hold = np.zeros_like(per_unit) if tau_hold is None else np.asarray(tau_hold, dtype=float)
     tau_max = np.asarray(tau_max, dtype=float)
-    room = np.where(per_unit > 0, tau_max - hold, tau_max + hold)  # distance to the limit in the loading direction
+    room = np.where(
+        per_unit > 0, tau_max - hold, tau_max + hold
+    )  # distance to the limit in the loading direction
     with np.errstate(divide="ignore", invalid="ignore"):
         s = np.where(np.abs(per_unit) > 1e-12, room / np.abs(per_unit), np.inf)
     s = np.where(np.isnan(s), np.inf, s)

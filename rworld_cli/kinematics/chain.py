@@ -75,7 +75,11 @@ def device_key(device: DeviceModel) -> tuple:
     """A hashable key of everything the generated code of ``device`` depends on."""
     rows = tuple((j.kind, j.a, j.alpha, j.d, j.theta) for j in device.joints)
     links = tuple(
-        (l.inertial.mass, tuple(np.asarray(l.inertial.com).tolist()), tuple(np.asarray(l.inertial.inertia).ravel().tolist()))
+        (
+            l.inertial.mass,
+            tuple(np.asarray(l.inertial.com).tolist()),
+            tuple(np.asarray(l.inertial.inertia).ravel().tolist()),
+        )
         for l in device.links
     )
     return (device.convention, rows, links)

@@ -18,7 +18,9 @@ __all__ = ["joint_link_transforms", "link_poses"]
 
 
 def joint_link_transforms(device: DeviceModel, q) -> np.ndarray:
-    """Link transforms ``A_i = T_{i-1}_{i}`` for joint values ``q``: see :meth:`DeviceModel.joint_transforms`."""
+    """Link transforms ``A_i = T_{i-1}_{i}`` for joint values ``q``: see
+    :meth:`DeviceModel.joint_transforms`.
+    """
     return device.joint_transforms(q)
 
 

@@ -45,11 +45,18 @@ class IKResult:
     at_limits: list = field(default_factory=list)
 
     def unreachable(self, target: str, tcp: str, joint_names, position_only: bool = False) -> str:
-        """Why the target was not reached, with the figures: the closest pose found and the joints at a limit."""
-        limits = ", ".join(f"{joint_names[i]} at its {side} limit" for i, side in self.at_limits) or "no joint at a limit"
+        """Why the target was not reached, with the figures: the closest pose found and the
+        joints at a limit.
+        """
+        limits = (
+            ", ".join(f"{joint_names[i]} at its {side} limit" for i, side in self.at_limits)
+            or "no joint at a limit"
+        )
         rot = "" if position_only else f" and {np.degrees(self.rotation_error):.3g} deg"
-        return (f"'{target}' is unreachable for {tcp}: the closest pose found is "
-                f"{self.position_error * 1000:.4g} mm{rot} away ({limits})")
+        return (
+            f"'{target}' is unreachable for {tcp}: the closest pose found is "
+            f"{self.position_error * 1000:.4g} mm{rot} away ({limits})"
+        )
 
 
 def _errors(T: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -114,7 +121,9 @@ def solve_ik(
     tol = np.array([position_tolerance] * 3 + ([] if position_only else [rotation_tolerance] * 3))
     eye = np.eye(err.shape[1])
     iterations = 0
-    for iterations in range(1, max_iterations + 1):  # iterations of the batch, not a loop over samples
+    for iterations in range(
+        1, max_iterations + 1
+    ):  # iterations of the batch, not a loop over samples
         done = np.all(np.abs(err) <= tol, axis=1)
         if done.all() or (done[0] and iterations > 1):
             break
@@ -126,7 +135,13 @@ def solve_ik(
         err_new = _errors(T_new, target)[:, rows]
         cost_new = np.einsum("ki,ki->k", err_new, err_new)
         better = (cost_new < cost) & ~done
-        Q[better], T[better], J[better], err[better], cost[better] = Q_new[better], T_new[better], J_new[better], err_new[better], cost_new[better]
+        Q[better], T[better], J[better], err[better], cost[better] = (
+            Q_new[better],
+            T_new[better],
+            J_new[better],
+            err_new[better],
+            cost_new[better],
+        )
         lam = np.where(better, np.maximum(lam / 3, 1e-9), np.minimum(lam * 4, 1e6))
     done = np.all(np.abs(err) <= tol, axis=1)
     if done.any():
@@ -150,7 +165,9 @@ def solve_ik(
 
 @dataclass
 class TrackResult:
-    """Outcome of :func:`track`: joint values for the poses reached, and where it stopped if it failed."""
+    """Outcome of :func:`track`: joint values for the poses reached, and where it stopped if it
+    failed.
+    """
 
     q: np.ndarray  # (K, n) - rows after a failure repeat the last solution
     failed_at: int | None  # index of the first pose not reached
@@ -159,8 +176,16 @@ class TrackResult:
     condition: float  # largest Jacobian condition number met
 
 
-def track(device: DeviceModel, targets: np.ndarray, q0, mount: ToolMount | None = None, position_only: bool = False,
-          tolerance: float = 1e-7, max_iterations: int = 30, max_condition: float = 1e6) -> TrackResult:
+def track(
+    device: DeviceModel,
+    targets: np.ndarray,
+    q0,
+    mount: ToolMount | None = None,
+    position_only: bool = False,
+    tolerance: float = 1e-7,
+    max_iterations: int = 30,
+    max_condition: float = 1e6,
+) -> TrackResult:
     """Follow a dense sequence of tool poses, each solution seeding the next.
 
     Why sequential: along a path the previous solution is the right seed and

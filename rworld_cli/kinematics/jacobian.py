@@ -15,7 +15,15 @@ from ..codegen import Emitter, Generated, snap
 from ..model.cell import DeviceModel
 from .chain import chain_steps, device_key
 
-__all__ = ["ToolMount", "tool_pose", "tool_pose_and_jacobian", "jacobian", "manipulability", "condition_number", "shift_jacobian"]
+__all__ = [
+    "ToolMount",
+    "tool_pose",
+    "tool_pose_and_jacobian",
+    "jacobian",
+    "manipulability",
+    "condition_number",
+    "shift_jacobian",
+]
 
 
 class ToolMount:
@@ -23,7 +31,9 @@ class ToolMount:
 
     def __init__(self, link: int, T_link_tool=None):
         self.link = int(link)
-        self.T_link_tool = np.eye(4) if T_link_tool is None else np.asarray(T_link_tool, dtype=float)
+        self.T_link_tool = (
+            np.eye(4) if T_link_tool is None else np.asarray(T_link_tool, dtype=float)
+        )
 
     def key(self) -> tuple:
         return (self.link, tuple(np.round(self.T_link_tool, 15).ravel().tolist()))
@@ -87,7 +97,10 @@ def _evaluate(gen: Generated, q: np.ndarray, n_out: int) -> np.ndarray:
 def _check_q(device: DeviceModel, q) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     if q.shape[-1:] != (device.dof,) or q.ndim not in (1, 2):
-        raise ValueError(f"joint values of '{device.name}' must have shape (n,) or (N, n) with n = {device.dof}, got {q.shape}")
+        raise ValueError(
+            f"joint values of '{device.name}' must have shape (n,) or (N, n) with n = "
+            f"{device.dof}, got {q.shape}"
+        )
     return q
 
 
@@ -119,7 +132,9 @@ def _to_transform(flat: np.ndarray) -> np.ndarray:
     return T
 
 
-def tool_pose_and_jacobian(device: DeviceModel, q, mount: ToolMount | None = None) -> tuple[np.ndarray, np.ndarray]:
+def tool_pose_and_jacobian(
+    device: DeviceModel, q, mount: ToolMount | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """``T_base_tool`` and the geometric Jacobian at the tool origin, in the base frame.
 
     Parameters
@@ -140,7 +155,9 @@ def tool_pose_and_jacobian(device: DeviceModel, q, mount: ToolMount | None = Non
     return _to_transform(flat), flat[..., 12:].reshape(flat.shape[:-1] + (6, n))
 
 
-def jacobian(device: DeviceModel, q, mount: ToolMount | None = None, point_in_tool=None) -> np.ndarray:
+def jacobian(
+    device: DeviceModel, q, mount: ToolMount | None = None, point_in_tool=None
+) -> np.ndarray:
     """Geometric Jacobian in the base frame, at the tool origin or at a point on the tool.
 
     Parameters
@@ -155,7 +172,9 @@ def jacobian(device: DeviceModel, q, mount: ToolMount | None = None, point_in_to
     T, J = tool_pose_and_jacobian(device, q, mount)
     if point_in_tool is None:
         return J
-    return shift_jacobian(J, np.einsum("...ij,j->...i", T[..., :3, :3], np.asarray(point_in_tool, dtype=float)))
+    return shift_jacobian(
+        J, np.einsum("...ij,j->...i", T[..., :3, :3], np.asarray(point_in_tool, dtype=float))
+    )
 
 
 def shift_jacobian(J: np.ndarray, offset: np.ndarray) -> np.ndarray:
@@ -177,7 +196,9 @@ def shift_jacobian(J: np.ndarray, offset: np.ndarray) -> np.ndarray:
 
 
 def manipulability(J: np.ndarray) -> np.ndarray:
-    """Yoshikawa's measure ``sqrt(det(J J^T))`` = product of singular values; shape ``J.shape[:-2]``."""
+    """Yoshikawa's measure ``sqrt(det(J J^T))`` = product of singular values; shape
+    ``J.shape[:-2]``.
+    """
     s = np.linalg.svd(J, compute_uv=False)
     return np.prod(s, axis=-1)
 

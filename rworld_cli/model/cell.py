@@ -41,7 +41,7 @@ class Inertial:
     inertia: np.ndarray
 
     @staticmethod
-    def zero() -> "Inertial":
+    def zero() -> Inertial:
         return Inertial(0.0, np.zeros(3), np.zeros((3, 3)))
 
 
@@ -54,7 +54,9 @@ class Box:
 
     def corners(self) -> np.ndarray:
         """The 8 corners in the owner's frame, shape (8, 3)."""
-        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+        signs = np.array(
+            [[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float
+        )
         local = signs * self.half_extents
         return local @ self.T_owner_box[:3, :3].T + self.T_owner_box[:3, 3]
 
@@ -171,7 +173,8 @@ class DeviceModel:
         }
 
     def joint_transforms(self, q) -> np.ndarray:
-        """Link transforms ``A_i = T_{i-1}_{i}`` for joint values ``q`` (the chain's description as matrices).
+        """Link transforms ``A_i = T_{i-1}_{i}`` for joint values ``q`` (the chain's description as
+        matrices).
 
         Parameters
         ----------
@@ -196,18 +199,30 @@ class DeviceModel:
         return step(a, alpha, d, theta)
 
     def limit_array(self, which: str) -> np.ndarray:
-        """One limit for all joints, shape (n,): 'lower', 'upper', 'velocity', 'acceleration' or 'effort'."""
+        """One limit for all joints, shape (n,): 'lower', 'upper', 'velocity', 'acceleration' or
+        'effort'.
+        """
         return np.array([getattr(j.limits, which) for j in self.joints], dtype=float)
 
     def unlimited(self) -> dict[str, list[str]]:
-        """Per kind ('position', 'velocity', 'acceleration', 'torque'), the joints the cell gives no limit of it.
+        """Per kind ('position', 'velocity', 'acceleration', 'torque'), the joints the cell gives no
+        limit of it.
 
         Such a joint is unlimited in that kind, alone: every other joint keeps its limit.
         """
-        kinds = {"position": ("lower", "upper"), "velocity": ("velocity",), "acceleration": ("acceleration",), "torque": ("effort",)}
+        kinds = {
+            "position": ("lower", "upper"),
+            "velocity": ("velocity",),
+            "acceleration": ("acceleration",),
+            "torque": ("effort",),
+        }
         out = {}
         for kind, fields in kinds.items():
-            free = [j.name for j in self.joints if all(not np.isfinite(getattr(j.limits, f)) for f in fields)]
+            free = [
+                j.name
+                for j in self.joints
+                if all(not np.isfinite(getattr(j.limits, f)) for f in fields)
+            ]
             if free:
                 out[kind] = free
         return out

@@ -1,4 +1,6 @@
-"""Probe measurements of features, in SI and world coordinates (read from files by ``schema/measurements.py``)."""
+"""Probe measurements of features, in SI and world coordinates (read from files by
+``schema/measurements.py``).
+"""
 
 from __future__ import annotations
 
@@ -28,7 +30,9 @@ class MeasurementSet:
 
 @dataclass
 class FeatureProbes:
-    """What a measurement file says of one feature (SI, world): its points, and orientation information."""
+    """What a measurement file says of one feature (SI, world): its points, and orientation
+    information.
+    """
 
     points: np.ndarray  # (K, 3)
     above: np.ndarray | None = None

@@ -9,8 +9,11 @@ import numpy as np
 
 @dataclass(frozen=True)
 class PathSpec:
-    """A joint-space path: a cubic spline through ``waypoints`` (K, n) [rad or m] at ``knots`` (K,) on [0, 1]
-    (None: equally spaced), with ``boundary`` 'clamped' (at rest at both ends), 'natural' or 'not-a-knot'."""
+    """A joint-space path: a cubic spline through ``waypoints`` (K, n) [rad or m].
+
+    ``knots`` (K,) on [0, 1] place the waypoints (None: equally spaced); ``boundary`` is
+    'clamped' (at rest at both ends), 'natural' or 'not-a-knot'.
+    """
 
     waypoints: np.ndarray
     knots: np.ndarray | None

@@ -1,4 +1,6 @@
-"""Programs and runs as data: resolved steps per device, the programs that run together on a cell."""
+"""Programs and runs as data: resolved steps per device, the programs that run together on a
+cell.
+"""
 
 from __future__ import annotations
 
@@ -21,7 +23,8 @@ class Step:
     kind : str
         move | grasp | release | place | attach_tool | detach_tool | wait | sync
     spec : object
-        The step's parameters, by attribute as in ``docs/simulation.md`` (``to``, ``tcp``, ``speed``,
+        The step's parameters, by attribute as in ``docs/simulation.md`` (``to``, ``tcp``,
+        ``speed``,
         ``object``, ...); fractions, times [s] and names - lengths and angles are in ``T_offset``.
     where : str
         ``file:line`` of the step, for messages.
@@ -38,7 +41,11 @@ class Step:
     def describe(self) -> str:
         s = self.spec
         if self.kind == "move":
-            return f"move to {s.to}" + (" (linear)" if s.motion == "linear" else "") + (f" until {s.until}" if s.until else "")
+            return (
+                f"move to {s.to}"
+                + (" (linear)" if s.motion == "linear" else "")
+                + (f" until {s.until}" if s.until else "")
+            )
         if self.kind in ("grasp", "release"):
             return f"{self.kind} {s.object}"
         if self.kind == "place":

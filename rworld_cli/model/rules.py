@@ -23,7 +23,11 @@ def hierarchy_problem(
     if parent_owner == child:
         return "parent", f"cannot affix '{child}' to its own frame '{parent}'"
     if owner_kind == "free":
-        return "parent", f"'{parent}' is a free frame; frames hold only frames, so affix '{child}' to world, an object or a device"
+        return (
+            "parent",
+            f"'{parent}' is a free frame; frames hold only frames, so affix '{child}' to world, "
+            "an object or a device",
+        )
     if child_kind == "device" and owner_kind in ("object", "sensor"):
         return "child", (
             f"{owner_kind} '{parent_owner}' cannot hold device '{child}': "
@@ -32,7 +36,9 @@ def hierarchy_problem(
     return None
 
 
-def kind_problem(type_: str, kind: str | None, child_kind: str, owner_kind: OwnerKind) -> str | None:
+def kind_problem(
+    type_: str, kind: str | None, child_kind: str, owner_kind: OwnerKind
+) -> str | None:
     """Why an affixment's ``kind`` does not fit its type and ends, or None."""
     if kind is None:
         return None

@@ -1,4 +1,6 @@
-"""Straight-line TCP moves: a timed pose path, inverse kinematics along it, re-timed to the joint limits."""
+"""Straight-line TCP moves: a timed pose path, inverse kinematics along it, re-timed to the
+joint limits.
+"""
 
 from __future__ import annotations
 
@@ -6,11 +8,11 @@ import math
 
 import numpy as np
 
+from .. import spatial
 from ..kinematics.inverse import track
 from ..kinematics.jacobian import ToolMount, tool_pose
 from ..model.cell import DeviceModel
 from .trajectory import SampledMove, TrapezoidProfile, interpolate_poses
-from .. import spatial
 
 # Cartesian limits of a linear move at speed = acceleration = 1 (docs/simulation.md)
 LINEAR_SPEED = 0.25  # m/s
@@ -27,8 +29,17 @@ class PathError(Exception):
         self.reason, self.fraction, self.detail = reason, fraction, detail
 
 
-def linear_move(device: DeviceModel, mount: ToolMount | None, t0: float, q_start, T_base_target, dt: float,
-                speed: float = 1.0, acceleration: float = 1.0, position_only: bool = False) -> SampledMove | None:
+def linear_move(
+    device: DeviceModel,
+    mount: ToolMount | None,
+    t0: float,
+    q_start,
+    T_base_target,
+    dt: float,
+    speed: float = 1.0,
+    acceleration: float = 1.0,
+    position_only: bool = False,
+) -> SampledMove | None:
     """A straight TCP line from where the tool is to ``T_base_target``, within the joint limits.
 
     The path is timed by a trapezoid under the Cartesian limits above (scaled
@@ -44,11 +55,20 @@ def linear_move(device: DeviceModel, mount: ToolMount | None, t0: float, q_start
     q_start = np.asarray(q_start, dtype=float)
     T_start = tool_pose(device, q_start, mount)
     dp = float(np.linalg.norm(T_base_target[:3, 3] - T_start[:3, 3]))
-    dth = 0.0 if position_only else float(np.linalg.norm(spatial.rotation_vector(T_start[:3, :3].T @ T_base_target[:3, :3])))
+    dth = (
+        0.0
+        if position_only
+        else float(
+            np.linalg.norm(spatial.rotation_vector(T_start[:3, :3].T @ T_base_target[:3, :3]))
+        )
+    )
     if dp < 1e-9 and dth < 1e-9:
         return None
     V = min(LINEAR_SPEED * speed / max(dp, 1e-12), ANGULAR_SPEED * speed / max(dth, 1e-12))
-    A = min(LINEAR_ACCELERATION * acceleration / max(dp, 1e-12), ANGULAR_ACCELERATION * acceleration / max(dth, 1e-12))
+    A = min(
+        LINEAR_ACCELERATION * acceleration / max(dp, 1e-12),
+        ANGULAR_ACCELERATION * acceleration / max(dth, 1e-12),
+    )
     v_max, a_max = device.limit_array("velocity"), device.limit_array("acceleration")
     for _ in range(8):  # re-timing rounds, not samples
         profile = TrapezoidProfile.fit(V, A)
@@ -62,14 +82,28 @@ def linear_move(device: DeviceModel, mount: ToolMount | None, t0: float, q_start
         if result.failed_at is not None:
             fraction = float(s[result.failed_at])
             if result.reason == "singular":
-                raise PathError("singular", fraction, f"the line passes a singularity at {fraction:.0%} of the path "
-                                                      f"(Jacobian condition number {result.condition:.3g})")
-            raise PathError("unreachable", fraction, f"the line leaves the workspace at {fraction:.0%} of the path "
-                                                     f"({result.error * 1000:.3g} mm short)")
+                raise PathError(
+                    "singular",
+                    fraction,
+                    f"the line passes a singularity at {fraction:.0%} of the path "
+                    f"(Jacobian condition number {result.condition:.3g})",
+                )
+            raise PathError(
+                "unreachable",
+                fraction,
+                f"the line leaves the workspace at {fraction:.0%} of the path "
+                f"({result.error * 1000:.3g} mm short)",
+            )
         qd = np.gradient(result.q, tau, axis=0)
         qdd = np.gradient(qd, tau, axis=0)
-        ratio = max(float(np.max(np.abs(qd) / v_max)), math.sqrt(float(np.max(np.abs(qdd) / a_max))))
+        ratio = max(
+            float(np.max(np.abs(qd) / v_max)), math.sqrt(float(np.max(np.abs(qdd) / a_max)))
+        )
         if ratio <= 1.0 + 1e-6:
             return SampledMove(t0, t0 + tau, result.q, qd, qdd)
         V, A = V / (ratio * 1.05), A / (ratio * 1.05) ** 2
-    raise PathError("limits", 1.0, "cannot keep the joints within their velocity and acceleration limits on this line")
+    raise PathError(
+        "limits",
+        1.0,
+        "cannot keep the joints within their velocity and acceleration limits on this line",
+    )

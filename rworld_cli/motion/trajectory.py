@@ -33,7 +33,7 @@ class TrapezoidProfile:
     ta: float
 
     @staticmethod
-    def fit(V: float, A: float) -> "TrapezoidProfile":
+    def fit(V: float, A: float) -> TrapezoidProfile:
         """Fastest profile for s from 0 to 1 under speed V and acceleration A."""
         if V * V / A >= 1.0:  # never reaches V: triangle
             ta = np.sqrt(1.0 / A)
@@ -46,7 +46,11 @@ class TrapezoidProfile:
         V, A, T, ta = self.V, self.A, self.T, self.ta
         rise = tau < ta
         fall = tau > T - ta
-        s = np.where(rise, 0.5 * A * tau**2, np.where(fall, 1.0 - 0.5 * A * (T - tau) ** 2, V * (tau - 0.5 * ta)))
+        s = np.where(
+            rise,
+            0.5 * A * tau**2,
+            np.where(fall, 1.0 - 0.5 * A * (T - tau) ** 2, V * (tau - 0.5 * ta)),
+        )
         ds = np.where(rise, A * tau, np.where(fall, A * (T - tau), V))
         dds = np.where(rise, A, np.where(fall, -A, 0.0))
         return s, ds, dds
@@ -90,8 +94,11 @@ class UntimedMove(ValueError):
         self.joints = joints
 
 
-def joint_move(t0: float, q_start, q_end, v_max, a_max, speed: float = 1.0, acceleration: float = 1.0) -> JointMove | None:
-    """Synchronised trapezoidal move within velocity and acceleration limits (scaled), or None if no motion.
+def joint_move(
+    t0: float, q_start, q_end, v_max, a_max, speed: float = 1.0, acceleration: float = 1.0
+) -> JointMove | None:
+    """Synchronised trapezoidal move within velocity and acceleration limits (scaled), or None if no
+    motion.
 
     Parameters
     ----------
@@ -140,7 +147,10 @@ class SampledMove(Segment):
 
     def sample(self, t):
         t = np.asarray(t, dtype=float)
-        cols = [np.stack([np.interp(t, self.times, a[:, k]) for k in range(a.shape[1])], axis=1) for a in (self.q, self.qd, self.qdd)]
+        cols = [
+            np.stack([np.interp(t, self.times, a[:, k]) for k in range(a.shape[1])], axis=1)
+            for a in (self.q, self.qd, self.qdd)
+        ]
         return tuple(cols)
 
 
@@ -168,7 +178,9 @@ class StoppedMove(Segment):
 
 
 def sample_track(segments: list[Segment], q_init: np.ndarray, times: np.ndarray):
-    """q, qd, qdd of a device over ``times`` from its time-ordered segments (holding between them)."""
+    """q, qd, qdd of a device over ``times`` from its time-ordered segments (holding between
+    them).
+    """
     times = np.asarray(times, dtype=float)
     N, n = len(times), len(q_init)
     q = np.tile(np.asarray(q_init, dtype=float), (N, 1))
@@ -186,7 +198,9 @@ def sample_track(segments: list[Segment], q_init: np.ndarray, times: np.ndarray)
 
 
 def interpolate_poses(T0: np.ndarray, T1: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Straight-line position and constant-axis rotation between two poses at parameters ``s`` (K,)."""
+    """Straight-line position and constant-axis rotation between two poses at parameters ``s``
+    (K,).
+    """
     s = np.asarray(s, dtype=float)
     R0, R1 = T0[:3, :3], T1[:3, :3]
     rotvec = spatial.rotation_vector(R0.T @ R1)
@@ -199,6 +213,8 @@ def interpolate_poses(T0: np.ndarray, T1: np.ndarray, s: np.ndarray) -> np.ndarr
     axis = rotvec / angle
     K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
     th = s * angle
-    Rs = np.eye(3) + np.sin(th)[:, None, None] * K + (1 - np.cos(th))[:, None, None] * (K @ K)  # Rodrigues
+    Rs = (
+        np.eye(3) + np.sin(th)[:, None, None] * K + (1 - np.cos(th))[:, None, None] * (K @ K)
+    )  # Rodrigues
     out[:, :3, :3] = R0 @ Rs
     return out

@@ -1,4 +1,5 @@
-"""Constraints on a timed path, as objects: each gives its bounds on the grid and its check between grid points.
+"""Constraints on a timed path, as objects: each gives its bounds on the grid and its check between
+grid points.
 
 Along a path q(s) with x = sdot^2 and u = sddot, a constraint is either
 
@@ -29,7 +30,9 @@ class InfeasiblePath(Exception):
 
 @dataclass
 class GridRows:
-    """Constraints ``lo <= A u + B x <= hi`` per grid point: arrays of shape (N + 1, C), one label per column."""
+    """Constraints ``lo <= A u + B x <= hi`` per grid point: arrays of shape (N + 1, C), one
+    label per column.
+    """
 
     A: np.ndarray
     B: np.ndarray
@@ -42,7 +45,8 @@ class GridRows:
 class Excess:
     """Where a timing exceeds a constraint between grid points.
 
-    ``interval`` (K,): grid intervals; ``factor`` (K,): the factor on x (at both ends of the interval)
+    ``interval`` (K,): grid intervals; ``factor`` (K,): the factor on x (at both ends of the
+    interval)
     that brings each back within the limit; ``label`` (K,): what is exceeded; ``worst``: the largest
     |value| / limit found anywhere (1 or less when nothing is exceeded).
     """
@@ -53,7 +57,7 @@ class Excess:
     worst: float
 
     @staticmethod
-    def none(worst: float = 0.0) -> "Excess":
+    def none(worst: float = 0.0) -> Excess:
         return Excess(np.zeros(0, dtype=int), np.zeros(0), np.zeros(0, dtype=object), worst)
 
 
@@ -63,14 +67,18 @@ class Constraint(Protocol):
     def prepare(self, path: JointPath, s: np.ndarray) -> None:
         """Precompute what the constraint needs on the grid ``s`` (called once per solve)."""
 
-    def x_bound(self, grid: "PathGrid", margin: float) -> np.ndarray | None:
-        """Upper bound on x per grid point (N + 1,), ``margin`` (relative) inside the limit; or None."""
+    def x_bound(self, grid: PathGrid, margin: float) -> np.ndarray | None:
+        """Upper bound on x per grid point (N + 1,), ``margin`` (relative) inside the limit; or
+        None.
+        """
 
-    def grid_rows(self, grid: "PathGrid", margin: float) -> GridRows | None:
+    def grid_rows(self, grid: PathGrid, margin: float) -> GridRows | None:
         """Its rows in (u, x) per grid point, ``margin`` inside the limit; or None."""
 
-    def excess(self, timing, between: "BetweenGridPoints", repair_margin: float) -> Excess:
-        """Where ``timing`` exceeds the constraint between grid points, and the factors that fix it."""
+    def excess(self, timing, between: BetweenGridPoints, repair_margin: float) -> Excess:
+        """Where ``timing`` exceeds the constraint between grid points, and the factors that fix
+        it.
+        """
 
 
 @dataclass
@@ -87,7 +95,8 @@ class PathGrid:
 
 
 class Segments:
-    """The grid intervals cut at the path's polynomial breaks: per segment its interval and the local cubic.
+    """The grid intervals cut at the path's polynomial breaks: per segment its interval and the
+    local cubic.
 
     On a segment starting at s_a, with sigma = s - s_a: q'(sigma) = d1 + d2 sigma + d3 sigma^2.
     """
@@ -109,7 +118,8 @@ class Segments:
 
 
 class BetweenGridPoints:
-    """A timing on every segment between grid points: the exact peaks of joint speed and acceleration.
+    """A timing on every segment between grid points: the exact peaks of joint speed and
+    acceleration.
 
     On a cubic piece with x linear in s, qdd is a quadratic in s and d(qd^2)/ds = 2 q' qdd, so the
     candidates are the segment's ends, the vertex of qdd and its roots.  Computed when first asked.
@@ -144,7 +154,9 @@ class BetweenGridPoints:
                 vertex = -A1 / (2.0 * A2)
             peak = np.maximum(np.abs(A0), np.abs(acc(L)))
             inside = self._inside(vertex)
-            self._acc = np.where(inside, np.maximum(peak, np.abs(acc(np.where(inside, vertex, 0.0)))), peak)
+            self._acc = np.where(
+                inside, np.maximum(peak, np.abs(acc(np.where(inside, vertex, 0.0)))), peak
+            )
         return self._acc
 
     def speed_peak(self) -> np.ndarray:
@@ -157,15 +169,22 @@ class BetweenGridPoints:
                 return qs * qs * np.maximum(xa + 2.0 * uu * t, 0.0)
 
             v2 = np.maximum(speed2(0.0), speed2(seg.length))
-            for r in quadratic_roots(self.A0, self.A1, self.A2):  # interior maxima sit where qdd = 0
+            for r in quadratic_roots(
+                self.A0, self.A1, self.A2
+            ):  # interior maxima sit where qdd = 0
                 ok = self._inside(r)
                 v2 = np.where(ok, np.maximum(v2, speed2(np.where(ok, r, 0.0))), v2)
             self._speed = np.sqrt(v2)
         return self._speed
 
 
-def _per_segment_excess(ratio: np.ndarray, scale: np.ndarray, interval: np.ndarray, names: list[str],
-                        repair_margin: float) -> Excess:
+def _per_segment_excess(
+    ratio: np.ndarray,
+    scale: np.ndarray,
+    interval: np.ndarray,
+    names: list[str],
+    repair_margin: float,
+) -> Excess:
     """Excess from per-segment ratios (S, n) and the factor each would need (S, n)."""
     worst = float(ratio.max(initial=0.0))
     f = np.where(ratio > 1.0, scale * (1.0 - repair_margin), 1.0)
@@ -179,7 +198,9 @@ def _per_segment_excess(ratio: np.ndarray, scale: np.ndarray, interval: np.ndarr
 
 
 class JointVelocity:
-    """|qd_j| <= v_j: on the grid x <= (v_j / |q'_j|)^2; between grid points the exact speed peak."""
+    """|qd_j| <= v_j: on the grid x <= (v_j / |q'_j|)^2; between grid points the exact speed
+    peak.
+    """
 
     kind = "velocity"
 
@@ -192,7 +213,9 @@ class JointVelocity:
     def x_bound(self, grid: PathGrid, margin: float) -> np.ndarray:
         v = self.limit * (1.0 - margin)
         with np.errstate(divide="ignore", over="ignore"):
-            return np.min(np.where(np.abs(grid.dq) > 1e-12, (v / np.abs(grid.dq)) ** 2, np.inf), axis=1)
+            return np.min(
+                np.where(np.abs(grid.dq) > 1e-12, (v / np.abs(grid.dq)) ** 2, np.inf), axis=1
+            )
 
     def grid_rows(self, grid, margin):
         return None
@@ -200,11 +223,15 @@ class JointVelocity:
     def excess(self, timing, between: BetweenGridPoints, repair_margin: float) -> Excess:
         ratio = between.speed_peak() / self.limit
         names = [f"velocity {j + 1}" for j in range(ratio.shape[1])]
-        return _per_segment_excess(ratio, 1.0 / np.maximum(ratio**2, 1e-300), between.interval, names, repair_margin)
+        return _per_segment_excess(
+            ratio, 1.0 / np.maximum(ratio**2, 1e-300), between.interval, names, repair_margin
+        )
 
 
 class JointAcceleration:
-    """|qdd_j| <= a_j with qdd = q' u + q'' x: rows on the grid; between grid points the exact peak."""
+    """|qdd_j| <= a_j with qdd = q' u + q'' x: rows on the grid; between grid points the exact
+    peak.
+    """
 
     kind = "acceleration"
 
@@ -219,12 +246,20 @@ class JointAcceleration:
 
     def grid_rows(self, grid: PathGrid, margin: float) -> GridRows:
         amax = np.broadcast_to(self.limit * (1.0 - margin), grid.q.shape)
-        return GridRows(grid.dq, grid.ddq, -amax, amax, [f"acceleration {j + 1}" for j in range(grid.q.shape[1])])
+        return GridRows(
+            grid.dq,
+            grid.ddq,
+            -amax,
+            amax,
+            [f"acceleration {j + 1}" for j in range(grid.q.shape[1])],
+        )
 
     def excess(self, timing, between: BetweenGridPoints, repair_margin: float) -> Excess:
         ratio = between.acceleration_peak() / self.limit
         names = [f"acceleration {j + 1}" for j in range(ratio.shape[1])]
-        return _per_segment_excess(ratio, 1.0 / np.maximum(ratio, 1e-300), between.interval, names, repair_margin)
+        return _per_segment_excess(
+            ratio, 1.0 / np.maximum(ratio, 1e-300), between.interval, names, repair_margin
+        )
 
 
 def path_coefficients(path: JointPath, s: np.ndarray, dynamics=None, gravity=None):
@@ -258,7 +293,10 @@ class JointTorque:
 
     def __init__(self, limit, dynamics, gravity=None, check_samples: int = 20001):
         if getattr(dynamics, "_has_friction", False):
-            raise ValueError("torque constraints take dynamics without friction (friction is not affine in sddot and sdot^2)")
+            raise ValueError(
+                "torque constraints take dynamics without friction (friction is not affine in "
+                "sddot and sdot^2)"
+            )
         self.limit = np.asarray(limit, dtype=float)
         self.dynamics = dynamics
         self.gravity = gravity
@@ -267,7 +305,9 @@ class JointTorque:
     def prepare(self, path: JointPath, s: np.ndarray) -> None:
         N = len(s) - 1
         per_interval = max(1, int(np.ceil((self.check_samples - 1) / N)))
-        sub = (s[:-1, None] + np.diff(s)[:, None] * (np.arange(per_interval) / per_interval)).ravel()
+        sub = (
+            s[:-1, None] + np.diff(s)[:, None] * (np.arange(per_interval) / per_interval)
+        ).ravel()
         breaks = path.pieces[0]
         inner = breaks[(breaks > s[0]) & (breaks < s[-1])]
         fine = np.union1d(np.append(sub, s[-1]), inner)
@@ -277,12 +317,18 @@ class JointTorque:
         h = np.diff(fine)
         mid = 0.5 * (fine[:-1] + fine[1:])
         self.interval = np.clip(np.searchsorted(s, mid, side="right") - 1, 0, N - 1)
-        self.offset0 = fine[:-1] - s[self.interval]  # a fine cell's ends, from its grid interval's start
+        self.offset0 = (
+            fine[:-1] - s[self.interval]
+        )  # a fine cell's ends, from its grid interval's start
         self.offset1 = fine[1:] - s[self.interval]
         smooth = ~np.isin(fine[1:-1], inner)  # second differences only inside a cubic piece
 
         def second(f):
-            d = 2.0 * ((f[2:] - f[1:-1]) / h[1:, None] - (f[1:-1] - f[:-2]) / h[:-1, None]) / (h[1:] + h[:-1])[:, None]
+            d = (
+                2.0
+                * ((f[2:] - f[1:-1]) / h[1:, None] - (f[1:-1] - f[:-2]) / h[:-1, None])
+                / (h[1:] + h[:-1])[:, None]
+            )
             d = np.where(smooth[:, None], np.abs(d), 0.0)
             at = np.vstack([d[:1], d, d[-1:]])  # (P, n): an estimate at every fine point
             before = np.vstack([at[:1], at[:-1]])
@@ -304,7 +350,9 @@ class JointTorque:
         k = self.grid_index
         a, b, c = self.a[k], self.b[k], self.c[k]
         tmax = np.broadcast_to(self.limit * (1.0 - margin), a.shape)
-        return GridRows(a, b, -tmax - c, tmax - c, [f"torque {j + 1}" for j in range(a.shape[1])])  # inf where no limit
+        return GridRows(
+            a, b, -tmax - c, tmax - c, [f"torque {j + 1}" for j in range(a.shape[1])]
+        )  # inf where no limit
 
     def excess(self, timing, between, repair_margin: float) -> Excess:
         a, b, c = self.a, self.b, self.c
@@ -328,6 +376,8 @@ class JointTorque:
         room = side * self.limit[cols] - grav[rows, cols]  # what the motion part may use
         if np.any(room * side <= 0):
             raise InfeasiblePath("gravity alone exceeds a torque limit on the path")
-        motion = side * bound[rows, cols] - grav[rows, cols]  # the bound less gravity: it scales with the timing
+        motion = (
+            side * bound[rows, cols] - grav[rows, cols]
+        )  # the bound less gravity: it scales with the timing
         labels = np.array([f"torque {j + 1}" for j in range(a.shape[1])], dtype=object)[cols]
         return Excess(k[rows], room / motion * (1.0 - repair_margin), labels, worst)

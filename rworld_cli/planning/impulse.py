@@ -1,4 +1,5 @@
-"""Maximum end-point impulse: the motion that arrives at a target with the most momentum along a direction.
+"""Maximum end-point impulse: the motion that arrives at a target with the most momentum along a
+direction.
 
 The report's first result ("trajectories that can deliver maximum impulse at
 a specified end-point"; e.g. seating ammunition, driving a pin).  The motion
@@ -33,7 +34,9 @@ class HermitePath(JointPath):
         self.waypoints = np.stack([self.q0, self.q1])
         dq = self.q1 - self.q0
         # q0 + (3 s^2 - 2 s^3) dq + (s^3 - s^2) m1, highest power first
-        coefficients = np.stack([-2 * dq + self.m1, 3 * dq - self.m1, np.zeros_like(dq), self.q0])[:, None, :]
+        coefficients = np.stack([-2 * dq + self.m1, 3 * dq - self.m1, np.zeros_like(dq), self.q0])[
+            :, None, :
+        ]
         self._set_polynomial(PPoly(coefficients, np.array([0.0, 1.0])))
 
 
@@ -50,9 +53,22 @@ class ImpulseResult:
     timing: object
 
 
-def max_impulse(device, q_start, q_end, direction, mass: float, com_in_tool, limits: Limits, dynamics, gravity, mount=None,
-                gridpoints: int = 300, evaluations: int = 24) -> ImpulseResult:
-    """The arrival at ``q_end`` with the most momentum along ``direction`` (base frame) within the limits.
+def max_impulse(
+    device,
+    q_start,
+    q_end,
+    direction,
+    mass: float,
+    com_in_tool,
+    limits: Limits,
+    dynamics,
+    gravity,
+    mount=None,
+    gridpoints: int = 300,
+    evaluations: int = 24,
+) -> ImpulseResult:
+    """The arrival at ``q_end`` with the most momentum along ``direction`` (base frame) within the
+    limits.
 
     Raises
     ------
@@ -64,7 +80,9 @@ def max_impulse(device, q_start, q_end, direction, mass: float, com_in_tool, lim
     Jv = jacobian(device, np.asarray(q_end, dtype=float), mount, com_in_tool)[:3]
     w = np.linalg.pinv(Jv) @ d
     if np.linalg.norm(Jv @ w - d) > 1e-6 or np.linalg.norm(w) < 1e-12:
-        raise InfeasiblePath("the tool cannot move along that direction at the target (a singular configuration)")
+        raise InfeasiblePath(
+            "the tool cannot move along that direction at the target (a singular configuration)"
+        )
     span = max(float(np.linalg.norm(np.asarray(q_end) - np.asarray(q_start))), 0.1)
     base = span / np.linalg.norm(w)
 
@@ -73,10 +91,20 @@ def max_impulse(device, q_start, q_end, direction, mass: float, com_in_tool, lim
     def evaluate(log_l: float, check_samples: int = 4001):
         L = base * np.exp(log_l)
         path = HermitePath(q_start, q_end, L * w)
-        if range_excursions(path, lower, upper):  # the approach swings a joint out of its range (exact extrema)
+        if range_excursions(
+            path, lower, upper
+        ):  # the approach swings a joint out of its range (exact extrema)
             return -np.inf, None
         try:
-            timing, info = time_optimal(path, limits, dynamics, gravity, gridpoints, check_samples=check_samples, end_at_rest=False)
+            timing, info = time_optimal(
+                path,
+                limits,
+                dynamics,
+                gravity,
+                gridpoints,
+                check_samples=check_samples,
+                end_at_rest=False,
+            )
         except InfeasiblePath:
             return -np.inf, None
         sd_end = np.sqrt(max(timing.x[-1], 0.0))
@@ -87,7 +115,9 @@ def max_impulse(device, q_start, q_end, direction, mass: float, com_in_tool, lim
     a, b = np.log(0.05), np.log(20.0)
     c, e = b - golden * (b - a), a + golden * (b - a)
     fc, fe = evaluate(c)[0], evaluate(e)[0]
-    for _ in range(evaluations):  # golden-section search over the log tangent length (a cheaper torque check while searching)
+    for _ in range(
+        evaluations
+    ):  # golden-section search over the log tangent length (a cheaper torque check while searching)
         if fc >= fe:
             b, e, fe = e, c, fc
             c = b - golden * (b - a)
@@ -96,10 +126,24 @@ def max_impulse(device, q_start, q_end, direction, mass: float, com_in_tool, lim
             a, c, fc = c, e, fe
             e = a + golden * (b - a)
             fe = evaluate(e)[0]
-    speed, found = evaluate(c if fc >= fe else e, check_samples=20001)  # the chosen motion gets the full dense guarantee
+    speed, found = evaluate(
+        c if fc >= fe else e, check_samples=20001
+    )  # the chosen motion gets the full dense guarantee
     if found is None or not np.isfinite(speed) or speed <= 0:
-        raise InfeasiblePath("no motion to the target within the limits (every approach tried leaves a joint's position "
-                             "range or exceeds a limit)")
+        raise InfeasiblePath(
+            "no motion to the target within the limits (every approach tried leaves a joint's "
+            "position "
+            "range or exceeds a limit)"
+        )
     L, path, timing, info, v, qd_end = found
-    return ImpulseResult(mass * speed if mass > 0 else speed, speed, v, qd_end, timing.duration, L,
-                         info["binding"][-1] if info["binding"] else "", path, timing)
+    return ImpulseResult(
+        mass * speed if mass > 0 else speed,
+        speed,
+        v,
+        qd_end,
+        timing.duration,
+        L,
+        info["binding"][-1] if info["binding"] else "",
+        path,
+        timing,
+    )

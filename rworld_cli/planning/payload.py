@@ -1,4 +1,5 @@
-"""Dynamic load-carrying capacity of a trajectory: exact, since torque is affine in the payload mass.
+"""Dynamic load-carrying capacity of a trajectory: exact, since torque is affine in the payload
+mass.
 
 With a payload of mass m at a fixed point (or with fixed mass properties
 scaled by m), tau(m) = tau_0 + m tau_1 at every sample; the largest m with
@@ -25,11 +26,24 @@ class Capacity:
     side: str  # "upper" | "lower": which torque limit binds
 
 
-def payload_capacity(device, q, qd, qdd, gravity, com_in_tool, mount=None, armature=True, friction=False, unit_payload=None,
-                     link_loads=None) -> Capacity:
-    """The largest point-mass payload (at ``com_in_tool``) the samples can carry within the effort limits.
+def payload_capacity(
+    device,
+    q,
+    qd,
+    qdd,
+    gravity,
+    com_in_tool,
+    mount=None,
+    armature=True,
+    friction=False,
+    unit_payload=None,
+    link_loads=None,
+) -> Capacity:
+    """The largest point-mass payload (at ``com_in_tool``) the samples can carry within the effort
+    limits.
 
-    ``unit_payload`` overrides the point mass: a 1 kg-scaled Payload (an object's mass properties per kg).
+    ``unit_payload`` overrides the point mass: a 1 kg-scaled Payload (an object's mass properties
+    per kg).
     ``link_loads``: what else rides on the links (``DeviceDynamics``), carried in any case.
     """
     bare = DeviceDynamics(device, None, mount, armature, friction, link_loads=link_loads)
@@ -43,7 +57,9 @@ def payload_capacity(device, q, qd, qdd, gravity, com_in_tool, mount=None, armat
         low = np.where(tau1 < -1e-12, (tmax + tau0) / -tau1, np.inf)
     ratios = np.minimum(up, low)
     k, j = np.unravel_index(int(np.argmin(ratios)), ratios.shape)
-    return Capacity(float(ratios[k, j]), int(j), int(k), "upper" if up[k, j] <= low[k, j] else "lower")
+    return Capacity(
+        float(ratios[k, j]), int(j), int(k), "upper" if up[k, j] <= low[k, j] else "lower"
+    )
 
 
 def quintic_timing(duration: float, samples: int):
@@ -67,10 +83,24 @@ class LoadOptimal:
     quintic_capacity: float  # capacity of a quintic time law over the same duration [kg]
     static_capacity: float  # the limit as the cycle time grows: gravity only [kg]
     path: object = None  # the JointPath timed (reshaped when the knots were optimised)
-    given_shape_mass: float | None = None  # with the knots optimised: the mass on the path as given [kg]
+    given_shape_mass: float | None = (
+        None  # with the knots optimised: the mass on the path as given [kg]
+    )
 
 
-def _heaviest(device, path, limits, gravity, com_in_tool, duration, mount, gridpoints, tolerance, check_samples=4001, link_loads=None):
+def _heaviest(
+    device,
+    path,
+    limits,
+    gravity,
+    com_in_tool,
+    duration,
+    mount,
+    gridpoints,
+    tolerance,
+    check_samples=4001,
+    link_loads=None,
+):
     """(mass, timing, static bound) of the heaviest point mass ``path`` carries within ``duration``.
 
     A mass m is carryable in time T when the time-optimal timing with m on board (torque limits
@@ -85,9 +115,18 @@ def _heaviest(device, path, limits, gravity, com_in_tool, duration, mount, gridp
     from .topp import InfeasiblePath, time_optimal
 
     def fastest(m: float):
-        dyn = DeviceDynamics(device, Payload.point_mass(m, com_in_tool), mount, armature=True, friction=False, link_loads=link_loads)
+        dyn = DeviceDynamics(
+            device,
+            Payload.point_mass(m, com_in_tool),
+            mount,
+            armature=True,
+            friction=False,
+            link_loads=link_loads,
+        )
         try:
-            timing, _ = time_optimal(path, limits, dyn, gravity, gridpoints, check_samples=check_samples)
+            timing, _ = time_optimal(
+                path, limits, dyn, gravity, gridpoints, check_samples=check_samples
+            )
             return timing
         except InfeasiblePath:
             return None
@@ -95,12 +134,16 @@ def _heaviest(device, path, limits, gravity, com_in_tool, duration, mount, gridp
     s_static = np.linspace(0, 1, 2001)
     q_static = path.evaluate(s_static)[0]
     zero = np.zeros_like(q_static)
-    static = payload_capacity(device, q_static, zero, zero, gravity, com_in_tool, mount, link_loads=link_loads).mass
+    static = payload_capacity(
+        device, q_static, zero, zero, gravity, com_in_tool, mount, link_loads=link_loads
+    ).mass
     lo, hi = 0.0, max(static, 0.0)
     first = fastest(0.0)
     if first is None or first.duration > duration:
-        raise InfeasiblePath(f"the path cannot be done in {duration} s even without a payload"
-                             + (f" (fastest: {first.duration:.4f} s)" if first is not None else ""))
+        raise InfeasiblePath(
+            f"the path cannot be done in {duration} s even without a payload"
+            + (f" (fastest: {first.duration:.4f} s)" if first is not None else "")
+        )
     best = first
     while hi - lo > tolerance:  # bisection on the mass: each probe is one time-optimal solve
         mid = 0.5 * (lo + hi)
@@ -113,14 +156,30 @@ def _heaviest(device, path, limits, gravity, com_in_tool, duration, mount, gridp
 
 
 def _knots_from(z: np.ndarray) -> np.ndarray:
-    """Knots on [0, 1] from unconstrained log-spacings z (K - 2 of them; the first spacing is the unit)."""
+    """Knots on [0, 1] from unconstrained log-spacings z (K - 2 of them; the first spacing is
+    the unit).
+    """
     d = np.exp(np.concatenate([[0.0], np.clip(z, -5.0, 5.0)]))
     return np.concatenate([[0.0], np.cumsum(d) / d.sum()])
 
 
-def optimise_knots(device, path, limits, gravity, com_in_tool, duration, mass, mount=None, gridpoints: int = 200,
-                   tolerance: float = 1e-3, evaluations: int = 80, progress=None, link_loads=None):
-    """The knots (path parameters of the waypoints) whose spline carries the most within ``duration``.
+def optimise_knots(
+    device,
+    path,
+    limits,
+    gravity,
+    com_in_tool,
+    duration,
+    mass,
+    mount=None,
+    gridpoints: int = 200,
+    tolerance: float = 1e-3,
+    evaluations: int = 80,
+    progress=None,
+    link_loads=None,
+):
+    """The knots (path parameters of the waypoints) whose spline carries the most within
+    ``duration``.
 
     The spline still passes through every waypoint; moving the knots changes its shape between
     them (its boundary conditions keep holding).  The heaviest payload for a cycle time and the
@@ -147,17 +206,35 @@ def optimise_knots(device, path, limits, gravity, com_in_tool, duration, mass, m
 
     def shaped(zz):
         candidate = JointPath(path.waypoints, _knots_from(zz), path.boundary)
-        return None if range_excursions(candidate, lower, upper) else candidate  # exact extrema, not samples
+        return (
+            None if range_excursions(candidate, lower, upper) else candidate
+        )  # exact extrema, not samples
 
     best_knots = path.knots
     try:  # the given shape at the search resolution: the figure to beat
-        best_mass = _heaviest(device, path, limits, gravity, com_in_tool, duration, mount, gridpoints, tolerance,
-                              link_loads=link_loads)[0]
+        best_mass = _heaviest(
+            device,
+            path,
+            limits,
+            gravity,
+            com_in_tool,
+            duration,
+            mount,
+            gridpoints,
+            tolerance,
+            link_loads=link_loads,
+        )[0]
     except InfeasiblePath:
         best_mass = mass
     for _ in range(3):
-        dyn = DeviceDynamics(device, Payload.point_mass(best_mass, com_in_tool), mount, armature=True, friction=False,
-                             link_loads=link_loads)
+        dyn = DeviceDynamics(
+            device,
+            Payload.point_mass(best_mass, com_in_tool),
+            mount,
+            armature=True,
+            friction=False,
+            link_loads=link_loads,
+        )
 
         seen: dict[tuple, float] = {}
 
@@ -173,7 +250,9 @@ def optimise_knots(device, path, limits, gravity, com_in_tool, duration, mass, m
             seen[key] = 10.0 * duration  # refused: outside the position limits, or no timing at all
             if candidate is not None:
                 try:
-                    seen[key] = time_optimal(candidate, limits, dyn, gravity, gridpoints, check_samples=4001)[0].duration
+                    seen[key] = time_optimal(
+                        candidate, limits, dyn, gravity, gridpoints, check_samples=4001
+                    )[0].duration
                 except InfeasiblePath:
                     pass
             return seen[key]
@@ -182,14 +261,33 @@ def optimise_knots(device, path, limits, gravity, com_in_tool, duration, mass, m
         if budget < len(z) + 2:
             break
         simplex = np.vstack([z] + [z + 0.25 * np.eye(len(z))[k] for k in range(len(z))])
-        found = minimize(cycle_time, z, method="Nelder-Mead",
-                         options={"maxfev": budget, "initial_simplex": simplex, "xatol": 1e-3, "fatol": 1e-6 * duration})
+        found = minimize(
+            cycle_time,
+            z,
+            method="Nelder-Mead",
+            options={
+                "maxfev": budget,
+                "initial_simplex": simplex,
+                "xatol": 1e-3,
+                "fatol": 1e-6 * duration,
+            },
+        )
         candidate = shaped(found.x)
         if candidate is None or found.fun >= cycle_time(z):
             break
         try:
-            m = _heaviest(device, candidate, limits, gravity, com_in_tool, duration, mount, gridpoints, tolerance,
-                          link_loads=link_loads)[0]
+            m = _heaviest(
+                device,
+                candidate,
+                limits,
+                gravity,
+                com_in_tool,
+                duration,
+                mount,
+                gridpoints,
+                tolerance,
+                link_loads=link_loads,
+            )[0]
         except InfeasiblePath:
             break
         if m <= best_mass + tolerance:
@@ -200,12 +298,26 @@ def optimise_knots(device, path, limits, gravity, com_in_tool, duration, mass, m
     return best_knots, best_mass
 
 
-def load_optimal(device, path, limits, gravity, com_in_tool, duration: float, mount=None, gridpoints: int = 400,
-                 tolerance: float = 1e-4, shape: bool = False, evaluations: int = 80, progress=None,
-                 link_loads=None) -> LoadOptimal:
-    """Maximise the payload a path can carry within ``duration``: the timing, and with ``shape`` the knots.
+def load_optimal(
+    device,
+    path,
+    limits,
+    gravity,
+    com_in_tool,
+    duration: float,
+    mount=None,
+    gridpoints: int = 400,
+    tolerance: float = 1e-4,
+    shape: bool = False,
+    evaluations: int = 80,
+    progress=None,
+    link_loads=None,
+) -> LoadOptimal:
+    """Maximise the payload a path can carry within ``duration``: the timing, and with ``shape`` the
+    knots.
 
-    The timing is free; bisection on the mass (:func:`_heaviest`) to ``tolerance`` kg.  The resulting
+    The timing is free; bisection on the mass (:func:`_heaviest`) to ``tolerance`` kg.  The
+    resulting
     timing is stretched to take exactly ``duration``.  With ``shape=True`` the waypoints' path
     parameters are optimised as well (:func:`optimise_knots`, ``evaluations`` shapes at a coarser
     grid), the spline still passing through every waypoint; the result keeps the given shape
@@ -215,26 +327,77 @@ def load_optimal(device, path, limits, gravity, com_in_tool, duration: float, mo
     from .topp import Limits, Timing, _times, sample_trajectory, time_optimal
 
     lim = Limits(limits.velocity, limits.acceleration, limits.effort)
-    mass, best, static = _heaviest(device, path, lim, gravity, com_in_tool, duration, mount, gridpoints, tolerance,
-                                   link_loads=link_loads)
+    mass, best, static = _heaviest(
+        device,
+        path,
+        lim,
+        gravity,
+        com_in_tool,
+        duration,
+        mount,
+        gridpoints,
+        tolerance,
+        link_loads=link_loads,
+    )
     given_mass = None
     if shape and len(path.waypoints) > 2:
-        knots, _ = optimise_knots(device, path, lim, gravity, com_in_tool, duration, mass, mount, min(gridpoints, 200),
-                                  max(tolerance, 1e-3), evaluations, progress, link_loads)
+        knots, _ = optimise_knots(
+            device,
+            path,
+            lim,
+            gravity,
+            com_in_tool,
+            duration,
+            mass,
+            mount,
+            min(gridpoints, 200),
+            max(tolerance, 1e-3),
+            evaluations,
+            progress,
+            link_loads,
+        )
         if not np.allclose(knots, path.knots, atol=1e-12):
             reshaped = JointPath(path.waypoints, knots, path.boundary)
-            m2, best2, static2 = _heaviest(device, reshaped, lim, gravity, com_in_tool, duration, mount, gridpoints, tolerance,
-                                           link_loads=link_loads)
+            m2, best2, static2 = _heaviest(
+                device,
+                reshaped,
+                lim,
+                gravity,
+                com_in_tool,
+                duration,
+                mount,
+                gridpoints,
+                tolerance,
+                link_loads=link_loads,
+            )
             given_mass = mass
             if m2 > mass:
                 path, mass, best, static = reshaped, m2, best2, static2
     stretch = duration / best.duration
-    timing = Timing(best.s, best.x / stretch**2, best.u / stretch**2, _times(best.s, best.x / stretch**2), best.scale * stretch)
-    fast, _ = time_optimal(path, Limits(limits.velocity, limits.acceleration, None), None, gravity, gridpoints)
+    timing = Timing(
+        best.s,
+        best.x / stretch**2,
+        best.u / stretch**2,
+        _times(best.s, best.x / stretch**2),
+        best.scale * stretch,
+    )
+    fast, _ = time_optimal(
+        path, Limits(limits.velocity, limits.acceleration, None), None, gravity, gridpoints
+    )
     _, q, qd, qdd = sample_trajectory(path, fast, 20001, switches=True)
-    t_opt = payload_capacity(device, q, qd, qdd, gravity, com_in_tool, mount, link_loads=link_loads).mass
+    t_opt = payload_capacity(
+        device, q, qd, qdd, gravity, com_in_tool, mount, link_loads=link_loads
+    ).mass
     _, s, sd, sdd = quintic_timing(duration, 20001)
     q, dq, ddq = path.evaluate(s)
-    quint = payload_capacity(device, q, dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None], gravity, com_in_tool, mount,
-                             link_loads=link_loads).mass
+    quint = payload_capacity(
+        device,
+        q,
+        dq * sd[:, None],
+        ddq * (sd**2)[:, None] + dq * sdd[:, None],
+        gravity,
+        com_in_tool,
+        mount,
+        link_loads=link_loads,
+    ).mass
     return LoadOptimal(mass, duration, timing, t_opt, quint, static, path, given_mass)

@@ -6,7 +6,9 @@ from ..fileio import save_figure
 
 
 def write_timing_plot(title, timing, info, t, ratios, path) -> None:
-    """PNG: path speed against its limit curve and controllable set; the limit ratios along the trajectory."""
+    """PNG: path speed against its limit curve and controllable set; the limit ratios along the
+    trajectory.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -15,8 +17,19 @@ def write_timing_plot(title, timing, info, t, ratios, path) -> None:
     import numpy as np
 
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 7), constrained_layout=True)
-    ax1.plot(timing.s, np.sqrt(np.maximum(info["x_limit"], 0)), color="grey", label="limit curve (constraints at each s)")
-    ax1.plot(timing.s, np.sqrt(np.maximum(info["K_hi"], 0)), color="orange", linestyle="--", label="controllable (can still stop)")
+    ax1.plot(
+        timing.s,
+        np.sqrt(np.maximum(info["x_limit"], 0)),
+        color="grey",
+        label="limit curve (constraints at each s)",
+    )
+    ax1.plot(
+        timing.s,
+        np.sqrt(np.maximum(info["K_hi"], 0)),
+        color="orange",
+        linestyle="--",
+        label="controllable (can still stop)",
+    )
     ax1.plot(timing.s, np.sqrt(timing.x), color="C0", linewidth=2, label="time-optimal")
     ax1.set_xlabel("path parameter s")
     ax1.set_ylabel("path speed ds/dt [1/s]")
@@ -27,7 +40,13 @@ def write_timing_plot(title, timing, info, t, ratios, path) -> None:
     for name, style in (("torque", "-"), ("velocity", ":"), ("acceleration", "--")):
         if name in ratios:
             for j in range(ratios[name].shape[1]):
-                ax2.plot(t, ratios[name][:, j], style, color=f"C{j}", label=f"{name} {j + 1}" if name == "torque" or j == 0 else None)
+                ax2.plot(
+                    t,
+                    ratios[name][:, j],
+                    style,
+                    color=f"C{j}",
+                    label=f"{name} {j + 1}" if name == "torque" or j == 0 else None,
+                )
     ax2.axhline(1.0, color="red", linewidth=1)
     ax2.set_xlabel("time [s]")
     ax2.set_ylabel("|value| / limit")

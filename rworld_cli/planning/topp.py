@@ -50,13 +50,31 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .constraints import (BetweenGridPoints, Constraint, InfeasiblePath,  # noqa: F401  (Constraint: the protocol, re-exported)
-                          JointAcceleration, JointTorque, JointVelocity,
-                          PathGrid, Segments)
+from .constraints import (  # noqa: F401  (Constraint: the protocol, re-exported)
+    BetweenGridPoints,
+    Constraint,
+    InfeasiblePath,
+    JointAcceleration,
+    JointTorque,
+    JointVelocity,
+    PathGrid,
+    Segments,
+)
 from .path import JointPath
 
-__all__ = ["InfeasiblePath", "Limits", "Timing", "time_optimal", "time_optimal_constrained", "constraints_from_limits",
-           "sample_path", "sample_instants", "sample_trajectory", "limit_ratios", "Samples"]
+__all__ = [
+    "InfeasiblePath",
+    "Limits",
+    "Timing",
+    "time_optimal",
+    "time_optimal_constrained",
+    "constraints_from_limits",
+    "sample_path",
+    "sample_instants",
+    "sample_trajectory",
+    "limit_ratios",
+    "Samples",
+]
 
 
 @dataclass
@@ -72,9 +90,15 @@ class Limits:
     effort: np.ndarray | None
 
     def unlimited(self) -> dict[str, list[int]]:
-        """Per kind ('velocity', 'acceleration', 'torque'), the 0-based joints with no limit of it."""
+        """Per kind ('velocity', 'acceleration', 'torque'), the 0-based joints with no limit of
+        it.
+        """
         out = {}
-        for kind, values in (("velocity", self.velocity), ("acceleration", self.acceleration), ("torque", self.effort)):
+        for kind, values in (
+            ("velocity", self.velocity),
+            ("acceleration", self.acceleration),
+            ("torque", self.effort),
+        ):
             if values is not None:
                 free = np.flatnonzero(~np.isfinite(np.asarray(values, dtype=float))).tolist()
                 if free:
@@ -132,20 +156,26 @@ def _times(s: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 _MARGIN = 1e-9  # the grid solution aims this far (relative) inside the limits
-# A repair aims this far inside: capping one interval moves its neighbours' sddot a little, and a margin
+# A repair aims this far inside: capping one interval moves its neighbours' sddot a little, and a
+# margin
 # well above the torque bound's own (about 1e-7 relative) keeps them from needing another round.
 _REPAIR_MARGIN = 1e-6
 
 
 def _per_stage(mask, *arrays):
-    """For each array (N, w): per row i, the plain list of its elements where ``mask`` (one tolist, then slices)."""
+    """For each array (N, w): per row i, the plain list of its elements where ``mask`` (one
+    tolist, then slices).
+    """
     stops = np.cumsum(mask.sum(axis=1)).tolist()
     starts = [0] + stops[:-1]
-    return tuple([flat[a:b] for a, b in zip(starts, stops)] for flat in (v[mask].tolist() for v in arrays))
+    return tuple(
+        [flat[a:b] for a, b in zip(starts, stops)] for flat in (v[mask].tolist() for v in arrays)
+    )
 
 
 class _Stages:
-    """The grid problem: per stage i (interval [s_i, s_i+1]) the bounds on u as lines in x_i, pruned.
+    """The grid problem: per stage i (interval [s_i, s_i+1]) the bounds on u as lines in x_i,
+    pruned.
 
     ``up_Q[i]``, ``up_P[i]``, ``up_row[i]``: u <= P + Q x_i (and the constraint row it came from);
     ``lw_hi``, ``lw_lo``: (G0, G1), the stage's lower bounds on u met with reachability:
@@ -161,7 +191,8 @@ class _Stages:
         self.ds = np.diff(s)
         stages = len(s) - 1
         eps = self.EPS
-        # the grid solution sits a hair inside every limit, so rounding never puts a grid point just over it
+        # the grid solution sits a hair inside every limit, so rounding never puts a grid point just
+        # over it
         self.xvel = np.full(len(s), np.inf)
         A, B, LO, HI, labels = [], [], [], [], []
         for c in constraints:
@@ -172,11 +203,14 @@ class _Stages:
             if rows is not None:  # per grid point, lo <= A u + B x <= hi, shape (N + 1, C)
                 A.append(rows.A), B.append(rows.B), LO.append(rows.lo), HI.append(rows.hi)
                 labels += rows.labels
-        x_hi = self.xvel[:-1].copy()  # the velocity bound at the stage's own point (point i+1 is stage i+1's)
+        x_hi = self.xvel[
+            :-1
+        ].copy()  # the velocity bound at the stage's own point (point i+1 is stage i+1's)
         x_lo = np.zeros(stages)
         if A:
             A, B, LO, HI = (np.concatenate(v, axis=1) for v in (A, B, LO, HI))
-            # interpolation: stage i holds the constraints of point i and of point i+1 with x_{i+1} = x_i + 2 ds u
+            # interpolation: stage i holds the constraints of point i and of point i+1 with x_{i+1}
+            # = x_i + 2 ds u
             two_ds = 2.0 * self.ds[:, None]
             alpha = np.concatenate([A[:-1], A[1:] + two_ds * B[1:]], axis=1)  # (N, 2C)
             beta = np.concatenate([B[:-1], B[1:]], axis=1)
@@ -192,29 +226,41 @@ class _Stages:
             bound_lo = np.where(beta > eps, lo / beta, np.where(beta < -eps, hi / beta, -np.inf))
             x_hi = np.minimum(x_hi, np.where(xonly, bound_hi, np.inf).min(axis=1, initial=np.inf))
             x_lo = np.maximum(x_lo, np.where(xonly, bound_lo, -np.inf).max(axis=1, initial=-np.inf))
-            # otherwise each constraint is one upper and one lower bound on u, lines in x with the same slope
+            # otherwise each constraint is one upper and one lower bound on u, lines in x with the
+            # same slope
             positive = alpha > 0
             slope = np.where(xonly, 0.0, -beta / alpha)
             coef_P = np.where(xonly, np.inf, np.where(positive, hi, lo) / alpha)  # u <= P + Q x
             coef_p = np.where(xonly, -np.inf, np.where(positive, lo, hi) / alpha)  # u >= p + q x
 
-        # Only bounds on the envelope over a stage's x interval matter: a line that another line beats at
+        # Only bounds on the envelope over a stage's x interval matter: a line that another line
+        # beats at
         # both ends of the interval is beaten all along it.  Sorted by the value at one end, a line
-        # survives when it is strictly better at the other end than every line before it (exact pruning,
-        # vectorised over all stages).  It runs over the x range the velocity allows, before pairing;
-        # the stage's final interval and any caps added later lie inside it, so the pruning stays exact.
+        # survives when it is strictly better at the other end than every line before it (exact
+        # pruning,
+        # vectorised over all stages).  It runs over the x range the velocity allows, before
+        # pairing;
+        # the stage's final interval and any caps added later lie inside it, so the pruning stays
+        # exact.
         ends = np.stack([x_lo, np.minimum(np.maximum(x_hi, x_lo), 1e12)], axis=1)  # (N, 2)
 
         def envelope(const, sign):
-            """Lines of ``const + slope x`` that can attain the min (sign 1) or max (sign -1), compacted first."""
+            """Lines of ``const + slope x`` that can attain the min (sign 1) or max (sign -1),
+            compacted first.
+            """
             with np.errstate(invalid="ignore"):
                 at_lo = sign * (const + slope * ends[:, :1])
                 at_hi = sign * (const + slope * ends[:, 1:])
             at_lo = np.where(np.isfinite(at_lo), at_lo, np.inf)  # never binds
             at_hi = np.where(np.isfinite(at_lo), at_hi, np.inf)
-            order = np.argsort(at_lo, axis=1)  # ties in any order: a line dropped is still beaten at both ends
+            order = np.argsort(
+                at_lo, axis=1
+            )  # ties in any order: a line dropped is still beaten at both ends
             hi_sorted = np.take_along_axis(at_hi, order, axis=1)
-            best_before = np.minimum.accumulate(np.concatenate([np.full((len(order), 1), np.inf), hi_sorted[:, :-1]], axis=1), axis=1)
+            best_before = np.minimum.accumulate(
+                np.concatenate([np.full((len(order), 1), np.inf), hi_sorted[:, :-1]], axis=1),
+                axis=1,
+            )
             keep = (hi_sorted < best_before) & np.isfinite(np.take_along_axis(at_lo, order, axis=1))
             width = max(int(keep.sum(axis=1).max(initial=0)), 1)
             first = np.argsort(~keep, axis=1, kind="stable")[:, :width]
@@ -234,20 +280,31 @@ class _Stages:
         coef_q = np.where(lw_ok, np.take_along_axis(slope, lw_pick, axis=1), 0.0)
         coef_p = np.where(lw_ok, np.take_along_axis(coef_p, lw_pick, axis=1), -np.inf)
         with np.errstate(divide="ignore", invalid="ignore"):
-            d = coef_q[:, :, None] - coef_Q[:, None, :]  # every (lower, upper) pair of a stage: d x <= rhs
+            d = (
+                coef_q[:, :, None] - coef_Q[:, None, :]
+            )  # every (lower, upper) pair of a stage: d x <= rhs
             rhs = coef_P[:, None, :] - coef_p[:, :, None]
             pair = lw_ok[:, :, None] & up_ok[:, None, :]
-            x_hi = np.minimum(x_hi, np.where(pair & (d > eps), rhs / d, np.inf).min(axis=(1, 2), initial=np.inf))
-            x_lo = np.maximum(x_lo, np.where(pair & (d < -eps), rhs / d, -np.inf).max(axis=(1, 2), initial=-np.inf))
+            x_hi = np.minimum(
+                x_hi, np.where(pair & (d > eps), rhs / d, np.inf).min(axis=(1, 2), initial=np.inf)
+            )
+            x_lo = np.maximum(
+                x_lo,
+                np.where(pair & (d < -eps), rhs / d, -np.inf).max(axis=(1, 2), initial=-np.inf),
+            )
             infeasible_pair = pair & (np.abs(d) <= eps) & (rhs < 0)
         if np.any(x_lo > x_hi + 1e-12) or infeasible_pair.any():
             k = int(np.argmax((x_lo > x_hi + 1e-12) | infeasible_pair.any(axis=(1, 2))))
-            raise InfeasiblePath(f"no speed satisfies the limits at s = {s[k]:.4f} of the path (even at rest: check gravity against the torque limits)")
+            raise InfeasiblePath(
+                f"no speed satisfies the limits at s = {s[k]:.4f} of the path (even at rest: "
+                "check gravity against the torque limits)"
+            )
         self.x_lo, self.x_hi = x_lo, x_hi
         # per stage, plain lists of the surviving lines for the sequential passes
         self.up_Q, self.up_P, self.up_row = _per_stage(up_ok, coef_Q, coef_P, up_pick)
         # The backward pass meets each line with the reachability lines of slope a = -1 / (2 ds).
-        # An upper line against reach-lower gives a bound (P - K_lo' / h) / (a - Q): a constant while
+        # An upper line against reach-lower gives a bound (P - K_lo' / h) / (a - Q): a constant
+        # while
         # K_lo' = 0 (the usual case), precomputed here.  A lower line against reach-upper gives
         # g0 + g1 K_hi' with g0 = -p / (q - a), g1 = 1 / (h (q - a)).
         h = 2.0 * self.ds[:, None]
@@ -264,7 +321,8 @@ class _Stages:
         self.lw_lo = _per_stage(lw_ok & (dd < -eps), g0, g1)  # x_i >= g0 + g1 K_hi'
 
     def backward(self, caps: np.ndarray, end_at_rest: bool) -> tuple[list, list]:
-        """Controllable sets [K_lo_i, K_hi_i] of x_i, from the end (at rest, or at any allowed speed).
+        """Controllable sets [K_lo_i, K_hi_i] of x_i, from the end (at rest, or at any allowed
+        speed).
 
         ``caps`` (N + 1,): extra upper bounds on x at the grid points (inf: none).
         """
@@ -305,14 +363,21 @@ class _Stages:
                 if v > lo_i:
                     lo_i = v
             if lo_i > hi_i + 1e-12:
-                raise InfeasiblePath(f"the path cannot be followed to rest from s = {s[i]:.4f}: the limits leave no speed there")
+                raise InfeasiblePath(
+                    f"the path cannot be followed to rest from s = {s[i]:.4f}: the limits leave "
+                    "no speed there"
+                )
             K_lo[i], K_hi[i] = max(lo_i, 0.0), max(hi_i, 0.0)
         if K_lo[0] > 1e-12:
             raise InfeasiblePath("the path cannot start from rest within the limits")
         return K_lo, K_hi
 
-    def forward(self, K_lo: list, K_hi: list, caps: np.ndarray, cap_cause: list) -> tuple[np.ndarray, np.ndarray, list]:
-        """From rest, the largest u on every stage that keeps x controllable; (x, u, what binds per stage)."""
+    def forward(
+        self, K_lo: list, K_hi: list, caps: np.ndarray, cap_cause: list
+    ) -> tuple[np.ndarray, np.ndarray, list]:
+        """From rest, the largest u on every stage that keeps x controllable; (x, u, what binds
+        per stage).
+        """
         N = len(self.ds)
         ds_l, xvel_l, caps_l = self.ds.tolist(), self.xvel.tolist(), caps.tolist()
         labels, up_Q, up_P, up_row = self.labels, self.up_Q, self.up_P, self.up_row
@@ -341,13 +406,15 @@ class _Stages:
 
 
 def interval_excess(timing: Timing, constraints: list, segments: Segments):
-    """Per grid interval, the factor f <= 1 on x (at both its ends) that keeps every constraint inside it.
+    """Per grid interval, the factor f <= 1 on x (at both its ends) that keeps every constraint
+    inside it.
 
     Returns
     -------
     factor : ndarray, shape (N,)
         1 where the interval is within its limits; below 1 where scaling x (and u) on the
-        interval by f brings it back (velocity: 1 / ratio^2; acceleration and motion torque: 1 / ratio).
+        interval by f brings it back (velocity: 1 / ratio^2; acceleration and motion torque: 1 /
+        ratio).
     cause : list of str
         Per interval the limit that asks for the smallest factor (empty where none).
     worst : float
@@ -371,7 +438,9 @@ def interval_excess(timing: Timing, constraints: list, segments: Segments):
     return factor, cause, worst
 
 
-def constraints_from_limits(limits: Limits, dynamics=None, gravity=None, check_samples: int = 20001) -> list:
+def constraints_from_limits(
+    limits: Limits, dynamics=None, gravity=None, check_samples: int = 20001
+) -> list:
     """The constraint objects of joint limits: velocity, and acceleration and torque where given."""
     out: list = [JointVelocity(limits.velocity)]
     if limits.acceleration is not None:
@@ -384,9 +453,17 @@ def constraints_from_limits(limits: Limits, dynamics=None, gravity=None, check_s
 _SPEED_CEILING = 1e12  # sdot^2 beyond this: nothing limits the path speed there
 
 
-def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, gridpoints: int = 1000,
-                 check_samples: int = 20001, end_at_rest: bool = True, repair: bool = True,
-                 max_rounds: int = 12) -> tuple[Timing, dict]:
+def time_optimal(
+    path: JointPath,
+    limits: Limits,
+    dynamics=None,
+    gravity=None,
+    gridpoints: int = 1000,
+    check_samples: int = 20001,
+    end_at_rest: bool = True,
+    repair: bool = True,
+    max_rounds: int = 12,
+) -> tuple[Timing, dict]:
     """The fastest timing of ``path`` from rest to rest within joint limits.
 
     Parameters
@@ -415,9 +492,16 @@ def time_optimal(path: JointPath, limits: Limits, dynamics=None, gravity=None, g
     return time_optimal_constrained(path, constraints, gridpoints, end_at_rest, repair, max_rounds)
 
 
-def time_optimal_constrained(path: JointPath, constraints: list, gridpoints: int = 1000, end_at_rest: bool = True,
-                             repair: bool = True, max_rounds: int = 12) -> tuple[Timing, dict]:
-    """The fastest timing of ``path`` from rest within ``constraints`` (objects of ``constraints.py``).
+def time_optimal_constrained(
+    path: JointPath,
+    constraints: list,
+    gridpoints: int = 1000,
+    end_at_rest: bool = True,
+    repair: bool = True,
+    max_rounds: int = 12,
+) -> tuple[Timing, dict]:
+    """The fastest timing of ``path`` from rest within ``constraints`` (objects of
+    ``constraints.py``).
 
     Parameters
     ----------
@@ -435,7 +519,8 @@ def time_optimal_constrained(path: JointPath, constraints: list, gridpoints: int
         ``info``: ``binding`` - per grid interval the constraint that limits it
         ('velocity', 'acceleration j', 'torque j', '... between grid points', 'braking ahead'),
         ``dense_ratio`` - the worst limit ratio between grid points (<= 1 unless ``repair=False``),
-        ``grid`` (points), ``rounds`` (solves), ``repaired`` (grid points capped), ``x_limit``, ``K_hi``.
+        ``grid`` (points), ``rounds`` (solves), ``repaired`` (grid points capped), ``x_limit``,
+        ``K_hi``.
 
     Raises
     ------
@@ -460,14 +545,19 @@ def time_optimal_constrained(path: JointPath, constraints: list, gridpoints: int
         x, u, binding = stages.forward(K_lo, K_hi, caps, cap_cause)
         unbounded = np.flatnonzero(~(x < _SPEED_CEILING))
         if len(unbounded):
-            raise InfeasiblePath(f"nothing limits the path speed at s = {s[unbounded[0]]:.4f}: every joint that moves there "
-                                 "is unlimited in velocity, acceleration and torque")
+            raise InfeasiblePath(
+                f"nothing limits the path speed at s = {s[unbounded[0]]:.4f}: every joint that "
+                "moves there "
+                "is unlimited in velocity, acceleration and torque"
+            )
         timing = Timing(s, x, u, _times(s, x))
         factor, cause, ratio = interval_excess(timing, constraints, segments)
         bad = np.flatnonzero(factor < 1.0)
         if not repair or not len(bad):
             break
-        if rounds >= max_rounds:  # not settled locally: slow the whole timing by what the check asks for
+        if (
+            rounds >= max_rounds
+        ):  # not settled locally: slow the whole timing by what the check asks for
             scale = 1.0
             for _ in range(5):
                 scale /= np.sqrt(factor.min())
@@ -476,10 +566,14 @@ def time_optimal_constrained(path: JointPath, constraints: list, gridpoints: int
                 if factor.min() >= 1.0:
                     break
             else:
-                raise InfeasiblePath(f"could not bring the dense check within the limits (worst ratio {ratio:.6g})")
+                raise InfeasiblePath(
+                    f"could not bring the dense check within the limits (worst ratio {ratio:.6g})"
+                )
             break
-        # cap both ends of each offending interval at the speed that fixes it; from the third solve on,
-        # its neighbours' too, so a cap does not just move the excess next door (shifting their sddot)
+        # cap both ends of each offending interval at the speed that fixes it; from the third solve
+        # on,
+        # its neighbours' too, so a cap does not just move the excess next door (shifting their
+        # sddot)
         reach = 0 if rounds < 3 else 1
         for i in bad:
             for p in range(max(i - reach, 0), min(i + 1 + reach, gridpoints - 1) + 1):
@@ -487,9 +581,15 @@ def time_optimal_constrained(path: JointPath, constraints: list, gridpoints: int
                     caps[p] = factor[i] * x[p]
                     cap_cause[p] = cause[i]
     repaired = int(np.isfinite(caps).sum())
-    return timing, {"binding": binding, "dense_ratio": ratio, "grid": gridpoints, "rounds": rounds, "repaired": repaired,
-                    "x_limit": np.minimum(np.r_[stages.x_hi, stages.x_hi[-1]], stages.xvel) / timing.scale**2,
-                    "K_hi": np.array(K_hi) / timing.scale**2}
+    return timing, {
+        "binding": binding,
+        "dense_ratio": ratio,
+        "grid": gridpoints,
+        "rounds": rounds,
+        "repaired": repaired,
+        "x_limit": np.minimum(np.r_[stages.x_hi, stages.x_hi[-1]], stages.xvel) / timing.scale**2,
+        "K_hi": np.array(K_hi) / timing.scale**2,
+    }
 
 
 @dataclass
@@ -500,7 +600,8 @@ class Samples:
     ----------
     t, s, sd, sdd : ndarray, shape (K,)
         Time [s], path parameter, its first and second time derivatives.  At a grid instant
-        given twice (``switches``), the first row holds sddot from the left, the second from the right.
+        given twice (``switches``), the first row holds sddot from the left, the second from the
+        right.
     q, qd, qdd : ndarray, shape (K, n)
     """
 
@@ -514,8 +615,11 @@ class Samples:
 
 
 def sample_instants(timing: Timing, samples=None, period: float | None = None) -> np.ndarray:
-    """Times to sample at: ``samples`` equally spaced instants (an int), the given times (an array),
-    or every ``period`` seconds from 0 until the end is covered (the last row at or after it, at rest)."""
+    """Times to sample at.
+
+    ``samples`` equally spaced instants (an int), the given times (an array), or every
+    ``period`` seconds from 0 until the end is covered (the last row at or after it, at rest).
+    """
     if period is not None:
         count = int(np.ceil(timing.duration / period - 1e-9)) + 1
         return np.arange(count) * period
@@ -535,7 +639,13 @@ def sample_path(path: JointPath, timing: Timing, times, switches: bool = False) 
     if switches:
         inner = np.arange(1, len(timing.u))
         t_all = np.concatenate([t, timing.t[inner], timing.t[inner]])
-        k_all = np.concatenate([np.searchsorted(timing.t, np.clip(t, 0.0, timing.duration), side="right") - 1, inner - 1, inner])
+        k_all = np.concatenate(
+            [
+                np.searchsorted(timing.t, np.clip(t, 0.0, timing.duration), side="right") - 1,
+                inner - 1,
+                inner,
+            ]
+        )
         order = np.argsort(t_all, kind="stable")
         t, interval = t_all[order], k_all[order]
     s, sd, sdd = timing.sample(t, interval)
@@ -546,7 +656,8 @@ def sample_path(path: JointPath, timing: Timing, times, switches: bool = False) 
 
 
 def sample_trajectory(path: JointPath, timing: Timing, samples, switches: bool = False):
-    """t, q, qd, qdd at ``samples`` equally spaced instants (an int) or at the given times (an array).
+    """t, q, qd, qdd at ``samples`` equally spaced instants (an int) or at the given times (an
+    array).
 
     ``switches``: see :func:`sample_path`.
     """
@@ -555,7 +666,9 @@ def sample_trajectory(path: JointPath, timing: Timing, samples, switches: bool =
 
 
 def limit_ratios(q, qd, qdd, limits: Limits, dynamics=None, gravity=None) -> dict:
-    """|value| / limit per sample and joint: 'velocity', 'acceleration', 'torque' (those that apply)."""
+    """|value| / limit per sample and joint: 'velocity', 'acceleration', 'torque' (those that
+    apply).
+    """
     out = {"velocity": np.abs(qd) / limits.velocity}
     if limits.acceleration is not None:
         out["acceleration"] = np.abs(qdd) / limits.acceleration

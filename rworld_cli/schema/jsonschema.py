@@ -20,7 +20,10 @@ def schema_documents() -> dict[str, str]:
     out = {}
     for filename, (module, model_name) in SCHEMA_FILES.items():
         model = getattr(importlib.import_module(f"{__package__}.{module}"), model_name)
-        doc = {"$schema": "https://json-schema.org/draft/2020-12/schema", "$id": f"rworld/{filename}"}
+        doc = {
+            "$schema": "https://json-schema.org/draft/2020-12/schema",
+            "$id": f"rworld/{filename}",
+        }
         doc.update(model.model_json_schema(mode="validation"))
         out[filename] = json.dumps(doc, indent=2, ensure_ascii=False) + "\n"
     return out

@@ -23,15 +23,13 @@ import numpy as np
 from pydantic import BaseModel, ValidationError
 
 from .. import spatial
-from ..errors import Issue, UserError
+from ..errors import Issue, UserError, did_you_mean
 from ..model import cell as wm
 from ..model import rules
+from ..units import ANGLE, LENGTH  # noqa: E402  (one home for unit factors)
 from . import models as sm
-from ..errors import did_you_mean
 from .messages import pydantic_issues
 from .yamlio import Marked, read_yaml
-
-from ..units import ANGLE, LENGTH  # noqa: E402  (one home for unit factors)
 
 # Which feature kinds each condition accepts (calibration report, section 5).
 CONDITION_FEATURE_KINDS = {
@@ -87,9 +85,16 @@ def _implausible_numbers(doc: Marked) -> list[Issue]:
             stack.extend((path + (k,), v) for k, v in value.items())
         elif isinstance(value, list):
             stack.extend((path + (i,), v) for i, v in enumerate(value))
-        elif isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+        elif (
+            isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+        ):
             if abs(value) > MAX_MAGNITUDE:
-                found.append(doc.issue(path, f"{value!r} is implausibly large (rworld accepts magnitudes up to 1e12)"))
+                found.append(
+                    doc.issue(
+                        path,
+                        f"{value!r} is implausibly large (rworld accepts magnitudes up to 1e12)",
+                    )
+                )
     return found
 
 
@@ -99,7 +104,13 @@ def validate_document(doc: Marked, model: type[BaseModel]):
         from .messages import describe
 
         raise UserError(
-            "not a mapping", [doc.issue((), f"expected a mapping of keys at the top of the file, got {describe(doc.data)}")]
+            "not a mapping",
+            [
+                doc.issue(
+                    (),
+                    f"expected a mapping of keys at the top of the file, got {describe(doc.data)}",
+                )
+            ],
         )
     issues = _implausible_numbers(doc)
     try:
@@ -108,7 +119,9 @@ def validate_document(doc: Marked, model: type[BaseModel]):
         issues += pydantic_issues(exc, doc, model)
         result = None
     if issues:
-        raise UserError(f"{doc.file}: invalid", sorted(set(issues), key=lambda i: (i.line, i.column, i.message)))
+        raise UserError(
+            f"{doc.file}: invalid", sorted(set(issues), key=lambda i: (i.line, i.column, i.message))
+        )
     return result
 
 
@@ -150,15 +163,26 @@ def load_pose_file_doc(path: str | Path, display: str | None = None) -> tuple[Ma
     return doc, validate_document(doc, sm.PoseFile)
 
 
-def pose_to_matrix(pose: sm.Pose, length: float, angle: float) -> tuple[np.ndarray, str | None, str | None]:
+def pose_to_matrix(
+    pose: sm.Pose, length: float, angle: float
+) -> tuple[np.ndarray, str | None, str | None]:
     """Convert a pose spec to ``T`` (SI).  Returns (T, error, warning)."""
     if pose.matrix is not None:
         M = np.array(pose.matrix, dtype=float)
         if not np.allclose(M[3], [0, 0, 0, 1], atol=1e-9):
-            return np.eye(4), f"the last row of a pose matrix must be [0, 0, 0, 1], got {M[3].tolist()}", None
+            return (
+                np.eye(4),
+                f"the last row of a pose matrix must be [0, 0, 0, 1], got {M[3].tolist()}",
+                None,
+            )
         err = float(spatial.rotation_error(M[:3, :3]))
         if err > 1e-6:
-            return np.eye(4), f"the matrix's rotation part is not a rotation (|R^T R - I| or |det R - 1| = {err:.3g})", None
+            return (
+                np.eye(4),
+                "the matrix's rotation part is not a rotation (|R^T R - I| or |det R - 1| = "
+                f"{err:.3g})",
+                None,
+            )
         T = M.copy()
         T[:3, 3] *= length
         return T, None, None
@@ -168,7 +192,11 @@ def pose_to_matrix(pose: sm.Pose, length: float, angle: float) -> tuple[np.ndarr
         q = np.array(pose.quat, dtype=float)
         norm = float(np.linalg.norm(q))
         if norm < 1e-9:
-            return np.eye(4), "the quaternion is zero; a rotation needs a unit quaternion (w, x, y, z)", None
+            return (
+                np.eye(4),
+                "the quaternion is zero; a rotation needs a unit quaternion (w, x, y, z)",
+                None,
+            )
         if abs(norm - 1.0) > 1e-3:
             warning = f"quaternion norm is {norm:.6g}, not 1; normalised"
         R = spatial.quat_to_matrix(q)
@@ -181,7 +209,8 @@ def pose_to_matrix(pose: sm.Pose, length: float, angle: float) -> tuple[np.ndarr
 
 @functools.lru_cache(maxsize=64)
 def _mesh_facts(file: str, mtime_ns: int, size: int):
-    """(T_mesh_obb, obb extents, extents, watertight) of a mesh file in its own units, or an error text.
+    """(T_mesh_obb, obb extents, extents, watertight) of a mesh file in its own units, or an error
+    text.
 
     Cached on (path, mtime, size): cells are reloaded often (validate, simulate).
     """
@@ -214,7 +243,9 @@ class _Builder:
         self.A = ANGLE[cf.units.angle]
         self.issues: list[Issue] = []
         self.frames: dict[str, wm.FrameDecl] = {}
-        self.frame_paths: dict[str, tuple] = {}  # frame -> path of its declaration (its 'name' value)
+        self.frame_paths: dict[
+            str, tuple
+        ] = {}  # frame -> path of its declaration (its 'name' value)
         self.primitives: dict[str, tuple[str, tuple]] = {}  # name -> (kind, path)
         self.features: dict[str, wm.Feature] = {}
         self.feature_paths: dict[str, tuple] = {}
@@ -224,14 +255,20 @@ class _Builder:
         self.issues.append((doc or self.doc).issue(path, message, prefer=prefer))
 
     def warn(self, path, message, prefer="value", doc: Marked | None = None):
-        self.issues.append((doc or self.doc).issue(path, message, prefer=prefer, severity="warning"))
+        self.issues.append(
+            (doc or self.doc).issue(path, message, prefer=prefer, severity="warning")
+        )
 
     def _line(self, path) -> int:
         return self.doc.position(path)[0]
 
     def _add_frame(self, decl: wm.FrameDecl, path: tuple) -> bool:
         if decl.name in self.frames:
-            self.err(path, f"duplicate frame name '{decl.name}' (first declared at line {self._line(self.frame_paths[decl.name])})")
+            self.err(
+                path,
+                f"duplicate frame name '{decl.name}' (first declared at line "
+                f"{self._line(self.frame_paths[decl.name])})",
+            )
             return False
         self.frames[decl.name] = decl
         self.frame_paths[decl.name] = path
@@ -254,8 +291,16 @@ class _Builder:
         self.frames[wm.WORLD] = wm.FrameDecl(wm.WORLD, "world", wm.WORLD, None)
         self.frame_paths[wm.WORLD] = ()
         self._register_primitives()
-        objects = {o.name: self._object(i, o) for i, o in enumerate(cf.objects) if self._owns(o.name, ("objects", i))}
-        sensors = {s.name: self._sensor(i, s) for i, s in enumerate(cf.sensors) if self._owns(s.name, ("sensors", i))}
+        objects = {
+            o.name: self._object(i, o)
+            for i, o in enumerate(cf.objects)
+            if self._owns(o.name, ("objects", i))
+        }
+        sensors = {
+            s.name: self._sensor(i, s)
+            for i, s in enumerate(cf.sensors)
+            if self._owns(s.name, ("sensors", i))
+        }
         devices = {}
         for i, d in enumerate(cf.devices):
             if self._owns(d.name, ("devices", i)):
@@ -289,7 +334,12 @@ class _Builder:
         return self.primitives.get(name, (None, None))[1] == path
 
     def _register_primitives(self):
-        groups = (("objects", "object"), ("sensors", "sensor"), ("devices", "device"), ("frames", "free"))
+        groups = (
+            ("objects", "object"),
+            ("sensors", "sensor"),
+            ("devices", "device"),
+            ("frames", "free"),
+        )
         for key, kind in groups:
             for i, item in enumerate(getattr(self.cf, key)):
                 path = (key, i, "name")
@@ -298,7 +348,11 @@ class _Builder:
                     continue
                 if item.name in self.primitives:
                     _, first = self.primitives[item.name]
-                    self.err(path, f"duplicate name '{item.name}' (first declared at line {self._line(first)})")
+                    self.err(
+                        path,
+                        f"duplicate name '{item.name}' "
+                        f"(first declared at line {self._line(first)})",
+                    )
                     continue
                 self.primitives[item.name] = (kind, (key, i))
                 if kind != "free":
@@ -327,7 +381,8 @@ class _Builder:
             elif moments[2] > moments[0] + moments[1] + 1e-9 * scale:
                 self.warn(
                     ipath,
-                    f"principal moments {', '.join(f'{m:.6g}' for m in moments)} kg m^2 break the triangle inequality "
+                    f"principal moments {', '.join(f'{m:.6g}' for m in moments)} kg m^2 break the "
+                    "triangle inequality "
                     "(largest <= sum of the others): no rigid body has this inertia",
                 )
         return wm.Inertial(float(mass), self._vec(com, self.L), I)
@@ -360,7 +415,9 @@ class _Builder:
             self.err(path + ("file",), f"no such mesh file: {self.display_dir / mesh.file}")
             return None
         if file.suffix.lower() not in (".stl", ".obj", ".ply"):
-            self.err(path + ("file",), f"unsupported mesh format '{file.suffix}'; use .stl, .obj or .ply")
+            self.err(
+                path + ("file",), f"unsupported mesh format '{file.suffix}'; use .stl, .obj or .ply"
+            )
             return None
         stat = file.stat()
         facts = _mesh_facts(str(file.resolve()), stat.st_mtime_ns, stat.st_size)
@@ -370,28 +427,47 @@ class _Builder:
         T_mesh_box, extents, size, watertight = facts
         scale = LENGTH[mesh.units or self.cf.units.length]
         if not watertight:
-            self.warn(path + ("file",), "the mesh is not closed (watertight); sensing treats shapes as solids and may be wrong")
+            self.warn(
+                path + ("file",),
+                "the mesh is not closed (watertight); sensing treats shapes as solids and may be "
+                "wrong",
+            )
         T_mesh_box = T_mesh_box.copy()
         T_mesh_box[:3, 3] *= scale
         box = wm.Box(T @ T_mesh_box, extents * scale / 2)
         return wm.Shape("mesh", T, size * scale, box, mesh_file=file, mesh_scale=scale)
 
-    def _aux_frames(self, owner: str, frames: list[sm.AuxFrame], path: tuple, default_parent: str, kind="auxiliary"):
+    def _aux_frames(
+        self,
+        owner: str,
+        frames: list[sm.AuxFrame],
+        path: tuple,
+        default_parent: str,
+        kind="auxiliary",
+    ):
         for j, f in enumerate(frames):
             parent = f"{owner}.{f.parent}" if f.parent else default_parent
-            self._add_frame(wm.FrameDecl(f"{owner}.{f.name}", kind, owner, parent), path + (j, "name"))
+            self._add_frame(
+                wm.FrameDecl(f"{owner}.{f.name}", kind, owner, parent), path + (j, "name")
+            )
 
     def _features(self, owner: str, features: list[sm.Feature], path: tuple):
         for j, f in enumerate(features):
             fpath = path + (j,)
             qname = f"{owner}.{f.name}"
             if qname in self.features:
-                self.err(fpath + ("name",), f"duplicate feature name '{f.name}' in '{owner}' (first at line {self._line(self.feature_paths[qname])})")
+                self.err(
+                    fpath + ("name",),
+                    f"duplicate feature name '{f.name}' in '{owner}' (first at line "
+                    f"{self._line(self.feature_paths[qname])})",
+                )
                 continue
             if f.point is not None:
                 feat = wm.Feature(qname, owner, "point", self._vec(f.point, self.L))
             elif f.line is not None:
-                u = self._unit(fpath + ("line", "direction"), f.line.direction, "the line's direction")
+                u = self._unit(
+                    fpath + ("line", "direction"), f.line.direction, "the line's direction"
+                )
                 feat = wm.Feature(qname, owner, "line", self._vec(f.line.point, self.L), u)
             elif f.plane is not None:
                 u = self._unit(fpath + ("plane", "normal"), f.plane.normal, "the plane's normal")
@@ -399,7 +475,9 @@ class _Builder:
             else:
                 c = f.circle
                 u = self._unit(fpath + ("circle", "normal"), c.normal, "the circle's normal")
-                feat = wm.Feature(qname, owner, "circle", self._vec(c.center, self.L), u, c.radius * self.L)
+                feat = wm.Feature(
+                    qname, owner, "circle", self._vec(c.center, self.L), u, c.radius * self.L
+                )
             self.features[qname] = feat
             self.feature_paths[qname] = fpath + ("name",)
 
@@ -408,7 +486,11 @@ class _Builder:
         path = ("objects", i)
         self._aux_frames(o.name, o.frames, path + ("frames",), o.name)
         self._features(o.name, o.features, path + ("features",))
-        return wm.ObjectModel(o.name, self._inertial(path, o.mass, o.com, o.inertia), self._shape(path + ("geometry",), o.geometry))
+        return wm.ObjectModel(
+            o.name,
+            self._inertial(path, o.mass, o.com, o.inertia),
+            self._shape(path + ("geometry",), o.geometry),
+        )
 
     def _sensor(self, i: int, s: sm.Sensor) -> wm.SensorModel:
         path = ("sensors", i)
@@ -418,7 +500,12 @@ class _Builder:
             given = getattr(s, key) is not None
             wanted = needs.get(s.type) == key
             if given and not wanted:
-                self.err(path + (key,), f"'{key}' applies to {next(t for t, k in needs.items() if k == key)} sensors, not to a {s.type} sensor", prefer="key")
+                self.err(
+                    path + (key,),
+                    f"'{key}' applies to {next(t for t, k in needs.items() if k == key)} sensors, "
+                    f"not to a {s.type} sensor",
+                    prefer="key",
+                )
             if wanted and not given:
                 self.err(path, f"a {s.type} sensor needs '{key}'")
         curve = None
@@ -426,7 +513,10 @@ class _Builder:
             curve = np.array(s.force_curve, dtype=float)
             cpath = path + ("force_curve",)
             if len(curve) < 2:
-                self.err(cpath, f"a force curve needs at least 2 [volume, force] points, got {len(curve)}")
+                self.err(
+                    cpath,
+                    f"a force curve needs at least 2 [volume, force] points, got {len(curve)}",
+                )
             elif np.any(curve[:, 0] < 0) or np.any(np.diff(curve[:, 0]) <= 0):
                 self.err(cpath, "overlap volumes must be >= 0 and strictly increasing")
             elif np.any(curve[:, 1] < 0):
@@ -446,22 +536,35 @@ class _Builder:
         path = ("devices", i)
         ok = True
         if len(d.joints) != d.dof:
-            self.err(path + ("joints",), f"the DH table has {len(d.joints)} row(s) but dof is {d.dof}")
+            self.err(
+                path + ("joints",), f"the DH table has {len(d.joints)} row(s) but dof is {d.dof}"
+            )
             ok = False
         if d.links is not None and len(d.links) != d.dof:
-            self.err(path + ("links",), f"{len(d.links)} link(s) given but dof is {d.dof}; give one link per joint")
+            self.err(
+                path + ("links",),
+                f"{len(d.links)} link(s) given but dof is {d.dof}; give one link per joint",
+            )
             ok = False
         joints = []
         for j, row in enumerate(d.joints):
             joints.append(self._joint(path + ("joints", j), j, row))
         n = len(joints)
-        link_specs = d.links if (d.links is not None and len(d.links) == n) else [sm.Link() for _ in range(n)]
+        link_specs = (
+            d.links
+            if (d.links is not None and len(d.links) == n)
+            else [sm.Link() for _ in range(n)]
+        )
         links = []
         local_names: dict[str, tuple] = {}
 
         def local(name: str, p: tuple) -> bool:
             if name in local_names:
-                self.err(p, f"duplicate name '{name}' in device '{d.name}' (first at line {self._line(local_names[name])})")
+                self.err(
+                    p,
+                    f"duplicate name '{name}' in device '{d.name}' (first at line "
+                    f"{self._line(local_names[name])})",
+                )
                 return False
             local_names[name] = p
             return True
@@ -475,18 +578,27 @@ class _Builder:
                 self._add_frame(wm.FrameDecl(qname, "link", d.name, prev), lpath + ("name",))
             prev = qname
             links.append(
-                wm.Link(lname, self._inertial(lpath, spec.mass, spec.com, spec.inertia), self._shape(lpath + ("geometry",), spec.geometry))
+                wm.Link(
+                    lname,
+                    self._inertial(lpath, spec.mass, spec.com, spec.inertia),
+                    self._shape(lpath + ("geometry",), spec.geometry),
+                )
             )
         for j, f in enumerate(d.frames):
             if local(f.name, path + ("frames", j, "name")):
                 parent = f"{d.name}.{f.parent}" if f.parent else d.name
-                self._add_frame(wm.FrameDecl(f"{d.name}.{f.name}", "auxiliary", d.name, parent), path + ("frames", j, "name"))
+                self._add_frame(
+                    wm.FrameDecl(f"{d.name}.{f.name}", "auxiliary", d.name, parent),
+                    path + ("frames", j, "name"),
+                )
         for j, spec in enumerate(link_specs):
             for k, f in enumerate(spec.frames):
                 fpath = path + ("links", j, "frames", k, "name")
                 if local(f.name, fpath):
                     parent = f"{d.name}.{f.parent}" if f.parent else f"{d.name}.{links[j].name}"
-                    self._add_frame(wm.FrameDecl(f"{d.name}.{f.name}", "auxiliary", d.name, parent), fpath)
+                    self._add_frame(
+                        wm.FrameDecl(f"{d.name}.{f.name}", "auxiliary", d.name, parent), fpath
+                    )
         tcps = []
         last = f"{d.name}.{links[-1].name}" if links else d.name
         for j, t in enumerate(d.tcps):
@@ -501,11 +613,20 @@ class _Builder:
         if not ok:
             return None
         return wm.DeviceModel(
-            d.name, d.dh, tuple(joints), tuple(links), tuple(tcps), home, self._shape(path + ("geometry",), d.geometry), positions
+            d.name,
+            d.dh,
+            tuple(joints),
+            tuple(links),
+            tuple(tcps),
+            home,
+            self._shape(path + ("geometry",), d.geometry),
+            positions,
         )
 
     def _positions(self, path, d: sm.Device, joints: list[wm.Joint], local_names: dict) -> dict:
-        """Named joint configurations, SI; checked for length, limits and clashes with frame names."""
+        """Named joint configurations, SI; checked for length, limits and clashes with frame
+        names.
+        """
         out = {}
         scale = np.array([self.A if j.kind == "revolute" else self.L for j in joints])
         lower = np.array([j.limits.lower for j in joints])
@@ -513,17 +634,33 @@ class _Builder:
         for name, values in d.positions.items():
             ppath = path + ("positions", name)
             if not re.match(sm.NAME_PATTERN, name) or name == "home":
-                self.err(ppath, f"invalid position name '{name}': use a name (letters, digits, '_', '-'), not 'home'", prefer="key")
+                self.err(
+                    ppath,
+                    f"invalid position name '{name}': use a name (letters, digits, '_', '-'), not "
+                    "'home'",
+                    prefer="key",
+                )
                 continue
             if name in local_names:
-                self.err(ppath, f"'{name}' is already a frame of '{d.name}'; a position needs its own name", prefer="key")
+                self.err(
+                    ppath,
+                    f"'{name}' is already a frame of '{d.name}'; a position needs its own name",
+                    prefer="key",
+                )
                 continue
             if len(values) != len(joints):
-                self.err(ppath, f"position '{name}' has {len(values)} value(s) but the device has {len(joints)} joint(s)")
+                self.err(
+                    ppath,
+                    f"position '{name}' has {len(values)} value(s) but the device has "
+                    f"{len(joints)} joint(s)",
+                )
                 continue
             q = np.array(values, dtype=float) * scale
             for k in np.nonzero((q < lower) | (q > upper))[0]:
-                self.err(ppath + (int(k),), f"value {values[k]} of joint {joints[k].name} is outside its position limits")
+                self.err(
+                    ppath + (int(k),),
+                    f"value {values[k]} of joint {joints[k].name} is outside its position limits",
+                )
             out[name] = q
         return out
 
@@ -534,7 +671,11 @@ class _Builder:
         if lim.position is not None:
             lower, upper = lim.position[0] * scale, lim.position[1] * scale
             if not lower < upper:
-                self.err(path + ("limits", "position"), f"limits out of order: lower {lim.position[0]} must be below upper {lim.position[1]}")
+                self.err(
+                    path + ("limits", "position"),
+                    f"limits out of order: lower {lim.position[0]} must be below upper "
+                    f"{lim.position[1]}",
+                )
         limits = wm.JointLimits(
             lower=lower,
             upper=upper,
@@ -549,8 +690,16 @@ class _Builder:
             coulomb_neg_raw = fr.coulomb if fr.coulomb_negative is None else fr.coulomb_negative
             if fr.at == "motor":
                 if row.motor is None:
-                    self.err(path + ("friction", "at"), "motor-side friction needs the joint's 'motor' (its gear_ratio) to refer it to the joint")
-                viscous, coulomb_pos, coulomb_neg = fr.viscous * G**2, fr.coulomb * abs(G), coulomb_neg_raw * abs(G)
+                    self.err(
+                        path + ("friction", "at"),
+                        "motor-side friction needs the joint's 'motor' (its gear_ratio) to refer "
+                        "it to the joint",
+                    )
+                viscous, coulomb_pos, coulomb_neg = (
+                    fr.viscous * G**2,
+                    fr.coulomb * abs(G),
+                    coulomb_neg_raw * abs(G),
+                )
             else:
                 viscous, coulomb_pos, coulomb_neg = fr.viscous, fr.coulomb, coulomb_neg_raw
         return wm.Joint(
@@ -575,22 +724,33 @@ class _Builder:
             return np.clip(np.zeros(len(joints)), lower, upper)
         scale = np.array([self.A if j.kind == "revolute" else self.L for j in joints])
         if len(d.home) != len(joints):
-            self.err(path + ("home",), f"home has {len(d.home)} value(s) but the device has {len(joints)} joint(s)")
+            self.err(
+                path + ("home",),
+                f"home has {len(d.home)} value(s) but the device has {len(joints)} joint(s)",
+            )
             return np.clip(np.zeros(len(joints)), lower, upper)
         home = np.array(d.home, dtype=float) * scale
         for k in np.nonzero((home < lower) | (home > upper))[0]:
             lim = d.joints[k].limits.position if d.joints[k].limits else None
-            self.err(path + ("home", int(k)), f"home value {d.home[k]} of joint {joints[k].name} is outside its position limits {lim}")
+            self.err(
+                path + ("home", int(k)),
+                f"home value {d.home[k]} of joint {joints[k].name} is outside its position limits "
+                f"{lim}",
+            )
         return home
 
     def _free_frames(self):
         for i, f in enumerate(self.cf.frames):
             if self.primitives.get(f.name, (None, None))[1] != ("frames", i):
                 continue
-            self._add_frame(wm.FrameDecl(f.name, "free", wm.WORLD, f.parent or wm.WORLD), ("frames", i, "name"))
+            self._add_frame(
+                wm.FrameDecl(f.name, "free", wm.WORLD, f.parent or wm.WORLD), ("frames", i, "name")
+            )
 
     def _check_owned_parents(self):
-        """Owned frames' parents exist and belong to the same owner; free frames hang on free frames."""
+        """Owned frames' parents exist and belong to the same owner; free frames hang on free
+        frames.
+        """
         for name, decl in list(self.frames.items()):
             if decl.parent is None or decl.kind == "link":
                 continue
@@ -598,14 +758,28 @@ class _Builder:
             parent = self.frames.get(decl.parent)
             if decl.kind == "free":
                 if parent is None:
-                    self.err(path, f"unknown frame '{decl.parent}'{did_you_mean(decl.parent, self.frames)}")
+                    self.err(
+                        path,
+                        f"unknown frame '{decl.parent}'{did_you_mean(decl.parent, self.frames)}",
+                    )
                 elif parent.kind not in ("free", "world"):
-                    self.err(path, f"a free frame hangs on 'world' or another free frame, not on '{decl.parent}'; declare it as an auxiliary frame of '{parent.owner}' instead")
+                    self.err(
+                        path,
+                        "a free frame hangs on 'world' or another free frame, not on "
+                        f"'{decl.parent}'; declare it as an auxiliary frame of '{parent.owner}' "
+                        "instead",
+                    )
                 continue
             if parent is None:
                 local = decl.parent.split(".", 1)[1]
-                siblings = [f.split(".", 1)[1] for f, d in self.frames.items() if d.owner == decl.owner and "." in f]
-                self.err(path, f"'{decl.owner}' has no frame '{local}'{did_you_mean(local, siblings)}")
+                siblings = [
+                    f.split(".", 1)[1]
+                    for f, d in self.frames.items()
+                    if d.owner == decl.owner and "." in f
+                ]
+                self.err(
+                    path, f"'{decl.owner}' has no frame '{local}'{did_you_mean(local, siblings)}"
+                )
             elif decl.parent == name:
                 self.err(path, f"frame '{name}' cannot be its own parent")
 
@@ -623,26 +797,47 @@ class _Builder:
             path = ("affixments", i)
             bad = False
             if a.parent not in self.frames:
-                self.err(path + ("parent",), f"unknown frame '{a.parent}'{did_you_mean(a.parent, self.frames)}")
+                self.err(
+                    path + ("parent",),
+                    f"unknown frame '{a.parent}'{did_you_mean(a.parent, self.frames)}",
+                )
                 bad = True
             child_kind = self.primitives.get(a.child, (None,))[0]
             if child_kind is None:
-                frame_hint = " (auxiliary frames belong to their owner and cannot be affixed)" if a.child in self.frames else ""
+                frame_hint = (
+                    " (auxiliary frames belong to their owner and cannot be affixed)"
+                    if a.child in self.frames
+                    else ""
+                )
                 names = [n for n, (k, _) in self.primitives.items() if k != "free"]
-                self.err(path + ("child",), f"unknown object, sensor or device '{a.child}'{did_you_mean(a.child, names)}{frame_hint}")
+                self.err(
+                    path + ("child",),
+                    "unknown object, sensor or device "
+                    f"'{a.child}'{did_you_mean(a.child, names)}{frame_hint}",
+                )
                 bad = True
             elif child_kind == "free":
-                self.err(path + ("child",), f"'{a.child}' is a free frame; give it a 'parent' in 'frames' instead of an affixment")
+                self.err(
+                    path + ("child",),
+                    f"'{a.child}' is a free frame; give it a 'parent' in 'frames' instead of an "
+                    "affixment",
+                )
                 bad = True
             if a.child in seen_child:
-                self.err(path + ("child",), f"'{a.child}' is already affixed at line {self._line(seen_child[a.child])}; a primitive has one parent (the affixments form a tree)")
+                self.err(
+                    path + ("child",),
+                    f"'{a.child}' is already affixed at line {self._line(seen_child[a.child])}; a "
+                    "primitive has one parent (the affixments form a tree)",
+                )
                 bad = True
             if bad:
                 continue
             seen_child[a.child] = path + ("child",)
             owner_kind = self._owner_kind(a.parent)
             parent_owner = self.frames[a.parent].owner
-            problem = rules.hierarchy_problem(a.child, child_kind, a.parent, parent_owner, owner_kind)
+            problem = rules.hierarchy_problem(
+                a.child, child_kind, a.parent, parent_owner, owner_kind
+            )
             if problem:
                 self.err(path + (problem[0],), problem[1])
                 continue
@@ -653,7 +848,9 @@ class _Builder:
         return out
 
     def _check_cycles(self, affixments: list[wm.AffixmentDecl]):
-        """Follow parents from every frame; report each cycle once, at an affixment that closes it."""
+        """Follow parents from every frame; report each cycle once, at an affixment that closes
+        it.
+        """
         parent = {n: d.parent for n, d in self.frames.items()}
         via: dict[str, int] = {}
         for i, a in enumerate(affixments):
@@ -675,10 +872,17 @@ class _Builder:
             chain = " -> ".join(cycle + [cycle[0]])
             closing = [n for n in cycle if n in via]
             if closing:
-                idx = self.cf.affixments.index(next(a for a in self.cf.affixments if a.child == closing[-1]))
-                self.err(("affixments", idx, "parent"), f"the affixments form a cycle: {chain} (each frame must lead to world)")
+                idx = self.cf.affixments.index(
+                    next(a for a in self.cf.affixments if a.child == closing[-1])
+                )
+                self.err(
+                    ("affixments", idx, "parent"),
+                    f"the affixments form a cycle: {chain} (each frame must lead to world)",
+                )
             else:
-                self.err(self.frame_paths[cycle[0]][:-1] + ("parent",), f"frames form a cycle: {chain}")
+                self.err(
+                    self.frame_paths[cycle[0]][:-1] + ("parent",), f"frames form a cycle: {chain}"
+                )
 
     # ------------------------------------------------------------------ conditions
     def _conditions(self) -> list[wm.Condition]:
@@ -688,31 +892,60 @@ class _Builder:
             path = ("conditions", i)
             decl = self.frames.get(c.frame)
             if decl is None:
-                self.err(path + ("frame",), f"unknown frame '{c.frame}'{did_you_mean(c.frame, self.frames)}")
+                self.err(
+                    path + ("frame",),
+                    f"unknown frame '{c.frame}'{did_you_mean(c.frame, self.frames)}",
+                )
                 continue
             if c.frame in seen:
-                self.err(path + ("frame",), f"frame '{c.frame}' is already conditioned at line {self._line(seen[c.frame])}; a frame takes one condition")
+                self.err(
+                    path + ("frame",),
+                    f"frame '{c.frame}' is already conditioned at line "
+                    f"{self._line(seen[c.frame])}; a frame takes one condition",
+                )
                 continue
             seen[c.frame] = path + ("frame",)
             code = c.code
             natural = code in ("C1", "C2")
             if decl.kind in ("world", "free", "link"):
-                what = {"world": "the world frame", "free": "a free frame", "link": "a link frame (placed by the DH table)"}[decl.kind]
-                self.err(path + ("frame",), f"'{c.frame}' is {what}; only frames owned by an object or device can be conditioned by features")
+                what = {
+                    "world": "the world frame",
+                    "free": "a free frame",
+                    "link": "a link frame (placed by the DH table)",
+                }[decl.kind]
+                self.err(
+                    path + ("frame",),
+                    f"'{c.frame}' is {what}; only frames owned by an object or device can be "
+                    "conditioned by features",
+                )
                 continue
             if natural and decl.kind != "natural":
-                self.err(path + ("type",), f"{c.type} ({code}) locates a natural frame; '{c.frame}' is an auxiliary frame (use C3-C13)")
+                self.err(
+                    path + ("type",),
+                    f"{c.type} ({code}) locates a natural frame; '{c.frame}' is an auxiliary "
+                    "frame (use C3-C13)",
+                )
                 continue
             if not natural and decl.kind == "natural":
-                self.err(path + ("type",), f"{c.type} ({code}) conditions an auxiliary frame; '{c.frame}' is a natural frame (use C1 or C2)")
+                self.err(
+                    path + ("type",),
+                    f"{c.type} ({code}) conditions an auxiliary frame; '{c.frame}' is a natural "
+                    "frame (use C1 or C2)",
+                )
                 continue
             if self.primitives.get(decl.owner, ("",))[0] == "sensor":
-                self.err(path + ("frame",), f"'{c.frame}' belongs to a sensor; features belong to objects and devices")
+                self.err(
+                    path + ("frame",),
+                    f"'{c.frame}' belongs to a sensor; features belong to objects and devices",
+                )
                 continue
             names = c.feature_names
             fpath = path + ("feature",) if c.feature is not None else path + ("features",)
             if not natural and len(names) != 1:
-                self.err(fpath, f"an auxiliary frame is conditioned by exactly one feature, got {len(names)}")
+                self.err(
+                    fpath,
+                    f"an auxiliary frame is conditioned by exactly one feature, got {len(names)}",
+                )
                 continue
             if natural and not names:
                 self.err(fpath, "give the features that locate this frame")
@@ -723,19 +956,29 @@ class _Builder:
                 qname = fname if "." in fname else f"{decl.owner}.{fname}"
                 feat = self.features.get(qname)
                 if feat is None:
-                    own = [f.split(".", 1)[1] for f in self.features if f.startswith(decl.owner + ".")]
-                    self.err(p, f"'{decl.owner}' has no feature '{fname}'{did_you_mean(fname.split('.')[-1], own)}")
+                    own = [
+                        f.split(".", 1)[1] for f in self.features if f.startswith(decl.owner + ".")
+                    ]
+                    self.err(
+                        p,
+                        f"'{decl.owner}' has no feature "
+                        f"'{fname}'{did_you_mean(fname.split('.')[-1], own)}",
+                    )
                     continue
                 if feat.owner != decl.owner:
                     self.err(
                         p,
-                        f"feature '{qname}' belongs to '{feat.owner}' but frame '{c.frame}' belongs to '{decl.owner}'; "
+                        f"feature '{qname}' belongs to '{feat.owner}' but frame '{c.frame}' "
+                        f"belongs to '{decl.owner}'; "
                         "a frame is conditioned only by features of its own object or device",
                     )
                     continue
                 if feat.kind not in CONDITION_FEATURE_KINDS[code]:
                     allowed = " or ".join(sorted(CONDITION_FEATURE_KINDS[code]))
-                    self.err(p, f"{c.type} ({code}) needs a {allowed} feature; '{qname}' is a {feat.kind}")
+                    self.err(
+                        p,
+                        f"{c.type} ({code}) needs a {allowed} feature; '{qname}' is a {feat.kind}",
+                    )
                     continue
                 resolved.append(qname)
             if len(resolved) == len(names):
@@ -768,13 +1011,29 @@ class _Builder:
                 ppath = ("poses", name)
                 decl = self.frames.get(name)
                 if decl is None:
-                    self.err(ppath, f"unknown frame '{name}'{did_you_mean(name, self.frames)}", prefer="key", doc=doc)
+                    self.err(
+                        ppath,
+                        f"unknown frame '{name}'{did_you_mean(name, self.frames)}",
+                        prefer="key",
+                        doc=doc,
+                    )
                     continue
                 if decl.kind == "world":
-                    self.err(ppath, "the world frame has no pose; it is the reference", prefer="key", doc=doc)
+                    self.err(
+                        ppath,
+                        "the world frame has no pose; it is the reference",
+                        prefer="key",
+                        doc=doc,
+                    )
                     continue
                 if decl.kind == "link":
-                    self.err(ppath, f"'{name}' is a link frame placed by the DH table of '{decl.owner}'; it takes no pose", prefer="key", doc=doc)
+                    self.err(
+                        ppath,
+                        f"'{name}' is a link frame placed by the DH table of '{decl.owner}'; it "
+                        "takes no pose",
+                        prefer="key",
+                        doc=doc,
+                    )
                     continue
                 T, error, warning = pose_to_matrix(pose, L, A)
                 if error:
@@ -790,5 +1049,9 @@ class _Builder:
             for name, decl in self.frames.items():
                 if decl.kind in ("world", "link") or name in poses or name in given_but_bad:
                     continue
-                self.err(self.frame_paths[name], f"no pose for frame '{name}' in {shown_files}; add '{name}: {{xyz: [x, y, z], rpy: [r, p, y]}}'")
+                self.err(
+                    self.frame_paths[name],
+                    f"no pose for frame '{name}' in {shown_files}; add '{name}: {{xyz: [x, y, z], "
+                    "rpy: [r, p, y]}'",
+                )
         return poses, sources, files

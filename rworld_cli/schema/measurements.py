@@ -5,11 +5,13 @@ YAML (``measurements/<cell>/*.yaml``)::
     units: {length: mm}
     date: 2026-11-21
     instrument: CMM
-    probe_radius: 1.5          # ball radius, compensated (planes toward their outside, circles: holes probed inside)
+    probe_radius: 1.5          # ball radius, compensated (planes toward their outside, circles:
+    holes probed inside)
     features:
       block.f1:
         points: [[x, y, z], ...]
-        above: [x, y, z]       # planes, circles: a point on the outside of the object (orientation information)
+        above: [x, y, z]       # planes, circles: a point on the outside of the object (orientation
+        information)
       block.f5:
         points: [...]
         ordered: true          # lines: the first -> last order gives the direction
@@ -24,7 +26,7 @@ from __future__ import annotations
 import datetime as _dt
 import hashlib
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import numpy as np
 from annotated_types import Len
@@ -41,20 +43,32 @@ from .yamlio import read_yaml
 
 
 class FeaturePoints(Strict):
-    points: Annotated[list[Vec3], Len(1)] = Field(description="Probe points (ball centres) in world coordinates [length unit].")
-    above: Optional[Vec3] = Field(None, description="Planes and circles: a point outside the object, giving the normal's side.")
-    ordered: bool = Field(False, description="Lines: the points are in probing order, first -> last along the direction.")
+    points: Annotated[list[Vec3], Len(1)] = Field(
+        description="Probe points (ball centres) in world coordinates [length unit]."
+    )
+    above: Vec3 | None = Field(
+        None,
+        description="Planes and circles: a point outside the object, giving the normal's side.",
+    )
+    ordered: bool = Field(
+        False,
+        description="Lines: the points are in probing order, first -> last along the direction.",
+    )
 
 
 class MeasurementFile(Strict):
     """Probe points per feature, for calibration."""
 
-    cell: Optional[str] = Field(None, description="The cell these measurements are of (informative).")
+    cell: str | None = Field(None, description="The cell these measurements are of (informative).")
     units: Units = Field(default_factory=Units)
-    date: Optional[str] = None
-    instrument: Optional[str] = None
-    probe_radius: NonNegative = Field(0.0, description="Probe ball radius [length unit]; compensated.")
-    sigma: Optional[Annotated[float, Field(gt=0)]] = Field(None, description="Known probing noise (1 sigma) [length unit], if any.")
+    date: str | None = None
+    instrument: str | None = None
+    probe_radius: NonNegative = Field(
+        0.0, description="Probe ball radius [length unit]; compensated."
+    )
+    sigma: Annotated[float, Field(gt=0)] | None = Field(
+        None, description="Known probing noise (1 sigma) [length unit], if any."
+    )
     features: dict[str, FeaturePoints]
 
 
@@ -67,10 +81,23 @@ def _read_csv(path: str, length_unit: str) -> tuple[dict, list[Issue]]:
     try:
         lines = Path(path).read_text(encoding="utf-8").splitlines()
     except FileNotFoundError:
-        raise UserError(f"{path}: no such file", [Issue(path, 0, 0, "(file)", "no such file")]) from None
+        raise UserError(
+            f"{path}: no such file", [Issue(path, 0, 0, "(file)", "no such file")]
+        ) from None
     header = [h.strip().lower() for h in (lines[0].split(",") if lines else [])]
     if header[:4] != ["feature", "x", "y", "z"]:
-        raise UserError(f"{path}: bad header", [Issue(path, 1, 1, "(header)", "expected the header 'feature,x,y,z' (and optionally ',role')")])
+        raise UserError(
+            f"{path}: bad header",
+            [
+                Issue(
+                    path,
+                    1,
+                    1,
+                    "(header)",
+                    "expected the header 'feature,x,y,z' (and optionally ',role')",
+                )
+            ],
+        )
     scale = LENGTH[length_unit]
     data: dict[str, dict] = {}
     for lineno, line in enumerate(lines[1:], start=2):
@@ -78,24 +105,52 @@ def _read_csv(path: str, length_unit: str) -> tuple[dict, list[Issue]]:
             continue
         fields = [f.strip() for f in line.split(",")]
         if len(fields) not in (4, 5):
-            issues.append(Issue(path, lineno, 1, "(row)", f"{len(fields)} field(s); expected feature,x,y,z[,role]"))
+            issues.append(
+                Issue(
+                    path,
+                    lineno,
+                    1,
+                    "(row)",
+                    f"{len(fields)} field(s); expected feature,x,y,z[,role]",
+                )
+            )
             continue
         try:
             xyz = [float(v) * scale for v in fields[1:4]]
         except ValueError:
-            issues.append(Issue(path, lineno, len(fields[0]) + 2, "(row)", f"coordinates must be numbers, got {fields[1:4]}"))
+            issues.append(
+                Issue(
+                    path,
+                    lineno,
+                    len(fields[0]) + 2,
+                    "(row)",
+                    f"coordinates must be numbers, got {fields[1:4]}",
+                )
+            )
             continue
         if not np.all(np.isfinite(xyz)):
-            issues.append(Issue(path, lineno, len(fields[0]) + 2, "(row)", "coordinates must be finite"))
+            issues.append(
+                Issue(path, lineno, len(fields[0]) + 2, "(row)", "coordinates must be finite")
+            )
             continue
-        entry = data.setdefault(fields[0], {"points": [], "above": None, "ordered": True, "line": lineno})
+        entry = data.setdefault(
+            fields[0], {"points": [], "above": None, "ordered": True, "line": lineno}
+        )
         role = fields[4].lower() if len(fields) == 5 else ""
         if role == "above":
             entry["above"] = xyz
         elif role in ("", "point"):
             entry["points"].append(xyz)
         else:
-            issues.append(Issue(path, lineno, len(",".join(fields[:4])) + 2, "(row)", f"unknown role '{fields[4]}'; use 'above' or leave it empty"))
+            issues.append(
+                Issue(
+                    path,
+                    lineno,
+                    len(",".join(fields[:4])) + 2,
+                    "(row)",
+                    f"unknown role '{fields[4]}'; use 'above' or leave it empty",
+                )
+            )
     return data, issues
 
 
@@ -116,7 +171,10 @@ def load_measurements(paths: list[str], cell: CellModel, csv_units: str = "mm") 
             data, csv_issues = _read_csv(path, csv_units)
             issues += csv_issues
             radius, meta = 0.0, {}
-            entries = {name: (e["points"], e["above"], True, ("line", e["line"])) for name, e in data.items()}
+            entries = {
+                name: (e["points"], e["above"], True, ("line", e["line"]))
+                for name, e in data.items()
+            }
             locate = lambda key: Issue(path, entries[key][3][1], 1, f"feature '{key}'", "")  # noqa: E731
         else:
             doc = read_yaml(path)
@@ -130,41 +188,97 @@ def load_measurements(paths: list[str], cell: CellModel, csv_units: str = "mm") 
             if mf.sigma:
                 sigmas.append(mf.sigma * L)
             meta = {"date": mf.date, "instrument": mf.instrument}
-            entries = {name: ([list(np.array(p) * L) for p in f.points], list(np.array(f.above) * L) if f.above else None, f.ordered, None)
-                       for name, f in mf.features.items()}
+            entries = {
+                name: (
+                    [list(np.array(p) * L) for p in f.points],
+                    list(np.array(f.above) * L) if f.above else None,
+                    f.ordered,
+                    None,
+                )
+                for name, f in mf.features.items()
+            }
             locate = lambda key, doc=doc: doc.issue(("features", key), "", prefer="key")  # noqa: E731
         files.append({"path": path, "sha256": _digest(Path(path)), **meta})
         for name, (points, above, ordered, _) in entries.items():
             where = locate(name)
             feature = cell.features.get(name)
             if feature is None:
-                issues.append(Issue(where.file, where.line, where.column, where.location, f"unknown feature '{name}'{did_you_mean(name, cell.features)}"))
+                issues.append(
+                    Issue(
+                        where.file,
+                        where.line,
+                        where.column,
+                        where.location,
+                        f"unknown feature '{name}'{did_you_mean(name, cell.features)}",
+                    )
+                )
                 continue
             if name in out:
-                issues.append(Issue(where.file, where.line, where.column, where.location, f"'{name}' is measured again (first in {out[name].source})"))
+                issues.append(
+                    Issue(
+                        where.file,
+                        where.line,
+                        where.column,
+                        where.location,
+                        f"'{name}' is measured again (first in {out[name].source})",
+                    )
+                )
                 continue
             pts = np.array(points, dtype=float).reshape(-1, 3)
             need = MIN_POINTS[feature.kind]
             if len(pts) < need:
-                issues.append(Issue(where.file, where.line, where.column, where.location,
-                                    f"a {feature.kind} needs at least {need} point(s), got {len(pts)}"))
+                issues.append(
+                    Issue(
+                        where.file,
+                        where.line,
+                        where.column,
+                        where.location,
+                        f"a {feature.kind} needs at least {need} point(s), got {len(pts)}",
+                    )
+                )
                 continue
-            out[name] = Measurement(name, pts, np.array(above, float) if above is not None else None, bool(ordered), radius, path)
+            out[name] = Measurement(
+                name,
+                pts,
+                np.array(above, float) if above is not None else None,
+                bool(ordered),
+                radius,
+                path,
+            )
     if issues:
-        raise UserError(f"{len(issues)} problem(s) in the measurements", sorted(issues, key=lambda i: (i.file, i.line, i.column)))
+        raise UserError(
+            f"{len(issues)} problem(s) in the measurements",
+            sorted(issues, key=lambda i: (i.file, i.line, i.column)),
+        )
     return MeasurementSet(out, files, float(np.mean(sigmas)) if sigmas else None)
 
 
-def measurement_text(features: dict[str, FeatureProbes], cell: str, comments: list[str], *, sigma: float | None = None,
-                     probe_radius: float = 0.0, instrument: str | None = None, date: str | None = None,
-                     digits: int | None = None) -> str:
-    """A measurement file (mm) for ``features`` (SI, world): the format :func:`load_measurements` reads.
+def measurement_text(
+    features: dict[str, FeatureProbes],
+    cell: str,
+    comments: list[str],
+    *,
+    sigma: float | None = None,
+    probe_radius: float = 0.0,
+    instrument: str | None = None,
+    date: str | None = None,
+    digits: int | None = None,
+) -> str:
+    """A measurement file (mm) for ``features`` (SI, world): the format :func:`load_measurements`
+    reads.
 
     ``digits``: decimals of the mm values (None: round-trip exact).
     """
 
     def mm(values) -> str:
-        return "[" + ", ".join(repr(float(x) * 1000) if digits is None else f"{float(x) * 1000:.{digits}f}" for x in values) + "]"
+        return (
+            "["
+            + ", ".join(
+                repr(float(x) * 1000) if digits is None else f"{float(x) * 1000:.{digits}f}"
+                for x in values
+            )
+            + "]"
+        )
 
     lines = [f"# {c}" for c in comments] + [f"cell: {cell}", "units: {length: mm}"]
     if date is not None:
@@ -186,7 +300,9 @@ def measurement_text(features: dict[str, FeatureProbes], cell: str, comments: li
     return "\n".join(lines) + "\n"
 
 
-def write_measurements(path: str, features: dict[str, FeatureProbes], cell: str, comments: list[str], **fields) -> None:
+def write_measurements(
+    path: str, features: dict[str, FeatureProbes], cell: str, comments: list[str], **fields
+) -> None:
     """Write :func:`measurement_text` to ``path`` atomically."""
     atomic_write_text(path, measurement_text(features, cell, comments, **fields))
 

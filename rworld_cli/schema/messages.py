@@ -24,7 +24,10 @@ def describe(value: Any) -> str:
     if value is None:
         return "nothing (null)"
     if isinstance(value, bool):
-        return f"{str(value).lower()} (YAML reads yes/no/on/off/true/false as booleans; quote it if you meant text)"
+        return (
+            f"{str(value).lower()} (YAML reads yes/no/on/off/true/false as booleans; quote it "
+            "if you meant text)"
+        )
     if isinstance(value, dict):
         return "a mapping"
     if isinstance(value, list):
@@ -129,7 +132,11 @@ def _message(err: dict, root: type[BaseModel]) -> tuple[str, str]:
         from .models import CONDITION_CODES
 
         names = ", ".join(f"{n} ({c})" for n, c in CONDITION_CODES.items())
-        return f"unknown condition type {describe(value)}{did_you_mean(value, CONDITION_CODES)}; expected one of: {names}", "value"
+        return (
+            f"unknown condition type {describe(value)}{did_you_mean(value, CONDITION_CODES)}; "
+            f"expected one of: {names}",
+            "value",
+        )
     if kind == "literal_error":
         expected = ctx.get("expected", "")
         choices = [c.strip().strip("'") for c in expected.replace(" or ", ", ").split(",")]
@@ -147,17 +154,26 @@ def _message(err: dict, root: type[BaseModel]) -> tuple[str, str]:
             want = f"at most {hi} values"
         return f"expected {want}, got {actual}", "value"
     if kind in ("greater_than", "greater_than_equal", "less_than", "less_than_equal"):
-        op = {"greater_than": ">", "greater_than_equal": ">=", "less_than": "<", "less_than_equal": "<="}[kind]
+        op = {
+            "greater_than": ">",
+            "greater_than_equal": ">=",
+            "less_than": "<",
+            "less_than_equal": "<=",
+        }[kind]
         bound = next(iter(ctx.values())) if ctx else "?"
         return f"must be {op} {bound}, got {describe(value)}", "value"
     if kind == "string_pattern_mismatch":
         if ctx.get("pattern") == NAME_PATTERN:
             return (
-                f"invalid name {describe(value)}: use letters, digits, '_' or '-', not starting with a digit, no '.'",
+                f"invalid name {describe(value)}: use letters, digits, '_' or '-', not starting "
+                "with a digit, no '.'",
                 "value",
             )
         if ctx.get("pattern") == REF_PATTERN:
-            return f"invalid frame reference {describe(value)}: expected 'name' or 'owner.frame'", "value"
+            return (
+                f"invalid frame reference {describe(value)}: expected 'name' or 'owner.frame'",
+                "value",
+            )
         return f"{describe(value)} does not match the pattern {ctx.get('pattern')}", "value"
     if kind == "value_error":
         msg = err["msg"]

@@ -15,19 +15,33 @@ and gravity are always SI (kg, kg m^2, N m or N, m/s^2).
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal, Optional
+from typing import Annotated, Any, Literal
 
 from annotated_types import Len
-from pydantic import BaseModel, ConfigDict, Field, StringConstraints, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    StringConstraints,
+    field_validator,
+    model_validator,
+)
 
 NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_\-]*$"
 REF_PATTERN = r"^[A-Za-z_][A-Za-z0-9_\-]*(\.[A-Za-z_][A-Za-z0-9_\-]*)*$"
 
-Name = Annotated[str, StringConstraints(pattern=NAME_PATTERN), Field(description="A name: letters, digits, '_' or '-', not starting with a digit, no '.'.")]
+Name = Annotated[
+    str,
+    StringConstraints(pattern=NAME_PATTERN),
+    Field(description="A name: letters, digits, '_' or '-', not starting with a digit, no '.'."),
+]
 FrameRef = Annotated[
     str,
     StringConstraints(pattern=REF_PATTERN),
-    Field(description="A frame: 'world', a primitive's name (its natural frame) or 'owner.frame' for an auxiliary, link or TCP frame."),
+    Field(
+        description="A frame: 'world', a primitive's name (its natural frame) or 'owner.frame' "
+        "for an auxiliary, link or TCP frame."
+    ),
 ]
 Vec3 = Annotated[list[float], Len(3, 3)]
 PositiveVec3 = Annotated[list[Annotated[float, Field(gt=0)]], Len(3, 3)]
@@ -52,14 +66,20 @@ class Units(Strict):
 
 
 class Pose(Strict):
-    """A pose relative to the frame's parent: ``xyz`` with ``rpy`` or ``quat``, or a 4x4 ``matrix``."""
+    """A pose relative to the frame's parent: ``xyz`` with ``rpy`` or ``quat``, or a 4x4
+    ``matrix``.
+    """
 
-    xyz: Optional[Vec3] = Field(None, description="Translation [length unit]; default 0.")
-    rpy: Optional[Vec3] = Field(
-        None, description="Roll, pitch, yaw [angle unit] about the fixed x, y, z axes: R = Rz(yaw) Ry(pitch) Rx(roll)."
+    xyz: Vec3 | None = Field(None, description="Translation [length unit]; default 0.")
+    rpy: Vec3 | None = Field(
+        None,
+        description="Roll, pitch, yaw [angle unit] about the fixed x, y, z axes: R = Rz(yaw) "
+        "Ry(pitch) Rx(roll).",
     )
-    quat: Optional[Annotated[list[float], Len(4, 4)]] = Field(None, description="Unit quaternion (w, x, y, z).")
-    matrix: Optional[Annotated[list[Annotated[list[float], Len(4, 4)]], Len(4, 4)]] = Field(
+    quat: Annotated[list[float], Len(4, 4)] | None = Field(
+        None, description="Unit quaternion (w, x, y, z)."
+    )
+    matrix: Annotated[list[Annotated[list[float], Len(4, 4)]], Len(4, 4)] | None = Field(
         None, description="Homogeneous 4x4 matrix, rows; translation in the length unit."
     )
 
@@ -67,8 +87,12 @@ class Pose(Strict):
     def _one_form(self):
         if self.rpy is not None and self.quat is not None:
             raise ValueError("give the rotation once: 'rpy' or 'quat', not both")
-        if self.matrix is not None and (self.xyz is not None or self.rpy is not None or self.quat is not None):
-            raise ValueError("'matrix' holds the whole pose; do not combine it with 'xyz', 'rpy' or 'quat'")
+        if self.matrix is not None and (
+            self.xyz is not None or self.rpy is not None or self.quat is not None
+        ):
+            raise ValueError(
+                "'matrix' holds the whole pose; do not combine it with 'xyz', 'rpy' or 'quat'"
+            )
         return self
 
 
@@ -94,17 +118,25 @@ class Sphere(Strict):
 
 class Mesh(Strict):
     file: str = Field(description="STL, OBJ or PLY file, relative to the cell file.")
-    units: Optional[Literal["m", "mm"]] = Field(None, description="Length unit of the mesh file; default: the cell's.")
+    units: Literal["m", "mm"] | None = Field(
+        None, description="Length unit of the mesh file; default: the cell's."
+    )
 
 
 class Geometry(Strict):
-    """Shape: exactly one of box, cylinder, sphere, mesh; placed by ``origin`` in the owner's frame."""
+    """Shape: exactly one of box, cylinder, sphere, mesh; placed by ``origin`` in the owner's
+    frame.
+    """
 
-    box: Optional[PositiveVec3] = Field(None, description="Edge lengths x, y, z, centred on the origin [length unit].")
-    cylinder: Optional[Cylinder] = None
-    sphere: Optional[Sphere] = None
-    mesh: Optional[Mesh] = None
-    origin: Optional[Pose] = Field(None, description="Pose of the shape in the owner's frame; default identity.")
+    box: PositiveVec3 | None = Field(
+        None, description="Edge lengths x, y, z, centred on the origin [length unit]."
+    )
+    cylinder: Cylinder | None = None
+    sphere: Sphere | None = None
+    mesh: Mesh | None = None
+    origin: Pose | None = Field(
+        None, description="Pose of the shape in the owner's frame; default identity."
+    )
 
     @model_validator(mode="after")
     def _exactly_one(self):
@@ -120,7 +152,9 @@ class Geometry(Strict):
 
 class LineSpec(Strict):
     point: Vec3 = Field(description="A point on the line [length unit].")
-    direction: Vec3 = Field(description="Direction; for orientation-carrying probing, first -> last point.")
+    direction: Vec3 = Field(
+        description="Direction; for orientation-carrying probing, first -> last point."
+    )
 
 
 class PlaneSpec(Strict):
@@ -138,10 +172,10 @@ class Feature(Strict):
     """A geometric feature of its owner, nominal equation in the owner's natural frame."""
 
     name: Name
-    point: Optional[Vec3] = Field(None, description="A point feature [length unit].")
-    line: Optional[LineSpec] = None
-    plane: Optional[PlaneSpec] = None
-    circle: Optional[CircleSpec] = None
+    point: Vec3 | None = Field(None, description="A point feature [length unit].")
+    line: LineSpec | None = None
+    plane: PlaneSpec | None = None
+    circle: CircleSpec | None = None
 
     @model_validator(mode="after")
     def _exactly_one(self):
@@ -156,15 +190,20 @@ class Feature(Strict):
         return next(k for k in ("point", "line", "plane", "circle") if getattr(self, k) is not None)
 
 
-# --------------------------------------------------------------------------- frames, objects, sensors
+# --------------------------------------------------------------------------- frames, objects,
+# sensors
 
 
 class AuxFrame(Strict):
-    """An auxiliary frame owned by an object, sensor, device or link; its pose lives in a pose file."""
+    """An auxiliary frame owned by an object, sensor, device or link; its pose lives in a pose
+    file.
+    """
 
     name: Name
-    parent: Optional[Name] = Field(
-        None, description="Another frame of the same owner this one is attached to; default the owner's frame."
+    parent: Name | None = Field(
+        None,
+        description="Another frame of the same owner this one is attached to; default the owner's "
+        "frame.",
     )
 
 
@@ -172,7 +211,7 @@ class FreeFrame(Strict):
     """A frame in free space (e.g. a target location); its pose lives in a pose file."""
 
     name: Name
-    parent: Optional[FrameRef] = Field(None, description="'world' (default) or another free frame.")
+    parent: FrameRef | None = Field(None, description="'world' (default) or another free frame.")
 
 
 class RigidObject(Strict):
@@ -180,9 +219,14 @@ class RigidObject(Strict):
 
     name: Name
     mass: NonNegative = Field(0.0, description="[kg]")
-    com: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0], description="Centre of mass in the natural frame [length unit].")
-    inertia: Optional[Inertia] = Field(None, description="About the centre of mass; default zero (a point mass).")
-    geometry: Optional[Geometry] = None
+    com: Vec3 = Field(
+        default_factory=lambda: [0.0, 0.0, 0.0],
+        description="Centre of mass in the natural frame [length unit].",
+    )
+    inertia: Inertia | None = Field(
+        None, description="About the centre of mass; default zero (a point mass)."
+    )
+    geometry: Geometry | None = None
     frames: list[AuxFrame] = Field(default_factory=list)
     features: list[Feature] = Field(default_factory=list)
 
@@ -197,11 +241,17 @@ class Sensor(Strict):
 
     name: Name
     type: Literal["touch", "tactile", "proximity", "presence", "force"]
-    size: PositiveVec3 = Field(description="Box edge lengths x, y, z [length unit]; z is the sensing depth or range.")
-    segments: Optional[Segments] = Field(None, description="Tactile sensors: the pad's grid of cells.")
-    slices: Optional[Annotated[int, Field(ge=1)]] = Field(None, description="Proximity sensors: slices of the range along +z.")
-    force_curve: Optional[list[Annotated[list[float], Len(2, 2)]]] = Field(
-        None, description="Force sensors: [overlap volume (length unit^3), force (N)] pairs, volume increasing."
+    size: PositiveVec3 = Field(
+        description="Box edge lengths x, y, z [length unit]; z is the sensing depth or range."
+    )
+    segments: Segments | None = Field(None, description="Tactile sensors: the pad's grid of cells.")
+    slices: Annotated[int, Field(ge=1)] | None = Field(
+        None, description="Proximity sensors: slices of the range along +z."
+    )
+    force_curve: list[Annotated[list[float], Len(2, 2)]] | None = Field(
+        None,
+        description="Force sensors: [overlap volume (length unit^3), force (N)] pairs, volume "
+        "increasing.",
     )
     frames: list[AuxFrame] = Field(default_factory=list)
 
@@ -210,17 +260,23 @@ class Sensor(Strict):
 
 
 class JointLimits(Strict):
-    position: Optional[Annotated[list[float], Len(2, 2)]] = Field(
+    position: Annotated[list[float], Len(2, 2)] | None = Field(
         None, description="[lower, upper] joint value [angle or length unit]."
     )
-    velocity: Optional[Positive] = Field(None, description="[angle or length unit]/s")
-    acceleration: Optional[Positive] = Field(None, description="[angle or length unit]/s^2")
-    effort: Optional[Positive] = Field(None, description="Torque [N m] or force [N] the actuator can give.")
+    velocity: Positive | None = Field(None, description="[angle or length unit]/s")
+    acceleration: Positive | None = Field(None, description="[angle or length unit]/s^2")
+    effort: Positive | None = Field(
+        None, description="Torque [N m] or force [N] the actuator can give."
+    )
 
 
 class Motor(Strict):
-    inertia: NonNegative = Field(description="Motor rotor (armature) inertia Jm [kg m^2], motor side.")
-    gear_ratio: float = Field(description="G: motor speed / joint speed; sign allowed; reflected inertia Jm G^2.")
+    inertia: NonNegative = Field(
+        description="Motor rotor (armature) inertia Jm [kg m^2], motor side."
+    )
+    gear_ratio: float = Field(
+        description="G: motor speed / joint speed; sign allowed; reflected inertia Jm G^2."
+    )
 
     @field_validator("gear_ratio")
     @classmethod
@@ -232,41 +288,61 @@ class Motor(Strict):
 
 class Friction(Strict):
     viscous: NonNegative = Field(0.0, description="B: torque per speed [N m s/rad or N s/m].")
-    coulomb: NonNegative = Field(0.0, description="Coulomb friction magnitude when moving in + direction [N m or N].")
-    coulomb_negative: Optional[NonNegative] = Field(None, description="Magnitude when moving in - direction; default: coulomb.")
+    coulomb: NonNegative = Field(
+        0.0, description="Coulomb friction magnitude when moving in + direction [N m or N]."
+    )
+    coulomb_negative: NonNegative | None = Field(
+        None, description="Magnitude when moving in - direction; default: coulomb."
+    )
     at: Literal["joint", "motor"] = Field(
-        "joint", description="Side the values are measured on; motor-side values are scaled by the gear ratio (B G^2, Tc |G|)."
+        "joint",
+        description="Side the values are measured on; motor-side values are scaled by the gear "
+        "ratio (B G^2, Tc |G|).",
     )
 
 
 class Joint(Strict):
     """One row of the DH table (see docs/conventions.md for standard vs modified)."""
 
-    name: Optional[Name] = Field(None, description="Default j1, j2, ...")
+    name: Name | None = Field(None, description="Default j1, j2, ...")
     type: Literal["revolute", "prismatic"]
     a: float = Field(0.0, description="Link length [length unit].")
     alpha: float = Field(0.0, description="Link twist [angle unit].")
-    d: float = Field(0.0, description="Link offset [length unit]; for prismatic joints added to the joint value.")
-    theta: float = Field(0.0, description="Joint angle offset [angle unit]; for revolute joints added to the joint value.")
-    limits: Optional[JointLimits] = None
-    motor: Optional[Motor] = None
-    friction: Optional[Friction] = None
+    d: float = Field(
+        0.0, description="Link offset [length unit]; for prismatic joints added to the joint value."
+    )
+    theta: float = Field(
+        0.0,
+        description=(
+            "Joint angle offset [angle unit]; for revolute joints added to the joint value."
+        ),
+    )
+    limits: JointLimits | None = None
+    motor: Motor | None = None
+    friction: Friction | None = None
 
 
 class Link(Strict):
     """Link i, moved by joint i; its frame is DH frame i."""
 
-    name: Optional[Name] = Field(None, description="Default link1, link2, ...")
+    name: Name | None = Field(None, description="Default link1, link2, ...")
     mass: NonNegative = Field(0.0, description="[kg]")
-    com: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0], description="Centre of mass in the link frame [length unit].")
-    inertia: Optional[Inertia] = None
-    geometry: Optional[Geometry] = None
-    frames: list[AuxFrame] = Field(default_factory=list, description="Auxiliary frames on this link.")
+    com: Vec3 = Field(
+        default_factory=lambda: [0.0, 0.0, 0.0],
+        description="Centre of mass in the link frame [length unit].",
+    )
+    inertia: Inertia | None = None
+    geometry: Geometry | None = None
+    frames: list[AuxFrame] = Field(
+        default_factory=list, description="Auxiliary frames on this link."
+    )
 
 
 class Tcp(Strict):
     name: Name
-    parent: Optional[Name] = Field(None, description="A link or frame of this device; default the last link.")
+    parent: Name | None = Field(
+        None, description="A link or frame of this device; default the last link."
+    )
 
 
 class Device(Strict):
@@ -276,28 +352,41 @@ class Device(Strict):
     dof: Annotated[int, Field(ge=1)] = Field(description="Mobility: number of joints.")
     dh: Literal["standard", "modified"] = Field(description="DH convention of the joint table.")
     joints: list[Joint] = Field(description="The DH table, one row per joint.")
-    links: Optional[list[Link]] = Field(None, description="One per joint; default massless links link1..n.")
-    tcps: Annotated[list[Tcp], Len(1)] = Field(description="Tool centre points; the first is the default active TCP.")
-    home: Optional[list[float]] = Field(None, description="Initial joint values [angle or length unit]; default 0.")
+    links: list[Link] | None = Field(
+        None, description="One per joint; default massless links link1..n."
+    )
+    tcps: Annotated[list[Tcp], Len(1)] = Field(
+        description="Tool centre points; the first is the default active TCP."
+    )
+    home: list[float] | None = Field(
+        None, description="Initial joint values [angle or length unit]; default 0."
+    )
     positions: dict[str, list[float]] = Field(
         default_factory=dict,
-        description="Named joint configurations programs can move to (e.g. open, closed, station_b) [angle or length unit].",
+        description="Named joint configurations programs can move to (e.g. open, closed, "
+        "station_b) [angle or length unit].",
     )
-    geometry: Optional[Geometry] = Field(None, description="Shape of the base.")
-    frames: list[AuxFrame] = Field(default_factory=list, description="Auxiliary frames on the base.")
-    features: list[Feature] = Field(default_factory=list, description="Features of the base, in the natural frame.")
+    geometry: Geometry | None = Field(None, description="Shape of the base.")
+    frames: list[AuxFrame] = Field(
+        default_factory=list, description="Auxiliary frames on the base."
+    )
+    features: list[Feature] = Field(
+        default_factory=list, description="Features of the base, in the natural frame."
+    )
 
 
 # --------------------------------------------------------------------------- relations
 
 
 class Affixment(Strict):
-    """Child is affixed to parent: rigid (child follows parent) or non-rigid (child rests on parent)."""
+    """Child is affixed to parent: rigid (child follows parent) or non-rigid (child rests on
+    parent).
+    """
 
     parent: FrameRef
     child: Name = Field(description="An object, sensor or device.")
     type: Literal["rigid", "non_rigid"]
-    kind: Optional[Literal["grasp", "assembly", "aggregation", "tool", "fixture", "rests_on"]] = Field(
+    kind: Literal["grasp", "assembly", "aggregation", "tool", "fixture", "rests_on"] | None = Field(
         None, description="What the affixment models; 'rests_on' is non-rigid, the others rigid."
     )
 
@@ -339,9 +428,15 @@ class Condition(Strict):
     """A frame conditioned by features (the calibration report's C1-C13)."""
 
     frame: FrameRef
-    type: ConditionName = Field(description="Readable name; the report's codes C1..C13 are accepted too.")
-    feature: Optional[str] = Field(None, description="The one feature of an auxiliary frame's condition (C3-C13).")
-    features: Optional[list[str]] = Field(None, description="The features that locate a natural frame (C1, C2).")
+    type: ConditionName = Field(
+        description="Readable name; the report's codes C1..C13 are accepted too."
+    )
+    feature: str | None = Field(
+        None, description="The one feature of an auxiliary frame's condition (C3-C13)."
+    )
+    features: list[str] | None = Field(
+        None, description="The features that locate a natural frame (C1, C2)."
+    )
 
     @field_validator("type", mode="before")
     @classmethod
@@ -353,7 +448,9 @@ class Condition(Strict):
     @model_validator(mode="after")
     def _one_feature_key(self):
         if (self.feature is None) == (self.features is None):
-            raise ValueError("give either 'feature' (one name) or 'features' (a list), exactly one of them")
+            raise ValueError(
+                "give either 'feature' (one name) or 'features' (a list), exactly one of them"
+            )
         return self
 
     @property
@@ -372,19 +469,27 @@ class CellFile(Strict):
     """A workcell: structure, geometry, devices, features, affixments and frame conditions."""
 
     name: Name
-    description: Optional[str] = None
+    description: str | None = None
     units: Units = Field(default_factory=Units)
     pose_files: Annotated[list[str], Len(1)] = Field(
         default_factory=lambda: ["poses.yaml"],
-        description="Numeric pose files relative to this file; later files override earlier ones (calibration overlays).",
+        description="Numeric pose files relative to this file; later files override earlier ones "
+        "(calibration overlays).",
     )
-    gravity: Vec3 = Field(default_factory=lambda: [0.0, 0.0, -9.81], description="Acceleration of gravity in world [m/s^2].")
+    gravity: Vec3 = Field(
+        default_factory=lambda: [0.0, 0.0, -9.81],
+        description="Acceleration of gravity in world [m/s^2].",
+    )
     frames: list[FreeFrame] = Field(default_factory=list, description="Frames in free space.")
     objects: list[RigidObject] = Field(default_factory=list)
     sensors: list[Sensor] = Field(default_factory=list)
     devices: list[Device] = Field(default_factory=list)
-    affixments: list[Affixment] = Field(default_factory=list, description="The initial tree; unaffixed primitives sit in world.")
-    conditions: list[Condition] = Field(default_factory=list, description="Frame conditions for calibration.")
+    affixments: list[Affixment] = Field(
+        default_factory=list, description="The initial tree; unaffixed primitives sit in world."
+    )
+    conditions: list[Condition] = Field(
+        default_factory=list, description="Frame conditions for calibration."
+    )
 
 
 class PoseFile(Strict):
@@ -392,6 +497,8 @@ class PoseFile(Strict):
 
     units: Units = Field(default_factory=Units)
     poses: dict[str, Pose] = Field(description="Frame name -> pose relative to its parent.")
-    provenance: Optional[dict[str, Any]] = Field(
-        None, description="Written by 'rworld calibrate': date, measurement files and their hashes, per-frame residuals and corrections."
+    provenance: dict[str, Any] | None = Field(
+        None,
+        description="Written by 'rworld calibrate': date, measurement files and their hashes, "
+        "per-frame residuals and corrections.",
     )

@@ -1,4 +1,6 @@
-"""Path files (``paths/*.yaml``): read with located errors against a device, written with new knots."""
+"""Path files (``paths/*.yaml``): read with located errors against a device, written with new
+knots.
+"""
 
 from __future__ import annotations
 
@@ -45,22 +47,51 @@ def read_path(path_file: str, device) -> LoadedPath:
     issues = []
     for k, row in enumerate(pf.waypoints):
         if len(row) != n:
-            issues.append(doc.issue(("waypoints", k), f"{len(row)} value(s) but '{device.name}' has {n} joint(s)"))
+            issues.append(
+                doc.issue(
+                    ("waypoints", k), f"{len(row)} value(s) but '{device.name}' has {n} joint(s)"
+                )
+            )
     if pf.knots is not None:
         kn = pf.knots
-        if len(kn) != len(pf.waypoints) or kn[0] != 0 or kn[-1] != 1 or any(b <= a for a, b in zip(kn, kn[1:])):
-            issues.append(doc.issue(("knots",), f"knots must rise strictly from 0 to 1, one per waypoint ({len(pf.waypoints)})"))
+        if (
+            len(kn) != len(pf.waypoints)
+            or kn[0] != 0
+            or kn[-1] != 1
+            or any(b <= a for a, b in zip(kn, kn[1:]))
+        ):
+            issues.append(
+                doc.issue(
+                    ("knots",),
+                    f"knots must rise strictly from 0 to 1, one per waypoint ({len(pf.waypoints)})",
+                )
+            )
     if issues:
         raise UserError(f"{path_file}: invalid path", issues)
-    scale = np.array([ANGLE[pf.units.angle] if j.kind == "revolute" else LENGTH[pf.units.length] for j in device.joints])
+    scale = np.array(
+        [
+            ANGLE[pf.units.angle] if j.kind == "revolute" else LENGTH[pf.units.length]
+            for j in device.joints
+        ]
+    )
     q = np.array(pf.waypoints, dtype=float) * scale
     lo, hi = device.limit_array("lower"), device.limit_array("upper")
     bad = np.argwhere((q < lo) | (q > hi))
     if len(bad):
-        issues = [doc.issue(("waypoints", int(k), int(j)), f"{pf.waypoints[k][j]} is outside the position limits of "
-                            f"{device.joints[j].name} [{lo[j] / scale[j]:.6g}, {hi[j] / scale[j]:.6g}]") for k, j in bad]
+        issues = [
+            doc.issue(
+                ("waypoints", int(k), int(j)),
+                f"{pf.waypoints[k][j]} is outside the position limits of "
+                f"{device.joints[j].name} [{lo[j] / scale[j]:.6g}, {hi[j] / scale[j]:.6g}]",
+            )
+            for k, j in bad
+        ]
         k, j = bad[0]
-        raise UserError(f"{path_file}: waypoint {k + 1} puts joint {device.joints[j].name} outside its position limits", issues)
+        raise UserError(
+            f"{path_file}: waypoint {k + 1} puts joint {device.joints[j].name} outside its "
+            "position limits",
+            issues,
+        )
     knots = None if pf.knots is None else np.array(pf.knots, dtype=float)
     return LoadedPath(PathSpec(q, knots, pf.boundary, pf.device), path_file, scale, doc, pf)
 
@@ -72,7 +103,9 @@ def read_path_file(path_file: str) -> tuple[PathFile, Marked]:
 
 
 def write_path_with_knots(path_file: str, knots, output: str, note: str = "") -> None:
-    """Write ``path_file`` again with new ``knots`` (same waypoints, units and boundary), atomically."""
+    """Write ``path_file`` again with new ``knots`` (same waypoints, units and boundary),
+    atomically.
+    """
     pf = validate_document(read_yaml(path_file), PathFile)
     lines = [f"# {path_file} with new knots{': ' + note if note else ''}"]
     if pf.device:

@@ -12,9 +12,11 @@ from ..units import ARCSEC
 
 
 def overlay_text(result, measurement_files: list[dict]) -> str:
-    """The calibrated poses as a pose file (mm, deg) with provenance; the nominal files stay as they are.
+    """The calibrated poses as a pose file (mm, deg) with provenance; the nominal files stay as they
+    are.
 
-    ``result``: a calibration result (``overlay``: frame -> T_parent_frame, SI; ``solutions``: frame ->
+    ``result``: a calibration result (``overlay``: frame -> T_parent_frame, SI; ``solutions``: frame
+    ->
     solution with ``determined``, ``code``, ``residual_rms``, ``correction``, ``sigma_translation``,
     ``sigma_rotation``).
     """
@@ -38,8 +40,12 @@ def overlay_text(result, measurement_files: list[dict]) -> str:
         if not sol.determined:
             continue
         dt, dr = sol.correction
-        entry = [f"condition: {sol.code}", f"residual_rms_mm: {sol.residual_rms * 1000:.6g}",
-                 f"correction_mm: {dt * 1000:.6g}", f"correction_deg: {np.degrees(dr):.6g}"]
+        entry = [
+            f"condition: {sol.code}",
+            f"residual_rms_mm: {sol.residual_rms * 1000:.6g}",
+            f"correction_mm: {dt * 1000:.6g}",
+            f"correction_deg: {np.degrees(dr):.6g}",
+        ]
         if sol.sigma_translation is not None:
             entry.append(f"sigma_mm: {float(np.linalg.norm(sol.sigma_translation)) * 1000:.6g}")
             entry.append(f"sigma_arcsec: {float(np.linalg.norm(sol.sigma_rotation)) / ARCSEC:.6g}")

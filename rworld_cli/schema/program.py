@@ -10,7 +10,7 @@ optional offsets relative to a named frame.
 
 from __future__ import annotations
 
-from typing import Annotated, Literal, Optional
+from typing import Annotated, Literal
 
 from pydantic import Field, field_validator, model_validator
 
@@ -22,19 +22,36 @@ Fraction = Annotated[float, Field(gt=0, le=1)]
 class MoveSpec(Strict):
     """Move the device: its TCP to a frame (joint or linear), or its joints to a named position."""
 
-    to: FrameRef = Field(description="A frame of the cell, a named position of the device, or 'home'.")
-    motion: Literal["joint", "linear"] = Field("joint", description="Joint-interpolated, or a straight TCP line.")
-    tcp: Optional[FrameRef] = Field(None, description="The tool frame to bring to the target; default the active TCP.")
-    offset: Optional[Pose] = Field(None, description="Target = the frame moved by this pose, in the frame's own axes.")
-    position_only: bool = Field(False, description="Match the TCP position only (automatic for devices with fewer than 6 joints).")
-    speed: Fraction = Field(1.0, description="Fraction of the velocity limits (joint) or of the linear speed (linear).")
+    to: FrameRef = Field(
+        description="A frame of the cell, a named position of the device, or 'home'."
+    )
+    motion: Literal["joint", "linear"] = Field(
+        "joint", description="Joint-interpolated, or a straight TCP line."
+    )
+    tcp: FrameRef | None = Field(
+        None, description="The tool frame to bring to the target; default the active TCP."
+    )
+    offset: Pose | None = Field(
+        None, description="Target = the frame moved by this pose, in the frame's own axes."
+    )
+    position_only: bool = Field(
+        False,
+        description="Match the TCP position only (automatic for devices with fewer than 6 joints).",
+    )
+    speed: Fraction = Field(
+        1.0, description="Fraction of the velocity limits (joint) or of the linear speed (linear)."
+    )
     acceleration: Fraction = Field(1.0, description="Fraction of the acceleration limits.")
-    until: Optional[Name] = Field(None, description="Guarded move: stop where this sensor first senses something.")
+    until: Name | None = Field(
+        None, description="Guarded move: stop where this sensor first senses something."
+    )
 
 
 class ObjectRef(Strict):
     object: Name
-    tcp: Optional[FrameRef] = Field(None, description="Grasp: the TCP that takes the object; default the active TCP.")
+    tcp: FrameRef | None = Field(
+        None, description="Grasp: the TCP that takes the object; default the active TCP."
+    )
 
 
 class PlaceSpec(Strict):
@@ -44,13 +61,19 @@ class PlaceSpec(Strict):
 
 class ToolSpec(Strict):
     tool: Name = Field(description="A device (hand) or object used as a tool.")
-    at: Optional[FrameRef] = Field(None, description="attach_tool: the frame it is affixed to; default the active TCP.")
-    on: Optional[FrameRef] = Field(None, description="detach_tool: the frame it is left resting on; default world.")
+    at: FrameRef | None = Field(
+        None, description="attach_tool: the frame it is affixed to; default the active TCP."
+    )
+    on: FrameRef | None = Field(
+        None, description="detach_tool: the frame it is left resting on; default world."
+    )
 
 
 class WaitSpec(Strict):
-    time: Optional[Annotated[float, Field(ge=0)]] = Field(None, description="Seconds to wait.")
-    for_: Optional[Name] = Field(None, alias="for", description="Wait until this device's program has ended.")
+    time: Annotated[float, Field(ge=0)] | None = Field(None, description="Seconds to wait.")
+    for_: Name | None = Field(
+        None, alias="for", description="Wait until this device's program has ended."
+    )
 
     @model_validator(mode="after")
     def _one(self):
@@ -62,15 +85,29 @@ class WaitSpec(Strict):
 class Step(Strict):
     """One program step: exactly one of the keys."""
 
-    move: Optional[MoveSpec] = None
-    grasp: Optional[ObjectRef] = Field(None, description="Rigidly affix the object to the TCP ('grasp: part' for short).")
-    release: Optional[ObjectRef] = Field(None, description="Remove the object's affixment; it stays where it is.")
-    place: Optional[PlaceSpec] = Field(None, description="The object now rests on a frame (non-rigid affixment).")
-    attach_tool: Optional[ToolSpec] = Field(None, description="Tool change: affix a tool; its TCP becomes the active one.")
-    detach_tool: Optional[ToolSpec] = Field(None, description="Tool change: leave the tool (on a frame or in world).")
-    wait: Optional[WaitSpec] = None
-    sync: Optional[Name] = Field(None, description="Meet the other programs at their sync of the same name.")
-    sense: Optional[Name] = Field(None, description="Read a sensor; the reading is recorded as an event.")
+    move: MoveSpec | None = None
+    grasp: ObjectRef | None = Field(
+        None, description="Rigidly affix the object to the TCP ('grasp: part' for short)."
+    )
+    release: ObjectRef | None = Field(
+        None, description="Remove the object's affixment; it stays where it is."
+    )
+    place: PlaceSpec | None = Field(
+        None, description="The object now rests on a frame (non-rigid affixment)."
+    )
+    attach_tool: ToolSpec | None = Field(
+        None, description="Tool change: affix a tool; its TCP becomes the active one."
+    )
+    detach_tool: ToolSpec | None = Field(
+        None, description="Tool change: leave the tool (on a frame or in world)."
+    )
+    wait: WaitSpec | None = None
+    sync: Name | None = Field(
+        None, description="Meet the other programs at their sync of the same name."
+    )
+    sense: Name | None = Field(
+        None, description="Read a sensor; the reading is recorded as an event."
+    )
 
     @field_validator("grasp", "release", mode="before")
     @classmethod
@@ -95,14 +132,24 @@ class Step(Strict):
         return next(k for k in STEP_KINDS if getattr(self, k) is not None)
 
 
-STEP_KINDS = ("move", "grasp", "release", "place", "attach_tool", "detach_tool", "wait", "sync", "sense")
+STEP_KINDS = (
+    "move",
+    "grasp",
+    "release",
+    "place",
+    "attach_tool",
+    "detach_tool",
+    "wait",
+    "sync",
+    "sense",
+)
 
 
 class ProgramFile(Strict):
     """A symbolic program for one device."""
 
     device: Name
-    description: Optional[str] = None
+    description: str | None = None
     units: Units = Field(default_factory=Units, description="Units of offsets in this file.")
     steps: Annotated[list[Step], Field(min_length=1)]
 
@@ -110,16 +157,32 @@ class ProgramFile(Strict):
 class RunFile(Strict):
     """Programs that run together, on one clock."""
 
-    description: Optional[str] = None
-    programs: Annotated[list[str], Field(min_length=1)] = Field(description="Program files, relative to this file.")
-    dt: Annotated[float, Field(gt=0, le=1)] = Field(0.01, description="Time step of the uniform clock [s].")
+    description: str | None = None
+    programs: Annotated[list[str], Field(min_length=1)] = Field(
+        description="Program files, relative to this file."
+    )
+    dt: Annotated[float, Field(gt=0, le=1)] = Field(
+        0.01, description="Time step of the uniform clock [s]."
+    )
 
 
 class PathFile(Strict):
     """A joint-space path: a cubic spline through waypoints (for 'rworld plan')."""
 
-    device: Optional[Name] = Field(None, description="The device the path is for (informative; --device wins).")
-    units: Units = Field(default_factory=Units, description="Units of the joint values (angle for revolute, length for prismatic joints).")
-    waypoints: Annotated[list[list[float]], Field(min_length=2)] = Field(description="Joint values, one row per waypoint.")
-    knots: Optional[list[float]] = Field(None, description="Path parameter of each waypoint, rising from 0 to 1; default equally spaced.")
-    boundary: Literal["clamped", "natural", "not-a-knot"] = Field("clamped", description="clamped: dq/ds = 0 at both ends.")
+    device: Name | None = Field(
+        None, description="The device the path is for (informative; --device wins)."
+    )
+    units: Units = Field(
+        default_factory=Units,
+        description="Units of the joint values (angle for revolute, length for prismatic joints).",
+    )
+    waypoints: Annotated[list[list[float]], Field(min_length=2)] = Field(
+        description="Joint values, one row per waypoint."
+    )
+    knots: list[float] | None = Field(
+        None,
+        description="Path parameter of each waypoint, rising from 0 to 1; default equally spaced.",
+    )
+    boundary: Literal["clamped", "natural", "not-a-knot"] = Field(
+        "clamped", description="clamped: dq/ds = 0 at both ends."
+    )

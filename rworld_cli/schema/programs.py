@@ -1,4 +1,6 @@
-"""Program and run files: read and checked against the cell, with located errors, into ``model.program``."""
+"""Program and run files: read and checked against the cell, with located errors, into
+``model.program``.
+"""
 
 from __future__ import annotations
 
@@ -20,21 +22,31 @@ def _step_spec(step: sp.Step):
     return getattr(step, step.kind)
 
 
-def _check_program(doc: Marked, pf: sp.ProgramFile, cell: CellModel, run_devices: set[str], issues: list[Issue]) -> Program:
+def _check_program(
+    doc: Marked, pf: sp.ProgramFile, cell: CellModel, run_devices: set[str], issues: list[Issue]
+) -> Program:
     L, A = LENGTH[pf.units.length], ANGLE[pf.units.angle]
     device = cell.devices.get(pf.device)
     if device is None:
-        issues.append(doc.issue(("device",), f"unknown device '{pf.device}'{did_you_mean(pf.device, cell.devices)}"))
+        issues.append(
+            doc.issue(
+                ("device",), f"unknown device '{pf.device}'{did_you_mean(pf.device, cell.devices)}"
+            )
+        )
     primitives = set(cell.objects) | set(cell.devices) | set(cell.sensors)
 
     def frame(path, name, what="frame"):
         if name not in cell.frames and f"{pf.device}.{name}" not in cell.frames:
-            issues.append(doc.issue(path, f"unknown {what} '{name}'{did_you_mean(name, cell.frames)}"))
+            issues.append(
+                doc.issue(path, f"unknown {what} '{name}'{did_you_mean(name, cell.frames)}")
+            )
 
     def obj(path, name, kinds=("object",)):
         pool = {n for n in primitives if cell.primitive_kind(n) in kinds}
         if name not in pool:
-            issues.append(doc.issue(path, f"unknown {' or '.join(kinds)} '{name}'{did_you_mean(name, pool)}"))
+            issues.append(
+                doc.issue(path, f"unknown {' or '.join(kinds)} '{name}'{did_you_mean(name, pool)}")
+            )
 
     steps = []
     for i, raw in enumerate(pf.steps):
@@ -47,23 +59,47 @@ def _check_program(doc: Marked, pf: sp.ProgramFile, cell: CellModel, run_devices
             named = device is not None and (target == "home" or target in device.positions)
             if not named:
                 if target not in cell.frames:
-                    choices = list(cell.frames) + (list(device.positions) + ["home"] if device else [])
+                    choices = list(cell.frames) + (
+                        list(device.positions) + ["home"] if device else []
+                    )
                     where = f" or a position of '{device.name}'" if device else ""
-                    issues.append(doc.issue(path + ("to",), f"'{target}' is not a frame{where}{did_you_mean(target, choices)}"))
+                    issues.append(
+                        doc.issue(
+                            path + ("to",),
+                            f"'{target}' is not a frame{where}{did_you_mean(target, choices)}",
+                        )
+                    )
             elif spec.offset is not None or spec.motion == "linear":
-                issues.append(doc.issue(path + ("to",), f"'{target}' is a joint position of '{device.name}': it takes a joint move without offset"))
+                issues.append(
+                    doc.issue(
+                        path + ("to",),
+                        f"'{target}' is a joint position of '{device.name}': it takes a joint "
+                        "move without offset",
+                    )
+                )
             if spec.tcp is not None:
                 frame(path + ("tcp",), spec.tcp)
             if spec.until is not None and spec.until not in cell.sensors:
-                issues.append(doc.issue(path + ("until",), f"unknown sensor '{spec.until}'{did_you_mean(spec.until, cell.sensors)}"))
+                issues.append(
+                    doc.issue(
+                        path + ("until",),
+                        f"unknown sensor '{spec.until}'{did_you_mean(spec.until, cell.sensors)}",
+                    )
+                )
             if spec.offset is not None:
                 T, error, warning = pose_to_matrix(spec.offset, L, A)
                 if error:
                     issues.append(doc.issue(path + ("offset",), error))
                 step.T_offset = T
             if device is not None and not np.isfinite(device.limit_array("acceleration")).any():
-                issues.append(doc.issue(path, f"no joint of '{device.name}' has an acceleration limit, so nothing times its moves; "
-                                             "add them to the cell"))
+                issues.append(
+                    doc.issue(
+                        path,
+                        f"no joint of '{device.name}' has an acceleration limit, so nothing times "
+                        "its moves; "
+                        "add them to the cell",
+                    )
+                )
         elif raw.kind in ("grasp", "release"):
             obj(path + ("object",), spec.object, ("object", "sensor"))
             if raw.kind == "grasp" and spec.tcp is not None:
@@ -79,13 +115,25 @@ def _check_program(doc: Marked, pf: sp.ProgramFile, cell: CellModel, run_devices
                 frame(path + ("on",), spec.on)
         elif raw.kind == "sense":
             if spec not in cell.sensors:
-                issues.append(doc.issue(("steps", i, "sense"), f"unknown sensor '{spec}'{did_you_mean(spec, cell.sensors)}"))
+                issues.append(
+                    doc.issue(
+                        ("steps", i, "sense"),
+                        f"unknown sensor '{spec}'{did_you_mean(spec, cell.sensors)}",
+                    )
+                )
         elif raw.kind == "wait" and spec.for_ is not None:
             if spec.for_ not in run_devices:
-                issues.append(doc.issue(path + ("for",), f"no program of this run drives '{spec.for_}': waiting for it would never end"
-                                        + did_you_mean(spec.for_, run_devices)))
+                issues.append(
+                    doc.issue(
+                        path + ("for",),
+                        f"no program of this run drives '{spec.for_}': waiting for it would never "
+                        "end" + did_you_mean(spec.for_, run_devices),
+                    )
+                )
             elif spec.for_ == pf.device:
-                issues.append(doc.issue(path + ("for",), "a device cannot wait for its own program to end"))
+                issues.append(
+                    doc.issue(path + ("for",), "a device cannot wait for its own program to end")
+                )
         steps.append(step)
     return Program(pf.device, doc.file, steps)
 
@@ -117,7 +165,13 @@ def load_run(cell_path: str, run_path: str, dt: float | None = None) -> Run:
     devices_seen: dict[str, int] = {}
     for i, doc, pf in docs:
         if pf.device in devices_seen:
-            issues.append(run_doc.issue(("programs", i), f"'{pf.device}' already has a program in this run (entry {devices_seen[pf.device] + 1}); a device runs one program"))
+            issues.append(
+                run_doc.issue(
+                    ("programs", i),
+                    f"'{pf.device}' already has a program in this run (entry "
+                    f"{devices_seen[pf.device] + 1}); a device runs one program",
+                )
+            )
         devices_seen.setdefault(pf.device, i)
     run_devices = set(devices_seen)
     programs = [_check_program(doc, pf, cell, run_devices, issues) for _, doc, pf in docs]
@@ -130,8 +184,20 @@ def load_run(cell_path: str, run_path: str, dt: float | None = None) -> Run:
     for prog in programs:
         for st in prog.steps:
             if st.kind == "sync" and len(sync_users[st.spec]) < 2:
-                warnings.append(Issue(st.where.rsplit(":", 1)[0], int(st.where.rsplit(":", 1)[1]), 1, f"steps[{st.index}].sync",
-                                      f"sync '{st.spec}' appears in no other program of the run; it passes at once", "warning"))
+                warnings.append(
+                    Issue(
+                        st.where.rsplit(":", 1)[0],
+                        int(st.where.rsplit(":", 1)[1]),
+                        1,
+                        f"steps[{st.index}].sync",
+                        f"sync '{st.spec}' appears in no other program of the run; it passes at "
+                        "once",
+                        "warning",
+                    )
+                )
     if issues:
-        raise UserError(f"{run_path}: {len(issues)} error(s)", sorted(issues, key=lambda i: (i.file, i.line, i.column)))
+        raise UserError(
+            f"{run_path}: {len(issues)} error(s)",
+            sorted(issues, key=lambda i: (i.file, i.line, i.column)),
+        )
     return Run(cell, programs, dt if dt is not None else rf.dt, run_path, warnings)

@@ -10,7 +10,9 @@ from .tables import format_csv
 
 
 def write_results(directory: str | Path, tables: dict, documents: dict) -> list[Path]:
-    """Write ``tables`` ({name: (columns, rows)}) as CSV and ``documents`` ({name: payload}) as JSON into ``directory``."""
+    """Write ``tables`` ({name: (columns, rows)}) as CSV and ``documents`` ({name: payload}) as
+    JSON into ``directory``.
+    """
     out = Path(directory)
     written = []
     for name, (columns, rows) in tables.items():

@@ -22,7 +22,9 @@ def column_names(group: str, n: int) -> list[str]:
     return [f"{group}{i}" for i in range(1, n + 1)]
 
 
-def read_states(path: str, n: int, groups: list[str], scalars: tuple[str, ...] = ()) -> dict[str, np.ndarray]:
+def read_states(
+    path: str, n: int, groups: list[str], scalars: tuple[str, ...] = ()
+) -> dict[str, np.ndarray]:
     """Read the column groups (e.g. ``["q", "qd", "qdd"]``) of an n-joint device.
 
     ``scalars`` names single columns to read as well (e.g. ``("t",)``).
@@ -42,25 +44,63 @@ def read_states(path: str, n: int, groups: list[str], scalars: tuple[str, ...] =
     try:
         text = Path(path).read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise UserError(f"{path}: no such file", [Issue(path, 0, 0, "(file)", "no such file")]) from None
+        raise UserError(
+            f"{path}: no such file", [Issue(path, 0, 0, "(file)", "no such file")]
+        ) from None
     except (OSError, UnicodeDecodeError) as exc:
-        raise UserError(f"{path}: cannot read", [Issue(path, 0, 0, "(file)", f"cannot read: {exc}")]) from None
+        raise UserError(
+            f"{path}: cannot read", [Issue(path, 0, 0, "(file)", f"cannot read: {exc}")]
+        ) from None
     lines = text.splitlines()
     issues: list[Issue] = []
-    header_index = next((i for i, line in enumerate(lines) if line.strip() and not line.lstrip().startswith("#")), None)
+    header_index = next(
+        (i for i, line in enumerate(lines) if line.strip() and not line.lstrip().startswith("#")),
+        None,
+    )
     if header_index is None:
-        raise UserError(f"{path}: empty", [Issue(path, 1, 1, "(header)", "the file is empty; expected a header row such as " + ",".join(column_names("q", n)))])
+        raise UserError(
+            f"{path}: empty",
+            [
+                Issue(
+                    path,
+                    1,
+                    1,
+                    "(header)",
+                    "the file is empty; expected a header row such as "
+                    + ",".join(column_names("q", n)),
+                )
+            ],
+        )
     header = [h.strip() for h in lines[header_index].split(",")]
     wanted = list(scalars) + [name for g in groups for name in column_names(g, n)]
     missing = [w for w in wanted if w not in header]
     if missing:
         extra = [h for h in header if h and h[:1] in "qt" and h not in wanted]
         hint = f"; it has {', '.join(extra)} (the device has {n} joint(s))" if extra else ""
-        issues.append(Issue(path, header_index + 1, 1, "(header)", f"missing column(s) {', '.join(missing)}{hint}"))
+        issues.append(
+            Issue(
+                path,
+                header_index + 1,
+                1,
+                "(header)",
+                f"missing column(s) {', '.join(missing)}{hint}",
+            )
+        )
         raise UserError(f"{path}: missing columns", issues)
     duplicated = sorted({h for h in header if header.count(h) > 1 and h in wanted})
     if duplicated:
-        raise UserError(f"{path}: duplicate columns", [Issue(path, header_index + 1, 1, "(header)", f"duplicate column(s) {', '.join(duplicated)}")])
+        raise UserError(
+            f"{path}: duplicate columns",
+            [
+                Issue(
+                    path,
+                    header_index + 1,
+                    1,
+                    "(header)",
+                    f"duplicate column(s) {', '.join(duplicated)}",
+                )
+            ],
+        )
     index = {name: header.index(name) for name in wanted}
     rows: list[list[float]] = []
     row_lines: list[int] = []
@@ -70,7 +110,15 @@ def read_states(path: str, n: int, groups: list[str], scalars: tuple[str, ...] =
             continue
         fields = line.split(",")
         if len(fields) != len(header):
-            issues.append(Issue(path, lineno, 1, "(row)", f"{len(fields)} field(s) but the header has {len(header)}"))
+            issues.append(
+                Issue(
+                    path,
+                    lineno,
+                    1,
+                    "(row)",
+                    f"{len(fields)} field(s) but the header has {len(header)}",
+                )
+            )
             continue
         starts = np.cumsum([0] + [len(f) + 1 for f in fields[:-1]])
         row = []
@@ -83,10 +131,20 @@ def read_states(path: str, n: int, groups: list[str], scalars: tuple[str, ...] =
             try:
                 value = float(raw)
             except ValueError:
-                issues.append(Issue(path, lineno, col, f"column '{name}'", f"expected a number, got '{raw}'"))
+                issues.append(
+                    Issue(path, lineno, col, f"column '{name}'", f"expected a number, got '{raw}'")
+                )
                 continue
             if not math.isfinite(value):
-                issues.append(Issue(path, lineno, col, f"column '{name}'", f"expected a finite number, got '{raw}'"))
+                issues.append(
+                    Issue(
+                        path,
+                        lineno,
+                        col,
+                        f"column '{name}'",
+                        f"expected a finite number, got '{raw}'",
+                    )
+                )
                 continue
             row.append(value)
         if len(row) == len(wanted):
@@ -97,24 +155,48 @@ def read_states(path: str, n: int, groups: list[str], scalars: tuple[str, ...] =
     if issues:
         raise UserError(f"{path}: {len(issues)} error(s)", issues[:50])
     if not rows:
-        raise UserError(f"{path}: no data", [Issue(path, header_index + 1, 1, "(rows)", "the header is followed by no data rows")])
+        raise UserError(
+            f"{path}: no data",
+            [Issue(path, header_index + 1, 1, "(rows)", "the header is followed by no data rows")],
+        )
     data = np.array(rows, dtype=float)
     out: dict = {name: data[:, i] for i, name in enumerate(scalars)}
-    data = data[:, len(scalars):]
+    data = data[:, len(scalars) :]
     out.update({g: data[:, i * n : (i + 1) * n] for i, g in enumerate(groups)})
     out["_line"] = np.array(row_lines)
     out["_column"] = {name: np.array(c) for name, c in scalar_cols.items()}
     return out
 
 
-def limit_warnings(path: str, q: np.ndarray, lower: np.ndarray, upper: np.ndarray, first_line: int = 2) -> list[Issue]:
+def limit_warnings(
+    path: str, q: np.ndarray, lower: np.ndarray, upper: np.ndarray, first_line: int = 2
+) -> list[Issue]:
     """Warnings (not errors: analysis may want them) for joint values outside their limits."""
     out = []
     bad = np.argwhere((q < lower) | (q > upper))
     for row, j in bad[:20]:
-        out.append(Issue(path, 0, 0, f"row {row + 1}", f"q{j + 1} = {q[row, j]:.6g} is outside its limits [{lower[j]:.6g}, {upper[j]:.6g}]", "warning"))
+        out.append(
+            Issue(
+                path,
+                0,
+                0,
+                f"row {row + 1}",
+                f"q{j + 1} = {q[row, j]:.6g} is outside its limits "
+                f"[{lower[j]:.6g}, {upper[j]:.6g}]",
+                "warning",
+            )
+        )
     if len(bad) > 20:
-        out.append(Issue(path, 0, 0, "(rows)", f"{len(bad) - 20} more joint value(s) outside their limits", "warning"))
+        out.append(
+            Issue(
+                path,
+                0,
+                0,
+                "(rows)",
+                f"{len(bad) - 20} more joint value(s) outside their limits",
+                "warning",
+            )
+        )
     return out
 
 

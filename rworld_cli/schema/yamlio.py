@@ -12,9 +12,9 @@ keep the last of duplicated keys; both are wrong for a validator.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
-import re
 from typing import Any
 
 import yaml
@@ -79,7 +79,9 @@ class Marked:
                 return (1, 1)
             path = path[:-1]
 
-    def issue(self, path: PathKey, message: str, *, prefer: str = "value", severity: str = "error") -> Issue:
+    def issue(
+        self, path: PathKey, message: str, *, prefer: str = "value", severity: str = "error"
+    ) -> Issue:
         line, col = self.position(path, prefer)
         return Issue(self.file, line, col, format_path(path), message, severity)  # type: ignore[arg-type]
 
@@ -117,13 +119,22 @@ def parse_yaml_text(text: str, file: str) -> Marked:
             line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
             problem = exc.problem or "invalid YAML"
             if exc.context and "expected a single document" in exc.context:
-                problem = "several YAML documents in one file; keep one (remove the '---' separators)"
-            raise UserError("invalid YAML", [Issue(file, line, col, "(yaml)", f"YAML syntax error: {problem}")]) from None
+                problem = (
+                    "several YAML documents in one file; keep one (remove the '---' separators)"
+                )
+            raise UserError(
+                "invalid YAML", [Issue(file, line, col, "(yaml)", f"YAML syntax error: {problem}")]
+            ) from None
         except yaml.YAMLError as exc:  # reader errors: bad bytes
-            raise UserError("invalid YAML", [Issue(file, 1, 1, "(yaml)", f"cannot read YAML: {exc}")]) from None
+            raise UserError(
+                "invalid YAML", [Issue(file, 1, 1, "(yaml)", f"cannot read YAML: {exc}")]
+            ) from None
         doc = Marked(data=None, file=file)
         if root is None:
-            raise UserError("empty file", [Issue(file, 1, 1, "(root)", "the file is empty; expected a YAML mapping")])
+            raise UserError(
+                "empty file",
+                [Issue(file, 1, 1, "(root)", "the file is empty; expected a YAML mapping")],
+            )
         issues: list[Issue] = []
         doc.data = _walk(loader, root, (), doc, issues)
         if issues:
@@ -141,7 +152,15 @@ def _walk(loader, node: yaml.Node, path: PathKey, doc: Marked, issues: list[Issu
         for key_node, value_node in node.value:
             if not isinstance(key_node, yaml.ScalarNode):
                 line, col = _mark(key_node)
-                issues.append(Issue(doc.file, line, col, format_path(path), "a key must be a plain name, not a list or mapping"))
+                issues.append(
+                    Issue(
+                        doc.file,
+                        line,
+                        col,
+                        format_path(path),
+                        "a key must be a plain name, not a list or mapping",
+                    )
+                )
                 continue
             # Keys are names: keep their text, so 'no:' or '1:' stay strings.
             key = key_node.value
@@ -150,7 +169,13 @@ def _walk(loader, node: yaml.Node, path: PathKey, doc: Marked, issues: list[Issu
                 line, col = _mark(key_node)
                 first = doc.key_marks[child]
                 issues.append(
-                    Issue(doc.file, line, col, format_path(child), f"duplicate key '{key}' (first given at line {first[0]})")
+                    Issue(
+                        doc.file,
+                        line,
+                        col,
+                        format_path(child),
+                        f"duplicate key '{key}' (first given at line {first[0]})",
+                    )
                 )
                 continue
             doc.key_marks[child] = _mark(key_node)
@@ -162,7 +187,9 @@ def _walk(loader, node: yaml.Node, path: PathKey, doc: Marked, issues: list[Issu
         return loader.construct_object(node, deep=True)
     except yaml.constructor.ConstructorError as exc:
         line, col = _mark(node)
-        issues.append(Issue(doc.file, line, col, format_path(path), f"unsupported YAML value: {exc.problem}"))
+        issues.append(
+            Issue(doc.file, line, col, format_path(path), f"unsupported YAML value: {exc.problem}")
+        )
         return None
 
 
@@ -178,11 +205,21 @@ def read_yaml(path: str | Path, display: str | None = None) -> Marked:
     try:
         text = Path(path).read_bytes().decode("utf-8")
     except FileNotFoundError:
-        raise UserError(f"{shown}: no such file", [Issue(shown, 0, 0, "(file)", "no such file")]) from None
+        raise UserError(
+            f"{shown}: no such file", [Issue(shown, 0, 0, "(file)", "no such file")]
+        ) from None
     except IsADirectoryError:
-        raise UserError(f"{shown}: is a directory", [Issue(shown, 0, 0, "(file)", "is a directory, expected a YAML file")]) from None
+        raise UserError(
+            f"{shown}: is a directory",
+            [Issue(shown, 0, 0, "(file)", "is a directory, expected a YAML file")],
+        ) from None
     except UnicodeDecodeError as exc:
-        raise UserError(f"{shown}: not UTF-8", [Issue(shown, 1, 1, "(file)", f"not UTF-8 text ({exc.reason} at byte {exc.start})")]) from None
+        raise UserError(
+            f"{shown}: not UTF-8",
+            [Issue(shown, 1, 1, "(file)", f"not UTF-8 text ({exc.reason} at byte {exc.start})")],
+        ) from None
     except OSError as exc:
-        raise UserError(f"{shown}: cannot read", [Issue(shown, 0, 0, "(file)", f"cannot read: {exc.strerror}")]) from None
+        raise UserError(
+            f"{shown}: cannot read", [Issue(shown, 0, 0, "(file)", f"cannot read: {exc.strerror}")]
+        ) from None
     return parse_yaml_text(text, shown)

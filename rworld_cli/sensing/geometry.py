@@ -62,8 +62,12 @@ def _primitive_mesh(kind: str, size: tuple, mesh_file: str | None, scale: float)
 
 def shape_mesh(shape) -> MeshData:
     """The polyhedral model of a :class:`~rworld_cli.model.cell.Shape`, in its owner's frame."""
-    base = _primitive_mesh(shape.kind, tuple(float(x) for x in shape.size),
-                           str(shape.mesh_file) if shape.mesh_file else None, float(shape.mesh_scale))
+    base = _primitive_mesh(
+        shape.kind,
+        tuple(float(x) for x in shape.size),
+        str(shape.mesh_file) if shape.mesh_file else None,
+        float(shape.mesh_scale),
+    )
     T = shape.T_owner_shape
     return MeshData(base.vertices @ T[:3, :3].T + T[:3, 3], base.faces)
 
@@ -71,7 +75,9 @@ def shape_mesh(shape) -> MeshData:
 # --------------------------------------------------------------------------- broad phase
 
 
-def obb_overlap(Ta: np.ndarray, ha: np.ndarray, Tb: np.ndarray, hb: np.ndarray, tolerance: float = 0.0) -> np.ndarray:
+def obb_overlap(
+    Ta: np.ndarray, ha: np.ndarray, Tb: np.ndarray, hb: np.ndarray, tolerance: float = 0.0
+) -> np.ndarray:
     """Do oriented boxes overlap?  15-axis separating-axis test, vectorised over pairs.
 
     Parameters
@@ -94,7 +100,10 @@ def obb_overlap(Ta: np.ndarray, ha: np.ndarray, Tb: np.ndarray, hb: np.ndarray, 
     for i in range(3):  # a's axes
         sep |= np.abs(t[:, i]) > ha[:, i] + np.einsum("pj,pj->p", hb, absR[:, i, :])
     for j in range(3):  # b's axes
-        sep |= np.abs(np.einsum("pi,pi->p", t, R[:, :, j])) > np.einsum("pi,pi->p", ha, absR[:, :, j]) + hb[:, j]
+        sep |= (
+            np.abs(np.einsum("pi,pi->p", t, R[:, :, j]))
+            > np.einsum("pi,pi->p", ha, absR[:, :, j]) + hb[:, j]
+        )
     for i in range(3):  # cross products
         i1, i2 = (i + 1) % 3, (i + 2) % 3
         for j in range(3):
@@ -131,8 +140,12 @@ def box_triangle_overlap(center: np.ndarray, half: np.ndarray, tri: np.ndarray) 
     e = (v1 - v0, v2 - v1, v0 - v2)
     # the triangle's normal: its plane against the box
     n = np.cross(e[0], e[1])
-    sep |= np.abs(np.einsum("pi,pi->p", n, v0)) > np.abs(n[:, 0]) * hx + np.abs(n[:, 1]) * hy + np.abs(n[:, 2]) * hz
-    # the nine edge x axis directions: only two vertices project apart for each (the edge's own two coincide)
+    sep |= (
+        np.abs(np.einsum("pi,pi->p", n, v0))
+        > np.abs(n[:, 0]) * hx + np.abs(n[:, 1]) * hy + np.abs(n[:, 2]) * hz
+    )
+    # the nine edge x axis directions: only two vertices project apart for each (the edge's own two
+    # coincide)
     for k, (ek, vi, vj) in enumerate(zip(e, (v0, v1, v2), (v2, v0, v1))):
         ex, ey, ez = ek[:, 0], ek[:, 1], ek[:, 2]
         # axis x cross e = (0, -ez, ey)
@@ -162,19 +175,28 @@ def winding_number(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """
     out = np.empty(len(points))
     for start in range(0, len(points), 256):  # blocks of points bound the (block, F) temporaries
-        p = points[start:start + 256]
+        p = points[start : start + 256]
         a = triangles[None, :, 0, :] - p[:, None, :]
         b = triangles[None, :, 1, :] - p[:, None, :]
         c = triangles[None, :, 2, :] - p[:, None, :]
         la, lb, lc = (np.linalg.norm(x, axis=-1) for x in (a, b, c))
         num = np.einsum("mfi,mfi->mf", a, np.cross(b, c))
-        den = la * lb * lc + np.einsum("mfi,mfi->mf", a, b) * lc + np.einsum("mfi,mfi->mf", b, c) * la + np.einsum("mfi,mfi->mf", c, a) * lb
-        out[start:start + 256] = (2.0 * np.arctan2(num, den)).sum(axis=1) / (4 * np.pi)
+        den = (
+            la * lb * lc
+            + np.einsum("mfi,mfi->mf", a, b) * lc
+            + np.einsum("mfi,mfi->mf", b, c) * la
+            + np.einsum("mfi,mfi->mf", c, a) * lb
+        )
+        out[start : start + 256] = (2.0 * np.arctan2(num, den)).sum(axis=1) / (4 * np.pi)
     return out
 
 
-def grid_interference(size: np.ndarray, counts: tuple[int, int, int], triangles: np.ndarray,
-                      tolerance: float = DEFAULT_TOLERANCE) -> np.ndarray:
+def grid_interference(
+    size: np.ndarray,
+    counts: tuple[int, int, int],
+    triangles: np.ndarray,
+    tolerance: float = DEFAULT_TOLERANCE,
+) -> np.ndarray:
     """Which cells of a sensor box interfere with a closed solid.
 
     Parameters
@@ -203,7 +225,9 @@ def grid_interference(size: np.ndarray, counts: tuple[int, int, int], triangles:
         span = i1 - i0 + 1
         per = span.prod(axis=1)
         owner = np.repeat(np.arange(len(tri)), per)  # (candidate pair) -> triangle
-        local = np.arange(per.sum()) - np.repeat(np.cumsum(per) - per, per)  # index within its triangle's range
+        local = np.arange(per.sum()) - np.repeat(
+            np.cumsum(per) - per, per
+        )  # index within its triangle's range
         sy, sz = span[owner, 1], span[owner, 2]
         ix = i0[owner, 0] + local // (sy * sz)
         iy = i0[owner, 1] + (local // sz) % sy
@@ -213,8 +237,17 @@ def grid_interference(size: np.ndarray, counts: tuple[int, int, int], triangles:
         # cheap cull first: cells the triangle's plane does not cross (large faces span many cells)
         normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         offset = np.einsum("ti,ti->t", normal, tri[:, 0])
-        crosses = np.abs(np.einsum("pi,pi->p", normal[owner], center) - offset[owner]) <= np.abs(normal[owner]) @ half
-        owner, ix, iy, iz, center = owner[crosses], ix[crosses], iy[crosses], iz[crosses], center[crosses]
+        crosses = (
+            np.abs(np.einsum("pi,pi->p", normal[owner], center) - offset[owner])
+            <= np.abs(normal[owner]) @ half
+        )
+        owner, ix, iy, iz, center = (
+            owner[crosses],
+            ix[crosses],
+            iy[crosses],
+            iz[crosses],
+            center[crosses],
+        )
         touching = box_triangle_overlap(center, np.broadcast_to(half, center.shape), tri[owner])
         hit[ix[touching], iy[touching], iz[touching]] = True
     free = ~hit
@@ -223,7 +256,9 @@ def grid_interference(size: np.ndarray, counts: tuple[int, int, int], triangles:
 
         labels, n_regions = ndimage.label(free)  # face-connected regions that touch no surface
         if n_regions:
-            first = ndimage.minimum_position(np.arange(labels.size).reshape(labels.shape), labels, range(1, n_regions + 1))
+            first = ndimage.minimum_position(
+                np.arange(labels.size).reshape(labels.shape), labels, range(1, n_regions + 1)
+            )
             reps = np.array(first, dtype=float).reshape(-1, 3)
             inside = winding_number(lo + (reps + 0.5) * d, triangles) > 0.5
             for region in np.nonzero(inside)[0]:

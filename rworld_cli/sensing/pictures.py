@@ -6,8 +6,11 @@ from pathlib import Path
 
 import numpy as np
 
+
 def write_maps_png(readings, path: str | Path) -> Path:
-    """One panel per tactile or proximity sensor: contact red, free green (the report's Fig. 13 colours)."""
+    """One panel per tactile or proximity sensor: contact red, free green (the report's Fig. 13
+    colours).
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -23,9 +26,13 @@ def write_maps_png(readings, path: str | Path) -> Path:
 
         raise UserError("no tactile or proximity sensor among those read: nothing to draw")
     cmap = ListedColormap(["#3a9d5d", "#d62728"])
-    fig, axes = plt.subplots(1, len(panels), figsize=(3.2 * len(panels), 3.6), squeeze=False, constrained_layout=True)
+    fig, axes = plt.subplots(
+        1, len(panels), figsize=(3.2 * len(panels), 3.6), squeeze=False, constrained_layout=True
+    )
     for ax, (r, (cells, title, xlabel, ylabel)) in zip(axes[0], panels):
-        ax.imshow(cells.astype(int), cmap=cmap, vmin=0, vmax=1, origin="lower", interpolation="nearest")
+        ax.imshow(
+            cells.astype(int), cmap=cmap, vmin=0, vmax=1, origin="lower", interpolation="nearest"
+        )
         ax.set_xticks(np.arange(-0.5, cells.shape[1], 1), minor=True)
         ax.set_yticks(np.arange(-0.5, cells.shape[0], 1), minor=True)
         ax.grid(which="minor", color="white", linewidth=1.5)
@@ -35,7 +42,15 @@ def write_maps_png(readings, path: str | Path) -> Path:
         ax.set_xlabel(xlabel)
         ax.set_ylabel(ylabel)
         ax.set_title(title + ("\n" + ", ".join(r.objects) if r.objects else ""), fontsize=9)
-    fig.text(0.5, 0.005, "red: contact / something in range    green: free", ha="center", va="bottom", fontsize=8, color="#444444")
+    fig.text(
+        0.5,
+        0.005,
+        "red: contact / something in range    green: free",
+        ha="center",
+        va="bottom",
+        fontsize=8,
+        color="#444444",
+    )
     from ..fileio import save_figure
 
     return save_figure(fig, path, dpi=120)

@@ -14,7 +14,8 @@ class SensorReading:
     Attributes
     ----------
     active : bool
-        Touching (touch, tactile), something in range (proximity), present (presence), loaded (force).
+        Touching (touch, tactile), something in range (proximity), present (presence), loaded
+        (force).
     objects : list of str
         What it senses.
     cells : ndarray of bool, shape (rows, cols) or (slices,) or None

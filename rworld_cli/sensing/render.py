@@ -43,7 +43,9 @@ def _scene_meshes(world, tolerance):
         mesh = shape_mesh(body.shape)
         v = mesh.vertices @ body.T_world_owner[:3, :3].T + body.T_world_owner[:3, 3]
         kind = world.cell.primitive_kind(body.owner)
-        items.append((body.label, v, mesh.faces, COLORS["device" if kind == "device" else "object"]))
+        items.append(
+            (body.label, v, mesh.faces, COLORS["device" if kind == "device" else "object"])
+        )
     readings = {r.sensor: r for r in read_sensors(world, tolerance=tolerance)}
     for name, sensor in world.cell.sensors.items():
         T_ws = world.T_world(name)
@@ -51,11 +53,19 @@ def _scene_meshes(world, tolerance):
             box = trimesh.creation.box(extents=size * 0.96)  # a small gap shows the cells apart
             T_world = T_ws @ T
             v = np.asarray(box.vertices) @ T_world[:3, :3].T + T_world[:3, 3]
-            items.append((f"{name}[{k}]", v, np.asarray(box.faces), COLORS["contact" if sensed else "free"]))
+            items.append(
+                (f"{name}[{k}]", v, np.asarray(box.faces), COLORS["contact" if sensed else "free"])
+            )
     return items, readings
 
 
-def render_png(world, path: str | Path, tolerance: float, view: tuple[float, float] = (25.0, -60.0), triads: bool = True) -> Path:
+def render_png(
+    world,
+    path: str | Path,
+    tolerance: float,
+    view: tuple[float, float] = (25.0, -60.0),
+    triads: bool = True,
+) -> Path:
     """A 3D picture of the cell in its current state."""
     import matplotlib
 
@@ -69,7 +79,11 @@ def render_png(world, path: str | Path, tolerance: float, view: tuple[float, flo
     all_v = []
     for name, v, f, color in items:
         alpha = 0.95 if "[" in name else 0.35
-        ax.add_collection3d(Poly3DCollection(v[f], facecolor=color, edgecolor=(0, 0, 0, 0.08), linewidths=0.2, alpha=alpha))
+        ax.add_collection3d(
+            Poly3DCollection(
+                v[f], facecolor=color, edgecolor=(0, 0, 0, 0.08), linewidths=0.2, alpha=alpha
+            )
+        )
         all_v.append(v)
     if triads:
         scale = 0.05
@@ -92,7 +106,9 @@ def render_png(world, path: str | Path, tolerance: float, view: tuple[float, flo
     ax.set_ylabel("y [m]")
     ax.set_zlabel("z [m]")
     sensing = [f"{r.sensor}: {'on' if r.active else 'off'}" for r in readings.values()]
-    ax.set_title(f"{world.cell.name}" + (f"\nsensors - {', '.join(sensing)}" if sensing else ""), fontsize=9)
+    ax.set_title(
+        f"{world.cell.name}" + (f"\nsensors - {', '.join(sensing)}" if sensing else ""), fontsize=9
+    )
     from ..fileio import save_figure
 
     return save_figure(fig, path)
@@ -106,7 +122,7 @@ def render_glb(world, path: str | Path, tolerance: float) -> Path:
     scene = trimesh.Scene()
     for name, v, f, color in items:
         mesh = trimesh.Trimesh(v, f, process=False)
-        rgba = np.array([int(color[i:i + 2], 16) for i in (1, 3, 5)] + [255], dtype=np.uint8)
+        rgba = np.array([int(color[i : i + 2], 16) for i in (1, 3, 5)] + [255], dtype=np.uint8)
         mesh.visual.face_colors = np.tile(rgba, (len(f), 1))
         scene.add_geometry(mesh, node_name=name, geom_name=name)
     from ..fileio import atomic_write_bytes

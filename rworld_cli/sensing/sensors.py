@@ -56,7 +56,9 @@ def _mount_owner(world, sensor: str) -> str | None:
     return None if decl.kind in ("world", "free") else decl.owner
 
 
-def read_sensors(world, names: list[str] | None = None, tolerance: float = DEFAULT_TOLERANCE) -> list[SensorReading]:
+def read_sensors(
+    world, names: list[str] | None = None, tolerance: float = DEFAULT_TOLERANCE
+) -> list[SensorReading]:
     """Readings of the named sensors (default all) in the world's current state.
 
     Parameters
@@ -85,7 +87,9 @@ def read_sensors(world, names: list[str] | None = None, tolerance: float = DEFAU
             hb = np.stack([b.shape.bounding_box.half_extents for b in candidates])
             Ta = np.broadcast_to(T_world_sensor @ box.T_owner_box, Tb.shape)
             ha = np.broadcast_to(box.half_extents, hb.shape)
-            near = obb_overlap(np.ascontiguousarray(Ta), np.ascontiguousarray(ha), Tb, hb, tolerance)
+            near = obb_overlap(
+                np.ascontiguousarray(Ta), np.ascontiguousarray(ha), Tb, hb, tolerance
+            )
             T_sensor_world = spatial.invert_transform(T_world_sensor)
             for body in (b for b, ok in zip(candidates, near) if ok):
                 tri = shape_mesh(body.shape).triangles(T_sensor_world @ body.T_world_owner)
@@ -94,6 +98,7 @@ def read_sensors(world, names: list[str] | None = None, tolerance: float = DEFAU
                     grid |= hit
                     if body.label not in touched:
                         touched.append(body.label)
+
         def overlap(sensor=sensor, T=T_world_sensor, touched=touched, candidates=candidates):
             return overlap_volume(sensor, T, [b for b in candidates if b.label in touched])
 
@@ -102,16 +107,24 @@ def read_sensors(world, names: list[str] | None = None, tolerance: float = DEFAU
 
 
 def overlap_volume(sensor, T_world_sensor: np.ndarray, bodies: list[Body]) -> float:
-    """Volume [m^3] of the sensor box that lies inside the bodies (exact boolean intersection, manifold3d)."""
+    """Volume [m^3] of the sensor box that lies inside the bodies (exact boolean intersection,
+    manifold3d).
+    """
     import manifold3d as m3
 
-    box = m3.Manifold.cube(sensor.size.tolist(), center=True).translate([0.0, 0.0, float(sensor.size[2] / 2)])
+    box = m3.Manifold.cube(sensor.size.tolist(), center=True).translate(
+        [0.0, 0.0, float(sensor.size[2] / 2)]
+    )
     T_sensor_world = spatial.invert_transform(T_world_sensor)
     union = None
     for body in bodies:
         mesh = shape_mesh(body.shape)
         T = T_sensor_world @ body.T_world_owner
-        solid = m3.Manifold(m3.Mesh(vert_properties=np.asarray(mesh.vertices, dtype=np.float32),
-                                    tri_verts=np.asarray(mesh.faces, dtype=np.uint32))).transform(T[:3, :].tolist())
+        solid = m3.Manifold(
+            m3.Mesh(
+                vert_properties=np.asarray(mesh.vertices, dtype=np.float32),
+                tri_verts=np.asarray(mesh.faces, dtype=np.uint32),
+            )
+        ).transform(T[:3, :].tolist())
         union = solid if union is None else union + solid
     return float((box ^ union).volume()) if union is not None else 0.0

@@ -29,10 +29,10 @@ from ..dynamics import DeviceDynamics
 from ..errors import UserError
 from ..kinematics.inverse import solve_ik
 from ..kinematics.jacobian import ToolMount
+from ..model.program import Program, Run, Step
 from ..motion.linear import PathError, linear_move
 from ..motion.trajectory import StoppedMove, UntimedMove, joint_move, sample_track
 from ..world.tree import AffixmentError, World
-from ..model.program import Program, Run, Step
 
 
 class SimulationError(UserError):
@@ -50,13 +50,22 @@ class Event:
     reading: dict | None = None  # sense steps and guarded moves: the sensor reading
 
     def as_dict(self) -> dict:
-        return {"t": self.t, "device": self.device, "step": self.step, "kind": self.kind, "detail": self.detail,
-                "tree": self.tree, "reading": self.reading}
+        return {
+            "t": self.t,
+            "device": self.device,
+            "step": self.step,
+            "kind": self.kind,
+            "detail": self.detail,
+            "tree": self.tree,
+            "reading": self.reading,
+        }
 
 
 @dataclass
 class Violation:
-    """A limit exceeded on ``[t_start, t_end]``; ``peak`` is the worst value, ``limit`` the bound."""
+    """A limit exceeded on ``[t_start, t_end]``; ``peak`` is the worst value, ``limit`` the
+    bound.
+    """
 
     device: str
     joint: str
@@ -69,12 +78,28 @@ class Violation:
     step_text: str
 
     def as_dict(self) -> dict:
-        return {k: getattr(self, k) for k in ("device", "joint", "kind", "t_start", "t_end", "peak", "limit", "step", "step_text")}
+        return {
+            k: getattr(self, k)
+            for k in (
+                "device",
+                "joint",
+                "kind",
+                "t_start",
+                "t_end",
+                "peak",
+                "limit",
+                "step",
+                "step_text",
+            )
+        }
 
     def describe(self) -> str:
         where = f"step {self.step + 1} ({self.step_text})" if self.step is not None else "at rest"
-        return (f"{self.device} {self.joint}: {self.kind} {self.peak:.4g} beyond its limit {self.limit:.4g} "
-                f"from t = {self.t_start:.3f} s to {self.t_end:.3f} s, {where}")
+        return (
+            f"{self.device} {self.joint}: {self.kind} {self.peak:.4g} beyond its limit "
+            f"{self.limit:.4g} "
+            f"from t = {self.t_start:.3f} s to {self.t_end:.3f} s, {where}"
+        )
 
 
 @dataclass
@@ -116,7 +141,9 @@ class SimulationResult:
     events: list[Event]
     violations: list[Violation]
     step_texts: dict[str, list[str]]
-    unlimited: dict[str, dict[str, list[str]]] = field(default_factory=dict)  # device -> kind -> joints with no limit
+    unlimited: dict[str, dict[str, list[str]]] = field(
+        default_factory=dict
+    )  # device -> kind -> joints with no limit
 
     @property
     def cycle_time(self) -> float:
@@ -128,7 +155,10 @@ class SimulationResult:
         return not self.violations
 
     def peak_ratios(self, device: str) -> dict[str, list[float]]:
-        return {k: np.max(v, axis=0).tolist() if len(v) else [] for k, v in self.devices[device].ratios.items()}
+        return {
+            k: np.max(v, axis=0).tolist() if len(v) else []
+            for k, v in self.devices[device].ratios.items()
+        }
 
 
 @dataclass
@@ -150,7 +180,9 @@ class _Scheduler:
         self.run = run
         self.world = World(run.cell)
         self.order = [p.device for p in run.programs]
-        self.tracks = {p.device: _Track(p, q_init=self.world.joints(p.device)) for p in run.programs}
+        self.tracks = {
+            p.device: _Track(p, q_init=self.world.joints(p.device)) for p in run.programs
+        }
         self.events: list[Event] = []
         self.snapshots: list[tuple[float, dict]] = [(0.0, self.world.snapshot())]
         self.barriers: dict[tuple[str, int], dict[str, float]] = {}
@@ -158,7 +190,9 @@ class _Scheduler:
         for prog in run.programs:
             for st in prog.steps:
                 if st.kind == "sync":
-                    self.sync_totals[prog.device][st.spec] = self.sync_totals[prog.device].get(st.spec, 0) + 1
+                    self.sync_totals[prog.device][st.spec] = (
+                        self.sync_totals[prog.device].get(st.spec, 0) + 1
+                    )
 
     # ------------------------------------------------------------ world at a time
     def q_at(self, device: str, t: float) -> np.ndarray:
@@ -177,7 +211,9 @@ class _Scheduler:
             self.world.set_joints(device, self.q_at(device, t))
 
     def fail(self, device: str, step: Step, message: str):
-        raise SimulationError(f"{step.where}: {device} step {step.index + 1} ({step.describe()}): {message}")
+        raise SimulationError(
+            f"{step.where}: {device} step {step.index + 1} ({step.describe()}): {message}"
+        )
 
     # ------------------------------------------------------------ the device checker
     def run_all(self) -> None:
@@ -191,8 +227,13 @@ class _Scheduler:
                 for d in waiting:
                     tr = self.tracks[d]
                     st = tr.program.steps[tr.pc]
-                    lines.append(f"{d} at step {st.index + 1} ({st.describe()}, {st.where}) since t = {tr.t:.3f} s")
-                raise SimulationError("deadlock: the programs wait for each other: " + "; ".join(lines))
+                    lines.append(
+                        f"{d} at step {st.index + 1} ({st.describe()}, {st.where}) since t = "
+                        f"{tr.t:.3f} s"
+                    )
+                raise SimulationError(
+                    "deadlock: the programs wait for each other: " + "; ".join(lines)
+                )
             device = min(running, key=lambda d: (self.tracks[d].t, self.order.index(d)))
             self.advance(device)
 
@@ -244,38 +285,76 @@ class _Scheduler:
                 mount = ToolMount(*self.world.mount_of(device, tcp))
             except UserError as exc:
                 self.fail(device, step, exc.message)
-            T_base_target = np.linalg.inv(self.world.T_world(device)) @ self.world.T_world(spec.to) @ step.T_offset
+            T_base_target = (
+                np.linalg.inv(self.world.T_world(device))
+                @ self.world.T_world(spec.to)
+                @ step.T_offset
+            )
             position_only = spec.position_only or dev.dof < 6
             if spec.motion == "joint":
                 result = solve_ik(dev, T_base_target, mount, q_now, position_only)
                 if not result.success:
-                    self.fail(device, step, result.unreachable(spec.to, tcp, [j.name for j in dev.joints], position_only))
+                    self.fail(
+                        device,
+                        step,
+                        result.unreachable(
+                            spec.to, tcp, [j.name for j in dev.joints], position_only
+                        ),
+                    )
                 seg = self._joint_move(device, tr, step, q_now, result.q)
             else:
                 try:
-                    seg = linear_move(dev, mount, tr.t, q_now, T_base_target, self.run.dt, spec.speed, spec.acceleration, position_only)
+                    seg = linear_move(
+                        dev,
+                        mount,
+                        tr.t,
+                        q_now,
+                        T_base_target,
+                        self.run.dt,
+                        spec.speed,
+                        spec.acceleration,
+                        position_only,
+                    )
                 except PathError as exc:
                     self.fail(device, step, exc.detail)
         if seg is None:
-            self.events.append(Event(tr.t, device, step.index, "move", f"{step.describe()}: already there"))
+            self.events.append(
+                Event(tr.t, device, step.index, "move", f"{step.describe()}: already there")
+            )
             return True
         if spec.until is not None:
             seg = self._guard(device, tr, step, seg)
         tr.segments.append(seg)
-        self.events.append(Event(tr.t, device, step.index, "move", f"{step.describe()} ({seg.t1 - seg.t0:.3f} s)"))
+        self.events.append(
+            Event(tr.t, device, step.index, "move", f"{step.describe()} ({seg.t1 - seg.t0:.3f} s)")
+        )
         tr.t = seg.t1
         return True
 
     def _joint_move(self, device: str, tr: _Track, step: Step, q_now, q_goal):
-        """A synchronised joint move; a joint with no velocity or acceleration limit is unlimited in it, alone."""
+        """A synchronised joint move; a joint with no velocity or acceleration limit is
+        unlimited in it, alone.
+        """
         dev = self.run.cell.devices[device]
         try:
-            return joint_move(tr.t, q_now, q_goal, dev.limit_array("velocity"), dev.limit_array("acceleration"),
-                              step.spec.speed, step.spec.acceleration)
+            return joint_move(
+                tr.t,
+                q_now,
+                q_goal,
+                dev.limit_array("velocity"),
+                dev.limit_array("acceleration"),
+                step.spec.speed,
+                step.spec.acceleration,
+            )
         except UntimedMove as exc:
             names = ", ".join(dev.joints[j].name for j in exc.joints)
-            self.fail(device, step, f"nothing times this move: the joints that move ({names}) have no acceleration limit; "
-                                    "add one to the cell")
+            self.fail(
+                device,
+                step,
+                f"nothing times this move: the joints that move ({names}) have no acceleration "
+                "limit; "
+                "add one to the cell",
+            )
 
     def _guard(self, device: str, tr: _Track, step: Step, seg):
         """Cut a guarded move at the first clock sample where its sensor senses something."""
@@ -284,15 +363,34 @@ class _Scheduler:
         sensor = step.spec.until
         times = np.append(np.arange(seg.t0, seg.t1, self.run.dt), seg.t1)
         q_move = seg.sample(times)[0]
-        for t, q in zip(times, q_move):  # sensing needs the whole world at each instant: one state at a time
+        for t, q in zip(
+            times, q_move
+        ):  # sensing needs the whole world at each instant: one state at a time
             self.set_time(t)
             self.world.set_joints(device, q)
             reading = read_sensors(self.world, [sensor])[0]
             if reading.active:
                 record = reading.as_dict() | {"q": q.tolist()}  # where the device stopped
-                self.events.append(Event(float(t), device, step.index, "guard", f"{sensor} triggered: stopped", reading=record))
+                self.events.append(
+                    Event(
+                        float(t),
+                        device,
+                        step.index,
+                        "guard",
+                        f"{sensor} triggered: stopped",
+                        reading=record,
+                    )
+                )
                 return StoppedMove(seg, float(t))
-        self.events.append(Event(seg.t1, device, step.index, "guard", f"{sensor} did not trigger: the move ran to its end"))
+        self.events.append(
+            Event(
+                seg.t1,
+                device,
+                step.index,
+                "guard",
+                f"{sensor} did not trigger: the move ran to its end",
+            )
+        )
         return seg
 
     def _sense(self, device, tr, step):
@@ -300,18 +398,33 @@ class _Scheduler:
 
         reading = read_sensors(self.world, [step.spec])[0]
         what = ", ".join(reading.objects) if reading.objects else "nothing"
-        self.events.append(Event(tr.t, device, step.index, "sense", f"{step.spec}: {'active' if reading.active else 'inactive'} ({what})",
-                                 reading=reading.as_dict()))
+        self.events.append(
+            Event(
+                tr.t,
+                device,
+                step.index,
+                "sense",
+                f"{step.spec}: {'active' if reading.active else 'inactive'} ({what})",
+                reading=reading.as_dict(),
+            )
+        )
         return True
 
-    def _tree_change(self, device: str, tr: _Track, step: Step, kind: str, child: str, action) -> bool:
+    def _tree_change(
+        self, device: str, tr: _Track, step: Step, kind: str, child: str, action
+    ) -> bool:
         try:
             aff = action()
         except AffixmentError as exc:
             self.fail(device, step, exc.message)
-        tree = {"child": child, "parent": aff.parent if aff else None, "type": aff.type if aff else None, "kind": aff.kind if aff else None,
-                "T_world_child": self.world.T_world(child).tolist(),
-                "T_world_parent": self.world.T_world(aff.parent).tolist() if aff else None}
+        tree = {
+            "child": child,
+            "parent": aff.parent if aff else None,
+            "type": aff.type if aff else None,
+            "kind": aff.kind if aff else None,
+            "T_world_child": self.world.T_world(child).tolist(),
+            "T_world_parent": self.world.T_world(aff.parent).tolist() if aff else None,
+        }
         self.events.append(Event(tr.t, device, step.index, kind, step.describe(), tree))
         self.snapshots.append((tr.t, self.world.snapshot()))
         return True
@@ -326,8 +439,19 @@ class _Scheduler:
             self.fail(device, step, f"'{tcp}' is not carried by {device}")
         aff = self.world.affixment(spec.object)
         if aff is not None and aff.type == "rigid" and aff.kind == "grasp":
-            self.fail(device, step, f"'{spec.object}' is already held by '{aff.parent}'; release it there first")
-        return self._tree_change(device, tr, step, "grasp", spec.object, lambda: self.world.attach(spec.object, tcp, "rigid", "grasp"))
+            self.fail(
+                device,
+                step,
+                f"'{spec.object}' is already held by '{aff.parent}'; release it there first",
+            )
+        return self._tree_change(
+            device,
+            tr,
+            step,
+            "grasp",
+            spec.object,
+            lambda: self.world.attach(spec.object, tcp, "rigid", "grasp"),
+        )
 
     def _release(self, device, tr, step):
         obj = step.spec.object
@@ -344,15 +468,28 @@ class _Scheduler:
         spec = step.spec
         if not self._held_by(device, spec.object):
             self.fail(device, step, f"{device} does not hold '{spec.object}'")
-        return self._tree_change(device, tr, step, "place", spec.object,
-                                 lambda: self.world.attach(spec.object, spec.on, "non_rigid", "rests_on"))
+        return self._tree_change(
+            device,
+            tr,
+            step,
+            "place",
+            spec.object,
+            lambda: self.world.attach(spec.object, spec.on, "non_rigid", "rests_on"),
+        )
 
     def _attach_tool(self, device, tr, step):
         spec = step.spec
         at = self._resolve_tcp(device, spec.at)
         if at not in self.world.subtree(device):
             self.fail(device, step, f"'{at}' is not carried by {device}")
-        return self._tree_change(device, tr, step, "attach_tool", spec.tool, lambda: self.world.attach(spec.tool, at, "rigid", "tool"))
+        return self._tree_change(
+            device,
+            tr,
+            step,
+            "attach_tool",
+            spec.tool,
+            lambda: self.world.attach(spec.tool, at, "rigid", "tool"),
+        )
 
     def _detach_tool(self, device, tr, step):
         spec = step.spec
@@ -361,9 +498,11 @@ class _Scheduler:
         if spec.on is not None:
             action = lambda: self.world.attach(spec.tool, spec.on, "non_rigid", "rests_on")  # noqa: E731
         else:
+
             def action():
                 self.world.detach(spec.tool)
                 return None
+
         return self._tree_change(device, tr, step, "detach_tool", spec.tool, action)
 
     def _wait(self, device, tr, step):
@@ -378,7 +517,9 @@ class _Scheduler:
             self.events.append(Event(tr.t, device, step.index, "wait", f"{spec.for_} has finished"))
             return True
         tr.status, tr.waiting_on = "waiting", ("device", spec.for_)
-        self.events.append(Event(tr.t, device, step.index, "wait", f"waiting for {spec.for_} to finish"))
+        self.events.append(
+            Event(tr.t, device, step.index, "wait", f"waiting for {spec.for_} to finish")
+        )
         return False
 
     def _sync(self, device, tr, step):
@@ -395,7 +536,15 @@ class _Scheduler:
         for d in participants:
             o = self.tracks[d]
             o.t = t_meet
-            self.events.append(Event(t_meet, d, o.program.steps[o.pc].index, "sync", f"sync {name} ({', '.join(participants)})"))
+            self.events.append(
+                Event(
+                    t_meet,
+                    d,
+                    o.program.steps[o.pc].index,
+                    "sync",
+                    f"sync {name} ({', '.join(participants)})",
+                )
+            )
             if d != device:
                 o.status, o.waiting_on = "running", None
                 o.pc += 1
@@ -448,7 +597,11 @@ def _sample(run: Run, sched: _Scheduler, progress) -> SimulationResult:
             q[d], qd[d], qdd[d] = sample_track(tr.segments, tr.q_init, times)
         else:  # devices without a program hold their home values
             n = cell.devices[d].dof
-            q[d], qd[d], qdd[d] = np.tile(cell.devices[d].home, (K, 1)), np.zeros((K, n)), np.zeros((K, n))
+            q[d], qd[d], qdd[d] = (
+                np.tile(cell.devices[d].home, (K, 1)),
+                np.zeros((K, n)),
+                np.zeros((K, n)),
+            )
     snaps = sched.snapshots
     bounds = [np.searchsorted(times, t, side="left") for t, _ in snaps[1:]] + [K]
     starts = [0] + bounds[:-1]
@@ -479,7 +632,9 @@ def _sample(run: Run, sched: _Scheduler, progress) -> SimulationResult:
         dev = cell.devices[d]
         # the base's own acceleration (a conveyor carrying the device) acts like gravity
         p = T_base[d][:, :3, 3]
-        a_base = np.gradient(np.gradient(p, times, axis=0), times, axis=0) if K > 2 else np.zeros_like(p)
+        a_base = (
+            np.gradient(np.gradient(p, times, axis=0), times, axis=0) if K > 2 else np.zeros_like(p)
+        )
         g_world = gravity - a_base
         g_base = np.einsum("kji,kj->ki", T_base[d][:, :3, :3], g_world)  # R^T (g - a)
         tau = np.empty_like(q[d])
@@ -502,14 +657,28 @@ def _sample(run: Run, sched: _Scheduler, progress) -> SimulationResult:
             "acceleration": np.abs(qdd[d]) / dev.limit_array("acceleration"),
             "torque": np.abs(tau) / dev.limit_array("effort"),
         }
-        timelines[d] = DeviceTimeline(d, q[d], qd[d], qdd[d], tau, T_tcp[d], step_index, ratios,
-                                      float(sched.tracks[d].end), tcp_names[d])
-        violations += _violations(d, dev, times, q[d], ratios, qd[d], qdd[d], tau, step_index, step_texts[d])
+        timelines[d] = DeviceTimeline(
+            d,
+            q[d],
+            qd[d],
+            qdd[d],
+            tau,
+            T_tcp[d],
+            step_index,
+            ratios,
+            float(sched.tracks[d].end),
+            tcp_names[d],
+        )
+        violations += _violations(
+            d, dev, times, q[d], ratios, qd[d], qdd[d], tau, step_index, step_texts[d]
+        )
     world.restore(snaps[-1][1])
     violations.sort(key=lambda v: (v.t_start, v.device, v.joint))
     events = sorted(sched.events, key=lambda e: e.t)  # stable: simultaneous events keep their order
     unlimited = {d: cell.devices[d].unlimited() for d in timelines if cell.devices[d].unlimited()}
-    return SimulationResult(cell.name, run.file, run.dt, times, timelines, events, violations, step_texts, unlimited)
+    return SimulationResult(
+        cell.name, run.file, run.dt, times, timelines, events, violations, step_texts, unlimited
+    )
 
 
 def _violations(device, dev, times, q, ratios, qd, qdd, tau, step_index, texts) -> list[Violation]:
@@ -532,6 +701,17 @@ def _violations(device, dev, times, q, ratios, qd, qdd, tau, step_index, texts) 
                 else:
                     peak, limit = float(values[k, j]), float(limits[j])
                 step = int(step_index[k]) if step_index[k] >= 0 else None
-                out.append(Violation(device, dev.joints[j].name, kind, float(times[a]), float(times[b - 1]), peak, limit,
-                                     step, texts[step] if step is not None else ""))
+                out.append(
+                    Violation(
+                        device,
+                        dev.joints[j].name,
+                        kind,
+                        float(times[a]),
+                        float(times[b - 1]),
+                        peak,
+                        limit,
+                        step,
+                        texts[step] if step is not None else "",
+                    )
+                )
     return out

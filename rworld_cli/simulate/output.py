@@ -1,4 +1,5 @@
-"""What a simulation gives: the summary, timelines and events as tables and documents, and plots (PNG).
+"""What a simulation gives: the summary, timelines and events as tables and documents, and plots
+(PNG).
 
 The files are written by ``schema/results.py``."""
 
@@ -38,9 +39,14 @@ def summary_dict(result: SimulationResult) -> dict:
 
 
 def unlimited_lines(unlimited: dict[str, dict[str, list[str]]]) -> list[str]:
-    """One line per device naming the joints the cell gives no limit of a kind (they run unlimited in it)."""
-    return [f"{device}: no limit in the cell, so unchecked: " + "; ".join(f"{kind} of {', '.join(joints)}" for kind, joints in kinds.items())
-            for device, kinds in unlimited.items()]
+    """One line per device naming the joints the cell gives no limit of a kind (they run
+    unlimited in it).
+    """
+    return [
+        f"{device}: no limit in the cell, so unchecked: "
+        + "; ".join(f"{kind} of {', '.join(joints)}" for kind, joints in kinds.items())
+        for device, kinds in unlimited.items()
+    ]
 
 
 def timeline_columns(n: int) -> list[str]:
@@ -53,7 +59,18 @@ def timeline_columns(n: int) -> list[str]:
 def timeline_array(result: SimulationResult, device: str) -> np.ndarray:
     tl = result.devices[device]
     step = np.where(tl.step >= 0, tl.step + 1, 0)  # 1-based program step, 0 = none
-    return np.hstack([result.times[:, None], step[:, None], tl.q, tl.qd, tl.qdd, tl.tau, tl.tcp[:, :3, 3], matrix_to_quat(tl.tcp[:, :3, :3])])
+    return np.hstack(
+        [
+            result.times[:, None],
+            step[:, None],
+            tl.q,
+            tl.qd,
+            tl.qdd,
+            tl.tau,
+            tl.tcp[:, :3, 3],
+            matrix_to_quat(tl.tcp[:, :3, :3]),
+        ]
+    )
 
 
 def timeline_dict(result: SimulationResult) -> dict:
@@ -74,9 +91,13 @@ def timeline_dict(result: SimulationResult) -> dict:
 
 
 def output_files(result: SimulationResult) -> tuple[dict, dict]:
-    """What a run writes: ({file name: (columns, rows)} CSV tables, {file name: payload} JSON documents)."""
-    tables = {f"timeline_{name}.csv": (timeline_columns(tl.q.shape[1]), timeline_array(result, name))
-              for name, tl in result.devices.items()}
+    """What a run writes: ({file name: (columns, rows)} CSV tables, {file name: payload} JSON
+    documents).
+    """
+    tables = {
+        f"timeline_{name}.csv": (timeline_columns(tl.q.shape[1]), timeline_array(result, name))
+        for name, tl in result.devices.items()
+    }
     summary = summary_dict(result)
     documents = {
         "timeline.json": timeline_dict(result),
@@ -113,11 +134,21 @@ def write_plots(result: SimulationResult, directory: Path) -> list[Path]:
             for e in events:
                 ax.axvline(e.t, color="grey", linewidth=0.8, alpha=0.6)
         for e in events:
-            axes[0].annotate(f"{e.kind} {e.tree['child']}", (e.t, 1.0), xycoords=("data", "axes fraction"),
-                             rotation=90, fontsize=7, va="top", ha="right", color="grey")
+            axes[0].annotate(
+                f"{e.kind} {e.tree['child']}",
+                (e.t, 1.0),
+                xycoords=("data", "axes fraction"),
+                rotation=90,
+                fontsize=7,
+                va="top",
+                ha="right",
+                color="grey",
+            )
         for v in result.violations:
             if v.device == name:
-                axes[1 if v.kind == "torque" else 2].axvspan(v.t_start, v.t_end, color="red", alpha=0.15)
+                axes[1 if v.kind == "torque" else 2].axvspan(
+                    v.t_start, v.t_end, color="red", alpha=0.15
+                )
         axes[0].legend(loc="upper right", fontsize=8, ncol=3)
         axes[1].legend(loc="upper right", fontsize=8, ncol=3)
         axes[2].set_xlabel("time [s]")

@@ -64,8 +64,12 @@ class World:
         self._parent: dict[str, str | None] = {}
         self._T_parent: dict[str, np.ndarray] = {}
         self._affix: dict[str, Affixment] = {}
-        self._q: dict[str, np.ndarray] = {name: dev.home.copy() for name, dev in cell.devices.items()}
-        self._active_tcp: dict[str, str] = {name: dev.tcps[0] for name, dev in cell.devices.items() if dev.tcps}
+        self._q: dict[str, np.ndarray] = {
+            name: dev.home.copy() for name, dev in cell.devices.items()
+        }
+        self._active_tcp: dict[str, str] = {
+            name: dev.tcps[0] for name, dev in cell.devices.items() if dev.tcps
+        }
         self._cache: dict[str, np.ndarray] | None = None
         self._children_cache: dict[str, list[str]] | None = None
         for name, decl in cell.frames.items():
@@ -158,7 +162,10 @@ class World:
         q = np.asarray(q, dtype=float)
         n = self.cell.devices[device].dof
         if q.shape != (n,):
-            raise UserError(f"device '{device}' has {n} joint(s); got {q.shape[0] if q.ndim == 1 else q.shape} value(s)")
+            raise UserError(
+                f"device '{device}' has {n} joint(s); got "
+                f"{q.shape[0] if q.ndim == 1 else q.shape} value(s)"
+            )
         if not np.all(np.isfinite(q)):
             raise UserError(f"joint values of '{device}' must be finite, got {q.tolist()}")
         self._q[device] = q.copy()
@@ -169,9 +176,19 @@ class World:
         dev = self.cell.devices[device]
         q = self._q[device]
         lo, hi = dev.limit_array("lower"), dev.limit_array("upper")
-        return [(int(i), float(q[i]), float(lo[i]), float(hi[i])) for i in np.nonzero((q < lo) | (q > hi))[0]]
+        return [
+            (int(i), float(q[i]), float(lo[i]), float(hi[i]))
+            for i in np.nonzero((q < lo) | (q > hi))[0]
+        ]
 
-    def attach(self, child: str, parent: str, type: str = "rigid", kind: str | None = None, T_parent_child=None) -> Affixment:
+    def attach(
+        self,
+        child: str,
+        parent: str,
+        type: str = "rigid",
+        kind: str | None = None,
+        T_parent_child=None,
+    ) -> Affixment:
         """Affix primitive ``child`` to frame ``parent``.
 
         An existing affixment of ``child`` is replaced (a grasp lifts a part
@@ -198,8 +215,15 @@ class World:
         if problem:
             raise AffixmentError(problem[1])
         if parent in self.subtree(child):
-            raise AffixmentError(f"affixing '{child}' to '{parent}' would form a cycle: '{parent}' is carried by '{child}'")
-        T = self.T(parent, child) if T_parent_child is None else np.asarray(T_parent_child, dtype=float)
+            raise AffixmentError(
+                f"affixing '{child}' to '{parent}' would form a cycle: '{parent}' is carried by "
+                f"'{child}'"
+            )
+        T = (
+            self.T(parent, child)
+            if T_parent_child is None
+            else np.asarray(T_parent_child, dtype=float)
+        )
         if child in self._affix:
             self.detach(child)
         self._parent[child] = parent
@@ -247,16 +271,25 @@ class World:
         self._check_frame(frame)
         decl = self.cell.frames[frame]
         if decl.kind not in ("natural", "free"):
-            raise AffixmentError(f"'{frame}' is {decl.kind} frame owned by '{decl.owner}'; move '{decl.owner}' instead")
+            raise AffixmentError(
+                f"'{frame}' is {decl.kind} frame owned by '{decl.owner}'; move '{decl.owner}' "
+                "instead"
+            )
         aff = self._affix.get(frame)
         if aff is not None and aff.type == "rigid":
-            raise AffixmentError(f"'{frame}' is rigidly affixed to '{aff.parent}'; detach it first, or move what holds it")
+            raise AffixmentError(
+                f"'{frame}' is rigidly affixed to '{aff.parent}'; detach it first, or move what "
+                "holds it"
+            )
         T = np.asarray(T_world_frame, dtype=float)
-        self._T_parent[frame] = spatial.invert_transform(self._world_poses()[self._parent[frame]]) @ T
+        self._T_parent[frame] = (
+            spatial.invert_transform(self._world_poses()[self._parent[frame]]) @ T
+        )
         self._cache = None
 
     def place(self, frame: str, T_world_frame) -> None:
-        """Correct the numbers of ``frame``: store the relative pose that puts it at ``T_world_frame``.
+        """Correct the numbers of ``frame``: store the relative pose that puts it at
+        ``T_world_frame``.
 
         Unlike :meth:`move` this ignores affixment semantics: it is what
         calibration does to a nominal pose (any frame with a stored pose -
@@ -266,7 +299,9 @@ class World:
         decl = self.cell.frames[frame]
         if decl.kind in ("world", "link"):
             raise UserError(f"'{frame}' is a {decl.kind} frame: it has no pose to correct")
-        self._T_parent[frame] = spatial.invert_transform(self._world_poses()[self._parent[frame]]) @ np.asarray(T_world_frame, dtype=float)
+        self._T_parent[frame] = spatial.invert_transform(
+            self._world_poses()[self._parent[frame]]
+        ) @ np.asarray(T_world_frame, dtype=float)
         self._cache = None
 
     def set_active_tcp(self, device: str, tcp: str) -> None:
@@ -279,7 +314,8 @@ class World:
         self._active_tcp[device] = tcp
 
     def mount_of(self, device: str, frame: str) -> tuple[int, np.ndarray]:
-        """Where ``frame`` rides on ``device``: (link index 1..n, or 0 for the base; ``T_link_frame``).
+        """Where ``frame`` rides on ``device``: (link index 1..n, or 0 for the base;
+        ``T_link_frame``).
 
         Raises
         ------
@@ -297,10 +333,14 @@ class World:
                 return 0, self.T(node, frame)
             node = self._parent[node]
         tcps = ", ".join(self.cell.devices[device].tcps)
-        raise UserError(f"'{frame}' is not carried by device '{device}'; choose one of its TCPs ({tcps}) or a frame of a tool it holds")
+        raise UserError(
+            f"'{frame}' is not carried by device '{device}'; choose one of its TCPs ({tcps}) or a "
+            "frame of a tool it holds"
+        )
 
     def carried(self, device: str, exclude=()) -> list[tuple[str, int, list]]:
-        """What rides on the links of ``device``: [(primitive name, link index, [(Inertial, T_link_body)])].
+        """What rides on the links of ``device``: [(primitive name, link index, [(Inertial,
+        T_link_body)])].
 
         Everything rigidly or non-rigidly below a link - grasped objects,
         aggregated devices (their links at the current joint values) - except
@@ -323,11 +363,22 @@ class World:
                 out.append((name, k, [(self.cell.objects[name].inertial, self.T(node, name))]))
             else:
                 other = self.cell.devices[name]
-                out.append((name, k, [(link.inertial, self.T(node, frame)) for link, frame in zip(other.links, other.link_frames)]))
+                out.append(
+                    (
+                        name,
+                        k,
+                        [
+                            (link.inertial, self.T(node, frame))
+                            for link, frame in zip(other.links, other.link_frames)
+                        ],
+                    )
+                )
         return out
 
     def carried_loads(self, device: str, exclude=()) -> dict[int, list]:
-        """Mass properties riding on each link of ``device``: link index -> [(Inertial, T_link_body)] (see :meth:`carried`)."""
+        """Mass properties riding on each link of ``device``: link index -> [(Inertial,
+        T_link_body)] (see :meth:`carried`).
+        """
         loads: dict[int, list] = {}
         for _, k, bodies in self.carried(device, exclude):
             loads.setdefault(k, []).extend(bodies)
@@ -352,7 +403,8 @@ class World:
         self._invalidate()
 
     def T_world_batch(self, frame: str, joints: dict[str, np.ndarray]) -> np.ndarray:
-        """``T_world_frame`` for N joint states of the devices on its path to world, shape (N, 4, 4).
+        """``T_world_frame`` for N joint states of the devices on its path to world, shape (N, 4,
+        4).
 
         Parameters
         ----------
@@ -370,14 +422,20 @@ class World:
             node = self._parent[node]
         N = len(next(iter(joints.values()))) if joints else 1
         T = np.broadcast_to(np.eye(4), (N, 4, 4)).copy()
-        link_index = {f: (d, i) for d, dev in self.cell.devices.items() for i, f in enumerate(dev.link_frames)}
+        link_index = {
+            f: (d, i) for d, dev in self.cell.devices.items() for i, f in enumerate(dev.link_frames)
+        }
         cache: dict[str, np.ndarray] = {}
         for node in reversed(chain):  # from world down: a loop over frames, vectorised over states
             if node in link_index:
                 dev, i = link_index[node]
                 if dev not in cache:
                     q = joints.get(dev)
-                    q = np.broadcast_to(self._q[dev], (N, self.cell.devices[dev].dof)) if q is None else np.asarray(q, dtype=float)
+                    q = (
+                        np.broadcast_to(self._q[dev], (N, self.cell.devices[dev].dof))
+                        if q is None
+                        else np.asarray(q, dtype=float)
+                    )
                     cache[dev] = self.cell.devices[dev].joint_transforms(q)
                 T = T @ cache[dev][:, i]
             else:
@@ -405,7 +463,9 @@ class World:
         kind = self.cell.primitive_kind(name)
         if kind is None:
             self._check_frame(name)
-            raise AffixmentError(f"'{name}' is not an object, sensor or device; only primitives are affixed")
+            raise AffixmentError(
+                f"'{name}' is not an object, sensor or device; only primitives are affixed"
+            )
         return kind
 
     def _owner_kind(self, frame: str) -> str:

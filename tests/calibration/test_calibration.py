@@ -11,10 +11,9 @@ import numpy as np
 import pytest
 
 from rworld_cli.calibration.fit import FitError, fit_circle, fit_line, fit_plane
-from rworld_cli.schema.measurements import load_measurements
 from rworld_cli.calibration.pipeline import calibrate, simulate_measurements
-from rworld_cli.schema.measurements import measurement_text
 from rworld_cli.schema.loader import load_cell
+from rworld_cli.schema.measurements import load_measurements, measurement_text
 from rworld_cli.world.tree import World
 from tests.conftest import WORKCELLS
 
@@ -67,10 +66,16 @@ def test_line_and_circle_fits():
     line = fit_line("l", pts[::-1].copy(), ordered=True)
     np.testing.assert_allclose(line.direction, -d, atol=1e-12)
     ang = np.linspace(0, 2 * np.pi, 9, endpoint=False)
-    circle = fit_circle("c", np.stack([0.02 * np.cos(ang) + 0.1, 0.02 * np.sin(ang), np.full(9, 0.05)], axis=1), above=[0.1, 0, 1])
+    circle = fit_circle(
+        "c",
+        np.stack([0.02 * np.cos(ang) + 0.1, 0.02 * np.sin(ang), np.full(9, 0.05)], axis=1),
+        above=[0.1, 0, 1],
+    )
     np.testing.assert_allclose(circle.point, [0.1, 0, 0.05], atol=1e-12)
     assert circle.radius == pytest.approx(0.02, abs=1e-12)
-    arc = fit_circle("c", np.stack([0.02 * np.cos(ang[:3]), 0.02 * np.sin(ang[:3]), np.zeros(3)], axis=1))
+    arc = fit_circle(
+        "c", np.stack([0.02 * np.cos(ang[:3]), 0.02 * np.sin(ang[:3]), np.zeros(3)], axis=1)
+    )
     assert any("cover only" in w for w in arc.warnings)
 
 
@@ -92,7 +97,9 @@ def test_noiseless_measurements_recover_the_truth_to_1e9(tmp_path):
     sol = result.solutions["block"]
     assert sol.determined and sol.closed_form is not None
     np.testing.assert_allclose(sol.T_world, world.T_world("block"), atol=1e-9)
-    np.testing.assert_allclose(sol.closed_form, world.T_world("block"), atol=1e-9)  # the report's closed form alone
+    np.testing.assert_allclose(
+        sol.closed_form, world.T_world("block"), atol=1e-9
+    )  # the report's closed form alone
     for aux in ("block.frame2", "block.frame3", "block.frame5"):
         np.testing.assert_allclose(result.solutions[aux].T_world, world.T_world(aux), atol=1e-9)
 
@@ -110,7 +117,9 @@ def test_noisy_error_within_the_predicted_sigma(tmp_path):
         z.append(err_t / sol.sigma_translation)
     z = np.array(z)
     spread = z.std(axis=0)
-    assert np.all((0.75 < spread) & (spread < 1.25)), spread  # predicted sigma within +-25 % of the observed spread
+    assert np.all((0.75 < spread) & (spread < 1.25)), (
+        spread
+    )  # predicted sigma within +-25 % of the observed spread
     assert np.abs(z).max() < 5
 
 
@@ -119,9 +128,16 @@ def test_auxiliary_conditions_hold_after_calibration(tmp_path):
     cell_dir = tmp_path / "cell"
     shutil.copytree(WORKCELLS / "calibration_example", cell_dir)
     poses = (cell_dir / "poses.yaml").read_text()
-    poses = poses.replace("block.frame2: {xyz: [200, 75, 50]}", "block.frame2: {xyz: [203, 75, 50], rpy: [2, 3, 4]}")
-    poses = poses.replace("block.frame3: {xyz: [100, 0, 50], rpy: [90, 0, 0]}", "block.frame3: {xyz: [100, 0, 50], rpy: [93, 2, 1]}")
-    poses = poses.replace("block.frame5: {xyz: [100, 75, 100]}", "block.frame5: {xyz: [104, 72, 103], rpy: [3, 0, 0]}")
+    poses = poses.replace(
+        "block.frame2: {xyz: [200, 75, 50]}", "block.frame2: {xyz: [203, 75, 50], rpy: [2, 3, 4]}"
+    )
+    poses = poses.replace(
+        "block.frame3: {xyz: [100, 0, 50], rpy: [90, 0, 0]}",
+        "block.frame3: {xyz: [100, 0, 50], rpy: [93, 2, 1]}",
+    )
+    poses = poses.replace(
+        "block.frame5: {xyz: [100, 75, 100]}", "block.frame5: {xyz: [104, 72, 103], rpy: [3, 0, 0]}"
+    )
     (cell_dir / "poses.yaml").write_text(poses)
     nominal = load_cell(cell_dir).cell
     truth = load_cell(make_truth(tmp_path)).cell
@@ -130,36 +146,56 @@ def test_auxiliary_conditions_hold_after_calibration(tmp_path):
     f2 = T_block[:3, :3] @ nominal.features["block.f2"].direction
     f3 = T_block[:3, :3] @ nominal.features["block.f3"].direction
     c6 = nominal.features["block.f6"]
-    R2, R3, T5 = result.solutions["block.frame2"].T_world[:3, :3], result.solutions["block.frame3"].T_world[:3, :3], result.solutions["block.frame5"].T_world
-    assert abs(abs(R2[:, 0] @ f2) - 1) < 1e-12  # C12: the yz plane parallel to f2, i.e. x along its normal
+    R2, R3, T5 = (
+        result.solutions["block.frame2"].T_world[:3, :3],
+        result.solutions["block.frame3"].T_world[:3, :3],
+        result.solutions["block.frame5"].T_world,
+    )
+    assert (
+        abs(abs(R2[:, 0] @ f2) - 1) < 1e-12
+    )  # C12: the yz plane parallel to f2, i.e. x along its normal
     assert abs(abs(R3[:, 2] @ f3) - 1) < 1e-12  # C6: z normal to f3
-    np.testing.assert_allclose(T5[:3, 3], T_block[:3, :3] @ c6.point + T_block[:3, 3], atol=1e-9)  # C13: origin at the centre
+    np.testing.assert_allclose(
+        T5[:3, 3], T_block[:3, :3] @ c6.point + T_block[:3, 3], atol=1e-9
+    )  # C13: origin at the centre
     assert abs(abs(T5[:3, 2] @ (T_block[:3, :3] @ c6.direction)) - 1) < 1e-12
     # frame 4 is chained to frame 3: it follows (its relative pose is unchanged)
     w = World(nominal)
     for name, T in result.overlay.items():
         w._T_parent[name] = T
     w._invalidate()
-    np.testing.assert_allclose(w.T("block.frame3", "block.frame4"), World(nominal).T("block.frame3", "block.frame4"), atol=1e-12)
+    np.testing.assert_allclose(
+        w.T("block.frame3", "block.frame4"),
+        World(nominal).T("block.frame3", "block.frame4"),
+        atol=1e-12,
+    )
 
 
 def test_unobservable_frame_is_refused_with_the_motion(tmp_path):
     """Two parallel faces cannot locate a block: the motion they leave free is named."""
     cell_dir = tmp_path / "cell"
     shutil.copytree(WORKCELLS / "calibration_example", cell_dir)
-    text = (cell_dir / "cell.yaml").read_text().replace("features: [f1, f2, f3, f4, f5]", "features: [f2, f4]")
+    text = (
+        (cell_dir / "cell.yaml")
+        .read_text()
+        .replace("features: [f1, f2, f3, f4, f5]", "features: [f2, f4]")
+    )
     (cell_dir / "cell.yaml").write_text(text)
     nominal = load_cell(cell_dir).cell
     truth = load_cell(make_truth(tmp_path)).cell
-    result = run(tmp_path, nominal, measure(nominal, truth, 0.0, 0, features=["block.f2", "block.f4"]))
+    result = run(
+        tmp_path, nominal, measure(nominal, truth, 0.0, 0, features=["block.f2", "block.f4"])
+    )
     assert "block" in result.undetermined
     assert "undetermined (condition number" in result.undetermined["block"]
 
 
 def test_weak_set_warns_with_the_figure(tmp_path):
-    """Three faces of which two are nearly parallel: solved, with a warning that gives the condition number."""
-    from rworld_cli.calibration.solve import solve_natural
+    """Three faces of which two are nearly parallel: solved, with a warning that gives the
+    condition number.
+    """
     from rworld_cli.calibration.fit import fit_plane as fp
+    from rworld_cli.calibration.solve import solve_natural
     from rworld_cli.model.cell import Feature
 
     rng = np.random.default_rng(2)
@@ -186,22 +222,54 @@ def test_calibrate_command_writes_only_the_overlay(cli, tmp_path):
     cell_dir = tmp_path / "cell"
     shutil.copytree(WORKCELLS / "calibration_example", cell_dir)
     truth = make_truth(tmp_path)
-    digests = {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in cell_dir.iterdir() if p.is_file()}
+    digests = {
+        p.name: hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in cell_dir.iterdir()
+        if p.is_file()
+    }
     m = tmp_path / "m.yaml"
-    assert cli(["measure", "--simulate", str(cell_dir), "--truth", str(truth), "--sigma", "0", "-o", str(m)]).exit_code == 0
+    assert (
+        cli(
+            [
+                "measure",
+                "--simulate",
+                str(cell_dir),
+                "--truth",
+                str(truth),
+                "--sigma",
+                "0",
+                "-o",
+                str(m),
+            ]
+        ).exit_code
+        == 0
+    )
     result = cli(["calibrate", str(cell_dir), str(m)])
     assert result.exit_code == 0, result.output
     overlay = cell_dir / "calibrated.yaml"
     assert overlay.is_file() and "provenance:" in overlay.read_text()
-    assert {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in cell_dir.iterdir() if p.is_file() and p.name != "calibrated.yaml"} == digests
+    assert {
+        p.name: hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in cell_dir.iterdir()
+        if p.is_file() and p.name != "calibrated.yaml"
+    } == digests
     # with the overlay listed, the cell's world is the truth
-    text = (cell_dir / "cell.yaml").read_text().replace("pose_files: [poses.yaml]", "pose_files: [poses.yaml, calibrated.yaml]")
+    text = (
+        (cell_dir / "cell.yaml")
+        .read_text()
+        .replace("pose_files: [poses.yaml]", "pose_files: [poses.yaml, calibrated.yaml]")
+    )
     (cell_dir / "cell.yaml").write_text(text)
     calibrated, true_world = World(load_cell(cell_dir).cell), World(load_cell(truth).cell)
     for frame in ("block", "block.frame2", "block.frame4", "block.frame5"):
         np.testing.assert_allclose(calibrated.T_world(frame), true_world.T_world(frame), atol=1e-9)
     data = json.loads(cli(["calibrate", str(cell_dir), str(m), "--dry-run", "--json"]).stdout)
-    assert {f["frame"] for f in data["frames"]} == {"block", "block.frame2", "block.frame3", "block.frame5"}
+    assert {f["frame"] for f in data["frames"]} == {
+        "block",
+        "block.frame2",
+        "block.frame3",
+        "block.frame5",
+    }
 
 
 def test_refuses_to_overwrite_nominal_or_structure(cli, tmp_path):
@@ -219,22 +287,52 @@ def test_undetermined_frame_exits_1_and_writes_nothing(cli, tmp_path):
     shutil.copytree(WORKCELLS / "calibration_example", cell_dir)
     truth = make_truth(tmp_path)
     m = tmp_path / "m.yaml"
-    cli(["measure", "--simulate", str(cell_dir), "--truth", str(truth), "--frames", "block.frame2", "-o", str(m)])
+    cli(
+        [
+            "measure",
+            "--simulate",
+            str(cell_dir),
+            "--truth",
+            str(truth),
+            "--frames",
+            "block.frame2",
+            "-o",
+            str(m),
+        ]
+    )
     result = cli(["calibrate", str(cell_dir), str(m)])
     assert result.exit_code == 1
     assert "not determined" in result.output and "not measured" in result.output
     assert not (cell_dir / "calibrated.yaml").exists()
 
 
-@pytest.mark.parametrize("content, message", [
-    ("units: {length: mm}\nfeatures:\n  block.f9:\n    points: [[0, 0, 0]]\n", "m.yaml:3:3: features.block.f9: unknown feature 'block.f9' (did you mean"),
-    ("units: {length: mm}\nfeatures:\n  block.f1:\n    points: [[0, 0, 0], [1, 0, 0]]\n", "a plane needs at least 3 point(s), got 2"),
-    ("units: {length: mm}\nfeatures:\n  block.f1:\n    points: [[0, 0]]\n", "m.yaml:4:14: features.block.f1.points[0]: expected exactly 3 values, got 2"),
-    ("units: {length: mm}\nfeatures:\n  block.f1:\n    points: [[0, 0, 0], [1, 1, 1], [2, 2, 2]]\n", "the points are collinear"),
-])
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        (
+            "units: {length: mm}\nfeatures:\n  block.f9:\n    points: [[0, 0, 0]]\n",
+            "m.yaml:3:3: features.block.f9: unknown feature 'block.f9' (did you mean",
+        ),
+        (
+            "units: {length: mm}\nfeatures:\n  block.f1:\n    points: [[0, 0, 0], [1, 0, 0]]\n",
+            "a plane needs at least 3 point(s), got 2",
+        ),
+        (
+            "units: {length: mm}\nfeatures:\n  block.f1:\n    points: [[0, 0]]\n",
+            "m.yaml:4:14: features.block.f1.points[0]: expected exactly 3 values, got 2",
+        ),
+        (
+            "units: {length: mm}\nfeatures:\n  block.f1:\n    points: [[0, 0, 0], [1, 1, 1], [2, "
+            "2, 2]]\n",
+            "the points are collinear",
+        ),
+    ],
+)
 def test_bad_measurements_exit_2(cli, tmp_path, content, message):
     (tmp_path / "m.yaml").write_text(content)
-    result = cli(["calibrate", "workcells/calibration_example", str(tmp_path / "m.yaml"), "--dry-run"])
+    result = cli(
+        ["calibrate", "workcells/calibration_example", str(tmp_path / "m.yaml"), "--dry-run"]
+    )
     assert result.exit_code == 2, result.output
     assert message in result.output
 
@@ -245,14 +343,21 @@ def test_csv_points_import(tmp_path):
     doc = measure(nominal, truth, 0.0, 0)
     rows = ["feature,x,y,z,role"]
     for name, entry in doc.items():
-        rows += [f"{name},{float(p[0]) * 1000!r},{float(p[1]) * 1000!r},{float(p[2]) * 1000!r}," for p in entry.points]
+        rows += [
+            f"{name},{float(p[0]) * 1000!r},{float(p[1]) * 1000!r},{float(p[2]) * 1000!r},"
+            for p in entry.points
+        ]
     (tmp_path / "m.csv").write_text("\n".join(rows) + "\n")
     result = calibrate(nominal, load_measurements([str(tmp_path / "m.csv")], nominal, "mm"))
-    np.testing.assert_allclose(result.solutions["block"].T_world, World(truth).T_world("block"), atol=1e-9)
+    np.testing.assert_allclose(
+        result.solutions["block"].T_world, World(truth).T_world("block"), atol=1e-9
+    )
 
 
 def test_mirrored_points_are_warned():
-    """Four points measured as the mirror image of the nominal ones: no rotation maps them; said so."""
+    """Four points measured as the mirror image of the nominal ones: no rotation maps them; said
+    so.
+    """
     from rworld_cli.calibration.fit import fit_point
     from rworld_cli.calibration.solve import MIRROR, solve_natural
     from rworld_cli.model.cell import Feature
@@ -277,7 +382,13 @@ def test_line_parallel_to_plane_is_refused():
     g = np.linspace(-0.05, 0.05, 4)
     plane_pts = np.array([[x, y, 0.0] for x in g for y in g])
     line_pts = np.column_stack([np.linspace(-0.05, 0.05, 6), np.full(6, 0.05), np.full(6, 0.02)])
-    fits = {"o.top": fp("o.top", plane_pts, above=[0, 0, 1]), "o.edge": fl("o.edge", line_pts, ordered=True)}
+    fits = {
+        "o.top": fp("o.top", plane_pts, above=[0, 0, 1]),
+        "o.edge": fl("o.edge", line_pts, ordered=True),
+    }
     sol = solve_natural("o", "C2", [plane, line], fits, {}, np.eye(4))
     assert not sol.determined
-    assert "translation along (1.00, 0.00, 0.00)" in sol.reason or "translation along (-1.00, 0.00, 0.00)" in sol.reason
+    assert (
+        "translation along (1.00, 0.00, 0.00)" in sol.reason
+        or "translation along (-1.00, 0.00, 0.00)" in sol.reason
+    )

@@ -8,9 +8,9 @@ import shutil
 import numpy as np
 
 from rworld_cli.calibration.analysis import constrained, run_analysis, unconstrained
-from rworld_cli.schema.measurements import load_measurements
 from rworld_cli.calibration.pipeline import calibrate
 from rworld_cli.schema.loader import load_cell
+from rworld_cli.schema.measurements import load_measurements
 from tests.conftest import WORKCELLS
 
 
@@ -19,18 +19,31 @@ def test_plan_lists_every_conditioned_frame_with_orientation_order(cli):
     frames = {f["frame"]: f for f in data["frames"]}
     assert set(frames) == {"block", "block.frame2", "block.frame3", "block.frame5"}
     block = frames["block"]
-    assert [d["feature"] for d in block["directives"]] == ["block.f1", "block.f2", "block.f3", "block.f4", "block.f5"]
+    assert [d["feature"] for d in block["directives"]] == [
+        "block.f1",
+        "block.f2",
+        "block.f3",
+        "block.f4",
+        "block.f5",
+    ]
     line = next(d for d in block["directives"] if d["kind"] == "line")
     assert line["ordered"] and "first -> last" in line["how"]
     plane = next(d for d in block["directives"] if d["kind"] == "plane")
     assert plane["above_mm"] is not None
-    assert 2 * block["predicted_sigma_mm"] / np.sqrt(3) <= 0.1 + 1e-9  # within the tolerance at 2 sigma (per axis)
+    assert (
+        2 * block["predicted_sigma_mm"] / np.sqrt(3) <= 0.1 + 1e-9
+    )  # within the tolerance at 2 sigma (per axis)
 
 
 def test_tighter_tolerance_asks_for_more_points(cli):
     def points(tol):
-        data = json.loads(cli(["plan-measurements", "workcells/calibration_example", "--tolerance", tol, "--json"]).stdout)
+        data = json.loads(
+            cli(
+                ["plan-measurements", "workcells/calibration_example", "--tolerance", tol, "--json"]
+            ).stdout
+        )
         return len(data["frames"][0]["directives"][0]["points_mm"])
+
     assert points("0.02mm") > points("0.2mm")
 
 
@@ -48,16 +61,25 @@ def test_planned_points_lie_on_their_features():
             if f.kind == "plane":
                 np.testing.assert_allclose((local - f.point) @ f.direction, 0, atol=1e-12)
                 shape = cell.objects[f.owner].shape.bounding_box
-                inside = np.abs((local - shape.T_owner_box[:3, 3]) @ shape.T_owner_box[:3, :3]) <= shape.half_extents + 1e-9
+                inside = (
+                    np.abs((local - shape.T_owner_box[:3, 3]) @ shape.T_owner_box[:3, :3])
+                    <= shape.half_extents + 1e-9
+                )
                 assert inside.all()  # on the face, not beside the object
             elif f.kind == "circle":
-                np.testing.assert_allclose(np.linalg.norm(local - f.point, axis=1), f.radius, atol=1e-12)
+                np.testing.assert_allclose(
+                    np.linalg.norm(local - f.point, axis=1), f.radius, atol=1e-12
+                )
 
 
 def test_plan_refuses_an_undeterminable_frame(cli, tmp_path):
     cell_dir = tmp_path / "cell"
     shutil.copytree(WORKCELLS / "calibration_example", cell_dir)
-    text = (cell_dir / "cell.yaml").read_text().replace("features: [f1, f2, f3, f4, f5]", "features: [f2, f4]")
+    text = (
+        (cell_dir / "cell.yaml")
+        .read_text()
+        .replace("features: [f1, f2, f3, f4, f5]", "features: [f2, f4]")
+    )
     (cell_dir / "cell.yaml").write_text(text)
     result = cli(["plan-measurements", str(cell_dir)])
     assert result.exit_code == 1 and "cannot be determined" in result.stdout
@@ -65,11 +87,16 @@ def test_plan_refuses_an_undeterminable_frame(cli, tmp_path):
 
 def test_the_example_measurement_file_calibrates():
     cell = load_cell(WORKCELLS / "calibration_example").cell
-    m = load_measurements([str(WORKCELLS.parent / "measurements" / "calibration_example" / "block_2026-11-21.yaml")], cell)
+    m = load_measurements(
+        [str(WORKCELLS.parent / "measurements" / "calibration_example" / "block_2026-11-21.yaml")],
+        cell,
+    )
     result = calibrate(cell, m)
     sol = result.solutions["block"]
     truth = np.array([-98.7, -76.2, 0.4]) / 1000
-    assert np.linalg.norm(sol.T_world[:3, 3] - (truth + [0.5, 0, 0.7])) < 5 * np.linalg.norm(sol.sigma_translation)  # the table is at (500, 0, 700) mm
+    assert np.linalg.norm(sol.T_world[:3, 3] - (truth + [0.5, 0, 0.7])) < 5 * np.linalg.norm(
+        sol.sigma_translation
+    )  # the table is at (500, 0, 700) mm
 
 
 def test_analysis_reproduces_the_reports_comparison():
@@ -77,7 +104,9 @@ def test_analysis_reproduces_the_reports_comparison():
     assert all(r.max_element_error < 1e-12 for r in acc)  # exact data: both exact
     sens, _ = run_analysis("sensitivity", trials=200, seed=3)
     c, u = sens
-    assert c.max_orthogonality < 1e-12 < u.median_orthogonality  # only the constrained R stays a rotation
+    assert (
+        c.max_orthogonality < 1e-12 < u.median_orthogonality
+    )  # only the constrained R stays a rotation
     assert c.median_element_error < u.median_element_error
 
 
@@ -94,6 +123,18 @@ def test_methods_agree_on_exact_planes():
 
 
 def test_analyze_command(cli, tmp_path):
-    data = json.loads(cli(["analyze", "sensitivity", "--trials", "50", "--json", "--plot", str(tmp_path / "s.png")]).stdout)
+    data = json.loads(
+        cli(
+            [
+                "analyze",
+                "sensitivity",
+                "--trials",
+                "50",
+                "--json",
+                "--plot",
+                str(tmp_path / "s.png"),
+            ]
+        ).stdout
+    )
     assert [m["method"] for m in data["methods"]] == ["constrained", "unconstrained"]
     assert (tmp_path / "s.png").read_bytes()[:4] == b"\x89PNG"

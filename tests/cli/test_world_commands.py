@@ -11,7 +11,9 @@ from tests.conftest import EXAMPLE_CELLS, REPO
 
 
 def test_validate_all_examples(cli):
-    result = cli(["validate"] + [f"workcells/{c}/cell.yaml" for c in EXAMPLE_CELLS], )
+    result = cli(
+        ["validate"] + [f"workcells/{c}/cell.yaml" for c in EXAMPLE_CELLS],
+    )
     assert result.exit_code == 0
     assert result.stdout.count("ok: ") == len(EXAMPLE_CELLS)
 
@@ -63,8 +65,13 @@ def test_show_with_joint_values(cli):
 
 
 def test_bad_usage_exits_2_without_traceback(cli):
-    for args in (["show", "workcells/puma560", "--joints", "puma=1,2"], ["show", "workcells/puma560", "--joints", "nope"],
-                 ["show", "workcells/puma560", "--joints", "robo=1"], ["show", "no/such/cell"], ["valdate"]):
+    for args in (
+        ["show", "workcells/puma560", "--joints", "puma=1,2"],
+        ["show", "workcells/puma560", "--joints", "nope"],
+        ["show", "workcells/puma560", "--joints", "robo=1"],
+        ["show", "no/such/cell"],
+        ["valdate"],
+    ):
         result = cli(args)
         assert result.exit_code == 2, (args, result.output)
         assert "Traceback" not in result.output
@@ -85,10 +92,13 @@ def test_help_lists_commands_without_importing_heavy_modules():
     code = (
         "import sys; from rworld_cli.cli import main\n"
         "try:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
-        "heavy = [m for m in ('numpy', 'pydantic', 'scipy', 'trimesh', 'rich', 'matplotlib') if m in sys.modules]\n"
+        "heavy = [m for m in ('numpy', 'pydantic', 'scipy', 'trimesh', 'rich', 'matplotlib') if m "
+        "in sys.modules]\n"
         "print('HEAVY', heavy)"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout
     assert "validate" in out and "show" in out and "schema" in out
     assert "HEAVY []" in out
 

@@ -9,8 +9,8 @@ import pytest
 from rworld_cli import spatial
 from rworld_cli.dynamics import DeviceDynamics, Payload, integrate
 from rworld_cli.kinematics.jacobian import ToolMount, jacobian, tool_pose, tool_pose_and_jacobian
-from rworld_cli.schema.loader import load_cell
 from rworld_cli.model.cell import DeviceModel, Inertial, Joint, JointLimits, Link
+from rworld_cli.schema.loader import load_cell
 
 
 def random_device(seed: int, convention: str, kinds: str) -> DeviceModel:
@@ -20,17 +20,49 @@ def random_device(seed: int, convention: str, kinds: str) -> DeviceModel:
     for i, kind in enumerate(kinds):
         kind = "revolute" if kind == "R" else "prismatic"
         alpha = rng.choice([0.0, np.pi / 2, -np.pi / 2, rng.uniform(-np.pi, np.pi)])
-        joints.append(Joint(f"j{i}", kind, rng.uniform(-0.4, 0.4), alpha, rng.uniform(-0.3, 0.3), rng.uniform(-1, 1), JointLimits(),
-                            motor_inertia=rng.uniform(0, 1e-4), gear_ratio=rng.uniform(20, 100),
-                            viscous=rng.uniform(0, 2), coulomb_positive=rng.uniform(0, 1), coulomb_negative=rng.uniform(0, 1)))
+        joints.append(
+            Joint(
+                f"j{i}",
+                kind,
+                rng.uniform(-0.4, 0.4),
+                alpha,
+                rng.uniform(-0.3, 0.3),
+                rng.uniform(-1, 1),
+                JointLimits(),
+                motor_inertia=rng.uniform(0, 1e-4),
+                gear_ratio=rng.uniform(20, 100),
+                viscous=rng.uniform(0, 2),
+                coulomb_positive=rng.uniform(0, 1),
+                coulomb_negative=rng.uniform(0, 1),
+            )
+        )
         moments = rng.uniform(0.01, 0.1, 3)
         R = spatial.rpy_to_matrix(rng.uniform(-np.pi, np.pi, 3))
-        links.append(Link(f"l{i}", Inertial(rng.uniform(0.5, 5), rng.uniform(-0.2, 0.2, 3), R @ np.diag(moments) @ R.T), None))
+        links.append(
+            Link(
+                f"l{i}",
+                Inertial(
+                    rng.uniform(0.5, 5), rng.uniform(-0.2, 0.2, 3), R @ np.diag(moments) @ R.T
+                ),
+                None,
+            )
+        )
     return DeviceModel("rand", convention, tuple(joints), tuple(links), (), np.zeros(len(joints)))
 
 
-CASES = [(s, c, k) for s, (c, k) in enumerate([("standard", "RRRRRR"), ("modified", "RRRRRR"), ("standard", "PRRPRR"),
-                                                ("modified", "RPRRPR"), ("standard", "P"), ("modified", "RRP")])]
+CASES = [
+    (s, c, k)
+    for s, (c, k) in enumerate(
+        [
+            ("standard", "RRRRRR"),
+            ("modified", "RRRRRR"),
+            ("standard", "PRRPRR"),
+            ("modified", "RPRRPR"),
+            ("standard", "P"),
+            ("modified", "RRP"),
+        ]
+    )
+]
 
 
 @pytest.fixture(params=CASES, ids=[f"{c}-{k}" for _, c, k in CASES])
@@ -49,7 +81,11 @@ def test_rnea_equals_mass_matrix_plus_bias(device):
     g = rng.normal(size=3)
     dyn = DeviceDynamics(device)  # armature and friction on
     tau = dyn.inverse(q, qd, qdd, g)
-    expected = np.einsum("nij,nj->ni", dyn.mass_matrix(q), qdd) + dyn.nonlinear_torques(q, qd, g) + dyn.friction_torque(qd)
+    expected = (
+        np.einsum("nij,nj->ni", dyn.mass_matrix(q), qdd)
+        + dyn.nonlinear_torques(q, qd, g)
+        + dyn.friction_torque(qd)
+    )
     np.testing.assert_allclose(tau, expected, atol=1e-10)
     M = dyn.mass_matrix(q)
     assert np.all(np.linalg.eigvalsh(M) > 0)
@@ -59,7 +95,10 @@ def test_rnea_equals_mass_matrix_plus_bias(device):
 def test_jacobian_equals_finite_differences(device):
     rng = np.random.default_rng(2)
     q = rng.uniform(-2, 2, device.dof)
-    mount = ToolMount(device.dof, spatial.make_transform(spatial.rpy_to_matrix([0.3, -0.2, 0.5]), [0.05, 0.02, 0.1]))
+    mount = ToolMount(
+        device.dof,
+        spatial.make_transform(spatial.rpy_to_matrix([0.3, -0.2, 0.5]), [0.05, 0.02, 0.1]),
+    )
     T, J = tool_pose_and_jacobian(device, q, mount)
     h = 1e-6
     for i in range(device.dof):
@@ -85,16 +124,22 @@ def test_batched_equals_single(device):
 
 
 def test_payload_adds_jacobian_transpose_of_its_wrench(device):
-    """tau(with payload) = tau(without) + J_c^T [m (a_c - g); I dw + w x I w] at the payload's COM."""
+    """tau(with payload) = tau(without) + J_c^T [m (a_c - g); I dw + w x I w] at the payload's
+    COM.
+    """
     rng = np.random.default_rng(4)
     q, qd, qdd = sample(device, rng, N=1)
     q, qd, qdd = q[0], qd[0], qdd[0]
     g = np.array([0.0, 0.0, -9.81])
-    mount = ToolMount(device.dof, spatial.make_transform(spatial.rpy_to_matrix([0.1, 0.4, -0.3]), [0.0, 0.05, 0.12]))
+    mount = ToolMount(
+        device.dof,
+        spatial.make_transform(spatial.rpy_to_matrix([0.1, 0.4, -0.3]), [0.0, 0.05, 0.12]),
+    )
     payload = Payload(2.5, np.array([0.02, -0.01, 0.04]), np.diag([0.01, 0.02, 0.015]))
     bare = DeviceDynamics(device, None, mount, armature=False, friction=False)
     loaded = DeviceDynamics(device, payload, mount, armature=False, friction=False)
-    # payload COM velocity/acceleration by finite differences along the motion q(t) = q + qd t + qdd t^2 / 2
+    # payload COM velocity/acceleration by finite differences along the motion q(t) = q + qd t + qdd
+    # t^2 / 2
     T = tool_pose(device, q, mount)
     Jc = jacobian(device, q, mount, point_in_tool=payload.com)
 
@@ -110,15 +155,24 @@ def test_payload_adds_jacobian_transpose_of_its_wrench(device):
     twist = Jc @ qd
     w = twist[3:]
     I_world = T[:3, :3] @ payload.inertia @ T[:3, :3].T
-    wrench = np.concatenate([payload.mass * (accel[:3] - g), I_world @ accel[3:] + np.cross(w, I_world @ w)])
-    np.testing.assert_allclose(loaded.inverse(q, qd, qdd, g), bare.inverse(q, qd, qdd, g) + Jc.T @ wrench, atol=1e-6)
+    wrench = np.concatenate(
+        [payload.mass * (accel[:3] - g), I_world @ accel[3:] + np.cross(w, I_world @ w)]
+    )
+    np.testing.assert_allclose(
+        loaded.inverse(q, qd, qdd, g), bare.inverse(q, qd, qdd, g) + Jc.T @ wrench, atol=1e-6
+    )
 
 
 def test_point_mass_payload_is_a_rigid_body_with_zero_inertia(device):
     rng = np.random.default_rng(5)
     q, qd, qdd = sample(device, rng)
     a = DeviceDynamics(device, Payload.point_mass(3.0, [0, 0, 0.1]))
-    b = DeviceDynamics(device, Payload.rigid_body(Inertial(3.0, np.zeros(3), np.zeros((3, 3))), spatial.make_transform(p=[0, 0, 0.1])))
+    b = DeviceDynamics(
+        device,
+        Payload.rigid_body(
+            Inertial(3.0, np.zeros(3), np.zeros((3, 3))), spatial.make_transform(p=[0, 0, 0.1])
+        ),
+    )
     np.testing.assert_allclose(a.inverse(q, qd, qdd), b.inverse(q, qd, qdd), atol=1e-12)
 
 
@@ -131,7 +185,9 @@ def test_armature_and_friction_switches(device):
     visc = np.array([j.viscous for j in device.joints])
     cp = np.array([j.coulomb_positive for j in device.joints])
     cn = np.array([j.coulomb_negative for j in device.joints])
-    np.testing.assert_allclose(full - rigid, arm * qdd + visc * qd + np.where(qd > 0, cp, -cn), atol=1e-10)
+    np.testing.assert_allclose(
+        full - rigid, arm * qdd + visc * qd + np.where(qd > 0, cp, -cn), atol=1e-10
+    )
 
 
 def test_energy_is_conserved_without_friction_or_torque():
@@ -140,12 +196,23 @@ def test_energy_is_conserved_without_friction_or_torque():
     dyn = DeviceDynamics(device, friction=False)
     times = np.linspace(0.0, 0.5, 501)
     q0 = np.array([0.3, 0.5, -1.2, 0.4, 0.8, -0.2])
-    q, qd = integrate(dyn, q0, np.zeros(6), times, np.zeros((len(times), 6)), method="rk4", substeps=2)
+    q, qd = integrate(
+        dyn, q0, np.zeros(6), times, np.zeros((len(times), 6)), method="rk4", substeps=2
+    )
     kinetic, potential = dyn.energy(q, qd)
     total = kinetic + potential
     assert kinetic.max() > 10.0  # it really moved
     assert np.ptp(total) < 1e-6 * kinetic.max()
-    q2, qd2 = integrate(dyn, q0, np.zeros(6), times, np.zeros((len(times), 6)), method="DOP853", rtol=1e-11, atol=1e-11)
+    q2, qd2 = integrate(
+        dyn,
+        q0,
+        np.zeros(6),
+        times,
+        np.zeros((len(times), 6)),
+        method="DOP853",
+        rtol=1e-11,
+        atol=1e-11,
+    )
     np.testing.assert_allclose(q2, q, atol=1e-7)
 
 

@@ -19,7 +19,12 @@ def ref(request):
     model = load_reference(request.param)["model"]
     device = device_from_reference(model)
     mount, payload = mount_and_payload(model)
-    return model, device, mount, DeviceDynamics(device, payload, mount, armature=False, friction=False)
+    return (
+        model,
+        device,
+        mount,
+        DeviceDynamics(device, payload, mount, armature=False, friction=False),
+    )
 
 
 def test_tool_pose_and_jacobian(ref):
@@ -34,7 +39,11 @@ def test_inverse_dynamics_gravity_and_bias(ref, batched):
     model, _, _, dyn = ref
     q, qd, qdd = states(model, "q"), states(model, "qd"), states(model, "qdd")
     if batched:
-        tau, grav, nle = dyn.inverse(q, qd, qdd, G), dyn.gravity_torques(q, G), dyn.nonlinear_torques(q, qd, G)
+        tau, grav, nle = (
+            dyn.inverse(q, qd, qdd, G),
+            dyn.gravity_torques(q, G),
+            dyn.nonlinear_torques(q, qd, G),
+        )
     else:  # the single-state path runs on Python floats
         tau = np.array([dyn.inverse(*s, G) for s in zip(q, qd, qdd)])
         grav = np.array([dyn.gravity_torques(s, G) for s in q])
@@ -46,15 +55,21 @@ def test_inverse_dynamics_gravity_and_bias(ref, batched):
 
 def test_mass_matrix(ref):
     model, _, _, dyn = ref
-    np.testing.assert_allclose(dyn.mass_matrix(states(model, "q")), states(model, "M"), atol=TOL, rtol=0)
+    np.testing.assert_allclose(
+        dyn.mass_matrix(states(model, "q")), states(model, "M"), atol=TOL, rtol=0
+    )
 
 
 # ur5.json has zero link inertias, a singular M, and no forward-dynamics values
-@pytest.mark.parametrize("name", [m for m in MODELS if load_reference(m)["model"]["forward_dynamics_available"]])
+@pytest.mark.parametrize(
+    "name", [m for m in MODELS if load_reference(m)["model"]["forward_dynamics_available"]]
+)
 def test_forward_dynamics(name):
     model = load_reference(name)["model"]
     device = device_from_reference(model)
     mount, payload = mount_and_payload(model)
     dyn = DeviceDynamics(device, payload, mount, armature=False, friction=False)
     q, qd, tau = states(model, "q"), states(model, "qd"), states(model, "fd_tau")
-    np.testing.assert_allclose(dyn.forward(q, qd, tau, G), states(model, "fd_qdd"), atol=TOL, rtol=0)
+    np.testing.assert_allclose(
+        dyn.forward(q, qd, tau, G), states(model, "fd_qdd"), atol=TOL, rtol=0
+    )

@@ -8,8 +8,8 @@ import pytest
 from rworld_cli import spatial
 from rworld_cli.kinematics.inverse import solve_ik
 from rworld_cli.kinematics.jacobian import ToolMount, tool_pose
-from rworld_cli.schema.loader import load_cell
 from rworld_cli.model.cell import JointLimits
+from rworld_cli.schema.loader import load_cell
 from tests.dynamics.test_properties import random_device
 
 
@@ -55,5 +55,7 @@ def test_unreachable_reports_distance_and_limits():
     target = spatial.make_transform(p=[2.0, 0.0, 0.7])
     result = solve_ik(device, target, position_only=True)
     assert not result.success
-    reach = 0.4318 + 0.4318 + 0.0203 + 0.15005  # a generous bound of the arm's reach from the shoulder
+    reach = (
+        0.4318 + 0.4318 + 0.0203 + 0.15005
+    )  # a generous bound of the arm's reach from the shoulder
     assert result.position_error > 2.0 - reach - 0.1

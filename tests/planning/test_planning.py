@@ -1,4 +1,6 @@
-"""Time-optimal timing and payload capacity against the reference problem (toppra 0.6.10 results)."""
+"""Time-optimal timing and payload capacity against the reference problem (toppra 0.6.10
+results).
+"""
 
 from __future__ import annotations
 
@@ -10,7 +12,13 @@ import pytest
 from rworld_cli.dynamics import DeviceDynamics
 from rworld_cli.planning.path import JointPath
 from rworld_cli.planning.payload import payload_capacity, quintic_timing
-from rworld_cli.planning.topp import InfeasiblePath, Limits, limit_ratios, sample_trajectory, time_optimal
+from rworld_cli.planning.topp import (
+    InfeasiblePath,
+    Limits,
+    limit_ratios,
+    sample_trajectory,
+    time_optimal,
+)
 from rworld_cli.schema.loader import load_cell
 from tests.conftest import REFERENCE, WORKCELLS
 
@@ -22,20 +30,32 @@ DYN = DeviceDynamics(DEVICE, armature=True, friction=False)
 V = np.array(REF["vel_lim_rad_s"])
 CONFIGS = {
     "a_rated": (Limits(V, np.array(REF["acc_lim_rated_rad_s2"]), None), False),
-    "b_rated": (Limits(V, np.array(REF["acc_lim_rated_rad_s2"]), np.array(REF["tau_lim_Nm"])), True),
-    "b_aggr": (Limits(V, np.array(REF["acc_lim_aggressive_rad_s2"]), np.array(REF["tau_lim_Nm"])), True),
+    "b_rated": (
+        Limits(V, np.array(REF["acc_lim_rated_rad_s2"]), np.array(REF["tau_lim_Nm"])),
+        True,
+    ),
+    "b_aggr": (
+        Limits(V, np.array(REF["acc_lim_aggressive_rad_s2"]), np.array(REF["tau_lim_Nm"])),
+        True,
+    ),
     "c_vtau": (Limits(V, None, np.array(REF["tau_lim_Nm"])), True),
 }
 
 
 def toppra_duration(config, grid):
-    return next(r["duration_s"] for r in REF["toppra_results"] if r["config"] == config and r["gridpoints"] == grid)
+    return next(
+        r["duration_s"]
+        for r in REF["toppra_results"]
+        if r["config"] == config and r["gridpoints"] == grid
+    )
 
 
 @pytest.mark.parametrize("config", CONFIGS)
 @pytest.mark.parametrize("grid", [100, 500, 1000])
 def test_grid_solution_is_toppras(config, grid):
-    """Before the checks between grid points, the grid problem is the one toppra solves (same grid points)."""
+    """Before the checks between grid points, the grid problem is the one toppra solves (same
+    grid points).
+    """
     limits, torque = CONFIGS[config]
     timing, info = time_optimal(PATH, limits, DYN if torque else None, G, grid, repair=False)
     assert timing.duration == pytest.approx(toppra_duration(config, grid), rel=1e-6)
@@ -48,7 +68,9 @@ def test_cycle_time_within_a_tenth_of_a_percent_of_toppra_and_no_violation(confi
     limits, torque = CONFIGS[config]
     timing, info = time_optimal(PATH, limits, DYN if torque else None, G, grid)
     assert 1.0 <= timing.duration / toppra_duration(config, grid) < 1.001  # issue target: 0.5 %
-    assert info["dense_ratio"] <= 1.0 and timing.scale == 1.0  # settled by local repairs, no uniform slow-down
+    assert (
+        info["dense_ratio"] <= 1.0 and timing.scale == 1.0
+    )  # settled by local repairs, no uniform slow-down
     # zero violations on 20 001 samples (the reference's check)
     _, q, qd, qdd = sample_trajectory(PATH, timing, 20001)
     for name, r in limit_ratios(q, qd, qdd, limits, DYN if torque else None, G).items():
@@ -57,20 +79,28 @@ def test_cycle_time_within_a_tenth_of_a_percent_of_toppra_and_no_violation(confi
 
 @pytest.mark.parametrize("grid", [17, 60])
 def test_exact_maxima_between_grid_points(grid):
-    """The closed-form interval maxima of velocity and acceleration bound a fine sampling and are attained."""
+    """The closed-form interval maxima of velocity and acceleration bound a fine sampling and
+    are attained.
+    """
     from rworld_cli.planning.constraints import Segments
     from rworld_cli.planning.topp import constraints_from_limits, interval_excess
 
     limits, _ = CONFIGS["a_rated"]
-    timing, _ = time_optimal(PATH, limits, None, G, grid, repair=False)  # coarse: the grid solution overshoots inside
-    loose = Limits(np.ones(6), np.ones(6), None)  # unit limits: the ratios are the values themselves
+    timing, _ = time_optimal(
+        PATH, limits, None, G, grid, repair=False
+    )  # coarse: the grid solution overshoots inside
+    loose = Limits(
+        np.ones(6), np.ones(6), None
+    )  # unit limits: the ratios are the values themselves
     _, _, worst = interval_excess(timing, constraints_from_limits(loose), Segments(PATH, timing.s))
     _, q, qd, qdd = sample_trajectory(PATH, timing, 400001, switches=True)
     sampled = max(np.abs(qd).max(), np.abs(qdd).max())
     assert sampled <= worst * (1 + 1e-12)
     assert sampled == pytest.approx(worst, rel=1e-6)
     ratios = limit_ratios(q, qd, qdd, limits)
-    assert max(r.max() for r in ratios.values()) > 1.001  # the unrepaired grid solution exceeds a limit between grid points
+    assert (
+        max(r.max() for r in ratios.values()) > 1.001
+    )  # the unrepaired grid solution exceeds a limit between grid points
 
 
 def test_payload_capacity_on_the_rated_time_optimal_timing_matches_the_reference():
@@ -84,10 +114,17 @@ def test_payload_capacity_on_the_rated_time_optimal_timing_matches_the_reference
         assert cap.mass == pytest.approx(cap_ref["m_star_linear_kg"], abs=1e-4)
         assert cap.joint + 1 == cap_ref["binding_joint"] and cap.side == cap_ref["binding_side"]
         assert t[cap.sample] == pytest.approx(cap_ref["binding_time_s"], abs=1e-3)
-        # the acceleration jumps at grid instants; with both sides of each counted, the capacity is a little lower
-        exact = payload_capacity(DEVICE, *sample_trajectory(PATH, timing, 20001, switches=True)[1:], G, [0, 0, 0.1])
-        fine = payload_capacity(DEVICE, *sample_trajectory(PATH, timing, 400001)[1:], G, [0, 0, 0.1])
-        assert exact.mass <= fine.mass <= cap.mass  # finer sampling creeps down towards it (the sawtooth is steep)
+        # the acceleration jumps at grid instants; with both sides of each counted, the capacity is
+        # a little lower
+        exact = payload_capacity(
+            DEVICE, *sample_trajectory(PATH, timing, 20001, switches=True)[1:], G, [0, 0, 0.1]
+        )
+        fine = payload_capacity(
+            DEVICE, *sample_trajectory(PATH, timing, 400001)[1:], G, [0, 0, 0.1]
+        )
+        assert (
+            exact.mass <= fine.mass <= cap.mass
+        )  # finer sampling creeps down towards it (the sawtooth is steep)
         assert fine.mass - exact.mass < 2e-4 < cap.mass - exact.mass
 
 
@@ -125,7 +162,9 @@ def test_payload_capacity_on_the_quintic_matches_the_reference():
     cap_ref = next(c for c in REF["payload_capacity"] if c["label"].startswith("quintic"))
     t, s, sd, sdd = quintic_timing(5.0, 20001)
     q, dq, ddq = PATH.evaluate(s)
-    cap = payload_capacity(DEVICE, q, dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None], G, [0, 0, 0.1])
+    cap = payload_capacity(
+        DEVICE, q, dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None], G, [0, 0, 0.1]
+    )
     assert cap.mass == pytest.approx(cap_ref["m_star_linear_kg"], abs=1e-3)
     assert cap.joint + 1 == cap_ref["binding_joint"] and cap.side == cap_ref["binding_side"]
     assert t[cap.sample] == pytest.approx(cap_ref["binding_time_s"], abs=1e-3)
@@ -139,10 +178,14 @@ def test_payload_capacity_is_exact():
     q, dq, ddq = PATH.evaluate(s)
     qd, qdd = dq * sd[:, None], ddq * (sd**2)[:, None] + dq * sdd[:, None]
     cap = payload_capacity(DEVICE, q, qd, qdd, G, [0, 0, 0.1])
-    at = DeviceDynamics(DEVICE, Payload.point_mass(cap.mass, [0, 0, 0.1]), armature=True, friction=False).inverse(q, qd, qdd, G)
+    at = DeviceDynamics(
+        DEVICE, Payload.point_mass(cap.mass, [0, 0, 0.1]), armature=True, friction=False
+    ).inverse(q, qd, qdd, G)
     ratio = np.abs(at) / DEVICE.limit_array("effort")
     assert ratio.max() == pytest.approx(1.0, abs=1e-12)
-    over = DeviceDynamics(DEVICE, Payload.point_mass(cap.mass + 1e-6, [0, 0, 0.1]), armature=True, friction=False).inverse(q, qd, qdd, G)
+    over = DeviceDynamics(
+        DEVICE, Payload.point_mass(cap.mass + 1e-6, [0, 0, 0.1]), armature=True, friction=False
+    ).inverse(q, qd, qdd, G)
     assert (np.abs(over) / DEVICE.limit_array("effort")).max() > 1.0
 
 
@@ -151,7 +194,9 @@ def test_payload_slows_the_torque_limited_timing():
 
     limits, _ = CONFIGS["c_vtau"]
     light = time_optimal(PATH, limits, DYN, G, 500)[0].duration
-    heavy_dyn = DeviceDynamics(DEVICE, Payload.point_mass(3.0, [0, 0, 0.1]), armature=True, friction=False)
+    heavy_dyn = DeviceDynamics(
+        DEVICE, Payload.point_mass(3.0, [0, 0, 0.1]), armature=True, friction=False
+    )
     heavy = time_optimal(PATH, limits, heavy_dyn, G, 500)[0].duration
     assert heavy > light
 
@@ -164,21 +209,59 @@ def test_infeasible_when_gravity_exceeds_a_limit():
 
 def test_plan_commands(cli, tmp_path):
     path = "workcells/puma560/paths/reference.yaml"
-    data = json.loads(cli(["plan", "time-optimal", "workcells/puma560", "--path", path, "--json", "-o", str(tmp_path / "t.csv"),
-                           "--plot", str(tmp_path / "t.png")]).stdout)
+    data = json.loads(
+        cli(
+            [
+                "plan",
+                "time-optimal",
+                "workcells/puma560",
+                "--path",
+                path,
+                "--json",
+                "-o",
+                str(tmp_path / "t.csv"),
+                "--plot",
+                str(tmp_path / "t.png"),
+            ]
+        ).stdout
+    )
     assert data["duration"] == pytest.approx(toppra_duration("b_rated", 1000), rel=0.005)
     assert max(data["peak_ratio"].values()) <= 1.0
     assert (tmp_path / "t.png").read_bytes()[:4] == b"\x89PNG"
     assert (tmp_path / "t.csv").read_text().startswith("t,s,sd,sdd,q1,")
-    q = json.loads(cli(["plan", "payload", "workcells/puma560", "--path", path, "--tcp", "probe", "--timing", "quintic",
-                        "--duration", "5", "--json"]).stdout)
-    assert q["payload_mass"] == pytest.approx(11.566531603971516, abs=1e-3) and q["binding_joint"] == "j2"
+    q = json.loads(
+        cli(
+            [
+                "plan",
+                "payload",
+                "workcells/puma560",
+                "--path",
+                path,
+                "--tcp",
+                "probe",
+                "--timing",
+                "quintic",
+                "--duration",
+                "5",
+                "--json",
+            ]
+        ).stdout
+    )
+    assert (
+        q["payload_mass"] == pytest.approx(11.566531603971516, abs=1e-3)
+        and q["binding_joint"] == "j2"
+    )
 
 
 def test_bad_path_file_is_located(cli, tmp_path):
-    (tmp_path / "p.yaml").write_text("units: {angle: deg}\nwaypoints:\n  - [0, 0, 0]\n  - [1, 2, 3, 4, 5, 6]\n")
+    (tmp_path / "p.yaml").write_text(
+        "units: {angle: deg}\nwaypoints:\n  - [0, 0, 0]\n  - [1, 2, 3, 4, 5, 6]\n"
+    )
     result = cli(["plan", "time-optimal", "workcells/puma560", "--path", str(tmp_path / "p.yaml")])
-    assert result.exit_code == 2 and "p.yaml:3:5: waypoints[0]: 3 value(s) but 'puma' has 6 joint(s)" in result.output
+    assert (
+        result.exit_code == 2
+        and "p.yaml:3:5: waypoints[0]: 3 value(s) but 'puma' has 6 joint(s)" in result.output
+    )
 
 
 def test_load_optimal_beats_the_quintic_and_respects_the_limits():
@@ -190,18 +273,52 @@ def test_load_optimal_beats_the_quintic_and_respects_the_limits():
     assert r.quintic_capacity == pytest.approx(11.566531603971516, abs=1e-3)
     assert r.quintic_capacity < r.mass <= r.static_capacity
     assert r.timing.duration == pytest.approx(5.0)
-    dyn = DeviceDynamics(DEVICE, Payload.point_mass(r.mass, [0, 0, 0.1]), armature=True, friction=False)
+    dyn = DeviceDynamics(
+        DEVICE, Payload.point_mass(r.mass, [0, 0, 0.1]), armature=True, friction=False
+    )
     _, q, qd, qdd = sample_trajectory(PATH, r.timing, 20001)
     assert max(np.max(v) for v in limit_ratios(q, qd, qdd, limits, dyn, G).values()) <= 1.0
-    heavier = DeviceDynamics(DEVICE, Payload.point_mass(r.mass + 0.05, [0, 0, 0.1]), armature=True, friction=False)
-    assert time_optimal(PATH, limits, heavier, G, 200)[0].duration > 5.0  # 50 g more no longer fits in 5 s
+    heavier = DeviceDynamics(
+        DEVICE, Payload.point_mass(r.mass + 0.05, [0, 0, 0.1]), armature=True, friction=False
+    )
+    assert (
+        time_optimal(PATH, limits, heavier, G, 200)[0].duration > 5.0
+    )  # 50 g more no longer fits in 5 s
 
 
 def test_load_optimal_command(cli):
-    data = json.loads(cli(["plan", "load-optimal", "workcells/puma560", "--path", "workcells/puma560/paths/reference.yaml",
-                           "--tcp", "probe", "--duration", "5", "--gridpoints", "100", "--tolerance", "0.01", "--json"]).stdout)
+    data = json.loads(
+        cli(
+            [
+                "plan",
+                "load-optimal",
+                "workcells/puma560",
+                "--path",
+                "workcells/puma560/paths/reference.yaml",
+                "--tcp",
+                "probe",
+                "--duration",
+                "5",
+                "--gridpoints",
+                "100",
+                "--tolerance",
+                "0.01",
+                "--json",
+            ]
+        ).stdout
+    )
     assert data["payload_mass"] > data["quintic_capacity"] > data["time_optimal_capacity"]
-    result = cli(["plan", "load-optimal", "workcells/puma560", "--path", "workcells/puma560/paths/reference.yaml", "--duration", "0.5"])
+    result = cli(
+        [
+            "plan",
+            "load-optimal",
+            "workcells/puma560",
+            "--path",
+            "workcells/puma560/paths/reference.yaml",
+            "--duration",
+            "0.5",
+        ]
+    )
     assert result.exit_code == 2 and "cannot be done in 0.5 s" in result.output
 
 
@@ -213,28 +330,77 @@ def test_max_impulse_arrives_along_the_direction_within_limits():
     from rworld_cli.planning.impulse import HermitePath, max_impulse
 
     ctx = device_context("workcells/puma560", "puma", "probe")
-    q_end = solve_ik(ctx.device, np.linalg.inv(ctx.T_world_base) @ ctx.world.T_world("table.drop"), ctx.mount, ctx.device.home).q
+    q_end = solve_ik(
+        ctx.device,
+        np.linalg.inv(ctx.T_world_base) @ ctx.world.T_world("table.drop"),
+        ctx.mount,
+        ctx.device.home,
+    ).q
     limits = planning_limits(ctx.device)
     dyn = device_dynamics(ctx, Payload.point_mass(2.0, [0, 0, 0]), armature=True, friction=False)
-    r = max_impulse(ctx.device, ctx.device.home, q_end, [0, 0, -1], 2.0, [0, 0, 0], limits, dyn, ctx.gravity_base, ctx.mount, 200, 16)
+    r = max_impulse(
+        ctx.device,
+        ctx.device.home,
+        q_end,
+        [0, 0, -1],
+        2.0,
+        [0, 0, 0],
+        limits,
+        dyn,
+        ctx.gravity_base,
+        ctx.mount,
+        200,
+        16,
+    )
     assert r.momentum == pytest.approx(2.0 * r.speed_along) and r.speed_along > 0.3
-    np.testing.assert_allclose(r.end_velocity / np.linalg.norm(r.end_velocity), [0, 0, -1], atol=1e-9)
-    np.testing.assert_allclose(jacobian(ctx.device, q_end, ctx.mount)[:3] @ r.end_joint_velocity, r.end_velocity, atol=1e-9)
+    np.testing.assert_allclose(
+        r.end_velocity / np.linalg.norm(r.end_velocity), [0, 0, -1], atol=1e-9
+    )
+    np.testing.assert_allclose(
+        jacobian(ctx.device, q_end, ctx.mount)[:3] @ r.end_joint_velocity, r.end_velocity, atol=1e-9
+    )
     _, q, qd, qdd = sample_trajectory(r.path, r.timing, 20001)
-    assert max(np.max(v) for v in limit_ratios(q, qd, qdd, limits, dyn, ctx.gravity_base).values()) <= 1.0
+    assert (
+        max(np.max(v) for v in limit_ratios(q, qd, qdd, limits, dyn, ctx.gravity_base).values())
+        <= 1.0
+    )
     # the search beats the plain tangent length
     w = np.linalg.pinv(jacobian(ctx.device, q_end, ctx.mount)[:3]) @ np.array([0, 0, -1.0])
-    plain = HermitePath(ctx.device.home, q_end, w * np.linalg.norm(q_end - ctx.device.home) / np.linalg.norm(w))
+    plain = HermitePath(
+        ctx.device.home, q_end, w * np.linalg.norm(q_end - ctx.device.home) / np.linalg.norm(w)
+    )
     timing, _ = time_optimal(plain, limits, dyn, ctx.gravity_base, 200, end_at_rest=False)
-    plain_speed = float(-(jacobian(ctx.device, q_end, ctx.mount)[:3] @ plain.m1)[2] * np.sqrt(timing.x[-1]))
+    plain_speed = float(
+        -(jacobian(ctx.device, q_end, ctx.mount)[:3] @ plain.m1)[2] * np.sqrt(timing.x[-1])
+    )
     assert r.speed_along >= plain_speed - 1e-9
 
 
 def test_impulse_command(cli):
-    data = json.loads(cli(["plan", "impulse", "workcells/puma560", "--tcp", "probe", "--target", "table.drop", "--direction", "0,0,-1",
-                           "--payload-mass", "2", "--gridpoints", "100", "--json"]).stdout)
+    data = json.loads(
+        cli(
+            [
+                "plan",
+                "impulse",
+                "workcells/puma560",
+                "--tcp",
+                "probe",
+                "--target",
+                "table.drop",
+                "--direction",
+                "0,0,-1",
+                "--payload-mass",
+                "2",
+                "--gridpoints",
+                "100",
+                "--json",
+            ]
+        ).stdout
+    )
     assert data["momentum"] > 0 and data["end_velocity"][2] < 0
-    bad = cli(["plan", "impulse", "workcells/puma560", "--target", "tabel.drop", "--direction", "0,0,-1"])
+    bad = cli(
+        ["plan", "impulse", "workcells/puma560", "--target", "tabel.drop", "--direction", "0,0,-1"]
+    )
     assert bad.exit_code == 2 and "did you mean 'table.drop'" in bad.output
 
 
@@ -243,12 +409,34 @@ def test_load_optimal_shape_moves_the_knots_and_keeps_the_waypoints():
     from rworld_cli.planning.payload import load_optimal
 
     limits = Limits(V, np.array(REF["acc_lim_rated_rad_s2"]), np.array(REF["tau_lim_Nm"]))
-    r = load_optimal(DEVICE, PATH, limits, G, [0, 0, 0.1], 2.2, gridpoints=150, tolerance=1e-3, shape=True, evaluations=40)
-    assert r.given_shape_mass is not None and r.mass > r.given_shape_mass + 0.01  # 13.30 against 13.25 kg at full resolution
+    r = load_optimal(
+        DEVICE,
+        PATH,
+        limits,
+        G,
+        [0, 0, 0.1],
+        2.2,
+        gridpoints=150,
+        tolerance=1e-3,
+        shape=True,
+        evaluations=40,
+    )
+    assert (
+        r.given_shape_mass is not None and r.mass > r.given_shape_mass + 0.01
+    )  # 13.30 against 13.25 kg at full resolution
     knots = r.path.knots
-    assert knots[0] == 0 and knots[-1] == 1 and np.all(np.diff(knots) > 0) and not np.allclose(knots, PATH.knots)
-    np.testing.assert_allclose(r.path.evaluate(knots)[0], PATH.waypoints, atol=1e-12)  # still through every waypoint
-    dyn = DeviceDynamics(DEVICE, Payload.point_mass(r.mass, [0, 0, 0.1]), armature=True, friction=False)
+    assert (
+        knots[0] == 0
+        and knots[-1] == 1
+        and np.all(np.diff(knots) > 0)
+        and not np.allclose(knots, PATH.knots)
+    )
+    np.testing.assert_allclose(
+        r.path.evaluate(knots)[0], PATH.waypoints, atol=1e-12
+    )  # still through every waypoint
+    dyn = DeviceDynamics(
+        DEVICE, Payload.point_mass(r.mass, [0, 0, 0.1]), armature=True, friction=False
+    )
     _, q, qd, qdd = sample_trajectory(r.path, r.timing, 20001)
     assert max(np.max(v) for v in limit_ratios(q, qd, qdd, limits, dyn, G).values()) <= 1.0
     assert r.timing.duration == pytest.approx(2.2)
@@ -257,14 +445,66 @@ def test_load_optimal_shape_moves_the_knots_and_keeps_the_waypoints():
 def test_load_optimal_shape_command_writes_a_path_file(cli, tmp_path):
     path = "workcells/puma560/paths/reference.yaml"
     out = tmp_path / "reshaped.yaml"
-    bad = cli(["plan", "load-optimal", "workcells/puma560", "--path", path, "--duration", "3", "--shape-output", str(out)])
+    bad = cli(
+        [
+            "plan",
+            "load-optimal",
+            "workcells/puma560",
+            "--path",
+            path,
+            "--duration",
+            "3",
+            "--shape-output",
+            str(out),
+        ]
+    )
     assert bad.exit_code == 2 and "--shape-output needs --shape" in bad.output and not out.exists()
-    data = json.loads(cli(["plan", "load-optimal", "workcells/puma560", "--path", path, "--tcp", "probe", "--duration", "2.2",
-                           "--gridpoints", "100", "--tolerance", "0.01", "--shape", "--evaluations", "20",
-                           "--shape-output", str(out), "--json"]).stdout)
+    data = json.loads(
+        cli(
+            [
+                "plan",
+                "load-optimal",
+                "workcells/puma560",
+                "--path",
+                path,
+                "--tcp",
+                "probe",
+                "--duration",
+                "2.2",
+                "--gridpoints",
+                "100",
+                "--tolerance",
+                "0.01",
+                "--shape",
+                "--evaluations",
+                "20",
+                "--shape-output",
+                str(out),
+                "--json",
+            ]
+        ).stdout
+    )
     assert data["payload_mass"] >= data["given_shape_mass"] and data["written"] == [str(out)]
-    again = json.loads(cli(["plan", "load-optimal", "workcells/puma560", "--path", str(out), "--tcp", "probe", "--duration", "2.2",
-                            "--gridpoints", "100", "--tolerance", "0.01", "--json"]).stdout)
+    again = json.loads(
+        cli(
+            [
+                "plan",
+                "load-optimal",
+                "workcells/puma560",
+                "--path",
+                str(out),
+                "--tcp",
+                "probe",
+                "--duration",
+                "2.2",
+                "--gridpoints",
+                "100",
+                "--tolerance",
+                "0.01",
+                "--json",
+            ]
+        ).stdout
+    )
     assert again["knots"] == pytest.approx(data["knots"], abs=1e-8)
     assert again["payload_mass"] == pytest.approx(data["payload_mass"], abs=2e-2)
 
@@ -274,13 +514,17 @@ def test_uniform_slowdown_when_the_local_repairs_do_not_settle():
     timing, info = time_optimal(PATH, limits, DYN, G, 100, max_rounds=1)  # no local repair allowed
     local, _ = time_optimal(PATH, limits, DYN, G, 100)
     assert timing.scale > 1.0 and info["dense_ratio"] <= 1.0
-    assert timing.duration > local.duration  # slowing everywhere costs more than slowing where needed
+    assert (
+        timing.duration > local.duration
+    )  # slowing everywhere costs more than slowing where needed
     _, q, qd, qdd = sample_trajectory(PATH, timing, 20001)
     assert max(np.max(v) for v in limit_ratios(q, qd, qdd, limits, DYN, G).values()) <= 1.0
 
 
 def test_what_the_cell_puts_on_the_links_is_carried_by_dynamics_and_planning(cli):
-    """paper_fig9's robot holds two hands, a part and an assembly (2.02 kg on link 6): every torque includes them."""
+    """paper_fig9's robot holds two hands, a part and an assembly (2.02 kg on link 6): every
+    torque includes them.
+    """
     from rworld_cli.api import carried_summary, device_context, device_dynamics
     from rworld_cli.dynamics import Payload
     from rworld_cli.kinematics.jacobian import ToolMount
@@ -288,23 +532,51 @@ def test_what_the_cell_puts_on_the_links_is_carried_by_dynamics_and_planning(cli
     ctx = device_context(WORKCELLS / "paper_fig9", "robot", None)
     carried = carried_summary(ctx)
     assert {c["name"] for c in carried} == {"hand_a", "part", "hand_b", "housing", "shaft", "cap"}
-    assert sum(c["mass"] for c in carried) == pytest.approx(2.02) and {c["link"] for c in carried} == {6}
+    assert sum(c["mass"] for c in carried) == pytest.approx(2.02) and {
+        c["link"] for c in carried
+    } == {6}
     # the same bodies given as rigid payloads at the flange give the same torques
     link6 = ctx.device.link_frames[-1]
-    bodies = [(ctx.world.cell.objects[n].inertial, ctx.world.T(link6, n)) for n in ("part", "housing", "shaft", "cap")]
+    bodies = [
+        (ctx.world.cell.objects[n].inertial, ctx.world.T(link6, n))
+        for n in ("part", "housing", "shaft", "cap")
+    ]
     for hand in ("hand_a", "hand_b"):
         dev = ctx.world.cell.devices[hand]
-        bodies += [(link.inertial, ctx.world.T(link6, f)) for link, f in zip(dev.links, dev.link_frames)]
+        bodies += [
+            (link.inertial, ctx.world.T(link6, f)) for link, f in zip(dev.links, dev.link_frames)
+        ]
     mount6 = ToolMount(6, np.eye(4))  # payloads given in the flange frame
     rng = np.random.default_rng(3)
     q, qd, qdd = (rng.uniform(-1, 1, (20, 6)) for _ in range(3))
-    with_loads = device_dynamics(ctx, armature=False, friction=False).inverse(q, qd, qdd, ctx.gravity_base)
-    by_payloads = DeviceDynamics(ctx.device, None, ctx.mount, False, False).inverse(q, qd, qdd, ctx.gravity_base)
+    with_loads = device_dynamics(ctx, armature=False, friction=False).inverse(
+        q, qd, qdd, ctx.gravity_base
+    )
+    by_payloads = DeviceDynamics(ctx.device, None, ctx.mount, False, False).inverse(
+        q, qd, qdd, ctx.gravity_base
+    )
     for inertial, T in bodies:
         one = DeviceDynamics(ctx.device, Payload.rigid_body(inertial, T), mount6, False, False)
-        by_payloads += one.inverse(q, qd, qdd, ctx.gravity_base) - DeviceDynamics(ctx.device, None, mount6, False, False).inverse(
-            q, qd, qdd, ctx.gravity_base)
+        by_payloads += one.inverse(q, qd, qdd, ctx.gravity_base) - DeviceDynamics(
+            ctx.device, None, mount6, False, False
+        ).inverse(q, qd, qdd, ctx.gravity_base)
     np.testing.assert_allclose(with_loads, by_payloads, atol=1e-10)
-    out = json.loads(cli(["plan", "payload", "workcells/paper_fig9", "-d", "robot", "--path", "workcells/puma560/paths/reference.yaml",
-                          "--timing", "quintic", "--duration", "5", "--json"]).stdout)
+    out = json.loads(
+        cli(
+            [
+                "plan",
+                "payload",
+                "workcells/paper_fig9",
+                "-d",
+                "robot",
+                "--path",
+                "workcells/puma560/paths/reference.yaml",
+                "--timing",
+                "quintic",
+                "--duration",
+                "5",
+                "--json",
+            ]
+        ).stdout
+    )
     assert {c["name"] for c in out["carried"]} == {c["name"] for c in carried}

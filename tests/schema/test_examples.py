@@ -46,7 +46,11 @@ def test_units_convert_to_si_at_load():
     assert np.isclose(robot.joints[0].alpha, np.pi / 2)  # 90 deg
     assert np.isclose(robot.joints[0].limits.velocity, np.pi)  # 180 deg/s
     conveyor = cell.devices["conveyor"].joints[0]
-    assert conveyor.kind == "prismatic" and conveyor.limits.upper == 2.0 and conveyor.limits.velocity == 0.5
+    assert (
+        conveyor.kind == "prismatic"
+        and conveyor.limits.upper == 2.0
+        and conveyor.limits.velocity == 0.5
+    )
     assert np.allclose(cell.sensors["load_cell"].force_curve[1], [1000e-9, 50.0])  # mm^3 -> m^3
     np.testing.assert_allclose(cell.poses["table"][:3, 3], [1.2, 0.6, 0.8])
 
@@ -56,27 +60,43 @@ def test_puma_motor_friction_referred_to_joint():
     G = -62.6111
     assert j1.armature == 0.0002 * G**2
     assert np.isclose(j1.viscous, 0.00148 * G**2)
-    assert np.isclose(j1.coulomb_positive, 0.395 * abs(G)) and np.isclose(j1.coulomb_negative, 0.435 * abs(G))
+    assert np.isclose(j1.coulomb_positive, 0.395 * abs(G)) and np.isclose(
+        j1.coulomb_negative, 0.435 * abs(G)
+    )
 
 
 def test_puma_inertia_warnings_name_the_links():
     warnings = load_cell("workcells/puma560").warnings
-    assert [w.location for w in warnings] == ["devices[0].links[0].inertia", "devices[0].links[2].inertia"]
+    assert [w.location for w in warnings] == [
+        "devices[0].links[0].inertia",
+        "devices[0].links[2].inertia",
+    ]
     assert all("triangle inequality" in w.message for w in warnings)
 
 
 def test_yaml_12_floats_are_numbers():
     from rworld_cli.schema.yamlio import parse_yaml_text
 
-    assert parse_yaml_text("a: 4e-05\nb: 1E3\nc: -2.5e+2\n", "x").data == {"a": 4e-05, "b": 1000.0, "c": -250.0}
+    assert parse_yaml_text("a: 4e-05\nb: 1E3\nc: -2.5e+2\n", "x").data == {
+        "a": 4e-05,
+        "b": 1000.0,
+        "c": -250.0,
+    }
 
 
 def test_later_pose_file_overrides_earlier(tmp_path):
     copy = tmp_path / "cal"
     shutil.copytree("workcells/calibration_example", copy)
-    text = (copy / "cell.yaml").read_text().replace("pose_files: [poses.yaml]", "pose_files: [poses.yaml, calibrated.yaml]")
+    text = (
+        (copy / "cell.yaml")
+        .read_text()
+        .replace("pose_files: [poses.yaml]", "pose_files: [poses.yaml, calibrated.yaml]")
+    )
     (copy / "cell.yaml").write_text(text)
-    (copy / "calibrated.yaml").write_text("units: {length: mm, angle: deg}\nposes:\n  block: {xyz: [-99, -75, 0], rpy: [0, 0, 15.5]}\n")
+    (copy / "calibrated.yaml").write_text(
+        "units: {length: mm, angle: deg}\nposes:\n  block: {xyz: [-99, -75, 0], rpy: [0, 0, "
+        "15.5]}\n"
+    )
     cell = load_cell(copy).cell
     np.testing.assert_allclose(cell.poses["block"][:3, 3], [-0.099, -0.075, 0])
     assert cell.pose_sources["block"].name == "calibrated.yaml"

@@ -50,10 +50,14 @@ def _set(data, path, value=None, delete=False):
 
 
 def mutants(original):
-    """Three wrong values per scalar, rotating (so every kind meets every part of the file), and every key deleted."""
+    """Three wrong values per scalar, rotating (so every kind meets every part of the file), and
+    every key deleted.
+    """
     scalars, keys = _paths(original)
     n = len(WRONG_VALUES)
-    out = [(p, WRONG_VALUES[(3 * i + k) % n], False) for i, p in enumerate(scalars) for k in range(3)]
+    out = [
+        (p, WRONG_VALUES[(3 * i + k) % n], False) for i, p in enumerate(scalars) for k in range(3)
+    ]
     return out + [(p, None, True) for p in keys]
 
 

@@ -1,4 +1,6 @@
-"""Interference of sensor cells with solids: exact against overlap volumes; tolerance; broad phase."""
+"""Interference of sensor cells with solids: exact against overlap volumes; tolerance; broad
+phase.
+"""
 
 from __future__ import annotations
 
@@ -9,21 +11,30 @@ import pytest
 import trimesh
 
 from rworld_cli import spatial
-from rworld_cli.sensing.geometry import box_triangle_overlap, grid_interference, obb_overlap, winding_number
+from rworld_cli.sensing.geometry import (
+    box_triangle_overlap,
+    grid_interference,
+    obb_overlap,
+    winding_number,
+)
 from tests.sensing.truth import holed_box, icosphere, truth_grid
 
 SOLIDS = {"icosphere": icosphere, "holed_box": holed_box}
 
 
 def random_pose(rng, spread=0.03):
-    return spatial.make_transform(spatial.rpy_to_matrix(rng.uniform(-0.6, 0.6, 3)), rng.uniform(-spread, spread, 3))
+    return spatial.make_transform(
+        spatial.rpy_to_matrix(rng.uniform(-0.6, 0.6, 3)), rng.uniform(-spread, spread, 3)
+    )
 
 
 @pytest.mark.parametrize("solid", SOLIDS)
 @pytest.mark.parametrize("counts", [(8, 8, 1), (16, 12, 1), (1, 1, 6)])
 def test_zero_wrong_cells_against_overlap_volumes(solid, counts):
     vertices, faces, manifold = SOLIDS[solid]()
-    rng = np.random.default_rng(zlib.crc32(repr((solid, counts)).encode()))  # str hashes change per process
+    rng = np.random.default_rng(
+        zlib.crc32(repr((solid, counts)).encode())
+    )  # str hashes change per process
     size = np.array([0.08, 0.08, 0.012]) if counts[2] == 1 else np.array([0.03, 0.03, 0.09])
     hits = cells = 0
     for _ in range(4):  # pads cutting into the solid at random poses, partly buried
@@ -40,7 +51,9 @@ def test_zero_wrong_cells_against_overlap_volumes(solid, counts):
 def test_buried_cells_count_surface_only_methods_miss_them():
     """A pad entirely inside the holed box meets no triangle; every cell still interferes."""
     vertices, faces, manifold = holed_box()
-    T = np.linalg.inv(spatial.make_transform(p=[0.0, 0.0, -0.027]))  # pad inside the lower wall, below the hole
+    T = np.linalg.inv(
+        spatial.make_transform(p=[0.0, 0.0, -0.027])
+    )  # pad inside the lower wall, below the hole
     tri = (vertices @ T[:3, :3].T + T[:3, 3])[faces]
     size, counts = np.array([0.08, 0.08, 0.004]), (8, 8, 1)
     hit = grid_interference(size, counts, tri, tolerance=1e-9)
@@ -49,12 +62,16 @@ def test_buried_cells_count_surface_only_methods_miss_them():
     lo, d = np.array([-0.04, -0.04, 0.0]), size / np.array(counts)
     for idx in np.ndindex(*counts):
         c = lo + (np.array(idx) + 0.5) * d
-        touching_surface[idx] = box_triangle_overlap(np.repeat(c[None], len(tri), 0), np.repeat((d / 2)[None], len(tri), 0), tri).any()
+        touching_surface[idx] = box_triangle_overlap(
+            np.repeat(c[None], len(tri), 0), np.repeat((d / 2)[None], len(tri), 0), tri
+        ).any()
     assert not touching_surface.any()
     assert truth_grid(size, counts, manifold.transform(T[:3, :].tolist())).all()
 
 
-@pytest.mark.parametrize("gap, touching", [(0.0, True), (0.5e-6, True), (2e-6, False), (1e-3, False)])
+@pytest.mark.parametrize(
+    "gap, touching", [(0.0, True), (0.5e-6, True), (2e-6, False), (1e-3, False)]
+)
 def test_touching_is_decided_by_the_tolerance(gap, touching):
     """A box face parallel to the pad's base face, ``gap`` below it; tolerance 1 um."""
     box = trimesh.creation.box(extents=[0.2, 0.2, 0.1])
@@ -83,7 +100,9 @@ def test_box_triangle_cases():
 def test_winding_number_inside_outside():
     vertices, faces, _ = holed_box()
     tri = vertices[faces]
-    points = np.array([[0, 0, -0.025], [0, 0, 0.0], [0.045, 0.0, 0.0], [0.2, 0, 0]])  # wall, hole, side wall, outside
+    points = np.array(
+        [[0, 0, -0.025], [0, 0, 0.0], [0.045, 0.0, 0.0], [0.2, 0, 0]]
+    )  # wall, hole, side wall, outside
     w = winding_number(points, tri)
     np.testing.assert_allclose(w, [1, 0, 1, 0], atol=1e-9)
 

@@ -46,14 +46,20 @@ def test_presence_beam_sees_the_housing_and_then_nothing(world):
 
 
 def test_proximity_slices_step_with_distance(world):
-    """Move a ball along the range box's axis: the nearest hit slice counts the distance in slices."""
-    from rworld_cli.model.cell import Inertial, ObjectModel, Shape, Box
+    """Move a ball along the range box's axis: the nearest hit slice counts the distance in
+    slices.
+    """
+    from rworld_cli.model.cell import Box, Inertial, ObjectModel, Shape
 
     sensor = world.cell.sensors["range_wrist"]
     world.detach("range_wrist")
     world.move("range_wrist", np.eye(4))  # looking up along world z from the origin
     r = 0.01
-    ball = ObjectModel("ball", Inertial.zero(), Shape("sphere", np.eye(4), np.full(3, 2 * r), Box(np.eye(4), np.full(3, r))))
+    ball = ObjectModel(
+        "ball",
+        Inertial.zero(),
+        Shape("sphere", np.eye(4), np.full(3, 2 * r), Box(np.eye(4), np.full(3, r))),
+    )
     cell = world.cell
     cell.objects["ball"] = ball
     from rworld_cli.model.cell import FrameDecl
@@ -115,7 +121,19 @@ def test_sense_command(cli, tmp_path):
 
 
 def test_sense_with_device_and_q(cli):
-    far = json.loads(cli(["sense", "workcells/puma560", "--device", "puma", "--q", "0,0.78,-3.14,0,0.78,0", "--json"]).stdout)
+    far = json.loads(
+        cli(
+            [
+                "sense",
+                "workcells/puma560",
+                "--device",
+                "puma",
+                "--q",
+                "0,0.78,-3.14,0,0.78,0",
+                "--json",
+            ]
+        ).stdout
+    )
     assert far["readings"][0]["active"] is False
     result = cli(["sense", "workcells/puma560", "--device", "puma"])
     assert result.exit_code == 2 and "--device and --q go together" in result.output
@@ -131,12 +149,21 @@ def test_render_png_and_glb(cli, tmp_path):
     assert "pad_a[0]" in scene.geometry and "part" in scene.geometry
 
 
-@pytest.mark.parametrize("args, message", [
-    (["sense", "workcells/paper_fig9", "--sensor", "pad_b"], "unknown sensor 'pad_b' (did you mean 'pad_a'?)"),
-    (["sense", "workcells/paper_fig9", "--tolerance", "-1"], "tolerance must be a finite length >= 0"),
-    (["sense", "workcells/puma560", "--png", "x.png"], "no tactile or proximity sensor"),
-    (["render", "workcells/paper_fig9", "-o", "cell.jpg"], "give a .png or .glb file"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (
+            ["sense", "workcells/paper_fig9", "--sensor", "pad_b"],
+            "unknown sensor 'pad_b' (did you mean 'pad_a'?)",
+        ),
+        (
+            ["sense", "workcells/paper_fig9", "--tolerance", "-1"],
+            "tolerance must be a finite length >= 0",
+        ),
+        (["sense", "workcells/puma560", "--png", "x.png"], "no tactile or proximity sensor"),
+        (["render", "workcells/paper_fig9", "-o", "cell.jpg"], "give a .png or .glb file"),
+    ],
+)
 def test_bad_sensing_input_exits_2(cli, tmp_path, args, message):
     result = cli(args, cwd=None)
     assert result.exit_code == 2, result.output

@@ -1,4 +1,5 @@
-"""Any wrong scalar or deleted key in an example program or run file: a clean answer, never a traceback.
+"""Any wrong scalar or deleted key in an example program or run file: a clean answer, never a
+traceback.
 
 Loading (schema and the checks against the cell) runs for every mutant; the
 ones that still load are simulated too.
@@ -13,18 +14,22 @@ import pytest
 import yaml
 
 from rworld_cli.errors import UserError
-from rworld_cli.simulate.engine import simulate
 from rworld_cli.schema.programs import load_run
+from rworld_cli.simulate.engine import simulate
 from tests.conftest import WORKCELLS
 from tests.schema.test_mutations import _set, mutants
 
-CASES = [("puma560", "programs/pick_place.yaml", "runs/pick_place.yaml"),
-         ("paper_fig9", "programs/robot.yaml", "runs/transfer.yaml"),
-         ("paper_fig9", "programs/hand_b.yaml", "runs/transfer.yaml"),
-         ("paper_fig9", "runs/transfer.yaml", "runs/transfer.yaml")]
+CASES = [
+    ("puma560", "programs/pick_place.yaml", "runs/pick_place.yaml"),
+    ("paper_fig9", "programs/robot.yaml", "runs/transfer.yaml"),
+    ("paper_fig9", "programs/hand_b.yaml", "runs/transfer.yaml"),
+    ("paper_fig9", "runs/transfer.yaml", "runs/transfer.yaml"),
+]
 
 
-@pytest.mark.parametrize("cell_name, file_name, run_name", CASES, ids=[f"{c}-{f}" for c, f, _ in CASES])
+@pytest.mark.parametrize(
+    "cell_name, file_name, run_name", CASES, ids=[f"{c}-{f}" for c, f, _ in CASES]
+)
 def test_every_program_mutation_is_reported_cleanly(cell_name, file_name, run_name, tmp_path):
     work = tmp_path / cell_name
     shutil.copytree(WORKCELLS / cell_name, work)

@@ -1,4 +1,6 @@
-"""Programs on the example cells: step types, parallel timing, limits, errors, numbers vs programs."""
+"""Programs on the example cells: step types, parallel timing, limits, errors, numbers vs
+programs.
+"""
 
 from __future__ import annotations
 
@@ -12,8 +14,8 @@ import pytest
 
 from rworld_cli.dynamics import DeviceDynamics
 from rworld_cli.errors import UserError
-from rworld_cli.simulate.engine import simulate
 from rworld_cli.schema.programs import load_run
+from rworld_cli.simulate.engine import simulate
 from tests.conftest import WORKCELLS
 
 
@@ -37,12 +39,18 @@ def write_run(cell: Path, programs: dict[str, str], name: str = "test") -> Path:
     for fname, text in programs.items():
         (cell / "programs" / fname).write_text(text)
     run = cell / "runs" / f"{name}.yaml"
-    run.write_text("programs: [" + ", ".join(f"../programs/{f}" for f in programs) + "]\ndt: 0.01\n")
+    run.write_text(
+        "programs: [" + ", ".join(f"../programs/{f}" for f in programs) + "]\ndt: 0.01\n"
+    )
     return run
 
 
 def event(result, device, kind, detail_part=""):
-    return next(e for e in result.events if e.device == device and e.kind == kind and detail_part in e.detail)
+    return next(
+        e
+        for e in result.events
+        if e.device == device and e.kind == kind and detail_part in e.detail
+    )
 
 
 # ---------------------------------------------------------------- parallel execution
@@ -54,14 +62,20 @@ def test_devices_run_in_parallel_and_end_at_different_times(fig9):
     assert fig9.cycle_time == ends["conveyor"]
     # the hands move while the robot holds still between its syncs
     open_a = event(fig9, "hand_a", "move", "open")
-    sync_robot = [e for e in fig9.events if e.device == "robot" and e.kind == "sync" and "hand_a_open" in e.detail][0]
+    sync_robot = [
+        e
+        for e in fig9.events
+        if e.device == "robot" and e.kind == "sync" and "hand_a_open" in e.detail
+    ][0]
     assert sync_robot.t == pytest.approx(open_a.t + 0.346, abs=1e-3)
 
 
 def test_sync_meets_at_the_latest_arrival(fig9):
     arrived = [e for e in fig9.events if e.kind == "sync" and "arrived" in e.detail]
     assert {e.device for e in arrived} == {"conveyor", "robot"}
-    assert all(e.t == pytest.approx(2.5) for e in arrived)  # the conveyor's 1 m move takes 2.5 s; the robot waited
+    assert all(
+        e.t == pytest.approx(2.5) for e in arrived
+    )  # the conveyor's 1 m move takes 2.5 s; the robot waited
     robot_first_move = event(fig9, "robot", "move")
     assert robot_first_move.t == pytest.approx(2.5)
 
@@ -95,12 +109,19 @@ def test_placed_objects_stay_where_they_were_put(fig9):
     from rworld_cli.world.tree import World
 
     placed = event(fig9, "robot", "place", "part")
-    assert {k: placed.tree[k] for k in ("child", "parent", "type", "kind")} == {"child": "part", "parent": "table", "type": "non_rigid", "kind": "rests_on"}
+    assert {k: placed.tree[k] for k in ("child", "parent", "type", "kind")} == {
+        "child": "part",
+        "parent": "table",
+        "type": "non_rigid",
+        "kind": "rests_on",
+    }
     k = np.searchsorted(fig9.times, placed.t)
     # at that instant hand_a's TCP is at the slot (the linear move ended there)
     world = World(load_cell("workcells/paper_fig9").cell)
     world.set_joints("conveyor", fig9.devices["conveyor"].q[k])
-    np.testing.assert_allclose(fig9.devices["hand_a"].tcp[k], world.T_world("table.slot_part"), atol=1e-6)
+    np.testing.assert_allclose(
+        fig9.devices["hand_a"].tcp[k], world.T_world("table.slot_part"), atol=1e-6
+    )
 
 
 def test_tool_change_leaves_the_hand_and_the_robot_moves_on(fig9):
@@ -121,11 +142,15 @@ def test_payload_changes_the_torques_at_the_grasp(puma):
     k = np.searchsorted(puma.times, grasp.t) + 5  # lifting
     cell = load_cell("workcells/puma560").cell
     world = World(cell)
-    T_grip = np.linalg.inv(grasp.tree["T_world_parent"]) @ np.array(grasp.tree["T_world_child"])  # as the event recorded it
+    T_grip = np.linalg.inv(grasp.tree["T_world_parent"]) @ np.array(
+        grasp.tree["T_world_child"]
+    )  # as the event recorded it
     world.attach("workpiece", "puma.probe", "rigid", "grasp", T_parent_child=T_grip)
     world.set_joints("puma", tl.q[k])
     bare = DeviceDynamics(cell.devices["puma"]).inverse(tl.q[k], tl.qd[k], tl.qdd[k], cell.gravity)
-    loaded = DeviceDynamics(cell.devices["puma"], link_loads=world.carried_loads("puma")).inverse(tl.q[k], tl.qd[k], tl.qdd[k], cell.gravity)
+    loaded = DeviceDynamics(cell.devices["puma"], link_loads=world.carried_loads("puma")).inverse(
+        tl.q[k], tl.qd[k], tl.qdd[k], cell.gravity
+    )
     np.testing.assert_allclose(tl.tau[k], loaded, atol=1e-9)
     assert np.abs(loaded - bare).max() > 1.0  # 1.2 kg at the probe shows
 
@@ -162,7 +187,13 @@ def test_guarded_move_stops_where_the_probe_touches():
 
 def test_guarded_move_without_trigger_runs_to_its_end(tmp_path):
     cell = copy_cell(tmp_path, "puma560")
-    run = write_run(cell, {"g.yaml": "device: puma\nsteps:\n  - move: {to: ready, until: probe_tip}\n  - sense: probe_tip\n"})
+    run = write_run(
+        cell,
+        {
+            "g.yaml": "device: puma\nsteps:\n  - move: {to: ready, until: probe_tip}\n  - sense: "
+            "probe_tip\n"
+        },
+    )
     result = simulate(load_run(str(cell), str(run)))
     assert "did not trigger" in event(result, "puma", "guard").detail
     assert not event(result, "puma", "sense").reading["active"]
@@ -173,7 +204,11 @@ def test_guarded_move_without_trigger_runs_to_its_end(tmp_path):
 
 def test_overload_is_detected_and_check_fails(cli, tmp_path):
     cell = copy_cell(tmp_path, "puma560")
-    text = (cell / "cell.yaml").read_text().replace("  - name: workpiece\n    mass: 1.2", "  - name: workpiece\n    mass: 60.0")
+    text = (
+        (cell / "cell.yaml")
+        .read_text()
+        .replace("  - name: workpiece\n    mass: 1.2", "  - name: workpiece\n    mass: 60.0")
+    )
     (cell / "cell.yaml").write_text(text)
     result = cli(["check", str(cell), "pick_place"])
     assert result.exit_code == 1, result.output
@@ -186,43 +221,85 @@ def test_overload_is_detected_and_check_fails(cli, tmp_path):
 
 def test_unreachable_target_names_the_step(tmp_path):
     cell = copy_cell(tmp_path, "puma560")
-    run = write_run(cell, {"far.yaml": "device: puma\nsteps:\n  - move: {to: ready}\n  - move: {to: table.drop, offset: {xyz: [0, 0, -3]}}\n"})
-    with pytest.raises(UserError, match=r"far.yaml:4: puma step 2 \(move to table.drop\): 'table.drop' is unreachable .* mm .* away"):
+    run = write_run(
+        cell,
+        {
+            "far.yaml": "device: puma\nsteps:\n  - move: {to: ready}\n  - move: {to: table.drop, "
+            "offset: {xyz: [0, 0, -3]}}\n"
+        },
+    )
+    with pytest.raises(
+        UserError,
+        match=r"far.yaml:4: puma step 2 \(move to table.drop\): 'table.drop' is unreachable .* mm "
+        r".* away",
+    ):
         simulate(load_run(str(cell), str(run)))
 
 
 def test_linear_move_out_of_the_workspace_names_the_fraction(tmp_path):
     cell = copy_cell(tmp_path, "puma560")
-    run = write_run(cell, {"line.yaml": "device: puma\nsteps:\n  - move: {to: ready}\n"
-                                        "  - move: {to: table.drop, offset: {xyz: [0, 0, -2.5]}, motion: linear, position_only: true}\n"})
-    with pytest.raises(UserError, match=r"step 2 .*linear.*: the line leaves the workspace at \d+% of the path"):
+    run = write_run(
+        cell,
+        {
+            "line.yaml": "device: puma\nsteps:\n  - move: {to: ready}\n"
+            "  - move: {to: table.drop, offset: {xyz: [0, 0, -2.5]}, motion: linear, "
+            "position_only: true}\n"
+        },
+    )
+    with pytest.raises(
+        UserError, match=r"step 2 .*linear.*: the line leaves the workspace at \d+% of the path"
+    ):
         simulate(load_run(str(cell), str(run)))
 
 
 def test_deadlock_is_reported(tmp_path):
     cell = copy_cell(tmp_path, "paper_fig9")
-    run = write_run(cell, {"a.yaml": "device: hand_a\nsteps:\n  - sync: one\n  - sync: two\n",
-                           "b.yaml": "device: hand_b\nsteps:\n  - sync: two\n  - sync: one\n"})
-    with pytest.raises(UserError, match="deadlock: the programs wait for each other: hand_a at step 1 .*hand_b at step 1"):
+    run = write_run(
+        cell,
+        {
+            "a.yaml": "device: hand_a\nsteps:\n  - sync: one\n  - sync: two\n",
+            "b.yaml": "device: hand_b\nsteps:\n  - sync: two\n  - sync: one\n",
+        },
+    )
+    with pytest.raises(
+        UserError,
+        match="deadlock: the programs wait for each other: hand_a at step 1 .*hand_b at step 1",
+    ):
         simulate(load_run(str(cell), str(run)))
 
 
 def test_release_and_attach_tool_steps(tmp_path):
     cell = copy_cell(tmp_path, "paper_fig9")
-    run = write_run(cell, {"r.yaml": "device: robot\nsteps:\n  - release: part\n  - detach_tool: hand_b\n"
-                                     "  - attach_tool: {tool: hand_b, at: tool_plate}\n  - move: {to: home}\n"})
+    run = write_run(
+        cell,
+        {
+            "r.yaml": "device: robot\nsteps:\n  - release: part\n  - detach_tool: hand_b\n"
+            "  - attach_tool: {tool: hand_b, at: tool_plate}\n  - move: {to: home}\n"
+        },
+    )
     result = simulate(load_run(str(cell), str(run)))
     kinds = [e.kind for e in result.events if e.device == "robot"]
     assert kinds[:3] == ["release", "detach_tool", "attach_tool"]
     tree = result.events[2].tree
-    assert (tree["child"], tree["parent"], tree["type"], tree["kind"]) == ("hand_b", "robot.tool_plate", "rigid", "tool")
+    assert (tree["child"], tree["parent"], tree["type"], tree["kind"]) == (
+        "hand_b",
+        "robot.tool_plate",
+        "rigid",
+        "tool",
+    )
     # after the tool change hand_b's TCP is the robot's active TCP and it reached the target
     assert result.devices["robot"].tcp_names[-1][1] == "hand_b.tcp"
 
 
 def test_wait_time_delays_the_next_step(tmp_path):
     cell = copy_cell(tmp_path, "paper_fig9")
-    run = write_run(cell, {"w.yaml": "device: hand_a\nsteps:\n  - wait: {time: 0.75}\n  - move: {to: open}\n  - wait: {time: 0.25}\n"})
+    run = write_run(
+        cell,
+        {
+            "w.yaml": "device: hand_a\nsteps:\n  - wait: {time: 0.75}\n  - move: {to: open}\n  - "
+            "wait: {time: 0.25}\n"
+        },
+    )
     result = simulate(load_run(str(cell), str(run)))
     move = event(result, "hand_a", "move")
     assert move.t == pytest.approx(0.75)
@@ -233,7 +310,9 @@ def test_wait_time_delays_the_next_step(tmp_path):
 
 def test_grasp_of_an_object_held_elsewhere_is_refused(tmp_path):
     cell = copy_cell(tmp_path, "paper_fig9")
-    run = write_run(cell, {"g.yaml": "device: robot\nsteps:\n  - grasp: {object: part, tcp: hand_b.tcp}\n"})
+    run = write_run(
+        cell, {"g.yaml": "device: robot\nsteps:\n  - grasp: {object: part, tcp: hand_b.tcp}\n"}
+    )
     with pytest.raises(UserError, match="'part' is already held by 'hand_a.tcp'"):
         simulate(load_run(str(cell), str(run)))
 
@@ -241,15 +320,41 @@ def test_grasp_of_an_object_held_elsewhere_is_refused(tmp_path):
 @pytest.mark.parametrize(
     "program, message",
     [
-        ("device: robt\nsteps:\n  - sync: x\n", "g.yaml:1:9: device: unknown device 'robt' (did you mean 'robot'?)"),
-        ("device: robot\nsteps:\n  - move: {to: table.slot_prt}\n", "g.yaml:3:16: steps[0].move.to: 'table.slot_prt' is not a frame or a position of 'robot' (did you mean 'table.slot_part'?)"),
-        ("device: robot\nsteps:\n  - grasp: prt\n", "g.yaml:3:12: steps[0].grasp.object: unknown object or sensor 'prt' (did you mean 'part'?)"),
-        ("device: robot\nsteps:\n  - move: {to: home, speed: 2}\n", "g.yaml:3:29: steps[0].move.speed: must be <= 1.0, got 2"),
-        ("device: robot\nsteps:\n  - wait: {for: hand_a}\n", "no program of this run drives 'hand_a'"),
-        ("device: robot\nsteps:\n  - move: {to: home}\n    grasp: part\n", "a step does exactly one thing"),
+        (
+            "device: robt\nsteps:\n  - sync: x\n",
+            "g.yaml:1:9: device: unknown device 'robt' (did you mean 'robot'?)",
+        ),
+        (
+            "device: robot\nsteps:\n  - move: {to: table.slot_prt}\n",
+            "g.yaml:3:16: steps[0].move.to: 'table.slot_prt' is not a frame or a position of "
+            "'robot' (did you mean 'table.slot_part'?)",
+        ),
+        (
+            "device: robot\nsteps:\n  - grasp: prt\n",
+            "g.yaml:3:12: steps[0].grasp.object: unknown object or sensor 'prt' (did you mean "
+            "'part'?)",
+        ),
+        (
+            "device: robot\nsteps:\n  - move: {to: home, speed: 2}\n",
+            "g.yaml:3:29: steps[0].move.speed: must be <= 1.0, got 2",
+        ),
+        (
+            "device: robot\nsteps:\n  - wait: {for: hand_a}\n",
+            "no program of this run drives 'hand_a'",
+        ),
+        (
+            "device: robot\nsteps:\n  - move: {to: home}\n    grasp: part\n",
+            "a step does exactly one thing",
+        ),
         ("device: robot\nsteps: []\n", "steps: expected at least 1 value, got 0"),
-        ("device: robot\nsteps:\n  - sense: pad_x\n", "g.yaml:3:12: steps[0].sense: unknown sensor 'pad_x' (did you mean 'pad_a'?)"),
-        ("device: robot\nsteps:\n  - move: {to: home, until: bumpr}\n", "steps[0].move.until: unknown sensor 'bumpr' (did you mean 'bumper'?)"),
+        (
+            "device: robot\nsteps:\n  - sense: pad_x\n",
+            "g.yaml:3:12: steps[0].sense: unknown sensor 'pad_x' (did you mean 'pad_a'?)",
+        ),
+        (
+            "device: robot\nsteps:\n  - move: {to: home, until: bumpr}\n",
+            "steps[0].move.until: unknown sensor 'bumpr' (did you mean 'bumper'?)",
+        ),
     ],
 )
 def test_program_errors_are_located(tmp_path, cli, program, message):
@@ -271,14 +376,20 @@ def test_changing_numbers_moves_the_program_but_not_its_file(tmp_path):
     digest = hashlib.sha256(program.read_bytes()).hexdigest()
     run = cell / "runs" / "pick_place.yaml"
     before = simulate(load_run(str(cell), str(run)))
-    poses = (cell / "poses.yaml").read_text().replace("table.drop: {xyz: [-0.1, -0.3, 0.05]", "table.drop: {xyz: [-0.05, -0.32, 0.05]")
+    poses = (
+        (cell / "poses.yaml")
+        .read_text()
+        .replace("table.drop: {xyz: [-0.1, -0.3, 0.05]", "table.drop: {xyz: [-0.05, -0.32, 0.05]")
+    )
     (cell / "poses.yaml").write_text(poses)
     after = simulate(load_run(str(cell), str(run)))
     assert hashlib.sha256(program.read_bytes()).hexdigest() == digest
     placed_before = np.array(event(before, "puma", "place").tree["T_world_child"])
     placed_after = np.array(event(after, "puma", "place").tree["T_world_child"])
     # the workpiece lands exactly where the changed number says (the table is not rotated)
-    np.testing.assert_allclose(placed_after[:3, 3] - placed_before[:3, 3], [0.05, -0.02, 0.0], atol=1e-6)
+    np.testing.assert_allclose(
+        placed_after[:3, 3] - placed_before[:3, 3], [0.05, -0.02, 0.0], atol=1e-6
+    )
     np.testing.assert_allclose(placed_after[:3, :3], placed_before[:3, :3], atol=1e-6)
 
 

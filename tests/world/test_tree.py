@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rworld_cli import spatial
-from rworld_cli.schema.loader import load_cell
 from rworld_cli.model.cell import WORLD, CellModel, FrameDecl, Inertial, ObjectModel
+from rworld_cli.schema.loader import load_cell
 from rworld_cli.world.tree import AffixmentError, World
 
 
@@ -19,11 +19,15 @@ def fig9() -> CellModel:
 
 
 def random_pose(rng) -> np.ndarray:
-    return spatial.make_transform(spatial.rpy_to_matrix(rng.uniform(-np.pi, np.pi, 3)), rng.uniform(-1, 1, 3))
+    return spatial.make_transform(
+        spatial.rpy_to_matrix(rng.uniform(-np.pi, np.pi, 3)), rng.uniform(-1, 1, 3)
+    )
 
 
 def synthetic_cell(n: int, parents: list[int], seed: int) -> CellModel:
-    """n objects o0..o{n-1}, each with an auxiliary frame; object i rests on object parents[i] (-1: world)."""
+    """n objects o0..o{n-1}, each with an auxiliary frame; object i rests on object parents[i]
+    (-1: world).
+    """
     rng = np.random.default_rng(seed)
     frames = {WORLD: FrameDecl(WORLD, "world", WORLD, None)}
     objects, poses, affix = {}, {}, []
@@ -47,7 +51,11 @@ def trees_and_ops(draw):
     parents = [-1] + [draw(st.integers(-1, i - 1)) for i in range(1, n)]
     ops = draw(
         st.lists(
-            st.tuples(st.sampled_from(["attach", "detach", "move"]), st.integers(0, n - 1), st.integers(-1, n - 1)),
+            st.tuples(
+                st.sampled_from(["attach", "detach", "move"]),
+                st.integers(0, n - 1),
+                st.integers(-1, n - 1),
+            ),
             max_size=12,
         )
     )
@@ -103,7 +111,9 @@ def test_random_attach_detach_sequences_keep_world_poses_consistent(case):
         poses = world.world_poses()
         for k in poses:
             if world.parent(k) is not None:
-                np.testing.assert_allclose(poses[world.parent(k)] @ world.T_parent(k), poses[k], atol=1e-9)
+                np.testing.assert_allclose(
+                    poses[world.parent(k)] @ world.T_parent(k), poses[k], atol=1e-9
+                )
 
 
 @settings(max_examples=30, deadline=None)
@@ -126,19 +136,32 @@ def test_relative_poses_are_inverse_pairs(seed):
 def test_conveyor_carries_robot_hands_and_grasped_objects(fig9):
     world = World(fig9)
     carried = world.subtree("conveyor")
-    assert {"robot", "hand_a", "hand_b", "part", "housing", "shaft", "cap", "housing.approach"} <= set(carried)
+    assert {
+        "robot",
+        "hand_a",
+        "hand_b",
+        "part",
+        "housing",
+        "shaft",
+        "cap",
+        "housing.approach",
+    } <= set(carried)
     before = world.world_poses()
     world.set_joints("conveyor", [0.75])  # 750 mm along the base z = world +x
     after = world.world_poses()
     for name in carried[2:]:  # everything on the carriage shifts by 0.75 m in world x
-        np.testing.assert_allclose(after[name][:3, 3] - before[name][:3, 3], [0.75, 0, 0], atol=1e-12)
+        np.testing.assert_allclose(
+            after[name][:3, 3] - before[name][:3, 3], [0.75, 0, 0], atol=1e-12
+        )
         np.testing.assert_allclose(after[name][:3, :3], before[name][:3, :3], atol=1e-12)
     for name in ("table", "table.slot_part", "drop_zone"):
         np.testing.assert_array_equal(after[name], before[name])
 
 
 def test_release_place_and_regrasp(fig9):
-    """Grasp -> release (tree splits) -> place on the table (non-rigid) -> the robot moves without it."""
+    """Grasp -> release (tree splits) -> place on the table (non-rigid) -> the robot moves
+    without it.
+    """
     world = World(fig9)
     world.detach("part")
     assert world.parent("part") == WORLD and "part" not in world.subtree("robot")

@@ -22,8 +22,11 @@ class SensorType(Protocol):
         """Cells along the sensor box's x, y and z axes."""
 
     def reading(self, name: str, sensor, grid: np.ndarray, touched: list[str], overlap) -> object:
-        """The SensorReading from the cells' interference ``grid`` (counts-shaped, bool) and what they touch;
-        ``overlap()`` gives the exact overlap volume with the touched bodies [m^3] (costly: call only if needed)."""
+        """The SensorReading of the cells' interference.
+
+        ``grid``: counts-shaped, bool; ``touched``: what the cells touch; ``overlap()`` gives
+        the exact overlap volume with the touched bodies [m^3] (costly: call only if needed).
+        """
 
     def cell_grid(self, reading) -> np.ndarray:
         """The reading back on the cells, counts-shaped (bool): what to colour as sensing."""
@@ -32,10 +35,14 @@ class SensorType(Protocol):
         """Lines for a terminal: the reading in words, then any text picture."""
 
     def panel(self, reading):
-        """(cells 2D bool, title, x label, y label) for a picture, or None when the type has no map."""
+        """(cells 2D bool, title, x label, y label) for a picture, or None when the type has no
+        map.
+        """
 
 
-SENSOR_TYPES: dict[str, SensorType] = {t.TYPE.name: t.TYPE for t in (touch, tactile, proximity, presence, force)}
+SENSOR_TYPES: dict[str, SensorType] = {
+    t.TYPE.name: t.TYPE for t in (touch, tactile, proximity, presence, force)
+}
 
 
 def sensor_type(name: str) -> SensorType:

@@ -24,7 +24,10 @@ class SingleCell:
 
     def describe(self, reading) -> list[str]:
         what = ", ".join(reading.objects) if reading.objects else "nothing"
-        return [f"{reading.sensor} ({self.name}): " + (f"{self.words[0]} - {what}" if reading.active else self.words[1])]
+        return [
+            f"{reading.sensor} ({self.name}): "
+            + (f"{self.words[0]} - {what}" if reading.active else self.words[1])
+        ]
 
     def panel(self, reading):
         return None

@@ -1,4 +1,6 @@
-"""Proximity sensors: the range box split into slices along +z; the nearest slice that meets something."""
+"""Proximity sensors: the range box split into slices along +z; the nearest slice that meets
+something.
+"""
 
 from __future__ import annotations
 
@@ -23,12 +25,25 @@ class Proximity:
 
     def describe(self, reading) -> list[str]:
         what = ", ".join(reading.objects) if reading.objects else "nothing"
-        found = f"slice {reading.value} of {len(reading.cells)} - {what}" if reading.value else "nothing in range"
+        found = (
+            f"slice {reading.value} of {len(reading.cells)} - {what}"
+            if reading.value
+            else "nothing in range"
+        )
         return [f"{reading.sensor} (proximity): {found}"]
 
     def panel(self, reading):
-        title = f"{reading.sensor}: slice {reading.value} of {len(reading.cells)}" if reading.value else f"{reading.sensor}: nothing in range"
-        return reading.cells[:, None], title, "", "slices (+z, away from the sensor)"  # a column, nearest at the bottom
+        title = (
+            f"{reading.sensor}: slice {reading.value} of {len(reading.cells)}"
+            if reading.value
+            else f"{reading.sensor}: nothing in range"
+        )
+        return (
+            reading.cells[:, None],
+            title,
+            "",
+            "slices (+z, away from the sensor)",
+        )  # a column, nearest at the bottom
 
 
 TYPE = Proximity()

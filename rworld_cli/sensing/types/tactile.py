@@ -21,7 +21,9 @@ class Tactile:
         return (sensor.cols, sensor.rows, 1)
 
     def reading(self, name, sensor, grid, touched, overlap) -> SensorReading:
-        return SensorReading(name, self.name, bool(grid.any()), touched, grid[:, :, 0].T.copy())  # rows along y
+        return SensorReading(
+            name, self.name, bool(grid.any()), touched, grid[:, :, 0].T.copy()
+        )  # rows along y
 
     def cell_grid(self, reading) -> np.ndarray:
         return reading.cells.T[:, :, None]
@@ -29,11 +31,19 @@ class Tactile:
     def describe(self, reading) -> list[str]:
         what = ", ".join(reading.objects) if reading.objects else "nothing"
         rows, cols = reading.cells.shape
-        head = f"{reading.sensor} (tactile {rows}x{cols}): {int(reading.cells.sum())} cell(s) in contact with {what}"
+        head = (
+            f"{reading.sensor} (tactile {rows}x{cols}): {int(reading.cells.sum())} cell(s) in "
+            f"contact with {what}"
+        )
         return [head] + ["    " + row for row in text_grid(reading.cells)]
 
     def panel(self, reading):
-        return reading.cells, f"{reading.sensor}: {int(reading.cells.sum())} of {reading.cells.size} cells", "cols (x)", "rows (y)"
+        return (
+            reading.cells,
+            f"{reading.sensor}: {int(reading.cells.sum())} of {reading.cells.size} cells",
+            "cols (x)",
+            "rows (y)",
+        )
 
 
 TYPE = Tactile()
