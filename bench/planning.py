@@ -7,13 +7,14 @@ Grid sizes count grid points, as toppra and the reference do (N points, N - 1 in
 
 Problems:
 
-* ``puma``: ../shared/reference/planning/puma560_path.json - the Puma 560
+* ``puma``: tests/data/reference/planning/puma560_path.json - the Puma 560
   (rigid body + armature, no friction), a clamped cubic spline through 5
   equally spaced waypoints, velocity / acceleration / torque limits in four
   sets (a: v + a rated; b: v + a + torque, rated and aggressive; c: v + torque).
-* ``ur5``: the UR5 of ../shared/reference/dynamics/ur5.json, a *natural*
-  spline through 5 waypoints at uneven knots [0, 0.12, 0.47, 0.71, 1],
-  UR's velocity limits (pi rad/s) and torque limits (150 / 28 N m).
+* ``ur5``: ``workcells/ur5`` (the reference UR5: DH and point-mass links) on
+  ``workcells/ur5/paths/natural.yaml``, a *natural* spline through 5
+  waypoints at uneven knots [0, 0.12, 0.47, 0.71, 1], under UR's velocity
+  limits (pi rad/s) and torque limits (150 / 28 N m).
 
 toppra 0.6 runs in its best ordinary setup: the seidel solver,
 ParametrizeConstAccel output, the torque constraint discretised by
@@ -50,7 +51,7 @@ from rworld_cli.planning.topp import Limits, limit_ratios, sample_trajectory, ti
 from rworld_cli.schema.loader import load_cell  # noqa: E402
 
 REF = json.loads(
-    (REPO.parent / "shared" / "reference" / "planning" / "puma560_path.json").read_text()
+    (REPO / "tests" / "data" / "reference" / "planning" / "puma560_path.json").read_text()
 )
 
 
@@ -61,13 +62,6 @@ def best(fn, repeat):
         out = fn()
         t = min(t, time.perf_counter() - t0)
     return out, t
-
-
-def ur5_device():
-    sys.path.insert(0, str(REPO))
-    from tests.reference import device_from_reference, load_reference
-
-    return device_from_reference(load_reference("ur5.json")["model"])
 
 
 def problems():
@@ -98,27 +92,17 @@ def problems():
             },
         )
     }
-    ur5_waypoints = np.array(
-        [
-            [0, -1.6, 1.4, -1.4, -1.57, 0],
-            [0.9, -1.0, 1.9, -2.2, -1.2, 0.7],
-            [1.8, -1.9, 0.6, -0.8, -1.9, 1.6],
-            [2.4, -1.2, 1.5, -1.6, -1.0, 0.2],
-            [3.0, -1.57, 1.57, -1.57, -1.57, 0],
-        ]
-    )
+    from rworld_cli.api import load_joint_path, planning_limits
+
+    ur5 = load_cell(REPO / "workcells" / "ur5").cell.devices["ur5"]
+    ur5_path = load_joint_path(str(REPO / "workcells" / "ur5" / "paths" / "natural.yaml"), ur5)
     out["ur5"] = (
-        ur5_device(),
-        np.array([0, 0.12, 0.47, 0.71, 1.0]),
-        ur5_waypoints,
-        "natural",
+        ur5,
+        ur5_path.knots,
+        ur5_path.waypoints,
+        ur5_path.boundary,
         np.array([0, 0, -9.81]),
-        {
-            "ur5_vtau": (
-                Limits(np.full(6, np.pi), None, np.array([150, 150, 150, 28, 28, 28.0])),
-                True,
-            ),
-        },
+        {"ur5_vtau": (planning_limits(ur5), True)},
     )
     return out
 

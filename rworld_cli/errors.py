@@ -3,9 +3,9 @@
 Every problem found in a user's file becomes an :class:`Issue` that knows its
 file, line and column, so the CLI can print ``file:line:col: where: message``
 lines that editors and CI logs link to.  Library code raises
-:class:`UserError` (bad input: exit code 2), :class:`CheckFailed` (a check
-failed: exit code 1) or :class:`InternalError` (a bug: exit code 3); only the
-CLI prints and exits.
+:class:`UserError` (bad input: exit code 2) or :class:`CheckFailed` (a check
+failed: exit code 1); any other exception is a bug, which the CLI reports
+with exit code 3.  Only the CLI prints and exits.
 """
 
 from __future__ import annotations
@@ -96,12 +96,6 @@ class CheckFailed(UserError):
     joint's range between its waypoints).  CLI exit code 1, with the located issues."""
 
     exit_code = 1
-
-
-class InternalError(RworldError):
-    """A bug in rworld.  CLI exit code 3."""
-
-    exit_code = 3
 
 
 def did_you_mean(word: str, choices, cutoff: float = 0.6) -> str:

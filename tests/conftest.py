@@ -11,7 +11,7 @@ from click.testing import CliRunner
 REPO = Path(__file__).resolve().parents[1]
 WORKCELLS = REPO / "workcells"
 EXAMPLE_CELLS = sorted(p.name for p in WORKCELLS.iterdir() if (p / "cell.yaml").is_file())
-REFERENCE = REPO.parent / "shared" / "reference"
+REFERENCE = REPO / "tests" / "data" / "reference"  # copied from shared/reference with provenance
 
 
 def run_cli(args: list[str], cwd: Path | None = None):

@@ -1,4 +1,4 @@
-"""Build rworld models from the reference JSON files in ../shared/reference/dynamics."""
+"""Build rworld models from the reference JSON files in tests/data/reference/dynamics."""
 
 from __future__ import annotations
 

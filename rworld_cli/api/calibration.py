@@ -4,8 +4,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from ..calibration.pipeline import CalibrationResult
 
 from ..errors import UserError
 
@@ -29,7 +33,7 @@ def parse_length(text: str, default_unit: str = "mm") -> float:
 
 @dataclass
 class CalibrationRun:
-    result: object  # CalibrationResult
+    result: CalibrationResult
     written: Path | None
     output: Path
     listed: bool  # the output is among the cell's pose files
@@ -155,7 +159,7 @@ def write_measurement_template(output: str, cell_name: str, plans) -> None:
     from ..model.measurements import FeatureProbes
     from ..schema.measurements import write_measurements
 
-    features = {}
+    features: dict = {}
     for plan in plans:
         for d in plan.directives:
             features.setdefault(d.feature, FeatureProbes(d.points, d.above, d.ordered, d.how))

@@ -5,8 +5,14 @@ loads.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from ..kinematics.jacobian import ToolMount
+    from ..model.cell import DeviceModel
+    from ..world.tree import World
 
 from ..errors import Issue, UserError
 from .cells import load_world
@@ -20,10 +26,10 @@ class DeviceContext:
     base.
     """
 
-    world: object  # World
-    device: object  # DeviceModel
+    world: World
+    device: DeviceModel
     tcp: str
-    mount: object  # ToolMount
+    mount: ToolMount
     T_world_base: np.ndarray
     gravity_base: np.ndarray
     warnings: list[Issue]

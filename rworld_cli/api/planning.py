@@ -5,8 +5,14 @@ controllers.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from ..planning.impulse import ImpulseResult
+    from ..planning.payload import Capacity
+    from ..planning.topp import Samples, Timing
 
 from ..errors import Issue, UserError
 from .physics import DeviceContext, carried_loads, device_dynamics
@@ -114,14 +120,11 @@ def planning_limits(device, torque: bool = True, acceleration: bool = True):
 
 
 def unlimited_joints(device, limits) -> dict[str, list[str]]:
-    """Per kind, the names of the joints that run unlimited in a plan with ``limits`` (no limit
-    in the cell).
-    """
-    names = [j.name for j in device.joints]
-    out = {kind: [names[j] for j in joints] for kind, joints in limits.unlimited().items()}
-    position = device.unlimited().get("position")
-    if position:
-        out = {"position": position, **out}
+    """Per kind, the joints a plan with ``limits`` runs unlimited in: those the cell gives no limit
+    of it (position, velocity, acceleration; torque when the plan checks torque at all)."""
+    out = device.unlimited()
+    if limits.effort is None:  # torque left out of the plan (--no-torque): not a missing limit
+        out.pop("torque", None)
     return out
 
 
@@ -279,7 +282,7 @@ def read_trajectory(csv_path: str, device) -> TimedTrajectory:
 
 @dataclass
 class PayloadResult:
-    capacity: object  # planning.payload.Capacity
+    capacity: Capacity
     duration: float  # [s]
     binding_time: float  # [s] from the start of the motion
     instants: int  # instants checked
@@ -309,6 +312,8 @@ def plan_payload(
         tr = read_trajectory(trajectory_file, ctx.device)
         t, q, qd, qdd, T = tr.t - tr.t[0], tr.q, tr.qd, tr.qdd, tr.duration
     else:
+        if path_file is None:
+            raise UserError("give the motion as --path FILE or --trajectory CSV")
         path = load_joint_path(path_file, ctx.device)
         if timing == "quintic":
             if duration is None or not duration > 0:
@@ -357,9 +362,9 @@ def plan_payload(
 class TimeOptimalPlan:
     """What ``rworld plan time-optimal`` reports (SI)."""
 
-    timing: object  # planning.topp.Timing
+    timing: Timing
     info: dict  # time_optimal's info
-    rows: object  # planning.topp.Samples: the instants written / checked
+    rows: Samples  # the instants written / checked
     peak_ratio: dict  # kind -> the largest |value| / limit over the rows
     binding: dict  # constraint -> share of the grid intervals it binds
     unlimited: dict  # kind -> joints without a limit of it
@@ -508,7 +513,7 @@ def load_optimal_plan(
 
 @dataclass
 class ImpulsePlan:
-    result: object  # planning.impulse.ImpulseResult
+    result: ImpulseResult
     direction_world: np.ndarray  # unit
     end_velocity_world: np.ndarray
     q_start: np.ndarray

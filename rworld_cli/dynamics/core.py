@@ -78,9 +78,8 @@ def combine_inertials(a: Inertial, b: Inertial) -> Inertial:
 
 
 def _as_batch(*arrays) -> tuple[bool, list[np.ndarray]]:
-    arrays = [np.asarray(a, dtype=float) for a in arrays]
-    single = arrays[0].ndim == 1
-    return single, arrays
+    out = [np.asarray(a, dtype=float) for a in arrays]
+    return out[0].ndim == 1, out
 
 
 def _columns(x: np.ndarray, single: bool) -> list:
@@ -257,7 +256,7 @@ class DeviceDynamics:
         M = self.mass_matrix(q)
         return np.linalg.solve(M, rhs[..., None])[..., 0]
 
-    def energy(self, q, qd, gravity=DEFAULT_GRAVITY) -> tuple[np.ndarray, np.ndarray]:
+    def energy(self, q, qd, gravity=DEFAULT_GRAVITY) -> tuple[np.ndarray, np.ndarray | float]:
         """Kinetic ``qd^T M qd / 2`` and potential ``-sum m_i g . c_i`` energy [J] (base frame)."""
         single, (q, qd) = self._check(q, qd)
         M = self.mass_matrix(q)

@@ -42,7 +42,12 @@ def chain_steps(em: Emitter, device: DeviceModel, q: list[Num]) -> list[ChainSte
     steps = []
     standard = device.convention == "standard"
     for joint, qi in zip(device.joints, q):
-        ca, sa = snap(math.cos(joint.alpha)), snap(math.sin(joint.alpha))
+        ca = snap(math.cos(joint.alpha))
+        sa = snap(math.sin(joint.alpha))
+        c: Num
+        s: Num
+        d: Num
+        R: tuple
         prismatic = joint.kind == "prismatic"
         if prismatic:
             c, s = snap(math.cos(joint.theta)), snap(math.sin(joint.theta))

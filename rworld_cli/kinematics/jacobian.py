@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..codegen import Emitter, Generated, snap
+from ..codegen import Emitter, Generated, Num, snap
 from ..model.cell import DeviceModel
 from .chain import chain_steps, device_key
 
@@ -44,7 +44,8 @@ def _generate(device: DeviceModel, mount_key: tuple, with_jacobian: bool) -> Gen
     link, T_flat = mount_key
     T = np.array(T_flat).reshape(4, 4)
     em = Emitter()
-    q = [f"q{i}" for i in range(n)]
+    names = [f"q{i}" for i in range(n)]
+    q: list[Num] = list(names)
     steps = chain_steps(em, device, q)
     R0 = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
     p0 = (0.0, 0.0, 0.0)
@@ -71,7 +72,7 @@ def _generate(device: DeviceModel, mount_key: tuple, with_jacobian: bool) -> Gen
             else:
                 cols.append(tuple(em.cross(axis, em.vsub(pt, point))) + tuple(axis))
         outputs += [cols[c][r] for r in range(6) for c in range(n)]  # row-major 6 x n
-    return em.compile("fk_jacobian", q, outputs)
+    return em.compile("fk_jacobian", names, outputs)
 
 
 _CACHE: dict[tuple, Generated] = {}

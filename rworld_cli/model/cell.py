@@ -324,9 +324,13 @@ class AffixmentDecl:
     kind: str | None = None
 
 
-@dataclass
+@dataclass(frozen=True)
 class CellModel:
     """Everything a cell file and its pose files declare, in SI.
+
+    Frozen: its fields are not reassigned after loading, and its dicts are read-only by
+    convention (the runtime state - joint values, affixments, poses that move - lives in
+    :class:`~rworld_cli.world.tree.World`).
 
     Attributes
     ----------

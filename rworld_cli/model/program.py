@@ -5,6 +5,7 @@ cell.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -34,7 +35,7 @@ class Step:
 
     index: int
     kind: str
-    spec: object
+    spec: Any
     where: str
     T_offset: np.ndarray = field(default_factory=lambda: np.eye(4))
 

@@ -12,6 +12,7 @@ joint without any payload.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -82,7 +83,7 @@ class LoadOptimal:
     time_optimal_capacity: float  # capacity of the unloaded time-optimal timing (v + a limits) [kg]
     quintic_capacity: float  # capacity of a quintic time law over the same duration [kg]
     static_capacity: float  # the limit as the cycle time grows: gravity only [kg]
-    path: object = None  # the JointPath timed (reshaped when the knots were optimised)
+    path: Any = None  # the JointPath timed (reshaped when the knots were optimised)
     given_shape_mass: float | None = (
         None  # with the knots optimised: the mass on the path as given [kg]
     )

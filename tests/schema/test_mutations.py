@@ -17,6 +17,8 @@ import yaml
 
 from tests.conftest import EXAMPLE_CELLS, WORKCELLS, run_cli
 
+pytestmark = pytest.mark.slow  # the mutation sweeps take half the suite's time; CI runs them
+
 WRONG_VALUES = ["oops", -1, 0, None, [1, 2], {"k": 1}, True, 1e300, ""]
 LINE = re.compile(r"^\S+?(:\d+:\d+)?: (warning: )?\S+: .+$")
 

@@ -19,6 +19,8 @@ from rworld_cli.simulate.engine import simulate
 from tests.conftest import WORKCELLS
 from tests.schema.test_mutations import _set, mutants
 
+pytestmark = pytest.mark.slow  # the mutation sweeps take half the suite's time; CI runs them
+
 CASES = [
     ("puma560", "programs/pick_place.yaml", "runs/pick_place.yaml"),
     ("paper_fig9", "programs/robot.yaml", "runs/transfer.yaml"),
