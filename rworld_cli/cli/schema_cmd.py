@@ -27,7 +27,7 @@ from .common import EXIT_CHECK_FAILED, emit_json, handle_errors, json_option
 @json_option
 @handle_errors
 def schema(output: str, check: bool, json_output: bool) -> None:
-    """Write the JSON Schemas of the file formats (cell.schema.json, poses.schema.json).
+    """Write the JSON Schemas of every file format: cell, poses, program, run, path, measurements.
 
     The schemas are generated from the same models that validate the files,
     so an editor that uses them (e.g. the YAML language server, via a

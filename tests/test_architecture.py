@@ -1,0 +1,127 @@
+"""The house rules, checked: one direction of imports between rooms, lint, format and types.
+
+docs/architecture.md: ``model/`` at the bottom; ``schema/`` (files) and the calculation rooms
+above it, side by side, never importing each other; ``api/`` above both; ``cli/`` on top.
+"""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+
+import pytest
+
+from tests.conftest import REPO
+
+PACKAGE = REPO / "rworld_cli"
+CALCULATION = {
+    "world",
+    "kinematics",
+    "dynamics",
+    "motion",
+    "sensing",
+    "calibration",
+    "planning",
+    "simulate",
+}
+# shared utilities every room may use: they know no room
+COMMON = {"errors", "units", "spatial", "codegen", "fileio"}
+
+
+def room_of(module: str) -> str:
+    """'rworld_cli.schema.loader' -> 'schema'; top-level modules are their own room."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else ""
+
+
+def is_module(package: str, name: str) -> bool:
+    base = REPO.joinpath(*package.split("."))
+    return (base / f"{name}.py").is_file() or (base / name).is_dir()
+
+
+def imports() -> dict[str, set[str]]:
+    """module -> the rworld_cli modules it imports (relative imports resolved)."""
+    out = {}
+    for path in PACKAGE.rglob("*.py"):
+        rel = path.relative_to(REPO).with_suffix("")
+        parts = list(rel.parts)
+        module = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        package = module if parts[-1] == "__init__" else module.rsplit(".", 1)[0]
+        found = set()
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                if node.level:
+                    base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                    target = ".".join(base + ([node.module] if node.module else []))
+                else:
+                    target = node.module or ""
+                if target.startswith("rworld_cli"):
+                    found.add(target)
+                    if node.module is None or target.count(".") == 0:  # from .. import spatial
+                        found |= {
+                            f"{target}.{a.name}" for a in node.names if is_module(target, a.name)
+                        }
+            elif isinstance(node, ast.Import):
+                found |= {a.name for a in node.names if a.name.startswith("rworld_cli")}
+        out[module] = found
+    return out
+
+
+ALLOWED = {
+    "model": {"model"} | COMMON,
+    "schema": {"schema", "model"} | COMMON,
+    "world": {"world", "model"} | COMMON,
+    **{room: CALCULATION | {"model"} | COMMON for room in CALCULATION - {"world"}},
+    "api": {"api", "schema", "model"} | CALCULATION | COMMON,
+    "cli": {"cli", "api", "errors", "units", ""},  # units: for showing arcsec
+}
+
+
+def test_rooms_import_in_one_direction():
+    wrong = []
+    for module, targets in imports().items():
+        room = room_of(module)
+        if room not in ALLOWED:
+            continue
+        for target in targets:
+            if room_of(target) not in ALLOWED[room] and target != "rworld_cli":
+                wrong.append(f"{module} imports {target}")
+    assert not wrong, "\n".join(sorted(wrong))
+
+
+def test_calculation_rooms_never_read_files():
+    """The calculation rooms take plain data: no file format (schema/), no task (api/), no CLI."""
+    for module, targets in imports().items():
+        if room_of(module) in CALCULATION:
+            assert not {t for t in targets if room_of(t) in ("schema", "api", "cli")}, module
+
+
+def test_world_knows_no_kinematics():
+    for module, targets in imports().items():
+        if room_of(module) == "world":
+            assert not {t for t in targets if room_of(t) in ("kinematics", "dynamics", "schema")}, (
+                module
+            )
+
+
+def run(*args):
+    return subprocess.run([sys.executable, "-m", *args], cwd=REPO, capture_output=True, text=True)
+
+
+@pytest.mark.parametrize(
+    "tool",
+    [
+        ("ruff", "check", "rworld_cli", "tests", "bench"),
+        ("ruff", "format", "--check", "rworld_cli", "tests", "bench"),
+    ],
+)
+def test_lint_and_format_are_clean(tool):
+    result = run(*tool)
+    assert result.returncode == 0, result.stdout + result.stderr
+
+
+def test_types_check_on_the_typed_rooms():
+    """mypy on model/, spatial, kinematics, dynamics and api/ (pyproject.toml [tool.mypy])."""
+    result = run("mypy")
+    assert result.returncode == 0, result.stdout + result.stderr
