@@ -112,8 +112,8 @@ def run(*args):
 @pytest.mark.parametrize(
     "tool",
     [
-        ("ruff", "check", "rworld_cli", "tests", "bench"),
-        ("ruff", "format", "--check", "rworld_cli", "tests", "bench"),
+        ("ruff", "check", "rworld_cli", "tests", "bench", "docs"),
+        ("ruff", "format", "--check", "rworld_cli", "tests", "bench", "docs"),
     ],
 )
 def test_lint_and_format_are_clean(tool):
