@@ -15,13 +15,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..model.cell import CellModel
+from ..units import MIN_POINTS as MINIMUM
 from ..world.tree import World
 from .fit import fit_circle, fit_line, fit_plane, fit_point
 from .pipeline import probe_points
 from .solve import REFUSE_CONDITION, _jacobian
 
 LADDER = [3, 4, 6, 8, 10, 15, 20, 30, 50]
-from ..units import MIN_POINTS as MINIMUM  # noqa: E402
 
 
 @dataclass

@@ -26,7 +26,7 @@ from .. import spatial
 from ..errors import Issue, UserError, did_you_mean
 from ..model import cell as wm
 from ..model import rules
-from ..units import ANGLE, LENGTH  # noqa: E402  (one home for unit factors)
+from ..units import ANGLE, LENGTH
 from . import models as sm
 from .messages import pydantic_issues
 from .yamlio import Marked, read_yaml

@@ -28,7 +28,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..units import SENSING_TOLERANCE as DEFAULT_TOLERANCE  # noqa: E402  (m: surfaces this close to a cell touch it)
+from ..units import SENSING_TOLERANCE as DEFAULT_TOLERANCE
 
 
 @dataclass(frozen=True)
