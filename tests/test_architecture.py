@@ -24,6 +24,7 @@ CALCULATION = {
     "calibration",
     "planning",
     "simulate",
+    "collision",
 }
 # shared utilities every room may use: they know no room
 COMMON = {"errors", "units", "spatial", "codegen", "fileio"}

@@ -19,6 +19,7 @@ from .cells import (  # noqa: F401
     CellSummary,
     FileReport,
     FrameNode,
+    clearance,
     load_world,
     schema_documents,
     stale_schemas,
@@ -76,6 +77,9 @@ from .sensing import (  # noqa: F401
     write_sensor_maps,
 )
 from .simulation import (  # noqa: F401
+    collision_notes,
+    parse_length_option,
+    render_run_contact,
     run_path,
     run_summary,
     simulate_run,

@@ -411,3 +411,18 @@ def stale_schemas(directory: str | Path) -> list[str]:
         if not path.is_file() or path.read_text(encoding="utf-8") != text:
             stale.append(filename)
     return stale
+
+
+def clearance(cell_path: str, joints: dict[str, list[float]] | None = None):
+    """Exact distances of every body pair of a cell in one state (home unless ``joints``).
+
+    Returns
+    -------
+    (list of PairClearance nearest first, CollisionModel)
+    """
+    from ..collision.bodies import collision_model
+    from ..collision.static import pair_clearances
+
+    world, _ = load_world(cell_path, joints)
+    model = collision_model(world.cell)
+    return pair_clearances(world, model), model

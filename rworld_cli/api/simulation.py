@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..errors import UserError
+
 
 def run_path(cell: str, run: str) -> str:
     """RUN may be a file, or the name of CELL/runs/RUN.yaml."""
@@ -17,13 +19,25 @@ def run_path(cell: str, run: str) -> str:
     return str(candidate) if candidate.is_file() else run
 
 
-def simulate_run(cell: str, run: str, dt: float | None = None, progress=None):
+def simulate_run(
+    cell: str,
+    run: str,
+    dt: float | None = None,
+    progress=None,
+    clearance: float | str | None = None,
+    collision_tolerance: float | str | None = None,
+    collisions: bool = True,
+):
     """Load RUN's programs on CELL (located errors) and simulate them on one clock.
 
     Parameters
     ----------
     progress : callable(done, total, what), optional
         Called as the work proceeds.
+    clearance, collision_tolerance : float [m] or str ('10mm'), optional
+        Override the run file's values (docs/collision.md).
+    collisions : bool
+        Check collisions and clearance (default); False skips the check.
 
     Returns
     -------
@@ -33,7 +47,24 @@ def simulate_run(cell: str, run: str, dt: float | None = None, progress=None):
     from ..simulate.engine import simulate
 
     loaded = load_run(cell, run_path(cell, run), dt)
-    return loaded, simulate(loaded, progress)
+    if clearance is not None:
+        loaded.clearance = _length(clearance, "--clearance")
+    if collision_tolerance is not None:
+        loaded.collision_tolerance = _length(collision_tolerance, "--collision-tolerance")
+        if loaded.collision_tolerance <= 0:
+            raise UserError(
+                "--collision-tolerance must be above 0: no check between instants can be exact"
+            )
+    return loaded, simulate(loaded, progress, collisions)
+
+
+def _length(value, what: str) -> float:
+    from ..units import parse_length
+
+    try:
+        return parse_length(value, what)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
 
 
 def write_run_outputs(result, directory: str, plots: bool = False) -> list[Path]:
@@ -61,3 +92,76 @@ def unlimited_notes(result) -> list[str]:
     from ..simulate.output import unlimited_lines
 
     return unlimited_lines(result.unlimited)
+
+
+def collision_notes(result) -> list[str]:
+    """What the collision check could not look at: bodies without geometry, open meshes."""
+    report = result.collisions
+    if report is None:
+        return []
+    notes = []
+    if report.unchecked:
+        notes.append(f"not checked for collisions (no geometry): {', '.join(report.unchecked)}")
+    if report.open_meshes:
+        notes.append(
+            "meshes that are not closed solids, checked as surfaces only: "
+            + ", ".join(report.open_meshes)
+        )
+    return notes
+
+
+def parse_length_option(value, what: str) -> float:
+    """A length option ('10mm', '0.01m', '0.01') in metres; UserError (exit 2) otherwise."""
+    return _length(value, what)
+
+
+def render_run_contact(
+    cell: str,
+    run: str,
+    output: str,
+    view: tuple[float, float] = (25.0, -60.0),
+    frames: bool = True,
+    clearance: float | str | None = None,
+    collision_tolerance: float | str | None = None,
+):
+    """Simulate RUN and draw the state of its first contact (its deepest instant), the two
+    bodies in the collision colour: a PNG or a .glb by the file's suffix.
+
+    Returns
+    -------
+    (Path, RunContact)
+    """
+    from ..sensing.render import render_glb, render_png
+    from ..units import SENSING_TOLERANCE
+    from ..world.tree import World
+
+    suffix = output.lower().rsplit(".", 1)[-1] if "." in output else ""
+    if suffix not in ("png", "glb"):
+        raise UserError(f"cannot tell the format of '{output}': give a .png or .glb file")
+    loaded, result = simulate_run(
+        cell, run, None, None, clearance, collision_tolerance, collisions=True
+    )
+    report = result.collisions
+    if report.first_state is None:
+        raise UserError(f"{result.run}: no collision or clearance violation to draw")
+    state = report.first_state
+    world = World(loaded.cell)
+    world.restore(state["snap"])
+    for device, q in state["joints"].items():
+        world.set_joints(device, q)
+    first = next(rc for rc in report.contacts if (rc.contact.a, rc.contact.b) == state["pair"])
+    title = f"{loaded.cell.name}: {first.describe().split(';')[0]} (t = {state['t']:.3f} s)"
+    if suffix == "png":
+        path = render_png(
+            world,
+            output,
+            SENSING_TOLERANCE,
+            view,
+            frames,
+            highlight=state["pair"],
+            title=title,
+            marks=[first.contact.point_a, first.contact.point_b],
+        )
+    else:
+        path = render_glb(world, output, SENSING_TOLERANCE, highlight=state["pair"])
+    return path, first

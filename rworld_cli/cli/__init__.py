@@ -36,7 +36,16 @@ COMMANDS = {
         "simulate",
         "Run programs of several devices on one clock; timelines, events, limits, plots.",
     ),
-    "check": ("simulate", "check", "For CI: exit 1 when a run's programs break a joint limit."),
+    "check": (
+        "simulate",
+        "check",
+        "For CI: exit 1 when a run's programs break a joint limit, collide or come too close.",
+    ),
+    "clearance": (
+        "clearance",
+        "clearance",
+        "Distances between all bodies of a cell in one state; exit 1 on a collision.",
+    ),
     "sense": (
         "sense",
         "sense",
@@ -45,7 +54,8 @@ COMMANDS = {
     "render": (
         "render",
         "render",
-        "Draw a cell (PNG) or export it as glTF (.glb), sensors colour-coded.",
+        "Draw a cell (PNG) or export it as glTF (.glb), sensors colour-coded; or a run's first "
+        "contact.",
     ),
     "calibrate": (
         "calibrate",

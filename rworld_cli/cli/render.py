@@ -36,9 +36,22 @@ from .common import emit_json, handle_errors, json_option, parse_joint_assignmen
     default=None,
     help="Sensor touching tolerance [m] (default 1e-6, docs/sensing.md).",
 )
+@click.option(
+    "--run",
+    default=None,
+    metavar="RUN",
+    help="Simulate RUN and draw its first collision (or clearance violation), the pair "
+    "highlighted.",
+)
+@click.option(
+    "--clearance",
+    default=None,
+    metavar="LENGTH",
+    help="With --run: the required clearance, e.g. 10mm (default: the run file's).",
+)
 @json_option
 @handle_errors
-def render(cell, output, joints, view, no_frames, tolerance, json_output):
+def render(cell, output, joints, view, no_frames, tolerance, run, clearance, json_output):
     """Draw CELL: objects, devices, frame triads, sensors with colour-coded cells.
 
     A sensor cell is red when it senses something, green when free (the
@@ -50,11 +63,24 @@ def render(cell, output, joints, view, no_frames, tolerance, json_output):
       rworld render workcells/paper_fig9 -o cell.png
       rworld render workcells/paper_fig9 -o cell.glb
       rworld render workcells/puma560 --joints puma=0,0.5,-1,0,0.3,0 -o puma.png --view 20,-120
+      rworld render workcells/puma560 --run pick_place -o first_contact.png
     """
-    from ..api import render_scene
+    from ..api import render_run_contact, render_scene
     from .physics_common import parse_vector
 
     elev, azim = parse_vector(view, "--view", 2)
+    if run is not None:
+        if joints:
+            raise click.UsageError("--run draws the run's own state: leave out --joints")
+        written, contact = render_run_contact(
+            cell, run, output, (elev, azim), not no_frames, clearance
+        )
+        if json_output:
+            emit_json({"cell": cell, "written": str(written), "contact": contact.as_dict()})
+        else:
+            click.echo(contact.describe())
+            click.echo(f"wrote {written}")
+        return
     written = render_scene(
         cell, output, parse_joint_assignments(joints), tolerance, (elev, azim), not no_frames
     )

@@ -9,11 +9,11 @@ import click
 from .common import EXIT_CHECK_FAILED, emit_json, handle_errors, json_option
 
 
-def _simulate(cell: str, run: str, dt: float | None, show_progress: bool):
+def _simulate(cell: str, run: str, dt: float | None, show_progress: bool, checks: dict):
     from ..api import simulate_run
 
     if not show_progress:
-        return simulate_run(cell, run, dt)
+        return simulate_run(cell, run, dt, None, **checks)
     from rich.progress import Progress
 
     with Progress(transient=True) as bar:
@@ -22,7 +22,40 @@ def _simulate(cell: str, run: str, dt: float | None, show_progress: bool):
         def progress(done, total, what):
             bar.update(task, completed=done, total=total, description=what)
 
-        return simulate_run(cell, run, dt, progress)
+        return simulate_run(cell, run, dt, progress, **checks)
+
+
+def collision_options(fn):
+    """--clearance, --collision-tolerance, --no-collisions (docs/collision.md)."""
+    fn = click.option(
+        "--no-collisions",
+        "no_collisions",
+        is_flag=True,
+        help="Skip the collision and clearance check (limits only).",
+    )(fn)
+    fn = click.option(
+        "--collision-tolerance",
+        default=None,
+        metavar="LENGTH",
+        help="Contacts shallower than this may be missed between clock samples; deeper ones "
+        "never are (default: the run file's, else 1mm).",
+    )(fn)
+    fn = click.option(
+        "--clearance",
+        default=None,
+        metavar="LENGTH",
+        help="Required distance between bodies that may not touch, e.g. 10mm; closer is a "
+        "violation (default: the run file's, else contact only).",
+    )(fn)
+    return fn
+
+
+def _checks(clearance, collision_tolerance, no_collisions) -> dict:
+    return {
+        "clearance": clearance,
+        "collision_tolerance": collision_tolerance,
+        "collisions": not no_collisions,
+    }
 
 
 @click.command()
@@ -46,27 +79,40 @@ def _simulate(cell: str, run: str, dt: float | None, show_progress: bool):
     is_flag=True,
     help="Also write PNG plots of joint positions and limit ratios (needs -o).",
 )
+@collision_options
 @json_option
 @handle_errors
-def simulate(cell, run, output, dt, plot, json_output):
+def simulate(
+    cell, run, output, dt, plot, clearance, collision_tolerance, no_collisions, json_output
+):
     """Run the programs of RUN on CELL: several devices on one clock.
 
     RUN is a run file (or the name of CELL/runs/RUN.yaml) listing the
     programs that run together.  Prints cycle times, peak ratios of
     velocity, acceleration and torque to their limits, the events
-    (grasps, releases, tool changes, syncs) and any limit violations.
+    (grasps, releases, tool changes, syncs), any limit violations, and
+    collisions and clearance violations with the steps that caused them.
+    With -o it also writes collisions.json and a clearance column in the
+    timelines.
 
     \b
     Examples:
       rworld simulate workcells/puma560 pick_place
       rworld simulate workcells/paper_fig9 transfer -o out/fig9 --plot
+      rworld simulate workcells/paper_fig9 transfer --clearance 5mm
       rworld simulate workcells/paper_fig9 transfer --json | jq .cycle_time
     """
     from ..api import run_summary, write_run_outputs
 
     if plot and not output:
         raise click.UsageError("--plot writes PNG files: give the directory with -o DIR")
-    loaded, result = _simulate(cell, run, dt, not json_output and sys.stderr.isatty())
+    loaded, result = _simulate(
+        cell,
+        run,
+        dt,
+        not json_output and sys.stderr.isatty(),
+        _checks(clearance, collision_tolerance, no_collisions),
+    )
     written = write_run_outputs(result, output, plot) if output else []
     if json_output:
         payload = run_summary(result)
@@ -90,40 +136,80 @@ def simulate(cell, run, output, dt, plot, json_output):
     default=None,
     help="Clock step [s] (default: the run file's).",
 )
+@collision_options
 @json_option
 @handle_errors
-def check(cell, run, dt, json_output):
-    """For CI: exit 0 when every program of RUN runs within all limits, 1 with the violations
-    otherwise.
+def check(cell, run, dt, clearance, collision_tolerance, no_collisions, json_output):
+    """For CI: exit 0 when every program of RUN runs within all limits and without collisions
+    (or clearance violations), 1 with them otherwise.
 
-    Bad input (files, names, unreachable targets) exits 2 as everywhere.
+    Each collision names the pair, its time span, its depth and contact point, and the device,
+    step and program line that were running.  No contact deeper than the collision tolerance
+    is missed between clock samples (docs/collision.md).  Bad input (files, names, unreachable
+    targets) exits 2 as everywhere.
 
     \b
-    Example:
+    Examples:
       rworld check workcells/paper_fig9 transfer
+      rworld check workcells/puma560 pick_place --clearance 10mm --json
     """
     from ..api import run_summary, unlimited_notes
 
-    _, result = _simulate(cell, run, dt, False)
+    _, result = _simulate(
+        cell, run, dt, False, _checks(clearance, collision_tolerance, no_collisions)
+    )
     if json_output:
         summary = run_summary(result)
         emit_json(
-            {k: summary[k] for k in ("cell", "run", "ok", "cycle_time", "violations", "unlimited")}
+            {
+                k: summary[k]
+                for k in (
+                    "cell",
+                    "run",
+                    "ok",
+                    "cycle_time",
+                    "violations",
+                    "collisions",
+                    "unlimited",
+                )
+            }
         )
         if not result.ok:
             sys.exit(EXIT_CHECK_FAILED)
         return
-    for line in unlimited_notes(result):
+    from ..api import collision_notes
+
+    for line in unlimited_notes(result) + collision_notes(result):
         click.echo(f"note: {line}", err=True)
+    report = result.collisions
     if result.ok:
+        free = (
+            ", no collisions"
+            + (
+                f", {1000 * report.required_clearance:g} mm clearance kept"
+                if report.required_clearance
+                else ""
+            )
+            if report is not None
+            else " (collisions not checked)"
+        )
         click.echo(
-            f"ok: {result.run}: {len(result.devices)} device(s) within all limits, cycle time "
-            f"{result.cycle_time:.3f} s"
+            f"ok: {result.run}: {len(result.devices)} device(s) within all limits{free}, cycle "
+            f"time {result.cycle_time:.3f} s"
         )
     else:
         for v in result.violations:
             click.echo(f"violation: {v.describe()}", err=True)
-        click.echo(f"failed: {result.run}: {len(result.violations)} limit violation(s)", err=True)
+        contacts = report.contacts if report is not None else []
+        for c in contacts:
+            click.echo(c.describe(), err=True)
+        parts = [f"{len(result.violations)} limit violation(s)"]
+        if report is not None:
+            parts += [
+                f"{len(report.collisions)} collision(s)",
+                f"{len(report.clearance_violations)} clearance violation(s)",
+            ]
+        click.echo(f"failed: {result.run}: {', '.join(parts)}", err=True)
     if not result.ok:
         sys.exit(EXIT_CHECK_FAILED)
 
@@ -189,3 +275,24 @@ def _render(result) -> None:
         console.print()
         for v in result.violations:
             console.print(f"[red]violation[/]: {v.describe()}", markup=True)
+    report = result.collisions
+    if report is not None:
+        from ..api import collision_notes
+
+        console.print()
+        for line in collision_notes(result):
+            console.print(f"[yellow]note[/]: {line}", markup=True)
+        for c in report.contacts:
+            kind, text = c.describe().split(": ", 1)
+            console.print(f"[red]{kind}[/]: {text}", markup=True, soft_wrap=True)
+        if not report.contacts:
+            clear = (
+                f", {1000 * report.required_clearance:g} mm clearance kept"
+                if report.required_clearance
+                else ""
+            )
+            console.print(
+                f"no collisions deeper than {1000 * report.tolerance:g} mm{clear} "
+                f"({report.queries} exact pair queries, {report.refinements} states between "
+                "samples)"
+            )

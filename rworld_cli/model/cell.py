@@ -325,6 +325,17 @@ class AffixmentDecl:
 
 
 @dataclass(frozen=True)
+class AllowedContactDecl:
+    """Bodies that may touch each other (pairs between different names of ``names``).
+
+    A name is an object, a device (all its bodies) or a link frame ``device.link``.
+    """
+
+    names: tuple[str, ...]
+    reason: str
+
+
+@dataclass(frozen=True)
 class CellModel:
     """Everything a cell file and its pose files declare, in SI.
 
@@ -354,6 +365,7 @@ class CellModel:
     pose_files: list[Path] = field(default_factory=list)
     pose_sources: dict[str, Path] = field(default_factory=dict)
     description: str | None = None
+    allowed_contacts: tuple[AllowedContactDecl, ...] = ()
 
     def primitive_kind(self, name: str) -> PrimitiveKind | None:
         if name in self.objects:

@@ -76,3 +76,5 @@ class Run:
     dt: float
     file: str
     warnings: list[Issue] = field(default_factory=list)
+    clearance: float = 0.0  # required distance between bodies that may not touch [m]
+    collision_tolerance: float = 1e-3  # contacts shallower may be missed between instants [m]

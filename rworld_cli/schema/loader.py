@@ -313,6 +313,7 @@ class _Builder:
         conditions = self._conditions()
         poses, sources, files = self._poses()
         self._check_cycles(affixments)
+        allowed = self._allowed_contacts(objects, devices)
         return wm.CellModel(
             name=cf.name,
             path=cell_path,
@@ -328,7 +329,24 @@ class _Builder:
             pose_files=files,
             pose_sources=sources,
             description=cf.description,
+            allowed_contacts=allowed,
         )
+
+    def _allowed_contacts(self, objects, devices) -> tuple[wm.AllowedContactDecl, ...]:
+        bodies = body_names(objects, devices)
+        out = []
+        for i, group in enumerate(self.cf.allowed_contacts):
+            ok = True
+            for k, name in enumerate(group.between):
+                if name not in bodies:
+                    self.err(
+                        ("allowed_contacts", i, "between", k),
+                        f"unknown object, device or link '{name}'{did_you_mean(name, bodies)}",
+                    )
+                    ok = False
+            if ok:
+                out.append(wm.AllowedContactDecl(tuple(group.between), group.reason))
+        return tuple(out)
 
     def _owns(self, name, path) -> bool:
         return self.primitives.get(name, (None, None))[1] == path
@@ -1055,3 +1073,11 @@ class _Builder:
                     "rpy: [r, p, y]}'",
                 )
         return poses, sources, files
+
+
+def body_names(objects, devices) -> list[str]:
+    """Names a collision rule may give: objects, devices, and links as ``device.link``."""
+    names = list(objects) + list(devices)
+    for dev in devices.values():
+        names += list(dev.link_frames)
+    return names

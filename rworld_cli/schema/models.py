@@ -465,6 +465,15 @@ class Condition(Strict):
 # --------------------------------------------------------------------------- files
 
 
+class AllowedContact(Strict):
+    """Bodies that may touch: every pair between two different names of the group."""
+
+    between: Annotated[list[Name], Len(2)] = Field(
+        description="Objects, devices (all their bodies) or links as 'device.link'."
+    )
+    reason: Annotated[str, Len(1)] = Field(description="Why touching is fine here (for reviewers).")
+
+
 class CellFile(Strict):
     """A workcell: structure, geometry, devices, features, affixments and frame conditions."""
 
@@ -489,6 +498,11 @@ class CellFile(Strict):
     )
     conditions: list[Condition] = Field(
         default_factory=list, description="Frame conditions for calibration."
+    )
+    allowed_contacts: list[AllowedContact] = Field(
+        default_factory=list,
+        description="Body pairs the collision check lets touch, beyond those the world state "
+        "allows (adjacent links, grasps, resting, tools, aggregation).",
     )
 
 

@@ -45,6 +45,11 @@ class MoveSpec(Strict):
     until: Name | None = Field(
         None, description="Guarded move: stop where this sensor first senses something."
     )
+    touch: list[Name] = Field(
+        default_factory=list,
+        description="Bodies the device and what it carries may touch during this move (a probe, "
+        "a guarded approach, setting a part down): objects, devices or links as 'device.link'.",
+    )
 
 
 class ObjectRef(Strict):
@@ -163,6 +168,16 @@ class RunFile(Strict):
     )
     dt: Annotated[float, Field(gt=0, le=1)] = Field(
         0.01, description="Time step of the uniform clock [s]."
+    )
+    clearance: float | str | None = Field(
+        None,
+        description="Required distance between bodies that may not touch, e.g. '10mm' (a bare "
+        "number is metres); closer is a violation. Default: contact only.",
+    )
+    collision_tolerance: float | str | None = Field(
+        None,
+        description="Contacts shallower than this may be missed between two simulated instants "
+        "(default 1mm); see docs/collision.md.",
     )
 
 

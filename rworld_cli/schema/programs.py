@@ -12,9 +12,9 @@ import numpy as np
 from ..errors import Issue, UserError, did_you_mean
 from ..model.cell import CellModel
 from ..model.program import Program, Run, Step
-from ..units import ANGLE, LENGTH
+from ..units import ANGLE, COLLISION_TOLERANCE, LENGTH, parse_length
 from . import program as sp
-from .loader import load_cell, pose_to_matrix, validate_document
+from .loader import body_names, load_cell, pose_to_matrix, validate_document
 from .yamlio import Marked, read_yaml
 
 
@@ -86,6 +86,17 @@ def _check_program(
                         f"unknown sensor '{spec.until}'{did_you_mean(spec.until, cell.sensors)}",
                     )
                 )
+            if spec.touch:
+                bodies = body_names(cell.objects, cell.devices)
+                for k, name in enumerate(spec.touch):
+                    if name not in bodies:
+                        issues.append(
+                            doc.issue(
+                                path + ("touch", k),
+                                f"unknown object, device or link '{name}'"
+                                f"{did_you_mean(name, bodies)}",
+                            )
+                        )
             if spec.offset is not None:
                 T, error, warning = pose_to_matrix(spec.offset, L, A)
                 if error:
@@ -195,9 +206,33 @@ def load_run(cell_path: str, run_path: str, dt: float | None = None) -> Run:
                         "warning",
                     )
                 )
+    lengths = {}
+    for key in ("clearance", "collision_tolerance"):
+        value = getattr(rf, key)
+        if value is None:
+            continue
+        try:
+            lengths[key] = parse_length(value, key)
+        except ValueError as exc:
+            issues.append(run_doc.issue((key,), str(exc)))
+    if lengths.get("collision_tolerance") == 0.0:
+        issues.append(
+            run_doc.issue(
+                ("collision_tolerance",),
+                "collision_tolerance must be above 0: no check between instants can be exact",
+            )
+        )
     if issues:
         raise UserError(
             f"{run_path}: {len(issues)} error(s)",
             sorted(issues, key=lambda i: (i.file, i.line, i.column)),
         )
-    return Run(cell, programs, dt if dt is not None else rf.dt, run_path, warnings)
+    return Run(
+        cell,
+        programs,
+        dt if dt is not None else rf.dt,
+        run_path,
+        warnings,
+        clearance=lengths.get("clearance", 0.0),
+        collision_tolerance=lengths.get("collision_tolerance", COLLISION_TOLERANCE),
+    )

@@ -16,7 +16,13 @@ from .geometry import shape_mesh
 from .sensors import read_sensors, sensable_bodies
 from .types import sensor_type
 
-COLORS = {"object": "#9aa5b1", "device": "#4c78a8", "contact": "#d62728", "free": "#3a9d5d"}
+COLORS = {
+    "object": "#9aa5b1",
+    "device": "#4c78a8",
+    "contact": "#d62728",
+    "free": "#3a9d5d",
+    "colliding": "#ff7f0e",  # bodies in a collision (rworld render --run)
+}
 
 
 def _cell_boxes(sensor, reading):
@@ -34,8 +40,9 @@ def _cell_boxes(sensor, reading):
     return out
 
 
-def _scene_meshes(world, tolerance):
-    """(name, vertices (V, 3) world, faces, colour) of everything to draw."""
+def _scene_meshes(world, tolerance, highlight=()):
+    """(name, vertices (V, 3) world, faces, colour) of everything to draw; bodies named in
+    ``highlight`` in the collision colour."""
     import trimesh
 
     items = []
@@ -43,8 +50,9 @@ def _scene_meshes(world, tolerance):
         mesh = shape_mesh(body.shape)
         v = mesh.vertices @ body.T_world_owner[:3, :3].T + body.T_world_owner[:3, 3]
         kind = world.cell.primitive_kind(body.owner)
+        colour = COLORS["device" if kind == "device" else "object"]
         items.append(
-            (body.label, v, mesh.faces, COLORS["device" if kind == "device" else "object"])
+            (body.label, v, mesh.faces, COLORS["colliding"] if body.label in highlight else colour)
         )
     readings = {r.sensor: r for r in read_sensors(world, tolerance=tolerance)}
     for name, sensor in world.cell.sensors.items():
@@ -65,26 +73,32 @@ def render_png(
     tolerance: float,
     view: tuple[float, float] = (25.0, -60.0),
     triads: bool = True,
+    highlight: tuple[str, ...] = (),
+    title: str | None = None,
+    marks: list | None = None,
 ) -> Path:
-    """A 3D picture of the cell in its current state."""
+    """A 3D picture of the cell in its current state (``highlight``: bodies drawn in the
+    collision colour; ``marks``: world points [m] drawn as red dots, e.g. contact points)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    items, readings = _scene_meshes(world, tolerance)
+    items, readings = _scene_meshes(world, tolerance, highlight)
     fig = plt.figure(figsize=(10, 8), constrained_layout=True)
     ax = fig.add_subplot(projection="3d")
     all_v = []
     for name, v, f, color in items:
-        alpha = 0.95 if "[" in name else 0.35
+        alpha = 0.95 if "[" in name else (0.5 if name in highlight else 0.35)
         ax.add_collection3d(
             Poly3DCollection(
                 v[f], facecolor=color, edgecolor=(0, 0, 0, 0.08), linewidths=0.2, alpha=alpha
             )
         )
         all_v.append(v)
+    for point in marks or []:
+        ax.scatter(*np.asarray(point, dtype=float), color="red", s=60, depthshade=False, zorder=10)
     if triads:
         scale = 0.05
         for frame, decl in world.cell.frames.items():
@@ -107,18 +121,19 @@ def render_png(
     ax.set_zlabel("z [m]")
     sensing = [f"{r.sensor}: {'on' if r.active else 'off'}" for r in readings.values()]
     ax.set_title(
-        f"{world.cell.name}" + (f"\nsensors - {', '.join(sensing)}" if sensing else ""), fontsize=9
+        (title or f"{world.cell.name}") + (f"\nsensors - {', '.join(sensing)}" if sensing else ""),
+        fontsize=9,
     )
     from ..fileio import save_figure
 
     return save_figure(fig, path)
 
 
-def render_glb(world, path: str | Path, tolerance: float) -> Path:
+def render_glb(world, path: str | Path, tolerance: float, highlight: tuple[str, ...] = ()) -> Path:
     """The cell as a glTF binary scene, one node per shape and sensor cell, coloured."""
     import trimesh
 
-    items, _ = _scene_meshes(world, tolerance)
+    items, _ = _scene_meshes(world, tolerance, highlight)
     scene = trimesh.Scene()
     for name, v, f, color in items:
         mesh = trimesh.Trimesh(v, f, process=False)

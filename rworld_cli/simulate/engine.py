@@ -22,6 +22,7 @@ Two phases:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -144,6 +145,7 @@ class SimulationResult:
     unlimited: dict[str, dict[str, list[str]]] = field(
         default_factory=dict
     )  # device -> kind -> joints with no limit
+    collisions: Any = None  # simulate.collisions.CollisionReport, or None when not checked
 
     @property
     def cycle_time(self) -> float:
@@ -152,7 +154,8 @@ class SimulationResult:
 
     @property
     def ok(self) -> bool:
-        return not self.violations
+        """No limit violation, no collision and no clearance violation."""
+        return not self.violations and not (self.collisions and self.collisions.contacts)
 
     def peak_ratios(self, device: str) -> dict[str, list[float]]:
         return {
@@ -553,7 +556,7 @@ class _Scheduler:
         return True
 
 
-def simulate(run: Run, progress=None) -> SimulationResult:
+def simulate(run: Run, progress=None, collisions: bool = True) -> SimulationResult:
     """Schedule and sample a run; see the module docstring.
 
     Parameters
@@ -562,6 +565,9 @@ def simulate(run: Run, progress=None) -> SimulationResult:
         From :func:`rworld_cli.schema.programs.load_run`.
     progress : callable, optional
         ``progress(done, total, what)`` for long runs (the CLI draws a bar).
+    collisions : bool
+        Check collisions and clearance along the run (``run.clearance``,
+        ``run.collision_tolerance``; docs/collision.md).
 
     Raises
     ------
@@ -571,7 +577,14 @@ def simulate(run: Run, progress=None) -> SimulationResult:
     """
     sched = _Scheduler(run)
     sched.run_all()
-    return _sample(run, sched, progress)
+    result = _sample(run, sched, progress)
+    if collisions:
+        from .collisions import check_run
+
+        if progress:
+            progress(0, None, "collisions")
+        result.collisions = check_run(run, sched, result.times)
+    return result
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:

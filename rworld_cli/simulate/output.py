@@ -34,7 +34,27 @@ def summary_dict(result: SimulationResult) -> dict:
         "devices": devices,
         "violations": [v.as_dict() for v in result.violations],
         "unlimited": result.unlimited,
+        "collisions": _collision_summary(result),
         "events": [e.as_dict() for e in result.events],
+    }
+
+
+def _collision_summary(result: SimulationResult) -> dict | None:
+    """Counts, and the contacts themselves (collisions.json has the per-step distances too)."""
+    report = result.collisions
+    if report is None:
+        return None
+    full = report.as_dict()
+    return {
+        k: full[k]
+        for k in (
+            "tolerance",
+            "required_clearance",
+            "collisions",
+            "clearance_violations",
+            "not_checked",
+            "open_meshes",
+        )
     }
 
 
@@ -49,16 +69,22 @@ def unlimited_lines(unlimited: dict[str, dict[str, list[str]]]) -> list[str]:
     ]
 
 
-def timeline_columns(n: int) -> list[str]:
+def timeline_columns(n: int, clearance: bool = False) -> list[str]:
     cols = ["t", "step"]
     for group in ("q", "qd", "qdd", "tau"):
         cols += [f"{group}{i}" for i in range(1, n + 1)]
-    return cols + ["tcp_x", "tcp_y", "tcp_z", "tcp_qw", "tcp_qx", "tcp_qy", "tcp_qz"]
+    cols += ["tcp_x", "tcp_y", "tcp_z", "tcp_qw", "tcp_qx", "tcp_qy", "tcp_qz"]
+    return cols + (["clearance"] if clearance else [])
 
 
 def timeline_array(result: SimulationResult, device: str) -> np.ndarray:
     tl = result.devices[device]
     step = np.where(tl.step >= 0, tl.step + 1, 0)  # 1-based program step, 0 = none
+    extra = []
+    if result.collisions is not None:
+        # the least distance to anything the device may not touch; NaN beyond the report range
+        c = result.collisions.clearance[device]
+        extra = [np.where(np.isfinite(c), c, np.nan)[:, None]]
     return np.hstack(
         [
             result.times[:, None],
@@ -69,6 +95,7 @@ def timeline_array(result: SimulationResult, device: str) -> np.ndarray:
             tl.tau,
             tl.tcp[:, :3, 3],
             matrix_to_quat(tl.tcp[:, :3, :3]),
+            *extra,
         ]
     )
 
@@ -87,6 +114,9 @@ def timeline_dict(result: SimulationResult) -> dict:
             "tcp_quat": matrix_to_quat(tl.tcp[:, :3, :3]).tolist(),
             "active_tcp": [{"from": t, "tcp": name_} for t, name_ in tl.tcp_names],
         }
+        if result.collisions is not None:
+            c = result.collisions.clearance[name]
+            devices[name]["clearance"] = [float(x) if np.isfinite(x) else None for x in c]
     return {"t": result.times.tolist(), "devices": devices}
 
 
@@ -94,8 +124,12 @@ def output_files(result: SimulationResult) -> tuple[dict, dict]:
     """What a run writes: ({file name: (columns, rows)} CSV tables, {file name: payload} JSON
     documents).
     """
+    checked = result.collisions is not None
     tables = {
-        f"timeline_{name}.csv": (timeline_columns(tl.q.shape[1]), timeline_array(result, name))
+        f"timeline_{name}.csv": (
+            timeline_columns(tl.q.shape[1], checked),
+            timeline_array(result, name),
+        )
         for name, tl in result.devices.items()
     }
     summary = summary_dict(result)
@@ -104,6 +138,8 @@ def output_files(result: SimulationResult) -> tuple[dict, dict]:
         "events.json": summary["events"],
         "summary.json": {k: v for k, v in summary.items() if k != "events"},
     }
+    if checked:
+        documents["collisions.json"] = result.collisions.as_dict()
     return tables, documents
 
 
@@ -148,6 +184,23 @@ def write_plots(result: SimulationResult, directory: Path) -> list[Path]:
             if v.device == name:
                 axes[1 if v.kind == "torque" else 2].axvspan(
                     v.t_start, v.t_end, color="red", alpha=0.15
+                )
+        if result.collisions is not None:  # contacts of this device: red spans and names
+            for rc in result.collisions.contacts:
+                if name not in {s.device for s in rc.steps}:
+                    continue
+                c = rc.contact
+                width = max(c.t_end - c.t_start, result.dt)
+                axes[0].axvspan(c.t_start, c.t_start + width, color="red", alpha=0.25)
+                axes[0].annotate(
+                    f"{'collision' if c.collision else 'clearance'} {c.a} / {c.b}",
+                    (c.t_start, 0.02),
+                    xycoords=("data", "axes fraction"),
+                    rotation=90,
+                    fontsize=7,
+                    va="bottom",
+                    ha="right",
+                    color="red",
                 )
         axes[0].legend(loc="upper right", fontsize=8, ncol=3)
         axes[1].legend(loc="upper right", fontsize=8, ncol=3)

@@ -442,6 +442,48 @@ class World:
                 T = T @ self._T_parent[node]
         return T
 
+    def T_world_frames(
+        self, frames: list[str], joints: dict[str, np.ndarray]
+    ) -> dict[str, np.ndarray]:
+        """``T_world_frame`` of several frames at N joint states, each (N, 4, 4).
+
+        As :meth:`T_world_batch`, with the devices' link transforms and the shared part of
+        the frames' paths to world computed once.
+        """
+        N = len(next(iter(joints.values()))) if joints else 1
+        link_index = {
+            f: (d, i) for d, dev in self.cell.devices.items() for i, f in enumerate(dev.link_frames)
+        }
+        links: dict[str, np.ndarray] = {}
+        memo: dict[str, np.ndarray] = {WORLD: np.broadcast_to(np.eye(4), (N, 4, 4))}
+
+        def pose(node: str) -> np.ndarray:
+            if node in memo:
+                return memo[node]
+            parent = self._parent[node]
+            above = pose(parent) if parent is not None else memo[WORLD]
+            if node in link_index:
+                dev, i = link_index[node]
+                if dev not in links:
+                    q = joints.get(dev)
+                    q = (
+                        np.broadcast_to(self._q[dev], (N, self.cell.devices[dev].dof))
+                        if q is None
+                        else np.asarray(q, dtype=float)
+                    )
+                    links[dev] = self.cell.devices[dev].joint_transforms(q)
+                T = above @ links[dev][:, i]
+            else:
+                T = above @ self._T_parent[node]
+            memo[node] = T
+            return T
+
+        out = {}
+        for frame in frames:
+            self._check_frame(frame)
+            out[frame] = pose(frame)
+        return out
+
     # ------------------------------------------------------------------ internals
     def _invalidate(self):
         self._cache = None

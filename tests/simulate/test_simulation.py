@@ -408,7 +408,7 @@ def test_simulate_writes_timelines_events_summary_and_plots(cli, tmp_path):
     assert len(timeline["t"]) == len(timeline["devices"]["robot"]["q"]) == len(lines) - 1
     assert timeline["devices"]["robot"]["active_tcp"][0]["tcp"] == "robot.tool_plate"
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["ok"] and summary["devices"]["robot"]["steps"] == 18
+    assert summary["ok"] and summary["devices"]["robot"]["steps"] == 19
     events = json.loads((out / "events.json").read_text())
     assert any(e["kind"] == "detach_tool" for e in events)
 

@@ -1,0 +1,308 @@
+"""The collision model of a cell: every body with geometry, its convex pieces and bounds.
+
+A **body** is one shape on one frame: an object, a device's base, or a
+device's link (hands, tools and aggregated devices are devices or objects, so
+they are covered).  Sensors are sensing volumes, not solids, and are left
+out.  Primitives (box, cylinder, sphere) are one convex piece each; a mesh is
+its triangles, and it is a **solid**: :func:`pair_distance` also asks, by
+generalised winding number, whether the other body lies inside it, so a link
+buried in an object is a collision rather than a miss (surface-only libraries
+such as FCL report no contact there).
+
+Level two of the report's geometry - a bounding volume per shape - is a
+bounding sphere here (centre and radius in the body's frame): it gives the
+broad phase a lower bound on every pair's distance for one subtraction.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from ..model.cell import CellModel, Shape
+from ..sensing.geometry import MeshData, shape_mesh, winding_number
+from . import convex
+
+
+@dataclass(frozen=True)
+class Body:
+    """A shape on a frame.
+
+    Attributes
+    ----------
+    label : str
+        What messages call it: the object's or device's name (a base), or ``device.link``.
+    owner : str
+        The primitive (object or device) it belongs to.
+    frame : str
+        The frame the shape is given in (object or device natural frame, or link frame).
+    shape : Shape
+    center : ndarray, shape (3,)
+        Bounding sphere centre in ``frame`` [m].
+    radius : float
+        Bounding sphere radius [m].
+    """
+
+    label: str
+    owner: str
+    frame: str
+    shape: Shape
+    center: np.ndarray
+    radius: float
+
+    @property
+    def is_mesh(self) -> bool:
+        return self.shape.kind == "mesh"
+
+    def mesh(self) -> MeshData:
+        """The polyhedral model in the body's frame."""
+        return shape_mesh(self.shape)
+
+    def pieces(self, T_world_frame: np.ndarray) -> convex.Pieces:
+        """The body's convex pieces in world for K poses (K, 4, 4).
+
+        Primitives give K pieces; a mesh of F triangles gives K * F, state-major.
+        """
+        T = np.asarray(T_world_frame, dtype=float).reshape(-1, 4, 4)
+        shape = self.shape
+        if shape.kind == "mesh":
+            tri = self.mesh().triangles()
+            world = np.einsum("kij,ftj->kfti", T[:, :3, :3], tri) + T[:, None, None, :3, 3]
+            return convex.triangles(world.reshape(-1, 3, 3))
+        Ts = T @ shape.T_owner_shape
+        size = np.asarray(shape.size, dtype=float)
+        if shape.kind == "box":
+            return convex.boxes(Ts, size / 2)
+        if shape.kind == "sphere":
+            return convex.spheres(Ts[:, :3, 3], np.full(len(T), size[0] / 2))
+        return convex.cylinders(Ts, np.full(len(T), size[0] / 2), np.full(len(T), size[2] / 2))
+
+
+@dataclass
+class CollisionModel:
+    """The bodies of a cell, and what has no geometry (listed, never silently skipped).
+
+    Attributes
+    ----------
+    bodies : list of Body
+    unchecked : list of str
+        Objects, device bases and links with no geometry.
+    open_meshes : list of str
+        Mesh bodies that are not closed solids (checked as surfaces only).
+    """
+
+    bodies: list[Body]
+    unchecked: list[str]
+    open_meshes: list[str]
+
+    def index(self) -> dict[str, int]:
+        return {b.label: i for i, b in enumerate(self.bodies)}
+
+
+def collision_model(cell: CellModel) -> CollisionModel:
+    """Every body of the cell with its bounds; see the module docstring."""
+    bodies: list[Body] = []
+    unchecked: list[str] = []
+    open_meshes: list[str] = []
+
+    def add(label: str, owner: str, frame: str, shape: Shape | None) -> None:
+        if shape is None:
+            unchecked.append(label)
+            return
+        center, radius = _bounding_sphere(shape)
+        bodies.append(Body(label, owner, frame, shape, center, radius))
+        if shape.kind == "mesh" and not _closed(str(shape.mesh_file)):
+            open_meshes.append(label)
+
+    for name, obj in cell.objects.items():
+        add(name, name, name, obj.shape)
+    for name, dev in cell.devices.items():
+        add(name, name, name, dev.shape)
+        for link, frame in zip(dev.links, dev.link_frames):
+            add(frame, name, frame, link.shape)
+    return CollisionModel(bodies, unchecked, open_meshes)
+
+
+def _bounding_sphere(shape: Shape) -> tuple[np.ndarray, float]:
+    box = shape.bounding_box
+    return box.T_owner_box[:3, 3].copy(), float(np.linalg.norm(box.half_extents))
+
+
+@lru_cache(maxsize=64)
+def _closed(mesh_file: str) -> bool:
+    import trimesh
+
+    mesh = trimesh.load(mesh_file, force="mesh")
+    return bool(getattr(mesh, "is_watertight", False))
+
+
+@dataclass
+class PairDistance:
+    """Distances of one body pair at K states (see :func:`pair_distance`).
+
+    Attributes
+    ----------
+    distance : ndarray, shape (K,)
+        Separation [m]; 0 when the solids touch or overlap.
+    depth : ndarray, shape (K,)
+        Penetration depth estimate where they overlap [m] (0 elsewhere).
+    point_a, point_b : ndarray, shape (K, 3)
+        Closest points (or the deepest contact points) in world [m].
+    buried : ndarray of bool, shape (K,)
+        One body lies wholly inside the other's closed mesh.
+    """
+
+    distance: np.ndarray
+    depth: np.ndarray
+    point_a: np.ndarray
+    point_b: np.ndarray
+    buried: np.ndarray
+
+    @property
+    def overlap(self) -> np.ndarray:
+        return (self.distance <= 0.0) | self.buried
+
+
+def pair_distance(
+    a: Body, b: Body, Ta: np.ndarray, Tb: np.ndarray, max_iterations: int = convex.MAX_ITERATIONS
+) -> PairDistance:
+    """Exact distance between bodies ``a`` and ``b`` at K states.
+
+    Parameters
+    ----------
+    a, b : Body
+    Ta, Tb : ndarray, shape (K, 4, 4)
+        ``T_world_frame`` of each body's frame.
+
+    Returns
+    -------
+    PairDistance
+    """
+    Ta = np.asarray(Ta, dtype=float).reshape(-1, 4, 4)
+    Tb = np.asarray(Tb, dtype=float).reshape(-1, 4, 4)
+    K = len(Ta)
+    pa, pb = a.pieces(Ta), b.pieces(Tb)
+    Fa, Fb = len(pa) // K, len(pb) // K
+    if Fa == 1 and Fb == 1:
+        res = convex.distance(pa, pb, max_iterations)
+        dist, pta, ptb, over = res.distance, res.point_a, res.point_b, res.overlap
+        depth = np.zeros(K)
+        if over.any():
+            rows = np.flatnonzero(over)
+            d, n = convex.penetration(pa.take(rows), pb.take(rows))
+            depth[rows] = np.maximum(d, 0.0)
+        return PairDistance(dist, depth, pta, ptb, np.zeros(K, dtype=bool))
+    # a mesh on either side: every (state, piece, piece) combination, culled by the pieces'
+    # bounding spheres against the best centre distance found
+    grid_a, grid_b = np.meshgrid(np.arange(Fa), np.arange(Fb), indexing="ij")
+    ia, ib = grid_a.ravel(), grid_b.ravel()
+    k = np.repeat(np.arange(K), len(ia))
+    ga = k * Fa + np.tile(ia, K)
+    gb = k * Fb + np.tile(ib, K)
+    ra, rb = _piece_radius(pa), _piece_radius(pb)
+    centre = np.linalg.norm(pa.center[ga] - pb.center[gb], axis=1)
+    lower = centre - ra[ga] - rb[gb]
+    upper = np.full(K, np.inf)
+    np.minimum.at(upper, k, centre + ra[ga] + rb[gb])
+    keep = lower <= upper[k]
+    k, ga, gb = k[keep], ga[keep], gb[keep]
+    res = convex.distance(pa.take(ga), pb.take(gb), max_iterations)
+    dist = np.full(K, np.inf)
+    np.minimum.at(dist, k, res.distance)
+    best = np.flatnonzero(res.distance <= dist[k])
+    pta, ptb = np.zeros((K, 3)), np.zeros((K, 3))
+    pta[k[best]], ptb[k[best]] = res.point_a[best], res.point_b[best]
+    depth = np.zeros(K)
+    if res.overlap.any():  # the deepest overlapping piece pair of each state
+        rows = np.flatnonzero(res.overlap)
+        d, _ = convex.penetration(pa.take(ga[rows]), pb.take(gb[rows]))
+        np.maximum.at(depth, k[rows], np.maximum(d, 0.0))
+    buried = np.zeros(K, dtype=bool)
+    # solids: the other body inside a closed mesh touches no triangle, yet collides
+    for mesh_body, other, T_mesh, T_other, sign in ((a, b, Ta, Tb, 1), (b, a, Tb, Ta, -1)):
+        if not mesh_body.is_mesh:
+            continue
+        free = np.flatnonzero(dist > 0)
+        if not len(free):
+            continue
+        probe = other.pieces(T_other[free])
+        point = probe.vertices[:: len(probe) // len(free), 0]  # one point of the other body
+        local = np.einsum(
+            "kji,kj->ki", T_mesh[free, :3, :3], point - T_mesh[free, :3, 3]
+        )  # in the mesh's frame
+        tri = mesh_body.mesh().triangles()
+        inside = winding_number(local, tri) > 0.5
+        rows = free[inside]
+        buried[rows] = True
+        depth[rows] = dist[rows]  # at least as deep as its distance to the surface
+    return PairDistance(np.where(buried, 0.0, dist), depth, pta, ptb, buried)
+
+
+def _piece_radius(p: convex.Pieces) -> np.ndarray:
+    """A radius about ``p.center`` enclosing each piece [m]."""
+    r = np.max(np.linalg.norm(p.vertices - p.center[:, None, :], axis=2), axis=1)
+    cyl = np.hypot(p.radius, p.half_length)
+    return np.where(p.cylinder, cyl, r) + p.margin
+
+
+def distances(
+    bodies: list[Body],
+    I: np.ndarray,
+    J: np.ndarray,
+    TI: np.ndarray,
+    TJ: np.ndarray,
+    max_iterations: int = convex.MAX_ITERATIONS,
+) -> PairDistance:
+    """Exact distances of Q queries: body ``I[q]`` at ``TI[q]`` against ``J[q]`` at ``TJ[q]``.
+
+    Pairs of primitives go through one batched GJK call; pairs with a mesh through
+    :func:`pair_distance`, pair by pair.
+
+    Parameters
+    ----------
+    bodies : list of Body
+    I, J : ndarray of int, shape (Q,)
+    TI, TJ : ndarray, shape (Q, 4, 4)
+        ``T_world_frame`` of each query's bodies.
+    max_iterations : int
+        GJK's limit; a pair short of it reports a lower bound (see :func:`convex.distance`).
+    """
+    I, J = np.asarray(I, dtype=int), np.asarray(J, dtype=int)
+    Q = len(I)
+    out = PairDistance(
+        np.zeros(Q), np.zeros(Q), np.zeros((Q, 3)), np.zeros((Q, 3)), np.zeros(Q, dtype=bool)
+    )
+    if not Q:
+        return out
+    mesh = np.array([b.is_mesh for b in bodies])
+    primitive = ~mesh[I] & ~mesh[J]
+    rows = np.flatnonzero(primitive)
+    if len(rows):
+        pa = _gather(bodies, I[rows], TI[rows])
+        pb = _gather(bodies, J[rows], TJ[rows])
+        res = convex.distance(pa, pb, max_iterations)
+        out.distance[rows] = res.distance
+        out.point_a[rows], out.point_b[rows] = res.point_a, res.point_b
+        if res.overlap.any():
+            over = np.flatnonzero(res.overlap)
+            d, _ = convex.penetration(pa.take(over), pb.take(over))
+            out.depth[rows[over]] = np.maximum(d, 0.0)
+    for i, j in {(int(a), int(b)) for a, b in zip(I[~primitive], J[~primitive])}:
+        sel = np.flatnonzero((I == i) & (J == j))
+        res1 = pair_distance(bodies[i], bodies[j], TI[sel], TJ[sel], max_iterations)
+        out.distance[sel], out.depth[sel], out.buried[sel] = res1.distance, res1.depth, res1.buried
+        out.point_a[sel], out.point_b[sel] = res1.point_a, res1.point_b
+    return out
+
+
+def _gather(bodies: list[Body], index: np.ndarray, T: np.ndarray) -> convex.Pieces:
+    """Primitive pieces of ``bodies[index[q]]`` at ``T[q]``, in query order."""
+    parts, order = [], []
+    for b in np.unique(index):
+        sel = np.flatnonzero(index == b)
+        parts.append(bodies[b].pieces(T[sel]))
+        order.append(sel)
+    pieces = convex.concatenate(parts)
+    return pieces.take(np.argsort(np.concatenate(order), kind="stable"))

@@ -1,0 +1,279 @@
+"""Collision and clearance checks of a scheduled run (docs/collision.md).
+
+The scheduler's affixment snapshots split the run into stretches of one tree; the sweep of
+:mod:`rworld_cli.collision.sweep` checks each with the devices' own motions (sampled exactly
+between clock instants where it refines), and every contact is tied back to the devices, steps
+and program lines that were running.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..collision.bodies import collision_model
+from ..collision.sweep import Contact, Interval, sweep
+from ..motion.trajectory import sample_track
+
+REPORT_WITHIN = 0.05  # m: the clearance columns show distances below this (empty above)
+
+
+@dataclass
+class StepRef:
+    """A device's program step at an instant."""
+
+    device: str
+    step: int  # 0-based
+    text: str
+    where: str  # file:line
+
+    def as_dict(self) -> dict:
+        return {"device": self.device, "step": self.step, "text": self.text, "where": self.where}
+
+
+@dataclass
+class RunContact:
+    """A contact (or clearance violation) with the steps that were running when it began."""
+
+    contact: Contact
+    steps: list[StepRef]
+
+    def as_dict(self) -> dict:
+        return self.contact.as_dict() | {"steps": [s.as_dict() for s in self.steps]}
+
+    def describe(self) -> str:
+        c = self.contact
+        span = (
+            f"at t = {c.t_start:.3f} s"
+            if c.t_end - c.t_start < 1e-9
+            else f"from t = {c.t_start:.3f} s to {c.t_end:.3f} s"
+        )
+        mm = lambda p: "(" + ", ".join(f"{1000 * x:.1f}" for x in p) + ") mm"  # noqa: E731
+        if c.collision:
+            what = (
+                f"collision: {c.a} with {c.b} {span}, "
+                + (
+                    f"buried at least {1000 * c.depth:.1f} mm deep"
+                    if c.buried
+                    else f"depth {1000 * c.depth:.1f} mm"
+                )
+                + f" at {mm(c.point_a)}"
+            )
+        else:
+            what = (
+                f"clearance: {c.a} and {c.b} {span}, {1000 * c.distance:.1f} mm apart "
+                f"(points {mm(c.point_a)} and {mm(c.point_b)})"
+            )
+        if c.between_samples:
+            what += ", between clock samples"
+        where = "; ".join(
+            f"{s.device} step {s.step + 1} ({s.text}) at {s.where}" for s in self.steps
+        )
+        return what + (f"; {where}" if where else "")
+
+
+@dataclass
+class CollisionReport:
+    """What the collision check of a run found.
+
+    Attributes
+    ----------
+    contacts : list of RunContact
+        Collisions deeper than ``tolerance`` and clearance violations, in time order.
+    clearance : dict
+        Device -> (K,) least distance from the device and what it carries to any body they may
+        not touch, at the clock's samples [m] (inf: nothing within ``report_within``).
+    nearest_steps : list of dict
+        Per device step: the least distance over its samples, the pair and the instant.
+    unchecked : list of str
+        Bodies without geometry (not checked).
+    open_meshes : list of str
+        Meshes that are not closed solids (their insides are not checked).
+    """
+
+    tolerance: float
+    required_clearance: float
+    report_within: float
+    contacts: list[RunContact]
+    clearance: dict[str, np.ndarray]
+    nearest_steps: list[dict]
+    unchecked: list[str]
+    open_meshes: list[str]
+    queries: int = 0
+    refinements: int = 0
+    first_state: dict | None = None  # the first contact's worst instant: t, snap, joints
+
+    @property
+    def collisions(self) -> list[RunContact]:
+        return [c for c in self.contacts if c.contact.collision]
+
+    @property
+    def clearance_violations(self) -> list[RunContact]:
+        return [c for c in self.contacts if not c.contact.collision]
+
+    def as_dict(self) -> dict:
+        return {
+            "tolerance": self.tolerance,
+            "required_clearance": self.required_clearance,
+            "collisions": [c.as_dict() for c in self.collisions],
+            "clearance_violations": [c.as_dict() for c in self.clearance_violations],
+            "nearest_per_step": self.nearest_steps,
+            "not_checked": self.unchecked,
+            "open_meshes": self.open_meshes,
+            "queries": self.queries,
+            "refinements": self.refinements,
+        }
+
+
+def check_run(run, sched, times: np.ndarray, report_within: float = REPORT_WITHIN):
+    """Collisions and clearance of a scheduled run on its clock ``times`` (K,).
+
+    Parameters
+    ----------
+    run : Run
+        Its ``clearance`` and ``collision_tolerance`` apply.
+    sched : the engine's scheduler, after ``run_all`` (tracks, snapshots, world).
+    """
+    cell = run.cell
+    model = collision_model(cell)
+    end = float(times[-1])
+
+    def states(t):
+        t = np.asarray(t, dtype=float)
+        out = {}
+        for d, dev in cell.devices.items():
+            if d in sched.tracks:
+                tr = sched.tracks[d]
+                out[d] = sample_track(tr.segments, tr.q_init, t)
+            else:
+                n = dev.dof
+                out[d] = (
+                    np.tile(dev.home, (len(t), 1)),
+                    np.zeros((len(t), n)),
+                    np.zeros((len(t), n)),
+                )
+        return out
+
+    snaps = sched.snapshots
+    intervals = [
+        Interval(t, min(snaps[k + 1][0], end) if k + 1 < len(snaps) else end, snap)
+        for k, (t, snap) in enumerate(snaps)
+        if t <= end
+    ]
+    spans = _step_spans(sched, end)
+    touches = [
+        (t0, t1, d, step.spec.touch)
+        for d, t0, t1, step in spans
+        if step.kind == "move" and getattr(step.spec, "touch", None)
+    ]
+    watch = max(report_within, run.clearance)
+    result = sweep(
+        sched.world,
+        model,
+        intervals,
+        states,
+        times,
+        run.collision_tolerance,
+        run.clearance,
+        touches,
+        report_within=watch,
+    )
+    contacts = [RunContact(c, _steps_at(sched, spans, c)) for c in result.contacts]
+    clearance, nearest_steps = _clearance_columns(sched, model, result, times, spans)
+    first = None
+    if contacts:
+        c = min(contacts, key=lambda rc: (rc.contact.t_start, not rc.contact.collision)).contact
+        snap = [s for ts, s in snaps if ts <= c.t_worst + 1e-12][-1]
+        q = {d: v[0][0] for d, v in states([c.t_worst]).items()}
+        first = {"t": c.t_worst, "snap": snap, "joints": q, "pair": (c.a, c.b)}
+    return CollisionReport(
+        run.collision_tolerance,
+        run.clearance,
+        watch,
+        contacts,
+        clearance,
+        nearest_steps,
+        model.unchecked,
+        model.open_meshes,
+        result.queries,
+        result.refinements,
+        first,
+    )
+
+
+def _step_spans(sched, end: float) -> list[tuple]:
+    """(device, t0, t1, step) for every step that ran."""
+    out = []
+    for d, tr in sched.tracks.items():
+        starts = tr.step_starts
+        for k, (t0, idx) in enumerate(starts):
+            if idx < 0:
+                continue
+            t1 = starts[k + 1][0] if k + 1 < len(starts) else end
+            out.append((d, t0, t1, tr.program.steps[idx]))
+    return out
+
+
+def _steps_at(sched, spans, contact: Contact) -> list[StepRef]:
+    """The step each device that carries either body was running when the contact began."""
+    t = contact.t_start
+    world = sched.world
+    world.restore([s for ts, s in sched.snapshots if ts <= t + 1e-12][-1])
+    owners = [d for d in sched.tracks if {contact.a, contact.b} & set(world.subtree(d))]
+    world.restore(sched.snapshots[-1][1])
+    running: dict[str, StepRef] = {}
+    for d, t0, t1, step in sorted(spans, key=lambda s: s[1]):
+        if d in owners and t0 - 1e-12 <= t <= t1 + 1e-12:
+            running[d] = StepRef(d, step.index, step.describe(), step.where)  # the latest start
+    return [running[d] for d in owners if d in running]
+
+
+def _clearance_columns(sched, model, result, times, spans):
+    """Per device: the least distance of its bodies and what it carries, per sample; and per
+    step, the least over the step."""
+    world = sched.world
+    K = len(times)
+    out = {}
+    snaps = sched.snapshots
+    starts = [np.searchsorted(times, t, side="left") for t, _ in snaps] + [K]
+    for d in sched.tracks:
+        column = np.full(K, np.inf)
+        partner = np.array([None] * K, dtype=object)
+        for (t, snap), a, b in zip(snaps, starts[:-1], starts[1:]):
+            if b <= a:
+                continue
+            world.restore(snap)
+            frames = set(world.subtree(d))
+            for body in model.bodies:
+                if body.frame not in frames:
+                    continue
+                values = result.nearest[body.label][a:b]
+                better = values < column[a:b]
+                column[a:b][better] = values[better]
+                pairs = np.array(result.nearest_pair[body.label][a:b], dtype=object)
+                labels = np.array([f"{body.label} / {p}" for p in pairs], dtype=object)
+                partner[a:b][better] = labels[better]
+        out[d] = column
+        out[f"{d}:pair"] = partner
+    world.restore(snaps[-1][1])
+    steps = []
+    for d, t0, t1, step in spans:
+        sel = np.flatnonzero((times >= t0 - 1e-12) & (times <= t1 + 1e-12))
+        if not len(sel):
+            continue
+        k = sel[np.argmin(out[d][sel])]
+        if not np.isfinite(out[d][k]):
+            continue
+        steps.append(
+            {
+                "device": d,
+                "step": step.index,
+                "text": step.describe(),
+                "where": step.where,
+                "distance": float(out[d][k]),
+                "t": float(times[k]),
+                "pair": out[f"{d}:pair"][k],
+            }
+        )
+    return {d: v for d, v in out.items() if not d.endswith(":pair")}, steps
