@@ -17,8 +17,6 @@ broad phase a lower bound on every pair's distance for one subtraction.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
-
 import numpy as np
 
 from ..model.cell import CellModel, Shape
@@ -113,7 +111,7 @@ def collision_model(cell: CellModel) -> CollisionModel:
             return
         center, radius = _bounding_sphere(shape)
         bodies.append(Body(label, owner, frame, shape, center, radius))
-        if shape.kind == "mesh" and not _closed(str(shape.mesh_file)):
+        if shape.kind == "mesh" and not shape.closed:
             open_meshes.append(label)
 
     for name, obj in cell.objects.items():
@@ -128,14 +126,6 @@ def collision_model(cell: CellModel) -> CollisionModel:
 def _bounding_sphere(shape: Shape) -> tuple[np.ndarray, float]:
     box = shape.bounding_box
     return box.T_owner_box[:3, 3].copy(), float(np.linalg.norm(box.half_extents))
-
-
-@lru_cache(maxsize=64)
-def _closed(mesh_file: str) -> bool:
-    import trimesh
-
-    mesh = trimesh.load(mesh_file, force="mesh")
-    return bool(getattr(mesh, "is_watertight", False))
 
 
 @dataclass
@@ -221,8 +211,8 @@ def pair_distance(
         np.maximum.at(depth, k[rows], np.maximum(d, 0.0))
     buried = np.zeros(K, dtype=bool)
     # solids: the other body inside a closed mesh touches no triangle, yet collides
-    for mesh_body, other, T_mesh, T_other, sign in ((a, b, Ta, Tb, 1), (b, a, Tb, Ta, -1)):
-        if not mesh_body.is_mesh:
+    for mesh_body, other, T_mesh, T_other in ((a, b, Ta, Tb), (b, a, Tb, Ta)):
+        if not mesh_body.is_mesh or not mesh_body.shape.closed:
             continue
         free = np.flatnonzero(dist > 0)
         if not len(free):

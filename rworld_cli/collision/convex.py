@@ -99,8 +99,11 @@ class Pieces:
             a, dc = self.axis[c], d[c]
             along = np.einsum("pi,pi->p", dc, a)
             radial = dc - along[:, None] * a
+            radial -= np.einsum("pi,pi->p", radial, a)[:, None] * a  # rounding left along a
             norm = np.linalg.norm(radial, axis=1)
-            scale = np.divide(self.radius[c], norm, out=np.zeros_like(norm), where=norm > 1e-300)
+            # along the axis (to rounding) every point of the end disc supports: take its centre
+            tiny = norm <= 1e-12 * np.linalg.norm(dc, axis=1)
+            scale = np.divide(self.radius[c], norm, out=np.zeros_like(norm), where=~tiny)
             out[c] = (
                 self.center[c]
                 + np.where(along >= 0, 1.0, -1.0)[:, None] * self.half_length[c][:, None] * a

@@ -39,10 +39,11 @@ from ..model.cell import WORLD
 from .allowed import allowed_pairs, touch_bodies
 from .bodies import Body, CollisionModel, distances
 
-MAX_SPLITS = 40
+MAX_SPLITS = 40  # bisections of one sample interval; 2^-40 of 10 ms is 1e-14 s
+MAX_ITEMS = 200_000  # intervals refined at once; beyond, the rest count as possible contacts
 # GJK iterations per query: a pair short of convergence then (curved pieces nearly tangent)
 # counts with GJK's lower bound on its distance, which keeps the guarantee
-SWEEP_ITERATIONS = 24  # bisections of one sample interval; 2^-40 of 10 ms is 1e-14 s
+SWEEP_ITERATIONS = 24
 
 
 @dataclass
@@ -287,7 +288,9 @@ def _sweep_interval(
     # intervals whose exact end distances still do not pass: bisect them
     da, db = exact[:, :-1], exact[:, 1:]
     fail = need_interval & ~np.isnan(da) & ~np.isnan(db)
-    fail &= (da >= -tolerance) & (db >= -tolerance)  # an end in collision is already reported
+    # an end that is already reported (a collision, or closer than the clearance) ends the search
+    floor = clearance if clearance > 0 else -tolerance
+    fail &= (da >= floor) & (db >= floor)
     fail &= da + db - M < slack
     p_idx, k_idx = np.nonzero(fail)
     items = {
@@ -300,6 +303,8 @@ def _sweep_interval(
     for _ in range(MAX_SPLITS):
         if not len(items["p"]):
             break
+        if len(items["p"]) > MAX_ITEMS:
+            break  # reported below as unresolved, so that the check fails safe
         tm = 0.5 * (items["ta"] + items["tb"])
         n = len(tm)
         stats["refinements"] += n
@@ -324,7 +329,7 @@ def _sweep_interval(
         hi = {d: (v[0][2 * n :], v[1][2 * n :], v[2][2 * n :]) for d, v in st.items()}
         M1 = _pair_motion(levers, I2, J2, lo, mi, items["ta"], tm)
         M2 = _pair_motion(levers, I2, J2, mi, hi, tm, items["tb"])
-        ok = dm >= -tolerance  # a collision found at the midpoint ends the search there
+        ok = dm >= floor  # a contact found at the midpoint ends the search there
         left = ok & (items["da"] + dm - M1 < slack)
         right = ok & (dm + items["db"] - M2 < slack)
         items = {
@@ -334,6 +339,17 @@ def _sweep_interval(
             "da": np.concatenate([items["da"][left], dm[right]]),
             "db": np.concatenate([dm[left], items["db"][right]]),
         }
+    if len(items["p"]):
+        _unresolved(items, pairs, found)
+
+
+def _unresolved(items, pairs, found) -> None:
+    """Intervals still open when the refinement stops: reported as possible contacts."""
+    for p, ta, tb in zip(items["p"], items["ta"], items["tb"]):
+        i, j = pairs[p]
+        found.append(
+            (int(i), int(j), float(0.5 * (ta + tb)), 0.0, 0.0, [0.0] * 3, [0.0] * 3, False, True)
+        )
 
 
 def _signed(res) -> np.ndarray:

@@ -86,6 +86,7 @@ class Shape:
     bounding_box: Box
     mesh_file: Path | None = None
     mesh_scale: float = 1.0
+    closed: bool = True  # a mesh that is not watertight cannot tell inside from outside
 
 
 @dataclass(frozen=True)

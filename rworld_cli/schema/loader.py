@@ -447,13 +447,24 @@ class _Builder:
         if not watertight:
             self.warn(
                 path + ("file",),
-                "the mesh is not closed (watertight); sensing treats shapes as solids and may be "
-                "wrong",
+                f"the mesh of '{self._body_name(path)}' is not closed (watertight): sensing and "
+                "collision checks treat it as a surface, so a body inside it goes unnoticed",
             )
         T_mesh_box = T_mesh_box.copy()
         T_mesh_box[:3, 3] *= scale
         box = wm.Box(T @ T_mesh_box, extents * scale / 2)
-        return wm.Shape("mesh", T, size * scale, box, mesh_file=file, mesh_scale=scale)
+        return wm.Shape(
+            "mesh", T, size * scale, box, mesh_file=file, mesh_scale=scale, closed=watertight
+        )
+
+    def _body_name(self, path: tuple) -> str:
+        """'table' or 'robot.link3' for a geometry entry's path."""
+        if path[0] == "objects":
+            return self.cf.objects[path[1]].name
+        device = self.cf.devices[path[1]]
+        if len(path) > 3 and path[2] == "links":
+            return f"{device.name}.{device.links[path[3]].name}"
+        return device.name
 
     def _aux_frames(
         self,

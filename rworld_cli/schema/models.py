@@ -468,7 +468,7 @@ class Condition(Strict):
 class AllowedContact(Strict):
     """Bodies that may touch: every pair between two different names of the group."""
 
-    between: Annotated[list[Name], Len(2)] = Field(
+    between: Annotated[list[FrameRef], Len(2)] = Field(
         description="Objects, devices (all their bodies) or links as 'device.link'."
     )
     reason: Annotated[str, Len(1)] = Field(description="Why touching is fine here (for reviewers).")

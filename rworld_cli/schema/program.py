@@ -45,7 +45,7 @@ class MoveSpec(Strict):
     until: Name | None = Field(
         None, description="Guarded move: stop where this sensor first senses something."
     )
-    touch: list[Name] = Field(
+    touch: list[FrameRef] = Field(
         default_factory=list,
         description="Bodies the device and what it carries may touch during this move (a probe, "
         "a guarded approach, setting a part down): objects, devices or links as 'device.link'.",
