@@ -17,6 +17,7 @@ broad phase a lower bound on every pair's distance for one subtraction.
 from __future__ import annotations
 
 from dataclasses import dataclass
+
 import numpy as np
 
 from ..model.cell import CellModel, Shape

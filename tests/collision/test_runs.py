@@ -26,7 +26,9 @@ devices:
     dof: 1
     dh: standard
     joints:
-      - {{name: x, type: prismatic, limits: {{position: [0, 1000], velocity: 2000, acceleration: {acc}, effort: 1000}}}}
+      - name: x
+        type: prismatic
+        limits: {{position: [0, 1000], velocity: 2000, acceleration: {acc}, effort: 1000}}
     links:
       - {{name: carriage, mass: 1, geometry: {{box: [40, 40, 40]}}}}
     tcps: [{{name: tip}}]
@@ -149,7 +151,7 @@ def test_bad_names_and_lengths_are_located(cli, tmp_path):
     out = cli(["check", str(root), str(root / "run.yaml")])
     assert out.exit_code == 2
     assert (
-        "cell.yaml:20:24:" in out.output and "unknown object, device or link 'plait'" in out.output
+        "cell.yaml:22:24:" in out.output and "unknown object, device or link 'plait'" in out.output
     )
     assert "did you mean 'plate'" in out.output
     root = make_cell(tmp_path / "b", touch=", touch: [slider.carrige]")
