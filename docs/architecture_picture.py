@@ -36,7 +36,8 @@ ROOMS = {
         2.4,
         7.6,
         "calculation rooms (plain SI data in, results out):\nworld (frame tree), kinematics, "
-        "dynamics, motion, sensing (types/),\ncalibration, planning (constraints), simulate",
+        "dynamics, motion, sensing (types/),\ncollision, calibration, planning (constraints), "
+        "simulate",
         "#c7e9c0",
     ),
     "model": (

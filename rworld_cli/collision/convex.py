@@ -156,7 +156,18 @@ def distance(a: Pieces, b: Pieces, max_iterations: int = MAX_ITERATIONS) -> Dist
     Distances
     """
     P = len(a)
-    # the simplex, compacted: points 0 .. count-1 of the Minkowski difference a - b
+    # results, by pair
+    weights_out = np.zeros((P, 4))
+    from_a_out = np.zeros((P, 4, 3))
+    from_b_out = np.zeros((P, 4, 3))
+    overlap = np.zeros(P, dtype=bool)
+    iterations = np.zeros(P, dtype=int)
+    lower_out = np.full(P, np.nan)  # GJK's lower bound, for pairs that run out of iterations
+    unfinished = np.zeros(P, dtype=bool)
+    # the state of the pairs still running, compact (rows follow ``index``); the simplex holds
+    # points 0 .. count-1 of the Minkowski difference a - b
+    index = np.arange(P)
+    A, B = a, b
     simplex = np.zeros((P, 4, 3))
     from_a = np.zeros((P, 4, 3))
     from_b = np.zeros((P, 4, 3))
@@ -164,68 +175,81 @@ def distance(a: Pieces, b: Pieces, max_iterations: int = MAX_ITERATIONS) -> Dist
     count = np.zeros(P, dtype=int)
     v = a.center - b.center
     v[np.einsum("pi,pi->p", v, v) < 1e-24] = (1.0, 0.0, 0.0)
-    overlap = np.zeros(P, dtype=bool)
-    iterations = np.zeros(P, dtype=int)
-    lower = np.full(P, np.nan)  # GJK's lower bound, for pairs that run out of iterations
-    active = np.arange(P)
+    lower = np.full(P, np.nan)
+
+    def finish(rows: np.ndarray) -> None:
+        k = index[rows]
+        weights_out[k] = weights[rows]
+        from_a_out[k] = from_a[rows]
+        from_b_out[k] = from_b[rows]
+        lower_out[k] = lower[rows]
+
     for it in range(max_iterations):
-        if not len(active):
+        if not len(index):
             break
-        va = v[active]
-        sa = a.take(active).support(-va)
-        sb = b.take(active).support(va)
+        sa = A.support(-v)
+        sb = B.support(v)
         w = sa - sb
-        iterations[active] += 1
+        iterations[index] += 1
         if it:
-            vv = np.einsum("pi,pi->p", va, va)
-            gap = vv - np.einsum("pi,pi->p", va, w)  # |v| times the bound on |v| - distance
-            # done: the distance is within 1e-12 of |v| relative to the pieces' scale, or w
-            # is a point the simplex already has (no progress is possible)
-            scale = np.sqrt(vv) * (np.sqrt(vv) + np.linalg.norm(w, axis=1))
-            repeat = np.any(
-                (np.arange(4)[None, :] < count[active, None])
-                & (
-                    np.abs(simplex[active] - w[:, None, :]).max(axis=2)
-                    <= 1e-15 * (1 + scale[:, None])
-                ),
+            vv = np.einsum("pi,pi->p", v, v)
+            vw = np.einsum("pi,pi->p", v, w)
+            gap = vv - vw  # |v| times the bound on |v| - distance
+            norm_v = np.sqrt(vv)
+            lower = vw / np.maximum(norm_v, 1e-300)
+            # done: the distance is within 1e-10 of |v| relative to the pieces' scale, or within
+            # ABSOLUTE_TOLERANCE [m] (touching pairs, where |v| tends to 0), or w is a point the
+            # simplex already has (no progress is possible)
+            scale = norm_v * (norm_v + np.linalg.norm(w, axis=1))
+            done = (gap <= RELATIVE_TOLERANCE * scale) | (gap <= ABSOLUTE_TOLERANCE * norm_v)
+            done |= np.any(
+                (np.arange(4)[None, :] < count[:, None])
+                & (np.abs(simplex - w[:, None, :]).max(axis=2) <= 1e-15 * (1 + scale[:, None])),
                 axis=1,
             )
-            # ... or within ABSOLUTE_TOLERANCE [m] (touching pairs, where |v| tends to 0)
-            done = (gap <= RELATIVE_TOLERANCE * scale) | (gap <= ABSOLUTE_TOLERANCE * np.sqrt(vv))
-            done |= repeat
-            lower[active] = np.einsum("pi,pi->p", va, w) / np.sqrt(np.maximum(vv, 1e-300))
             if done.any():
-                keep = ~done
-                active, va, sa, sb, w = (x[keep] for x in (active, va, sa, sb, w))
-                if not len(active):
+                finish(np.flatnonzero(done))
+                keep = np.flatnonzero(~done)
+                index, A, B = index[keep], A.take(keep), B.take(keep)
+                simplex, from_a, from_b = simplex[keep], from_a[keep], from_b[keep]
+                weights, count, v, lower = weights[keep], count[keep], v[keep], lower[keep]
+                sa, sb, w = sa[keep], sb[keep], w[keep]
+                if not len(index):
                     break
-        n = count[active]
-        simplex[active, n] = w
-        from_a[active, n] = sa
-        from_b[active, n] = sb
-        count[active] = n + 1
-        lam, nearest, inside, order = _nearest_in_simplex(simplex[active], count[active])
-        # compact: keep the points with positive weight, in front
-        rows = active[:, None]
-        simplex[active] = np.take_along_axis(simplex[active], order[..., None], axis=1)
-        from_a[active] = np.take_along_axis(from_a[active], order[..., None], axis=1)
-        from_b[active] = np.take_along_axis(from_b[active], order[..., None], axis=1)
-        lam = np.take_along_axis(lam, order, axis=1)
-        weights[rows, np.arange(4)[None, :]] = lam
-        count[active] = np.sum(lam > 0, axis=1)
-        v[active] = nearest
+        rows = np.arange(len(index))
+        simplex[rows, count] = w
+        from_a[rows, count] = sa
+        from_b[rows, count] = sb
+        count = count + 1
+        lam, nearest, inside, order = _nearest_in_simplex(simplex, count)
+        # compact each simplex: the points with positive weight in front
+        simplex = np.take_along_axis(simplex, order[..., None], axis=1)
+        from_a = np.take_along_axis(from_a, order[..., None], axis=1)
+        from_b = np.take_along_axis(from_b, order[..., None], axis=1)
+        weights = np.take_along_axis(lam, order, axis=1)
+        count = np.sum(weights > 0, axis=1)
+        v = nearest
         hit = inside | (np.einsum("pi,pi->p", nearest, nearest) <= 1e-30)
-        overlap[active[hit]] = True
-        active = active[~hit]
+        if hit.any():
+            finish(np.flatnonzero(hit))
+            overlap[index[hit]] = True
+            keep = np.flatnonzero(~hit)
+            index, A, B = index[keep], A.take(keep), B.take(keep)
+            simplex, from_a, from_b = simplex[keep], from_a[keep], from_b[keep]
+            weights, count, v, lower = weights[keep], count[keep], v[keep], lower[keep]
+    if len(index):  # out of iterations
+        finish(np.arange(len(index)))
+        unfinished[index] = True
+    weights, from_a, from_b, lower = weights_out, from_a_out, from_b_out, lower_out
     pa = np.einsum("pk,pki->pi", weights, from_a)
     pb = np.einsum("pk,pki->pi", weights, from_b)
     core = np.where(overlap, 0.0, np.linalg.norm(pa - pb, axis=1))
     error = np.zeros(P)
-    if len(active):  # out of iterations: report the lower bound
-        bound = np.clip(lower[active], 0.0, core[active])
+    if unfinished.any():  # out of iterations: report the lower bound
+        bound = np.clip(lower[unfinished], 0.0, core[unfinished])
         bound = np.where(np.isnan(bound), 0.0, bound)
-        error[active] = core[active] - bound
-        core[active] = bound
+        error[unfinished] = core[unfinished] - bound
+        core[unfinished] = bound
     margin = a.margin + b.margin
     direction = np.divide(
         pb - pa, core[:, None], out=np.zeros_like(pa), where=core[:, None] > 0
