@@ -40,7 +40,7 @@ def main() -> None:
     runs = [
         ("python -c pass (baseline)", [sys.executable, "-c", "pass"]),
         ("rworld --help", [rworld, "--help"]),
-        ("rworld validate (3 example cells)", [rworld, "validate", *cells]),
+        (f"rworld validate ({len(cells)} example cells)", [rworld, "validate", *cells]),
         ("rworld show workcells/paper_fig9", [rworld, "show", "workcells/paper_fig9"]),
         (
             "rworld --json show workcells/paper_fig9",
