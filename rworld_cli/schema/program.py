@@ -14,6 +14,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, field_validator, model_validator
 
+from ..units import parse_length
 from .models import FrameRef, Name, Pose, Strict, Units
 
 Fraction = Annotated[float, Field(gt=0, le=1)]
@@ -179,6 +180,18 @@ class RunFile(Strict):
         description="Contacts shallower than this may be missed between two simulated instants "
         "(default 1mm); see docs/collision.md.",
     )
+
+    @field_validator("clearance", "collision_tolerance")
+    @classmethod
+    def _a_length(cls, value, info):
+        if value is None:
+            return value
+        length = parse_length(value, info.field_name)  # ValueError -> a located message
+        if info.field_name == "collision_tolerance" and length == 0:
+            raise ValueError(
+                "collision_tolerance must be above 0: no check between instants can be exact"
+            )
+        return value
 
 
 class PathFile(Strict):

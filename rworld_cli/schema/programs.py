@@ -206,22 +206,12 @@ def load_run(cell_path: str, run_path: str, dt: float | None = None) -> Run:
                         "warning",
                     )
                 )
-    lengths = {}
-    for key in ("clearance", "collision_tolerance"):
-        value = getattr(rf, key)
-        if value is None:
-            continue
-        try:
-            lengths[key] = parse_length(value, key)
-        except ValueError as exc:
-            issues.append(run_doc.issue((key,), str(exc)))
-    if lengths.get("collision_tolerance") == 0.0:
-        issues.append(
-            run_doc.issue(
-                ("collision_tolerance",),
-                "collision_tolerance must be above 0: no check between instants can be exact",
-            )
-        )
+    # the model checked them already (located); here they become metres
+    lengths = {
+        key: parse_length(getattr(rf, key), key)
+        for key in ("clearance", "collision_tolerance")
+        if getattr(rf, key) is not None
+    }
     if issues:
         raise UserError(
             f"{run_path}: {len(issues)} error(s)",
