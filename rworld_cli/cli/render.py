@@ -63,7 +63,7 @@ def render(cell, output, joints, view, no_frames, tolerance, run, clearance, jso
       rworld render workcells/paper_fig9 -o cell.png
       rworld render workcells/paper_fig9 -o cell.glb
       rworld render workcells/puma560 --joints puma=0,0.5,-1,0,0.3,0 -o puma.png --view 20,-120
-      rworld render workcells/puma560 --run pick_place -o first_contact.png
+      rworld render workcells/puma560 --run through_table -o first_contact.png
     """
     from ..api import render_run_contact, render_scene
     from .physics_common import parse_vector

@@ -95,9 +95,10 @@ class SweepResult:
     Attributes
     ----------
     contacts : list of Contact
-    nearest : dict
-        Body label -> (K,) least distance to any body it may not touch, at the clock's samples
-        (inf where nothing comes within ``report_within``) [m].
+    close : dict
+        Every pair that came within ``report_within`` at a clock sample (pairs that may touch
+        left out): ``a``, ``b`` (N,) body indices, ``sample`` (N,) clock index, ``distance``
+        (N,) [m], ``point_a``, ``point_b`` (N, 3) closest points in world [m].
     queries : int
         Exact pair distance evaluations.
     refinements : int
@@ -105,8 +106,7 @@ class SweepResult:
     """
 
     contacts: list[Contact]
-    nearest: dict[str, np.ndarray] = field(default_factory=dict)
-    nearest_pair: dict[str, list] = field(default_factory=dict)
+    close: dict[str, np.ndarray] = field(default_factory=dict)
     queries: int = 0
     refinements: int = 0
 
@@ -150,13 +150,12 @@ def sweep(
     touches : iterable of (t0, t1, device, names)
         ``touch:`` steps: the device's bodies may touch the named ones during [t0, t1].
     report_within : float
-        Also record, per body and sample, the least distance when below this [m].
+        Also record every pair closer than this at the clock's samples [m] (``close``).
     """
     found: list[tuple] = []  # (i, j, t, distance, depth, pa, pb, buried, between)
     stats = {"queries": 0, "refinements": 0}
     index_of = {float(t): k for k, t in enumerate(clock)}
-    nearest = {b.label: np.full(len(clock), np.inf) for b in model.bodies}
-    nearest_pair: dict[str, list] = {b.label: [None] * len(clock) for b in model.bodies}
+    close: list[tuple] = []  # per interval: (a, b, sample, distance, point_a, point_b) arrays
     touch_windows: list[tuple[float, float, set]] = []
     for iv in intervals:
         world.restore(iv.snap)
@@ -179,8 +178,7 @@ def sweep(
             found,
             stats,
             index_of,
-            nearest,
-            nearest_pair,
+            close,
         )
     if intervals:
         world.restore(intervals[-1].snap)
@@ -192,9 +190,14 @@ def sweep(
         )
     ]
     dt = float(np.min(np.diff(clock))) if len(clock) > 1 else 1.0
-    return SweepResult(
-        _spans(model, kept, dt), nearest, nearest_pair, stats["queries"], stats["refinements"]
-    )
+    keys = ("a", "b", "sample", "distance", "point_a", "point_b")
+    near = {
+        k: np.concatenate([c[n] for c in close])
+        if close
+        else np.zeros((0, 3) if "point" in k else 0, dtype=float if k in keys[3:] else int)
+        for n, k in enumerate(keys)
+    }
+    return SweepResult(_spans(model, kept, dt), near, stats["queries"], stats["refinements"])
 
 
 def _sweep_interval(
@@ -210,8 +213,7 @@ def _sweep_interval(
     found,
     stats,
     index_of,
-    nearest,
-    nearest_pair,
+    close,
 ):
     bodies = model.bodies
     B = len(bodies)
@@ -270,19 +272,22 @@ def _sweep_interval(
         if static[p]:  # a pair that does not move: the same for the whole interval
             found.append(found[-1][:2] + (float(iv.t1),) + found[-1][3:])
     if report_within > 0:
-        for n, (p, k) in enumerate(zip(qp, qk)):
-            c = index_of.get(float(times[k]))
-            d = float(res.distance[n])
-            if c is None or d >= report_within:
-                continue
-            pair = (int(I[p]), int(J[p]))
-            if any(t0 <= times[k] <= t1 and pair in tp for t0, t1, tp in touch_windows):
-                continue  # touching is the point of this step
-            for body, other in ((I[p], J[p]), (J[p], I[p])):
-                label = bodies[body].label
-                if d < nearest[label][c]:
-                    nearest[label][c] = d
-                    nearest_pair[label][c] = bodies[other].label
+        sample = np.array([index_of.get(float(t), -1) for t in times[qk]], dtype=int)
+        keep = (sample >= 0) & (res.distance < report_within)
+        for t0, t1, tp in touch_windows:  # touching is the point of those steps
+            during = (times[qk] >= t0) & (times[qk] <= t1)
+            if during.any():
+                keep &= ~(during & np.array([(int(i), int(j)) in tp for i, j in zip(I[qp], J[qp])]))
+        close.append(
+            (
+                I[qp][keep],
+                J[qp][keep],
+                sample[keep],
+                res.distance[keep],
+                res.point_a[keep],
+                res.point_b[keep],
+            )
+        )
     if K == 1:
         return
     # intervals whose exact end distances still do not pass: bisect them

@@ -85,7 +85,9 @@ class CollisionReport:
         Device -> (K,) least distance from the device and what it carries to any body they may
         not touch, at the clock's samples [m] (inf: nothing within ``report_within``).
     nearest_steps : list of dict
-        Per device step: the least distance over its samples, the pair and the instant.
+        Per device step: every pair (of the device's bodies and what it carries with a body
+        they may not touch) within ``report_within``, nearest first, each with its least
+        distance, instant and closest points.
     unchecked : list of str
         Bodies without geometry (not checked).
     open_meshes : list of str
@@ -230,50 +232,62 @@ def _steps_at(sched, spans, contact: Contact) -> list[StepRef]:
 
 
 def _clearance_columns(sched, model, result, times, spans):
-    """Per device: the least distance of its bodies and what it carries, per sample; and per
-    step, the least over the step."""
+    """Per device: the least distance from its bodies and what it carries to any body they may
+    not touch, per sample; and per device step, every such pair that came within the report
+    distance, with its least distance, instant and closest points."""
     world = sched.world
+    bodies = model.bodies
+    close = result.close
     K = len(times)
-    out = {}
     snaps = sched.snapshots
-    starts = [np.searchsorted(times, t, side="left") for t, _ in snaps] + [K]
-    for d in sched.tracks:
-        column = np.full(K, np.inf)
-        partner = np.array([None] * K, dtype=object)
-        for (t, snap), a, b in zip(snaps, starts[:-1], starts[1:]):
-            if b <= a:
-                continue
-            world.restore(snap)
+    starts = [int(np.searchsorted(times, t, side="left")) for t, _ in snaps] + [K]
+    # which bodies each device carries, per sample (the tree changes at snapshots)
+    carried = {d: np.zeros((K, len(bodies)), dtype=bool) for d in sched.tracks}
+    for (_, snap), a, b in zip(snaps, starts[:-1], starts[1:]):
+        if b <= a:
+            continue
+        world.restore(snap)
+        for d in sched.tracks:
             frames = set(world.subtree(d))
-            for body in model.bodies:
-                if body.frame not in frames:
-                    continue
-                values = result.nearest[body.label][a:b]
-                better = values < column[a:b]
-                column[a:b][better] = values[better]
-                pairs = np.array(result.nearest_pair[body.label][a:b], dtype=object)
-                labels = np.array([f"{body.label} / {p}" for p in pairs], dtype=object)
-                partner[a:b][better] = labels[better]
-        out[d] = column
-        out[f"{d}:pair"] = partner
+            carried[d][a:b] = [body.frame in frames for body in bodies]
     world.restore(snaps[-1][1])
+    columns = {}
+    mine_of = {}
+    for d in sched.tracks:
+        mine = carried[d][close["sample"], close["a"]] | carried[d][close["sample"], close["b"]]
+        mine_of[d] = mine
+        column = np.full(K, np.inf)
+        np.minimum.at(column, close["sample"][mine], close["distance"][mine])
+        columns[d] = column
     steps = []
     for d, t0, t1, step in spans:
-        sel = np.flatnonzero((times >= t0 - 1e-12) & (times <= t1 + 1e-12))
-        if not len(sel):
+        t = times[close["sample"]]
+        sel = np.flatnonzero(mine_of[d] & (t >= t0 - 1e-12) & (t <= t1 + 1e-12))
+        per_pair: dict[tuple[int, int], int] = {}
+        for k in sel:
+            key = (int(close["a"][k]), int(close["b"][k]))
+            if key not in per_pair or close["distance"][k] < close["distance"][per_pair[key]]:
+                per_pair[key] = k
+        if not per_pair:
             continue
-        k = sel[np.argmin(out[d][sel])]
-        if not np.isfinite(out[d][k]):
-            continue
+        pairs = sorted(per_pair.values(), key=lambda k: close["distance"][k])
         steps.append(
             {
                 "device": d,
                 "step": step.index,
                 "text": step.describe(),
                 "where": step.where,
-                "distance": float(out[d][k]),
-                "t": float(times[k]),
-                "pair": out[f"{d}:pair"][k],
+                "pairs": [
+                    {
+                        "a": bodies[close["a"][k]].label,
+                        "b": bodies[close["b"][k]].label,
+                        "distance": float(close["distance"][k]),
+                        "t": float(times[close["sample"][k]]),
+                        "point_a": close["point_a"][k].tolist(),
+                        "point_b": close["point_b"][k].tolist(),
+                    }
+                    for k in pairs
+                ],
             }
         )
-    return {d: v for d, v in out.items() if not d.endswith(":pair")}, steps
+    return columns, steps

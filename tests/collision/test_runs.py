@@ -232,3 +232,26 @@ def test_clearance_command(cli):
     assert low.exit_code == 1 and "overlap" in low.output
     need = cli(["clearance", str(WORKCELLS / "puma560"), "--clearance", "15mm"])
     assert need.exit_code == 1
+
+
+def test_nearest_pairs_per_step_with_closest_points(tmp_path):
+    root = make_cell(tmp_path / "cell", plate_x=410, plate_y=20 + 50 + 8)  # 8 mm beside
+    result, _ = contacts(root)
+    [step] = result.collisions.nearest_steps
+    assert step["device"] == "slider" and step["where"].endswith("program.yaml:3")
+    [pair] = step["pairs"]
+    assert {pair["a"], pair["b"]} == {"plate", "slider.carriage"}
+    # the closest sample: the cube at x = 400 mm, beside the plate, 8 mm away in y
+    x = 1000 * np.interp(pair["t"], result.times, result.devices["slider"].q[:, 0])
+    want = np.hypot(max(abs(x - 410) - 21, 0), 8) / 1000
+    assert want == pytest.approx(0.008)
+    assert pair["distance"] == pytest.approx(want, abs=1e-9)
+    gap = np.linalg.norm(np.subtract(pair["point_a"], pair["point_b"]))
+    assert gap == pytest.approx(pair["distance"], abs=1e-9)
+
+
+def test_the_shipped_colliding_example_fails(cli):
+    out = cli(["check", str(WORKCELLS / "puma560"), "through_table"])
+    assert out.exit_code == 1
+    assert "collision: table with puma.link6" in out.output
+    assert "through_table.yaml:11" in out.output
