@@ -151,7 +151,7 @@ def check(cell, run, dt, clearance, collision_tolerance, no_collisions, json_out
     \b
     Examples:
       rworld check workcells/paper_fig9 transfer
-      rworld check workcells/puma560 pick_place --clearance 10mm --json
+      rworld check workcells/puma560 pick_place --clearance 5mm --json
       rworld check workcells/puma560 through_table   # a deliberately wrong program: exit 1
     """
     from ..api import run_summary, unlimited_notes

@@ -50,9 +50,11 @@ SWEEP_ITERATIONS = 24
 class Contact:
     """Two bodies in contact (or closer than the clearance) over a time span.
 
-    ``distance`` is 0 for a collision (``depth`` then estimates the penetration, see
-    :func:`rworld_cli.collision.convex.penetration`) and the least separation for a clearance
-    violation.  ``points`` are the contact (or closest) points in world at ``t_worst`` [m].
+    A collision overlaps deeper than the tolerance (or is buried): ``distance`` is 0 and
+    ``depth`` estimates the penetration (see :func:`rworld_cli.collision.convex.penetration`).
+    Otherwise it is a clearance violation and ``distance`` the least separation found (0 for a
+    touch shallower than the tolerance).  ``points`` are the contact (or closest) points in
+    world at ``t_worst`` [m].
     """
 
     a: str
@@ -66,10 +68,11 @@ class Contact:
     point_b: list
     buried: bool
     between_samples: bool  # found only by refining between two samples
+    is_collision: bool = True
 
     @property
     def collision(self) -> bool:
-        return self.distance <= 0.0
+        return self.is_collision
 
     def as_dict(self) -> dict:
         return {
@@ -268,7 +271,7 @@ def _sweep_interval(
     exact[qp, qk] = _signed(res)
     for n in _reportable(res, tolerance, clearance):
         p, t = qp[n], float(times[qk[n]])
-        found.append(_finding(I[p], J[p], t, res, n, t not in index_of))
+        found.append(_finding(I[p], J[p], t, res, n, t not in index_of, tolerance))
         if static[p]:  # a pair that does not move: the same for the whole interval
             found.append(found[-1][:2] + (float(iv.t1),) + found[-1][3:])
     if report_within > 0:
@@ -327,7 +330,7 @@ def _sweep_interval(
         stats["queries"] += n
         dm = _signed(res)
         for r in _reportable(res, tolerance, clearance):
-            found.append(_finding(I2[r], J2[r], float(tm[r]), res, r, True))
+            found.append(_finding(I2[r], J2[r], float(tm[r]), res, r, True, tolerance))
         # the two halves, with motion bounds from the states at their ends
         lo = {d: (v[0][:n], v[1][:n], v[2][:n]) for d, v in st.items()}
         mi = {d: (v[0][n : 2 * n], v[1][n : 2 * n], v[2][n : 2 * n]) for d, v in st.items()}
@@ -353,7 +356,18 @@ def _unresolved(items, pairs, found) -> None:
     for p, ta, tb in zip(items["p"], items["ta"], items["tb"]):
         i, j = pairs[p]
         found.append(
-            (int(i), int(j), float(0.5 * (ta + tb)), 0.0, 0.0, [0.0] * 3, [0.0] * 3, False, True)
+            (
+                int(i),
+                int(j),
+                float(0.5 * (ta + tb)),
+                0.0,
+                0.0,
+                [0.0] * 3,
+                [0.0] * 3,
+                False,
+                True,
+                True,
+            )
         )
 
 
@@ -371,8 +385,9 @@ def _reportable(res, tolerance: float, clearance: float) -> np.ndarray:
     return np.flatnonzero(collide | close)
 
 
-def _finding(i, j, t: float, res, n: int, between: bool) -> tuple:
-    collide = bool(res.overlap[n] and (res.depth[n] > 0 or res.buried[n]))
+def _finding(i, j, t: float, res, n: int, between: bool, tolerance: float) -> tuple:
+    """(i, j, t, distance, depth, point_a, point_b, buried, between, collision)."""
+    collide = bool(res.overlap[n] and (res.depth[n] > tolerance or res.buried[n]))
     return (
         int(i),
         int(j),
@@ -383,6 +398,7 @@ def _finding(i, j, t: float, res, n: int, between: bool) -> tuple:
         res.point_b[n].tolist(),
         bool(res.buried[n]),
         between,
+        collide,
     )
 
 
@@ -500,7 +516,7 @@ def _spans(model: CollisionModel, found: list[tuple], dt: float) -> list[Contact
             else:
                 groups.append([f])
         for group in groups:
-            worst = max(group, key=lambda g: (g[4], -g[3]))
+            worst = max(group, key=lambda g: (g[9], g[4], -g[3]))
             out.append(
                 Contact(
                     bodies[i].label,
@@ -514,6 +530,7 @@ def _spans(model: CollisionModel, found: list[tuple], dt: float) -> list[Contact
                     worst[6],
                     any(g[7] for g in group),
                     all(g[8] for g in group),
+                    any(g[9] for g in group),
                 )
             )
     out.sort(key=lambda c: (c.t_start, c.a, c.b))

@@ -181,11 +181,11 @@ def test_the_issue_case_drives_through_the_table(cli, tmp_path):
     assert out.exit_code == 1
     assert "collision: table with puma.link6" in out.output
     assert "puma step 2 (move to workpiece.grasp)" in out.output
-    assert "pick_place.yaml:9" in out.output
+    assert "pick_place.yaml:10" in out.output
     data = json.loads(cli(["check", str(cell), "pick_place", "--json"]).stdout)
     assert data["ok"] is False and data["collisions"]["collisions"]
     first = data["collisions"]["collisions"][0]
-    assert first["steps"][0]["where"].endswith("pick_place.yaml:9") and first["depth"] > 0.05
+    assert first["steps"][0]["where"].endswith("pick_place.yaml:10") and first["depth"] > 0.05
     picture = tmp_path / "first.png"
     out = cli(["render", str(cell), "--run", "pick_place", "-o", str(picture)])
     assert out.exit_code == 0 and picture.read_bytes()[:4] == b"\x89PNG"
@@ -255,3 +255,9 @@ def test_the_shipped_colliding_example_fails(cli):
     assert out.exit_code == 1
     assert "collision: table with puma.link6" in out.output
     assert "through_table.yaml:11" in out.output
+
+
+def test_touch_steps_let_the_example_keep_a_clearance(cli):
+    """pick_place marks the moves where touching is the point; everything else keeps 5 mm."""
+    out = cli(["check", str(WORKCELLS / "puma560"), "pick_place", "--clearance", "5mm"])
+    assert out.exit_code == 0, out.output
