@@ -10,6 +10,7 @@ from .common import (
     EXIT_CHECK_FAILED,
     emit_json,
     handle_errors,
+    joints_option,
     json_option,
     parse_joint_assignments,
 )
@@ -17,12 +18,7 @@ from .common import (
 
 @click.command()
 @click.argument("cell", metavar="CELL")
-@click.option(
-    "--joints",
-    multiple=True,
-    metavar="DEVICE=q1,...",
-    help="Joint values (SI); repeatable. Default: home.",
-)
+@joints_option
 @click.option(
     "--clearance",
     "required",

@@ -79,6 +79,15 @@ def handle_errors(fn: Callable) -> Callable:
     return wrapper
 
 
+# --joints DEVICE=q1,... (repeatable): a cell's state, for the commands that look at one state
+joints_option = click.option(
+    "--joints",
+    multiple=True,
+    metavar="DEVICE=q1,...",
+    help="Joint values (SI); repeatable. Default: home.",
+)
+
+
 def parse_joint_assignments(values: tuple[str, ...]) -> dict[str, list[float]]:
     """``("robot=0,0.5,1", ...)`` -> ``{"robot": [0, 0.5, 1]}``; usage errors exit 2."""
     out: dict[str, list[float]] = {}

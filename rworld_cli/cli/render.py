@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import emit_json, handle_errors, json_option, parse_joint_assignments
+from .common import emit_json, handle_errors, joints_option, json_option, parse_joint_assignments
 
 
 @click.command()
@@ -16,12 +16,7 @@ from .common import emit_json, handle_errors, json_option, parse_joint_assignmen
     type=click.Path(dir_okay=False),
     help="A .png picture or a .glb glTF scene.",
 )
-@click.option(
-    "--joints",
-    multiple=True,
-    metavar="DEVICE=q1,...",
-    help="Joint values (SI); repeatable. Default: home.",
-)
+@joints_option
 @click.option(
     "--view",
     default="25,-60",

@@ -4,17 +4,12 @@ from __future__ import annotations
 
 import click
 
-from .common import emit_json, handle_errors, json_option, parse_joint_assignments
+from .common import emit_json, handle_errors, joints_option, json_option, parse_joint_assignments
 
 
 @click.command()
 @click.argument("cell", metavar="CELL")
-@click.option(
-    "--joints",
-    multiple=True,
-    metavar="DEVICE=q1,...",
-    help="Joint values (SI); repeatable. Default: home.",
-)
+@joints_option
 @click.option(
     "--device",
     default=None,

@@ -31,6 +31,7 @@ test never reach the exact (GJK) query.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -155,11 +156,8 @@ def sweep(
     report_within : float
         Also record every pair closer than this at the clock's samples [m] (``close``).
     """
-    found: list[tuple] = []  # (i, j, t, distance, depth, pa, pb, buried, between)
-    stats = {"queries": 0, "refinements": 0}
-    index_of = {float(t): k for k, t in enumerate(clock)}
-    close: list[tuple] = []  # per interval: (a, b, sample, distance, point_a, point_b) arrays
-    touch_windows: list[tuple[float, float, set]] = []
+    run = _Sweep(world, model, states, clock, tolerance, clearance, report_within)
+    found, close, touch_windows, stats = run.found, run.close, run.touch_windows, run.stats
     for iv in intervals:
         world.restore(iv.snap)
         for t0, t1, device, names in touches:
@@ -168,21 +166,7 @@ def sweep(
             mine, named = touch_bodies(world, model, device, names)
             pairs = {(min(a, b), max(a, b)) for a in mine for b in named if a != b}
             touch_windows.append((max(t0, iv.t0), min(t1, iv.t1), pairs))
-        _sweep_interval(
-            touch_windows,
-            world,
-            model,
-            iv,
-            states,
-            clock,
-            tolerance,
-            clearance,
-            report_within,
-            found,
-            stats,
-            index_of,
-            close,
-        )
+        _sweep_interval(run, iv)
     if intervals:
         world.restore(intervals[-1].snap)
     kept = [
@@ -203,21 +187,34 @@ def sweep(
     return SweepResult(_spans(model, kept, dt), near, stats["queries"], stats["refinements"])
 
 
-def _sweep_interval(
-    touch_windows,
-    world,
-    model,
-    iv,
-    states,
-    clock,
-    tolerance,
-    clearance,
-    report_within,
-    found,
-    stats,
-    index_of,
-    close,
-):
+@dataclass
+class _Sweep:
+    """What every interval of one sweep reads, and what they add to."""
+
+    world: object
+    model: CollisionModel
+    states: Callable[[np.ndarray], dict]
+    clock: np.ndarray
+    tolerance: float
+    clearance: float
+    report_within: float
+    found: list = field(default_factory=list)  # (i, j, t, distance, depth, pa, pb, buried,
+    # between, collision)
+    close: list = field(default_factory=list)  # per interval: (a, b, sample, distance, pa, pb)
+    touch_windows: list = field(default_factory=list)  # (t0, t1, set of allowed pairs)
+    stats: dict = field(default_factory=lambda: {"queries": 0, "refinements": 0})
+
+    @property
+    def index_of(self) -> dict[float, int]:
+        return {float(t): k for k, t in enumerate(self.clock)}
+
+
+def _sweep_interval(run: _Sweep, iv: Interval) -> None:
+    """Check one stretch of one affixment tree (module docstring), adding to ``run``."""
+    world, model, states, clock = run.world, run.model, run.states, run.clock
+    tolerance, clearance, report_within = run.tolerance, run.clearance, run.report_within
+    found, close, touch_windows, stats = run.found, run.close, run.touch_windows, run.stats
+    index_of = run.index_of
     bodies = model.bodies
     B = len(bodies)
     inside = clock[(clock > iv.t0) & (clock < iv.t1)]

@@ -414,41 +414,22 @@ class World:
 
         The tree is the current one (a batch spans no affixment change).
         """
-        self._check_frame(frame)
-        chain = []
-        node = frame
-        while node is not None and node != WORLD:
-            chain.append(node)
-            node = self._parent[node]
-        N = len(next(iter(joints.values()))) if joints else 1
-        T = np.broadcast_to(np.eye(4), (N, 4, 4)).copy()
-        link_index = {
-            f: (d, i) for d, dev in self.cell.devices.items() for i, f in enumerate(dev.link_frames)
-        }
-        cache: dict[str, np.ndarray] = {}
-        for node in reversed(chain):  # from world down: a loop over frames, vectorised over states
-            if node in link_index:
-                dev, i = link_index[node]
-                if dev not in cache:
-                    q = joints.get(dev)
-                    q = (
-                        np.broadcast_to(self._q[dev], (N, self.cell.devices[dev].dof))
-                        if q is None
-                        else np.asarray(q, dtype=float)
-                    )
-                    cache[dev] = self.cell.devices[dev].joint_transforms(q)
-                T = T @ cache[dev][:, i]
-            else:
-                T = T @ self._T_parent[node]
-        return T
+        return self.T_world_frames([frame], joints)[frame].copy()
 
     def T_world_frames(
         self, frames: list[str], joints: dict[str, np.ndarray]
     ) -> dict[str, np.ndarray]:
         """``T_world_frame`` of several frames at N joint states, each (N, 4, 4).
 
-        As :meth:`T_world_batch`, with the devices' link transforms and the shared part of
-        the frames' paths to world computed once.
+        Parameters
+        ----------
+        frames : list of str
+        joints : dict
+            Device name -> joint values (N, n) for the devices whose links lie between the
+            frames and world; others keep their current values.
+
+        The devices' link transforms and the shared part of the frames' paths to world are
+        computed once.  The tree is the current one (a batch spans no affixment change).
         """
         N = len(next(iter(joints.values()))) if joints else 1
         link_index = {
