@@ -21,27 +21,47 @@ SENSING_TOLERANCE = 1e-6  # m: surfaces this close to a sensor cell touch it (do
 # two simulated instants; everything deeper is found.
 COLLISION_TOLERANCE = 1e-3  # m
 
-_LENGTH_WORDS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "in": 0.0254}
+LENGTH_WORDS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "in": 0.0254}  # -> metres
+_UNIT_NAMES = {"m": "metres", "mm": "millimetres"}
+TIME_WORDS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}  # -> seconds
 
 
-def parse_length(text, what: str = "length") -> float:
-    """'10mm', '0.01 m', '1cm' or a bare number of metres -> metres.
-
-    Raises ``ValueError`` with a message naming ``what`` when the text is not a finite length
-    of at least 0.
+def parse_quantity(text, words: dict[str, float], default_unit: str) -> float:
+    """'10mm', '8 ms' or a bare number in ``default_unit`` -> SI, by the factors in ``words``;
+    NaN when the text is not a number with one of those units.
     """
     import re
 
     m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*([a-z]+)?\s*", str(text))
-    value = float("nan")
-    if m and (m.group(2) or "m") in _LENGTH_WORDS:
-        try:
-            value = float(m.group(1)) * _LENGTH_WORDS[m.group(2) or "m"]
-        except ValueError:
-            pass
+    if not m or (m.group(2) or default_unit) not in words:
+        return float("nan")
+    try:
+        return float(m.group(1)) * words[m.group(2) or default_unit]
+    except ValueError:
+        return float("nan")
+
+
+def parse_length(text, what: str = "length", default_unit: str = "m") -> float:
+    """'10mm', '0.01 m', '1cm' or a bare number in ``default_unit`` -> metres.
+
+    Raises ``ValueError`` with a message naming ``what`` when the text is not a finite length
+    of at least 0.
+    """
+    value = parse_quantity(text, LENGTH_WORDS, default_unit)
     if not (value >= 0 and math.isfinite(value)):
         raise ValueError(
-            f"{what} '{text}' is not a length of at least 0: write e.g. 10mm, 0.01m or 0.01 "
-            "(metres)"
+            f"{what} '{text}' is not a length of at least 0: write e.g. 10mm, 0.01m or a bare "
+            f"number ({_UNIT_NAMES.get(default_unit, default_unit)})"
+        )
+    return value
+
+
+def parse_duration(text, what: str = "duration") -> float:
+    """'8ms', '0.004s' or a bare number of seconds -> seconds (above 0); ``ValueError`` naming
+    ``what`` otherwise."""
+    value = parse_quantity(text, TIME_WORDS, "s")
+    if not (value > 0 and math.isfinite(value)):
+        raise ValueError(
+            f"{what} '{text}' is not a positive duration: write e.g. 8ms, 0.004s or 0.002"
         )
     return value

@@ -18,17 +18,12 @@ from ..errors import UserError
 
 def parse_length(text: str, default_unit: str = "mm") -> float:
     """'0.05mm', '50um', '0.00005m' or a bare number in ``default_unit`` -> metres."""
-    import re
+    from ..units import parse_length as to_metres
 
-    m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(mm|um|m)?\s*", str(text))
-    if not m:
-        raise UserError(f"'{text}' is not a length: write e.g. 0.05mm, 50um or 0.00005m")
     try:
-        value = float(m.group(1))
-    except ValueError:
-        raise UserError(f"'{text}' is not a length: write e.g. 0.05mm, 50um or 0.00005m") from None
-    unit = m.group(2) or default_unit
-    return value * {"mm": 1e-3, "um": 1e-6, "m": 1.0}[unit]
+        return to_metres(text, "length", default_unit)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
 
 
 @dataclass

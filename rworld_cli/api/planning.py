@@ -157,23 +157,13 @@ def plan_time_optimal(
 
 
 def parse_period(text: str) -> float:
-    """'8ms', '0.008s' or a bare number of seconds -> seconds (> 0)."""
-    import re
+    """'8ms', '0.004s' or a bare number of seconds -> seconds (> 0)."""
+    from ..units import parse_duration
 
-    m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(ms|s|us)?\s*", str(text))
     try:
-        value = (
-            float(m.group(1)) * {"ms": 1e-3, "s": 1.0, "us": 1e-6}[m.group(2) or "s"]
-            if m
-            else float("nan")
-        )
-    except ValueError:
-        value = float("nan")
-    if not (value > 0 and np.isfinite(value)):
-        raise UserError(
-            f"--period '{text}' is not a positive duration: write e.g. 8ms, 0.004s or 0.002"
-        )
-    return value
+        return parse_duration(text, "--period")
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
 
 
 def sample_timed_path(

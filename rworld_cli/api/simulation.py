@@ -48,9 +48,11 @@ def simulate_run(
 
     loaded = load_run(cell, run_path(cell, run), dt)
     if clearance is not None:
-        loaded.clearance = _length(clearance, "--clearance")
+        loaded.clearance = parse_length_option(clearance, "--clearance")
     if collision_tolerance is not None:
-        loaded.collision_tolerance = _length(collision_tolerance, "--collision-tolerance")
+        loaded.collision_tolerance = parse_length_option(
+            collision_tolerance, "--collision-tolerance"
+        )
         if loaded.collision_tolerance <= 0:
             raise UserError(
                 "--collision-tolerance must be above 0: no check between instants can be exact"
@@ -58,7 +60,8 @@ def simulate_run(
     return loaded, simulate(loaded, progress, collisions)
 
 
-def _length(value, what: str) -> float:
+def parse_length_option(value, what: str) -> float:
+    """A length option ('10mm', '0.01m', '0.01') in metres; UserError (exit 2) otherwise."""
     from ..units import parse_length
 
     try:
@@ -108,11 +111,6 @@ def collision_notes(result) -> list[str]:
             + ", ".join(report.open_meshes)
         )
     return notes
-
-
-def parse_length_option(value, what: str) -> float:
-    """A length option ('10mm', '0.01m', '0.01') in metres; UserError (exit 2) otherwise."""
-    return _length(value, what)
 
 
 def render_run_contact(

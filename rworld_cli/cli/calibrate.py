@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from .common import EXIT_CHECK_FAILED, emit_json, handle_errors, json_option
+from .common import EXIT_CHECK_FAILED, emit_json, frames_option, handle_errors, json_option
 
 
 def _solution_dict(sol) -> dict:
@@ -45,12 +45,7 @@ def _solution_dict(sol) -> dict:
     type=click.Path(dir_okay=False),
     help="Overlay pose file to write (default: calibrated.yaml beside cell.yaml).",
 )
-@click.option(
-    "--frames",
-    default=None,
-    metavar="F1,F2,...",
-    help="Only these conditioned frames (default: all).",
-)
+@frames_option
 @click.option(
     "--csv-units",
     type=click.Choice(["mm", "m"]),

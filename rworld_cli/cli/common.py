@@ -79,6 +79,14 @@ def handle_errors(fn: Callable) -> Callable:
     return wrapper
 
 
+# --frames F1,F2,...: the calibration commands' choice of conditioned frames
+frames_option = click.option(
+    "--frames",
+    default=None,
+    metavar="F1,F2,...",
+    help="Only these conditioned frames (default: all).",
+)
+
 # --joints DEVICE=q1,... (repeatable): a cell's state, for the commands that look at one state
 joints_option = click.option(
     "--joints",

@@ -7,7 +7,7 @@ import sys
 import click
 
 from ..units import ARCSEC
-from .common import EXIT_CHECK_FAILED, emit_json, handle_errors, json_option
+from .common import EXIT_CHECK_FAILED, emit_json, frames_option, handle_errors, json_option
 
 
 def _plan_dict(plan) -> dict:
@@ -42,12 +42,7 @@ def _plan_dict(plan) -> dict:
 
 @click.command("plan-measurements")
 @click.argument("cell", metavar="CELL")
-@click.option(
-    "--frames",
-    default=None,
-    metavar="F1,F2,...",
-    help="Only these conditioned frames (default: all).",
-)
+@frames_option
 @click.option(
     "--sigma",
     default="0.05mm",

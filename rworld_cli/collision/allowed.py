@@ -17,9 +17,11 @@ from ..model.cell import WORLD
 from .bodies import CollisionModel
 
 
-def carrier(world, model: CollisionModel, frame: str) -> int | None:
-    """The body that carries ``frame``: the first body frame at or above it (None: world)."""
-    by_frame = {b.frame: i for i, b in enumerate(model.bodies)}
+def carrier(world, by_frame: dict[str, int], frame: str) -> int | None:
+    """The body that carries ``frame``: the first body frame at or above it (None: world).
+
+    ``by_frame`` maps each body's frame to its index in the collision model.
+    """
     node = frame
     while node is not None and node != WORLD:
         if node in by_frame:
@@ -48,7 +50,7 @@ def allowed_pairs(world, model: CollisionModel) -> dict[tuple[int, int], str]:
     for aff in world.affixments:
         if aff.child in cell.sensors:
             continue
-        holder = carrier(world, model, aff.parent)
+        holder = carrier(world, index, aff.parent)
         if holder is None:
             continue
         kind = aff.kind or ("rests_on" if aff.type == "non_rigid" else "rigid")

@@ -204,9 +204,10 @@ class _Sweep:
     touch_windows: list = field(default_factory=list)  # (t0, t1, set of allowed pairs)
     stats: dict = field(default_factory=lambda: {"queries": 0, "refinements": 0})
 
-    @property
-    def index_of(self) -> dict[float, int]:
-        return {float(t): k for k, t in enumerate(self.clock)}
+    def sample_index(self, t: np.ndarray) -> np.ndarray:
+        """The clock index of each instant of ``t`` (N,), or -1 for instants off the clock."""
+        k = np.minimum(np.searchsorted(self.clock, t), len(self.clock) - 1)
+        return np.where(self.clock[k] == t, k, -1)
 
 
 def _sweep_interval(run: _Sweep, iv: Interval) -> None:
@@ -214,7 +215,6 @@ def _sweep_interval(run: _Sweep, iv: Interval) -> None:
     world, model, states, clock = run.world, run.model, run.states, run.clock
     tolerance, clearance, report_within = run.tolerance, run.clearance, run.report_within
     found, close, touch_windows, stats = run.found, run.close, run.touch_windows, run.stats
-    index_of = run.index_of
     bodies = model.bodies
     B = len(bodies)
     inside = clock[(clock > iv.t0) & (clock < iv.t1)]
@@ -222,10 +222,7 @@ def _sweep_interval(run: _Sweep, iv: Interval) -> None:
     K = len(times)
     joints = states(times)
     poses = _poses(world, bodies, {d: v[0] for d, v in joints.items()})  # (B, K, 4, 4)
-    levers = [_levers(world, b, joints) for b in bodies]
-    contributions = _contributions(
-        levers, joints, joints, times[:-1], times[1:], slice(0, K - 1), slice(1, K)
-    )
+    levers = _Levers.of(world, bodies, joints)
     allowed = allowed_pairs(world, model)
     pairs = np.array(
         [(i, j) for i in range(B) for j in range(i + 1, B) if (i, j) not in allowed],
@@ -249,7 +246,10 @@ def _sweep_interval(run: _Sweep, iv: Interval) -> None:
         outside = np.linalg.norm(np.maximum(np.abs(local) - half[a, None, :], 0.0), axis=2)
         lower = np.maximum(lower, outside - radius[c, None])
     slack = 2.0 * (clearance - tolerance)
-    M = _relative_motion(contributions, I, J, K - 1)  # (P, K-1)
+    weights = levers.pair_weights(I, J)  # (P, L)
+    before = {d: tuple(x[:-1] for x in v) for d, v in joints.items()}
+    after = {d: tuple(x[1:] for x in v) for d, v in joints.items()}
+    M = weights @ levers.travel(before, after, np.diff(times)).T  # (P, K-1) motion bounds
     static = ~np.any(M > 0, axis=1)  # the pair moves, if at all, as one rigid body
     if K > 1:
         need_interval = lower[:, :-1] + lower[:, 1:] - M < slack
@@ -266,18 +266,17 @@ def _sweep_interval(run: _Sweep, iv: Interval) -> None:
     res = distances(bodies, I[qp], J[qp], poses[I[qp], qk], poses[J[qp], qk], SWEEP_ITERATIONS)
     stats["queries"] += len(qp)
     exact[qp, qk] = _signed(res)
+    sample = run.sample_index(times[qk])
     for n in _reportable(res, tolerance, clearance):
         p, t = qp[n], float(times[qk[n]])
-        found.append(_finding(I[p], J[p], t, res, n, t not in index_of, tolerance))
+        found.append(_finding(I[p], J[p], t, res, n, sample[n] < 0, tolerance))
         if static[p]:  # a pair that does not move: the same for the whole interval
             found.append(found[-1][:2] + (float(iv.t1),) + found[-1][3:])
     if report_within > 0:
-        sample = np.array([index_of.get(float(t), -1) for t in times[qk]], dtype=int)
         keep = (sample >= 0) & (res.distance < report_within)
         for t0, t1, tp in touch_windows:  # touching is the point of those steps
-            during = (times[qk] >= t0) & (times[qk] <= t1)
-            if during.any():
-                keep &= ~(during & np.array([(int(i), int(j)) in tp for i, j in zip(I[qp], J[qp])]))
+            allowed_now = np.array([(int(i), int(j)) in tp for i, j in pairs], dtype=bool)
+            keep &= ~(allowed_now[qp] & (times[qk] >= t0) & (times[qk] <= t1))
         close.append(
             (
                 I[qp][keep],
@@ -332,8 +331,9 @@ def _sweep_interval(run: _Sweep, iv: Interval) -> None:
         lo = {d: (v[0][:n], v[1][:n], v[2][:n]) for d, v in st.items()}
         mi = {d: (v[0][n : 2 * n], v[1][n : 2 * n], v[2][n : 2 * n]) for d, v in st.items()}
         hi = {d: (v[0][2 * n :], v[1][2 * n :], v[2][2 * n :]) for d, v in st.items()}
-        M1 = _pair_motion(levers, I2, J2, lo, mi, items["ta"], tm)
-        M2 = _pair_motion(levers, I2, J2, mi, hi, tm, items["tb"])
+        W = weights[items["p"]]
+        M1 = np.einsum("nl,nl->n", W, levers.travel(lo, mi, tm - items["ta"]))
+        M2 = np.einsum("nl,nl->n", W, levers.travel(mi, hi, items["tb"] - tm))
         ok = dm >= floor  # a contact found at the midpoint ends the search there
         left = ok & (items["da"] + dm - M1 < slack)
         right = ok & (dm + items["db"] - M2 < slack)
@@ -405,96 +405,91 @@ def _poses(world, bodies: list[Body], joints: dict[str, np.ndarray]) -> np.ndarr
     return np.stack([frames[b.frame] for b in bodies]) if bodies else np.zeros((0, 0, 4, 4))
 
 
-def _levers(world, body: Body, joints) -> list[tuple[str, int, float, bool, float]]:
-    """The joints that move ``body``: (device, joint index, lever r_j [m], prismatic,
-    acceleration limit).
+@dataclass
+class _Levers:
+    """Which joints move each body, and by how much at most (module docstring).
+
+    Attributes
+    ----------
+    joints : list of (device, joint index)
+        The L joints that move any body.
+    limits : ndarray, shape (L,)
+        Their acceleration limits (inf: none).
+    arm : ndarray, shape (B, L)
+        Bound on the distance from each joint's axis to each body [m]; 1 for a prismatic joint
+        (it moves the body by its own travel); 0 where the joint does not move the body.
     """
-    cell = world.cell
-    link_of = {f: (d, i) for d, dev in cell.devices.items() for i, f in enumerate(dev.link_frames)}
-    reach = float(np.linalg.norm(body.center)) + body.radius  # from the body's frame origin
-    out = []
-    node = body.frame
-    while node is not None and node != WORLD:
-        if node in link_of:
-            d, i = link_of[node]
-            dev = cell.devices[d]
-            q = joints[d][0][:, i]
-            qs = np.zeros((len(q), dev.dof))
-            qs[:, i] = q
-            A = dev.joint_transforms(qs)[:, i]
-            length = float(np.max(np.linalg.norm(A[:, :3, 3], axis=1)))
-            joint = dev.joints[i]
-            prismatic = joint.kind == "prismatic"
-            if prismatic:  # its extension may grow between samples: add its largest step
-                length += float(np.max(np.abs(np.diff(q)), initial=0.0))
-            out.append((d, i, reach + abs(joint.a), prismatic, joint.limits.acceleration))
-            reach += length
-        else:
-            reach += float(np.linalg.norm(world.T_parent(node)[:3, 3]))
-        node = world.parent(node)
-    return out
 
+    joints: list[tuple[str, int]]
+    limits: np.ndarray
+    arm: np.ndarray
 
-def _travel(limit: float, qd_a, qd_b, qdd_a, qdd_b, h) -> np.ndarray:
-    """Bound on a joint's travel over intervals of length h (module docstring)."""
-    A = np.maximum(np.abs(qdd_a), np.abs(qdd_b))
-    if np.isfinite(limit):
-        A = np.maximum(A, limit)
-    return h * (np.abs(qd_a) + np.abs(qd_b)) / 2 + A * h * h / 4
+    @classmethod
+    def of(cls, world, bodies: list[Body], joints: dict) -> _Levers:
+        """The levers of ``bodies`` in the world's tree, for the joint samples ``joints``
+        (device -> (q, qd, qdd), each (K, n)) of one stretch."""
+        cell = world.cell
+        link_of = {
+            f: (d, i) for d, dev in cell.devices.items() for i, f in enumerate(dev.link_frames)
+        }
+        # each link frame's offset from its parent frame, at its longest over the samples; a
+        # prismatic joint may extend further between samples: add its largest step
+        length = {}
+        for d, dev in cell.devices.items():
+            q = joints[d][0]
+            norms = np.linalg.norm(dev.joint_transforms(q)[..., :3, 3], axis=-1).max(axis=0)
+            steps = np.abs(np.diff(q, axis=0)).max(axis=0, initial=0.0)
+            prismatic = np.array([j.kind == "prismatic" for j in dev.joints])
+            for i, f in enumerate(dev.link_frames):
+                length[f] = float(norms[i] + (steps[i] if prismatic[i] else 0.0))
+        columns: dict[tuple[str, int], int] = {}
+        arms: list[dict[int, float]] = []
+        for body in bodies:
+            reach = float(np.linalg.norm(body.center)) + body.radius  # from the body's frame
+            arm: dict[int, float] = {}
+            node = body.frame
+            while node is not None and node != WORLD:
+                if node in link_of:
+                    d, i = link_of[node]
+                    joint = cell.devices[d].joints[i]
+                    column = columns.setdefault((d, i), len(columns))
+                    arm[column] = 1.0 if joint.kind == "prismatic" else reach + abs(joint.a)
+                    reach += length[node]
+                else:
+                    reach += float(np.linalg.norm(world.T_parent(node)[:3, 3]))
+                node = world.parent(node)
+            arms.append(arm)
+        table = np.zeros((len(bodies), len(columns)))
+        for b, arm in enumerate(arms):
+            for column, r in arm.items():
+                table[b, column] = r
+        keys = list(columns)
+        limits = np.array([cell.devices[d].joints[i].limits.acceleration for d, i in keys])
+        return cls(keys, limits, table)
 
+    def travel(self, lo: dict, hi: dict, h: np.ndarray) -> np.ndarray:
+        """Bound on each joint's travel over N intervals of length ``h`` (N,), from the states
+        at their ends (device -> (q, qd, qdd), each (N, n)): shape (N, L) [rad or m].
 
-def _contributions(levers, ja, jb, ta, tb, sa, sb) -> list[dict]:
-    """Per body, joint (device, index) -> its share of the body's motion bound over the
-    intervals [ta, tb] [m] (module docstring).
-    """
-    h = np.asarray(tb) - np.asarray(ta)
-    out = []
-    for lv in levers:
-        shares = {}
-        for d, j, r, prismatic, limit in lv:
-            V = _travel(
-                limit, ja[d][1][sa, j], jb[d][1][sb, j], ja[d][2][sa, j], jb[d][2][sb, j], h
-            )
-            shares[(d, j)] = V * (1.0 if prismatic else r)
-        out.append(shares)
-    return out
+        ``h (|qd_a| + |qd_b|) / 2 + A h^2 / 4``, A the acceleration limit or, when larger, the
+        acceleration at either end.
+        """
+        h = np.asarray(h, dtype=float)
+        out = np.zeros((len(h), len(self.joints)))
+        for column, (d, j) in enumerate(self.joints):
+            qd_a, qd_b = lo[d][1][:, j], hi[d][1][:, j]
+            A = np.maximum(np.abs(lo[d][2][:, j]), np.abs(hi[d][2][:, j]))
+            if np.isfinite(self.limits[column]):
+                A = np.maximum(A, self.limits[column])
+            out[:, column] = h * (np.abs(qd_a) + np.abs(qd_b)) / 2 + A * h * h / 4
+        return out
 
-
-def _relative_motion(shares: list[dict], I, J, n: int) -> np.ndarray:
-    """Motion bound of pairs: a joint that moves both bodies moves them as one rigid body and
-    leaves their distance alone, so only the joints that move one of them count. (P, n) [m].
-    """
-    out = np.zeros((len(I), n))
-    for p, (i, j) in enumerate(zip(I, J)):
-        a, b = shares[i], shares[j]
-        for key in a.keys() ^ b.keys():
-            out[p] += a[key] if key in a else b[key]
-    return out
-
-
-def _pair_motion(levers, I, J, lo, hi, ta, tb) -> np.ndarray:
-    """Motion bound of pairs (I[k], J[k]) over [ta[k], tb[k]] (k-th states in lo and hi)."""
-    h = tb - ta
-    out = np.zeros(len(I))
-    for k_side, (side, other) in enumerate(((I, J), (J, I))):
-        for b in np.unique(side):
-            rows = np.flatnonzero(side == b)
-            for d, j, r, prismatic, limit in levers[b]:
-                # shared joints move the pair rigidly: count the joint only where the other
-                # body does not depend on it
-                mine = np.array([(d, j) not in _keys(levers[o]) for o in other[rows]])
-                if not mine.any():
-                    continue
-                rr = rows[mine]
-                V = _travel(
-                    limit, lo[d][1][rr, j], hi[d][1][rr, j], lo[d][2][rr, j], hi[d][2][rr, j], h[rr]
-                )
-                out[rr] += V * (1.0 if prismatic else r)
-    return out
-
-
-def _keys(lv) -> set:
-    return {(d, j) for d, j, *_ in lv}
+    def pair_weights(self, I: np.ndarray, J: np.ndarray) -> np.ndarray:
+        """Per pair (I[p], J[p]) and joint, the lever that counts for their distance: a joint
+        that moves both bodies moves them as one rigid body and leaves their distance alone.
+        Shape (P, L); the pairs' motion bound is this times the joints' travel."""
+        a, b = self.arm[I], self.arm[J]
+        return np.where(b > 0, 0.0, a) + np.where(a > 0, 0.0, b)
 
 
 def _spans(model: CollisionModel, found: list[tuple], dt: float) -> list[Contact]:

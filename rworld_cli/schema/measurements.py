@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import hashlib
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
@@ -204,23 +205,16 @@ def load_measurements(paths: list[str], cell: CellModel, csv_units: str = "mm") 
             feature = cell.features.get(name)
             if feature is None:
                 issues.append(
-                    Issue(
-                        where.file,
-                        where.line,
-                        where.column,
-                        where.location,
-                        f"unknown feature '{name}'{did_you_mean(name, cell.features)}",
+                    replace(
+                        where,
+                        message=f"unknown feature '{name}'{did_you_mean(name, cell.features)}",
                     )
                 )
                 continue
             if name in out:
                 issues.append(
-                    Issue(
-                        where.file,
-                        where.line,
-                        where.column,
-                        where.location,
-                        f"'{name}' is measured again (first in {out[name].source})",
+                    replace(
+                        where, message=f"'{name}' is measured again (first in {out[name].source})"
                     )
                 )
                 continue
@@ -228,12 +222,9 @@ def load_measurements(paths: list[str], cell: CellModel, csv_units: str = "mm") 
             need = MIN_POINTS[feature.kind]
             if len(pts) < need:
                 issues.append(
-                    Issue(
-                        where.file,
-                        where.line,
-                        where.column,
-                        where.location,
-                        f"a {feature.kind} needs at least {need} point(s), got {len(pts)}",
+                    replace(
+                        where,
+                        message=f"a {feature.kind} needs at least {need} point(s), got {len(pts)}",
                     )
                 )
                 continue

@@ -260,17 +260,17 @@ def _clearance_columns(sched, model, result, times, spans):
         np.minimum.at(column, close["sample"][mine], close["distance"][mine])
         columns[d] = column
     steps = []
+    t = times[close["sample"]]
+    # records nearest first: the first of each pair is its least distance
+    order = np.argsort(close["distance"], kind="stable")
     for d, t0, t1, step in spans:
-        t = times[close["sample"]]
-        sel = np.flatnonzero(mine_of[d] & (t >= t0 - 1e-12) & (t <= t1 + 1e-12))
-        per_pair: dict[tuple[int, int], int] = {}
-        for k in sel:
-            key = (int(close["a"][k]), int(close["b"][k]))
-            if key not in per_pair or close["distance"][k] < close["distance"][per_pair[key]]:
-                per_pair[key] = k
-        if not per_pair:
+        sel = order[(mine_of[d] & (t >= t0 - 1e-12) & (t <= t1 + 1e-12))[order]]
+        if not len(sel):
             continue
-        pairs = sorted(per_pair.values(), key=lambda k: close["distance"][k])
+        _, first = np.unique(
+            np.stack([close["a"][sel], close["b"][sel]], axis=1), axis=0, return_index=True
+        )
+        pairs = sel[np.sort(first)]
         steps.append(
             {
                 "device": d,

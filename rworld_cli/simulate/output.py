@@ -170,16 +170,7 @@ def write_plots(result: SimulationResult, directory: Path) -> list[Path]:
             for e in events:
                 ax.axvline(e.t, color="grey", linewidth=0.8, alpha=0.6)
         for e in events:
-            axes[0].annotate(
-                f"{e.kind} {e.tree['child']}",
-                (e.t, 1.0),
-                xycoords=("data", "axes fraction"),
-                rotation=90,
-                fontsize=7,
-                va="top",
-                ha="right",
-                color="grey",
-            )
+            _mark(axes[0], e.t, f"{e.kind} {e.tree['child']}", "grey", top=True)
         for v in result.violations:
             if v.device == name:
                 axes[1 if v.kind == "torque" else 2].axvspan(
@@ -192,19 +183,26 @@ def write_plots(result: SimulationResult, directory: Path) -> list[Path]:
                 c = rc.contact
                 width = max(c.t_end - c.t_start, result.dt)
                 axes[0].axvspan(c.t_start, c.t_start + width, color="red", alpha=0.25)
-                axes[0].annotate(
-                    f"{'collision' if c.collision else 'clearance'} {c.a} / {c.b}",
-                    (c.t_start, 0.02),
-                    xycoords=("data", "axes fraction"),
-                    rotation=90,
-                    fontsize=7,
-                    va="bottom",
-                    ha="right",
-                    color="red",
-                )
+                kind = "collision" if c.collision else "clearance"
+                _mark(axes[0], c.t_start, f"{kind} {c.a} / {c.b}", "red", top=False)
         axes[0].legend(loc="upper right", fontsize=8, ncol=3)
         axes[1].legend(loc="upper right", fontsize=8, ncol=3)
         axes[2].set_xlabel("time [s]")
         fig.suptitle(f"{result.cell}: {name} (cycle time {tl.cycle_time:.2f} s)")
         written.append(save_figure(fig, directory / f"plot_{name}.png"))
     return written
+
+
+def _mark(ax, t: float, text: str, color: str, top: bool) -> None:
+    """A vertical label at time ``t``, hanging from the top of the axes or standing on its
+    bottom."""
+    ax.annotate(
+        text,
+        (t, 1.0 if top else 0.02),
+        xycoords=("data", "axes fraction"),
+        rotation=90,
+        fontsize=7,
+        va="top" if top else "bottom",
+        ha="right",
+        color=color,
+    )
