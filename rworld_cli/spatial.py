@@ -28,6 +28,8 @@ __all__ = [
     "invert_transform",
     "dh_standard",
     "dh_modified",
+    "axis_rotation",
+    "joint_frame",
     "rotation_error",
 ]
 
@@ -284,6 +286,58 @@ def dh_modified(a, alpha, d, theta) -> np.ndarray:
     T[..., 2, 3] = ca * d
     T[..., 3, 3] = 1.0
     return T
+
+
+def axis_rotation(axis, angle) -> np.ndarray:
+    """Rotation by ``angle`` [rad] about the unit vector ``axis`` (Rodrigues).
+
+    Parameters
+    ----------
+    axis : array_like, shape (3,)
+        Unit rotation axis.
+    angle : array_like, shape (...)
+
+    Returns
+    -------
+    ndarray, shape (...) + (3, 3)
+    """
+    u = np.asarray(axis, dtype=float)
+    angle = np.asarray(angle, dtype=float)
+    c, s = np.cos(angle)[..., None, None], np.sin(angle)[..., None, None]
+    K = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
+    outer = np.outer(u, u)
+    return c * np.eye(3) + s * K + (1.0 - c) * outer
+
+
+def joint_frame(T_parent_joint, axis, q, prismatic: bool) -> np.ndarray:
+    """Link transform of a joint given by its frame (URDF convention).
+
+    ``T_{i-1}_{i} = T_parent_joint @ motion(q)``, where the motion is a rotation by ``q``
+    about ``axis`` (revolute) or a translation by ``q`` along it (prismatic); the child link's
+    frame is the joint frame moved by ``q``.
+
+    Parameters
+    ----------
+    T_parent_joint : ndarray, shape (4, 4)
+        Pose of the joint frame in the parent link's frame at ``q = 0``.
+    axis : array_like, shape (3,)
+        Unit joint axis in the joint frame.
+    q : array_like, shape (...)
+        Joint value [rad or m].
+
+    Returns
+    -------
+    ndarray, shape (...) + (4, 4)
+    """
+    q = np.asarray(q, dtype=float)
+    motion = np.zeros(q.shape + (4, 4))
+    motion[..., 3, 3] = 1.0
+    if prismatic:
+        motion[..., :3, :3] = np.eye(3)
+        motion[..., :3, 3] = q[..., None] * np.asarray(axis, dtype=float)
+    else:
+        motion[..., :3, :3] = axis_rotation(axis, q)
+    return np.asarray(T_parent_joint, dtype=float) @ motion
 
 
 def rotation_error(R) -> np.ndarray:

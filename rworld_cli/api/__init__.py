@@ -70,6 +70,7 @@ from .planning import (  # noqa: F401
     unlimited_joints,
     write_path_with_knots,
 )
+from .robots import UrdfExport, UrdfImport, export_urdf, import_urdf  # noqa: F401
 from .sensing import (  # noqa: F401
     describe_reading,
     render_scene,

@@ -78,6 +78,16 @@ COMMANDS = {
         "Time-optimal timing, payload capacity, load-optimal timing, maximum impulse "
         "(time-optimal | payload | load-optimal | impulse).",
     ),
+    "import": (
+        "robots",
+        "import_group",
+        "Import a robot from URDF into a new cell (import urdf).",
+    ),
+    "export": (
+        "robots",
+        "export_group",
+        "Write a cell's device as URDF, calibrated poses applied (export urdf).",
+    ),
     "analyze": (
         "analyze",
         "analyze",

@@ -65,16 +65,7 @@ def combine_inertials(a: Inertial, b: Inertial) -> Inertial:
 
     Uses the parallel-axis theorem about the combined centre of mass.
     """
-    m = a.mass + b.mass
-    if m == 0.0:
-        return Inertial(0.0, np.zeros(3), a.inertia + b.inertia)
-    c = (a.mass * a.com + b.mass * b.com) / m
-
-    def shifted(body: Inertial) -> np.ndarray:
-        d = body.com - c
-        return body.inertia + body.mass * (d @ d * np.eye(3) - np.outer(d, d))
-
-    return Inertial(m, c, shifted(a) + shifted(b))
+    return Inertial.combine([(a, np.eye(4)), (b, np.eye(4))])
 
 
 def _as_batch(*arrays) -> tuple[bool, list[np.ndarray]]:

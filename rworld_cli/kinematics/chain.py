@@ -15,6 +15,12 @@ For joint *i* the link transform ``T_{i-1}_{i}`` is written as
 
 So the origin of frame *i* in frame *i-1* is ``A + R e``, and one set of
 recursions covers both conventions and both joint types.
+
+Joint-frame devices (URDF) fit the same pieces: with the joint origin ``(R_o, p_o)`` and the
+unit axis ``k`` in the joint frame, ``R = R_o Rot(k, q)`` (or ``R_o`` for prismatic joints),
+``u = k``, ``A = p_o`` and ``e = 0`` (revolute) or ``k q`` (prismatic).  ``Rot`` is written
+entry by entry so that a coordinate axis folds to the familiar ``Rz(q)``: its diagonal is
+``k_i^2 + (1 - k_i^2) cos q`` and its off-diagonal terms ``k_i k_j (1 - cos q) -+ k_m sin q``.
 """
 
 from __future__ import annotations
@@ -39,6 +45,8 @@ class ChainStep:
 
 def chain_steps(em: Emitter, device: DeviceModel, q: list[Num]) -> list[ChainStep]:
     """The generated pieces of every joint of ``device`` for joint values ``q``."""
+    if device.convention == "frames":
+        return [_frame_step(em, joint, qi) for joint, qi in zip(device.joints, q)]
     steps = []
     standard = device.convention == "standard"
     for joint, qi in zip(device.joints, q):
@@ -76,9 +84,41 @@ def chain_steps(em: Emitter, device: DeviceModel, q: list[Num]) -> list[ChainSte
     return steps
 
 
+def _frame_step(em: Emitter, joint, qi: Num) -> ChainStep:
+    """The pieces of one joint given by its frame (origin and axis)."""
+    R_o = tuple(tuple(snap(float(x)) for x in row) for row in joint.origin[:3, :3])
+    p_o = tuple(snap(float(x)) for x in joint.origin[:3, 3])
+    k = tuple(snap(float(x)) for x in joint.axis)
+    if joint.kind == "prismatic":
+        return ChainStep(R_o, k, p_o, tuple(em.mul(x, qi) for x in k), True)
+    c, s = em.call("cos", qi), em.call("sin", qi)
+    one_minus_c = em.sub(1.0, c)
+
+    def entry(i: int, j: int) -> Num:
+        if i == j:
+            return em.add(k[i] * k[i], em.mul(1.0 - k[i] * k[i], c))
+        m = 3 - i - j
+        sign = -1.0 if (i, j) in ((0, 1), (1, 2), (2, 0)) else 1.0
+        return em.add(em.mul(k[i] * k[j], one_minus_c), em.mul(sign * k[m], s))
+
+    rot = tuple(tuple(entry(i, j) for j in range(3)) for i in range(3))
+    return ChainStep(em.matmul(R_o, rot), k, p_o, (0.0, 0.0, 0.0), False)
+
+
 def device_key(device: DeviceModel) -> tuple:
     """A hashable key of everything the generated code of ``device`` depends on."""
-    rows = tuple((j.kind, j.a, j.alpha, j.d, j.theta) for j in device.joints)
+    rows = tuple(
+        (
+            j.kind,
+            j.a,
+            j.alpha,
+            j.d,
+            j.theta,
+            None if j.origin is None else tuple(np.asarray(j.origin).ravel().tolist()),
+            None if j.axis is None else tuple(np.asarray(j.axis).tolist()),
+        )
+        for j in device.joints
+    )
     links = tuple(
         (
             l.inertial.mass,

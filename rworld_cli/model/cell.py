@@ -44,6 +44,34 @@ class Inertial:
     def zero() -> Inertial:
         return Inertial(0.0, np.zeros(3), np.zeros((3, 3)))
 
+    @staticmethod
+    def combine(parts: list[tuple[Inertial, np.ndarray]]) -> Inertial:
+        """The mass properties of rigidly joined bodies, in one frame.
+
+        Parameters
+        ----------
+        parts : list of (Inertial, ndarray (4, 4))
+            Each body's mass properties with ``T_frame_body``, the body's frame in the
+            common frame.
+
+        Returns
+        -------
+        Inertial
+            Total mass, centre of mass in the common frame, and the inertia about it
+            (parallel-axis theorem).
+        """
+        mass = float(sum(part.mass for part, _ in parts))
+        coms = [T[:3, :3] @ part.com + T[:3, 3] for part, T in parts]
+        com = np.zeros(3)
+        if mass > 0.0:
+            com = sum((part.mass * c for (part, _), c in zip(parts, coms)), np.zeros(3)) / mass
+        inertia = np.zeros((3, 3))
+        for (part, T), c in zip(parts, coms):
+            R = T[:3, :3]
+            r = c - com
+            inertia += R @ part.inertia @ R.T + part.mass * (r @ r * np.eye(3) - np.outer(r, r))
+        return Inertial(float(mass), com, inertia)
+
 
 @dataclass(frozen=True)
 class Box:
@@ -102,7 +130,13 @@ class JointLimits:
 
 @dataclass(frozen=True)
 class Joint:
-    """One DH row, SI.  Revolute: ``theta = q + theta``; prismatic: ``d = q + d``."""
+    """One joint, SI: a DH row, or a joint frame.
+
+    DH devices: revolute ``theta = q + theta``, prismatic ``d = q + d``.  Joint-frame
+    devices (``DeviceModel.convention == "frames"``): ``origin`` is the joint frame's pose in
+    the previous link's frame at ``q = 0`` and ``axis`` the unit axis in it; the DH numbers
+    are 0.
+    """
 
     name: str
     kind: Literal["revolute", "prismatic"]
@@ -111,6 +145,8 @@ class Joint:
     d: float
     theta: float
     limits: JointLimits
+    origin: np.ndarray | None = None  # (4, 4) T_{i-1}_joint, joint-frame devices only
+    axis: np.ndarray | None = None  # (3,) unit, in the joint frame
     motor_inertia: float = 0.0  # Jm [kg m^2], motor side
     gear_ratio: float = 1.0  # G
     viscous: float = 0.0  # joint side [N m s/rad or N s/m]
@@ -136,10 +172,12 @@ class DeviceModel:
 
     Attributes
     ----------
-    convention : {"standard", "modified"}
-        DH convention of ``joints``.
+    convention : {"standard", "modified", "frames"}
+        DH convention of ``joints``, or ``"frames"`` for joints given by their frames
+        (origin and axis, as URDF does).
     joints, links : tuple
-        ``n`` each; link *i* is moved by joint *i*, its frame is DH frame *i*.
+        ``n`` each; link *i* is moved by joint *i*, its frame is DH frame *i* (or the
+        joint frame of joint *i*, moved by it).
     tcps : tuple of str
         Qualified TCP frame names; the first is the default active one.
     home : ndarray, shape (n,)
@@ -147,7 +185,7 @@ class DeviceModel:
     """
 
     name: str
-    convention: Literal["standard", "modified"]
+    convention: Literal["standard", "modified", "frames"]
     joints: tuple[Joint, ...]
     links: tuple[Link, ...]
     tcps: tuple[str, ...]
@@ -185,11 +223,19 @@ class DeviceModel:
         Returns
         -------
         ndarray, shape (n, 4, 4) or (N, n, 4, 4)
-            Pose of DH frame *i* in frame *i-1*; frame 0 is the device's natural frame.
+            Pose of link frame *i* in frame *i-1*; frame 0 is the device's natural frame.
         """
         from .. import spatial
 
         q = np.asarray(q, dtype=float)
+        if self.convention == "frames":
+            return np.stack(
+                [
+                    spatial.joint_frame(j.origin, j.axis, q[..., i], j.kind == "prismatic")
+                    for i, j in enumerate(self.joints)
+                ],
+                axis=-3,
+            )
         dh = self.dh_arrays()
         prismatic = dh["prismatic"]
         theta = dh["theta"] + np.where(prismatic, 0.0, q)
@@ -198,6 +244,39 @@ class DeviceModel:
         alpha = np.broadcast_to(dh["alpha"], q.shape)
         step = spatial.dh_standard if self.convention == "standard" else spatial.dh_modified
         return step(a, alpha, d, theta)
+
+    def joint_frames(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """The chain as joint frames (the URDF form), whatever its convention.
+
+        Joint *i* moves link frame ``L_i`` against ``L_{i-1}`` by
+        ``T_{L_{i-1}}_{L_i} = origin_i @ motion(axis_i, q_i)``.  For joint-frame devices and
+        modified DH ``L_i`` is link frame *i*.  Standard DH turns first and offsets after
+        (``A_i = Rz(q) C_i``, ``C_i = Rz(theta) Tz(d) Tx(a) Rx(alpha)``), so ``L_i`` is DH frame
+        *i-1* turned by joint *i*, ``origin_i = C_{i-1}`` and link frame *i* is ``L_i C_i``.
+
+        Returns
+        -------
+        list of (origin (4, 4), axis (3,), T_L_link (4, 4)), one per joint
+        """
+        from .. import spatial
+
+        z = np.array([0.0, 0.0, 1.0])
+        if self.convention == "frames":
+            return [
+                (np.asarray(j.origin, dtype=float), np.asarray(j.axis, dtype=float), np.eye(4))
+                for j in self.joints
+            ]
+        if self.convention == "modified":
+            return [
+                (spatial.dh_modified(j.a, j.alpha, j.d, j.theta), z, np.eye(4)) for j in self.joints
+            ]
+        out = []
+        previous = np.eye(4)
+        for j in self.joints:
+            C = spatial.dh_standard(j.a, j.alpha, j.d, j.theta)
+            out.append((previous, z, C))
+            previous = C
+        return out
 
     def limit_array(self, which: str) -> np.ndarray:
         """One limit for all joints, shape (n,): 'lower', 'upper', 'velocity', 'acceleration' or

@@ -13,6 +13,7 @@ the feature's owner, plus physical sanity (masses, inertias, limits).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import re
@@ -249,6 +250,7 @@ class _Builder:
         self.primitives: dict[str, tuple[str, tuple]] = {}  # name -> (kind, path)
         self.features: dict[str, wm.Feature] = {}
         self.feature_paths: dict[str, tuple] = {}
+        self.fixed_poses: dict[str, np.ndarray] = {}  # frames of fixed joints' links: T_parent
 
     # ------------------------------------------------------------------ helpers
     def err(self, path, message, prefer="value", doc: Marked | None = None):
@@ -564,27 +566,32 @@ class _Builder:
     def _device(self, i: int, d: sm.Device) -> wm.DeviceModel | None:
         path = ("devices", i)
         ok = True
-        if len(d.joints) != d.dof:
-            self.err(
-                path + ("joints",), f"the DH table has {len(d.joints)} row(s) but dof is {d.dof}"
+        by_frames = d.dh is None
+        moving = [j for j, row in enumerate(d.joints) if row.type != "fixed"]
+        if len(moving) != d.dof:
+            what = (
+                f"the DH table has {len(d.joints)} row(s)"
+                if not by_frames
+                else f"{len(moving)} of the {len(d.joints)} joint(s) move"
             )
+            self.err(path + ("joints",), f"{what} but dof is {d.dof}")
             ok = False
-        if d.links is not None and len(d.links) != d.dof:
+        if d.links is not None and len(d.links) != len(d.joints):
+            has = f"dof is {d.dof}" if not by_frames else f"the device has {len(d.joints)} joint(s)"
             self.err(
                 path + ("links",),
-                f"{len(d.links)} link(s) given but dof is {d.dof}; give one link per joint",
+                f"{len(d.links)} link(s) given but {has}; give one link per joint",
             )
             ok = False
-        joints = []
-        for j, row in enumerate(d.joints):
-            joints.append(self._joint(path + ("joints", j), j, row))
-        n = len(joints)
+        rows = [
+            self._joint(path + ("joints", j), moving.index(j) if j in moving else j, row, by_frames)
+            for j, row in enumerate(d.joints)
+        ]
         link_specs = (
             d.links
-            if (d.links is not None and len(d.links) == n)
-            else [sm.Link() for _ in range(n)]
+            if (d.links is not None and len(d.links) == len(d.joints))
+            else [sm.Link() for _ in d.joints]
         )
-        links = []
         local_names: dict[str, tuple] = {}
 
         def local(name: str, p: tuple) -> bool:
@@ -598,21 +605,56 @@ class _Builder:
             local_names[name] = p
             return True
 
-        prev = d.name
-        for j, spec in enumerate(link_specs):
+        # Walk the chain from the base: a moving joint starts a link; a fixed joint's link is
+        # merged into the current one (mass properties combined) and kept as a frame on it.
+        joints: list[wm.Joint] = []
+        links: list[wm.Link] = []
+        parts: list[list[tuple[wm.Inertial, np.ndarray]]] = []
+        base_shape = self._shape(path + ("geometry",), d.geometry)
+        current, T_current_end = d.name, np.eye(4)  # frame of the current link; its chain end
+        for j, (row, spec) in enumerate(zip(rows, link_specs)):
             lname = spec.name or f"link{j + 1}"
             lpath = path + ("links", j) if d.links is not None else path + ("joints", j)
             qname = f"{d.name}.{lname}"
+            inertial = self._inertial(lpath, spec.mass, spec.com, spec.inertia)
+            shape = self._shape(lpath + ("geometry",), spec.geometry)
+            if row is None:  # a bad joint row, reported
+                continue
+            if d.joints[j].type == "fixed":
+                T_current_end = T_current_end @ row.origin
+                if local(lname, lpath + (("name",) if spec.name else ())):
+                    self._add_frame(
+                        wm.FrameDecl(qname, "auxiliary", d.name, current), lpath + ("name",)
+                    )
+                    self.fixed_poses[qname] = T_current_end
+                if links:
+                    parts[-1].append((inertial, T_current_end))
+                if shape is not None:
+                    shape = _moved_shape(shape, T_current_end)
+                    if links and links[-1].shape is None:
+                        links[-1] = dataclasses.replace(links[-1], shape=shape)
+                    elif not links and base_shape is None:
+                        base_shape = shape
+                    else:
+                        self.err(
+                            lpath + ("geometry",),
+                            f"link '{lname}' is fixed to '{current}', which has geometry already; "
+                            "a link holds one shape: merge the two into one mesh ('rworld import "
+                            "urdf' does)",
+                        )
+                continue
+            if row.origin is not None:  # a joint frame: fixed offsets before it fold into it
+                row = dataclasses.replace(row, origin=T_current_end @ row.origin)
+            joints.append(row)
             if local(lname, lpath + (("name",) if spec.name else ())):
-                self._add_frame(wm.FrameDecl(qname, "link", d.name, prev), lpath + ("name",))
-            prev = qname
-            links.append(
-                wm.Link(
-                    lname,
-                    self._inertial(lpath, spec.mass, spec.com, spec.inertia),
-                    self._shape(lpath + ("geometry",), spec.geometry),
-                )
-            )
+                self._add_frame(wm.FrameDecl(qname, "link", d.name, current), lpath + ("name",))
+            links.append(wm.Link(lname, inertial, shape))
+            parts.append([(inertial, np.eye(4))])
+            current, T_current_end = qname, np.eye(4)
+        links = [
+            dataclasses.replace(link, inertial=wm.Inertial.combine(part)) if len(part) > 1 else link
+            for link, part in zip(links, parts)
+        ]
         for j, f in enumerate(d.frames):
             if local(f.name, path + ("frames", j, "name")):
                 parent = f"{d.name}.{f.parent}" if f.parent else d.name
@@ -621,10 +663,11 @@ class _Builder:
                     path + ("frames", j, "name"),
                 )
         for j, spec in enumerate(link_specs):
+            lname = spec.name or f"link{j + 1}"
             for k, f in enumerate(spec.frames):
                 fpath = path + ("links", j, "frames", k, "name")
                 if local(f.name, fpath):
-                    parent = f"{d.name}.{f.parent}" if f.parent else f"{d.name}.{links[j].name}"
+                    parent = f"{d.name}.{f.parent}" if f.parent else f"{d.name}.{lname}"
                     self._add_frame(
                         wm.FrameDecl(f"{d.name}.{f.name}", "auxiliary", d.name, parent), fpath
                     )
@@ -637,18 +680,21 @@ class _Builder:
                 self._add_frame(wm.FrameDecl(f"{d.name}.{t.name}", "tcp", d.name, parent), tpath)
                 tcps.append(f"{d.name}.{t.name}")
         self._features(d.name, d.features, path + ("features",))
-        home = self._home(path, d, joints)
-        positions = self._positions(path, d, joints, local_names)
+        if len(joints) != len(moving):
+            ok = False
+        moving_rows = [d.joints[j] for j in moving]
+        home = self._home(path, d, joints, moving_rows) if ok else np.zeros(len(joints))
+        positions = self._positions(path, d, joints, local_names) if ok else {}
         if not ok:
             return None
         return wm.DeviceModel(
             d.name,
-            d.dh,
+            d.dh or "frames",
             tuple(joints),
             tuple(links),
             tuple(tcps),
             home,
-            self._shape(path + ("geometry",), d.geometry),
+            base_shape,
             positions,
         )
 
@@ -693,11 +739,63 @@ class _Builder:
             out[name] = q
         return out
 
-    def _joint(self, path, j: int, row: sm.Joint) -> wm.Joint:
-        scale = self.A if row.type == "revolute" else self.L
+    def _joint(self, path, j: int, row: sm.Joint, by_frames: bool) -> wm.Joint | None:
+        """One joint row in SI (``None`` when its form does not fit the device's)."""
+        dh_given = [k for k in ("a", "alpha", "d", "theta") if getattr(row, k) is not None]
+        frame_given = [k for k in ("origin", "axis") if getattr(row, k) is not None]
+        if by_frames and dh_given:
+            self.err(
+                path + (dh_given[0],),
+                f"'{dh_given[0]}' is a DH parameter, but the device has no 'dh': its joints are "
+                "given by their frames ('origin', 'axis'); add 'dh: standard' or 'dh: modified' "
+                "for a DH table",
+                prefer="key",
+            )
+            return None
+        if not by_frames and frame_given:
+            self.err(
+                path + (frame_given[0],),
+                f"'{frame_given[0]}' belongs to a joint frame, but the device has a DH table "
+                "('dh'); give a, alpha, d, theta, or remove 'dh' to give every joint by its frame",
+                prefer="key",
+            )
+            return None
+        if not by_frames and row.type == "fixed":
+            self.err(
+                path + ("type",),
+                "a DH table has no fixed joints; put the fixed offset into the next row or a "
+                "frame on the link, or give the device by joint frames",
+            )
+            return None
+        origin = axis = None
+        if by_frames:
+            origin = np.eye(4)
+            if row.origin is not None:
+                origin, error, warning = pose_to_matrix(row.origin, self.L, self.A)
+                if error:
+                    self.err(path + ("origin",), error)
+                    return None
+                if warning:
+                    self.warn(path + ("origin",), warning)
+            axis = np.array([0.0, 0.0, 1.0])
+            if row.axis is not None:
+                axis = self._unit(path + ("axis",), row.axis, "joint axis")
+                if axis is None:
+                    return None
+        if row.type == "fixed":
+            return wm.Joint(
+                row.name or "", "revolute", 0.0, 0.0, 0.0, 0.0, wm.JointLimits(), origin
+            )
+        kind = "prismatic" if row.type == "prismatic" else "revolute"
+        scale = self.A if kind == "revolute" else self.L
         lim = row.limits or sm.JointLimits()
         lower, upper = -np.inf, np.inf
-        if lim.position is not None:
+        if lim.position is not None and row.type == "continuous":
+            self.err(
+                path + ("limits", "position"),
+                "a continuous joint has no position limits; make it 'revolute' to limit it",
+            )
+        elif lim.position is not None:
             lower, upper = lim.position[0] * scale, lim.position[1] * scale
             if not lower < upper:
                 self.err(
@@ -733,12 +831,14 @@ class _Builder:
                 viscous, coulomb_pos, coulomb_neg = fr.viscous, fr.coulomb, coulomb_neg_raw
         return wm.Joint(
             name=row.name or f"j{j + 1}",
-            kind=row.type,
-            a=row.a * self.L,
-            alpha=row.alpha * self.A,
-            d=row.d * self.L,
-            theta=row.theta * self.A,
+            kind=kind,
+            a=(row.a or 0.0) * self.L,
+            alpha=(row.alpha or 0.0) * self.A,
+            d=(row.d or 0.0) * self.L,
+            theta=(row.theta or 0.0) * self.A,
             limits=limits,
+            origin=origin,
+            axis=axis,
             motor_inertia=Jm,
             gear_ratio=G,
             viscous=viscous,
@@ -746,7 +846,7 @@ class _Builder:
             coulomb_negative=coulomb_neg,
         )
 
-    def _home(self, path, d: sm.Device, joints: list[wm.Joint]) -> np.ndarray:
+    def _home(self, path, d: sm.Device, joints: list[wm.Joint], rows: list[sm.Joint]) -> np.ndarray:
         lower = np.array([j.limits.lower for j in joints])
         upper = np.array([j.limits.upper for j in joints])
         if d.home is None:
@@ -760,7 +860,7 @@ class _Builder:
             return np.clip(np.zeros(len(joints)), lower, upper)
         home = np.array(d.home, dtype=float) * scale
         for k in np.nonzero((home < lower) | (home > upper))[0]:
-            lim = d.joints[k].limits.position if d.joints[k].limits else None
+            lim = rows[k].limits.position if rows[k].limits else None
             self.err(
                 path + ("home", int(k)),
                 f"home value {d.home[k]} of joint {joints[k].name} is outside its position limits "
@@ -1016,7 +1116,7 @@ class _Builder:
 
     # ------------------------------------------------------------------ poses
     def _poses(self):
-        poses: dict[str, np.ndarray] = {}
+        poses: dict[str, np.ndarray] = dict(self.fixed_poses)
         sources: dict[str, Path] = {}
         files: list[Path] = []
         complete = True  # every pose file was read and schema-valid
@@ -1055,10 +1155,11 @@ class _Builder:
                         doc=doc,
                     )
                     continue
-                if decl.kind == "link":
+                if decl.kind == "link" or name in self.fixed_poses:
+                    how = "the DH table" if decl.kind == "link" else "a fixed joint"
                     self.err(
                         ppath,
-                        f"'{name}' is a link frame placed by the DH table of '{decl.owner}'; it "
+                        f"'{name}' is a link frame placed by {how} of '{decl.owner}'; it "
                         "takes no pose",
                         prefer="key",
                         doc=doc,
@@ -1084,6 +1185,12 @@ class _Builder:
                     "rpy: [r, p, y]}'",
                 )
         return poses, sources, files
+
+
+def _moved_shape(shape: wm.Shape, T: np.ndarray) -> wm.Shape:
+    """``shape`` given in a frame placed by ``T`` in its new owner's frame."""
+    box = wm.Box(T @ shape.bounding_box.T_owner_box, shape.bounding_box.half_extents)
+    return dataclasses.replace(shape, T_owner_shape=T @ shape.T_owner_shape, bounding_box=box)
 
 
 def body_names(objects, devices) -> list[str]:

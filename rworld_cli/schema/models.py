@@ -302,20 +302,39 @@ class Friction(Strict):
 
 
 class Joint(Strict):
-    """One row of the DH table (see docs/conventions.md for standard vs modified)."""
+    """One joint: a row of the DH table (devices with ``dh``; see docs/conventions.md for
+    standard vs modified), or a joint frame (devices without ``dh``: ``origin`` and ``axis``, as
+    URDF gives them).
+    """
 
     name: Name | None = Field(None, description="Default j1, j2, ...")
-    type: Literal["revolute", "prismatic"]
-    a: float = Field(0.0, description="Link length [length unit].")
-    alpha: float = Field(0.0, description="Link twist [angle unit].")
-    d: float = Field(
-        0.0, description="Link offset [length unit]; for prismatic joints added to the joint value."
+    type: Literal["revolute", "continuous", "prismatic", "fixed"] = Field(
+        description="continuous: a revolute joint without position limits; fixed (joint-frame "
+        "devices only): its link is merged into the previous one and kept as a frame."
     )
-    theta: float = Field(
-        0.0,
+    a: float | None = Field(None, description="DH link length [length unit]; default 0.")
+    alpha: float | None = Field(None, description="DH link twist [angle unit]; default 0.")
+    d: float | None = Field(
+        None,
+        description="DH link offset [length unit]; for prismatic joints added to the joint "
+        "value; default 0.",
+    )
+    theta: float | None = Field(
+        None,
         description=(
-            "Joint angle offset [angle unit]; for revolute joints added to the joint value."
+            "DH joint angle offset [angle unit]; for revolute joints added to the joint value; "
+            "default 0."
         ),
+    )
+    origin: Pose | None = Field(
+        None,
+        description="Joint-frame devices: pose of the joint frame in the previous link's frame "
+        "(the base for the first joint) at joint value 0; default identity.",
+    )
+    axis: Vec3 | None = Field(
+        None,
+        description="Joint-frame devices: the joint axis in the joint frame (normalised when "
+        "loaded); default [0, 0, 1].",
     )
     limits: JointLimits | None = None
     motor: Motor | None = None
@@ -323,7 +342,7 @@ class Joint(Strict):
 
 
 class Link(Strict):
-    """Link i, moved by joint i; its frame is DH frame i."""
+    """Link i, moved by joint i; its frame is DH frame i (or joint i's frame, moved by it)."""
 
     name: Name | None = Field(None, description="Default link1, link2, ...")
     mass: NonNegative = Field(0.0, description="[kg]")
@@ -346,14 +365,24 @@ class Tcp(Strict):
 
 
 class Device(Strict):
-    """A device: a serial chain given by its DH table, with links, limits and TCPs."""
+    """A device: a serial chain given by its DH table or by joint frames, with links, limits
+    and TCPs.
+    """
 
     name: Name
-    dof: Annotated[int, Field(ge=1)] = Field(description="Mobility: number of joints.")
-    dh: Literal["standard", "modified"] = Field(description="DH convention of the joint table.")
-    joints: list[Joint] = Field(description="The DH table, one row per joint.")
+    dof: Annotated[int, Field(ge=1)] = Field(
+        description="Mobility: number of moving (not fixed) joints."
+    )
+    dh: Literal["standard", "modified"] | None = Field(
+        None,
+        description="DH convention of the joint table; leave it out when the joints are given "
+        "by their frames (origin and axis).",
+    )
+    joints: list[Joint] = Field(
+        description="The DH table, one row per joint, or the joint frames from the base out."
+    )
     links: list[Link] | None = Field(
-        None, description="One per joint; default massless links link1..n."
+        None, description="One per joint (fixed joints included); default massless links link1..n."
     )
     tcps: Annotated[list[Tcp], Len(1)] = Field(
         description="Tool centre points; the first is the default active TCP."
@@ -373,6 +402,19 @@ class Device(Strict):
     features: list[Feature] = Field(
         default_factory=list, description="Features of the base, in the natural frame."
     )
+
+    @model_validator(mode="after")
+    def _dh_or_frames(self):
+        if self.dh is None:
+            for row in self.joints:
+                given = [k for k in ("a", "alpha", "d", "theta") if getattr(row, k) is not None]
+                if given:
+                    raise ValueError(
+                        f"the joints give DH parameters ({', '.join(given)}) but 'dh' is missing: "
+                        "add 'dh: standard' or 'dh: modified', or give each joint by its frame "
+                        "('origin', 'axis')"
+                    )
+        return self
 
 
 # --------------------------------------------------------------------------- relations

@@ -1,0 +1,211 @@
+"""Robots in and out: URDF import to a cell, and a cell's device out to URDF."""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import Issue, UserError, did_you_mean
+
+
+@dataclass
+class UrdfImport:
+    """What ``rworld import urdf`` wrote.
+
+    Attributes
+    ----------
+    cell : str
+        The new cell folder.
+    files : list of str
+        Files written, relative to ``cell``.
+    device : str
+    dof : int
+    chain : list of str
+        URDF joints along the chain, base to tip (fixed ones included).
+    base, tip, tcp : str
+        URDF links.
+    merged : dict
+        Device link (or the device itself, for the base) -> URDF links merged into it.
+    renamed : dict
+        URDF name -> rworld name.
+    warnings : list of Issue
+        From the URDF and from loading the written cell.
+    """
+
+    cell: str
+    files: list[str]
+    device: str
+    dof: int
+    chain: list[str]
+    base: str
+    tip: str
+    tcp: str
+    merged: dict[str, list[str]]
+    renamed: dict[str, str]
+    warnings: list[Issue] = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        return {
+            "cell": self.cell,
+            "files": self.files,
+            "device": self.device,
+            "dof": self.dof,
+            "chain": self.chain,
+            "base": self.base,
+            "tip": self.tip,
+            "tcp": self.tcp,
+            "merged": self.merged,
+            "renamed": self.renamed,
+            "warnings": [w.as_dict() for w in self.warnings],
+        }
+
+
+def import_urdf(
+    urdf: str,
+    output: str,
+    package_paths: list[str] | None = None,
+    base: str | None = None,
+    tip: str | None = None,
+    tcp: str | None = None,
+    device_name: str | None = None,
+    force: bool = False,
+) -> UrdfImport:
+    """Write a cell (``cell.yaml``, ``poses.yaml``, ``meshes/``) for a URDF robot's chain.
+
+    Everything is read and checked first; the files are written to a temporary folder, loaded
+    back as a cell, and only then moved to ``output``.  On any error nothing is written.
+
+    Parameters
+    ----------
+    urdf : str
+        The URDF file.
+    output : str
+        The cell folder to create (``--force``: or to overwrite the files of).
+    package_paths : list of str
+        Folders holding ROS packages, for ``package://`` mesh names.
+    base, tip, tcp, device_name : str, optional
+        See :func:`rworld_cli.schema.urdf_cell.cell_from_urdf`.
+
+    Raises
+    ------
+    UserError
+        Bad URDF (located), bad options, or an existing cell at ``output`` without ``force``.
+    """
+    from ..schema.loader import load_cell
+    from ..schema.urdf import read_urdf
+    from ..schema.urdf_cell import cell_from_urdf
+
+    out = Path(output)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{output} exists and is not a folder")
+    if out.is_dir() and (out / "cell.yaml").exists() and not force:
+        raise UserError(
+            f"{output} already holds a cell (cell.yaml); choose another folder or pass --force "
+            "to overwrite its cell.yaml, poses.yaml and meshes"
+        )
+    robot, warnings = read_urdf(urdf, package_paths)
+    name = out.resolve().name
+    imported = cell_from_urdf(robot, name, base, tip, tcp, device_name)
+    files = {"cell.yaml": imported.cell_text.encode(), "poses.yaml": imported.poses_text.encode()}
+    files.update(imported.meshes)
+    out.resolve().parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=out.resolve().parent))
+    try:
+        for rel, data in files.items():
+            (staging / rel).parent.mkdir(parents=True, exist_ok=True)
+            (staging / rel).write_bytes(data)
+        try:
+            loaded = load_cell(staging)
+        except UserError as exc:  # what we wrote must load: anything else is our bug
+            raise RuntimeError(
+                "the imported cell does not load: " + "; ".join(exc.lines()[:5])
+            ) from exc
+        load_warnings = [
+            Issue(
+                w.file.replace(str(staging), str(out)),
+                w.line,
+                w.column,
+                w.location,
+                w.message,
+                w.severity,
+            )
+            for w in loaded.warnings
+        ]
+        if not out.exists():
+            staging.rename(out)
+        else:
+            for rel in files:
+                target = out / rel
+                target.parent.mkdir(parents=True, exist_ok=True)
+                (staging / rel).replace(target)  # one rename per file: each is whole or old
+            shutil.rmtree(staging, ignore_errors=True)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    return UrdfImport(
+        str(out),
+        sorted(files),
+        imported.device,
+        sum(1 for _ in loaded.cell.devices[imported.device].joints),
+        imported.chain,
+        imported.base,
+        imported.tip,
+        imported.tcp,
+        imported.merged,
+        imported.renamed,
+        warnings + imported.warnings + load_warnings,
+    )
+
+
+@dataclass
+class UrdfExport:
+    """What ``rworld export urdf`` wrote: the file, its links and joints, and what URDF could
+    not hold."""
+
+    path: str
+    device: str
+    links: list[str]
+    joints: list[str]
+    note: str
+
+    def as_dict(self) -> dict:
+        return {
+            "path": self.path,
+            "device": self.device,
+            "links": self.links,
+            "joints": self.joints,
+            "note": self.note,
+        }
+
+
+def export_urdf(cell_path: str, output: str, device: str | None = None) -> UrdfExport:
+    """Write a device of a cell as URDF, with the cell's current pose files (calibrated overlay
+    included) applied to its frames.
+
+    Parameters
+    ----------
+    cell_path : str
+    output : str
+        The ``.urdf`` file to write (atomically); meshes are referenced relative to its folder.
+    device : str, optional
+        Needed when the cell has more than one device.
+    """
+    from ..schema.loader import load_cell
+    from ..schema.urdf import write_urdf
+    from ..schema.urdf_cell import urdf_from_cell
+
+    cell = load_cell(cell_path).cell
+    if device is None:
+        if len(cell.devices) != 1:
+            raise UserError(
+                f"{cell_path} has {len(cell.devices)} devices ({', '.join(cell.devices)}); "
+                "choose one with --device"
+            )
+        device = next(iter(cell.devices))
+    if device not in cell.devices:
+        raise UserError(f"no device '{device}' in {cell_path}{did_you_mean(device, cell.devices)}")
+    robot, mesh_names = urdf_from_cell(cell, device, output)
+    write_urdf(output, robot, mesh_names)
+    return UrdfExport(output, device, list(robot.links), list(robot.joints), robot.comment)

@@ -1,0 +1,123 @@
+"""rworld import urdf, rworld export urdf"""
+
+from __future__ import annotations
+
+import click
+
+from .common import emit_json, handle_errors, json_option
+
+
+@click.group("import")
+def import_group():
+    """Bring robots in from other formats (urdf)."""
+
+
+@import_group.command("urdf")
+@click.argument("urdf", metavar="FILE.urdf")
+@click.option("-o", "--output", required=True, metavar="DIR", help="The cell folder to create.")
+@click.option(
+    "--package-path",
+    "package_paths",
+    multiple=True,
+    metavar="DIR",
+    help="A folder holding ROS packages, for package:// mesh names; repeatable.",
+)
+@click.option(
+    "--base", default=None, metavar="LINK", help="First link of the chain (default: the root)."
+)
+@click.option(
+    "--tip",
+    default=None,
+    metavar="LINK",
+    help="Last link of the chain (default: where the moving joints end; needed when they branch).",
+)
+@click.option(
+    "--tcp",
+    default=None,
+    metavar="LINK",
+    help="The link whose frame is the TCP (default: the tip).",
+)
+@click.option(
+    "--name",
+    "device_name",
+    default=None,
+    metavar="NAME",
+    help="Device name (default: the robot's).",
+)
+@click.option("--force", is_flag=True, help="Overwrite cell.yaml, poses.yaml and meshes in DIR.")
+@json_option
+@handle_errors
+def import_urdf(urdf, output, package_paths, base, tip, tcp, device_name, force, json_output):
+    """Write a cell for the serial chain of a URDF robot: cell.yaml, poses.yaml, meshes/.
+
+    Joints become joint frames (origin, axis) with their position, velocity and effort limits
+    and damping; links fixed to a moving link (by fixed joints, or in branches off the chain)
+    are merged into it - masses combined, shapes joined into one mesh (collision geometry
+    preferred over visual) - and kept as frames.  Moving joints off the chain are locked at 0,
+    with a warning.  Mimic joints on the chain, floating and planar joints are refused.
+    xacro files must be expanded first (xacro robot.urdf.xacro > robot.urdf).
+    Nothing is written unless the whole import succeeds.
+
+    \b
+    Examples:
+      rworld import urdf ur5_robot.urdf -o workcells/ur5_urdf --package-path /opt/ros/share
+      rworld import urdf panda.urdf -o workcells/panda --tip panda_hand --package-path share
+      rworld import urdf robot.urdf -o cells/r --base base_link --tip tool0 --json
+    """
+    from ..api import import_urdf as run
+
+    result = run(urdf, output, list(package_paths), base, tip, tcp, device_name, force)
+    if json_output:
+        emit_json(result.as_dict())
+        return
+    for w in result.warnings:
+        click.echo(w.format(), err=True)
+    click.echo(
+        f"imported {result.device} ({result.dof} joints, {result.base} -> {result.tip}, TCP at "
+        f"{result.tcp}) into {result.cell}: {', '.join(result.files)}"
+    )
+    for owner, links in result.merged.items():
+        if len(links) > 1:
+            click.echo(f"  {owner}: merged {', '.join(links[1:])}")
+    if result.renamed:
+        click.echo("  renamed: " + ", ".join(f"{a} -> {b}" for a, b in result.renamed.items()))
+
+
+@click.group("export")
+def export_group():
+    """Write a cell's content in other formats (urdf)."""
+
+
+@export_group.command("urdf")
+@click.argument("cell", metavar="CELL")
+@click.option("-o", "--output", required=True, metavar="FILE.urdf", help="The URDF file to write.")
+@click.option(
+    "--device", default=None, metavar="NAME", help="The device (needed when the cell has several)."
+)
+@json_option
+@handle_errors
+def export_urdf(cell, output, device, json_output):
+    """Write a device of CELL as URDF, with the cell's current pose files applied.
+
+    A calibrated overlay listed in the cell's pose_files moves the TCP and the frames on the
+    links; each such frame becomes a massless link on a fixed joint.  DH devices become joint
+    frames.  Meshes are referenced relative to the URDF's folder.  What URDF cannot hold
+    (acceleration limits, motor inertia, asymmetric Coulomb friction) is listed in a comment.
+
+    \b
+    Examples:
+      rworld export urdf workcells/puma560 -o puma.urdf
+      rworld export urdf workcells/panda --device panda -o out/panda.urdf --json
+    """
+    from ..api import export_urdf as run
+
+    result = run(cell, output, device)
+    if json_output:
+        emit_json(result.as_dict())
+        return
+    click.echo(
+        f"wrote {result.path}: device {result.device}, {len(result.links)} links, "
+        f"{len(result.joints)} joints"
+    )
+    if "Not in URDF" in result.note:
+        click.echo("  " + result.note.split("Not in URDF: ", 1)[1])

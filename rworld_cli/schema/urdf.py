@@ -1,0 +1,642 @@
+"""URDF files: read a robot description with every problem located, and write one.
+
+The reader keeps what rworld uses - links with their inertials and geometry, joints with their
+origins, axes, limits and damping - as plain data in SI units, and reports each problem with
+the file, the line and the column of the element that holds it.  It checks the tree (one root,
+no link with two parents, joints naming existing links) but not what an import needs of it: the
+chain, supported joint types on it, meshes that exist.  That is :mod:`.urdf_cell`'s work.
+
+Why lxml: it is the XML library ROS tools and yourdfpy build on, and it keeps the source line
+of every element (``sourceline``), which the standard library's ElementTree does not.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import spatial
+from ..errors import Issue, UserError, did_you_mean
+from ..fileio import atomic_write_text
+from ..model.cell import Inertial
+
+JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
+MOVING = ("revolute", "continuous", "prismatic")
+_XACRO_NS = "http://www.ros.org/wiki/xacro"
+
+
+@dataclass(frozen=True)
+class UrdfGeometry:
+    """One ``<collision>`` or ``<visual>`` shape of a link.
+
+    Attributes
+    ----------
+    kind : {"box", "cylinder", "sphere", "mesh"}
+    T_link_geometry : ndarray, shape (4, 4)
+        The element's ``<origin>`` [m].
+    size : tuple of float
+        Box edges (x, y, z); cylinder (radius, length); sphere (radius,) [m].
+    mesh_file : Path or None
+        The resolved mesh file (``None`` when it could not be found; see ``problem``).
+    mesh_scale : ndarray, shape (3,)
+    filename : str
+        The mesh's ``filename`` attribute as written.
+    problem : str
+        Why the mesh cannot be used ('' when it can).
+    line, column : int
+    """
+
+    kind: str
+    T_link_geometry: np.ndarray
+    size: tuple = ()
+    mesh_file: Path | None = None
+    mesh_scale: np.ndarray = field(default_factory=lambda: np.ones(3))
+    filename: str = ""
+    problem: str = ""
+    line: int = 0
+    column: int = 0
+
+
+@dataclass(frozen=True)
+class UrdfLink:
+    """A ``<link>``: mass properties in the link frame (``None`` when it has no inertial)."""
+
+    name: str
+    inertial: Inertial | None = None
+    collisions: tuple[UrdfGeometry, ...] = ()
+    visuals: tuple[UrdfGeometry, ...] = ()
+    line: int = 0
+    column: int = 0
+
+    @property
+    def geometry(self) -> tuple[UrdfGeometry, ...]:
+        """Collision shapes, or the visual ones for a link that has none."""
+        return self.collisions or self.visuals
+
+
+@dataclass(frozen=True)
+class UrdfJoint:
+    """A ``<joint>``, SI; limits are ``inf`` where the file gives none (or 0 for velocity and
+    effort, which URDF writers use for "unknown")."""
+
+    name: str
+    type: str
+    parent: str
+    child: str
+    origin: np.ndarray  # (4, 4) T_parent_joint
+    axis: np.ndarray  # (3,) unit, joint frame
+    lower: float = -np.inf
+    upper: float = np.inf
+    velocity: float = np.inf
+    effort: float = np.inf
+    damping: float = 0.0
+    friction: float = 0.0
+    mimic: bool = False
+    line: int = 0
+    column: int = 0
+
+
+@dataclass(frozen=True)
+class UrdfRobot:
+    """A URDF robot: its links, its joints (by name, in file order) and its root link."""
+
+    name: str
+    file: str
+    links: dict[str, UrdfLink]
+    joints: dict[str, UrdfJoint]
+    root: str
+    comment: str = ""
+
+    def child_joints(self, link: str) -> list[UrdfJoint]:
+        return [j for j in self.joints.values() if j.parent == link]
+
+    def parent_joint(self, link: str) -> UrdfJoint | None:
+        for j in self.joints.values():
+            if j.child == link:
+                return j
+        return None
+
+
+# --------------------------------------------------------------------------- reading
+
+
+class _Reader:
+    def __init__(self, text: str, shown: str, base_dir: Path, package_paths: list[Path]):
+        self.lines = text.splitlines()
+        self.shown = shown
+        self.base_dir = base_dir
+        self.package_paths = package_paths
+        self.issues: list[Issue] = []
+
+    def where(self, el) -> tuple[int, int]:
+        line = int(el.sourceline or 0)
+        column = 1
+        if 0 < line <= len(self.lines):
+            at = self.lines[line - 1].find(f"<{el.tag}")
+            column = at + 1 if at >= 0 else 1
+        return line, column
+
+    def err(self, el, location: str, message: str, severity: str = "error") -> None:
+        line, column = self.where(el)
+        self.issues.append(Issue(self.shown, line, column, location, message, severity))  # type: ignore[arg-type]
+
+    def numbers(self, el, attr: str, count: int, location: str, default=None):
+        raw = el.get(attr)
+        if raw is None:
+            if default is None:
+                self.err(el, location, f"<{el.tag}> needs '{attr}'")
+            return default
+        try:
+            values = [float(x) for x in raw.split()]
+        except ValueError:
+            self.err(el, location, f'{attr}="{raw}" is not {count} number(s)')
+            return default
+        if len(values) != count or not all(np.isfinite(values)):
+            self.err(el, location, f'{attr}="{raw}" must be {count} finite number(s)')
+            return default
+        return values
+
+    def origin(self, parent, location: str) -> np.ndarray:
+        el = parent.find("origin")
+        if el is None:
+            return np.eye(4)
+        xyz = self.numbers(el, "xyz", 3, location + ".origin", default=[0.0, 0.0, 0.0])
+        rpy = self.numbers(el, "rpy", 3, location + ".origin", default=[0.0, 0.0, 0.0])
+        return spatial.make_transform(spatial.rpy_to_matrix(rpy), xyz)
+
+    # ------------------------------------------------------------------ links
+    def link(self, el) -> UrdfLink | None:
+        name = el.get("name")
+        if not name:
+            self.err(el, "link", "<link> needs a 'name'")
+            return None
+        loc = f"link[{name}]"
+        inertial = None
+        iel = el.find("inertial")
+        if iel is not None:
+            inertial = self.inertial(iel, loc + ".inertial")
+        collisions = tuple(
+            g
+            for k, c in enumerate(el.findall("collision"))
+            if (g := self.geometry(c, loc)) is not None
+        )
+        visuals = tuple(g for c in el.findall("visual") if (g := self.geometry(c, loc)) is not None)
+        line, column = self.where(el)
+        return UrdfLink(name, inertial, collisions, visuals, line, column)
+
+    def inertial(self, el, loc: str) -> Inertial | None:
+        T = self.origin(el, loc)
+        mel = el.find("mass")
+        mass = 0.0
+        if mel is None:
+            self.err(el, loc, "<inertial> needs <mass value=...>")
+        else:
+            value = self.numbers(mel, "value", 1, loc + ".mass", default=[0.0])
+            mass = value[0]
+            if mass < 0:
+                self.err(mel, loc + ".mass", f"mass {mass:g} kg is negative")
+        I = np.zeros((3, 3))
+        iel = el.find("inertia")
+        if iel is None:
+            self.err(el, loc, "<inertial> needs <inertia ixx=... iyy=... izz=...>")
+        else:
+            get = {}
+            for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"):
+                v = self.numbers(iel, key, 1, loc + ".inertia", default=[0.0])
+                get[key] = v[0]
+            I = np.array(
+                [
+                    [get["ixx"], get["ixy"], get["ixz"]],
+                    [get["ixy"], get["iyy"], get["iyz"]],
+                    [get["ixz"], get["iyz"], get["izz"]],
+                ]
+            )
+            moments = np.linalg.eigvalsh(I)
+            scale = max(1.0, float(np.abs(moments).max()))
+            if moments[0] < -1e-12 * scale:
+                self.err(
+                    iel,
+                    loc + ".inertia",
+                    "inertia is not positive semidefinite: principal moments "
+                    f"{', '.join(f'{m:.6g}' for m in moments)} kg m^2 include a negative one",
+                )
+        R = T[:3, :3]  # the inertia is given in the rotated <origin> frame at the centre of mass
+        return Inertial(float(mass), T[:3, 3].copy(), R @ I @ R.T)
+
+    def geometry(self, el, loc: str) -> UrdfGeometry | None:
+        loc = f"{loc}.{el.tag}"
+        T = self.origin(el, loc)
+        gel = el.find("geometry")
+        shape = None if gel is None else next(iter(gel), None)
+        while shape is not None and not isinstance(shape.tag, str):  # comments
+            shape = shape.getnext()
+        if shape is None:
+            self.err(el, loc, f"<{el.tag}> needs a <geometry> with a box, cylinder, sphere or mesh")
+            return None
+        line, column = self.where(shape)
+        kind = shape.tag
+        if kind == "box":
+            size = self.numbers(shape, "size", 3, loc + ".box")
+            if size is None:
+                return None
+            if min(size) <= 0:
+                self.err(shape, loc + ".box", f"box size {size} must be positive")
+                return None
+            return UrdfGeometry("box", T, tuple(size), line=line, column=column)
+        if kind == "cylinder":
+            r = self.numbers(shape, "radius", 1, loc + ".cylinder")
+            h = self.numbers(shape, "length", 1, loc + ".cylinder")
+            if r is None or h is None:
+                return None
+            if r[0] <= 0 or h[0] <= 0:
+                self.err(shape, loc + ".cylinder", "cylinder radius and length must be positive")
+                return None
+            return UrdfGeometry("cylinder", T, (r[0], h[0]), line=line, column=column)
+        if kind == "sphere":
+            r = self.numbers(shape, "radius", 1, loc + ".sphere")
+            if r is None:
+                return None
+            if r[0] <= 0:
+                self.err(shape, loc + ".sphere", "sphere radius must be positive")
+                return None
+            return UrdfGeometry("sphere", T, (r[0],), line=line, column=column)
+        if kind == "mesh":
+            filename = shape.get("filename")
+            if not filename:
+                self.err(shape, loc + ".mesh", "<mesh> needs a 'filename'")
+                return None
+            scale = self.numbers(shape, "scale", 3, loc + ".mesh", default=[1.0, 1.0, 1.0])
+            path, problem = self.resolve(filename)
+            return UrdfGeometry(
+                "mesh",
+                T,
+                mesh_file=path,
+                mesh_scale=np.array(scale, dtype=float),
+                filename=filename,
+                problem=problem,
+                line=line,
+                column=column,
+            )
+        self.err(shape, loc, f"unknown geometry <{kind}>; URDF has box, cylinder, sphere, mesh")
+        return None
+
+    def resolve(self, filename: str) -> tuple[Path | None, str]:
+        """A mesh's file: ``package://PKG/REST`` under a package path, ``file://`` absolute, or
+        relative to the URDF's folder."""
+        if filename.startswith("package://"):
+            rest = filename[len("package://") :]
+            package, _, inner = rest.partition("/")
+            tried = []
+            for root in self.package_paths:
+                for candidate in (root / package / inner, root / inner):
+                    if candidate is root / inner and root.name != package:
+                        continue
+                    tried.append(candidate)
+                    if candidate.is_file():
+                        return candidate, ""
+            if not self.package_paths:
+                return None, (
+                    f"no such mesh file: '{filename}' names ROS package '{package}'; give the "
+                    "folder that holds it with --package-path DIR"
+                )
+            return None, (
+                f"no such mesh file: '{filename}' (package '{package}' looked for in "
+                f"{', '.join(str(p) for p in self.package_paths)})"
+            )
+        path = Path(filename[len("file://") :]) if filename.startswith("file://") else None
+        if path is None:
+            path = self.base_dir / filename
+        if path.is_file():
+            return path, ""
+        return None, f"no such mesh file: {path}"
+
+    # ------------------------------------------------------------------ joints
+    def joint(self, el) -> UrdfJoint | None:
+        name = el.get("name")
+        if not name:
+            self.err(el, "joint", "<joint> needs a 'name'")
+            return None
+        loc = f"joint[{name}]"
+        kind = el.get("type")
+        if kind not in JOINT_TYPES:
+            self.err(
+                el,
+                loc + ".type",
+                f"unsupported joint type '{kind}'; URDF joints are {', '.join(JOINT_TYPES)}",
+            )
+            return None
+        ends = {}
+        for end in ("parent", "child"):
+            e = el.find(end)
+            if e is None or not e.get("link"):
+                self.err(el, loc, f"<joint> needs <{end} link=...>")
+                return None
+            ends[end] = (e.get("link"), e)
+        origin = self.origin(el, loc)
+        axis = np.array([1.0, 0.0, 0.0])  # URDF's default
+        ael = el.find("axis")
+        if ael is not None:
+            values = self.numbers(ael, "xyz", 3, loc + ".axis", default=[1.0, 0.0, 0.0])
+            norm = float(np.linalg.norm(values))
+            if norm < 1e-12:
+                if kind in MOVING:
+                    self.err(ael, loc + ".axis", "the joint axis is zero; it needs a direction")
+                    return None
+            else:
+                axis = np.array(values) / norm
+        lower, upper, velocity, effort = -np.inf, np.inf, np.inf, np.inf
+        lel = el.find("limit")
+        if lel is not None:
+            if kind in ("revolute", "prismatic"):
+                lo = self.numbers(lel, "lower", 1, loc + ".limit", default=[0.0])[0]
+                hi = self.numbers(lel, "upper", 1, loc + ".limit", default=[0.0])[0]
+                if not lo < hi:
+                    self.err(lel, loc + ".limit", f"lower {lo:g} must be below upper {hi:g}")
+                lower, upper = lo, hi
+            v = self.numbers(lel, "velocity", 1, loc + ".limit", default=[0.0])[0]
+            f = self.numbers(lel, "effort", 1, loc + ".limit", default=[0.0])[0]
+            velocity = v if v > 0 else np.inf
+            effort = f if f > 0 else np.inf
+        elif kind in ("revolute", "prismatic"):
+            self.err(el, loc, f"a {kind} joint needs <limit lower upper effort velocity>")
+        damping = friction = 0.0
+        del_ = el.find("dynamics")
+        if del_ is not None:
+            damping = self.numbers(del_, "damping", 1, loc + ".dynamics", default=[0.0])[0]
+            friction = self.numbers(del_, "friction", 1, loc + ".dynamics", default=[0.0])[0]
+        line, column = self.where(el)
+        return UrdfJoint(
+            name,
+            kind,
+            ends["parent"][0],
+            ends["child"][0],
+            origin,
+            axis,
+            lower,
+            upper,
+            velocity,
+            effort,
+            max(damping, 0.0),
+            max(friction, 0.0),
+            el.find("mimic") is not None,
+            line,
+            column,
+        )
+
+
+def read_urdf(
+    path: str | Path, package_paths: Sequence[str | Path] | None = None
+) -> tuple[UrdfRobot, list[Issue]]:
+    """Read a URDF file.
+
+    Parameters
+    ----------
+    path : path
+        The ``.urdf`` file (xacro files must be expanded first).
+    package_paths : list of path, optional
+        Folders that hold ROS packages, for ``package://`` mesh names.
+
+    Returns
+    -------
+    robot : UrdfRobot
+    warnings : list of Issue
+
+    Raises
+    ------
+    UserError
+        Every problem found, located (file:line:col), at once.
+    """
+    from lxml import etree
+
+    shown = str(path)
+    path = Path(path)
+    if not path.is_file():
+        raise UserError(f"no such URDF file: {shown}")
+    text = path.read_text(encoding="utf-8", errors="replace")
+    if path.suffix == ".xacro" or ".xacro" in path.suffixes:
+        raise UserError(
+            f"{shown}: a xacro file; expand it to URDF first: 'xacro {path.name} > "
+            f"{path.name.replace('.xacro', '').removesuffix('.urdf')}.urdf' (ROS: "
+            "'ros2 run xacro xacro ...')"
+        )
+    try:
+        root = etree.fromstring(text.encode("utf-8"), etree.XMLParser(remove_comments=False))
+    except etree.XMLSyntaxError as exc:
+        line, column = exc.position if exc.position else (0, 0)
+        message = re.sub(r", line \d+, column \d+$", "", str(exc.msg))
+        raise UserError(
+            f"invalid: {shown}: malformed XML",
+            [Issue(shown, line, max(column, 1), "(xml)", f"malformed XML: {message}")],
+        ) from None
+    reader = _Reader(text, shown, path.parent, [Path(p) for p in package_paths or []])
+    if root.tag != "robot":
+        reader.err(root, "(root)", f"the root element is <{root.tag}>; a URDF file has <robot>")
+        raise UserError(f"invalid: {shown}", reader.issues)
+    macros = [
+        el
+        for el in root.iter()
+        if isinstance(el.tag, str) and el.tag.startswith("{" + _XACRO_NS + "}")
+    ]
+    if macros or "${" in text:
+        el = macros[0] if macros else root
+        reader.err(
+            el,
+            "(root)",
+            "this file holds xacro macros (xacro:... elements or ${...} expressions); expand it "
+            "to plain URDF first: 'xacro FILE.urdf.xacro > FILE.urdf'",
+        )
+        raise UserError(f"invalid: {shown}", reader.issues)
+    links: dict[str, UrdfLink] = {}
+    for el in root.findall("link"):
+        link = reader.link(el)
+        if link is None:
+            continue
+        if link.name in links:
+            reader.err(
+                el,
+                f"link[{link.name}]",
+                f"a second link '{link.name}' (first at line {links[link.name].line})",
+            )
+            continue
+        links[link.name] = link
+    joints: dict[str, UrdfJoint] = {}
+    parent_of: dict[str, UrdfJoint] = {}
+    for el in root.findall("joint"):
+        joint = reader.joint(el)
+        if joint is None:
+            continue
+        loc = f"joint[{joint.name}]"
+        if joint.name in joints:
+            reader.err(
+                el, loc, f"a second joint '{joint.name}' (first at line {joints[joint.name].line})"
+            )
+            continue
+        bad = False
+        for end in ("parent", "child"):
+            link = getattr(joint, end)
+            if link not in links:
+                reader.err(
+                    el.find(end),
+                    f"{loc}.{end}",
+                    f"joint '{joint.name}' names a missing link '{link}'"
+                    + did_you_mean(link, links),
+                )
+                bad = True
+        if bad:
+            continue
+        if joint.child in parent_of:
+            first = parent_of[joint.child]
+            reader.err(
+                el,
+                loc,
+                f"link '{joint.child}' is the child of joint '{first.name}' (line {first.line}) "
+                f"and of '{joint.name}': a closed loop; rworld takes kinematic trees",
+            )
+            continue
+        joints[joint.name] = joint
+        parent_of[joint.child] = joint
+    roots = [name for name in links if name not in parent_of]
+    if links and len(roots) != 1 and not reader.issues:
+        if not roots:
+            reader.err(root, "(root)", "every link has a parent joint: the joints form a loop")
+        else:
+            second = links[roots[1]]
+            reader.issues.append(
+                Issue(
+                    shown,
+                    second.line,
+                    second.column,
+                    f"link[{second.name}]",
+                    f"the URDF has {len(roots)} roots ({', '.join(roots)}): link "
+                    f"'{second.name}' is not the child of any joint; a robot is one tree",
+                )
+            )
+    if not links:
+        reader.err(root, "(root)", "the robot has no <link>")
+    if not reader.issues:  # a loop that does not reach the root
+        for name in links:
+            seen = {name}
+            node = name
+            while node in parent_of:
+                node = parent_of[node].parent
+                if node in seen:
+                    j = parent_of[name]
+                    reader.issues.append(
+                        Issue(
+                            shown,
+                            j.line,
+                            j.column,
+                            f"joint[{j.name}]",
+                            f"link '{name}' is in a loop",
+                        )
+                    )
+                    break
+                seen.add(node)
+    errors = [i for i in reader.issues if i.severity == "error"]
+    if errors:
+        raise UserError(f"invalid: {shown}: {len(errors)} error(s)", reader.issues)
+    comment = ""
+    return (
+        UrdfRobot(root.get("name") or path.stem, shown, links, joints, roots[0], comment),
+        reader.issues,
+    )
+
+
+# --------------------------------------------------------------------------- writing
+
+
+def _fmt(values) -> str:
+    return " ".join(repr(float(v)) if v != 0 else "0" for v in np.atleast_1d(values))
+
+
+def urdf_text(robot: UrdfRobot, mesh_names: dict[Path, str] | None = None) -> str:
+    """The robot as URDF text (links, then joints in chain order).
+
+    ``mesh_names`` maps mesh files to the ``filename`` to write (default: the path as is).
+    """
+    from lxml import etree
+
+    mesh_names = mesh_names or {}
+    root = etree.Element("robot", name=robot.name)
+    if robot.comment:
+        root.append(etree.Comment(" " + robot.comment.replace("--", "- -") + " "))
+
+    def origin(parent, T: np.ndarray) -> None:
+        if np.allclose(T, np.eye(4), atol=0.0, rtol=0.0):
+            return
+        etree.SubElement(
+            parent,
+            "origin",
+            xyz=_fmt(T[:3, 3]),
+            rpy=_fmt(spatial.matrix_to_rpy(T[:3, :3])),
+        )
+
+    def geometry(parent, tag: str, g: UrdfGeometry) -> None:
+        el = etree.SubElement(parent, tag)
+        origin(el, g.T_link_geometry)
+        gel = etree.SubElement(el, "geometry")
+        if g.kind == "box":
+            etree.SubElement(gel, "box", size=_fmt(g.size))
+        elif g.kind == "cylinder":
+            etree.SubElement(gel, "cylinder", radius=_fmt(g.size[0]), length=_fmt(g.size[1]))
+        elif g.kind == "sphere":
+            etree.SubElement(gel, "sphere", radius=_fmt(g.size[0]))
+        else:
+            assert g.mesh_file is not None
+            attrs = {"filename": mesh_names.get(g.mesh_file, str(g.mesh_file))}
+            if not np.allclose(g.mesh_scale, 1.0):
+                attrs["scale"] = _fmt(g.mesh_scale)
+            etree.SubElement(gel, "mesh", **attrs)
+
+    for link in robot.links.values():
+        el = etree.SubElement(root, "link", name=link.name)
+        if link.inertial is not None:
+            iel = etree.SubElement(el, "inertial")
+            origin(iel, spatial.make_transform(None, link.inertial.com))
+            etree.SubElement(iel, "mass", value=_fmt(link.inertial.mass))
+            I = link.inertial.inertia
+            etree.SubElement(
+                iel,
+                "inertia",
+                ixx=_fmt(I[0, 0]),
+                ixy=_fmt(I[0, 1]),
+                ixz=_fmt(I[0, 2]),
+                iyy=_fmt(I[1, 1]),
+                iyz=_fmt(I[1, 2]),
+                izz=_fmt(I[2, 2]),
+            )
+        for g in link.visuals:
+            geometry(el, "visual", g)
+        for g in link.collisions:
+            geometry(el, "collision", g)
+    for joint in robot.joints.values():
+        el = etree.SubElement(root, "joint", name=joint.name, type=joint.type)
+        origin(el, joint.origin)
+        etree.SubElement(el, "parent", link=joint.parent)
+        etree.SubElement(el, "child", link=joint.child)
+        if joint.type in MOVING:
+            etree.SubElement(el, "axis", xyz=_fmt(joint.axis))
+            limits = {}
+            if joint.type != "continuous":
+                limits["lower"], limits["upper"] = _fmt(joint.lower), _fmt(joint.upper)
+            # URDF requires effort and velocity; 0 stands for "not given" (read back as unlimited)
+            limits["effort"] = _fmt(joint.effort if np.isfinite(joint.effort) else 0.0)
+            limits["velocity"] = _fmt(joint.velocity if np.isfinite(joint.velocity) else 0.0)
+            etree.SubElement(el, "limit", **limits)
+            if joint.damping or joint.friction:
+                etree.SubElement(
+                    el, "dynamics", damping=_fmt(joint.damping), friction=_fmt(joint.friction)
+                )
+    etree.indent(root, space="  ")
+    return '<?xml version="1.0"?>\n' + etree.tostring(root, encoding="unicode") + "\n"
+
+
+def write_urdf(
+    path: str | Path, robot: UrdfRobot, mesh_names: dict[Path, str] | None = None
+) -> None:
+    """Write :func:`urdf_text` to ``path`` atomically."""
+    atomic_write_text(path, urdf_text(robot, mesh_names))

@@ -1,0 +1,647 @@
+"""URDF robots in and out of rworld cells: the mapping between the two formats.
+
+**In** (:func:`cell_from_urdf`): URDF describes a tree of links; an rworld device is a serial
+chain.  The chain runs from a base link to a tip link through the moving joints (revolute,
+continuous, prismatic).  Every link fixed to a chain link - by fixed joints on the chain, or in
+branches off it - is merged into that link: masses and inertias combined (parallel-axis), the
+shapes gathered into one geometry (one mesh file when there are several), the link itself kept
+as a frame on it whose pose goes to ``poses.yaml``, where calibration can change it.  Moving
+joints in branches off the chain (a gripper's fingers) are locked at 0 and merged the same way,
+with a warning.  Mimic joints on the chain, floating and planar joints are refused.
+
+**Out** (:func:`urdf_from_cell`): a device becomes one link per rworld link, joined by its
+joints; DH rows become joint frames (standard DH: the URDF link frame is DH frame *i-1* turned
+by joint *i*, so link data move by the row's constant transform); every frame on the device
+(TCPs, auxiliary frames, with the current pose files applied) becomes a massless link on a
+fixed joint.  What URDF cannot hold (acceleration limits, motor inertia, asymmetric Coulomb
+friction) is listed in a comment.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from .. import spatial
+from ..errors import Issue, UserError, did_you_mean
+from ..model.cell import CellModel, Inertial
+from .models import NAME_PATTERN
+from .urdf import MOVING, UrdfGeometry, UrdfJoint, UrdfLink, UrdfRobot
+
+MESH_SUFFIXES = (".stl", ".obj", ".ply")
+
+
+@dataclass
+class ImportedCell:
+    """The files of an imported cell, in memory until they are written.
+
+    Attributes
+    ----------
+    cell_text, poses_text : str
+        ``cell.yaml`` and ``poses.yaml``.
+    meshes : dict
+        Path relative to the cell folder -> file bytes.
+    device : str
+    chain : list of str
+        The URDF joints that became the device's joints, base to tip.
+    base, tip, tcp : str
+        URDF links.
+    merged : dict
+        Device link (or the base) -> the URDF links merged into it.
+    renamed : dict
+        URDF name -> rworld name, for names rworld cannot hold.
+    warnings : list of Issue
+    """
+
+    cell_text: str
+    poses_text: str
+    meshes: dict[str, bytes]
+    device: str
+    chain: list[str]
+    base: str
+    tip: str
+    tcp: str
+    merged: dict[str, list[str]]
+    renamed: dict[str, str]
+    warnings: list[Issue] = field(default_factory=list)
+
+
+def _issue(robot: UrdfRobot, item, location: str, message: str, severity="error") -> Issue:
+    return Issue(robot.file, item.line, item.column, location, message, severity)
+
+
+class _Names:
+    """rworld names for URDF names: invalid characters become '_', clashes get a suffix."""
+
+    def __init__(self) -> None:
+        self.used: set[str] = set()
+        self.renamed: dict[str, str] = {}
+        self.of: dict[str, str] = {}
+
+    def fresh(self, name: str) -> str:
+        """A new name, not one of the URDF's."""
+        candidate, k = name, 2
+        while candidate in self.used:
+            candidate, k = f"{name}_{k}", k + 1
+        self.used.add(candidate)
+        return candidate
+
+    def __call__(self, name: str) -> str:
+        if name in self.of:
+            return self.of[name]
+        clean = re.sub(r"[^A-Za-z0-9_\-]", "_", name)
+        if not re.match(NAME_PATTERN, clean):
+            clean = "_" + clean
+        candidate, k = clean, 2
+        while candidate in self.used:
+            candidate, k = f"{clean}_{k}", k + 1
+        self.used.add(candidate)
+        self.of[name] = candidate
+        if candidate != name:
+            self.renamed[name] = candidate
+        return candidate
+
+
+def _default_tip(robot: UrdfRobot, base: str) -> str:
+    """Follow the moving joints down from ``base`` while the way is unique."""
+    memo: dict[str, bool] = {}
+
+    def moves(link: str) -> bool:
+        if link not in memo:
+            memo[link] = any(j.type != "fixed" or moves(j.child) for j in robot.child_joints(link))
+        return memo[link]
+
+    node = base
+    while True:
+        ways = [j for j in robot.child_joints(node) if j.type != "fixed" or moves(j.child)]
+        if not ways:
+            return node
+        if len(ways) > 1:
+            leaves = [j.child for j in ways]
+            raise UserError(
+                f"{robot.file}: the robot branches at link '{node}' into moving chains "
+                f"({', '.join(f'{j.name} -> {j.child}' for j in ways)}); choose the chain with "
+                f"--tip LINK: '--tip {node}' keeps the branches locked at 0, or name a link "
+                f"beyond one of {', '.join(leaves)}"
+            )
+        node = ways[0].child
+
+
+def _chain(robot: UrdfRobot, base: str, tip: str) -> list[UrdfJoint]:
+    path = []
+    node = tip
+    while node != base:
+        joint = robot.parent_joint(node)
+        if joint is None:
+            raise UserError(
+                f"{robot.file}: link '{tip}' is not below link '{base}': --tip must be a "
+                f"descendant of --base"
+            )
+        path.append(joint)
+        node = joint.parent
+    return path[::-1]
+
+
+def _mesh_bytes(robot: UrdfRobot, parts: list[tuple[UrdfGeometry, np.ndarray]]) -> bytes:
+    """One binary STL of ``parts`` (shape, ``T_link_shape``) in the link frame [m]."""
+    import trimesh
+
+    meshes = []
+    for g, T in parts:
+        if g.kind == "box":
+            m = trimesh.creation.box(extents=g.size)
+        elif g.kind == "cylinder":
+            m = trimesh.creation.cylinder(radius=g.size[0], height=g.size[1], sections=48)
+        elif g.kind == "sphere":
+            m = trimesh.creation.icosphere(subdivisions=3, radius=g.size[0])
+        else:
+            try:
+                m = trimesh.load(str(g.mesh_file), force="mesh")
+            except Exception as exc:  # trimesh raises many kinds on files it cannot read
+                raise UserError(
+                    f"invalid: {robot.file}",
+                    [
+                        Issue(
+                            robot.file,
+                            g.line,
+                            g.column,
+                            "mesh",
+                            f"cannot read mesh {g.mesh_file}: {exc}",
+                        )
+                    ],
+                ) from None
+            m = m.copy()
+            m.apply_scale(g.mesh_scale)
+        m.apply_transform(T)
+        meshes.append(m)
+    merged = trimesh.util.concatenate(meshes) if len(meshes) > 1 else meshes[0]
+    return bytes(merged.export(file_type="stl"))  # type: ignore[call-arg]
+
+
+def _flow(dumper, data):
+    flow = all(isinstance(x, (int, float, str)) for x in data) and len(data) <= 6
+    return dumper.represent_sequence("tag:yaml.org,2002:seq", data, flow_style=flow)
+
+
+class _Dumper(yaml.SafeDumper):
+    pass
+
+
+_Dumper.add_representer(list, _flow)
+
+
+def _pose(T: np.ndarray) -> dict:
+    out: dict = {"xyz": [float(x) for x in T[:3, 3]]}
+    rpy = spatial.matrix_to_rpy(T[:3, :3])
+    if np.any(rpy != 0):
+        out["rpy"] = [float(x) for x in rpy]
+    return out
+
+
+def cell_from_urdf(
+    robot: UrdfRobot,
+    cell_name: str,
+    base: str | None = None,
+    tip: str | None = None,
+    tcp: str | None = None,
+    device_name: str | None = None,
+) -> ImportedCell:
+    """The cell files for the serial chain ``base`` -> ``tip`` of a URDF robot.
+
+    Parameters
+    ----------
+    robot : UrdfRobot
+    cell_name : str
+    base, tip : str, optional
+        URDF links; default the root, and the end of the unique chain of moving joints.
+    tcp : str, optional
+        The URDF link whose frame becomes the device's TCP; default ``tip``.
+    device_name : str, optional
+        Default: the robot's name.
+
+    Raises
+    ------
+    UserError
+        Located problems: a mimic, floating or planar joint in the way, a missing mesh.
+    """
+    issues: list[Issue] = []
+    warnings: list[Issue] = []
+    base = base or robot.root
+    for what, given in (("--base", base), ("--tip", tip), ("--tcp", tcp)):
+        if given is not None and given not in robot.links:
+            raise UserError(
+                f"{robot.file}: {what} '{given}' is not a link of the robot"
+                f"{did_you_mean(given, robot.links)}"
+            )
+    tip = tip or _default_tip(robot, base)
+    chain = _chain(robot, base, tip)
+    on_chain = {j.name for j in chain}
+    for j in chain:
+        if j.type in ("floating", "planar"):
+            issues.append(
+                _issue(
+                    robot,
+                    j,
+                    f"joint[{j.name}].type",
+                    f"a {j.type} joint cannot be part of a serial chain; "
+                    + (
+                        f"start the chain below it with --base {j.child}"
+                        if j is chain[0]
+                        else f"end the chain before it with --tip {j.parent}"
+                    ),
+                )
+            )
+        elif j.mimic and j.type in MOVING:
+            issues.append(
+                _issue(
+                    robot,
+                    j,
+                    f"joint[{j.name}].mimic",
+                    "a mimic joint (its value follows another joint's) is not supported on the "
+                    "chain; end the chain before it with --tip",
+                )
+            )
+    names = _Names()
+    device = names(device_name or robot.name)
+
+    # rigid groups: the base, then one per moving joint on the chain, each with its members
+    # (URDF link, T_head_link) and the locked joints merged into it
+    groups: list[list[tuple[UrdfLink, np.ndarray]]] = [[(robot.links[base], np.eye(4))]]
+    placed: dict[str, tuple[int, np.ndarray]] = {base: (0, np.eye(4))}
+    for j in chain:
+        g, T_head_parent = placed[j.parent]
+        if j.type in MOVING:
+            groups.append([(robot.links[j.child], np.eye(4))])
+            placed[j.child] = (len(groups) - 1, np.eye(4))
+        else:
+            T = T_head_parent @ j.origin
+            groups[g].append((robot.links[j.child], T))
+            placed[j.child] = (g, T)
+    chain_links = [base] + [j.child for j in chain]
+    stack = [(ln, child) for ln in chain_links for child in robot.child_joints(ln)][::-1]
+    while stack:
+        hanger, j = stack.pop()
+        if j.name in on_chain:
+            continue
+        if j.type in ("floating", "planar"):
+            issues.append(
+                _issue(
+                    robot,
+                    j,
+                    f"joint[{j.name}].type",
+                    f"a {j.type} joint hangs on the chain at '{hanger}'; rworld devices are serial "
+                    "chains with fixed bases",
+                )
+            )
+            continue
+        if j.type in MOVING:
+            warnings.append(
+                _issue(
+                    robot,
+                    j,
+                    f"joint[{j.name}]",
+                    f"{j.type} joint '{j.name}' is off the chain {base} -> {tip}: locked at 0, and "
+                    f"'{j.child}' merged into the link it hangs on",
+                    "warning",
+                )
+            )
+        g, T_head_parent = placed[hanger]
+        T = T_head_parent @ j.origin
+        groups[g].append((robot.links[j.child], T))
+        placed[j.child] = (g, T)
+        stack.extend((j.child, c) for c in reversed(robot.child_joints(j.child)))
+    if issues:
+        raise UserError(f"invalid: {robot.file}: {len(issues)} error(s)", issues + warnings)
+
+    meshes: dict[str, bytes] = {}
+    merged: dict[str, list[str]] = {}
+    poses: dict[str, dict] = {device: {"xyz": [0.0, 0.0, 0.0]}}
+    moving = [j for j in chain if j.type in MOVING]
+    heads = [names(group[0][0].name) for group in groups]
+    # the TCP: --tcp, else a link named 'tcp' (what 'rworld export urdf' writes) or 'tool0' (the
+    # ROS-Industrial flange frame), else the tip.  A merged link becomes the TCP itself; a
+    # moving link gets a TCP frame 'tcp' on it.
+    tcp_link = tcp or next((n for n in ("tcp", "tool0") if n in placed), tip)
+    if tcp_link not in placed:
+        raise UserError(
+            f"{robot.file}: --tcp '{tcp_link}' is not on the imported part (the chain {base} -> "
+            f"{tip} and the links fixed to it)"
+        )
+    tcp_group, T_head_tcp = placed[tcp_link]
+    if tcp_group == 0:
+        raise UserError(
+            f"{robot.file}: --tcp '{tcp_link}' is fixed to the base; a TCP moves with the chain"
+        )
+    for name in placed:  # URDF names first: the TCP frame's own name must not take one
+        names(name)
+    if robot.links[tcp_link] is groups[tcp_group][0][0]:  # a moving link (or the base)
+        tcp_doc: dict = {"name": names.fresh("tcp")}
+        poses[f"{device}.{tcp_doc['name']}"] = {"xyz": [0.0, 0.0, 0.0]}
+    else:
+        tcp_doc = {"name": names(tcp_link)}
+        poses[f"{device}.{tcp_doc['name']}"] = _pose(T_head_tcp)
+    if tcp_group != len(groups) - 1:
+        tcp_doc["parent"] = heads[tcp_group]
+    link_docs: list[dict] = []
+    base_doc: dict = {}
+    for k, group in enumerate(groups):
+        head = heads[k]
+        owner = device if k == 0 else head
+        parts = []
+        geometry: list[tuple[UrdfGeometry, np.ndarray]] = []
+        frames = []
+        for link, T in group:
+            if link.inertial is not None:
+                parts.append((link.inertial, T))
+            elif k > 0 and (link.geometry or link is group[0][0]):  # the base's mass is moot
+                warnings.append(
+                    _issue(
+                        robot,
+                        link,
+                        f"link[{link.name}]",
+                        f"link '{link.name}' has no <inertial>: imported massless",
+                        "warning",
+                    )
+                )
+            for shape in link.geometry:
+                if shape.kind == "mesh" and shape.mesh_file is None:
+                    issues.append(_issue(robot, shape, f"link[{link.name}].mesh", shape.problem))
+                geometry.append((shape, T @ shape.T_link_geometry))
+            if link is not group[0][0] and link.name != tcp_link:
+                frame = names(link.name)
+                frames.append({"name": frame})
+                poses[f"{device}.{frame}"] = _pose(T)
+        merged[owner] = [link.name for link, _ in group]
+        doc: dict = {}
+        if k > 0:
+            doc["name"] = head
+            inertial = Inertial.combine(parts) if parts else Inertial.zero()
+            doc["mass"] = float(inertial.mass)
+            doc["com"] = [float(x) for x in inertial.com]
+            I = inertial.inertia
+            doc["inertia"] = {
+                key: float(I[a, b])
+                for key, (a, b) in {
+                    "ixx": (0, 0),
+                    "iyy": (1, 1),
+                    "izz": (2, 2),
+                    "ixy": (0, 1),
+                    "ixz": (0, 2),
+                    "iyz": (1, 2),
+                }.items()
+            }
+        if geometry and not any(g.kind == "mesh" and g.mesh_file is None for g, _ in geometry):
+            doc["geometry"] = _geometry_doc(robot, owner, geometry, meshes)
+        if frames:
+            doc["frames"] = frames
+        if k == 0:
+            base_doc = doc
+        else:
+            link_docs.append(doc)
+    if issues:
+        raise UserError(f"invalid: {robot.file}: {len(issues)} error(s)", issues + warnings)
+
+    # joints: each origin from the previous moving link's frame, through the fixed joints between
+    joint_docs = []
+    for j in moving:
+        _, T_head_parent = placed[j.parent]
+        doc = {"name": names(j.name), "type": j.type}
+        origin = _pose(T_head_parent @ j.origin)
+        if np.any(origin["xyz"]) or "rpy" in origin:
+            doc["origin"] = origin
+        if not np.allclose(j.axis, [0.0, 0.0, 1.0], rtol=0.0, atol=0.0):
+            doc["axis"] = [float(x) for x in j.axis]
+        limits: dict = {}
+        if j.type != "continuous" and np.isfinite(j.lower) and np.isfinite(j.upper):
+            limits["position"] = [float(j.lower), float(j.upper)]
+        if np.isfinite(j.velocity):
+            limits["velocity"] = float(j.velocity)
+        if np.isfinite(j.effort):
+            limits["effort"] = float(j.effort)
+        if limits:
+            doc["limits"] = limits
+        if j.damping or j.friction:
+            doc["friction"] = {"viscous": float(j.damping), "coulomb": float(j.friction)}
+        joint_docs.append(doc)
+    device_doc: dict = {"name": device, "dof": len(moving), "joints": joint_docs}
+    device_doc["links"] = link_docs
+    device_doc["tcps"] = [tcp_doc]
+    if "geometry" in base_doc:
+        device_doc["geometry"] = base_doc["geometry"]
+    if "frames" in base_doc:
+        device_doc["frames"] = base_doc["frames"]
+    head = (
+        "# yaml-language-server: $schema=../../schemas/cell.schema.json\n"
+        f"# Imported by 'rworld import urdf' from {robot.file}: the chain {base} -> {tip}.\n"
+        "# Joints are given by their frames (origin, axis) as in the URDF; links fixed to a\n"
+        "# moving link are merged into it and kept as frames (their poses are in poses.yaml).\n"
+    )
+    if names.renamed:
+        head += "# Renamed: " + ", ".join(f"{a} -> {b}" for a, b in names.renamed.items()) + "\n"
+    cell_doc = {
+        "name": cell_name,
+        "description": f"{robot.name} imported from URDF",
+        "units": {"length": "m", "angle": "rad"},
+        "pose_files": ["poses.yaml"],
+        "devices": [device_doc],
+    }
+    cell_text = head + yaml.dump(cell_doc, Dumper=_Dumper, sort_keys=False, width=100)
+    poses_text = (
+        "# yaml-language-server: $schema=../../schemas/poses.schema.json\n"
+        f"# Poses of the frames of '{device}' (imported from {robot.file}); calibration may\n"
+        "# change these numbers.\n"
+        + yaml.dump(
+            {"units": {"length": "m", "angle": "rad"}, "poses": poses},
+            Dumper=_Dumper,
+            sort_keys=False,
+            width=100,
+        )
+    )
+    return ImportedCell(
+        cell_text,
+        poses_text,
+        meshes,
+        device,
+        [j.name for j in chain],
+        base,
+        tip,
+        tcp_link,
+        merged,
+        names.renamed,
+        warnings,
+    )
+
+
+def _geometry_doc(
+    robot: UrdfRobot, owner: str, parts: list[tuple[UrdfGeometry, np.ndarray]], meshes: dict
+) -> dict:
+    """One geometry entry for the shapes of a merged link (``T_link_shape`` each)."""
+    if len(parts) == 1:
+        g, T = parts[0]
+        origin = _pose(T)
+        doc: dict = {}
+        if g.kind == "box":
+            doc["box"] = [float(x) for x in g.size]
+        elif g.kind == "cylinder":
+            doc["cylinder"] = {"radius": float(g.size[0]), "length": float(g.size[1])}
+        elif g.kind == "sphere":
+            doc["sphere"] = {"radius": float(g.size[0])}
+        uniform = g.kind == "mesh" and np.allclose(g.mesh_scale, g.mesh_scale[0], rtol=0, atol=0)
+        if (
+            g.kind == "mesh"
+            and uniform
+            and g.mesh_scale[0] in (1.0, 0.001)
+            and g.mesh_file is not None
+            and g.mesh_file.suffix.lower() in MESH_SUFFIXES
+        ):
+            name = f"meshes/{owner}{g.mesh_file.suffix.lower()}"
+            meshes[name] = g.mesh_file.read_bytes()
+            doc["mesh"] = {"file": name, "units": "m" if g.mesh_scale[0] == 1.0 else "mm"}
+        elif g.kind == "mesh":
+            name = f"meshes/{owner}.stl"
+            meshes[name] = _mesh_bytes(robot, [(g, np.eye(4))])
+            doc["mesh"] = {"file": name, "units": "m"}
+        if np.any(origin["xyz"]) or "rpy" in origin:
+            doc["origin"] = origin
+        return doc
+    name = f"meshes/{owner}.stl"
+    meshes[name] = _mesh_bytes(robot, parts)
+    return {"mesh": {"file": name, "units": "m"}}
+
+
+# --------------------------------------------------------------------------- out
+
+
+def _shape_geometry(shape, T_urdf_owner: np.ndarray) -> UrdfGeometry:
+    T = T_urdf_owner @ shape.T_owner_shape
+    size = np.asarray(shape.size, dtype=float)
+    if shape.kind == "box":
+        return UrdfGeometry("box", T, tuple(float(x) for x in size))
+    if shape.kind == "cylinder":
+        return UrdfGeometry("cylinder", T, (float(size[0]) / 2, float(size[2])))
+    if shape.kind == "sphere":
+        return UrdfGeometry("sphere", T, (float(size[0]) / 2,))
+    return UrdfGeometry(
+        "mesh", T, mesh_file=shape.mesh_file, mesh_scale=np.full(3, float(shape.mesh_scale))
+    )
+
+
+def urdf_from_cell(cell: CellModel, device: str, output: str | Path) -> tuple[UrdfRobot, dict]:
+    """A device of a loaded cell (its current pose files applied) as a URDF robot.
+
+    Returns
+    -------
+    robot : UrdfRobot
+    mesh_names : dict
+        Mesh file -> its ``filename`` in the URDF, relative to ``output``'s folder.
+    """
+    dev = cell.devices[device]
+    taken = {link.name for link in dev.links} | {
+        name.split(".", 1)[1]
+        for name, d in cell.frames.items()
+        if d.owner == device and "." in name
+    }
+    base = device if device not in taken else f"{device}_base"
+    links: dict[str, UrdfLink] = {}
+    joints: dict[str, UrdfJoint] = {}
+    urdf_of = {device: (base, np.eye(4))}  # rworld frame -> (URDF link, T_urdflink_frame)
+    base_shapes = (_shape_geometry(dev.shape, np.eye(4)),) if dev.shape is not None else ()
+    links[base] = UrdfLink(base, None, base_shapes, base_shapes)
+    parent = base
+    notes = []
+    for joint, link, (origin, axis, T_urdf_link), frame in zip(
+        dev.joints, dev.links, dev.joint_frames(), dev.link_frames
+    ):
+        R = T_urdf_link[:3, :3]
+        inertial = Inertial(
+            link.inertial.mass,
+            R @ link.inertial.com + T_urdf_link[:3, 3],
+            R @ link.inertial.inertia @ R.T,
+        )
+        shapes = (_shape_geometry(link.shape, T_urdf_link),) if link.shape is not None else ()
+        links[link.name] = UrdfLink(link.name, inertial, shapes, shapes)
+        lim = joint.limits
+        revolute = joint.kind == "revolute"
+        limited = np.isfinite(lim.lower) and np.isfinite(lim.upper)
+        kind = "prismatic" if not revolute else ("revolute" if limited else "continuous")
+        if not revolute and not limited:
+            notes.append(f"{joint.name} has no position limits: written as +-1e9 m")
+        coulomb = joint.coulomb_positive
+        if joint.coulomb_positive != joint.coulomb_negative:
+            coulomb = (joint.coulomb_positive + joint.coulomb_negative) / 2
+            notes.append(
+                f"{joint.name}: Coulomb friction +{joint.coulomb_positive:g}/-"
+                f"{joint.coulomb_negative:g} written as its mean"
+            )
+        if np.isfinite(lim.acceleration):
+            notes.append(f"{joint.name}: acceleration limit {lim.acceleration:g} dropped")
+        if joint.armature:
+            notes.append(
+                f"{joint.name}: motor inertia (armature {joint.armature:g} kg m^2) dropped"
+            )
+        joints[joint.name] = UrdfJoint(
+            joint.name,
+            kind,
+            parent,
+            link.name,
+            origin,
+            axis,
+            lim.lower if limited else -1e9,
+            lim.upper if limited else 1e9,
+            lim.velocity,
+            lim.effort,
+            joint.viscous,
+            coulomb,
+        )
+        urdf_of[frame] = (link.name, T_urdf_link)
+        parent = link.name
+    # every other frame of the device, parents first
+    pending = [
+        name
+        for name, d in cell.frames.items()
+        if d.owner == device and d.kind in ("auxiliary", "tcp")
+    ]
+    while pending:
+        rest = []
+        for name in pending:
+            decl = cell.frames[name]
+            if decl.parent not in urdf_of:
+                rest.append(name)
+                continue
+            link_name = name.split(".", 1)[1]
+            parent_link, T_parent = urdf_of[decl.parent]
+            links[link_name] = UrdfLink(link_name)
+            joints[link_name + "_joint"] = UrdfJoint(
+                link_name + "_joint",
+                "fixed",
+                parent_link,
+                link_name,
+                T_parent @ cell.poses[name],
+                np.array([1.0, 0.0, 0.0]),
+            )
+            urdf_of[name] = (link_name, np.eye(4))
+        if len(rest) == len(pending):
+            break
+        pending = rest
+    comment = (
+        f"Written by 'rworld export urdf' from {cell.path}, device '{device}'"
+        + (
+            " (standard DH: each URDF link frame is DH frame i-1 turned by joint i)"
+            if dev.convention == "standard"
+            else ""
+        )
+        + ". "
+        + ("Not in URDF: " + "; ".join(notes) + "." if notes else "")
+    )
+    folder = Path(output).resolve().parent
+    mesh_names = {}
+    for urdf_link in links.values():
+        for g in urdf_link.collisions:
+            if g.mesh_file is not None:
+                mesh_names[g.mesh_file] = os.path.relpath(Path(g.mesh_file).resolve(), folder)
+    return UrdfRobot(device, str(output), links, joints, base, comment), mesh_names
