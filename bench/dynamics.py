@@ -1,11 +1,12 @@
-"""rworld's batched device physics beside Pinocchio, on the Puma 560, in one run.
+"""rworld's batched device physics beside Pinocchio, on the Puma 560 and the Panda, in one run.
 
 Run:  .venv/bin/pip install -e ".[bench]" && .venv/bin/python bench/dynamics.py [--sizes 1000 10000
 100000]
 
-Same model in both (workcells/puma560, rigid body: no armature, no
-friction; Pinocchio's model is built from the same DH table and mass
-properties), same random states.  Before timing, the two are checked to
+Same model in both, rigid body (no armature, no friction), same random states: the Puma of
+workcells/puma560 (Pinocchio's model built from the same DH table and mass properties), and the
+Panda's arm from example-robot-data's URDF (rworld imports it with 'import urdf', Pinocchio
+loads the same file).  Before timing, the two are checked to
 agree.  Per-sample times are the best of --repeat runs; ratios are
 rworld / Pinocchio (below 1: rworld faster).  Pinocchio is timed two ways:
 a Python loop of per-state calls, and its one-thread batched
@@ -28,7 +29,7 @@ sys.path.insert(0, str(REPO))
 from peers import pinocchio_model  # noqa: E402
 
 from rworld_cli.dynamics import DeviceDynamics  # noqa: E402
-from rworld_cli.kinematics.jacobian import tool_pose_and_jacobian  # noqa: E402
+from rworld_cli.kinematics.jacobian import ToolMount, tool_pose_and_jacobian  # noqa: E402
 from rworld_cli.schema.loader import load_cell  # noqa: E402
 
 
@@ -45,6 +46,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 10000, 100000])
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--robots", nargs="+", choices=list(ROBOTS), default=list(ROBOTS))
     args = parser.parse_args()
     try:
         import pinocchio as pin
@@ -53,10 +55,72 @@ def main() -> None:
             "Pinocchio is not installed: .venv/bin/pip install -e '.[bench]'"
         ) from None
 
+    print(
+        f"pinocchio {pin.__version__}, numpy {np.__version__}; best of {args.repeat}; per-sample "
+        "times in microseconds"
+    )
+    for robot in args.robots:
+        device, model, tool, mount = ROBOTS[robot](pin)
+        print(f"\n== {robot}: {device.dof} joints, {device.convention} ==")
+        run_robot(device, model, tool, mount, args, pin)
+    print(
+        "\nratio = rworld / pinocchio batched (inverse and forward dynamics) or / pinocchio loop "
+        "(FK + Jacobian)"
+    )
+
+
+def puma(pin):
+    """The Puma 560 of workcells/puma560 (standard DH); Pinocchio's model built from the same
+    table and mass properties."""
     device = load_cell(REPO / "workcells" / "puma560").cell.devices["puma"]
+    model, tool = pinocchio_model(device)
+    return device, model, tool, None
+
+
+def panda(pin):
+    """The Panda's arm from example-robot-data's URDF, imported by rworld; Pinocchio loads the
+    same file (fingers locked at 0, as rworld's import locks them)."""
+    import tempfile
+    from importlib.metadata import distribution
+
+    from rworld_cli.api import import_urdf
+
+    share = Path(str(distribution("example-robot-data").locate_file("cmeel.prefix/share")))
+    urdf = share / "example-robot-data/robots/panda_description/urdf/panda.urdf"
+    folder = Path(tempfile.mkdtemp()) / "panda"
+    import_urdf(str(urdf), str(folder), [str(share)], tip="panda_hand")
+    device = load_cell(folder).cell.devices["panda"]
+    model = pin.buildModelFromUrdf(str(urdf))
+    locked = [model.getJointId(f"panda_finger_joint{k}") for k in (1, 2)]
+    model = pin.buildReducedModel(model, locked, pin.neutral(model))
+    # rworld's tool: the hand frame, merged into link 7 by the import
+    mount = ToolMount(device.dof, load_cell(folder).cell.poses["panda.panda_hand"])
+    return device, model, model.getFrameId("panda_hand"), mount
+
+
+def puma_frames(pin):
+    """The same Puma as joint frames: written out by 'export urdf' and read back by 'import urdf'
+    (the generated kernels' cost on a joint-frame chain against the DH one); Pinocchio loads the
+    written URDF."""
+    import tempfile
+
+    from rworld_cli.api import export_urdf, import_urdf
+
+    folder = Path(tempfile.mkdtemp())
+    export_urdf(str(REPO / "workcells" / "puma560"), str(folder / "puma.urdf"))
+    import_urdf(str(folder / "puma.urdf"), str(folder / "puma"))
+    device = load_cell(folder / "puma").cell.devices["puma"]
+    model = pin.buildModelFromUrdf(str(folder / "puma.urdf"))
+    mount = ToolMount(device.dof, load_cell(folder / "puma").cell.poses["puma.tool"])
+    return device, model, model.getFrameId("tool"), mount
+
+
+ROBOTS = {"puma": puma, "puma-frames": puma_frames, "panda": panda}
+
+
+def run_robot(device, model, tool, mount, args, pin) -> None:
     dyn = DeviceDynamics(device, armature=False, friction=False)
     g = np.array([0.0, 0.0, -9.81])
-    model, tool = pinocchio_model(device)
     data = model.createData()
     pool = pin.ModelPool(model, 1)
     rng = np.random.default_rng(20261121)
@@ -66,7 +130,7 @@ def main() -> None:
     q, qd, qdd = (rng.uniform(-2, 2, (50, n)) for _ in range(3))
     tau = dyn.inverse(q, qd, qdd, g)
     tau_pin = np.array([pin.rnea(model, data, a, b, c) for a, b, c in zip(q, qd, qdd)])
-    T, J = tool_pose_and_jacobian(device, q)
+    T, J = tool_pose_and_jacobian(device, q, mount)
     J_pin = []
     for a in q:
         pin.forwardKinematics(model, data, a)
@@ -77,13 +141,8 @@ def main() -> None:
     print(
         f"agreement: tau {np.abs(tau - tau_pin).max():.1e}, jacobian "
         f"{np.abs(J - np.array(J_pin)).max():.1e}, "
-        f"forward dynamics {np.abs(qdd_fd - qdd).max():.1e}"
+        f"forward dynamics {np.abs(qdd_fd - qdd).max():.1e}\n"
     )
-    print(
-        f"pinocchio {pin.__version__}, numpy {np.__version__}; best of {args.repeat}; per-sample "
-        "times in microseconds\n"
-    )
-
     header = (
         f"{'operation':22s} {'N':>7s} {'rworld':>9s} {'pin loop':>9s} {'pin batch':>10s} "
         f"{'ratio':>7s}"
@@ -119,7 +178,7 @@ def main() -> None:
                 pin_rnea_loop,
                 lambda: pin.rneaInParallel(1, pool, qT, qdT, qddT, out),
             ),
-            ("FK + Jacobian", lambda: tool_pose_and_jacobian(device, q), pin_fkj_loop, None),
+            ("FK + Jacobian", lambda: tool_pose_and_jacobian(device, q, mount), pin_fkj_loop, None),
             (
                 "forward dynamics",
                 lambda: dyn.forward(q, qd, tau, g),
@@ -150,7 +209,9 @@ def main() -> None:
         * 1e6
     )
     t_fkj = (
-        best_time(lambda: [tool_pose_and_jacobian(device, q1) for _ in range(reps)], args.repeat)
+        best_time(
+            lambda: [tool_pose_and_jacobian(device, q1, mount) for _ in range(reps)], args.repeat
+        )
         / reps
         * 1e6
     )
@@ -158,10 +219,6 @@ def main() -> None:
         f"\nsingle state: rworld inverse dynamics {t_single:.1f} us (pinocchio rnea call "
         f"{t_pin:.1f} us), "
         f"rworld FK + Jacobian {t_fkj:.1f} us"
-    )
-    print(
-        "ratio = rworld / pinocchio batched (inverse and forward dynamics) or / pinocchio loop "
-        "(FK + Jacobian)"
     )
 
 

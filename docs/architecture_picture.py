@@ -28,7 +28,7 @@ ROOMS = {
         2.4,
         3.6,
         "schema/  - every file format:\ncells, poses, programs, runs, paths,\n"
-        "measurements, tables, results,\nJSON Schemas",
+        "measurements, tables, results,\nURDF, JSON Schemas",
         "#fdd0a2",
     ),
     "calc": (
