@@ -3,11 +3,15 @@
 A **body** is one shape on one frame: an object, a device's base, or a
 device's link (hands, tools and aggregated devices are devices or objects, so
 they are covered).  Sensors are sensing volumes, not solids, and are left
-out.  Primitives (box, cylinder, sphere) are one convex piece each; a mesh is
-its triangles, and it is a **solid**: :func:`pair_distance` also asks, by
-generalised winding number, whether the other body lies inside it, so a link
-buried in an object is a collision rather than a miss (surface-only libraries
-such as FCL report no contact there).
+out.  Primitives (box, cylinder, sphere) are one convex piece each.  A closed
+mesh whose connected parts are each convex (robots' collision meshes usually
+are: hulls of the links, joined per link by ``rworld import urdf``) is exactly
+the union of those parts' hulls: one convex piece per part, solid by
+construction.  Any other mesh is its triangles, and it is a **solid** too:
+:func:`pair_distance` also asks, by generalised winding number, whether the
+other body lies inside it, so a link buried in an object is a collision
+rather than a miss (surface-only libraries such as FCL report no contact
+there).
 
 Level two of the report's geometry - a bounding volume per shape - is a
 bounding sphere here (centre and radius in the body's frame): it gives the
@@ -16,12 +20,14 @@ broad phase a lower bound on every pair's distance for one subtraction.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..model.cell import CellModel, Shape
 from ..sensing.geometry import MeshData, shape_mesh, winding_number
+from ..units import COLLISION_TOLERANCE
 from . import convex
 
 
@@ -50,10 +56,17 @@ class Body:
     shape: Shape
     center: np.ndarray
     radius: float
+    parts: tuple[tuple[np.ndarray, np.ndarray], ...] | None = None  # convex parts of a mesh
 
     @property
     def is_mesh(self) -> bool:
-        return self.shape.kind == "mesh"
+        """A mesh checked triangle by triangle (not one made of convex parts)."""
+        return self.shape.kind == "mesh" and self.parts is None
+
+    @property
+    def single_piece(self) -> bool:
+        """One convex piece: a primitive, or a mesh of one convex part."""
+        return self.shape.kind != "mesh" or (self.parts is not None and len(self.parts) == 1)
 
     def mesh(self) -> MeshData:
         """The polyhedral model in the body's frame."""
@@ -66,6 +79,15 @@ class Body:
         """
         T = np.asarray(T_world_frame, dtype=float).reshape(-1, 4, 4)
         shape = self.shape
+        if self.parts is not None:  # K * C hulls, state-major
+            count = max(len(v) for v, _ in self.parts)
+            local = np.stack(
+                [np.concatenate([v, np.repeat(v[:1], count - len(v), 0)]) for v, _ in self.parts]
+            )
+            axes = np.stack([a for _, a in self.parts])
+            world = np.einsum("kij,cvj->kcvi", T[:, :3, :3], local) + T[:, None, None, :3, 3]
+            world_axes = np.einsum("kij,caj->kcai", T[:, :3, :3], axes)
+            return convex.hulls(world.reshape(-1, count, 3), world_axes.reshape(-1, 3, 3))
         if shape.kind == "mesh":
             tri = self.mesh().triangles()
             world = np.einsum("kij,ftj->kfti", T[:, :3, :3], tri) + T[:, None, None, :3, 3]
@@ -111,7 +133,8 @@ def collision_model(cell: CellModel) -> CollisionModel:
             unchecked.append(label)
             return
         center, radius = _bounding_sphere(shape)
-        bodies.append(Body(label, owner, frame, shape, center, radius))
+        parts = convex_parts(shape) if shape.kind == "mesh" else None
+        bodies.append(Body(label, owner, frame, shape, center, radius, parts))
         if shape.kind == "mesh" and not shape.closed:
             open_meshes.append(label)
 
@@ -122,6 +145,126 @@ def collision_model(cell: CellModel) -> CollisionModel:
         for link, frame in zip(dev.links, dev.link_frames):
             add(frame, name, frame, link.shape)
     return CollisionModel(bodies, unchecked, open_meshes)
+
+
+def convex_parts(shape: Shape) -> tuple[tuple[np.ndarray, np.ndarray], ...] | None:
+    """The convex parts of a closed mesh, or ``None`` when a part is not convex.
+
+    Returns
+    -------
+    tuple of (vertices (V, 3), axes (3, 3)), or None
+        Each part's hull vertices in the owner's frame [m] and its principal axes (rows).
+
+    Why: a mesh that is a union of convex parts is the union of their hulls, so a handful of
+    hull pieces replaces hundreds of triangles (and the winding-number test).  A part counts as
+    convex when its hull stands off its surface by at most ``HULL_DEVIATION`` (0.5 mm, half
+    the default collision tolerance): distances to the hull are then at most that much below
+    the exact ones, never above (the hull holds the part), and no hull overlap that shallow is
+    a collision.
+    """
+    if not shape.closed:
+        return None
+    return _convex_parts(
+        str(shape.mesh_file), float(shape.mesh_scale), shape.T_owner_shape.tobytes()
+    )
+
+
+HULL_DEVIATION = COLLISION_TOLERANCE / 2  # [m] how far a part's hull may stand off its surface
+
+
+@functools.lru_cache(maxsize=256)
+def _convex_parts(mesh_file: str, scale: float, T_bytes: bytes):
+    import trimesh
+
+    T = np.frombuffer(T_bytes).reshape(4, 4)
+    mesh = trimesh.load(mesh_file, force="mesh")
+    mesh.apply_scale(scale)
+    mesh.apply_transform(T)
+    out = []
+    for part in mesh.split(only_watertight=False):  # type: ignore[attr-defined]
+        if not part.is_watertight:
+            return None
+        hull = part.convex_hull
+        if hull_deviation(hull.triangles, part.triangles) > HULL_DEVIATION:
+            return None
+        vertices = np.asarray(hull.vertices, dtype=float)
+        centred = vertices - vertices.mean(axis=0)
+        _, _, axes = np.linalg.svd(centred, full_matrices=False)
+        out.append((vertices, axes))
+    return tuple(out) if out else None
+
+
+def hull_deviation(hull: np.ndarray, part: np.ndarray, per_edge: int = 3) -> float:
+    """How far a hull stands off the solid it wraps: the largest distance from points on the
+    hull's faces to the part's surface [m], over a barycentric grid of ``per_edge`` + 1 points a
+    side on each hull face that is not a face of the part itself.
+
+    Parameters
+    ----------
+    hull, part : ndarray, shape (F, 3, 3)
+        Triangles of the hull and of the part.
+    """
+
+    def keys(tri: np.ndarray) -> set:
+        rounded = np.round(tri, 9)
+        return {tuple(sorted(map(tuple, t))) for t in rounded}
+
+    own = keys(part)
+    bridging = np.array(
+        [tuple(sorted(map(tuple, t))) not in own for t in np.round(hull, 9)], dtype=bool
+    )
+    if not bridging.any():
+        return 0.0
+    n = per_edge
+    weights = np.array(
+        [(i / n, j / n, 1 - (i + j) / n) for i in range(n + 1) for j in range(n + 1 - i)]
+    )
+    points = np.einsum("wk,fki->fwi", weights, hull[bridging]).reshape(-1, 3)
+    best = np.full(len(points), np.inf)
+    for start in range(0, len(points), 256):  # (256, F) at a time
+        chunk = points[start : start + 256]
+        best[start : start + 256] = point_triangle_distance(chunk[:, None, :], part[None]).min(1)
+    return float(best.max(initial=0.0))
+
+
+def point_triangle_distance(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Distance from points to triangles, broadcast (Ericson, *Real-Time Collision Detection*,
+    5.1.5: the closest point by the Voronoi region of the triangle it falls in).
+
+    Parameters
+    ----------
+    p : ndarray, shape (..., 3)
+    tri : ndarray, shape (..., 3, 3)
+
+    Returns
+    -------
+    ndarray, shape (...)
+    """
+    a, b, c = tri[..., 0, :], tri[..., 1, :], tri[..., 2, :]
+    ab, ac, ap = b - a, c - a, p - a
+    d1, d2 = (ab * ap).sum(-1), (ac * ap).sum(-1)
+    bp, cp = p - b, p - c
+    d3, d4 = (ab * bp).sum(-1), (ac * bp).sum(-1)
+    d5, d6 = (ab * cp).sum(-1), (ac * cp).sum(-1)
+    va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        denom = va + vb + vc
+        v_in, w_in = vb / denom, vc / denom
+        t_ab = d1 / (d1 - d3)
+        t_ac = d2 / (d2 - d6)
+        t_bc = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+    closest = a + v_in[..., None] * ab + w_in[..., None] * ac  # inside the face
+    rules = [  # later rules take precedence where their region applies
+        ((vc <= 0) & (d1 >= 0) & (d3 <= 0), a + t_ab[..., None] * ab),
+        ((vb <= 0) & (d2 >= 0) & (d6 <= 0), a + t_ac[..., None] * ac),
+        ((va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0), b + t_bc[..., None] * (c - b)),
+        ((d6 >= 0) & (d5 <= d6), c),
+        ((d3 >= 0) & (d4 <= d3), b),
+        ((d1 <= 0) & (d2 <= 0), a),
+    ]
+    for region, point in rules:
+        closest = np.where(region[..., None], np.broadcast_to(point, closest.shape), closest)
+    return np.linalg.norm(p - closest, axis=-1)
 
 
 def _bounding_sphere(shape: Shape) -> tuple[np.ndarray, float]:
@@ -267,8 +410,8 @@ def distances(
     )
     if not Q:
         return out
-    mesh = np.array([b.is_mesh for b in bodies])
-    primitive = ~mesh[I] & ~mesh[J]
+    single = np.array([b.single_piece for b in bodies])
+    primitive = single[I] & single[J]
     rows = np.flatnonzero(primitive)
     if len(rows):
         pa = _gather(bodies, I[rows], TI[rows])

@@ -2,8 +2,9 @@
 
 A **piece** is a convex solid in world coordinates, one of
 
-* a polytope given by at most 8 vertices (a box's corners, a mesh triangle's
-  three vertices repeated), or
+* a polytope given by its vertices (a box's corners, a mesh triangle's
+  three vertices, the hull of a convex part of a mesh; a batch pads every piece to
+  the same count by repeating a vertex), or
 * a cylinder (centre, unit axis, radius, half length),
 
 grown by a **margin** (a sphere is its centre point grown by its radius).
@@ -34,6 +35,7 @@ and for spheres.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from itertools import combinations
 
@@ -50,8 +52,8 @@ class Pieces:
 
     Attributes
     ----------
-    vertices : ndarray, shape (P, 8, 3)
-        Polytope vertices [m] (repeat a vertex to fill 8); for cylinders the centre.
+    vertices : ndarray, shape (P, V, 3)
+        Polytope vertices [m] (a vertex repeated to fill V); for cylinders the centre.
     cylinder : ndarray of bool, shape (P,)
     center : ndarray, shape (P, 3)
         A point inside the piece (for cylinders: the centre of its axis) [m].
@@ -476,8 +478,41 @@ def triangles(tri: np.ndarray) -> Pieces:
     )
 
 
+def hulls(vertices: np.ndarray, axes: np.ndarray) -> Pieces:
+    """Convex polytopes given by their vertices.
+
+    Parameters
+    ----------
+    vertices : ndarray, shape (P, V, 3)
+        Each polytope's vertices in world [m] (a vertex repeated to fill V).
+    axes : ndarray, shape (P, 3, 3)
+        Unit directions as rows (principal axes): candidate axes for :func:`penetration`.
+    """
+    P = len(vertices)
+    return Pieces(
+        np.asarray(vertices, dtype=float),
+        np.zeros(P, dtype=bool),
+        vertices.mean(axis=1),
+        axes[:, 2].copy(),
+        np.zeros(P),
+        np.zeros(P),
+        np.zeros(P),
+        np.asarray(axes, dtype=float),
+    )
+
+
+def _padded(vertices: np.ndarray, count: int) -> np.ndarray:
+    """Vertices (P, V, 3) padded to ``count`` by repeating the first."""
+    extra = count - vertices.shape[1]
+    if extra <= 0:
+        return vertices
+    return np.concatenate([vertices, np.repeat(vertices[:, :1], extra, axis=1)], axis=1)
+
+
 def concatenate(parts: list[Pieces]) -> Pieces:
-    """One batch from several."""
+    """One batch from several (vertices padded to the largest count)."""
+    count = max(p.vertices.shape[1] for p in parts)
+    parts = [dataclasses.replace(p, vertices=_padded(p.vertices, count)) for p in parts]
     return Pieces(
         *(
             np.concatenate([getattr(p, f) for p in parts], axis=0)

@@ -196,10 +196,10 @@ _Dumper.add_representer(list, _flow)
 
 
 def _pose(T: np.ndarray) -> dict:
-    out: dict = {"xyz": [float(x) for x in T[:3, 3]]}
+    out: dict = {"xyz": [float(x) + 0.0 for x in T[:3, 3]]}  # + 0.0: no "-0.0" in files
     rpy = spatial.matrix_to_rpy(T[:3, :3])
     if np.any(rpy != 0):
-        out["rpy"] = [float(x) for x in rpy]
+        out["rpy"] = [float(x) + 0.0 for x in rpy]
     return out
 
 
@@ -406,6 +406,18 @@ def cell_from_urdf(
     if issues:
         raise UserError(f"invalid: {robot.file}: {len(issues)} error(s)", issues + warnings)
 
+    if moving:
+        first = moving[0]
+        warnings.append(
+            _issue(
+                robot,
+                first,
+                f"joint[{first.name}].limit",
+                "URDF has no acceleration limits, and the simulator times joint moves with them: "
+                "add 'acceleration' to each joint's limits in cell.yaml before simulating",
+                "warning",
+            )
+        )
     # joints: each origin from the previous moving link's frame, through the fixed joints between
     joint_docs = []
     for j in moving:

@@ -72,3 +72,58 @@ def test_mesh_distances_equal_the_primitive_they_mesh(cube_mesh):
     sep = ~b.overlap
     assert sep.sum() > 100 and (~sep).sum() > 50
     assert np.max(np.abs(a.distance[sep] - b.distance[sep])) < 1e-7  # float32 in the STL
+
+
+def test_point_triangle_distance_against_dense_sampling():
+    from rworld_cli.collision.bodies import point_triangle_distance
+
+    rng = np.random.default_rng(5)
+    tri = rng.normal(size=(300, 3, 3))
+    p = rng.normal(size=(300, 3)) * 2
+    d = point_triangle_distance(p, tri)
+    n = 60
+    w = np.array([(i / n, j / n, 1 - (i + j) / n) for i in range(n + 1) for j in range(n + 1 - i)])
+    pts = np.einsum("wk,fki->fwi", w, tri)
+    brute = np.linalg.norm(pts - p[:, None], axis=2).min(axis=1)
+    spacing = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(axis=1) / n
+    assert np.all(d <= brute + 1e-12)  # never above a point of the triangle
+    assert np.all(brute - d <= spacing)  # and within the grid's spacing of it
+
+
+def test_a_mesh_of_convex_parts_is_checked_as_their_hulls(tmp_path):
+    """A closed mesh made of convex parts (a box and a sphere, as a link mesh joined by 'import
+    urdf') becomes two hull pieces; distances equal the triangle-by-triangle ones, or fall short of
+    them by at most the hull deviation (never above); a non-convex part keeps the triangles."""
+    from rworld_cli.collision.bodies import HULL_DEVIATION, convex_parts
+
+    parts = trimesh.util.concatenate(
+        [
+            trimesh.creation.box(extents=[0.2, 0.1, 0.1]),
+            trimesh.creation.icosphere(subdivisions=2, radius=0.06).apply_translation([0.3, 0, 0]),
+        ]
+    )
+    path = tmp_path / "parts.stl"
+    parts.export(path)
+    shape = mesh_shape(path, [0.5, 0.12, 0.12])
+    hulls = convex_parts(shape)
+    assert hulls is not None and len(hulls) == 2
+    as_hulls = Body("link", "link", "link", shape, np.array([0.1, 0, 0]), 0.3, hulls)
+    as_triangles = body("link", shape)
+    other = body("pin", box_shape([0.03, 0.02, 0.05]))
+    T = poses(200, seed=9, spread=0.35)
+    fast = pair_distance(as_hulls, other, np.tile(np.eye(4), (200, 1, 1)), T)
+    exact = pair_distance(as_triangles, other, np.tile(np.eye(4), (200, 1, 1)), T)
+    assert np.all(fast.distance <= exact.distance + 1e-9)
+    assert np.all(fast.distance >= exact.distance - HULL_DEVIATION)
+    assert np.array_equal(fast.overlap, exact.overlap)
+    # an L-shaped part is not convex: its triangles stay
+    ell = trimesh.boolean.union(
+        [
+            trimesh.creation.box(extents=[0.3, 0.1, 0.1]),
+            trimesh.creation.box(extents=[0.1, 0.3, 0.1]).apply_translation([0.1, 0.1, 0]),
+        ],
+        engine="manifold",
+    )
+    ell_path = tmp_path / "ell.stl"
+    ell.export(ell_path)
+    assert convex_parts(mesh_shape(ell_path, [0.3, 0.3, 0.1])) is None

@@ -249,3 +249,15 @@ def test_cli_import_writes_a_cell_that_validates(tmp_path, cli):
     assert cli([*args, "--package-path", str(SHARE), "--force"]).exit_code == 0
     result = run_cli(["export", "urdf", str(out), "-o", str(tmp_path / "r.urdf")])
     assert result.exit_code == 0 and (tmp_path / "r.urdf").is_file()
+
+
+def test_imported_panda_example_simulates_and_plans(cli):
+    """workcells/panda (imported from the Panda's URDF): a program runs with collision checks,
+    a path is timed under torque limits - the joint-frame device through the whole tool."""
+    cell = str(WORKCELLS / "panda")
+    result = cli(["check", cell, "pick_place", "--clearance", "5mm"])
+    assert result.exit_code == 0, result.output
+    assert "no collisions" in result.stdout
+    path = str(WORKCELLS / "panda" / "paths" / "sweep.yaml")
+    result = cli(["plan", "time-optimal", cell, "--path", path, "--json"])
+    assert result.exit_code == 0, result.output
