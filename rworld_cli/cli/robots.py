@@ -35,7 +35,7 @@ def import_group():
     "--tcp",
     default=None,
     metavar="LINK",
-    help="The link whose frame is the TCP (default: the tip).",
+    help="The link whose frame is the TCP (default: a link named tcp or tool0, else the tip).",
 )
 @click.option(
     "--name",

@@ -109,6 +109,7 @@ def test_imported_robot_matches_pinocchio(name, imported):
     result = imported[name]
     assert result.dof == model.nv
     worst = _worst_differences(result.cell, result.device, model, data, frame)
+    print(f"{name}: " + ", ".join(f"{k} {v:.1e}" for k, v in worst.items()))  # pytest -s shows
     assert max(worst.values()) <= TOL, worst
 
 
