@@ -262,3 +262,52 @@ def test_imported_panda_example_simulates_and_plans(cli):
     path = str(WORKCELLS / "panda" / "paths" / "sweep.yaml")
     result = cli(["plan", "time-optimal", cell, "--path", path, "--json"])
     assert result.exit_code == 0, result.output
+
+
+def test_rotated_inertial_origin_and_a_link_without_inertial(tmp_path):
+    """An <inertial> whose <origin> turns the inertia's axes is taken in the link frame (R I R^T);
+    a moving link without <inertial> is massless, with a warning naming it (here it carries a
+    hand on a fixed joint, whose mass it takes)."""
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(
+        """<?xml version="1.0"?>
+<robot name="arm">
+  <link name="base"/>
+  <link name="upper">
+    <inertial>
+      <origin xyz="0.1 0.02 -0.03" rpy="0.4 -0.7 1.1"/>
+      <mass value="2.5"/>
+      <inertia ixx="0.02" ixy="0.001" ixz="0" iyy="0.05" iyz="0.002" izz="0.04"/>
+    </inertial>
+  </link>
+  <link name="fore"/>
+  <link name="hand">
+    <inertial>
+      <origin xyz="0 0 0.05" rpy="0 0.2 0"/>
+      <mass value="0.8"/>
+      <inertia ixx="0.002" ixy="0" ixz="0" iyy="0.003" iyz="0" izz="0.001"/>
+    </inertial>
+  </link>
+  <joint name="shoulder" type="revolute">
+    <parent link="base"/><child link="upper"/>
+    <origin xyz="0 0 0.3" rpy="0 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" effort="50" velocity="2"/>
+  </joint>
+  <joint name="elbow" type="revolute">
+    <parent link="upper"/><child link="fore"/>
+    <origin xyz="0.4 0 0" rpy="0.3 0 0"/><axis xyz="0 0 1"/>
+    <limit lower="-2" upper="2" effort="50" velocity="2"/>
+  </joint>
+  <joint name="wrist" type="fixed">
+    <parent link="fore"/><child link="hand"/>
+    <origin xyz="0.2 0 0" rpy="0 0.5 0"/>
+  </joint>
+</robot>
+"""
+    )
+    result = import_urdf(str(urdf), str(tmp_path / "arm"), tcp="hand")
+    massless = [w for w in result.warnings if "no <inertial>" in w.message]
+    assert [(w.location, w.line) for w in massless] == [("link[fore]", 11)]
+    model, data = _pinocchio(urdf)
+    worst = _worst_differences(result.cell, "arm", model, data, "hand")
+    assert max(worst.values()) <= TOL, worst
