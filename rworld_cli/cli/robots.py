@@ -120,4 +120,6 @@ def export_urdf(cell, output, device, json_output):
         f"{len(result.joints)} joints"
     )
     if "Not in URDF" in result.note:
-        click.echo("  " + result.note.split("Not in URDF: ", 1)[1])
+        click.echo("  not in URDF:")
+        for item in result.note.split("Not in URDF: ", 1)[1].rstrip(".").split("; "):
+            click.echo(f"    {item}")

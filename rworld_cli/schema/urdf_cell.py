@@ -565,7 +565,11 @@ def urdf_from_cell(cell: CellModel, device: str, output: str | Path) -> tuple[Ur
     base_shapes = (_shape_geometry(dev.shape, np.eye(4)),) if dev.shape is not None else ()
     links[base] = UrdfLink(base, None, base_shapes, base_shapes)
     parent = base
-    notes = []
+    notes: dict[str, list[str]] = {}  # what URDF cannot hold, by kind
+
+    def note(kind: str, item: str) -> None:
+        notes.setdefault(kind, []).append(item)
+
     for joint, link, (origin, axis, T_urdf_link), frame in zip(
         dev.joints, dev.links, dev.joint_frames(), dev.link_frames
     ):
@@ -582,20 +586,18 @@ def urdf_from_cell(cell: CellModel, device: str, output: str | Path) -> tuple[Ur
         limited = np.isfinite(lim.lower) and np.isfinite(lim.upper)
         kind = "prismatic" if not revolute else ("revolute" if limited else "continuous")
         if not revolute and not limited:
-            notes.append(f"{joint.name} has no position limits: written as +-1e9 m")
+            note("no position limits, written as +-1e9 m", joint.name)
         coulomb = joint.coulomb_positive
         if joint.coulomb_positive != joint.coulomb_negative:
             coulomb = (joint.coulomb_positive + joint.coulomb_negative) / 2
-            notes.append(
-                f"{joint.name}: Coulomb friction +{joint.coulomb_positive:g}/-"
-                f"{joint.coulomb_negative:g} written as its mean"
+            note(
+                "Coulomb friction that differs by direction, written as its mean",
+                f"{joint.name} +{joint.coulomb_positive:g}/-{joint.coulomb_negative:g}",
             )
         if np.isfinite(lim.acceleration):
-            notes.append(f"{joint.name}: acceleration limit {lim.acceleration:g} dropped")
+            note("acceleration limits, dropped", f"{joint.name} {lim.acceleration:g}")
         if joint.armature:
-            notes.append(
-                f"{joint.name}: motor inertia (armature {joint.armature:g} kg m^2) dropped"
-            )
+            note("motor inertia (armature, kg m^2), dropped", f"{joint.name} {joint.armature:g}")
         joints[joint.name] = UrdfJoint(
             joint.name,
             kind,
@@ -647,8 +649,14 @@ def urdf_from_cell(cell: CellModel, device: str, output: str | Path) -> tuple[Ur
             if dev.convention == "standard"
             else ""
         )
-        + ". "
-        + ("Not in URDF: " + "; ".join(notes) + "." if notes else "")
+        + "."
+        + (
+            " Not in URDF: "
+            + "; ".join(f"{kind}: {', '.join(items)}" for kind, items in notes.items())
+            + "."
+            if notes
+            else ""
+        )
     )
     folder = Path(output).resolve().parent
     mesh_names = {}
