@@ -1,4 +1,4 @@
-"""rworld import urdf, rworld export urdf"""
+"""rworld import urdf, rworld export urdf, rworld export program"""
 
 from __future__ import annotations
 
@@ -85,7 +85,100 @@ def import_urdf(urdf, output, package_paths, base, tip, tcp, device_name, force,
 
 @click.group("export")
 def export_group():
-    """Write a cell's content in other formats (urdf)."""
+    """Write a cell's content in other formats: robot programs (program), URDF (urdf)."""
+
+
+@export_group.command("program")
+@click.argument("cell", metavar="CELL")
+@click.argument("run", metavar="RUN|PROGRAM")
+@click.option(
+    "--format",
+    "fmt",
+    required=True,
+    type=click.Choice(["urscript", "krl", "rapid", "csv"]),
+    help="Robot language, or csv for a timed joint trajectory.",
+)
+@click.option("-o", "--output", required=True, metavar="DIR", help="The folder to write.")
+@click.option("--device", default=None, metavar="NAME", help="Only this device's program.")
+@click.option(
+    "--period", default=None, metavar="DT", help="csv: the controller period, e.g. 8ms (default)."
+)
+@click.option(
+    "--against",
+    multiple=True,
+    metavar="POSES",
+    help="Nominal pose file(s): list the targets the current poses move; repeatable.",
+)
+@click.option(
+    "--gripper-output", default=1, show_default=True, help="Digital output of the gripper."
+)
+@click.option(
+    "--tool-changer-output",
+    default=2,
+    show_default=True,
+    help="Digital output of the tool changer.",
+)
+@json_option
+@handle_errors
+def export_program(
+    cell,
+    run,
+    fmt,
+    output,
+    device,
+    period,
+    against,
+    gripper_output,
+    tool_changer_output,
+    json_output,
+):
+    """Write the programs of RUN (or one PROGRAM file) on CELL in a robot language.
+
+    Targets are resolved as the simulator resolves them, with the cell's current pose files (a
+    calibrated overlay included): joint moves go to the joint solution the simulation chose,
+    linear moves to the TCP pose in the robot's base frame, with the TCP as tool data and the
+    speeds and accelerations of the simulated motion.  Grasp / release / place and tool changes
+    drive digital outputs; syncs and waits for other devices become comments.  The files appear
+    together or not at all.  An unreachable target exits 1 with the program's file:line.
+
+    \b
+    Examples:
+      rworld export program workcells/puma560 pick_place --format urscript -o out/ur
+      rworld export program workcells/paper_fig9 transfer --device robot --format krl -o out/krl
+      rworld export program workcells/puma560 pick_place --format rapid -o out/abb \\
+          --against workcells/puma560/poses.yaml
+      rworld export program workcells/puma560 pick_place --format csv --period 8ms -o out/csv
+    """
+    from ..api import export_program as run_export
+    from ..export import Signals
+
+    result = run_export(
+        cell,
+        run,
+        fmt,
+        output,
+        device,
+        period,
+        list(against) if against else None,
+        Signals(gripper_output, tool_changer_output),
+    )
+    if json_output:
+        emit_json(result.as_dict())
+        return
+    click.echo(
+        f"wrote {result.output}: {', '.join(result.files)} ({', '.join(result.devices)}, "
+        f"{result.moves} moves)"
+    )
+    if result.changes is not None:
+        if not result.changes:
+            click.echo("no target moved against the nominal poses")
+        for c in result.changes:
+            click.echo(
+                f"  {c.where}: {c.step}: moved {c.translation * 1000:.3f} mm, "
+                f"{c.rotation / 4.84813681109536e-06:.1f} arcsec by {', '.join(c.frames) or '?'}"
+            )
+    for note in result.notes:
+        click.echo(f"note: {note}", err=True)
 
 
 @export_group.command("urdf")

@@ -78,3 +78,63 @@ class Run:
     warnings: list[Issue] = field(default_factory=list)
     clearance: float = 0.0  # required distance between bodies that may not touch [m]
     collision_tolerance: float = 1e-3  # contacts shallower may be missed between instants [m]
+
+
+@dataclass
+class MoveTarget:
+    """Where a move went, as the simulation resolved it (SI, the device's base frame).
+
+    Attributes
+    ----------
+    motion : {"joint", "linear"}
+    target : str
+        The frame, or the named joint position (``home``, ``ready``) moved to.
+    tcp : str
+        The qualified TCP frame the move steered.
+    link : int
+        The link (1..n) that carries the TCP.
+    T_link_tcp : ndarray, shape (4, 4)
+        The TCP in that link's frame: the tool data.
+    q_start, q_goal : ndarray, shape (n,)
+        Joint values at the start and the end (the IK solution the simulation chose; where a
+        guarded move stopped).
+    T_base_tcp : ndarray, shape (4, 4)
+        The TCP at ``q_goal`` in the device's base frame.
+    t0, t1 : float
+        When the move ran [s].
+    speed, acceleration : float
+        The step's fractions of the limits.
+    """
+
+    motion: str
+    target: str
+    tcp: str
+    link: int
+    T_link_tcp: np.ndarray
+    q_start: np.ndarray
+    q_goal: np.ndarray
+    T_base_tcp: np.ndarray
+    t0: float
+    t1: float
+    speed: float
+    acceleration: float
+
+
+@dataclass
+class ResolvedStep:
+    """One step as the simulation carried it out: what exporters write (``rworld export
+    program``).
+
+    Attributes
+    ----------
+    step : Step
+        The program step (kind, parameters, ``file:line``).
+    t0 : float
+        When it started [s].
+    move : MoveTarget or None
+        For moves.
+    """
+
+    step: Step
+    t0: float
+    move: MoveTarget | None = None

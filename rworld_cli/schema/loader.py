@@ -126,7 +126,9 @@ def validate_document(doc: Marked, model: type[BaseModel]):
     return result
 
 
-def load_cell(path: str | Path, doc: Marked | None = None) -> LoadedCell:
+def load_cell(
+    path: str | Path, doc: Marked | None = None, pose_files: list[str] | None = None
+) -> LoadedCell:
     """Load, check and convert a cell file (and the pose files it names).
 
     Parameters
@@ -135,6 +137,9 @@ def load_cell(path: str | Path, doc: Marked | None = None) -> LoadedCell:
         ``cell.yaml`` or the directory holding it.
     doc : Marked, optional
         The file already parsed (``validate`` reads it once to tell its kind).
+    pose_files : list of str, optional
+        Pose files to read instead of the cell's ``pose_files`` (e.g. the nominal ones, to
+        compare with a calibrated overlay); relative to the current folder.
 
     Returns
     -------
@@ -149,6 +154,10 @@ def load_cell(path: str | Path, doc: Marked | None = None) -> LoadedCell:
     if doc is None:
         doc = read_yaml(real, shown)
     cell_file = validate_document(doc, sm.CellFile)
+    if pose_files is not None:
+        cell_file = cell_file.model_copy(
+            update={"pose_files": [str(Path(f).resolve()) for f in pose_files]}
+        )
     builder = _Builder(doc, cell_file, real.parent, Path(shown).parent)
     cell = builder.build(real)
     errors = [i for i in builder.issues if i.severity == "error"]

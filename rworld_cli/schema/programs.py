@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -15,7 +16,7 @@ from ..model.program import Program, Run, Step
 from ..units import ANGLE, COLLISION_TOLERANCE, LENGTH, parse_length
 from . import program as sp
 from .loader import body_names, load_cell, pose_to_matrix, validate_document
-from .yamlio import Marked, read_yaml
+from .yamlio import Marked, parse_yaml_text, read_yaml
 
 
 def _step_spec(step: sp.Step):
@@ -149,16 +150,25 @@ def _check_program(
     return Program(pf.device, doc.file, steps)
 
 
-def load_run(cell_path: str, run_path: str, dt: float | None = None) -> Run:
+def load_run(
+    cell_path: str, run_path: str, dt: float | None = None, pose_files: list[str] | None = None
+) -> Run:
     """Load a cell and a run file (and its programs); every problem at once.
+
+    A program file given as ``run_path`` runs alone (``dt`` default 0.01 s).
 
     Raises
     ------
     UserError
         Located issues in the cell, run or program files (exit 2).
     """
-    cell = load_cell(cell_path).cell
+    cell = load_cell(cell_path, pose_files=pose_files).cell
     run_doc = read_yaml(run_path)
+    if isinstance(run_doc.data, dict) and "device" in run_doc.data and "steps" in run_doc.data:
+        run_doc = parse_yaml_text(
+            f"programs: [{json.dumps(Path(run_path).name)}]\ndt: {dt or 0.01!r}\n",
+            str(Path(run_path).parent / "(program run)"),
+        )
     rf = validate_document(run_doc, sp.RunFile)
     issues: list[Issue] = []
     base = Path(run_path).parent

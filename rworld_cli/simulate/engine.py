@@ -29,8 +29,8 @@ import numpy as np
 from ..dynamics import DeviceDynamics
 from ..errors import UserError
 from ..kinematics.inverse import solve_ik
-from ..kinematics.jacobian import ToolMount
-from ..model.program import Program, Run, Step
+from ..kinematics.jacobian import ToolMount, tool_pose
+from ..model.program import MoveTarget, Program, ResolvedStep, Run, Step
 from ..motion.linear import PathError, linear_move
 from ..motion.trajectory import StoppedMove, UntimedMove, joint_move, sample_track
 from ..world.tree import AffixmentError, World
@@ -146,6 +146,7 @@ class SimulationResult:
         default_factory=dict
     )  # device -> kind -> joints with no limit
     collisions: Any = None  # simulate.collisions.CollisionReport, or None when not checked
+    resolved: dict[str, list[ResolvedStep]] = field(default_factory=dict)  # device -> steps
 
     @property
     def cycle_time(self) -> float:
@@ -187,6 +188,8 @@ class _Scheduler:
             p.device: _Track(p, q_init=self.world.joints(p.device)) for p in run.programs
         }
         self.events: list[Event] = []
+        self.resolved: dict[str, list[ResolvedStep]] = {d: [] for d in self.order}
+        self._move_target: MoveTarget | None = None
         self.snapshots: list[tuple[float, dict]] = [(0.0, self.world.snapshot())]
         self.barriers: dict[tuple[str, int], dict[str, float]] = {}
         self.sync_totals = {d: {} for d in self.order}
@@ -249,7 +252,10 @@ class _Scheduler:
         self.set_time(tr.t)
         tr.step_starts.append((tr.t, step.index))
         handler = getattr(self, f"_{step.kind}")
-        if handler(device, tr, step):  # True: the step completed, go on
+        t0, self._move_target = tr.t, None
+        done = handler(device, tr, step)
+        self.resolved[device].append(ResolvedStep(step, t0, self._move_target))
+        if done:  # the step completed, go on
             tr.pc += 1
             if tr.pc >= len(tr.program.steps):
                 self.finish(device)
@@ -320,19 +326,44 @@ class _Scheduler:
                     )
                 except PathError as exc:
                     self.fail(device, step, exc.detail)
+        if seg is not None and spec.until is not None:
+            seg = self._guard(device, tr, step, seg)
+        self._move_target = self._target(device, tr, step, q_now, seg)
         if seg is None:
             self.events.append(
                 Event(tr.t, device, step.index, "move", f"{step.describe()}: already there")
             )
             return True
-        if spec.until is not None:
-            seg = self._guard(device, tr, step, seg)
         tr.segments.append(seg)
         self.events.append(
             Event(tr.t, device, step.index, "move", f"{step.describe()} ({seg.t1 - seg.t0:.3f} s)")
         )
         tr.t = seg.t1
         return True
+
+    def _target(self, device: str, tr: _Track, step: Step, q_now, seg) -> MoveTarget:
+        """The resolved move, for exporters: the TCP steered, where the joints ended, the TCP
+        pose there in the base frame."""
+        spec = step.spec
+        dev = self.run.cell.devices[device]
+        tcp = self._resolve_tcp(device, spec.tcp)
+        link, T_link_tcp = self.world.mount_of(device, tcp)
+        q_goal = np.array(q_now if seg is None else seg.q_end, dtype=float)
+        T_base_tcp = tool_pose(dev, q_goal, ToolMount(link, T_link_tcp))
+        return MoveTarget(
+            spec.motion,
+            spec.to,
+            tcp,
+            link,
+            np.asarray(T_link_tcp, dtype=float),
+            np.array(q_now, dtype=float),
+            q_goal,
+            T_base_tcp,
+            tr.t,
+            tr.t if seg is None else seg.t1,
+            spec.speed,
+            spec.acceleration,
+        )
 
     def _joint_move(self, device: str, tr: _Track, step: Step, q_now, q_goal):
         """A synchronised joint move; a joint with no velocity or acceleration limit is
@@ -690,7 +721,16 @@ def _sample(run: Run, sched: _Scheduler, progress) -> SimulationResult:
     events = sorted(sched.events, key=lambda e: e.t)  # stable: simultaneous events keep their order
     unlimited = {d: cell.devices[d].unlimited() for d in timelines if cell.devices[d].unlimited()}
     return SimulationResult(
-        cell.name, run.file, run.dt, times, timelines, events, violations, step_texts, unlimited
+        cell.name,
+        run.file,
+        run.dt,
+        times,
+        timelines,
+        events,
+        violations,
+        step_texts,
+        unlimited,
+        resolved=sched.resolved,
     )
 
 

@@ -1,0 +1,279 @@
+"""Robot programs out: a run's (or a program's) resolved targets written in robot languages,
+and what a calibration changed in them."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import CheckFailed, UserError, did_you_mean
+from ..export import FORMATS, Signals
+from ..units import ARCSEC
+
+# the languages that drive 6-axis arms; csv streams any device
+ARM_FORMATS = {"urscript": "URScript", "krl": "KUKA KRL", "rapid": "ABB RAPID"}
+
+
+@dataclass
+class TargetChange:
+    """A move whose target the calibrated poses moved, against the nominal ones."""
+
+    device: str
+    where: str
+    step: str
+    target: str
+    translation: float  # [m]
+    rotation: float  # [rad]
+    joints: float  # largest joint change [rad or m]
+    frames: list[str]  # calibrated frames on the way from world to the target or the TCP
+
+    def as_dict(self) -> dict:
+        return {
+            "device": self.device,
+            "where": self.where,
+            "step": self.step,
+            "target": self.target,
+            "translation_mm": self.translation * 1000,
+            "rotation_arcsec": self.rotation / ARCSEC,
+            "joints_max": self.joints,
+            "frames": self.frames,
+        }
+
+
+@dataclass
+class ProgramExport:
+    """What ``rworld export program`` wrote."""
+
+    output: str
+    format: str
+    files: list[str]
+    devices: list[str]
+    moves: int
+    changes: list[TargetChange] | None = None
+    notes: list[str] = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        return {
+            "output": self.output,
+            "format": self.format,
+            "files": self.files,
+            "devices": self.devices,
+            "moves": self.moves,
+            "changes": None if self.changes is None else [c.as_dict() for c in self.changes],
+            "notes": self.notes,
+        }
+
+
+def _simulate(cell: str, run: str, dt: float | None, pose_files: list[str] | None):
+    from ..schema.programs import load_run
+    from ..simulate.engine import SimulationError, simulate
+    from .simulation import run_path
+
+    loaded = load_run(cell, run_path(cell, run), dt, pose_files)
+    try:
+        return loaded, simulate(loaded, collisions=False)
+    except SimulationError as exc:  # an unreachable target: the program cannot be exported
+        raise CheckFailed(f"cannot export: {exc.message}") from None
+
+
+def export_program(
+    cell: str,
+    run: str,
+    fmt: str,
+    output: str,
+    device: str | None = None,
+    period: str | float | None = None,
+    against: list[str] | None = None,
+    signals: Signals = Signals(),
+) -> ProgramExport:
+    """Write the programs of RUN (or one PROGRAM file) in a robot language.
+
+    Every target is resolved by simulating the run with the cell's current pose files (a
+    calibrated overlay included): joint targets are the IK solutions the simulation chose,
+    Cartesian targets the TCP there in the robot's base frame, with the tool data of the TCP.
+
+    Parameters
+    ----------
+    fmt : {"urscript", "krl", "rapid", "csv"}
+    output : str
+        The folder to write; its files appear together or not at all.
+    device : str, optional
+        Export this device's program only (default: every program of the run).
+    period : str or float, optional
+        CSV: the controller period ('8ms'; default 8 ms).
+    against : list of str, optional
+        Nominal pose files: list every target the current poses move, by how much and which
+        calibrated frame moved it.
+
+    Raises
+    ------
+    CheckFailed
+        A target the robot cannot reach (exit 1), naming the program file:line and why.
+    UserError
+        Unknown format or device, a device the format cannot drive (exit 2).
+    """
+    from ..export import csv_trajectory, krl, rapid, urscript
+    from ..export.common import instructions
+    from .planning import parse_period
+
+    if fmt not in FORMATS:
+        raise UserError(
+            f"unknown format '{fmt}'{did_you_mean(fmt, FORMATS)}; choose one of "
+            f"{', '.join(FORMATS)}"
+        )
+    dt = None
+    if fmt == "csv":
+        dt = parse_period(period) if isinstance(period, str) else float(period or 0.008)
+    elif period is not None:
+        raise UserError("--period is for --format csv (a timed trajectory)")
+    loaded, result = _simulate(cell, run, dt, None)
+    devices = [p.device for p in loaded.programs]
+    if device is not None:
+        if device not in devices:
+            raise UserError(
+                f"'{device}' has no program in {run}{did_you_mean(device, devices)}; the run "
+                f"drives {', '.join(devices)}"
+            )
+        devices = [device]
+    programs = {p.device: p for p in loaded.programs}
+    files: dict[str, str] = {}
+    notes = []
+    moves = 0
+    for name in devices:
+        dev = loaded.cell.devices[name]
+        stem = Path(programs[name].file).stem
+        if fmt == "csv":
+            assert dt is not None
+            # the clock's last instant is the run's end, off the period grid: the device is at
+            # rest there, so it holds that state on the next tick
+            times = dt * np.arange(len(result.times))
+            files.update(
+                csv_trajectory.write(
+                    stem if len(devices) == 1 else f"{stem}_{name}",
+                    [j.name for j in dev.joints],
+                    times,
+                    result.devices[name].q,
+                )
+            )
+            continue
+        if dev.dof != 6 or any(j.kind != "revolute" for j in dev.joints):
+            kinds = "".join("R" if j.kind == "revolute" else "P" for j in dev.joints)
+            others = [d for d in devices if d != name]
+            raise UserError(
+                f"{ARM_FORMATS[fmt]} drives 6-axis arms; '{name}' has {dev.dof} joint(s) "
+                f"({kinds}): export it with --format csv"
+                + (f", or choose the arm with --device ({', '.join(others)})" if others else "")
+            )
+        program = instructions(
+            dev,
+            result.resolved[name],
+            result.times,
+            result.devices[name],
+            stem,
+            programs[name].file,
+        )
+        flange = [r.move for r in result.resolved[name] if r.move and r.move.link != dev.dof]
+        if flange:
+            m = flange[0]
+            raise UserError(
+                f"{m.tcp} sits on link {m.link} of '{name}', not on its flange (link {dev.dof}): "
+                "a robot language's tool data is given in the flange frame"
+            )
+        moves += len(program.moves)
+        writer = {"urscript": urscript, "krl": krl, "rapid": rapid}[fmt]
+        for file_name, text in writer.write(program, signals).items():
+            if file_name in files:
+                file_name = f"{name}_{file_name}"
+            files[file_name] = text
+    if result.violations:
+        notes.append(
+            f"the simulation breaks {len(result.violations)} limit(s); 'rworld check' shows them"
+        )
+    notes.append("collisions are not checked here: gate the run with 'rworld check' first")
+    changes = None
+    if against is not None:
+        changes = _changes(cell, run, dt, against, loaded, result, devices)
+    _write_together(output, files)
+    return ProgramExport(output, fmt, sorted(files), devices, moves, changes, notes)
+
+
+def _changes(cell, run, dt, against, loaded, result, devices) -> list[TargetChange]:
+    """Targets the current pose files move against the nominal ones (``against``)."""
+    from .. import spatial
+    from ..world.tree import World
+
+    nominal_run, nominal = _simulate(cell, run, dt, against)
+    moved = {
+        name
+        for name, T in loaded.cell.poses.items()
+        if name not in nominal_run.cell.poses
+        or not np.allclose(T, nominal_run.cell.poses[name], rtol=0.0, atol=1e-12)
+    }
+    world = World(loaded.cell)
+
+    def ancestors(frame: str) -> list[str]:
+        out = []
+        node: str | None = frame
+        while node is not None and node != "world":
+            out.append(node)
+            node = world.parent(node)
+        return out
+
+    changes = []
+    for name in devices:
+        for now, then in zip(result.resolved[name], nominal.resolved[name]):
+            if now.move is None or then.move is None:
+                continue
+            a, b = now.move.T_base_tcp, then.move.T_base_tcp
+            dp = float(np.linalg.norm(a[:3, 3] - b[:3, 3]))
+            dr = float(np.linalg.norm(spatial.rotation_vector(b[:3, :3].T @ a[:3, :3])))
+            if dp <= 1e-9 and dr <= 1e-9:
+                continue
+            path = ancestors(now.move.target) if now.move.target in loaded.cell.frames else []
+            path += ancestors(now.move.tcp) + ancestors(name)
+            frames = [f for f in dict.fromkeys(path) if f in moved]
+            changes.append(
+                TargetChange(
+                    name,
+                    now.step.where,
+                    now.step.describe(),
+                    now.move.target,
+                    dp,
+                    dr,
+                    float(np.abs(now.move.q_goal - then.move.q_goal).max()),
+                    frames,
+                )
+            )
+    return changes
+
+
+def _write_together(output: str, files: dict[str, str]) -> None:
+    """Write ``files`` into the folder ``output`` so that they appear together or not at all:
+    staged in a sibling folder, then swapped in by renames (an older export is replaced
+    whole)."""
+    out = Path(output).resolve()
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{output} exists and is not a folder")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        for name, text in files.items():
+            (staging / name).write_text(text, encoding="utf-8")
+            os.chmod(staging / name, 0o644)
+        os.chmod(staging, 0o755)
+        if out.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
+            old.rmdir()
+            out.rename(old)
+            staging.rename(out)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            staging.rename(out)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise

@@ -1,0 +1,16 @@
+"""Robot programs out: one writer module per language over the resolved program
+(:mod:`.common`); each ``write(program, options) -> {file name: text}``."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+FORMATS = ("urscript", "krl", "rapid", "csv")
+
+
+@dataclass(frozen=True)
+class Signals:
+    """The digital outputs that grasp / release and tool changes drive, per language."""
+
+    gripper: int = 1
+    tool_changer: int = 2

@@ -1,0 +1,244 @@
+"""What every robot-language writer shares: the program as instructions, names, rotations.
+
+:func:`instructions` turns one device's resolved steps (what the simulation carried out, with the
+cell's current pose files) and its timeline into a neutral list of instructions - tool data,
+joint moves with their joint targets, linear moves with their Cartesian targets, outputs, waits
+and comments - with speeds and accelerations measured on the simulated motion.  Each writer
+renders that list in its language; none resolves a target itself.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import spatial
+from ..model.program import ResolvedStep
+
+
+@dataclass
+class Tool:
+    """Tool data: the TCP in the flange (last link) frame."""
+
+    name: str  # the qualified TCP frame
+    T_flange_tcp: np.ndarray
+
+
+@dataclass
+class Move:
+    """A move to a target.
+
+    Attributes
+    ----------
+    motion : {"joint", "linear"}
+    q : ndarray, shape (n,)
+        The joint target [rad]: the IK solution the simulation chose.
+    T_base_tcp : ndarray, shape (4, 4)
+        The Cartesian target: the TCP in the robot's base frame [m].
+    tool : Tool
+    joint_speed, joint_acceleration : float
+        Peak of the leading joint over the simulated move [rad/s, rad/s^2].
+    tool_speed, tool_acceleration : float
+        Peak TCP speed and acceleration over the simulated move [m/s, m/s^2].
+    speed_fraction, acceleration_fraction : float
+        The program step's fractions of the limits.
+    target : str
+        What the program names (a frame or a joint position).
+    where, text : str
+        The program's ``file:line`` and the step in words.
+    """
+
+    motion: str
+    q: np.ndarray
+    T_base_tcp: np.ndarray
+    tool: Tool
+    joint_speed: float
+    joint_acceleration: float
+    tool_speed: float
+    tool_acceleration: float
+    speed_fraction: float
+    acceleration_fraction: float
+    target: str
+    where: str
+    text: str
+
+
+@dataclass
+class Output:
+    """A digital output: the gripper (grasp closes, release and place open) or the tool changer
+    (attach locks, detach unlocks)."""
+
+    signal: str  # "gripper" | "tool_changer"
+    value: bool
+    where: str
+    text: str
+
+
+@dataclass
+class Wait:
+    seconds: float
+    where: str
+    text: str
+
+
+@dataclass
+class Comment:
+    """A step with no instruction of its own (a sync, a wait for another device, a sensor
+    reading): kept as a comment with when it happened in the simulation."""
+
+    text: str
+    where: str
+
+
+Instruction = Tool | Move | Output | Wait | Comment
+
+
+@dataclass
+class DeviceProgram:
+    """One device's program, ready for a writer."""
+
+    device: str
+    name: str  # the program's name (file stem)
+    source: str  # the program file
+    joint_names: list[str]
+    instructions: list[Instruction] = field(default_factory=list)
+
+    @property
+    def moves(self) -> list[Move]:
+        return [i for i in self.instructions if isinstance(i, Move)]
+
+    @property
+    def tools(self) -> list[Tool]:
+        """The distinct tools, in order of first use."""
+        out: dict[str, Tool] = {}
+        for i in self.instructions:
+            if isinstance(i, Tool) and i.name not in out:
+                out[i.name] = i
+        return list(out.values())
+
+
+def _peaks(times, q, qd, qdd, tcp_positions, t0: float, t1: float) -> tuple[float, ...]:
+    inside = (times >= t0 - 1e-12) & (times <= t1 + 1e-12)
+    if inside.sum() < 2:
+        return 0.0, 0.0, 0.0, 0.0
+    dt = float(times[1] - times[0])
+    p = tcp_positions[inside]
+    v = np.linalg.norm(np.diff(p, axis=0), axis=1) / dt
+    a = np.abs(np.diff(v)) / dt if len(v) > 1 else np.zeros(1)
+    return (
+        float(np.abs(qd[inside]).max()),
+        float(np.abs(qdd[inside]).max()),
+        float(v.max(initial=0.0)),
+        float(a.max(initial=0.0)),
+    )
+
+
+def instructions(
+    device, resolved: list[ResolvedStep], times, timeline, name: str, source: str
+) -> DeviceProgram:
+    """The instructions of one device's program.
+
+    Parameters
+    ----------
+    device : DeviceModel
+    resolved : list of ResolvedStep
+        From the simulation (``SimulationResult.resolved[device]``).
+    times : ndarray, shape (K,)
+    timeline : DeviceTimeline
+        The device's simulated motion (for speeds and accelerations).
+    """
+    from ..kinematics.jacobian import ToolMount, tool_pose
+
+    program = DeviceProgram(device.name, name, source, [j.name for j in device.joints])
+    tool: Tool | None = None
+    for item in resolved:
+        step, move = item.step, item.move
+        text = step.describe()
+        if move is not None:
+            if tool is None or tool.name != move.tcp:
+                tool = Tool(move.tcp, move.T_link_tcp)
+                program.instructions.append(tool)
+            mount = ToolMount(move.link, move.T_link_tcp)
+            positions = tool_pose(device, timeline.q, mount)[:, :3, 3]
+            peaks = _peaks(
+                times, timeline.q, timeline.qd, timeline.qdd, positions, move.t0, move.t1
+            )
+            program.instructions.append(
+                Move(
+                    move.motion,
+                    move.q_goal,
+                    move.T_base_tcp,
+                    tool,
+                    *peaks,
+                    move.speed,
+                    move.acceleration,
+                    move.target,
+                    step.where,
+                    text,
+                )
+            )
+        elif step.kind in ("grasp", "release", "place"):
+            program.instructions.append(Output("gripper", step.kind == "grasp", step.where, text))
+        elif step.kind in ("attach_tool", "detach_tool"):
+            program.instructions.append(
+                Output("tool_changer", step.kind == "attach_tool", step.where, text)
+            )
+        elif step.kind == "wait" and step.spec.time is not None:
+            program.instructions.append(Wait(float(step.spec.time), step.where, text))
+        else:
+            program.instructions.append(
+                Comment(f"{text} (at t = {item.t0:.3f} s in the simulation)", step.where)
+            )
+    return program
+
+
+# --------------------------------------------------------------------------- conventions
+
+
+def rotation_vector(R: np.ndarray) -> np.ndarray:
+    """UR's rotation vector: axis times angle [rad], angle in [0, pi]."""
+    return spatial.rotation_vector(R)
+
+
+def kuka_abc(R: np.ndarray) -> np.ndarray:
+    """KUKA's A, B, C [deg]: ``R = Rz(A) Ry(B) Rx(C)`` (Z-Y'-X'' intrinsic)."""
+    roll, pitch, yaw = spatial.matrix_to_rpy(R)
+    return np.degrees([yaw, pitch, roll])
+
+
+def abb_quaternion(R: np.ndarray) -> np.ndarray:
+    """ABB's orientation quaternion ``[q1, q2, q3, q4] = (w, x, y, z)``, ``q1 >= 0``."""
+    return spatial.matrix_to_quat(R)
+
+
+def abb_confdata(q: np.ndarray) -> list[int]:
+    """ABB's ``confdata`` [cf1, cf4, cf6, cfx] of a 6-axis joint solution: the quarter
+    revolutions of axes 1, 4 and 6 (floor of angle / 90 deg); cfx 0 (the joint target is
+    written too, and joint moves use it)."""
+    quarter = np.floor(np.asarray(q)[[0, 3, 5]] / (np.pi / 2)).astype(int)
+    return [int(quarter[0]), int(quarter[1]), int(quarter[2]), 0]
+
+
+def sanitise(name: str, limit: int, used: set[str], lower: bool = False) -> str:
+    """A name a robot language holds: letters, digits and '_', starting with a letter, at most
+    ``limit`` characters, unique among ``used`` (which it joins)."""
+    clean = re.sub(r"[^A-Za-z0-9_]", "_", name)
+    if not clean or not clean[0].isalpha():
+        clean = "n" + clean
+    clean = clean[:limit]
+    if lower:
+        clean = clean.lower()
+    candidate, k = clean, 2
+    while candidate.lower() in {u.lower() for u in used}:
+        suffix = f"_{k}"
+        candidate, k = clean[: limit - len(suffix)] + suffix, k + 1
+    used.add(candidate)
+    return candidate
+
+
+def number(x: float, digits: int = 9) -> str:
+    """A number with ``digits`` decimals, trailing zeros dropped (no exponent, no -0)."""
+    text = f"{float(x):.{digits}f}".rstrip("0").rstrip(".")
+    return "0" if text in ("-0", "") else text

@@ -1,0 +1,74 @@
+"""KUKA KRL: a ``.src`` (PTP to E6AXIS joint targets, LIN to E6POS Cartesian targets, $TOOL and
+$BASE, $OUT, WAIT SEC) and a ``.dat`` with the declarations; lengths in mm, A, B, C in degrees
+(``R = Rz(A) Ry(B) Rx(C)``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import Signals
+from .common import Comment, DeviceProgram, Move, Output, Tool, Wait, kuka_abc, number, sanitise
+
+
+def frame(T) -> str:
+    a, b, c = kuka_abc(T[:3, :3])
+    x, y, z = T[:3, 3] * 1000
+    return ", ".join(f"{k} {number(v, 6)}" for k, v in zip("XYZABC", (x, y, z, a, b, c)))
+
+
+def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
+    used: set[str] = set()
+    name = sanitise(program.name, 24, used)
+    tools = {t.name: k + 1 for k, t in enumerate(program.tools)}
+    src = [
+        "&ACCESS RVP",
+        f"DEF {name}( )",
+        f"; {program.name}: device '{program.device}', from {program.source}",
+        "; written by 'rworld export program': targets resolved with the cell's current pose files",
+        f"; outputs: gripper $OUT[{signals.gripper}] (TRUE = closed), tool changer "
+        f"$OUT[{signals.tool_changer}] (TRUE = locked)",
+        "$BASE = BASE_DATA[1]  ; the robot's base frame",
+    ]
+    dat = ["&ACCESS RVP", f"DEFDAT {name}", f"; targets of {program.name}"]
+    for tool_name, k in tools.items():
+        dat.append(f"; TOOL_DATA[{k}] is {tool_name}")
+    k_target = 0
+    for item in program.instructions:
+        if isinstance(item, Tool):
+            k = tools[item.name]
+            src.append(f"TOOL_DATA[{k}] = {{{frame(item.T_flange_tcp)}}}  ; {item.name}")
+            src.append(f"$TOOL = TOOL_DATA[{k}]")
+        elif isinstance(item, Move):
+            k_target += 1
+            src.append(f"; {item.where}: {item.text}")
+            if item.motion == "joint":
+                label = f"XP{k_target}"
+                axes = ", ".join(
+                    f"A{i + 1} {number(np.degrees(v), 9)}" for i, v in enumerate(item.q)
+                )
+                dat.append(f"DECL E6AXIS {label} = {{{axes}, E1 0, E2 0, E3 0, E4 0, E5 0, E6 0}}")
+                percent = max(1, min(100, round(100 * item.speed_fraction)))
+                src.append(f"$VEL_AXIS[1] = {percent}  ; % of the axes' speeds, all six alike")
+                src.append(f"PTP {label}")
+            else:
+                label = f"XP{k_target}"
+                dat.append(
+                    f"DECL E6POS {label} = {{{frame(item.T_base_tcp)}, E1 0, E2 0, E3 0, E4 0, "
+                    "E5 0, E6 0}"
+                )
+                src.append(f"$VEL.CP = {number(item.tool_speed, 4)}  ; m/s")
+                src.append(f"$ACC.CP = {number(item.tool_acceleration, 4)}  ; m/s^2")
+                src.append(f"LIN {label}")
+            dat.append(f"; {label}: {item.where} {item.text}")
+        elif isinstance(item, Output):
+            index = signals.gripper if item.signal == "gripper" else signals.tool_changer
+            src.append(f"; {item.where}: {item.text}")
+            src.append(f"$OUT[{index}] = {'TRUE' if item.value else 'FALSE'}")
+        elif isinstance(item, Wait):
+            src.append(f"; {item.where}: {item.text}")
+            src.append(f"WAIT SEC {number(item.seconds, 6)}")
+        elif isinstance(item, Comment):
+            src.append(f"; {item.where}: {item.text}")
+    src += ["END", ""]
+    dat += ["ENDDAT", ""]
+    return {f"{name}.src": "\n".join(src), f"{name}.dat": "\n".join(dat)}

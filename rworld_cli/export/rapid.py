@@ -1,0 +1,81 @@
+"""ABB RAPID: a ``.mod`` with ``tooldata``, ``wobjdata``, ``jointtarget`` and ``robtarget``
+(mm, quaternion [q1..q4] = w, x, y, z, ``confdata``); joint moves by ``MoveAbsJ`` to the joint
+target the simulation chose (``MoveJ`` to the robtarget could take another solution), linear moves
+by ``MoveL``; ``SetDO`` and ``WaitTime``."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import Signals
+from .common import (
+    Comment,
+    DeviceProgram,
+    Move,
+    Output,
+    Tool,
+    Wait,
+    abb_confdata,
+    abb_quaternion,
+    number,
+    sanitise,
+)
+
+EXTAX = "[9E9,9E9,9E9,9E9,9E9,9E9]"
+
+
+def pose(T) -> str:
+    xyz = ",".join(number(v, 6) for v in T[:3, 3] * 1000)
+    quat = ",".join(number(v, 12) for v in abb_quaternion(T[:3, :3]))
+    return f"[{xyz}],[{quat}]"
+
+
+def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
+    used: set[str] = set()
+    name = sanitise(program.name, 32, used)
+    tool_names = {t.name: sanitise("t_" + t.name, 32, used) for t in program.tools}
+    lines = [
+        f"MODULE {name}",
+        f"  ! {program.name}: device '{program.device}', from {program.source}",
+        "  ! written by 'rworld export program': targets resolved with the cell's current pose "
+        "files",
+        f"  ! outputs: gripper do_{signals.gripper} (1 = closed), tool changer "
+        f"do_{signals.tool_changer} (1 = locked)",
+        '  PERS wobjdata wobj_base := [FALSE,TRUE,"",[[0,0,0],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];',
+    ]
+    for tool in program.tools:
+        lines.append(f"  ! {tool_names[tool.name]} is {tool.name}")
+        lines.append(
+            f"  PERS tooldata {tool_names[tool.name]} := [TRUE,[{pose(tool.T_flange_tcp)}],"
+            "[0.001,[0,0,0.001],[1,0,0,0],0,0,0]];"
+        )
+    body = ["  PROC main()"]
+    tool = None
+    for k, item in enumerate(program.instructions):
+        if isinstance(item, Tool):
+            tool = tool_names[item.name]
+        elif isinstance(item, Move):
+            label = f"p{k + 1}"
+            joints = ",".join(number(np.degrees(v), 9) for v in item.q)
+            cf = ",".join(str(c) for c in abb_confdata(item.q))
+            lines.append(f"  ! {label}: {item.where} {item.text}")
+            lines.append(f"  CONST jointtarget j{k + 1} := [[{joints}],{EXTAX}];")
+            lines.append(f"  CONST robtarget {label} := [{pose(item.T_base_tcp)},[{cf}],{EXTAX}];")
+            speed = f"[{number(item.tool_speed * 1000, 3)},500,5000,1000]"
+            lines.append(f"  CONST speeddata s{k + 1} := {speed};")
+            body.append(f"    ! {item.where}: {item.text}")
+            if item.motion == "joint":
+                body.append(f"    MoveAbsJ j{k + 1}, s{k + 1}, fine, {tool}\\WObj:=wobj_base;")
+            else:
+                body.append(f"    MoveL {label}, s{k + 1}, fine, {tool}\\WObj:=wobj_base;")
+        elif isinstance(item, Output):
+            index = signals.gripper if item.signal == "gripper" else signals.tool_changer
+            body.append(f"    ! {item.where}: {item.text}")
+            body.append(f"    SetDO do_{index}, {1 if item.value else 0};")
+        elif isinstance(item, Wait):
+            body.append(f"    ! {item.where}: {item.text}")
+            body.append(f"    WaitTime {number(item.seconds, 6)};")
+        elif isinstance(item, Comment):
+            body.append(f"    ! {item.where}: {item.text}")
+    lines += body + ["  ENDPROC", "ENDMODULE", ""]
+    return {f"{name}.mod": "\n".join(lines)}

@@ -1,0 +1,64 @@
+"""Universal Robots URScript: ``movej`` with joint targets, ``movel`` with poses
+``p[x, y, z, rx, ry, rz]`` (m, rotation vector), ``set_tcp``, ``set_digital_out``, ``sleep``."""
+
+from __future__ import annotations
+
+from . import Signals
+from .common import (
+    Comment,
+    DeviceProgram,
+    Move,
+    Output,
+    Tool,
+    Wait,
+    number,
+    rotation_vector,
+    sanitise,
+)
+
+
+def pose(T) -> str:
+    rv = rotation_vector(T[:3, :3])
+    return "p[" + ", ".join(number(x) for x in (*T[:3, 3], *rv)) + "]"
+
+
+def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
+    used: set[str] = set()
+    name = sanitise(program.name, 60, used, lower=True)
+    lines = [
+        f"# {program.name}: device '{program.device}', from {program.source}",
+        "# written by 'rworld export program': targets resolved with the cell's current pose files",
+        f"# digital outputs: gripper {signals.gripper} (True = closed), tool changer "
+        f"{signals.tool_changer} (True = locked)",
+        f"def {name}():",
+    ]
+    if name != program.name:
+        lines.insert(1, f"# '{name}' is program '{program.name}'")
+    for item in program.instructions:
+        if isinstance(item, Tool):
+            lines.append(f"  # tool: {item.name}")
+            lines.append(f"  set_tcp({pose(item.T_flange_tcp)})")
+        elif isinstance(item, Move):
+            lines.append(f"  # {item.where}: {item.text}")
+            if item.motion == "joint":
+                q = "[" + ", ".join(number(x) for x in item.q) + "]"
+                lines.append(
+                    f"  movej({q}, a={number(item.joint_acceleration, 4)}, "
+                    f"v={number(item.joint_speed, 4)})"
+                )
+            else:
+                lines.append(
+                    f"  movel({pose(item.T_base_tcp)}, a={number(item.tool_acceleration, 4)}, "
+                    f"v={number(item.tool_speed, 4)})"
+                )
+        elif isinstance(item, Output):
+            index = signals.gripper if item.signal == "gripper" else signals.tool_changer
+            lines.append(f"  # {item.where}: {item.text}")
+            lines.append(f"  set_digital_out({index}, {'True' if item.value else 'False'})")
+        elif isinstance(item, Wait):
+            lines.append(f"  # {item.where}: {item.text}")
+            lines.append(f"  sleep({number(item.seconds, 6)})")
+        elif isinstance(item, Comment):
+            lines.append(f"  # {item.where}: {item.text}")
+    lines += ["end", f"{name}()", ""]
+    return {f"{program.name}.script": "\n".join(lines)}

@@ -1,0 +1,91 @@
+MODULE robot
+  ! robot: device 'robot', from workcells/paper_fig9/programs/robot.yaml
+  ! written by 'rworld export program': targets resolved with the cell's current pose files
+  ! outputs: gripper do_1 (1 = closed), tool changer do_2 (1 = locked)
+  PERS wobjdata wobj_base := [FALSE,TRUE,"",[[0,0,0],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];
+  ! t_hand_a_tcp is hand_a.tcp
+  PERS tooldata t_hand_a_tcp := [TRUE,[[0,130,113.923048],[0.965925826289,-0.258819045103,0,0]],[0.001,[0,0,0.001],[1,0,0,0],0,0,0]];
+  ! t_hand_b_tcp is hand_b.tcp
+  PERS tooldata t_hand_b_tcp := [TRUE,[[0,-130,113.923048],[0.965925826289,0.258819045103,0,0]],[0.001,[0,0,0.001],[1,0,0,0],0,0,0]];
+  ! t_robot_tool_plate is robot.tool_plate
+  PERS tooldata t_robot_tool_plate := [TRUE,[[0,0,10],[1,0,0,0]],[0.001,[0,0,0.001],[1,0,0,0],0,0,0]];
+  ! p3: workcells/paper_fig9/programs/robot.yaml:8 move to table.slot_part
+  CONST jointtarget j3 := [[-97.367772014,-90.249675836,72.673648908,-102.21870697,-86.323736367,-6.389462907],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p3 := [[-50,449.999998,444.999997],[0.000000000454,-1,-0.000000000036,0.000000000023],[-2,-2,-1,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST speeddata s3 := [1389.597,500,5000,1000];
+  ! p4: workcells/paper_fig9/programs/robot.yaml:9 move to table.slot_part (linear)
+  CONST jointtarget j4 := [[-97.367771927,-92.719117659,92.876490925,-119.952107118,-86.323736421,-6.389462832],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p4 := [[-50,449.999997,325],[0,1,0,0],[-2,-2,-1,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST speeddata s4 := [125,500,5000,1000];
+  ! p8: workcells/paper_fig9/programs/robot.yaml:13 move to table.slot_part (linear)
+  CONST jointtarget j8 := [[-97.367771927,-90.249675887,72.673648688,-102.218706654,-86.323736421,-6.389462832],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p8 := [[-50,449.999997,444.999999],[0,-1,0,0],[-2,-2,-1,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST speeddata s8 := [250.001,500,5000,1000];
+  ! p10: workcells/paper_fig9/programs/robot.yaml:14 move to table.slot_assembly
+  CONST jointtarget j10 := [[-122.711101418,-82.354221316,43.58679965,-25.322744293,-105.676268286,-29.083486302],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p10 := [[150,450,480],[0.000000000001,-1,0,0],[-2,-1,-1,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST speeddata s10 := [731.856,500,5000,1000];
+  ! p11: workcells/paper_fig9/programs/robot.yaml:15 move to table.slot_assembly (linear)
+  CONST jointtarget j11 := [[-122.711101418,-92.544351801,78.941716492,-50.487530651,-105.676268286,-29.083486302],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p11 := [[149.999998,449.999997,329.999999],[0,1,0,0],[-2,-1,-1,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST speeddata s11 := [125.001,500,5000,1000];
+  ! p15: workcells/paper_fig9/programs/robot.yaml:19 move to table.slot_assembly (linear)
+  CONST jointtarget j15 := [[-122.711101418,-82.354222855,43.586802625,-25.322745729,-105.676268286,-29.083486302],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p15 := [[149.999997,449.999996,479.999994],[0,-1,0,0],[-2,-1,-1,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST speeddata s15 := [250.003,500,5000,1000];
+  ! p17: workcells/paper_fig9/programs/robot.yaml:20 move to home
+  CONST jointtarget j17 := [[0,-90,90,-90,-90,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p17 := [[-486.9,-109.15,422.159],[0,0.707106781187,0.707106781187,0],[0,-1,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST speeddata s17 := [1591.443,500,5000,1000];
+  ! p18: workcells/paper_fig9/programs/robot.yaml:21 move to tool_rack.hand_a_slot
+  CONST jointtarget j18 := [[78.553400372,-82.286768412,73.238718914,-80.951950577,-89.999999995,168.553400382],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p18 := [[0.000001,-549.999995,479.999995],[0.000000000648,1,-0.000000000087,-0.000000000084],[0,-1,1,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST speeddata s18 := [779.096,500,5000,1000];
+  ! p19: workcells/paper_fig9/programs/robot.yaml:22 move to tool_rack.hand_a_slot (linear)
+  CONST jointtarget j19 := [[78.553400408,-82.690167591,88.352984431,-95.662816839,-90,168.553400408],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p19 := [[0.000001,-549.999997,380],[0,-1,0,0],[0,-2,1,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST speeddata s19 := [125,500,5000,1000];
+  ! p21: workcells/paper_fig9/programs/robot.yaml:24 move to tool_rack.hand_a_slot (linear)
+  CONST jointtarget j21 := [[78.553400408,-82.286768101,73.238717925,-80.951949824,-90,168.553400408],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p21 := [[0.000001,-549.999997,479.999999],[0,1,0,0],[0,-1,1,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST speeddata s21 := [250.001,500,5000,1000];
+  ! p22: workcells/paper_fig9/programs/robot.yaml:25 move to home
+  CONST jointtarget j22 := [[0,-90,90,-90,-90,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p22 := [[-486.9,-109.15,422.159],[0,0.707106781187,0.707106781187,0],[0,-1,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST speeddata s22 := [779.559,500,5000,1000];
+  PROC main()
+    ! workcells/paper_fig9/programs/robot.yaml:7: sync arrived (at t = 0.000 s in the simulation)
+    ! workcells/paper_fig9/programs/robot.yaml:8: move to table.slot_part
+    MoveAbsJ j3, s3, fine, t_hand_a_tcp\WObj:=wobj_base;
+    ! workcells/paper_fig9/programs/robot.yaml:9: move to table.slot_part (linear)
+    MoveL p4, s4, fine, t_hand_a_tcp\WObj:=wobj_base;
+    ! workcells/paper_fig9/programs/robot.yaml:10: place part on table
+    SetDO do_1, 0;
+    ! workcells/paper_fig9/programs/robot.yaml:11: sync part_placed (at t = 4.626 s in the simulation)
+    ! workcells/paper_fig9/programs/robot.yaml:12: sync hand_a_open (at t = 4.626 s in the simulation)
+    ! workcells/paper_fig9/programs/robot.yaml:13: move to table.slot_part (linear)
+    MoveL p8, s8, fine, t_hand_a_tcp\WObj:=wobj_base;
+    ! workcells/paper_fig9/programs/robot.yaml:14: move to table.slot_assembly
+    MoveAbsJ j10, s10, fine, t_hand_b_tcp\WObj:=wobj_base;
+    ! workcells/paper_fig9/programs/robot.yaml:15: move to table.slot_assembly (linear)
+    MoveL p11, s11, fine, t_hand_b_tcp\WObj:=wobj_base;
+    ! workcells/paper_fig9/programs/robot.yaml:16: place housing on table
+    SetDO do_1, 0;
+    ! workcells/paper_fig9/programs/robot.yaml:17: sync housing_placed (at t = 7.952 s in the simulation)
+    ! workcells/paper_fig9/programs/robot.yaml:18: sync hand_b_open (at t = 7.952 s in the simulation)
+    ! workcells/paper_fig9/programs/robot.yaml:19: move to table.slot_assembly (linear)
+    MoveL p15, s15, fine, t_hand_b_tcp\WObj:=wobj_base;
+    ! workcells/paper_fig9/programs/robot.yaml:20: move to home
+    MoveAbsJ j17, s17, fine, t_robot_tool_plate\WObj:=wobj_base;
+    ! workcells/paper_fig9/programs/robot.yaml:21: move to tool_rack.hand_a_slot
+    MoveAbsJ j18, s18, fine, t_robot_tool_plate\WObj:=wobj_base;
+    ! workcells/paper_fig9/programs/robot.yaml:22: move to tool_rack.hand_a_slot (linear)
+    MoveL p19, s19, fine, t_robot_tool_plate\WObj:=wobj_base;
+    ! workcells/paper_fig9/programs/robot.yaml:23: detach_tool hand_a
+    SetDO do_2, 0;
+    ! workcells/paper_fig9/programs/robot.yaml:24: move to tool_rack.hand_a_slot (linear)
+    MoveL p21, s21, fine, t_robot_tool_plate\WObj:=wobj_base;
+    ! workcells/paper_fig9/programs/robot.yaml:25: move to home
+    MoveAbsJ j22, s22, fine, t_robot_tool_plate\WObj:=wobj_base;
+  ENDPROC
+ENDMODULE

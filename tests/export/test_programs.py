@@ -1,0 +1,220 @@
+"""rworld export program: round trips through small readers, conventions against scipy, a
+calibration getting through, golden files, and bad input."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from rworld_cli.api import export_program
+from rworld_cli.export.common import abb_quaternion, kuka_abc, rotation_vector
+from rworld_cli.schema.programs import load_run
+from rworld_cli.simulate.engine import simulate
+from tests.conftest import WORKCELLS
+from tests.export import readers
+
+GOLDEN = Path(__file__).parent / "golden"
+ARMS = ["urscript", "krl", "rapid"]
+CASES = {  # name: (cell, run, device, program stem)
+    "puma_pick_place": ("puma560", "pick_place", None, "pick_place"),
+    "fig9_robot": ("paper_fig9", "transfer", "robot", "robot"),
+}
+
+
+def _resolved(cell: str, run: str, device: str, dt=None):
+    result = simulate(load_run(cell, f"{cell}/runs/{run}.yaml", dt), collisions=False)
+    return [r.move for r in result.resolved[device] if r.move is not None], result
+
+
+def _rotation_angle(A, B) -> float:
+    return float(np.linalg.norm(Rotation.from_matrix(A[:3, :3].T @ B[:3, :3]).as_rotvec()))
+
+
+@pytest.mark.parametrize("fmt", ARMS)
+@pytest.mark.parametrize("case", list(CASES))
+def test_exported_targets_reproduce_the_simulation(fmt, case, tmp_path):
+    cell_name, run, device, stem = CASES[case]
+    cell = str(WORKCELLS / cell_name)
+    export_program(cell, run, fmt, str(tmp_path), device=device)
+    moves, _ = _resolved(cell, run, device or "puma")
+    read = readers.read(tmp_path, fmt, stem)
+    assert [kind for kind, _ in read] == [m.motion for m in moves]
+    for (kind, value), move in zip(read, moves):
+        if kind == "joint":  # the IK solution the simulation chose
+            assert np.abs(value - move.q_goal).max() <= 1e-6
+        else:  # the TCP there, in the base frame
+            assert np.abs(value[:3, 3] - move.T_base_tcp[:3, 3]).max() <= 1e-6
+            assert _rotation_angle(value, move.T_base_tcp) <= 1e-6
+
+
+def test_urscript_tool_data_is_the_tcp_in_the_flange(tmp_path):
+    export_program(str(WORKCELLS / "paper_fig9"), "transfer", "urscript", str(tmp_path), "robot")
+    tcps = readers.urscript_tcps((tmp_path / "robot.script").read_text())
+    moves, _ = _resolved(str(WORKCELLS / "paper_fig9"), "transfer", "robot")
+    expected = list({m.tcp: m.T_link_tcp for m in moves}.values())
+    assert len(tcps) >= len(expected) == 3  # hand_a.tcp, hand_b.tcp, tool_plate
+    for T in expected:
+        assert min(np.abs(T - t).max() for t in tcps) <= 1e-6
+
+
+def test_csv_trajectory_at_the_controller_period(tmp_path):
+    cell = str(WORKCELLS / "puma560")
+    export_program(cell, "pick_place", "csv", str(tmp_path), period="8ms")
+    data = np.loadtxt(tmp_path / "pick_place.csv", delimiter=",", skiprows=1)
+    header = (tmp_path / "pick_place.csv").read_text().splitlines()[0]
+    assert header == "t,j1,j2,j3,j4,j5,j6"
+    np.testing.assert_allclose(np.diff(data[:, 0]), 0.008, atol=1e-9)
+    _, result = _resolved(cell, "pick_place", "puma", dt=0.008)
+    np.testing.assert_allclose(data[:, 1:], result.devices["puma"].q, atol=1e-9)
+
+
+def test_conventions_against_scipy():
+    """The writers' rotation conventions, checked against scipy's Rotation on random rotations."""
+    for R in Rotation.random(200, random_state=4):
+        M = R.as_matrix()
+        a, b, c = kuka_abc(M)
+        np.testing.assert_allclose(
+            Rotation.from_euler("ZYX", [a, b, c], degrees=True).as_matrix(), M, atol=1e-12
+        )
+        w, x, y, z = abb_quaternion(M)
+        assert w >= 0
+        np.testing.assert_allclose(Rotation.from_quat([x, y, z, w]).as_matrix(), M, atol=1e-12)
+        rv = rotation_vector(M)
+        assert np.linalg.norm(rv) <= np.pi + 1e-12
+        np.testing.assert_allclose(Rotation.from_rotvec(rv).as_matrix(), M, atol=1e-12)
+
+
+def _digest(folder: Path) -> dict:
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.iterdir())}
+
+
+def test_a_calibration_gets_through_and_programs_stay_as_they_are(tmp_path, cli):
+    """An overlay that moves the workpiece moves exactly the targets on it, by the correction;
+    --against names the frame; the program files do not change by a byte."""
+    cell = tmp_path / "puma560"
+    shutil.copytree(WORKCELLS / "puma560", cell)
+    programs = _digest(cell / "programs")
+    nominal = tmp_path / "nominal"
+    export_program(str(cell), "pick_place", "rapid", str(nominal))
+    text = (cell / "cell.yaml").read_text()
+    (cell / "cell.yaml").write_text(
+        text.replace("pose_files: [poses.yaml]", "pose_files: [poses.yaml, calibrated.yaml]")
+    )
+    (cell / "calibrated.yaml").write_text(
+        "units: {length: mm, angle: deg}\n"
+        "poses:\n  workpiece: {xyz: [-98.5, 202.0, 0.3], rpy: [0, 0, 30.05]}\n"
+    )
+    calibrated = tmp_path / "calibrated"
+    result = export_program(
+        str(cell), "pick_place", "rapid", str(calibrated), against=[str(cell / "poses.yaml")]
+    )
+    assert _digest(cell / "programs") == programs
+    before = readers.rapid((nominal / "pick_place.mod").read_text())
+    after = readers.rapid((calibrated / "pick_place.mod").read_text())
+    moves, res = _resolved(str(cell), "pick_place", "puma")
+    from rworld_cli.world.tree import World
+
+    world = World(load_run(str(cell), str(cell / "runs" / "pick_place.yaml")).cell)
+    T_base_world = np.linalg.inv(world.T_world("puma"))
+    steps = [r for r in res.resolved["puma"] if r.move is not None]
+    moved = 0
+    for (kind, old), (_, new), item in zip(before, after, steps):
+        if item.move.target == "workpiece.grasp" and kind == "linear":
+            expected = T_base_world @ world.T_world("workpiece.grasp") @ item.step.T_offset
+            assert np.abs(new[:3, 3] - expected[:3, 3]).max() <= 1e-6
+            assert _rotation_angle(new, expected) <= 1e-6
+            moved += 1
+        elif item.move.target == "table.drop":
+            np.testing.assert_allclose(new, old, atol=1e-9)
+    assert moved == 1
+    changed = {c.where.rsplit(":", 1)[1]: c for c in result.changes}
+    assert set(changed) == {"10", "11"}  # the two moves to the workpiece
+    assert all(c.frames == ["workpiece"] for c in changed.values())
+    assert changed["11"].translation == pytest.approx(np.linalg.norm([1.5, 2.0, 0.3]) * 1e-3)
+    assert changed["11"].rotation == pytest.approx(np.radians(0.05), abs=1e-9)
+
+
+@pytest.mark.parametrize("case", list(CASES))
+@pytest.mark.parametrize("fmt", ARMS + ["csv"])
+def test_golden(case, fmt, tmp_path, monkeypatch):
+    cell_name, run, device, _ = CASES[case]
+    monkeypatch.chdir(WORKCELLS.parent)  # the files name the programs as given: relative
+    export_program(f"workcells/{cell_name}", run, fmt, str(tmp_path), device=device)
+    for path in sorted(tmp_path.iterdir()):
+        golden = GOLDEN / case / path.name
+        if os.environ.get("RWORLD_UPDATE_GOLDEN"):
+            golden.parent.mkdir(parents=True, exist_ok=True)
+            golden.write_text(path.read_text())
+        assert path.read_text() == golden.read_text(), f"{golden} differs"
+
+
+def test_unreachable_target_exits_1_with_the_program_line(tmp_path, cli):
+    cell = tmp_path / "puma560"
+    shutil.copytree(WORKCELLS / "puma560", cell)
+    poses = (cell / "poses.yaml").read_text()
+    (cell / "poses.yaml").write_text(
+        poses.replace("workpiece: {xyz: [-0.1, 0.2, 0]", "workpiece: {xyz: [-0.1, 3.2, 0]")
+    )
+    out = tmp_path / "out"
+    result = cli(["export", "program", str(cell), "pick_place", "--format", "krl", "-o", str(out)])
+    assert result.exit_code == 1
+    assert "pick_place.yaml:10" in result.stderr and "workpiece.grasp" in result.stderr
+    assert not out.exists()
+
+
+def test_bad_format_and_undrivable_device_exit_2_and_write_nothing(tmp_path, cli):
+    out = tmp_path / "out"
+    bad = cli(
+        [
+            "export",
+            "program",
+            str(WORKCELLS / "puma560"),
+            "pick_place",
+            "--format",
+            "val3",
+            "-o",
+            str(out),
+        ]
+    )
+    assert bad.exit_code == 2 and "val3" in bad.stderr
+    conveyor = cli(
+        [
+            "export",
+            "program",
+            str(WORKCELLS / "paper_fig9"),
+            "transfer",
+            "--format",
+            "urscript",
+            "-o",
+            str(out),
+        ]
+    )
+    assert conveyor.exit_code == 2
+    assert "'conveyor' has 1 joint(s)" in conveyor.stderr and "--device" in conveyor.stderr
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_an_export_replaces_the_folder_whole(tmp_path):
+    out = tmp_path / "out"
+    export_program(str(WORKCELLS / "puma560"), "pick_place", "krl", str(out))
+    (out / "stale.txt").write_text("from before")
+    export_program(str(WORKCELLS / "puma560"), "pick_place", "urscript", str(out))
+    assert sorted(p.name for p in out.iterdir()) == ["pick_place.script"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no staging left
+
+
+def test_a_program_file_exports_alone(tmp_path):
+    program = WORKCELLS / "puma560" / "programs" / "pick_place.yaml"
+    result = export_program(str(WORKCELLS / "puma560"), str(program), "urscript", str(tmp_path))
+    assert result.files == ["pick_place.script"] and result.moves == 7
+    via_run = tmp_path / "run"
+    export_program(str(WORKCELLS / "puma560"), "pick_place", "urscript", str(via_run))
+    assert (tmp_path / "pick_place.script").read_text() == (
+        via_run / "pick_place.script"
+    ).read_text()
