@@ -37,7 +37,7 @@ ROOMS = {
         7.6,
         "calculation rooms (plain SI data in, results out):\nworld (frame tree), kinematics, "
         "dynamics, motion, sensing (types/),\ncollision, calibration, planning (constraints), "
-        "simulate",
+        "simulate;\nexport (robot-language writers)",
         "#c7e9c0",
     ),
     "model": (

@@ -74,7 +74,9 @@ ALLOWED = {
     "schema": {"schema", "model"} | COMMON,
     "world": {"world", "model"} | COMMON,
     **{room: CALCULATION | {"model"} | COMMON for room in CALCULATION - {"world"}},
-    "api": {"api", "schema", "model"} | CALCULATION | COMMON,
+    # robot-language writers over resolved programs: text from plain data, no files
+    "export": {"export", "model", "kinematics"} | COMMON,
+    "api": {"api", "schema", "model", "export"} | CALCULATION | COMMON,
     "cli": {"cli", "api", "errors", "units", ""},  # units: for showing arcsec
 }
 

@@ -27,7 +27,7 @@ from .cells import (  # noqa: F401
     validate_files,
     write_schemas,
 )
-from .export import ProgramExport, TargetChange, export_program  # noqa: F401
+from .export import ProgramExport, Signals, TargetChange, export_program  # noqa: F401
 from .physics import (  # noqa: F401
     DeviceContext,
     JacobianResult,

@@ -86,7 +86,8 @@ COMMANDS = {
     "export": (
         "robots",
         "export_group",
-        "Write a cell's device as URDF, calibrated poses applied (export urdf).",
+        "Robot programs out with calibrated numbers (export program: URScript, KRL, RAPID, "
+        "CSV), and devices as URDF (export urdf).",
     ),
     "analyze": (
         "analyze",

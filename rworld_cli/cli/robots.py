@@ -149,8 +149,8 @@ def export_program(
           --against workcells/puma560/poses.yaml
       rworld export program workcells/puma560 pick_place --format csv --period 8ms -o out/csv
     """
+    from ..api import Signals
     from ..api import export_program as run_export
-    from ..export import Signals
 
     result = run_export(
         cell,

@@ -119,7 +119,10 @@ class DeviceProgram:
         return list(out.values())
 
 
-def _peaks(times, q, qd, qdd, tcp_positions, t0: float, t1: float) -> tuple[float, ...]:
+def _peaks(
+    times, q, qd, qdd, tcp_positions, t0: float, t1: float
+) -> tuple[float, float, float, float]:
+    """Peak joint speed and acceleration, peak TCP speed and acceleration over [t0, t1]."""
     inside = (times >= t0 - 1e-12) & (times <= t1 + 1e-12)
     if inside.sum() < 2:
         return 0.0, 0.0, 0.0, 0.0
@@ -162,7 +165,7 @@ def instructions(
                 program.instructions.append(tool)
             mount = ToolMount(move.link, move.T_link_tcp)
             positions = tool_pose(device, timeline.q, mount)[:, :3, 3]
-            peaks = _peaks(
+            v_joint, a_joint, v_tool, a_tool = _peaks(
                 times, timeline.q, timeline.qd, timeline.qdd, positions, move.t0, move.t1
             )
             program.instructions.append(
@@ -171,7 +174,10 @@ def instructions(
                     move.q_goal,
                     move.T_base_tcp,
                     tool,
-                    *peaks,
+                    v_joint,
+                    a_joint,
+                    v_tool,
+                    a_tool,
                     move.speed,
                     move.acceleration,
                     move.target,

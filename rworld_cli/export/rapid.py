@@ -50,10 +50,10 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             "[0.001,[0,0,0.001],[1,0,0,0],0,0,0]];"
         )
     body = ["  PROC main()"]
-    tool = None
+    current_tool = ""
     for k, item in enumerate(program.instructions):
         if isinstance(item, Tool):
-            tool = tool_names[item.name]
+            current_tool = tool_names[item.name]  # the tooldata of the moves that follow
         elif isinstance(item, Move):
             label = f"p{k + 1}"
             joints = ",".join(number(np.degrees(v), 9) for v in item.q)
@@ -65,9 +65,11 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             lines.append(f"  CONST speeddata s{k + 1} := {speed};")
             body.append(f"    ! {item.where}: {item.text}")
             if item.motion == "joint":
-                body.append(f"    MoveAbsJ j{k + 1}, s{k + 1}, fine, {tool}\\WObj:=wobj_base;")
+                body.append(
+                    f"    MoveAbsJ j{k + 1}, s{k + 1}, fine, {current_tool}\\WObj:=wobj_base;"
+                )
             else:
-                body.append(f"    MoveL {label}, s{k + 1}, fine, {tool}\\WObj:=wobj_base;")
+                body.append(f"    MoveL {label}, s{k + 1}, fine, {current_tool}\\WObj:=wobj_base;")
         elif isinstance(item, Output):
             index = signals.gripper if item.signal == "gripper" else signals.tool_changer
             body.append(f"    ! {item.where}: {item.text}")
