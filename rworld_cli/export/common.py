@@ -119,23 +119,28 @@ class DeviceProgram:
         return list(out.values())
 
 
-def _peaks(
-    times, q, qd, qdd, tcp_positions, t0: float, t1: float
-) -> tuple[float, float, float, float]:
-    """Peak joint speed and acceleration, peak TCP speed and acceleration over [t0, t1]."""
-    inside = (times >= t0 - 1e-12) & (times <= t1 + 1e-12)
-    if inside.sum() < 2:
-        return 0.0, 0.0, 0.0, 0.0
+MIN_SPEED = 1e-3  # [m/s, rad/s and their /s]: a move too short to sample still gets a speed
+
+
+def _peaks(device, mount, times, timeline, t0: float, t1: float) -> tuple[float, ...]:
+    """Peak joint speed and acceleration, peak TCP speed and acceleration over [t0, t1] of the
+    simulated motion (each at least ``MIN_SPEED``)."""
+    from ..kinematics.jacobian import tool_pose
+
+    inside = np.flatnonzero((times >= t0 - 1e-12) & (times <= t1 + 1e-12))
+    if len(inside) < 2:
+        return (MIN_SPEED,) * 4
     dt = float(times[1] - times[0])
-    p = tcp_positions[inside]
+    p = tool_pose(device, timeline.q[inside], mount)[:, :3, 3]
     v = np.linalg.norm(np.diff(p, axis=0), axis=1) / dt
     a = np.abs(np.diff(v)) / dt if len(v) > 1 else np.zeros(1)
-    return (
-        float(np.abs(qd[inside]).max()),
-        float(np.abs(qdd[inside]).max()),
-        float(v.max(initial=0.0)),
-        float(a.max(initial=0.0)),
+    peaks = (
+        np.abs(timeline.qd[inside]).max(),
+        np.abs(timeline.qdd[inside]).max(),
+        v.max(initial=0.0),
+        a.max(initial=0.0),
     )
+    return tuple(max(float(x), MIN_SPEED) for x in peaks)
 
 
 def instructions(
@@ -152,7 +157,7 @@ def instructions(
     timeline : DeviceTimeline
         The device's simulated motion (for speeds and accelerations).
     """
-    from ..kinematics.jacobian import ToolMount, tool_pose
+    from ..kinematics.jacobian import ToolMount
 
     program = DeviceProgram(device.name, name, source, [j.name for j in device.joints])
     tool: Tool | None = None
@@ -164,9 +169,8 @@ def instructions(
                 tool = Tool(move.tcp, move.T_link_tcp)
                 program.instructions.append(tool)
             mount = ToolMount(move.link, move.T_link_tcp)
-            positions = tool_pose(device, timeline.q, mount)[:, :3, 3]
             v_joint, a_joint, v_tool, a_tool = _peaks(
-                times, timeline.q, timeline.qd, timeline.qdd, positions, move.t0, move.t1
+                device, mount, times, timeline, move.t0, move.t1
             )
             program.instructions.append(
                 Move(

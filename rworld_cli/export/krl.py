@@ -47,8 +47,10 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
                     f"A{i + 1} {number(np.degrees(v), 9)}" for i, v in enumerate(item.q)
                 )
                 dat.append(f"DECL E6AXIS {label} = {{{axes}, E1 0, E2 0, E3 0, E4 0, E5 0, E6 0}}")
-                percent = max(1, min(100, round(100 * item.speed_fraction)))
-                src.append(f"$VEL_AXIS[1] = {percent}  ; % of the axes' speeds, all six alike")
+                speed = max(1, min(100, round(100 * item.speed_fraction)))
+                acceleration = max(1, min(100, round(100 * item.acceleration_fraction)))
+                src.append(f"BAS(#VEL_PTP, {speed})  ; % of the axes' speeds")
+                src.append(f"BAS(#ACC_PTP, {acceleration})  ; % of the axes' accelerations")
                 src.append(f"PTP {label}")
             else:
                 label = f"XP{k_target}"
