@@ -90,6 +90,7 @@ def export_program(
     period: str | float | None = None,
     against: list[str] | None = None,
     signals: Signals = Signals(),
+    frame: str | None = None,
 ) -> ProgramExport:
     """Write the programs of RUN (or one PROGRAM file) in a robot language.
 
@@ -109,6 +110,10 @@ def export_program(
     against : list of str, optional
         Nominal pose files: list every target the current poses move, by how much and which
         calibrated frame moved it.
+    frame : str, optional
+        A cell frame to give Cartesian targets in (a user frame: KRL ``BASE_DATA``, RAPID
+        ``wobjdata``, URScript ``pose_trans``), placed where it is at the run's start; default
+        the robot's base.
 
     Raises
     ------
@@ -184,6 +189,16 @@ def export_program(
                 f"{m.tcp} sits on link {m.link} of '{name}', not on its flange (link {dev.dof}): "
                 "a robot language's tool data is given in the flange frame"
             )
+        if frame is not None:
+            from ..world.tree import World
+
+            if frame not in loaded.cell.frames:
+                raise UserError(
+                    f"--frame: unknown frame '{frame}'{did_you_mean(frame, loaded.cell.frames)}"
+                )
+            world = World(loaded.cell)
+            program.user_frame = frame
+            program.T_base_user = np.linalg.solve(world.T_world(name), world.T_world(frame))
         moves += len(program.moves)
         writer = {"urscript": urscript, "krl": krl, "rapid": rapid}[fmt]
         for file_name, text in writer.write(program, signals).items():

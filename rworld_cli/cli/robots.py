@@ -110,6 +110,14 @@ def export_group():
     help="Nominal pose file(s): list the targets the current poses move; repeatable.",
 )
 @click.option(
+    "--frame",
+    "user_frame",
+    default=None,
+    metavar="FRAME",
+    help="Give Cartesian targets in this cell frame (a user frame / work object); default the "
+    "robot's base.",
+)
+@click.option(
     "--gripper-output", default=1, show_default=True, help="Digital output of the gripper."
 )
 @click.option(
@@ -128,6 +136,7 @@ def export_program(
     device,
     period,
     against,
+    user_frame,
     gripper_output,
     tool_changer_output,
     json_output,
@@ -136,7 +145,8 @@ def export_program(
 
     Targets are resolved as the simulator resolves them, with the cell's current pose files (a
     calibrated overlay included): joint moves go to the joint solution the simulation chose,
-    linear moves to the TCP pose in the robot's base frame, with the TCP as tool data and the
+    linear moves to the TCP pose in the robot's base frame (or --frame), with the TCP as tool
+    data and the
     speeds and accelerations of the simulated motion.  Grasp / release / place and tool changes
     drive digital outputs; syncs and waits for other devices become comments.  The files appear
     together or not at all.  An unreachable target exits 1 with the program's file:line.
@@ -161,6 +171,7 @@ def export_program(
         period,
         list(against) if against else None,
         Signals(gripper_output, tool_changer_output),
+        user_frame,
     )
     if json_output:
         emit_json(result.as_dict())

@@ -104,6 +104,12 @@ class DeviceProgram:
     source: str  # the program file
     joint_names: list[str]
     instructions: list[Instruction] = field(default_factory=list)
+    user_frame: str | None = None  # the cell frame Cartesian targets are given in (else the base)
+    T_base_user: np.ndarray = field(default_factory=lambda: np.eye(4))
+
+    def in_user(self, T_base_tcp: np.ndarray) -> np.ndarray:
+        """A Cartesian target in the user frame (the base when there is none)."""
+        return np.linalg.solve(self.T_base_user, T_base_tcp)
 
     @property
     def moves(self) -> list[Move]:

@@ -27,8 +27,12 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         "; written by 'rworld export program': targets resolved with the cell's current pose files",
         f"; outputs: gripper $OUT[{signals.gripper}] (TRUE = closed), tool changer "
         f"$OUT[{signals.tool_changer}] (TRUE = locked)",
-        "$BASE = BASE_DATA[1]  ; the robot's base frame",
     ]
+    if program.user_frame:
+        src.append(f"BASE_DATA[1] = {{{frame(program.T_base_user)}}}  ; {program.user_frame}")
+        src.append("$BASE = BASE_DATA[1]")
+    else:
+        src.append("$BASE = BASE_DATA[1]  ; the robot's base frame (identity)")
     dat = ["&ACCESS RVP", f"DEFDAT {name}", f"; targets of {program.name}"]
     for tool_name, k in tools.items():
         dat.append(f"; TOOL_DATA[{k}] is {tool_name}")
@@ -54,9 +58,9 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
                 src.append(f"PTP {label}")
             else:
                 label = f"XP{k_target}"
+                position = frame(program.in_user(item.T_base_tcp))
                 dat.append(
-                    f"DECL E6POS {label} = {{{frame(item.T_base_tcp)}, E1 0, E2 0, E3 0, E4 0, "
-                    "E5 0, E6 0}"
+                    f"DECL E6POS {label} = {{{position}, E1 0, E2 0, E3 0, E4 0, E5 0, E6 0}}"
                 )
                 src.append(f"$VEL.CP = {number(item.tool_speed, 4)}  ; m/s")
                 src.append(f"$ACC.CP = {number(item.tool_acceleration, 4)}  ; m/s^2")

@@ -41,8 +41,14 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         "files",
         f"  ! outputs: gripper do_{signals.gripper} (1 = closed), tool changer "
         f"do_{signals.tool_changer} (1 = locked)",
-        '  PERS wobjdata wobj_base := [FALSE,TRUE,"",[[0,0,0],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];',
     ]
+    wobj = "wobj_base"
+    uframe = "[0,0,0],[1,0,0,0]"
+    if program.user_frame:
+        wobj = sanitise("wobj_" + program.user_frame, 32, used)
+        uframe = pose(program.T_base_user)
+        lines.append(f"  ! {wobj} is {program.user_frame}")
+    lines.append(f'  PERS wobjdata {wobj} := [FALSE,TRUE,"",[{uframe}],[[0,0,0],[1,0,0,0]]];')
     for tool in program.tools:
         lines.append(f"  ! {tool_names[tool.name]} is {tool.name}")
         lines.append(
@@ -60,16 +66,15 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             cf = ",".join(str(c) for c in abb_confdata(item.q))
             lines.append(f"  ! {label}: {item.where} {item.text}")
             lines.append(f"  CONST jointtarget j{k + 1} := [[{joints}],{EXTAX}];")
-            lines.append(f"  CONST robtarget {label} := [{pose(item.T_base_tcp)},[{cf}],{EXTAX}];")
+            target = pose(program.in_user(item.T_base_tcp))
+            lines.append(f"  CONST robtarget {label} := [{target},[{cf}],{EXTAX}];")
             speed = f"[{number(item.tool_speed * 1000, 3)},500,5000,1000]"
             lines.append(f"  CONST speeddata s{k + 1} := {speed};")
             body.append(f"    ! {item.where}: {item.text}")
             if item.motion == "joint":
-                body.append(
-                    f"    MoveAbsJ j{k + 1}, s{k + 1}, fine, {current_tool}\\WObj:=wobj_base;"
-                )
+                body.append(f"    MoveAbsJ j{k + 1}, s{k + 1}, fine, {current_tool}\\WObj:={wobj};")
             else:
-                body.append(f"    MoveL {label}, s{k + 1}, fine, {current_tool}\\WObj:=wobj_base;")
+                body.append(f"    MoveL {label}, s{k + 1}, fine, {current_tool}\\WObj:={wobj};")
         elif isinstance(item, Output):
             index = signals.gripper if item.signal == "gripper" else signals.tool_changer
             body.append(f"    ! {item.where}: {item.text}")

@@ -34,6 +34,9 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
     ]
     if name != program.name:
         lines.insert(1, f"# '{name}' is program '{program.name}'")
+    if program.user_frame:
+        lines.append(f"  # user frame: {program.user_frame}, in the base frame")
+        lines.append(f"  user = {pose(program.T_base_user)}")
     for item in program.instructions:
         if isinstance(item, Tool):
             lines.append(f"  # tool: {item.name}")
@@ -47,8 +50,11 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
                     f"v={number(item.joint_speed, 4)})"
                 )
             else:
+                target = pose(program.in_user(item.T_base_tcp))
+                if program.user_frame:
+                    target = f"pose_trans(user, {target})"
                 lines.append(
-                    f"  movel({pose(item.T_base_tcp)}, a={number(item.tool_acceleration, 4)}, "
+                    f"  movel({target}, a={number(item.tool_acceleration, 4)}, "
                     f"v={number(item.tool_speed, 4)})"
                 )
         elif isinstance(item, Output):

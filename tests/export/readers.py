@@ -18,15 +18,27 @@ def _pose(xyz, R) -> np.ndarray:
     return T
 
 
+def _ur_pose(body: str) -> np.ndarray:
+    v = np.array([float(x) for x in re.findall(NUM, body)])
+    return _pose(v[:3], Rotation.from_rotvec(v[3:]).as_matrix())
+
+
 def urscript(text: str) -> list[tuple[str, np.ndarray]]:
-    """[("joint", q) | ("linear", T_base_tcp)] in order; m and rad."""
+    """[("joint", q) | ("linear", T_base_tcp)] in order; m and rad; a ``user`` frame applied
+    where ``pose_trans(user, p)`` says so."""
+    user = np.eye(4)
+    found = re.search(r"^\s*user = p\[(.*?)\]", text, re.M)
+    if found:
+        user = _ur_pose(found.group(1))
     out = []
-    for kind, body in re.findall(r"^\s*(movej|movel)\((\[.*?\]|p\[.*?\])", text, re.M):
-        values = np.array([float(v) for v in re.findall(NUM, body)])
+    pattern = r"^\s*(movej|movel)\((\[.*?\]|p\[.*?\]|pose_trans\(user, p\[.*?\]\))"
+    for kind, body in re.findall(pattern, text, re.M):
         if kind == "movej":
-            out.append(("joint", values))
+            out.append(("joint", np.array([float(v) for v in re.findall(NUM, body)])))
+        elif body.startswith("pose_trans"):
+            out.append(("linear", user @ _ur_pose(body[len("pose_trans(user, ") :])))
         else:
-            out.append(("linear", _pose(values[:3], Rotation.from_rotvec(values[3:]).as_matrix())))
+            out.append(("linear", _ur_pose(body)))
     return out
 
 
@@ -38,36 +50,51 @@ def urscript_tcps(text: str) -> list[np.ndarray]:
     return out
 
 
+def _krl_frame(body: str) -> np.ndarray:
+    fields = dict(re.findall(rf"([A-Z]\d?) ({NUM})", body))
+    xyz = np.array([float(fields[k]) for k in "XYZ"]) / 1000
+    abc = [float(fields[k]) for k in "ABC"]
+    return _pose(xyz, Rotation.from_euler("ZYX", abc, degrees=True).as_matrix())
+
+
 def krl(src: str, dat: str) -> list[tuple[str, np.ndarray]]:
-    """PTP to E6AXIS (deg) and LIN to E6POS (mm; A, B, C about Z, Y', X'')."""
+    """PTP to E6AXIS (deg) and LIN to E6POS (mm; A, B, C about Z, Y', X''), in $BASE."""
+    base = np.eye(4)
+    found = re.search(r"^BASE_DATA\[1\] = \{(.*?)\}", src, re.M)
+    if found:
+        base = _krl_frame(found.group(1))
     decl = {}
     for kind, label, body in re.findall(r"DECL (E6AXIS|E6POS) (\w+) = \{(.*?)\}", dat):
         fields = dict(re.findall(rf"([A-Z]\d?) ({NUM})", body))
         if kind == "E6AXIS":
             decl[label] = ("joint", np.radians([float(fields[f"A{i}"]) for i in range(1, 7)]))
         else:
-            xyz = np.array([float(fields[k]) for k in "XYZ"]) / 1000
-            abc = [float(fields[k]) for k in "ABC"]
-            R = Rotation.from_euler("ZYX", abc, degrees=True).as_matrix()
-            decl[label] = ("linear", _pose(xyz, R))
+            decl[label] = ("linear", base @ _krl_frame(body))
     return [decl[label] for label in re.findall(r"^(?:PTP|LIN) (\w+)", src, re.M)]
 
 
 def rapid(text: str) -> list[tuple[str, np.ndarray]]:
-    """MoveAbsJ to jointtarget (deg) and MoveL to robtarget (mm, quaternion w, x, y, z)."""
+    """MoveAbsJ to jointtarget (deg) and MoveL to robtarget (mm, quaternion w, x, y, z), in the
+    work object's user frame."""
+    found = re.search(r'PERS wobjdata \w+ := \[FALSE,TRUE,"",\[\[(.*?)\],\[(.*?)\]\]', text)
+    user = _abb_pose(found.group(1), found.group(2)) if found else np.eye(4)
     joints = {
         name: np.radians([float(v) for v in body.split(",")])
         for name, body in re.findall(r"CONST jointtarget (\w+) := \[\[(.*?)\]", text)
     }
     poses = {}
     for name, xyz, quat in re.findall(r"CONST robtarget (\w+) := \[\[(.*?)\],\[(.*?)\]", text):
-        w, x, y, z = (float(v) for v in quat.split(","))
-        R = Rotation.from_quat([x, y, z, w]).as_matrix()
-        poses[name] = _pose(np.array([float(v) for v in xyz.split(",")]) / 1000, R)
+        poses[name] = user @ _abb_pose(xyz, quat)
     out = []
     for kind, name in re.findall(r"^\s*(MoveAbsJ|MoveL) (\w+),", text, re.M):
         out.append(("joint", joints[name]) if kind == "MoveAbsJ" else ("linear", poses[name]))
     return out
+
+
+def _abb_pose(xyz: str, quat: str) -> np.ndarray:
+    w, x, y, z = (float(v) for v in quat.split(","))
+    R = Rotation.from_quat([x, y, z, w]).as_matrix()
+    return _pose(np.array([float(v) for v in xyz.split(",")]) / 1000, R)
 
 
 def read(folder: Path, fmt: str, stem: str) -> list[tuple[str, np.ndarray]]:

@@ -53,6 +53,21 @@ def test_exported_targets_reproduce_the_simulation(fmt, case, tmp_path):
             assert _rotation_angle(value, move.T_base_tcp) <= 1e-6
 
 
+@pytest.mark.parametrize("fmt", ARMS)
+def test_targets_in_a_user_frame(fmt, tmp_path):
+    """--frame: Cartesian targets in a cell frame (BASE_DATA, wobjdata, pose_trans); composed with
+    it they are the simulated poses."""
+    cell = str(WORKCELLS / "puma560")
+    export_program(cell, "pick_place", fmt, str(tmp_path), frame="table.top_center")
+    moves, _ = _resolved(cell, "pick_place", "puma")
+    read = readers.read(tmp_path, fmt, "pick_place")
+    linear = [(value, m) for (kind, value), m in zip(read, moves) if kind == "linear"]
+    assert len(linear) == 3
+    for value, move in linear:
+        assert np.abs(value[:3, 3] - move.T_base_tcp[:3, 3]).max() <= 1e-6
+        assert _rotation_angle(value, move.T_base_tcp) <= 1e-6
+
+
 def test_urscript_tool_data_is_the_tcp_in_the_flange(tmp_path):
     export_program(str(WORKCELLS / "paper_fig9"), "transfer", "urscript", str(tmp_path), "robot")
     tcps = readers.urscript_tcps((tmp_path / "robot.script").read_text())
