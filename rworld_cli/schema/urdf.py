@@ -180,9 +180,7 @@ class _Reader:
         if iel is not None:
             inertial = self.inertial(iel, loc + ".inertial")
         collisions = tuple(
-            g
-            for k, c in enumerate(el.findall("collision"))
-            if (g := self.geometry(c, loc)) is not None
+            g for c in el.findall("collision") if (g := self.geometry(c, loc)) is not None
         )
         visuals = tuple(g for c in el.findall("visual") if (g := self.geometry(c, loc)) is not None)
         line, column = self.where(el)
@@ -539,11 +537,7 @@ def read_urdf(
     errors = [i for i in reader.issues if i.severity == "error"]
     if errors:
         raise UserError(f"invalid: {shown}: {len(errors)} error(s)", reader.issues)
-    comment = ""
-    return (
-        UrdfRobot(root.get("name") or path.stem, shown, links, joints, roots[0], comment),
-        reader.issues,
-    )
+    return UrdfRobot(root.get("name") or path.stem, shown, links, joints, roots[0]), reader.issues
 
 
 # --------------------------------------------------------------------------- writing

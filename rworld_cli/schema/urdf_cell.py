@@ -220,7 +220,8 @@ def cell_from_urdf(
     base, tip : str, optional
         URDF links; default the root, and the end of the unique chain of moving joints.
     tcp : str, optional
-        The URDF link whose frame becomes the device's TCP; default ``tip``.
+        The URDF link whose frame becomes the device's TCP; default a link named ``tcp`` or
+        ``tool0`` on the imported part, else ``tip``.
     device_name : str, optional
         Default: the robot's name.
 
