@@ -311,3 +311,55 @@ def test_rotated_inertial_origin_and_a_link_without_inertial(tmp_path):
     model, data = _pinocchio(urdf)
     worst = _worst_differences(result.cell, "arm", model, data, "hand")
     assert max(worst.values()) <= TOL, worst
+
+
+def test_meshes_scaled_copied_or_joined(tmp_path):
+    """A mesh in mm (scale 0.001) is copied with 'units: mm'; a link with several shapes (and a
+    fixed child with one) becomes one STL joining them, in the link frame."""
+    import trimesh
+
+    (tmp_path / "meshes").mkdir()
+    trimesh.creation.box(extents=[100, 40, 20]).export(tmp_path / "meshes" / "arm_mm.stl")
+    urdf = tmp_path / "robot.urdf"
+    urdf.write_text(
+        """<robot name="r">
+  <link name="base"/>
+  <link name="arm">
+    <inertial><mass value="1"/>
+      <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry>
+      <mesh filename="meshes/arm_mm.stl" scale="0.001 0.001 0.001"/></geometry></collision>
+  </link>
+  <link name="fore">
+    <inertial><mass value="1"/>
+      <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0.1 0 0"/><geometry><box size="0.2 0.05 0.05"/></geometry></collision>
+    <collision><origin xyz="0.2 0 0" rpy="0 1.5707963267948966 0"/>
+      <geometry><cylinder radius="0.03" length="0.1"/></geometry></collision>
+  </link>
+  <link name="pad">
+    <collision><geometry><sphere radius="0.02"/></geometry></collision>
+  </link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="arm"/><child link="fore"/><origin xyz="0.1 0 0"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="pad_joint" type="fixed"><parent link="fore"/><child link="pad"/>
+    <origin xyz="0.3 0 0"/></joint>
+</robot>
+"""
+    )
+    result = import_urdf(str(urdf), str(tmp_path / "cell"))
+    cell = load_cell(result.cell).cell
+    arm, fore = cell.devices["r"].links
+    assert arm.shape.mesh_scale == 0.001  # copied as is, in mm
+    np.testing.assert_allclose(arm.shape.size, [0.1, 0.04, 0.02], atol=1e-12)
+    assert (Path(result.cell) / "meshes" / "arm.stl").read_bytes() == (
+        tmp_path / "meshes" / "arm_mm.stl"
+    ).read_bytes()
+    joined = trimesh.load(Path(result.cell) / "meshes" / "fore.stl")
+    assert joined.body_count == 3  # box, cylinder and the fixed pad's sphere
+    lo, hi = joined.bounds
+    np.testing.assert_allclose(lo, [0.0, -0.03, -0.03], atol=1e-6)
+    np.testing.assert_allclose(hi, [0.32, 0.03, 0.03], atol=1e-6)
+    assert cell.frames["r.pad"].parent == "r.fore"  # the fixed link, kept as a frame
