@@ -34,6 +34,31 @@ class CalibrationRun:
     listed: bool  # the output is among the cell's pose files
 
 
+def _protected_files(cell_file: Path, cell) -> dict[Path, str]:
+    """The files calibration never writes, by resolved path, with what each is: the structure,
+    the nominal pose files (those not written by 'rworld calibrate'), the meshes, and the
+    programs, runs and paths beside the cell."""
+    from ..schema.loader import load_pose_file_doc
+
+    out = {cell_file.resolve(): "the cell's structure (cell.yaml)"}
+    for path in cell.pose_files:
+        try:
+            overlay = load_pose_file_doc(path)[1].provenance is not None
+        except UserError:
+            overlay = False
+        if not overlay:
+            out[path.resolve()] = "a nominal pose file of the cell"
+    shapes = [o.shape for o in cell.objects.values()] + [d.shape for d in cell.devices.values()]
+    shapes += [link.shape for d in cell.devices.values() for link in d.links]
+    for shape in shapes:
+        if shape is not None and shape.mesh_file is not None:
+            out[Path(shape.mesh_file).resolve()] = "a mesh of the cell"
+    for folder, kind in (("programs", "a program"), ("runs", "a run"), ("paths", "a path")):
+        for path in (cell_file.parent / folder).glob("*.y*ml"):
+            out[path.resolve()] = f"{kind} file of the cell"
+    return out
+
+
 def calibrate_cell(
     cell_path: str,
     measurement_paths: list[str],
@@ -54,12 +79,11 @@ def calibrate_cell(
     cell = loaded.cell
     real, _ = resolve_cell_path(cell_path)
     out = Path(output) if output else real.parent / "calibrated.yaml"
-    protected = {real.resolve()} | {p.resolve() for p in cell.pose_files[:1]}
-    if out.resolve() in protected or out.resolve().parent.name in ("programs", "runs"):
+    what = _protected_files(real, cell).get(out.resolve())
+    if what is not None:
         raise UserError(
-            f"refusing to write calibrated poses to {out}: it is the cell's structure, its "
-            "nominal pose file or a program; "
-            "write an overlay (default: calibrated.yaml beside cell.yaml)"
+            f"refusing to write calibrated poses to {out}: it is {what}; write an overlay "
+            "(default: calibrated.yaml beside cell.yaml)"
         )
     measured = load_measurements(measurement_paths, cell, csv_units)
     result = calibrate(cell, measured, frames)

@@ -8,8 +8,8 @@ Natural frames (calibration report, section 4):
   the SVD, here with a reflection guard), then ``t`` by least squares on
   the features' linear equations (section 4.1.3.2).  C1 (no orientation):
   intersection points of the features (section 4.2.2: plane triples, line x
-  plane, closest points of two lines, circle centres, points) registered
-  with the same SVD.
+  plane, closest points of two lines, circle centres, points; a circle's axis
+  counts as a line) registered with the same SVD.
 * **maximum likelihood** next: the pose that minimises the probe points'
   distances to the nominal features (scipy ``least_squares``), so the pose
   error is at the noise floor; its Jacobian gives the covariance and the
@@ -104,7 +104,7 @@ def _intersections(
     features: list[Feature], fits: dict[str, FeatureFit]
 ) -> tuple[np.ndarray, np.ndarray]:
     """Corresponding points (nominal, world) from points, circle centres and feature
-    intersections.
+    intersections (a circle's axis counts as a line through its centre).
     """
     nom, wld = [], []
     for f in features:
@@ -112,7 +112,7 @@ def _intersections(
         if f.kind in ("point", "circle"):
             nom.append(f.point), wld.append(fit.point)
     planes = [f for f in features if f.kind == "plane"]
-    lines = [f for f in features if f.kind == "line"]
+    lines = [f for f in features if f.kind in ("line", "circle")]  # a circle's axis is a line
     for a, b, c in combinations(planes, 3):
         N = np.stack([a.direction, b.direction, c.direction])
         if abs(np.linalg.det(N)) > 0.1:
@@ -197,9 +197,16 @@ def closed_form(
             ), f"closed form ({len(nominal)} intersection points)" + (
                 f"; {MIRROR}" if mirrored else ""
             )
-    return (
+    if code == "C2":
+        return (
+            None,
+            "too few oriented directions or non-collinear intersection points for the closed form",
+        )
+    return (  # C1: no orientation information, so only points can start it
         None,
-        "too few oriented directions or non-collinear intersection points for the closed form",
+        f"the features give {len(nominal)} intersection point(s) (points, circle centres, plane "
+        "triples, line or circle axis x plane, line pairs), not 3 non-collinear ones, for the "
+        "closed form",
     )
 
 

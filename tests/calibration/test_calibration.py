@@ -15,7 +15,7 @@ from rworld_cli.calibration.pipeline import calibrate, simulate_measurements
 from rworld_cli.schema.loader import load_cell
 from rworld_cli.schema.measurements import load_measurements, measurement_text
 from rworld_cli.world.tree import World
-from tests.conftest import WORKCELLS
+from tests.conftest import REPO, WORKCELLS
 
 TRUE_BLOCK = "block: {xyz: [-98.7, -76.2, 0.4], rpy: [0.3, -0.2, 15.8]}"
 NOMINAL_BLOCK = "block: {xyz: [-100, -75, 0], rpy: [0, 0, 15]}"
@@ -392,3 +392,87 @@ def test_line_parallel_to_plane_is_refused():
         "translation along (1.00, 0.00, 0.00)" in sol.reason
         or "translation along (-1.00, 0.00, 0.00)" in sol.reason
     )
+
+
+def test_overlay_refusal_compares_real_paths(cli, tmp_path):
+    """The refusal names what the file is, and a folder that merely is called 'runs' elsewhere is
+    fine (it was refused by its name before)."""
+    cell_dir = tmp_path / "puma560"
+    shutil.copytree(WORKCELLS / "puma560", cell_dir)
+    program = cell_dir / "programs" / "pick_place.yaml"
+    before = program.read_bytes()
+    result = cli(["calibrate", str(cell_dir), "x.yaml", "-o", str(program)])
+    assert result.exit_code == 2 and "it is a program file of the cell" in result.output
+    assert program.read_bytes() == before
+    result = cli(["calibrate", str(cell_dir), "x.yaml", "-o", str(cell_dir / "poses.yaml")])
+    assert "it is a nominal pose file of the cell" in result.output
+    measurements = sorted((REPO / "measurements" / "calibration_example").glob("*.yaml"))
+    elsewhere = tmp_path / "results" / "runs" / "calibrated.yaml"
+    result = cli(
+        [
+            "calibrate",
+            str(WORKCELLS / "calibration_example"),
+            str(measurements[0]),
+            "-o",
+            str(elsewhere),
+        ]
+    )
+    assert result.exit_code == 0, result.output
+    assert elsewhere.is_file()
+
+
+def test_c1_closed_form_from_circle_axes_and_a_plane():
+    """C1 (no orientation): a circle's axis counts as a line, so two holes tilted against a face
+    give the centres and where the axes pierce it, and two skew holes their axes' closest points;
+    two parallel holes alone give two points, and the message says so."""
+    import dataclasses
+
+    from scipy.spatial.transform import Rotation
+
+    from rworld_cli.calibration.fit import FeatureFit
+    from rworld_cli.calibration.solve import closed_form
+    from rworld_cli.model.cell import Feature
+
+    def unit(v):
+        return np.asarray(v, dtype=float) / np.linalg.norm(v)
+
+    features = [
+        Feature("part.face", "part", "plane", np.zeros(3), unit([0, 0, 1])),
+        Feature(
+            "part.hole1", "part", "circle", np.array([0.1, 0.0, 0.05]), unit([0.3, 0, 1]), 0.01
+        ),
+        Feature(
+            "part.hole2", "part", "circle", np.array([0.0, 0.1, 0.05]), unit([0, -0.4, 1]), 0.01
+        ),
+    ]
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_rotvec([0.2, -0.5, 0.9]).as_matrix()
+    T[:3, 3] = [0.4, -0.2, 0.7]
+    fits = {
+        f.name: FeatureFit(
+            f.name,
+            f.kind,
+            T[:3, :3] @ f.point + T[:3, 3],
+            T[:3, :3] @ f.direction,
+            False,
+            f.radius,
+            np.zeros(3),
+            0.0,
+            [],
+            1.0,
+            3,
+            np.zeros((3, 3)),
+        )
+        for f in features
+    }
+    pose, how = closed_form("C1", features, fits)
+    assert pose is not None, how
+    np.testing.assert_allclose(pose, T, atol=1e-9)
+    np.testing.assert_allclose(closed_form("C1", features[1:], fits)[0], T, atol=1e-9)  # skew
+    parallel = [  # two holes with parallel axes and no face: two centres, nothing more
+        Feature(f.name, f.owner, f.kind, f.point, unit([0, 0, 1]), f.radius) for f in features[1:]
+    ]
+    for f in parallel:
+        fits[f.name] = dataclasses.replace(fits[f.name], direction=T[:3, :3] @ f.direction)
+    pose, how = closed_form("C1", parallel, fits)
+    assert pose is None and "2 intersection point(s)" in how and "not 3 non-collinear" in how
