@@ -126,6 +126,12 @@ def export_group():
     show_default=True,
     help="Digital output of the tool changer.",
 )
+@click.option(
+    "--sensor-input",
+    default=1,
+    show_default=True,
+    help="Digital input that stops a guarded move's search (the until: sensor).",
+)
 @json_option
 @handle_errors
 def export_program(
@@ -139,6 +145,7 @@ def export_program(
     user_frame,
     gripper_output,
     tool_changer_output,
+    sensor_input,
     json_output,
 ):
     """Write the programs of RUN (or one PROGRAM file) on CELL in a robot language.
@@ -147,7 +154,8 @@ def export_program(
     calibrated overlay included): joint moves go to the joint solution the simulation chose,
     linear moves to the TCP pose in the robot's base frame (or --frame), with the TCP as tool
     data and the
-    speeds and accelerations of the simulated motion.  Grasp / release / place and tool changes
+    speeds and accelerations of the simulated motion.  A guarded move (until:) becomes a search
+    to its planned end that stops on --sensor-input.  Grasp / release / place and tool changes
     drive digital outputs; syncs and waits for other devices become comments.  The files appear
     together or not at all.  An unreachable target exits 1 with the program's file:line.
 
@@ -170,7 +178,7 @@ def export_program(
         device,
         period,
         list(against) if against else None,
-        Signals(gripper_output, tool_changer_output),
+        Signals(gripper_output, tool_changer_output, sensor_input),
         user_frame,
     )
     if json_output:

@@ -10,7 +10,9 @@ FORMATS = ("urscript", "krl", "rapid", "csv")
 
 @dataclass(frozen=True)
 class Signals:
-    """The digital outputs that grasp / release and tool changes drive, per language."""
+    """The digital outputs that grasp / release and tool changes drive, and the digital input
+    that a guarded move's sensor closes."""
 
     gripper: int = 1
     tool_changer: int = 2
+    sensor: int = 1

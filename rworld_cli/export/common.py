@@ -48,6 +48,10 @@ class Move:
         What the program names (a frame or a joint position).
     where, text : str
         The program's ``file:line`` and the step in words.
+    guard : str or None
+        A guarded move's sensor: the writers make it a search towards ``q_search`` /
+        ``T_base_search`` (the planned end) that stops when the sensor's input closes; ``q`` and
+        ``T_base_tcp`` are where the simulation stopped.
     """
 
     motion: str
@@ -63,6 +67,21 @@ class Move:
     target: str
     where: str
     text: str
+    guard: str | None = None
+    q_search: np.ndarray | None = None
+    T_base_search: np.ndarray | None = None
+
+    @property
+    def q_target(self) -> np.ndarray:
+        """The joint target to write: the search's end for a guarded move."""
+        return self.q_search if self.guard and self.q_search is not None else self.q
+
+    @property
+    def T_target(self) -> np.ndarray:
+        """The Cartesian target to write (base frame): the search's end for a guarded move."""
+        if self.guard and self.T_base_search is not None:
+            return self.T_base_search
+        return self.T_base_tcp
 
 
 @dataclass
@@ -193,6 +212,9 @@ def instructions(
                     move.target,
                     step.where,
                     text,
+                    move.guard,
+                    move.q_planned,
+                    move.T_base_planned,
                 )
             )
         elif step.kind in ("grasp", "release", "place"):

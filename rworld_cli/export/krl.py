@@ -33,6 +33,8 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         src.append("$BASE = BASE_DATA[1]")
     else:
         src.append("$BASE = BASE_DATA[1]  ; the robot's base frame (identity)")
+    if any(m.guard for m in program.moves):
+        src.append(f"INTERRUPT DECL 10 WHEN $IN[{signals.sensor}]==TRUE DO BRAKE  ; searches")
     dat = ["&ACCESS RVP", f"DEFDAT {name}", f"; targets of {program.name}"]
     for tool_name, k in tools.items():
         dat.append(f"; TOOL_DATA[{k}] is {tool_name}")
@@ -45,11 +47,15 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         elif isinstance(item, Move):
             k_target += 1
             src.append(f"; {item.where}: {item.text}")
+            if item.guard:
+                src.append(
+                    f"; a search until {item.guard}: stops when $IN[{signals.sensor}] closes"
+                )
+                src.append("INTERRUPT ON 10")
             if item.motion == "joint":
                 label = f"XP{k_target}"
-                axes = ", ".join(
-                    f"A{i + 1} {number(np.degrees(v), 9)}" for i, v in enumerate(item.q)
-                )
+                q = item.q_target
+                axes = ", ".join(f"A{i + 1} {number(np.degrees(v), 9)}" for i, v in enumerate(q))
                 dat.append(f"DECL E6AXIS {label} = {{{axes}, E1 0, E2 0, E3 0, E4 0, E5 0, E6 0}}")
                 speed = max(1, min(100, round(100 * item.speed_fraction)))
                 acceleration = max(1, min(100, round(100 * item.acceleration_fraction)))
@@ -58,13 +64,15 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
                 src.append(f"PTP {label}")
             else:
                 label = f"XP{k_target}"
-                position = frame(program.in_user(item.T_base_tcp))
+                position = frame(program.in_user(item.T_target))
                 dat.append(
                     f"DECL E6POS {label} = {{{position}, E1 0, E2 0, E3 0, E4 0, E5 0, E6 0}}"
                 )
                 src.append(f"$VEL.CP = {number(item.tool_speed, 4)}  ; m/s")
                 src.append(f"$ACC.CP = {number(item.tool_acceleration, 4)}  ; m/s^2")
                 src.append(f"LIN {label}")
+            if item.guard:
+                src.append("INTERRUPT OFF 10")
             dat.append(f"; {label}: {item.where} {item.text}")
         elif isinstance(item, Output):
             index = signals.gripper if item.signal == "gripper" else signals.tool_changer

@@ -40,7 +40,7 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         "  ! written by 'rworld export program': targets resolved with the cell's current pose "
         "files",
         f"  ! outputs: gripper do_{signals.gripper} (1 = closed), tool changer "
-        f"do_{signals.tool_changer} (1 = locked)",
+        f"do_{signals.tool_changer} (1 = locked); searches stop on di_{signals.sensor}",
     ]
     wobj = "wobj_base"
     uframe = "[0,0,0],[1,0,0,0]"
@@ -66,12 +66,19 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             cf = ",".join(str(c) for c in abb_confdata(item.q))
             lines.append(f"  ! {label}: {item.where} {item.text}")
             lines.append(f"  CONST jointtarget j{k + 1} := [[{joints}],{EXTAX}];")
-            target = pose(program.in_user(item.T_base_tcp))
+            T = item.T_target
+            target = pose(program.in_user(T))
             lines.append(f"  CONST robtarget {label} := [{target},[{cf}],{EXTAX}];")
             speed = f"[{number(item.tool_speed * 1000, 3)},500,5000,1000]"
             lines.append(f"  CONST speeddata s{k + 1} := {speed};")
             body.append(f"    ! {item.where}: {item.text}")
-            if item.motion == "joint":
+            if item.guard:  # a search: SearchL stops where the sensor's input closes
+                lines.append(f"  VAR robtarget hit{k + 1};")
+                body.append(
+                    f"    SearchL \\Stop, di_{signals.sensor}, hit{k + 1}, {label}, s{k + 1}, "
+                    f"{current_tool}\\WObj:={wobj};"
+                )
+            elif item.motion == "joint":
                 body.append(f"    MoveAbsJ j{k + 1}, s{k + 1}, fine, {current_tool}\\WObj:={wobj};")
             else:
                 body.append(f"    MoveL {label}, s{k + 1}, fine, {current_tool}\\WObj:={wobj};")

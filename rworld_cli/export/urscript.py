@@ -29,7 +29,7 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         f"# {program.name}: device '{program.device}', from {program.source}",
         "# written by 'rworld export program': targets resolved with the cell's current pose files",
         f"# digital outputs: gripper {signals.gripper} (True = closed), tool changer "
-        f"{signals.tool_changer} (True = locked)",
+        f"{signals.tool_changer} (True = locked); searches stop on digital input {signals.sensor}",
         f"def {name}():",
     ]
     if name != program.name:
@@ -43,20 +43,42 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             lines.append(f"  set_tcp({pose(item.T_flange_tcp)})")
         elif isinstance(item, Move):
             lines.append(f"  # {item.where}: {item.text}")
+            k = len([i for i in lines if i.startswith("  # ")])
             if item.motion == "joint":
-                q = "[" + ", ".join(number(x) for x in item.q) + "]"
-                lines.append(
-                    f"  movej({q}, a={number(item.joint_acceleration, 4)}, "
-                    f"v={number(item.joint_speed, 4)})"
+                q = item.q_target
+                motion = (
+                    "movej([" + ", ".join(number(x) for x in q) + "], "
+                    f"a={number(item.joint_acceleration, 4)}, v={number(item.joint_speed, 4)})"
                 )
             else:
-                target = pose(program.in_user(item.T_base_tcp))
+                T = item.T_target
+                target = pose(program.in_user(T))
                 if program.user_frame:
                     target = f"pose_trans(user, {target})"
-                lines.append(
-                    f"  movel({target}, a={number(item.tool_acceleration, 4)}, "
+                motion = (
+                    f"movel({target}, a={number(item.tool_acceleration, 4)}, "
                     f"v={number(item.tool_speed, 4)})"
                 )
+            if not item.guard:
+                lines.append(f"  {motion}")
+                continue
+            # a search: the move runs in a thread; it stops when the sensor's input closes
+            brake = number(max(item.tool_acceleration, 1.0), 4)
+            lines += [
+                f"  # a search until {item.guard}: stops when digital input {signals.sensor} "
+                "closes",
+                f"  done_{k} = False",
+                f"  thread search_{k}():",
+                f"    {motion}",
+                f"    done_{k} = True",
+                "  end",
+                f"  handle_{k} = run search_{k}()",
+                f"  while not get_digital_in({signals.sensor}) and not done_{k}:",
+                "    sync()",
+                "  end",
+                f"  kill handle_{k}",
+                f"  stop{'j' if item.motion == 'joint' else 'l'}({brake})",
+            ]
         elif isinstance(item, Output):
             index = signals.gripper if item.signal == "gripper" else signals.tool_changer
             lines.append(f"  # {item.where}: {item.text}")

@@ -104,6 +104,10 @@ class MoveTarget:
         When the move ran [s].
     speed, acceleration : float
         The step's fractions of the limits.
+    guard : str or None
+        A guarded move's sensor (``until:``): the move searches towards its planned end and
+        stops when the sensor senses; ``q_goal`` and ``T_base_tcp`` are where the simulation
+        stopped, ``q_planned`` and ``T_base_planned`` where it would have ended.
     """
 
     motion: str
@@ -118,6 +122,9 @@ class MoveTarget:
     t1: float
     speed: float
     acceleration: float
+    guard: str | None = None
+    q_planned: np.ndarray | None = None
+    T_base_planned: np.ndarray | None = None
 
 
 @dataclass

@@ -326,9 +326,10 @@ class _Scheduler:
                     )
                 except PathError as exc:
                     self.fail(device, step, exc.detail)
+        planned = seg
         if seg is not None and spec.until is not None:
             seg = self._guard(device, tr, step, seg)
-        self._move_target = self._target(device, tr, step, q_now, seg)
+        self._move_target = self._target(device, tr, step, q_now, seg, planned)
         if seg is None:
             self.events.append(
                 Event(tr.t, device, step.index, "move", f"{step.describe()}: already there")
@@ -341,7 +342,7 @@ class _Scheduler:
         tr.t = seg.t1
         return True
 
-    def _target(self, device: str, tr: _Track, step: Step, q_now, seg) -> MoveTarget:
+    def _target(self, device: str, tr: _Track, step: Step, q_now, seg, planned) -> MoveTarget:
         """The resolved move, for exporters: the TCP steered, where the joints ended, the TCP
         pose there in the base frame."""
         spec = step.spec
@@ -349,7 +350,9 @@ class _Scheduler:
         tcp = self._resolve_tcp(device, spec.tcp)
         link, T_link_tcp = self.world.mount_of(device, tcp)
         q_goal = np.array(q_now if seg is None else seg.q_end, dtype=float)
-        T_base_tcp = tool_pose(dev, q_goal, ToolMount(link, T_link_tcp))
+        q_planned = np.array(q_now if planned is None else planned.q_end, dtype=float)
+        mount = ToolMount(link, T_link_tcp)
+        T_base_tcp = tool_pose(dev, q_goal, mount)
         return MoveTarget(
             spec.motion,
             spec.to,
@@ -363,6 +366,9 @@ class _Scheduler:
             tr.t if seg is None else seg.t1,
             spec.speed,
             spec.acceleration,
+            spec.until,
+            q_planned,
+            tool_pose(dev, q_planned, mount),
         )
 
     def _joint_move(self, device: str, tr: _Track, step: Step, q_now, q_goal):

@@ -86,8 +86,12 @@ def rapid(text: str) -> list[tuple[str, np.ndarray]]:
     for name, xyz, quat in re.findall(r"CONST robtarget (\w+) := \[\[(.*?)\],\[(.*?)\]", text):
         poses[name] = user @ _abb_pose(xyz, quat)
     out = []
-    for kind, name in re.findall(r"^\s*(MoveAbsJ|MoveL) (\w+),", text, re.M):
-        out.append(("joint", joints[name]) if kind == "MoveAbsJ" else ("linear", poses[name]))
+    pattern = r"^\s*(?:(MoveAbsJ|MoveL) (\w+),|SearchL \\Stop, \w+, \w+, (\w+),)"
+    for kind, name, searched in re.findall(pattern, text, re.M):
+        if searched:  # a search: its target is where it would end
+            out.append(("linear", poses[searched]))
+        else:
+            out.append(("joint", joints[name]) if kind == "MoveAbsJ" else ("linear", poses[name]))
     return out
 
 

@@ -73,6 +73,34 @@ def test_targets_in_a_user_frame(fmt, tmp_path):
         assert _rotation_angle(value, move.T_base_tcp) <= 1e-6
 
 
+@pytest.mark.parametrize("fmt", ARMS)
+def test_a_guarded_move_is_a_search_to_its_planned_end(fmt, tmp_path):
+    """The Puma's probe program: the guarded move is written as a search (URScript thread and
+    input watch, KRL interrupt with BRAKE, RAPID SearchL) towards where the move would end, not
+    to where the simulated contact stopped it."""
+    cell = str(WORKCELLS / "puma560")
+    export_program(cell, "probe", fmt, str(tmp_path))
+    moves, _ = _resolved(cell, "probe", "puma")
+    guarded = [m for m in moves if m.guard]
+    assert len(guarded) == 1 and guarded[0].guard == "probe_tip"
+    text = "".join(p.read_text() for p in sorted(tmp_path.iterdir()))
+    marker = {
+        "urscript": "while not get_digital_in(1) and not done_",
+        "krl": "INTERRUPT DECL 10 WHEN $IN[1]==TRUE DO BRAKE",
+        "rapid": "SearchL \\Stop, di_1,",
+    }[fmt]
+    assert marker in text
+    read = readers.read(tmp_path, fmt, "probe")
+    assert len(read) == len(moves)
+    for (kind, value), move in zip(read, moves):
+        expected = move.T_base_planned if move.guard else move.T_base_tcp
+        if kind == "linear":
+            assert np.abs(value[:3, 3] - expected[:3, 3]).max() <= 1e-6
+            assert _rotation_angle(value, expected) <= 1e-6
+    stopped, planned = guarded[0].T_base_tcp, guarded[0].T_base_planned
+    assert np.linalg.norm(stopped[:3, 3] - planned[:3, 3]) > 0.01  # it did stop short
+
+
 def test_urscript_tool_data_is_the_tcp_in_the_flange(tmp_path):
     export_program(str(WORKCELLS / "paper_fig9"), "transfer", "urscript", str(tmp_path), "robot")
     tcps = readers.urscript_tcps((tmp_path / "robot.script").read_text())
