@@ -11,12 +11,20 @@ from ..errors import UserError
 
 def run_path(cell: str, run: str) -> str:
     """RUN may be a file, or the name of CELL/runs/RUN.yaml."""
+    from ..errors import did_you_mean
+
     p = Path(run)
     if p.is_file() or p.suffix:
         return run
     base = Path(cell) if Path(cell).is_dir() else Path(cell).parent
     candidate = base / "runs" / f"{run}.yaml"
-    return str(candidate) if candidate.is_file() else run
+    if candidate.is_file():
+        return str(candidate)
+    names = sorted(f.stem for f in (base / "runs").glob("*.yaml"))
+    raise UserError(
+        f"no run '{run}': not a file, and no {candidate}{did_you_mean(run, names)}"
+        + (f"; the cell's runs: {', '.join(names)}" if names else "")
+    )
 
 
 def simulate_run(

@@ -425,3 +425,10 @@ def test_simulate_json_and_check_pass_on_examples(cli):
 def test_plot_needs_an_output_directory(cli):
     result = cli(["simulate", "workcells/puma560", "pick_place", "--plot"])
     assert result.exit_code == 2 and "-o DIR" in result.output
+
+
+def test_unknown_run_name_lists_the_cells_runs(cli):
+    result = cli(["check", "workcells/puma560", "pick_plce"])
+    assert result.exit_code == 2
+    assert "no run 'pick_plce'" in result.stderr and "did you mean 'pick_place'" in result.stderr
+    assert "pick_place, probe, through_table" in result.stderr
