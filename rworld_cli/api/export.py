@@ -166,13 +166,13 @@ def export_program(
                 )
             )
             continue
-        if dev.dof != 6 or any(j.kind != "revolute" for j in dev.joints):
+        if not _six_axis_arm(dev):
             kinds = "".join("R" if j.kind == "revolute" else "P" for j in dev.joints)
-            others = [d for d in devices if d != name]
+            arms = [d for d in devices if d != name and _six_axis_arm(loaded.cell.devices[d])]
             raise UserError(
                 f"{ARM_FORMATS[fmt]} drives 6-axis arms; '{name}' has {dev.dof} joint(s) "
                 f"({kinds}): export it with --format csv"
-                + (f", or choose the arm with --device ({', '.join(others)})" if others else "")
+                + (f", or choose the arm with --device {' or '.join(arms)}" if arms else "")
             )
         program = instructions(
             dev,
@@ -215,6 +215,10 @@ def export_program(
         changes = _changes(cell, run, dt, against, loaded, result, devices)
     _write_together(output, files)
     return ProgramExport(output, fmt, sorted(files), devices, moves, changes, notes)
+
+
+def _six_axis_arm(device) -> bool:
+    return device.dof == 6 and all(j.kind == "revolute" for j in device.joints)
 
 
 def _changes(cell, run, dt, against, loaded, result, devices) -> list[TargetChange]:

@@ -244,7 +244,8 @@ def test_bad_format_and_undrivable_device_exit_2_and_write_nothing(tmp_path, cli
         ]
     )
     assert conveyor.exit_code == 2
-    assert "'conveyor' has 1 joint(s)" in conveyor.stderr and "--device" in conveyor.stderr
+    assert "'conveyor' has 1 joint(s)" in conveyor.stderr
+    assert "choose the arm with --device robot" in conveyor.stderr
     assert not out.exists() and list(tmp_path.iterdir()) == []
 
 
