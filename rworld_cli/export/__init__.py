@@ -16,3 +16,7 @@ class Signals:
     gripper: int = 1
     tool_changer: int = 2
     sensor: int = 1
+
+    def output(self, signal: str) -> int:
+        """The output number of ``signal`` ("gripper" or "tool_changer")."""
+        return self.gripper if signal == "gripper" else self.tool_changer

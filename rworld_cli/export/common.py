@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import spatial
-from ..model.program import ResolvedStep
+from ..model.program import MoveTarget, ResolvedStep
 
 
 @dataclass
@@ -28,60 +28,65 @@ class Tool:
 
 @dataclass
 class Move:
-    """A move to a target.
+    """A move to a target: the simulation's resolved move with the speeds measured on it.
 
     Attributes
     ----------
-    motion : {"joint", "linear"}
-    q : ndarray, shape (n,)
-        The joint target [rad]: the IK solution the simulation chose.
-    T_base_tcp : ndarray, shape (4, 4)
-        The Cartesian target: the TCP in the robot's base frame [m].
+    resolved : MoveTarget
+        What the simulation did: motion, joint target (the IK solution it chose), TCP pose in
+        the base frame, the step's speed fractions, a guard's sensor and planned end.
     tool : Tool
     joint_speed, joint_acceleration : float
         Peak of the leading joint over the simulated move [rad/s, rad/s^2].
     tool_speed, tool_acceleration : float
         Peak TCP speed and acceleration over the simulated move [m/s, m/s^2].
-    speed_fraction, acceleration_fraction : float
-        The program step's fractions of the limits.
-    target : str
-        What the program names (a frame or a joint position).
     where, text : str
         The program's ``file:line`` and the step in words.
-    guard : str or None
-        A guarded move's sensor: the writers make it a search towards ``q_search`` /
-        ``T_base_search`` (the planned end) that stops when the sensor's input closes; ``q`` and
-        ``T_base_tcp`` are where the simulation stopped.
     """
 
-    motion: str
-    q: np.ndarray
-    T_base_tcp: np.ndarray
+    resolved: MoveTarget
     tool: Tool
     joint_speed: float
     joint_acceleration: float
     tool_speed: float
     tool_acceleration: float
-    speed_fraction: float
-    acceleration_fraction: float
-    target: str
     where: str
     text: str
-    guard: str | None = None
-    q_search: np.ndarray | None = None
-    T_base_search: np.ndarray | None = None
+
+    @property
+    def motion(self) -> str:
+        return self.resolved.motion
+
+    @property
+    def guard(self) -> str | None:
+        """A guarded move's sensor: the writers make it a search towards the planned end that
+        stops when the sensor's input closes."""
+        return self.resolved.guard
+
+    @property
+    def q(self) -> np.ndarray:
+        """Where the simulation ended the move (stopped, for a guarded one) [rad]."""
+        return self.resolved.q_goal
+
+    @property
+    def speed_fraction(self) -> float:
+        return self.resolved.speed
+
+    @property
+    def acceleration_fraction(self) -> float:
+        return self.resolved.acceleration
 
     @property
     def q_target(self) -> np.ndarray:
         """The joint target to write: the search's end for a guarded move."""
-        return self.q_search if self.guard and self.q_search is not None else self.q
+        r = self.resolved
+        return r.q_planned if r.guard and r.q_planned is not None else r.q_goal
 
     @property
     def T_target(self) -> np.ndarray:
         """The Cartesian target to write (base frame): the search's end for a guarded move."""
-        if self.guard and self.T_base_search is not None:
-            return self.T_base_search
-        return self.T_base_tcp
+        r = self.resolved
+        return r.T_base_planned if r.guard and r.T_base_planned is not None else r.T_base_tcp
 
 
 @dataclass
@@ -198,24 +203,7 @@ def instructions(
                 device, mount, times, timeline, move.t0, move.t1
             )
             program.instructions.append(
-                Move(
-                    move.motion,
-                    move.q_goal,
-                    move.T_base_tcp,
-                    tool,
-                    v_joint,
-                    a_joint,
-                    v_tool,
-                    a_tool,
-                    move.speed,
-                    move.acceleration,
-                    move.target,
-                    step.where,
-                    text,
-                    move.guard,
-                    move.q_planned,
-                    move.T_base_planned,
-                )
+                Move(move, tool, v_joint, a_joint, v_tool, a_tool, step.where, text)
             )
         elif step.kind in ("grasp", "release", "place"):
             program.instructions.append(Output("gripper", step.kind == "grasp", step.where, text))

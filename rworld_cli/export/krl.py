@@ -75,7 +75,7 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
                 src.append("INTERRUPT OFF 10")
             dat.append(f"; {label}: {item.where} {item.text}")
         elif isinstance(item, Output):
-            index = signals.gripper if item.signal == "gripper" else signals.tool_changer
+            index = signals.output(item.signal)
             src.append(f"; {item.where}: {item.text}")
             src.append(f"$OUT[{index}] = {'TRUE' if item.value else 'FALSE'}")
         elif isinstance(item, Wait):

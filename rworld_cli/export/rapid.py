@@ -83,7 +83,7 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             else:
                 body.append(f"    MoveL {label}, s{k + 1}, fine, {current_tool}\\WObj:={wobj};")
         elif isinstance(item, Output):
-            index = signals.gripper if item.signal == "gripper" else signals.tool_changer
+            index = signals.output(item.signal)
             body.append(f"    ! {item.where}: {item.text}")
             body.append(f"    SetDO do_{index}, {1 if item.value else 0};")
         elif isinstance(item, Wait):

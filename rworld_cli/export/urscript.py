@@ -80,7 +80,7 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
                 f"  stop{'j' if item.motion == 'joint' else 'l'}({brake})",
             ]
         elif isinstance(item, Output):
-            index = signals.gripper if item.signal == "gripper" else signals.tool_changer
+            index = signals.output(item.signal)
             lines.append(f"  # {item.where}: {item.text}")
             lines.append(f"  set_digital_out({index}, {'True' if item.value else 'False'})")
         elif isinstance(item, Wait):
