@@ -63,6 +63,17 @@ class Body:
         """A mesh checked triangle by triangle (not one made of convex parts)."""
         return self.shape.kind == "mesh" and self.parts is None
 
+    @functools.cached_property
+    def _hulls(self) -> tuple[np.ndarray, np.ndarray]:
+        """The convex parts' hull vertices padded to one count (C, V, 3), and their axes
+        (C, 3, 3): built once per body, used at every pose."""
+        assert self.parts is not None
+        count = max(len(v) for v, _ in self.parts)
+        local = np.stack(
+            [np.concatenate([v, np.repeat(v[:1], count - len(v), 0)]) for v, _ in self.parts]
+        )
+        return local, np.stack([a for _, a in self.parts])
+
     @property
     def single_piece(self) -> bool:
         """One convex piece: a primitive, or a mesh of one convex part."""
@@ -80,11 +91,8 @@ class Body:
         T = np.asarray(T_world_frame, dtype=float).reshape(-1, 4, 4)
         shape = self.shape
         if self.parts is not None:  # K * C hulls, state-major
-            count = max(len(v) for v, _ in self.parts)
-            local = np.stack(
-                [np.concatenate([v, np.repeat(v[:1], count - len(v), 0)]) for v, _ in self.parts]
-            )
-            axes = np.stack([a for _, a in self.parts])
+            local, axes = self._hulls
+            count = local.shape[1]
             world = np.einsum("kij,cvj->kcvi", T[:, :3, :3], local) + T[:, None, None, :3, 3]
             world_axes = np.einsum("kij,caj->kcai", T[:, :3, :3], axes)
             return convex.hulls(world.reshape(-1, count, 3), world_axes.reshape(-1, 3, 3))
