@@ -391,22 +391,13 @@ class _Builder:
     def _inertial(self, path, mass, com, inertia: sm.Inertia | None) -> wm.Inertial:
         I = np.zeros((3, 3))
         if inertia is not None:
-            I = np.array(
-                [
-                    [inertia.ixx, inertia.ixy, inertia.ixz],
-                    [inertia.ixy, inertia.iyy, inertia.iyz],
-                    [inertia.ixz, inertia.iyz, inertia.izz],
-                ]
-            )
+            I = inertia_matrix(inertia.model_dump())
+            ipath = path + ("inertia",)
+            problem = inertia_problem(I)
             moments = np.linalg.eigvalsh(I)
             scale = max(1.0, float(np.abs(moments).max()))
-            ipath = path + ("inertia",)
-            if moments[0] < -1e-12 * scale:
-                self.err(
-                    ipath,
-                    "inertia is not positive semidefinite: principal moments "
-                    f"{', '.join(f'{m:.6g}' for m in moments)} kg m^2 include a negative one",
-                )
+            if problem is not None:
+                self.err(ipath, problem)
             elif moments[2] > moments[0] + moments[1] + 1e-9 * scale:
                 self.warn(
                     ipath,
@@ -1194,6 +1185,41 @@ class _Builder:
                     "rpy: [r, p, y]}'",
                 )
         return poses, sources, files
+
+
+# the six entries of a symmetric inertia tensor, by name (as cell files and URDF write them)
+INERTIA_ENTRIES = {
+    "ixx": (0, 0),
+    "iyy": (1, 1),
+    "izz": (2, 2),
+    "ixy": (0, 1),
+    "ixz": (0, 2),
+    "iyz": (1, 2),
+}
+
+
+def inertia_matrix(entries: dict) -> np.ndarray:
+    """The symmetric 3x3 tensor of ``{"ixx": ..., ...}`` (missing entries 0) [kg m^2]."""
+    I = np.zeros((3, 3))
+    for key, (a, b) in INERTIA_ENTRIES.items():
+        I[a, b] = I[b, a] = entries.get(key, 0.0)
+    return I
+
+
+def inertia_entries(I: np.ndarray) -> dict[str, float]:
+    """The six entries of a symmetric tensor, by name."""
+    return {key: float(I[a, b]) for key, (a, b) in INERTIA_ENTRIES.items()}
+
+
+def inertia_problem(I: np.ndarray) -> str | None:
+    """Why ``I`` is no inertia (a negative principal moment), or None."""
+    moments = np.linalg.eigvalsh(I)
+    if moments[0] < -1e-12 * max(1.0, float(np.abs(moments).max())):
+        return (
+            "inertia is not positive semidefinite: principal moments "
+            f"{', '.join(f'{m:.6g}' for m in moments)} kg m^2 include a negative one"
+        )
+    return None
 
 
 def _moved_shape(shape: wm.Shape, T: np.ndarray) -> wm.Shape:

@@ -23,6 +23,7 @@ from .. import spatial
 from ..errors import Issue, UserError, did_you_mean
 from ..fileio import atomic_write_text
 from ..model.cell import Inertial
+from .loader import INERTIA_ENTRIES, inertia_entries, inertia_matrix, inertia_problem
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 MOVING = ("revolute", "continuous", "prismatic")
@@ -202,26 +203,15 @@ class _Reader:
         if iel is None:
             self.err(el, loc, "<inertial> needs <inertia ixx=... iyy=... izz=...>")
         else:
-            get = {}
-            for key in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"):
-                v = self.numbers(iel, key, 1, loc + ".inertia", default=[0.0])
-                get[key] = v[0]
-            I = np.array(
-                [
-                    [get["ixx"], get["ixy"], get["ixz"]],
-                    [get["ixy"], get["iyy"], get["iyz"]],
-                    [get["ixz"], get["iyz"], get["izz"]],
-                ]
+            I = inertia_matrix(
+                {
+                    key: self.numbers(iel, key, 1, loc + ".inertia", default=[0.0])[0]
+                    for key in INERTIA_ENTRIES
+                }
             )
-            moments = np.linalg.eigvalsh(I)
-            scale = max(1.0, float(np.abs(moments).max()))
-            if moments[0] < -1e-12 * scale:
-                self.err(
-                    iel,
-                    loc + ".inertia",
-                    "inertia is not positive semidefinite: principal moments "
-                    f"{', '.join(f'{m:.6g}' for m in moments)} kg m^2 include a negative one",
-                )
+            problem = inertia_problem(I)
+            if problem is not None:
+                self.err(iel, loc + ".inertia", problem)
         R = T[:3, :3]  # the inertia is given in the rotated <origin> frame at the centre of mass
         return Inertial(float(mass), T[:3, 3].copy(), R @ I @ R.T)
 
@@ -593,16 +583,7 @@ def urdf_text(robot: UrdfRobot, mesh_names: dict[Path, str] | None = None) -> st
             origin(iel, spatial.make_transform(None, link.inertial.com))
             etree.SubElement(iel, "mass", value=_fmt(link.inertial.mass))
             I = link.inertial.inertia
-            etree.SubElement(
-                iel,
-                "inertia",
-                ixx=_fmt(I[0, 0]),
-                ixy=_fmt(I[0, 1]),
-                ixz=_fmt(I[0, 2]),
-                iyy=_fmt(I[1, 1]),
-                iyz=_fmt(I[1, 2]),
-                izz=_fmt(I[2, 2]),
-            )
+            etree.SubElement(iel, "inertia", **{k: _fmt(v) for k, v in inertia_entries(I).items()})
         for g in link.visuals:
             geometry(el, "visual", g)
         for g in link.collisions:

@@ -30,6 +30,7 @@ import yaml
 from .. import spatial
 from ..errors import Issue, UserError, did_you_mean
 from ..model.cell import CellModel, Inertial
+from .loader import inertia_entries
 from .models import NAME_PATTERN
 from .urdf import MOVING, UrdfGeometry, UrdfJoint, UrdfLink, UrdfRobot
 
@@ -384,18 +385,7 @@ def cell_from_urdf(
             inertial = Inertial.combine(parts) if parts else Inertial.zero()
             doc["mass"] = float(inertial.mass)
             doc["com"] = [float(x) for x in inertial.com]
-            I = inertial.inertia
-            doc["inertia"] = {
-                key: float(I[a, b])
-                for key, (a, b) in {
-                    "ixx": (0, 0),
-                    "iyy": (1, 1),
-                    "izz": (2, 2),
-                    "ixy": (0, 1),
-                    "ixz": (0, 2),
-                    "iyz": (1, 2),
-                }.items()
-            }
+            doc["inertia"] = inertia_entries(inertial.inertia)
         if geometry and not any(g.kind == "mesh" and g.mesh_file is None for g, _ in geometry):
             doc["geometry"] = _geometry_doc(robot, owner, geometry, meshes)
         if frames:
