@@ -146,6 +146,14 @@ def export_program(
             )
         devices = [device]
     programs = {p.device: p for p in loaded.programs}
+    if frame is not None:  # a user frame: where it is at the run's start
+        from ..world.tree import World
+
+        if frame not in loaded.cell.frames:
+            raise UserError(
+                f"--frame: unknown frame '{frame}'{did_you_mean(frame, loaded.cell.frames)}"
+            )
+        world = World(loaded.cell)
     files: dict[str, str] = {}
     notes = []
     moves = 0
@@ -190,13 +198,6 @@ def export_program(
                 "a robot language's tool data is given in the flange frame"
             )
         if frame is not None:
-            from ..world.tree import World
-
-            if frame not in loaded.cell.frames:
-                raise UserError(
-                    f"--frame: unknown frame '{frame}'{did_you_mean(frame, loaded.cell.frames)}"
-                )
-            world = World(loaded.cell)
             program.user_frame = frame
             program.T_base_user = np.linalg.solve(world.T_world(name), world.T_world(frame))
         moves += len(program.moves)

@@ -148,7 +148,7 @@ def import_urdf(
         str(out),
         sorted(files),
         imported.device,
-        sum(1 for _ in loaded.cell.devices[imported.device].joints),
+        loaded.cell.devices[imported.device].dof,
         imported.chain,
         imported.base,
         imported.tip,
