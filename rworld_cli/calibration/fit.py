@@ -166,13 +166,18 @@ def fit_line(name: str, points: np.ndarray, ordered: bool = False) -> FeatureFit
 
 
 def fit_circle(
-    name: str, points: np.ndarray, above=None, probe_radius: float = 0.0, side=None
+    name: str,
+    points: np.ndarray,
+    above=None,
+    probe_radius: float = 0.0,
+    side=None,
+    boss: bool = False,
 ) -> FeatureFit:
     """Circle in 3D: the plane of the points, then a circle in it (algebraic, refined
     geometrically).
 
-    ``probe_radius``: the points are ball centres touching the inside of a hole; the rim's radius is
-    larger by it.
+    ``probe_radius``: the points are ball centres touching the inside of a hole (the rim's radius is
+    larger by it) or, with ``boss``, the outside of a boss (smaller by it).
     """
     from scipy.optimize import least_squares
 
@@ -216,7 +221,7 @@ def fit_circle(
         center,
         n,
         plane.oriented,
-        float(r + probe_radius),
+        float(r - probe_radius if boss else r + probe_radius),
         residuals,
         rms,
         outliers,

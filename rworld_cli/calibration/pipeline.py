@@ -20,89 +20,6 @@ from ..world.tree import World
 from .fit import FeatureFit, FitError, fit_circle, fit_line, fit_plane, fit_point
 from .solve import FrameSolution, apply_condition, solve_natural
 
-# --------------------------------------------------------------------------- where to probe
-
-
-def feature_extent(cell: CellModel, feature: Feature):
-    """The owner's bounding box (a :class:`~rworld_cli.model.cell.Box`) or None."""
-    shape = None
-    if feature.owner in cell.objects:
-        shape = cell.objects[feature.owner].shape
-    elif feature.owner in cell.devices:
-        shape = cell.devices[feature.owner].shape
-    return shape.bounding_box if shape is not None else None
-
-
-def _inside(points, box, margin=1e-9):
-    if box is None:
-        return np.ones(len(points), dtype=bool)
-    T = box.T_owner_box
-    local = (points - T[:3, 3]) @ T[:3, :3]
-    return np.all(np.abs(local) <= box.half_extents + margin, axis=1)
-
-
-def probe_points(cell: CellModel, feature: Feature, n: int, inset: float = 0.15):
-    """Where to probe a feature, in its owner's frame: spread over the face it lies on.
-
-    Returns
-    -------
-    points : ndarray, shape (n, 3)
-    above : ndarray, shape (3,) or None
-        For planes and circles: a point 10 mm outside, for orientation.
-    ordered : bool
-        Lines are probed first -> last along their direction.
-    """
-    box = feature_extent(cell, feature)
-    default = 0.05
-    if feature.kind == "point":
-        return np.repeat(feature.point[None], n, axis=0), None, False
-    if feature.kind == "circle":
-        nrm = feature.direction
-        u = np.cross(nrm, [1.0, 0, 0] if abs(nrm[0]) < 0.9 else [0, 1.0, 0])
-        u /= np.linalg.norm(u)
-        v = np.cross(nrm, u)
-        ang = np.linspace(0, 2 * np.pi, n, endpoint=False)
-        pts = feature.point + feature.radius * (np.cos(ang)[:, None] * u + np.sin(ang)[:, None] * v)
-        return pts, feature.point + 0.01 * nrm, False
-    if feature.kind == "line":
-        d = feature.direction
-        if box is not None:
-            s = (box.corners() - feature.point) @ d
-            lo, hi = s.min(), s.max()
-        else:
-            lo, hi = -default, default
-        span = hi - lo
-        s = np.linspace(lo + inset * span, hi - inset * span, n)
-        return feature.point + s[:, None] * d, None, True
-    nrm = feature.direction  # plane: a grid over the face within the owner's box
-    u = np.cross(nrm, [1.0, 0, 0] if abs(nrm[0]) < 0.9 else [0, 1.0, 0])
-    u /= np.linalg.norm(u)
-    v = np.cross(nrm, u)
-    if box is not None:
-        corners = box.corners()
-        cu, cv = (corners - feature.point) @ u, (corners - feature.point) @ v
-        (u0, u1), (v0, v1) = (cu.min(), cu.max()), (cv.min(), cv.max())
-    else:
-        u0 = v0 = -default
-        u1 = v1 = default
-    k = max(2, int(np.ceil(np.sqrt(n))))
-    for _ in range(6):  # shrink until enough grid points lie on the face
-        gu = np.linspace(u0 + inset * (u1 - u0), u1 - inset * (u1 - u0), k)
-        gv = np.linspace(v0 + inset * (v1 - v0), v1 - inset * (v1 - v0), k)
-        grid = feature.point + gu[:, None, None] * u + gv[None, :, None] * v
-        grid = grid.reshape(-1, 3)
-        on_face = grid[_inside(grid, box)]
-        if len(on_face) >= n:
-            pick = np.round(np.linspace(0, len(on_face) - 1, n)).astype(int)
-            centre = on_face.mean(axis=0)
-            return on_face[pick], centre + 0.01 * nrm, False
-        k += 1
-    raise UserError(
-        f"feature '{feature.name}' does not meet its owner's geometry: cannot place probe points "
-        "on it"
-    )
-
-
 # --------------------------------------------------------------------------- simulated probing
 
 
@@ -115,19 +32,30 @@ def simulate_measurements(
     seed: int,
 ) -> dict:
     """Probe points (SI, world) of ``features`` of the truth cell, with Gaussian noise ``sigma``
-    [m].
+    [m]: a point probe at targets on material (``targets.py``), spread by farthest-point
+    sampling, each the nominal target carried to the truth cell's pose of its owner.
     """
+    from .targets import farthest_points, feature_candidates
+
     rng = np.random.default_rng(seed)
-    world = World(truth)
+    world, nominal_world = World(truth), World(nominal)
     out = {}
     for name in features:
         f = nominal.features[name]
-        pts, above, ordered = probe_points(nominal, f, n_points.get(name, 8))
+        up = nominal_world.T_world(f.owner)[:3, :3].T @ np.array([0.0, 0.0, 1.0])
+        cand = feature_candidates(nominal, f, 0.0, 1e-3, up=up)
+        pick = farthest_points(cand.points, n_points.get(name, 8))
+        if f.kind == "line":
+            pick = pick[np.argsort(cand.points[pick] @ f.direction)]
+        pts = cand.centres[pick]
         T = world.T_world(f.owner)
         pw = pts @ T[:3, :3].T + T[:3, 3] + rng.normal(0.0, sigma, pts.shape)
-        out[name] = FeatureProbes(
-            pw, T[:3, :3] @ above + T[:3, 3] if above is not None else None, bool(ordered)
-        )
+        above = None
+        if f.kind in ("plane", "circle"):
+            above = T[:3, :3] @ (pts.mean(axis=0) + 0.01 * f.direction) + T[:3, 3]
+            if f.kind == "circle":
+                above = T[:3, :3] @ (f.point + 0.01 * f.direction) + T[:3, 3]
+        out[name] = FeatureProbes(pw, above, f.kind == "line", offset=cand.offset, boss=cand.boss)
     return out
 
 
@@ -149,15 +77,23 @@ class CalibrationResult:
     warnings: list[str] = field(default_factory=list)
 
 
-def _fit(feature: Feature, m: Measurement, T_nominal_owner: np.ndarray) -> FeatureFit:
-    side = T_nominal_owner[:3, :3] @ feature.direction if feature.direction is not None else None
+def _fit(feature: Feature, m: Measurement, T_owner: np.ndarray) -> FeatureFit:
+    """The feature's fit from its probe points, the offset compensated in the owner's pose
+    ``T_owner`` (nominal, or calibrated when known); ``points`` stay the raw ball centres (the
+    maximum-likelihood solve compensates exactly, in the owner's frame)."""
+    R = T_owner[:3, :3]
+    side = R @ feature.direction if feature.direction is not None else None
+    points = m.points if m.offset is None else m.points - R @ m.offset
     if feature.kind == "plane":
-        return fit_plane(feature.name, m.points, m.above, m.probe_radius, side)
-    if feature.kind == "line":
-        return fit_line(feature.name, m.points, m.ordered)
-    if feature.kind == "circle":
-        return fit_circle(feature.name, m.points, m.above, m.probe_radius, side)
-    return fit_point(feature.name, m.points)
+        fit = fit_plane(feature.name, points, m.above, m.probe_radius, side)
+    elif feature.kind == "line":
+        fit = fit_line(feature.name, points, m.ordered)
+    elif feature.kind == "circle":
+        fit = fit_circle(feature.name, points, m.above, m.probe_radius, side, m.boss)
+    else:
+        fit = fit_point(feature.name, points)
+    fit.points = m.points
+    return fit
 
 
 def calibrate(
@@ -199,7 +135,7 @@ def calibrate(
         conditions.values(),
         key=lambda c: (c.code not in ("C1", "C2"), len(world.subtree(c.frame)) * -1),
     )
-    radii = {n: m.probe_radius for n, m in measured.measurements.items()}
+    probing = {n: m.probing for n, m in measured.measurements.items()}
     for c in order:
         missing = [f for f in c.features if f not in fits]
         if missing:
@@ -208,15 +144,18 @@ def calibrate(
         T_nom = world.T_world(c.frame)
         if c.code in ("C1", "C2"):
             feats = [cell.features[f] for f in c.features]
-            sol = solve_natural(
-                c.frame,
-                c.code,
-                feats,
-                {f: fits[f] for f in c.features},
-                radii,
-                T_nom,
-                measured.sigma,
-            )
+            own = {f: fits[f] for f in c.features}
+            offsets = [f for f in feats if measured.measurements[f.name].offset is not None]
+            # a probing offset is compensated in the owner's pose: the nominal one first, then
+            # the solution's, so the closed form converges to the exact one too
+            for _ in range(3 if offsets else 1):
+                sol = solve_natural(c.frame, c.code, feats, own, probing, T_nom, measured.sigma)
+                if not sol.determined:
+                    break
+                for f in offsets:
+                    T_owner = sol.T_world @ world.T(c.frame, f.owner)
+                    own[f.name] = _fit(f, measured.measurements[f.name], T_owner)
+                    fits[f.name] = own[f.name]
             if not sol.determined:
                 undetermined[c.frame] = sol.reason
                 solutions[c.frame] = sol
@@ -225,9 +164,9 @@ def calibrate(
             solutions[c.frame] = sol
         else:
             f = cell.features[c.features[0]]
-            fit = fits[f.name]
             owner = f.owner
             T_owner = world.T_world(owner)  # calibrated when the owner's natural frame was
+            fit = _fit(f, measured.measurements[f.name], T_owner)  # offsets in that pose
             Ti = np.linalg.inv(T_owner)
             p = Ti[:3, :3] @ fit.point + Ti[:3, 3]
             d = Ti[:3, :3] @ fit.direction if fit.direction is not None else None

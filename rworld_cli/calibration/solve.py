@@ -31,7 +31,10 @@ import numpy as np
 
 from .. import spatial
 from ..model.cell import Feature
+from ..model.measurements import Probing
 from .fit import FeatureFit
+
+NO_PROBING = Probing()
 
 ARCSEC = np.pi / (180 * 3600)
 REFUSE_CONDITION = 1e6  # above this the features leave a motion of the frame undetermined
@@ -214,14 +217,17 @@ def closed_form(
 
 
 def _residuals(
-    features: list[Feature], fits: dict[str, FeatureFit], radii: dict[str, float], T: np.ndarray
+    features: list[Feature], fits: dict[str, FeatureFit], probing: dict[str, Probing], T: np.ndarray
 ) -> np.ndarray:
     """Probe points' deviations from the nominal features under pose T (object -> world)."""
     R, t = T[:3, :3], T[:3, 3]
     out = []
     for f in features:
         x = (fits[f.name].points - t) @ R  # into the object frame
-        rp = radii.get(f.name, 0.0)
+        how = probing.get(f.name, NO_PROBING)
+        if how.offset is not None:
+            x = x - how.offset
+        rp = how.radius
         if f.kind == "plane":
             out.append((x - f.point) @ f.direction - rp)
         elif f.kind == "line":
@@ -233,7 +239,7 @@ def _residuals(
             axial = v @ f.direction
             radial = np.linalg.norm(v - np.outer(axial, f.direction), axis=1)
             out.append(axial)
-            out.append(radial - (f.radius - rp))
+            out.append(radial - (f.radius + rp if how.boss else f.radius - rp))
         else:
             out.append((x - f.point).ravel())
     return np.concatenate(out)
@@ -246,10 +252,10 @@ def _perpendicular_basis(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def point_distances(
-    features: list[Feature], fits: dict[str, FeatureFit], radii: dict[str, float], T: np.ndarray
+    features: list[Feature], fits: dict[str, FeatureFit], probing: dict[str, Probing], T: np.ndarray
 ) -> np.ndarray:
     """Each probe point's distance from its nominal feature under pose T [m]."""
-    r = _residuals(features, fits, radii, T)
+    r = _residuals(features, fits, probing, T)
     out, k = [], 0
     for f in features:
         n = fits[f.name].n_points
@@ -277,15 +283,15 @@ def _rotvec_matrix(w: np.ndarray) -> np.ndarray:
     return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
 
 
-def _jacobian(features, fits, radii, T: np.ndarray, h: float = 1e-7) -> np.ndarray:
-    r0 = _residuals(features, fits, radii, T)
+def _jacobian(features, fits, probing, T: np.ndarray, h: float = 1e-7) -> np.ndarray:
+    r0 = _residuals(features, fits, probing, T)
     J = np.empty((len(r0), 6))
     for k in range(6):
         dp = np.zeros(6)
         dp[k] = h
         J[:, k] = (
-            _residuals(features, fits, radii, _pose(dp, T))
-            - _residuals(features, fits, radii, _pose(-dp, T))
+            _residuals(features, fits, probing, _pose(dp, T))
+            - _residuals(features, fits, probing, _pose(-dp, T))
         ) / (2 * h)
     return J
 
@@ -304,7 +310,7 @@ def solve_natural(
     code: str,
     features: list[Feature],
     fits: dict[str, FeatureFit],
-    radii: dict[str, float],
+    probing: dict[str, Probing],
     T_nominal: np.ndarray,
     sigma: float | None = None,
 ) -> FrameSolution:
@@ -316,8 +322,8 @@ def solve_natural(
         Nominal features, in the object's frame.
     fits : dict
         Feature name -> FeatureFit (world) with the raw points.
-    radii : dict
-        Feature name -> probe radius to compensate [m].
+    probing : dict
+        Feature name -> :class:`~rworld_cli.model.measurements.Probing` to compensate.
     T_nominal : ndarray, shape (4, 4)
         The nominal pose (world), the start when no closed form exists.
     sigma : float, optional
@@ -343,7 +349,7 @@ def solve_natural(
         warnings.append(f"{how}; refined from the nominal pose")
     points = np.concatenate([fits[f.name].points for f in features])
     scale = max(float(np.sqrt(((points - points.mean(axis=0)) ** 2).sum(axis=1).mean())), 1e-6)
-    J = _jacobian(features, fits, radii, T0)
+    J = _jacobian(features, fits, probing, T0)
     Jn = J.copy()
     Jn[:, :3] /= (
         scale  # dimensionless: rotations as the displacement they cause at the points' scale
@@ -369,7 +375,7 @@ def solve_natural(
             f"({_describe_motion(Vt[-1], scale)} is least constrained)"
         )
     result = least_squares(
-        lambda p: _residuals(features, fits, radii, _pose(p, T0)),
+        lambda p: _residuals(features, fits, probing, _pose(p, T0)),
         np.zeros(6),
         method="lm",
         x_scale=np.r_[np.full(3, 1.0 / scale), np.ones(3)],
@@ -378,12 +384,12 @@ def solve_natural(
         gtol=1e-15,
     )
     T = _pose(result.x, T0)
-    r = _residuals(features, fits, radii, T)
-    J = _jacobian(features, fits, radii, T)
+    r = _residuals(features, fits, probing, T)
+    J = _jacobian(features, fits, probing, T)
     dof = max(len(r) - 6, 1)
     var = sigma**2 if sigma else float(r @ r) / dof
     covariance = var * np.linalg.inv(J.T @ J)
-    distances = point_distances(features, fits, radii, T)
+    distances = point_distances(features, fits, probing, T)
     return FrameSolution(
         frame,
         code,

@@ -140,9 +140,7 @@ def collision_model(cell: CellModel) -> CollisionModel:
         if shape is None:
             unchecked.append(label)
             return
-        center, radius = _bounding_sphere(shape)
-        parts = convex_parts(shape) if shape.kind == "mesh" else None
-        bodies.append(Body(label, owner, frame, shape, center, radius, parts))
+        bodies.append(make_body(label, owner, frame, shape))
         if shape.kind == "mesh" and not shape.closed:
             open_meshes.append(label)
 
@@ -153,6 +151,21 @@ def collision_model(cell: CellModel) -> CollisionModel:
         for link, frame in zip(dev.links, dev.link_frames):
             add(frame, name, frame, link.shape)
     return CollisionModel(bodies, unchecked, open_meshes)
+
+
+def make_body(label: str, owner: str, frame: str, shape: Shape) -> Body:
+    """A :class:`Body` with its bounding sphere, and its convex parts when a mesh has them."""
+    center, radius = _bounding_sphere(shape)
+    parts = convex_parts(shape) if shape.kind == "mesh" else None
+    return Body(label, owner, frame, shape, center, radius, parts)
+
+
+def ball_body(label: str, radius: float) -> Body:
+    """A sphere of ``radius`` [m] centred on its frame's origin (a probe's ball tip)."""
+    from ..model.cell import Box
+
+    shape = Shape("sphere", np.eye(4), np.full(3, 2 * radius), Box(np.eye(4), np.full(3, radius)))
+    return make_body(label, label, label, shape)
 
 
 def convex_parts(shape: Shape) -> tuple[tuple[np.ndarray, np.ndarray], ...] | None:

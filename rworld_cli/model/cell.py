@@ -333,6 +333,9 @@ class SensorModel:
         Proximity slices along +z (1 otherwise).
     force_curve : ndarray, shape (K, 2) or None
         Overlap volume [m^3] -> force [N].
+    ball : float or None
+        Touch probes with a ball tip: its radius [m], centred on the sensor frame's origin
+        (``size`` is then the ball's bounding cube).
     """
 
     name: str
@@ -342,11 +345,14 @@ class SensorModel:
     cols: int = 1
     slices: int = 1
     force_curve: np.ndarray | None = None
+    ball: float | None = None
 
     @property
     def box(self) -> Box:
+        """The sensing box in the sensor's frame (a ball's bounding cube for a ball tip)."""
         T = np.eye(4)
-        T[2, 3] = self.size[2] / 2
+        if self.ball is None:
+            T[2, 3] = self.size[2] / 2
         return Box(T, self.size / 2)
 
 

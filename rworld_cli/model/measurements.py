@@ -19,6 +19,33 @@ class Measurement:
     ordered: bool  # lines: first -> last along the direction
     probe_radius: float  # [m]
     source: str  # the file it came from
+    offset: np.ndarray | None = None  # (3,) ball centres' displacement, owner frame [m]
+    boss: bool = False  # circles: probed from outside
+
+    @property
+    def probing(self) -> Probing:
+        return Probing(self.probe_radius, self.offset, self.boss)
+
+
+@dataclass(frozen=True)
+class Probing:
+    """How a feature was probed, for compensation (see docs/calibration.md, Probe geometry).
+
+    Attributes
+    ----------
+    radius : float
+        Ball radius [m]: planes are moved back along their outside normal by it, circles'
+        radii grow by it (holes) or shrink by it (bosses).
+    offset : ndarray, shape (3,) or None
+        The ball centres' further displacement from the feature, in the feature owner's frame
+        [m]: a line probed on a face beside its edge, a circle probed below its rim.
+    boss : bool
+        Circles: probed from outside.
+    """
+
+    radius: float = 0.0
+    offset: np.ndarray | None = None
+    boss: bool = False
 
 
 @dataclass
@@ -37,4 +64,6 @@ class FeatureProbes:
     points: np.ndarray  # (K, 3)
     above: np.ndarray | None = None
     ordered: bool = False
-    comment: str = ""  # written after the feature's name (e.g. how to probe it)
+    comment: str = ""
+    offset: np.ndarray | None = None  # (3,) owner frame [m], see Probing
+    boss: bool = False  # written after the feature's name (e.g. how to probe it)

@@ -22,7 +22,7 @@ class Step:
     index : int
         0-based position in its program.
     kind : str
-        move | grasp | release | place | attach_tool | detach_tool | wait | sync
+        move | grasp | release | place | attach_tool | detach_tool | wait | sync | sense | probe
     spec : object
         The step's parameters, by attribute as in ``docs/simulation.md`` (``to``, ``tcp``,
         ``speed``,
@@ -57,6 +57,8 @@ class Step:
             return f"wait {s.time} s" if s.time is not None else f"wait for {s.for_}"
         if self.kind == "sense":
             return f"sense {s}"
+        if self.kind == "probe":
+            return f"probe {s.feature}"
         return f"sync {s}"
 
 

@@ -553,10 +553,32 @@ class _Builder:
             elif np.any(curve[:, 1] < 0):
                 self.err(cpath, "forces must be >= 0")
             curve = curve * np.array([self.L**3, 1.0])
+        ball = None
+        if s.ball is not None:
+            if s.type != "touch":
+                self.err(path + ("ball",), f"a ball tip is for touch sensors, not {s.type} sensors")
+            if s.size is not None:
+                self.err(
+                    path + ("size",),
+                    "a ball-tip probe has no box: give 'ball' (its radius) or 'size', not both",
+                    prefer="key",
+                )
+            ball = float(s.ball) * self.L
+            size = np.full(3, 2 * ball)
+        elif s.size is None:
+            self.err(
+                path,
+                f"a {s.type} sensor needs 'size' (its box)"
+                + (" or 'ball' (a ball tip's radius)" if s.type == "touch" else ""),
+            )
+            size = np.ones(3)
+        else:
+            size = self._vec(s.size, self.L)
         return wm.SensorModel(
             name=s.name,
             type=s.type,
-            size=self._vec(s.size, self.L),
+            size=size,
+            ball=ball,
             rows=s.segments.rows if s.segments else 1,
             cols=s.segments.cols if s.segments else 1,
             slices=s.slices or 1,

@@ -17,8 +17,9 @@ YAML (``measurements/<cell>/*.yaml``)::
         ordered: true          # lines: the first -> last order gives the direction
 
 CSV (as CMM software exports): a header ``feature,x,y,z`` and one point per
-row; an optional fifth column ``role`` marks ``above`` points; the length
-unit comes from the caller (default mm).
+row; an optional fifth column ``role`` marks ``above`` points, the feature's
+``offset`` (owner frame) and ``boss`` (coordinates ignored); the length unit
+comes from the caller (default mm).
 """
 
 from __future__ import annotations
@@ -54,6 +55,16 @@ class FeaturePoints(Strict):
     ordered: bool = Field(
         False,
         description="Lines: the points are in probing order, first -> last along the direction.",
+    )
+    offset: Vec3 | None = Field(
+        None,
+        description="The probe-ball centres' displacement from the feature they probe, in the "
+        "feature owner's frame [length unit], beyond what probe_radius compensates: a line "
+        "probed on a face beside its edge (the ball radius along the face normal plus the inset "
+        "from the edge), a circle probed below its rim (the depth, along -normal).",
+    )
+    boss: bool = Field(
+        False, description="Circles: probed from outside (a boss or shaft), not inside a hole."
     )
 
 
@@ -135,11 +146,17 @@ def _read_csv(path: str, length_unit: str) -> tuple[dict, list[Issue]]:
             )
             continue
         entry = data.setdefault(
-            fields[0], {"points": [], "above": None, "ordered": True, "line": lineno}
+            fields[0],
+            {"points": [], "above": None, "ordered": True, "line": lineno, "offset": None},
         )
+        entry.setdefault("boss", False)
         role = fields[4].lower() if len(fields) == 5 else ""
         if role == "above":
             entry["above"] = xyz
+        elif role == "offset":
+            entry["offset"] = xyz
+        elif role == "boss":
+            entry["boss"] = True
         elif role in ("", "point"):
             entry["points"].append(xyz)
         else:
@@ -149,7 +166,8 @@ def _read_csv(path: str, length_unit: str) -> tuple[dict, list[Issue]]:
                     lineno,
                     len(",".join(fields[:4])) + 2,
                     "(row)",
-                    f"unknown role '{fields[4]}'; use 'above' or leave it empty",
+                    f"unknown role '{fields[4]}'; use 'above', 'offset' or 'boss', or leave it "
+                    "empty",
                 )
             )
     return data, issues
@@ -173,7 +191,14 @@ def load_measurements(paths: list[str], cell: CellModel, csv_units: str = "mm") 
             issues += csv_issues
             radius, meta = 0.0, {}
             entries = {
-                name: (e["points"], e["above"], True, ("line", e["line"]))
+                name: (
+                    e["points"],
+                    e["above"],
+                    True,
+                    ("line", e["line"]),
+                    np.array(e["offset"]) if e["offset"] is not None else None,
+                    e["boss"],
+                )
                 for name, e in data.items()
             }
             locate = lambda key: Issue(path, entries[key][3][1], 1, f"feature '{key}'", "")  # noqa: E731
@@ -195,12 +220,14 @@ def load_measurements(paths: list[str], cell: CellModel, csv_units: str = "mm") 
                     list(np.array(f.above) * L) if f.above else None,
                     f.ordered,
                     None,
+                    np.array(f.offset, dtype=float) * L if f.offset is not None else None,
+                    f.boss,
                 )
                 for name, f in mf.features.items()
             }
             locate = lambda key, doc=doc: doc.issue(("features", key), "", prefer="key")  # noqa: E731
         files.append({"path": path, "sha256": _digest(Path(path)), **meta})
-        for name, (points, above, ordered, _) in entries.items():
+        for name, (points, above, ordered, _, offset, boss) in entries.items():
             where = locate(name)
             feature = cell.features.get(name)
             if feature is None:
@@ -208,6 +235,13 @@ def load_measurements(paths: list[str], cell: CellModel, csv_units: str = "mm") 
                     replace(
                         where,
                         message=f"unknown feature '{name}'{did_you_mean(name, cell.features)}",
+                    )
+                )
+                continue
+            if boss and feature.kind != "circle":
+                issues.append(
+                    replace(
+                        where, message=f"'boss' applies to circles; '{name}' is a {feature.kind}"
                     )
                 )
                 continue
@@ -235,6 +269,8 @@ def load_measurements(paths: list[str], cell: CellModel, csv_units: str = "mm") 
                 bool(ordered),
                 radius,
                 path,
+                offset,
+                bool(boss),
             )
     if issues:
         raise UserError(
@@ -288,6 +324,12 @@ def measurement_text(
             lines.append("    above: " + mm(f.above))
         if f.ordered:
             lines.append("    ordered: true")
+        if f.offset is not None:
+            lines.append(
+                "    offset: " + mm(f.offset) + "   # ball centres from the feature, owner's frame"
+            )
+        if f.boss:
+            lines.append("    boss: true")
     return "\n".join(lines) + "\n"
 
 

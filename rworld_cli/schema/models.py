@@ -237,12 +237,21 @@ class Segments(Strict):
 
 
 class Sensor(Strict):
-    """A sensor: a box whose origin is the centre of its base face, sensing along +z."""
+    """A sensor: a box whose origin is the centre of its base face, sensing along +z; or, for a
+    touch probe, a ball centred on the sensor frame's origin."""
 
     name: Name
     type: Literal["touch", "tactile", "proximity", "presence", "force"]
-    size: PositiveVec3 = Field(
-        description="Box edge lengths x, y, z [length unit]; z is the sensing depth or range."
+    size: PositiveVec3 | None = Field(
+        None,
+        description="Box edge lengths x, y, z [length unit]; z is the sensing depth or range. "
+        "Every sensor but a ball-tip touch probe.",
+    )
+    ball: Positive | None = Field(
+        None,
+        description="Touch sensors: a ball tip of this radius [length unit] centred on the "
+        "sensor frame's origin (a touch-trigger probe's stylus ball), instead of a box. It "
+        "triggers at contact.",
     )
     segments: Segments | None = Field(None, description="Tactile sensors: the pad's grid of cells.")
     slices: Annotated[int, Field(ge=1)] | None = Field(

@@ -75,6 +75,13 @@ class ToolSpec(Strict):
     )
 
 
+class ProbeSpec(Strict):
+    feature: FrameRef = Field(
+        description="The feature ('object.feature') the last guarded move's contact is a probe "
+        "point of."
+    )
+
+
 class WaitSpec(Strict):
     time: Annotated[float, Field(ge=0)] | None = Field(None, description="Seconds to wait.")
     for_: Name | None = Field(
@@ -114,11 +121,21 @@ class Step(Strict):
     sense: Name | None = Field(
         None, description="Read a sensor; the reading is recorded as an event."
     )
+    probe: ProbeSpec | None = Field(
+        None,
+        description="Record where the guarded move before stopped (its sensor's origin, a ball "
+        "tip's centre) as a probe point of a feature ('probe: object.feature' for short).",
+    )
 
     @field_validator("grasp", "release", mode="before")
     @classmethod
     def _object_shorthand(cls, v):
         return {"object": v} if isinstance(v, str) else v
+
+    @field_validator("probe", mode="before")
+    @classmethod
+    def _probe_shorthand(cls, v):
+        return {"feature": v} if isinstance(v, str) else v
 
     @field_validator("attach_tool", "detach_tool", mode="before")
     @classmethod
@@ -148,6 +165,7 @@ STEP_KINDS = (
     "wait",
     "sync",
     "sense",
+    "probe",
 )
 
 

@@ -133,6 +133,15 @@ def _check_program(
                         f"unknown sensor '{spec}'{did_you_mean(spec, cell.sensors)}",
                     )
                 )
+        elif raw.kind == "probe":
+            if spec.feature not in cell.features:
+                issues.append(
+                    doc.issue(
+                        path + ("feature",),
+                        f"unknown feature '{spec.feature}'"
+                        f"{did_you_mean(spec.feature, cell.features)}",
+                    )
+                )
         elif raw.kind == "wait" and spec.for_ is not None:
             if spec.for_ not in run_devices:
                 issues.append(

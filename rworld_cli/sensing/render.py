@@ -30,7 +30,7 @@ def _cell_boxes(sensor, reading):
     kind = sensor_type(sensor.type)
     counts = kind.counts(sensor)
     d = sensor.size / np.array(counts)
-    lo = np.array([-sensor.size[0] / 2, -sensor.size[1] / 2, 0.0])
+    lo = sensor.box.T_owner_box[:3, 3] - sensor.size / 2
     grid = kind.cell_grid(reading)
     out = []
     for idx in np.ndindex(*counts):

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import spatial
+from ..collision.bodies import pair_distance
 from ..model.cell import WORLD
 from .geometry import DEFAULT_TOLERANCE, grid_interference, obb_overlap, shape_mesh
 from .readings import SensorReading
@@ -81,7 +82,10 @@ def read_sensors(
         counts = kind.counts(sensor)
         grid = np.zeros(counts, dtype=bool)
         touched: list[str] = []
-        if candidates:
+        if sensor.ball is not None:
+            touched = [b.label for b in ball_contacts(T_world_sensor, sensor.ball, candidates)]
+            grid[:] = bool(touched)
+        elif candidates:
             box = sensor.box
             Tb = np.stack([b.T_world_owner @ b.shape.bounding_box.T_owner_box for b in candidates])
             hb = np.stack([b.shape.bounding_box.half_extents for b in candidates])
@@ -104,6 +108,40 @@ def read_sensors(
 
         readings.append(kind.reading(name, sensor, grid, touched, overlap))
     return readings
+
+
+def ball_contacts(T_world_sensor: np.ndarray, radius: float, bodies: list[Body]) -> list[Body]:
+    """The bodies a ball tip of ``radius`` [m] centred on the sensor's origin touches or
+    overlaps: exact sphere distances (the collision room's), a gap of 0 counts as contact."""
+    centre = T_world_sensor[:3, 3]
+    near = []
+    for b in bodies:  # bounding-box cull: only bodies whose box the ball reaches
+        box = b.shape.bounding_box
+        T = b.T_world_owner @ box.T_owner_box
+        local = np.abs((centre - T[:3, 3]) @ T[:3, :3])
+        if np.all(local <= box.half_extents + radius):
+            near.append(b)
+    if not near:
+        return []
+    from ..collision.bodies import ball_body, make_body, point_triangle_distance
+    from .geometry import winding_number
+
+    ball = ball_body("probe ball", radius)
+    T_ball = spatial.make_transform(np.eye(3), centre)[None]
+    out = []
+    for b in near:
+        if b.shape.kind == "mesh":  # the centre's distance to the surface, and inside or not
+            local = (centre - b.T_world_owner[:3, 3]) @ b.T_world_owner[:3, :3]
+            tri = shape_mesh(b.shape).triangles()
+            touching = point_triangle_distance(local, tri).min() <= radius or (
+                b.shape.closed and winding_number(local[None], tri)[0] > 0.5
+            )
+        else:
+            other = make_body(b.label, b.owner, b.label, b.shape)
+            touching = bool(pair_distance(ball, other, T_ball, b.T_world_owner[None]).overlap[0])
+        if touching:
+            out.append(b)
+    return out
 
 
 def overlap_volume(sensor, T_world_sensor: np.ndarray, bodies: list[Body]) -> float:

@@ -35,6 +35,8 @@ from ..motion.linear import PathError, linear_move
 from ..motion.trajectory import StoppedMove, UntimedMove, joint_move, sample_track
 from ..world.tree import AffixmentError, World
 
+LATCH_TIME = 1e-9  # [s]: a guarded move's contact instant is found to this (a probe's latch)
+
 
 class SimulationError(UserError):
     """A program cannot run: the message names the device, the step and the cause."""
@@ -190,6 +192,7 @@ class _Scheduler:
         self.events: list[Event] = []
         self.resolved: dict[str, list[ResolvedStep]] = {d: [] for d in self.order}
         self._move_target: MoveTarget | None = None
+        self._latched: dict[str, dict | None] = {}  # per device: the last guarded contact
         self.snapshots: list[tuple[float, dict]] = [(0.0, self.world.snapshot())]
         self.barriers: dict[tuple[str, int], dict[str, float]] = {}
         self.sync_totals = {d: {} for d in self.order}
@@ -397,31 +400,53 @@ class _Scheduler:
             )
 
     def _guard(self, device: str, tr: _Track, step: Step, seg):
-        """Cut a guarded move at the first clock sample where its sensor senses something."""
+        """Cut a guarded move where its sensor first senses something: the first clock sample
+        that senses, then bisection between it and the sample before down to ``LATCH_TIME``, as
+        a touch-trigger probe latches the position at contact."""
         from ..sensing.sensors import read_sensors
 
         sensor = step.spec.until
         times = np.append(np.arange(seg.t0, seg.t1, self.run.dt), seg.t1)
         q_move = seg.sample(times)[0]
-        for t, q in zip(
-            times, q_move
-        ):  # sensing needs the whole world at each instant: one state at a time
+
+        def senses(t: float, q=None):
             self.set_time(t)
-            self.world.set_joints(device, q)
-            reading = read_sensors(self.world, [sensor])[0]
-            if reading.active:
-                record = reading.as_dict() | {"q": q.tolist()}  # where the device stopped
-                self.events.append(
-                    Event(
-                        float(t),
-                        device,
-                        step.index,
-                        "guard",
-                        f"{sensor} triggered: stopped",
-                        reading=record,
-                    )
+            self.world.set_joints(device, seg.sample(np.array([t]))[0][0] if q is None else q)
+            return read_sensors(self.world, [sensor])[0]
+
+        self._latched[device] = None
+        for k, (t, q) in enumerate(zip(times, q_move)):
+            # sensing needs the whole world at each instant: one state at a time
+            reading = senses(t, q)
+            if not reading.active:
+                continue
+            lo, hi = (float(times[k - 1]), float(t)) if k else (float(t), float(t))
+            while hi - lo > LATCH_TIME:
+                mid = 0.5 * (lo + hi)
+                if senses(mid).active:
+                    hi = mid
+                else:
+                    lo = mid
+            reading = senses(hi)
+            q_stop = self.world.joints(device)
+            contact = self.world.T_world(sensor)[:3, 3].copy()
+            record = reading.as_dict() | {
+                "q": q_stop.tolist(),  # where the device stopped
+                "point": contact.tolist(),  # the sensor origin (a ball tip's centre) at contact
+            }
+            self._latched[device] = {
+                "sensor": sensor,
+                "point": contact,
+                "objects": list(reading.objects),
+                "step": step.index,
+                "t": hi,
+            }
+            self.events.append(
+                Event(
+                    hi, device, step.index, "guard", f"{sensor} triggered: stopped", reading=record
                 )
-                return StoppedMove(seg, float(t))
+            )
+            return StoppedMove(seg, hi)
         self.events.append(
             Event(
                 seg.t1,
@@ -432,6 +457,36 @@ class _Scheduler:
             )
         )
         return seg
+
+    def _probe(self, device, tr, step):
+        """Record where the last guarded move's sensor touched, as a probe point of a feature."""
+        latched = self._latched.get(device)
+        if latched is None:
+            self.fail(
+                device,
+                step,
+                f"nothing to record for {step.spec.feature}: the guarded move before this step "
+                "ended without contact (or there was none)",
+            )
+        self._latched[device] = None  # one point per contact
+        self.events.append(
+            Event(
+                tr.t,
+                device,
+                step.index,
+                "probe",
+                f"probe {step.spec.feature}: {latched['sensor']} touched "
+                f"{', '.join(latched['objects'])}",
+                reading={
+                    "feature": step.spec.feature,
+                    "point": latched["point"].tolist(),
+                    "sensor": latched["sensor"],
+                    "objects": latched["objects"],
+                    "guard_step": latched["step"] + 1,
+                },
+            )
+        )
+        return True
 
     def _sense(self, device, tr, step):
         from ..sensing.sensors import read_sensors

@@ -347,6 +347,10 @@ def test_csv_points_import(tmp_path):
             f"{name},{float(p[0]) * 1000!r},{float(p[1]) * 1000!r},{float(p[2]) * 1000!r},"
             for p in entry.points
         ]
+        if entry.offset is not None:  # a line probed beside its edge, a hole below its rim
+            rows.append(
+                f"{name}," + ",".join(repr(float(x) * 1000) for x in entry.offset) + ",offset"
+            )
     (tmp_path / "m.csv").write_text("\n".join(rows) + "\n")
     result = calibrate(nominal, load_measurements([str(tmp_path / "m.csv")], nominal, "mm"))
     np.testing.assert_allclose(

@@ -49,27 +49,30 @@ def test_tighter_tolerance_asks_for_more_points(cli):
 
 def test_planned_points_lie_on_their_features():
     from rworld_cli.calibration.plan import plan_measurements
+    from rworld_cli.collision.bodies import point_triangle_distance
+    from rworld_cli.sensing.geometry import shape_mesh
     from rworld_cli.world.tree import World
 
     cell = load_cell(WORKCELLS / "calibration_example").cell
     world = World(cell)
+    tri = shape_mesh(cell.objects["block"].shape).triangles()
     for plan in plan_measurements(cell):
         for d in plan.directives:
             f = cell.features[d.feature]
             T = np.linalg.inv(world.T_world(f.owner))
-            local = d.points @ T[:3, :3].T + T[:3, 3]
+            local = d.contacts @ T[:3, :3].T + T[:3, 3]
+            # on material: on the block's surface (its mesh), not in the air of the hole
+            on_surface = point_triangle_distance(local[:, None], tri[None]).min(axis=1)
+            np.testing.assert_allclose(on_surface, 0, atol=1e-9)
             if f.kind == "plane":
                 np.testing.assert_allclose((local - f.point) @ f.direction, 0, atol=1e-12)
-                shape = cell.objects[f.owner].shape.bounding_box
-                inside = (
-                    np.abs((local - shape.T_owner_box[:3, 3]) @ shape.T_owner_box[:3, :3])
-                    <= shape.half_extents + 1e-9
-                )
-                assert inside.all()  # on the face, not beside the object
-            elif f.kind == "circle":
-                np.testing.assert_allclose(
-                    np.linalg.norm(local - f.point, axis=1), f.radius, atol=1e-12
-                )
+                hole = np.linalg.norm(local[:, :2] - [0.1, 0.075], axis=1)
+                assert f.name != "block.f1" or (hole >= 0.02 + 1e-3 - 1e-12).all()  # margin
+            elif f.kind == "circle":  # the hole's wall, 15 mm below the rim (half its depth)
+                v = local - f.point
+                np.testing.assert_allclose(v @ f.direction, -0.015, atol=1e-12)
+                radial = np.linalg.norm(v - np.outer(v @ f.direction, f.direction), axis=1)
+                assert np.all(np.abs(radial - f.radius) < 1e-6)  # the 360-gon's wall
 
 
 def test_plan_refuses_an_undeterminable_frame(cli, tmp_path):

@@ -177,9 +177,10 @@ def test_guarded_move_stops_where_the_probe_touches():
     top = world.T_world("workpiece.grasp")[2, 3]  # the grasp frame sits on the top face
     world.set_joints("puma", guard.reading["q"])  # where the guard stopped the arm
     height = world.T_world("puma.probe")[2, 3] - top
-    # the 10 mm touch cube ahead of the probe meets the face (within the 1 um touching tolerance),
-    # at most one clock step (0.25 mm at this speed) after the first contact
-    assert 0.01 - 3e-4 <= height <= 0.01 + 1e-6
+    # the 10 mm touch cube ahead of the probe meets the face at the 1 um touching tolerance:
+    # the guard latches the contact instant between clock samples (bisection to 1 ns)
+    assert height == pytest.approx(0.01 + 1e-6, abs=1e-9)
+    assert guard.reading["point"] == pytest.approx(world.T_world("probe_tip")[:3, 3], abs=1e-12)
     sense = event(result, "puma", "sense")
     assert sense.t == pytest.approx(guard.t) and sense.reading["active"]
     assert [e.t for e in result.events] == sorted(e.t for e in result.events)

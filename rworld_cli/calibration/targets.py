@@ -1,0 +1,462 @@
+"""Probe targets on material: where a ball-tip probe can touch each feature.
+
+For every feature the owner's polyhedral model (its mesh, or the primitive's)
+gives **candidates**: contact points on the actual face, each with the
+outward surface normal and the ball centre at contact, keeping ``margin``
+(at least the ball radius) from every edge and hole of the face.
+
+* **plane** - the mesh triangles lying in the feature's plane (normal within
+  1e-6, distance within 1 um) form the face; a grid over it keeps points
+  inside a triangle and ``margin`` from the face's boundary edges (its outline
+  and its holes' rims).  The ball centre is the point plus ``radius`` along
+  the normal (compensated by ``probe_radius``).
+* **line** - the mesh edges lying on the line give its extent; the points
+  lie on one of the two faces meeting there (the one facing most upward in
+  world), ``margin`` in from the edge.  The ball centres' displacement from
+  the line, ``margin`` into the face plus ``radius`` along its normal, is the
+  measurement's ``offset`` (owner frame).
+* **circle** - a hole (material outside the circle below its rim) or a boss
+  (inside).  The wall is probed at ``depth`` below the rim, the ball centre at
+  ``R - radius`` (hole) or ``R + radius`` (boss) from the axis; the depth is
+  the ``offset`` (-depth along the normal), the radius compensated by
+  ``probe_radius``.  The wall must exist there (winding number of the solid).
+* **point** - the point itself, approached along the normal of the face it
+  lies on.
+
+All in the owner's frame, SI.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import UserError
+from ..model.cell import CellModel, Feature
+from ..sensing.geometry import MeshData, shape_mesh, winding_number
+
+PLANE_TOLERANCE = 1e-6  # [m]: a triangle within this of the feature's plane is on the face
+WALL_CLEARANCE = 5e-4  # [m]: the ball keeps this from a hole's rim and bottom, and the axis
+CANDIDATES = 400  # about this many candidate points per face
+ANGLES = 72  # candidate angles round a circle
+
+
+@dataclass
+class Candidates:
+    """Where a ball of the probe's radius can touch one feature (owner frame, SI).
+
+    Attributes
+    ----------
+    feature : Feature
+    points : ndarray, shape (M, 3)
+        Contact points on the surface.
+    normals : ndarray, shape (M, 3)
+        Unit outward surface normals there: the ball comes in along ``-normals``.
+    centres : ndarray, shape (M, 3)
+        Ball centres at contact (``points + radius * normals``).
+    offset : ndarray, shape (3,) or None
+        The ball centres' displacement from the feature beyond ``probe_radius``
+        compensation (lines, circles), as the measurement file's ``offset``.
+    boss : bool
+        Circles: probed from outside.
+    depth : float or None
+        Circles: the probing depth below the rim [m].
+    wall_depth : float or None
+        Circles: how far the wall goes below the rim [m].
+    """
+
+    feature: Feature
+    points: np.ndarray
+    normals: np.ndarray
+    centres: np.ndarray
+    offset: np.ndarray | None = None
+    boss: bool = False
+    depth: float | None = None
+    wall_depth: float | None = None
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+
+def _basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    u = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    return u, np.cross(n, u)
+
+
+def _owner_mesh(cell: CellModel, feature: Feature) -> MeshData:
+    owner = cell.objects.get(feature.owner) or cell.devices.get(feature.owner)
+    shape = getattr(owner, "shape", None)
+    if shape is None:
+        raise UserError(
+            f"feature '{feature.name}': its owner '{feature.owner}' has no geometry, so there is "
+            "no material to probe (give it a geometry)"
+        )
+    return shape_mesh(shape)
+
+
+@dataclass
+class _Face:
+    """A planar face of a mesh: its triangles and boundary edges in 2D plane coordinates."""
+
+    origin: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    triangles: np.ndarray  # (F, 3, 2)
+    boundary: np.ndarray  # (B, 2, 2)
+
+    def to_2d(self, p: np.ndarray) -> np.ndarray:
+        d = np.atleast_2d(p) - self.origin
+        return np.stack([d @ self.u, d @ self.v], axis=-1)
+
+    def to_3d(self, xy: np.ndarray) -> np.ndarray:
+        return self.origin + xy[:, :1] * self.u + xy[:, 1:] * self.v
+
+    def inside(self, xy: np.ndarray) -> np.ndarray:
+        """Points (P, 2) on one of the face's triangles."""
+        a, b, c = (self.triangles[None, :, k] for k in range(3))
+        p = xy[:, None]
+
+        def cross(o, s, t):
+            return (s[..., 0] - o[..., 0]) * (t[..., 1] - o[..., 1]) - (s[..., 1] - o[..., 1]) * (
+                t[..., 0] - o[..., 0]
+            )
+
+        d1, d2, d3 = cross(a, b, p), cross(b, c, p), cross(c, a, p)
+        neg = (d1 < -1e-15) | (d2 < -1e-15) | (d3 < -1e-15)
+        pos = (d1 > 1e-15) | (d2 > 1e-15) | (d3 > 1e-15)
+        return np.any(~(neg & pos), axis=1)
+
+    def edge_distance(self, xy: np.ndarray) -> np.ndarray:
+        """Distance (P,) from each point to the nearest boundary edge [m]."""
+        if not len(self.boundary):
+            return np.full(len(xy), np.inf)
+        a, b = self.boundary[None, :, 0], self.boundary[None, :, 1]
+        ab = b - a
+        t = np.clip(
+            np.einsum("pbi,pbi->pb", xy[:, None] - a, ab) / np.maximum((ab**2).sum(-1), 1e-30),
+            0.0,
+            1.0,
+        )
+        nearest = a + t[..., None] * ab
+        return np.linalg.norm(xy[:, None] - nearest, axis=2).min(axis=1)
+
+    @property
+    def area(self) -> float:
+        e1 = self.triangles[:, 1] - self.triangles[:, 0]
+        e2 = self.triangles[:, 2] - self.triangles[:, 0]
+        return float(np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum() / 2)
+
+
+def _face(mesh: MeshData, point: np.ndarray, normal: np.ndarray) -> _Face | None:
+    """The mesh triangles lying in the plane (point, normal) facing along ``normal``."""
+    tri = mesh.triangles()
+    fn = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(fn, axis=1)
+    ok = length > 0
+    fn[ok] /= length[ok, None]
+    on = (
+        ok
+        & (fn @ normal > 1 - 1e-6)
+        & (np.abs((tri.mean(axis=1) - point) @ normal) < PLANE_TOLERANCE)
+    )
+    if not on.any():
+        return None
+    faces = mesh.faces[on]
+    edges = np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1)
+    unique, counts = np.unique(edges, axis=0, return_counts=True)
+    boundary = unique[counts == 1]
+    u, v = _basis(normal)
+    face = _Face(point, u, v, np.zeros((0, 3, 2)), np.zeros((0, 2, 2)))
+    face.triangles = face.to_2d(mesh.vertices[faces].reshape(-1, 3)).reshape(-1, 3, 2)
+    face.boundary = face.to_2d(mesh.vertices[boundary].reshape(-1, 3)).reshape(-1, 2, 2)
+    return face
+
+
+def _grid(face: _Face, margin: float, count: int = CANDIDATES) -> np.ndarray:
+    """About ``count`` points (2D) on the face, each ``margin`` or more from its boundary."""
+    lo = face.triangles.reshape(-1, 2).min(axis=0)
+    hi = face.triangles.reshape(-1, 2).max(axis=0)
+    step = max(np.sqrt(face.area / count), 1e-4)
+    for _ in range(4):  # a narrow face: refine until some points survive the margin
+        gu = np.arange(lo[0] + step / 2, hi[0], step)
+        gv = np.arange(lo[1] + step / 2, hi[1], step)
+        xy = np.stack(np.meshgrid(gu, gv, indexing="ij"), axis=-1).reshape(-1, 2)
+        keep = face.inside(xy)
+        xy = xy[keep]
+        xy = xy[face.edge_distance(xy) >= margin - 1e-12]
+        if len(xy) >= 3:
+            return xy
+        step /= 3
+    return xy
+
+
+def plane_candidates(mesh: MeshData, feature: Feature, radius: float, margin: float):
+    face = _face(mesh, feature.point, feature.direction)
+    if face is None:
+        raise UserError(
+            f"feature '{feature.name}': no face of '{feature.owner}''s geometry lies in its plane "
+            "(facing along its normal): check the plane's point and normal against the geometry"
+        )
+    xy = _grid(face, margin)
+    if not len(xy):
+        raise UserError(
+            f"feature '{feature.name}': no point of its face is {margin * 1000:g} mm (the margin) "
+            f"from the face's edges; the face is {face.area * 1e6:.4g} mm^2"
+        )
+    points = face.to_3d(xy)
+    normals = np.repeat(feature.direction[None], len(points), axis=0)
+    return Candidates(feature, points, normals, points + radius * normals)
+
+
+def line_candidates(
+    mesh: MeshData, feature: Feature, radius: float, margin: float, up: np.ndarray
+) -> Candidates:
+    """``up``: world +z in the owner's frame (the face probed is the one facing most upward)."""
+    d, p0 = feature.direction, feature.point
+    faces = mesh.faces
+    edges = np.unique(
+        np.sort(np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]), axis=1),
+        axis=0,
+    )
+    ends = mesh.vertices[edges] - p0  # (E, 2, 3)
+    off = ends - (ends @ d)[..., None] * d
+    on = np.all(np.linalg.norm(off, axis=2) < PLANE_TOLERANCE, axis=1)
+    if not on.any():
+        raise UserError(
+            f"feature '{feature.name}': no edge of '{feature.owner}''s geometry lies on this line"
+        )
+    s = ends[on] @ d
+    s0, s1 = float(s.min()), float(s.max())
+    # the faces meeting at the edge: triangles with an edge on the line
+    tri = mesh.triangles()
+    fn = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    fn /= np.maximum(np.linalg.norm(fn, axis=1), 1e-300)[:, None]
+    rel = tri - p0
+    near = np.linalg.norm(rel - (rel @ d)[..., None] * d, axis=2) < PLANE_TOLERANCE
+    normals = fn[near.sum(axis=1) >= 2]
+    distinct: list[np.ndarray] = []
+    for n in normals:
+        if not any(n @ m > 1 - 1e-6 for m in distinct):
+            distinct.append(n)
+    mid = p0 + 0.5 * (s0 + s1) * d
+    best = None
+    for n in sorted(distinct, key=lambda n: -float(n @ up)):
+        face = _face(mesh, mid, n)
+        if face is None:
+            continue
+        inward = np.cross(n, d)
+        probe = face.to_2d(mid + margin * inward)
+        if not face.inside(probe)[0]:
+            inward = -inward
+        s = np.linspace(s0 + margin, s1 - margin, max(int((s1 - s0) / 1e-3), 2))
+        points = p0 + s[:, None] * d + margin * inward
+        xy = face.to_2d(points)
+        keep = face.inside(xy) & (face.edge_distance(xy) >= margin - 1e-9)
+        if keep.sum() >= 2:
+            best = (points[keep], n, inward)
+            break
+    if best is None:
+        raise UserError(
+            f"feature '{feature.name}': neither face along this edge leaves {margin * 1000:g} mm "
+            "(the margin) for the ball beside it"
+        )
+    points, n, inward = best
+    normals = np.repeat(n[None], len(points), axis=0)
+    return Candidates(
+        feature, points, normals, points + radius * normals, offset=margin * inward + radius * n
+    )
+
+
+def circle_candidates(
+    mesh: MeshData, feature: Feature, radius: float, depth: float | None
+) -> Candidates:
+    """A hole's or boss's wall at ``depth`` below the rim (default: half the wall)."""
+    c, n, R = feature.point, feature.direction, float(feature.radius)
+    u, v = _basis(n)
+    tri = mesh.triangles()
+    eps = min(2e-4, R / 10)
+
+    def solid(points):
+        return winding_number(np.atleast_2d(points), tri) > 0.5
+
+    inner, outer = c - eps * n + (R - eps) * u, c - eps * n + (R + eps) * u
+    hole = bool(solid(outer)[0] and not solid(inner)[0])
+    boss = bool(solid(inner)[0] and not solid(outer)[0])
+    if not (hole or boss):
+        raise UserError(
+            f"feature '{feature.name}': '{feature.owner}''s geometry has no hole or boss wall at "
+            f"the circle (radius {R * 1000:g} mm), below its rim along -normal"
+        )
+    if solid(c + eps * n + (R + eps if hole else R - eps) * u)[0]:
+        raise UserError(
+            f"feature '{feature.name}': there is material above the circle: its normal must "
+            "point out of the part"
+        )
+    # how deep the wall goes below the rim, in 0.1 mm steps along one radius
+    behind, front = (R + eps, R - eps) if hole else (R - eps, R + eps)
+    extent = float(np.ptp(mesh.vertices @ n))
+    z = np.arange(eps, extent + 1e-4, 1e-4)
+    wall = solid(c - z[:, None] * n + behind * u) & ~solid(c - z[:, None] * n + front * u)
+    wall_depth = float(z[np.argmin(wall)]) if not wall.all() else float(z[-1])
+    lo, hi = radius + WALL_CLEARANCE, wall_depth - radius - WALL_CLEARANCE
+    if hole and radius > R - 2 * WALL_CLEARANCE:
+        raise UserError(
+            f"feature '{feature.name}': the probe's ball (radius {radius * 1000:g} mm) does not "
+            f"fit the hole (radius {R * 1000:g} mm) with {2 * WALL_CLEARANCE * 1000:g} mm to move"
+        )
+    if hi < lo:
+        raise UserError(
+            f"feature '{feature.name}': the wall is {wall_depth * 1000:.4g} mm deep, too shallow "
+            f"for the ball (radius {radius * 1000:g} mm): it needs "
+            f"{(2 * radius + 2 * WALL_CLEARANCE) * 1000:g} mm"
+        )
+    if depth is None:
+        depth = 0.5 * (lo + hi)
+    elif not lo <= depth <= hi:
+        raise UserError(
+            f"feature '{feature.name}': a probing depth of {depth * 1000:g} mm is outside the "
+            f"part's wall: the ball fits between {lo * 1000:.4g} and {hi * 1000:.4g} mm below the "
+            f"rim (the wall is {wall_depth * 1000:.4g} mm deep)"
+        )
+    angles = np.linspace(0, 2 * np.pi, ANGLES, endpoint=False)
+    radial = np.cos(angles)[:, None] * u + np.sin(angles)[:, None] * v
+    centre = c - depth * n
+    behind = solid(centre + (R + eps if hole else R - eps) * radial)
+    front = solid(centre + (R - eps if hole else R + eps) * radial)
+    keep = behind & ~front
+    if keep.sum() < 3:
+        raise UserError(
+            f"feature '{feature.name}': the wall exists at only {int(keep.sum())} of {ANGLES} "
+            f"angles at {depth * 1000:g} mm below the rim"
+        )
+    radial = radial[keep]
+    points = centre + R * radial
+    normals = -radial if hole else radial
+    centres = points + radius * normals
+    return Candidates(feature, points, normals, centres, -depth * n, boss, float(depth), wall_depth)
+
+
+def point_candidates(mesh: MeshData, feature: Feature, radius: float) -> Candidates:
+    tri = mesh.triangles()
+    from ..collision.bodies import point_triangle_distance
+
+    dist = point_triangle_distance(feature.point, tri)
+    k = int(np.argmin(dist))
+    if dist[k] > PLANE_TOLERANCE:
+        raise UserError(
+            f"feature '{feature.name}': the point is {dist[k] * 1000:.4g} mm off "
+            f"'{feature.owner}''s surface: a probe cannot touch it"
+        )
+    n = np.cross(tri[k, 1] - tri[k, 0], tri[k, 2] - tri[k, 0])
+    n /= np.linalg.norm(n)
+    return Candidates(feature, feature.point[None], n[None], (feature.point + radius * n)[None])
+
+
+def feature_candidates(
+    cell: CellModel,
+    feature: Feature,
+    radius: float,
+    margin: float,
+    depth: float | None = None,
+    up: np.ndarray | None = None,
+) -> Candidates:
+    """Candidate probe contacts on ``feature`` for a ball of ``radius`` [m] (module docstring).
+
+    Raises
+    ------
+    UserError
+        The feature does not meet its owner's geometry, the ball does not fit, or the depth lies
+        outside the wall; the message names the feature and the figure.
+    """
+    mesh = _owner_mesh(cell, feature)
+    if feature.kind == "plane":
+        return plane_candidates(mesh, feature, radius, margin)
+    if feature.kind == "line":
+        return line_candidates(
+            mesh, feature, radius, margin, np.array([0, 0, 1.0]) if up is None else up
+        )
+    if feature.kind == "circle":
+        return circle_candidates(mesh, feature, radius, depth)
+    return point_candidates(mesh, feature, radius)
+
+
+# --------------------------------------------------------------------------- choosing points
+
+
+def farthest_points(points: np.ndarray, n: int, start: int = 0) -> np.ndarray:
+    """Indices of ``n`` points spread by farthest-point sampling (uniform coverage)."""
+    n = min(n, len(points))
+    chosen = [start]
+    d = np.linalg.norm(points - points[start], axis=1)
+    for _ in range(n - 1):
+        k = int(np.argmax(d))
+        chosen.append(k)
+        d = np.minimum(d, np.linalg.norm(points - points[k], axis=1))
+    return np.array(chosen)
+
+
+def d_optimal(
+    rows: list[np.ndarray],
+    counts: list[int],
+    spacing: list[float],
+    positions: list[np.ndarray],
+    feasible,
+    prior: np.ndarray | None = None,
+) -> list[list[int]]:
+    """Greedy D-optimal choice of probe points for one frame's features.
+
+    Parameters
+    ----------
+    rows : list of ndarray, shape (M_f, r_f, 6)
+        Per feature, each candidate's residual rows with respect to the frame's pose (rotation
+        vector, translation), from the maximum-likelihood Jacobian.
+    counts : list of int
+        Points wanted per feature.
+    spacing : list of float
+        Per feature, the least distance between two chosen points [m].
+    positions : list of ndarray, shape (M_f, 3)
+        The candidates' positions (for the spacing).
+    feasible : callable(feature index, candidate index) -> bool
+        Reachability check, asked lazily for the best candidate (False drops it).
+
+    Returns
+    -------
+    list of list of int
+        The chosen candidates per feature, in the order chosen.
+
+    Each round adds to every feature still short of its count the candidate that most
+    increases ``log det`` of the information matrix ``sum J^T J`` (the inverse of the
+    predicted covariance up to sigma^2).
+    """
+    M = np.eye(6) * 1e-12 if prior is None else prior.copy()
+    chosen: list[list[int]] = [[] for _ in rows]
+    alive = [np.ones(len(r), dtype=bool) for r in rows]
+    while True:
+        progressed = False
+        for f, R in enumerate(rows):
+            if len(chosen[f]) >= counts[f]:
+                continue
+            Minv = np.linalg.inv(M)
+            # det(M + G^T G) / det(M) = det(I + G M^-1 G^T)
+            gain = np.linalg.slogdet(
+                np.eye(R.shape[1])[None] + np.einsum("mri,ij,msj->mrs", R, Minv, R)
+            )[1]
+            gain[~alive[f]] = -np.inf
+            while np.isfinite(gain).any():
+                k = int(np.argmax(gain))
+                if feasible(f, k):
+                    break
+                alive[f][k] = False
+                gain[k] = -np.inf
+            else:
+                continue  # nothing feasible left on this feature
+            chosen[f].append(k)
+            M = M + R[k].T @ R[k]
+            close = np.linalg.norm(positions[f] - positions[f][k], axis=1) < spacing[f]
+            alive[f] &= ~close
+            alive[f][k] = False
+            progressed = True
+        if not progressed:
+            return chosen
