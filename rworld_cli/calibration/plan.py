@@ -36,6 +36,7 @@ from .solve import REFUSE_CONDITION, _jacobian
 from .targets import Candidates, d_optimal, farthest_points, feature_candidates
 
 LADDER = [3, 4, 6, 8, 10, 15, 20, 30, 50]
+SUBSAMPLE = 120  # candidates kept per feature, spread by farthest-point sampling
 ABOVE = 0.01  # [m]: the 'above' point of planes and circles, this far out along the normal
 
 
@@ -205,6 +206,19 @@ def plan_measurements(
                 probe.depths.get(name, probe.default_depth),
                 R.T @ up,
             )
+            c = cands[name]
+            if len(c) > SUBSAMPLE:  # spread evenly: neighbours of a refused target stay apart
+                keep = np.sort(farthest_points(c.points, SUBSAMPLE))
+                cands[name] = Candidates(
+                    c.feature,
+                    c.points[keep],
+                    c.normals[keep],
+                    c.centres[keep],
+                    c.offset,
+                    c.boss,
+                    c.depth,
+                    c.wall_depth,
+                )
         return cands[name]
 
     def ok(name: str, k: int) -> bool:
@@ -213,7 +227,7 @@ def plan_measurements(
         if (name, k) not in verdicts:
             c = candidates(name)
             T = world.T_world(c.feature.owner)
-            why = feasible(name, T[:3, :3] @ c.centres[k] + T[:3, 3], T[:3, :3] @ c.normals[k])
+            why = feasible(c, k, T)
             verdicts[name, k] = why
             if why is not None:
                 dropped.setdefault(name, []).append(why)
@@ -229,7 +243,7 @@ def plan_measurements(
         R, t = T[:3, :3], T[:3, 3]
         contacts = c.points[index] @ R.T + t
         above = None
-        if f.kind == "plane":
+        if f.kind == "plane" and len(contacts):
             above = contacts.mean(axis=0) + ABOVE * (R @ f.direction)
         elif f.kind == "circle":
             above = R @ f.point + t + ABOVE * (R @ f.direction)

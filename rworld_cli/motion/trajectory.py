@@ -161,6 +161,9 @@ class StoppedMove(Segment):
     inner: Segment
     t_stop: float
 
+    def __post_init__(self) -> None:
+        self._q_end = self.inner.sample(np.array([self.t_stop]))[0][0]
+
     @property
     def t0(self) -> float:
         return self.inner.t0
@@ -171,7 +174,7 @@ class StoppedMove(Segment):
 
     @property
     def q_end(self) -> np.ndarray:
-        return self.inner.sample(np.array([self.t_stop]))[0][0]
+        return self._q_end
 
     def sample(self, t):
         return self.inner.sample(t)

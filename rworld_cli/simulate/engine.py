@@ -206,14 +206,12 @@ class _Scheduler:
     # ------------------------------------------------------------ world at a time
     def q_at(self, device: str, t: float) -> np.ndarray:
         track = self.tracks[device]
-        q = track.q_init
-        for seg in track.segments:
-            if t < seg.t0:
-                break
-            if t < seg.t1:
+        for seg in reversed(track.segments):  # time-ordered; the asked time is usually late
+            if t >= seg.t1:
+                return seg.q_end
+            if t >= seg.t0:
                 return seg.sample(np.array([t]))[0][0]
-            q = seg.q_end
-        return q
+        return track.q_init
 
     def set_time(self, t: float) -> None:
         for device in self.tracks:

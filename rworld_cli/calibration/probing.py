@@ -1,0 +1,534 @@
+"""The robot's side of probing: poses for each target, a short order, and the probe program.
+
+A target (``targets.py``) is a ball centre at contact and the surface normal
+there.  :class:`ProbeRig` turns it into poses of the probe TCP:
+
+* planes, lines, points: the stylus (TCP +z) along ``-normal``; the
+  **approach** pose ``approach`` out along the normal, the **contact** pose,
+  and the guarded move's **end** ``overtravel`` past the nominal contact;
+* holes and bosses: the stylus along ``-axis``; the **entry** above the rim
+  on the axis, the approach on the axis at the probing depth (a boss: outside
+  it), then sideways to the wall.
+
+Each pose is solved by IK within the joint limits, for spins of the TCP
+about the stylus in 30 degree steps (the first that works, nearest the start
+configuration), and checked collision-free: the device's links against
+every body they may not touch, in the cell's affixment tree, by exact
+distance (the collision room's).  The reason a target fails names the figure:
+the IK miss and the joints at their limits, or the colliding pair and depth.
+
+The **order** visits the targets (a hole is one stop: all its points at one
+depth) by nearest neighbour from the start position, improved by 2-opt, with
+the joint-move time between approach poses as the distance (the largest
+``|dq_j| / v_max_j``).
+
+The **program** names the feature's owner and gives each pose as an offset in
+the owner's frame, so a calibrated owner moves every target with it and the
+program never changes; a guarded move ``until:`` the probe's touch sensor is
+followed by ``probe: feature``, which records the contact.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import spatial
+from ..errors import UserError
+from ..kinematics.inverse import solve_ik
+from ..kinematics.jacobian import ToolMount
+from ..model.cell import CellModel
+from ..world.tree import World
+from .targets import Candidates
+
+SPINS = np.radians([0, 60, -60, 120, -120, 180])  # the probe's turns about its stylus
+TILTS = np.radians([0, 30, 50])  # the stylus tilted down from the normal, for side faces
+
+
+@dataclass
+class Solved:
+    """A target the robot can probe: TCP poses in the owner's frame and joint values."""
+
+    feature: str
+    index: int  # the candidate
+    spin: float
+    T_owner_approach: np.ndarray  # (4, 4): planes/lines: out along the normal; holes: the axis
+    T_owner_contact: np.ndarray
+    T_owner_end: np.ndarray  # the guarded move's end, past the nominal contact
+    q_approach: np.ndarray
+    T_owner_entry: np.ndarray | None = None  # holes and bosses: above the rim, on the axis
+    q_entry: np.ndarray | None = None
+    T_owner_lift: np.ndarray | None = None  # the way in and out, raised to the safe height
+    q_lift: np.ndarray | None = None
+
+
+@dataclass
+class ProbeRig:
+    """A device with a ball-tip touch probe on one of its TCPs, in a cell (nominal poses).
+
+    Attributes
+    ----------
+    approach : float
+        Ball travel before the nominal contact [m] (and the retract).
+    overtravel : float
+        How far past the nominal contact the guarded move may go [m]: more than the largest
+        expected error of the world model.
+    speed : float
+        Guarded moves' fraction of the linear speed.
+    clearance : float
+        Required distance of the device's links from what they may not touch [m].
+    """
+
+    cell: CellModel
+    device: str
+    tcp: str
+    sensor: str
+    approach: float = 0.02
+    overtravel: float = 0.004
+    speed: float = 0.04
+    clearance: float = 0.0
+    start: str = "home"
+    lift: float = 0.03  # [m]: transits between targets pass this far above the parts
+    world: World = field(init=False)
+    solved: dict = field(init=False, default_factory=dict)
+
+    def __post_init__(self) -> None:
+        from ..collision.allowed import allowed_pairs
+        from ..collision.bodies import collision_model
+
+        self.world = World(self.cell)
+        dev = self.cell.devices[self.device]
+        self.dev = dev
+        self.mount = ToolMount(*self.world.mount_of(self.device, self.tcp))
+        self.T_tcp_sensor = self.world.T(self.tcp, self.sensor)
+        self.T_base_world = np.linalg.inv(self.world.T_world(self.device))
+        self.q_start = np.array(
+            dev.home if self.start == "home" else dev.positions[self.start], dtype=float
+        )
+        self.radius = float(self.cell.sensors[self.sensor].ball)
+        tops = []
+        for f in self.cell.features.values():
+            owner = self.cell.objects.get(f.owner) or self.cell.devices.get(f.owner)
+            if getattr(owner, "shape", None) is not None:
+                box = owner.shape.bounding_box
+                T = self.world.T_world(f.owner) @ box.T_owner_box
+                corners = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
+                tops.append(
+                    float(((corners * box.half_extents) @ T[:3, :3].T + T[:3, 3])[:, 2].max())
+                )
+        self.safe_z = (max(tops) if tops else 0.0) + self.lift
+        model = collision_model(self.cell)
+        self.bodies = model.bodies
+        allowed = allowed_pairs(self.world, model)
+        mine = set(self.world.subtree(self.device))
+        moving = [i for i, b in enumerate(self.bodies) if b.frame in mine]
+        fixed = [i for i, b in enumerate(self.bodies) if b.frame not in mine]
+        pairs = [
+            (i, j)
+            for i in moving
+            for j in fixed + [k for k in moving if k > i]
+            if (min(i, j), max(i, j)) not in allowed
+        ]
+        self.pairs = np.array(pairs, dtype=int).reshape(-1, 2)
+        self.T_box = np.array([b.shape.bounding_box.T_owner_box for b in self.bodies])
+        self.half = np.array([b.shape.bounding_box.half_extents for b in self.bodies])
+        self.centres = np.array([b.center for b in self.bodies]).reshape(-1, 3)
+        self.radii = np.array([b.radius for b in self.bodies])
+        self._hole_spin: dict[str, float] = {}
+        self.vmax = np.where(
+            np.isfinite(dev.limit_array("velocity")), dev.limit_array("velocity"), 1.0
+        )
+
+    # ------------------------------------------------------------------ poses
+    def tcp_pose(self, centre: np.ndarray, stylus: np.ndarray, spin: float) -> np.ndarray:
+        """``T_world_tcp`` putting the sensor origin (the ball's centre) at ``centre`` with the
+        TCP's +z along ``stylus``, turned by ``spin`` about it."""
+        z = stylus / np.linalg.norm(stylus)
+        x0 = np.cross(z, [0.0, 0.0, 1.0] if abs(z[2]) < 0.9 else [1.0, 0.0, 0.0])
+        x0 /= np.linalg.norm(x0)
+        x = np.cos(spin) * x0 + np.sin(spin) * np.cross(z, x0)
+        R = np.column_stack([x, np.cross(z, x), z])
+        return spatial.make_transform(R, centre - R @ self.T_tcp_sensor[:3, 3])
+
+    def ik(self, T_world_tcp: np.ndarray, seed: np.ndarray, restarts: int = 2):
+        result = solve_ik(
+            self.dev, self.T_base_world @ T_world_tcp, self.mount, seed, restarts=restarts
+        )
+        return result
+
+    def collision(self, q: np.ndarray) -> str | None:
+        """The first pair closer than the clearance at joint values ``q``, described; None."""
+        from ..collision.bodies import distances
+        from ..sensing.geometry import obb_overlap
+
+        if not len(self.pairs):
+            return None
+        self.world.set_joints(self.device, q)
+        T = {b.frame: self.world.T_world(b.frame) for b in self.bodies}
+        I, J = self.pairs[:, 0], self.pairs[:, 1]
+        TI = np.stack([T[self.bodies[i].frame] for i in I])
+        TJ = np.stack([T[self.bodies[j].frame] for j in J])
+        for cull in ("spheres", "boxes"):  # bounding spheres, then boxes, then the exact shapes
+            if cull == "spheres":
+                ci = np.einsum("kij,kj->ki", TI[:, :3, :3], self.centres[I]) + TI[:, :3, 3]
+                cj = np.einsum("kij,kj->ki", TJ[:, :3, :3], self.centres[J]) + TJ[:, :3, 3]
+                gap = np.linalg.norm(ci - cj, axis=1) - self.radii[I] - self.radii[J]
+                near = gap <= self.clearance
+            else:  # the report's second level: bounding boxes, by separating axes
+                near = obb_overlap(
+                    TI @ self.T_box[I],
+                    self.half[I],
+                    TJ @ self.T_box[J],
+                    self.half[J],
+                    self.clearance + 1e-9,
+                )
+            if not near.any():
+                return None
+            I, J, TI, TJ = I[near], J[near], TI[near], TJ[near]
+        keep = np.array([self._near_mesh(i, j, Ti, Tj) for i, j, Ti, Tj in zip(I, J, TI, TJ)])
+        if not keep.any():
+            return None
+        I, J, TI, TJ = I[keep], J[keep], TI[keep], TJ[keep]
+        res = distances(self.bodies, I, J, TI, TJ)
+        bad = np.flatnonzero((res.distance <= self.clearance) | res.buried)
+        if not len(bad):
+            return None
+        k = bad[np.argmin(res.distance[bad] - res.depth[bad])]
+        a, b = self.bodies[I[k]].label, self.bodies[J[k]].label
+        if res.distance[k] > 0:
+            return f"{a} comes within {res.distance[k] * 1000:.3g} mm of {b}"
+        return f"{a} collides with {b} (depth {res.depth[k] * 1000:.3g} mm)"
+
+    def _near_mesh(self, i: int, j: int, Ti: np.ndarray, Tj: np.ndarray) -> bool:
+        """False when a mesh body (triangles) is farther than the clearance from the other
+        body's bounding sphere and does not enclose its centre: no exact check needed."""
+        from ..collision.bodies import point_triangle_distance
+        from ..sensing.geometry import winding_number
+
+        a, b = self.bodies[i], self.bodies[j]
+        for mesh, other, Tm, To in ((a, b, Ti, Tj), (b, a, Tj, Ti)):
+            if not mesh.is_mesh:
+                continue
+            centre = To[:3, :3] @ other.center + To[:3, 3]
+            local = (centre - Tm[:3, 3]) @ Tm[:3, :3]
+            tri = mesh.mesh().triangles()
+            if point_triangle_distance(local, tri).min() > other.radius + self.clearance and not (
+                mesh.shape.closed and winding_number(local[None], tri)[0] > 0.5
+            ):
+                return False
+        return True
+
+    # ------------------------------------------------------------------ one target
+    def solve(self, cand: Candidates, k: int, T_world_owner: np.ndarray) -> str | None:
+        """Solve target ``k`` of ``cand``; None when the robot can probe it (kept in
+        ``solved``), else why not."""
+        f = cand.feature
+        R, t = T_world_owner[:3, :3], T_world_owner[:3, 3]
+        centre = R @ cand.centres[k] + t
+        normal = R @ cand.normals[k]
+        if f.kind == "circle":
+            stylus = -(R @ f.direction)
+            axis_point = R @ (f.point - cand.depth * f.direction) + t
+            if cand.boss:  # start outside the boss, out along the radial direction
+                start = centre + self.approach * normal
+            else:
+                start = axis_point
+            entry = R @ f.point + t + self.approach * (R @ f.direction)
+            if cand.boss:
+                entry = start + (cand.depth + self.approach) * (R @ f.direction)
+            spins = [self._hole_spin[f.name]] if f.name in self._hole_spin else SPINS
+        else:
+            stylus = -normal
+            start, entry = centre + self.approach * normal, None
+            spins = SPINS
+        end = centre - self.overtravel * normal
+        why = "no spin of the probe about its stylus"
+        best = None
+        for stylus_k, spin in self._orientations(f.kind, stylus, spins):
+            poses = [self.tcp_pose(p, stylus_k, spin) for p in (centre, start, end)]
+            # the contact first (most targets fail there), then the approach, the end, the entry
+            q_contact, why_k = self._reach(poses[0], self.q_start, 1, f"{f.name} target {k + 1}")
+            if q_contact is None:
+                why = why_k
+                continue
+            hit = self.collision(q_contact)
+            if hit is not None:
+                why = f"{f.name} target {k + 1}: {hit}"
+                continue
+            q_start, why_k = self._reach(poses[1], q_contact, 0, f"{f.name} approach {k + 1}")
+            q_end, why_e = self._reach(poses[2], q_contact, 0, f"{f.name} guarded end {k + 1}")
+            if q_start is None or q_end is None:
+                why = why_k or why_e
+                continue
+            hit = self.collision(q_start)
+            q_entry = None
+            if hit is None and entry is not None:
+                q_entry, why_k = self._reach(
+                    self.tcp_pose(entry, stylus_k, spin), q_start, 0, f"{f.name} entry"
+                )
+                if q_entry is None:
+                    why = why_k
+                    continue
+                hit = self.collision(q_entry)
+            if hit is not None:
+                why = f"{f.name} target {k + 1}: {hit}"
+                continue
+            way_in = self.tcp_pose(entry if entry is not None else start, stylus_k, spin)
+            q_in = q_entry if q_entry is not None else q_start
+            T_lift, q_lift = way_in, q_in
+            if self._ball_z(way_in) < self.safe_z:  # transits go in and out from above
+                T_lift = way_in.copy()
+                T_lift[2, 3] += self.safe_z - self._ball_z(way_in)
+                q_lift, why_k = self._reach(T_lift, q_in, 0, f"{f.name} way in {k + 1}")
+                if q_lift is None:
+                    why = why_k
+                    continue
+                hit = self.collision(q_lift)
+                if hit is not None:
+                    why = f"{f.name} target {k + 1}, above it: {hit}"
+                    continue
+            best = (
+                spin,
+                stylus_k,
+                [poses[1], poses[0], poses[2]],
+                [q_start, q_contact, q_end, q_entry],
+                (T_lift, q_lift),
+            )
+            break
+        if best is None:
+            return why
+        spin, stylus, poses, qs, (T_lift, q_lift) = best
+        if f.kind == "circle":
+            self._hole_spin.setdefault(f.name, (spin, stylus))
+        T_owner_world = np.linalg.inv(T_world_owner)
+        self.solved[f.name, k] = Solved(
+            f.name,
+            k,
+            float(spin),
+            T_owner_world @ poses[0],
+            T_owner_world @ poses[1],
+            T_owner_world @ poses[2],
+            qs[0],
+            T_owner_world @ self.tcp_pose(entry, stylus, spin) if entry is not None else None,
+            qs[3],
+            T_owner_world @ T_lift,
+            q_lift,
+        )
+        return None
+
+    def _orientations(self, kind: str, stylus: np.ndarray, spins):
+        """(stylus direction, spin) pairs to try: a hole keeps the one its first point used;
+        a face whose normal is near horizontal also tilts the stylus down by ``TILTS``."""
+        if kind == "circle" and len(spins) == 1 and isinstance(spins[0], tuple):
+            yield spins[0][1], spins[0][0]
+            return
+        down = np.array([0.0, 0.0, -1.0])
+        side = down - (down @ stylus) * stylus
+        tilts = TILTS if np.linalg.norm(side) > 0.5 and kind != "circle" else TILTS[:1]
+        for tilt in tilts:
+            direction = stylus
+            if tilt:
+                direction = np.cos(tilt) * stylus + np.sin(tilt) * side / np.linalg.norm(side)
+            for spin in spins:
+                yield direction, float(spin)
+
+    def _ball_z(self, T_world_tcp: np.ndarray) -> float:
+        return float((T_world_tcp @ self.T_tcp_sensor)[2, 3])
+
+    def _reach(self, T_world_tcp: np.ndarray, seed: np.ndarray, restarts: int, what: str):
+        """(joint values, None) at the pose, or (None, why not)."""
+        res = self.ik(T_world_tcp, seed, restarts)
+        if res.success:
+            return res.q, None
+        return None, res.unreachable(what, self.tcp, [j.name for j in self.dev.joints])
+
+    # ------------------------------------------------------------------ order
+    def travel_time(self, qa: np.ndarray, qb: np.ndarray) -> float:
+        return float(np.max(np.abs(qa - qb) / self.vmax))
+
+
+def tour(costs: np.ndarray, start: np.ndarray) -> list[int]:
+    """A closed tour from the start through every stop: nearest neighbour, then 2-opt.
+
+    Parameters
+    ----------
+    costs : ndarray, shape (S, S)
+        Travel cost between stops (symmetric).
+    start : ndarray, shape (S,)
+        Cost from the start position to each stop (and back).
+    """
+    S = len(start)
+    if S <= 1:
+        return list(range(S))
+    order = [int(np.argmin(start))]
+    left = set(range(S)) - {order[0]}
+    while left:
+        last = order[-1]
+        nxt = min(left, key=lambda j: costs[last, j])
+        order.append(nxt)
+        left.remove(nxt)
+    # 2-opt on the closed path start -> order -> start (node -1 is the start)
+    full = np.zeros((S + 1, S + 1))
+    full[:S, :S] = costs
+    full[S, :S] = full[:S, S] = start
+    path = [S] + order + [S]
+    improved = True
+    while improved:
+        improved = False
+        for i in range(1, len(path) - 2):
+            for j in range(i + 1, len(path) - 1):
+                a, b, c, d = path[i - 1], path[i], path[j], path[j + 1]
+                if full[a, c] + full[b, d] < full[a, b] + full[c, d] - 1e-12:
+                    path[i : j + 1] = path[i : j + 1][::-1]
+                    improved = True
+    return path[1:-1]
+
+
+# --------------------------------------------------------------------------- the program
+
+
+def _offset(T: np.ndarray) -> str:
+    xyz = ", ".join(f"{x * 1000:.6f}" for x in T[:3, 3])
+    rpy = ", ".join(f"{np.degrees(a):.9f}" for a in spatial.matrix_to_rpy(T[:3, :3]))
+    return f"{{xyz: [{xyz}], rpy: [{rpy}]}}"
+
+
+def probe_program(
+    rig: ProbeRig, plans, ordered: bool = True, description: str | None = None
+) -> tuple[str, int]:
+    """The probe program (YAML text) visiting every planned target; and the number of stops.
+
+    Parameters
+    ----------
+    rig : ProbeRig
+        Every directive's targets solved (``rig.solved``).
+    plans : list of FramePlan
+    ordered : bool
+        Visit in the short order (default) or as planned (frame by frame, feature by feature).
+    """
+    seen: dict[str, object] = {}
+    for plan in plans:
+        for d in plan.directives:
+            seen.setdefault(d.feature, d)
+    stops: list[tuple[str, list[Solved]]] = []
+    for name, d in seen.items():
+        solved = [rig.solved[name, int(k)] for k in d.index]
+        if d.kind == "circle":
+            stops.append((name, solved))
+        else:
+            stops += [(name, [s]) for s in solved]
+    q_of = [s[0].q_lift for _, s in stops]
+    if ordered and stops:
+        costs = np.array([[rig.travel_time(a, b) for b in q_of] for a in q_of])
+        start = np.array([rig.travel_time(rig.q_start, q) for q in q_of])
+        stops = [stops[i] for i in tour(costs, start)]
+    owner = {name: rig.cell.features[name].owner for name in seen}
+    tcp = rig.tcp.split(".", 1)[1] if rig.tcp.startswith(rig.device + ".") else rig.tcp
+    fast = f"tcp: {tcp}"
+    guard = f"motion: linear, speed: {rig.speed:g}, until: {rig.sensor}"
+    lines = [
+        "# yaml-language-server: $schema=../../../schemas/program.schema.json",
+        "# Probe program written by 'rworld plan-measurements --program': each target is",
+        "# approached along its surface normal, touched by a guarded move that stops when the",
+        f"# probe's ball ({rig.sensor}) touches, recorded ('probe:') and left the way it came.",
+        "# Offsets are in the feature owner's frame (mm, deg): calibrating the owner moves them.",
+        f"device: {rig.device}",
+        f"description: {description or 'probe the conditioned features for calibration'}",
+        "units: {length: mm, angle: deg}",
+        "steps:",
+        f"  - move: {{to: {rig.start}}}",
+    ]
+    for name, solved in stops:
+        o = owner[name]
+        first = solved[0]
+        lines.append(
+            f"  - move: {{to: {o}, {fast}, offset: {_offset(first.T_owner_lift)}}}"
+            f"   # {name}" + (f" target {first.index + 1}" if first.T_owner_entry is None else "")
+        )
+        way_in = first.T_owner_entry if first.T_owner_entry is not None else first.T_owner_approach
+        if not np.allclose(first.T_owner_lift, way_in):
+            lines.append(
+                f"  - move: {{to: {o}, {fast}, offset: {_offset(way_in)}, motion: linear}}"
+            )
+        if first.T_owner_entry is not None:  # a hole or boss: down the axis to the depth
+            lines.append(
+                f"  - move: {{to: {o}, {fast}, offset: {_offset(first.T_owner_approach)}, "
+                "motion: linear}"
+            )
+        for s in solved:
+            if s is not first:
+                lines.append(
+                    f"  - move: {{to: {o}, {fast}, offset: {_offset(s.T_owner_approach)}, "
+                    "motion: linear}"
+                )
+            lines.append(
+                f"  - move: {{to: {o}, {fast}, offset: {_offset(s.T_owner_end)}, {guard}}}"
+            )
+            lines.append(f"  - probe: {name}")
+            lines.append(
+                f"  - move: {{to: {o}, {fast}, offset: {_offset(s.T_owner_approach)}, "
+                "motion: linear}"
+            )
+        if first.T_owner_entry is not None:
+            lines.append(
+                f"  - move: {{to: {o}, {fast}, offset: {_offset(first.T_owner_entry)}, "
+                "motion: linear}"
+            )
+        if not np.allclose(first.T_owner_lift, way_in):
+            lines.append(
+                f"  - move: {{to: {o}, {fast}, offset: {_offset(first.T_owner_lift)}, "
+                "motion: linear}"
+            )
+    lines.append(f"  - move: {{to: {rig.start}}}")
+    return "\n".join(lines) + "\n", len(stops)
+
+
+def find_probe(cell: CellModel, device: str, tcp: str | None, sensor: str | None):
+    """The probe TCP (full frame name) and its ball-tip touch sensor on ``device``.
+
+    Raises
+    ------
+    UserError
+        No such device, TCP or sensor, or the sensor is not a ball-tip touch probe carried by the
+        device's TCP.
+    """
+    from ..errors import did_you_mean
+
+    if device not in cell.devices:
+        raise UserError(
+            f"no device '{device}'{did_you_mean(device, cell.devices)}; devices: "
+            f"{', '.join(cell.devices) or 'none'}"
+        )
+    world = World(cell)
+    dev = cell.devices[device]
+    carried = set(world.subtree(device))
+    balls = [
+        s
+        for s, m in cell.sensors.items()
+        if m.type == "touch" and m.ball is not None and s in carried
+    ]
+    if sensor is None:
+        if len(balls) != 1:
+            raise UserError(
+                f"'{device}' carries {len(balls)} ball-tip touch probe(s)"
+                + (
+                    f" ({', '.join(balls)}): name one with --sensor"
+                    if balls
+                    else ": give a touch sensor 'ball: RADIUS' and affix it to a TCP of the device"
+                )
+            )
+        sensor = balls[0]
+    elif sensor not in balls:
+        raise UserError(
+            f"'{sensor}' is not a ball-tip touch probe carried by '{device}'"
+            + (f"; those it carries: {', '.join(balls)}" if balls else "")
+        )
+    if tcp is None:
+        tcp = world.parent(sensor)
+    full = tcp if tcp in cell.frames else f"{device}.{tcp}"
+    if full not in cell.frames or full not in carried:
+        raise UserError(
+            f"'{tcp}' is not a frame carried by '{device}'; its TCPs: {', '.join(dev.tcps)}"
+        )
+    return full, sensor
