@@ -8,11 +8,13 @@ dataclasses; problems are raised as :class:`~rworld_cli.errors.UserError` (exit 
 
 from .calibration import (  # noqa: F401
     CalibrationRun,
+    MeasurementPlan,
     analyze_calibration,
     calibrate_cell,
     parse_length,
     plan_cell_measurements,
     simulate_measurement_file,
+    simulate_probe_measurements,
     write_measurement_template,
 )
 from .cells import (  # noqa: F401

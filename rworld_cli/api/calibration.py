@@ -144,11 +144,67 @@ def simulate_measurement_file(
     return {"features": features, "points": counts, "written": output}
 
 
+@dataclass
+class MeasurementPlan:
+    """What ``rworld plan-measurements`` found (see :func:`plan_cell_measurements`).
+
+    Attributes
+    ----------
+    plans : list of FramePlan
+    radius : float
+        The probe ball's radius the targets are for [m].
+    probe : dict or None
+        Device, TCP, sensor and start position of the probe program.
+    program : Path or None
+        The probe program written (it passed the simulation check).
+    stops, cycle_time :
+        The program's stops (a hole counts once) and simulated cycle time [s].
+    """
+
+    cell: object
+    plans: list
+    radius: float = 0.0
+    probe: dict | None = None
+    program: Path | None = None
+    stops: int = 0
+    cycle_time: float | None = None
+
+
 def plan_cell_measurements(
-    cell_path: str, frames: list[str] | None, sigma: float, tolerance: float
-):
-    """Measuring directives for a cell's conditioned frames (see calibration/plan.py)."""
-    from ..calibration.plan import plan_measurements
+    cell_path: str,
+    frames: list[str] | None,
+    sigma: float,
+    tolerance: float,
+    *,
+    probe_radius: float | None = None,
+    margin: float | None = None,
+    depths: dict[str, float] | None = None,
+    device: str | None = None,
+    tcp: str | None = None,
+    sensor: str | None = None,
+    program: str | None = None,
+    start: str | None = None,
+    clearance: float = 0.0,
+    ordered: bool = True,
+) -> MeasurementPlan:
+    """Measuring directives for a cell's conditioned frames (calibration/plan.py) and, with
+    ``program``, the probe program for ``device``'s ball-tip probe (calibration/probing.py),
+    written only when every frame is determined and the program passes the simulation check
+    (limits, collisions, every guarded move touching).
+
+    Parameters
+    ----------
+    depths : dict, optional
+        Circle feature -> probing depth below the rim [m]; the key ``"*"`` for every circle.
+
+    Raises
+    ------
+    UserError
+        Bad input (exit 2): unknown names, a probe that does not fit, a depth outside the wall.
+    CheckFailed
+        The program does not pass the check (exit 1); nothing written.
+    """
+    from ..calibration.plan import ProbeGeometry, plan_measurements
     from ..errors import did_you_mean
     from ..schema.loader import load_cell
 
@@ -168,10 +224,209 @@ def plan_cell_measurements(
     for name, value in (("sigma", sigma), ("tolerance", tolerance)):
         if not (value > 0 and np.isfinite(value)):
             raise UserError(f"{name} must be a positive length, got {value}")
-    return cell, plan_measurements(cell, frames, sigma, tolerance)
+    depths = dict(depths or {})
+    circles = [n for n, f in cell.features.items() if f.kind == "circle"]
+    for name, value in depths.items():
+        if name != "*" and name not in circles:
+            raise UserError(
+                f"--depth {name}: not a circle feature{did_you_mean(name, circles)}; circles: "
+                f"{', '.join(circles) or 'none'}"
+            )
+        if not (value > 0 and np.isfinite(value)):
+            raise UserError(f"--depth {name}: a depth below the rim must be positive, got {value}")
+    if not clearance >= 0:
+        raise UserError(f"--clearance must be >= 0, got {clearance}")
+    rig = None
+    if program is not None or device is not None:
+        rig = _probe_rig(cell, device, tcp, sensor, start, clearance)
+        if probe_radius is not None and abs(probe_radius - rig.radius) > 1e-12:
+            raise UserError(
+                f"--probe-radius {probe_radius * 1000:g} mm differs from the radius of "
+                f"'{rig.sensor}' ({rig.radius * 1000:g} mm) in the cell"
+            )
+        probe_radius = rig.radius
+    if probe_radius is not None and not probe_radius >= 0:
+        raise UserError(f"--probe-radius must be >= 0, got {probe_radius}")
+    if margin is not None and not margin >= (probe_radius or 0.0):
+        raise UserError(
+            f"--margin {margin * 1000:g} mm is less than the ball radius "
+            f"({(probe_radius or 0) * 1000:g} mm): the ball would hang over an edge"
+        )
+    geometry = ProbeGeometry(
+        probe_radius or 0.0,
+        margin,
+        {k: v for k, v in depths.items() if k != "*"},
+        depths.get("*"),
+    )
+    feasible = None if rig is None else rig.solve
+    plans = plan_measurements(cell, frames, sigma, tolerance, geometry, feasible)
+    out = MeasurementPlan(cell, plans, geometry.radius)
+    if rig is not None:
+        out.probe = {"device": rig.device, "tcp": rig.tcp, "sensor": rig.sensor, "start": rig.start}
+    if program is None or rig is None or not all(p.determined for p in plans):
+        return out
+    out.program, out.stops, out.cycle_time = _write_probe_program(
+        cell_path, rig, plans, Path(program), ordered
+    )
+    return out
 
 
-def write_measurement_template(output: str, cell_name: str, plans) -> None:
+def _probe_rig(cell, device, tcp, sensor, start, clearance):
+    from ..calibration.probing import ProbeRig, find_probe
+    from ..errors import did_you_mean
+
+    if device is None:
+        carriers = [
+            d
+            for d in cell.devices
+            if any(m.type == "touch" and m.ball is not None for m in cell.sensors.values())
+        ]
+        if len(carriers) != 1:
+            raise UserError(
+                "name the device that probes with --device"
+                + (f" (one of {', '.join(cell.devices)})" if cell.devices else "")
+            )
+        device = carriers[0]
+    full_tcp, sensor = find_probe(cell, device, tcp, sensor)
+    dev = cell.devices[device]
+    if start is None:
+        start = "ready" if "ready" in dev.positions else "home"
+    elif start != "home" and start not in dev.positions:
+        raise UserError(
+            f"--start {start}: not a named position of '{device}'"
+            f"{did_you_mean(start, list(dev.positions) + ['home'])}; positions: "
+            f"{', '.join(list(dev.positions) + ['home'])}"
+        )
+    return ProbeRig(cell, device, full_tcp, sensor, start=start, clearance=clearance)
+
+
+def _write_probe_program(cell_path: str, rig, plans, out: Path, ordered: bool = True):
+    """Write the probe program to ``out`` after it passes the simulation check; (path, stops,
+    cycle time)."""
+    import os
+
+    from ..calibration.probing import probe_program
+    from ..errors import CheckFailed
+    from ..fileio import atomic_write_text
+    from ..schema.programs import load_run
+    from ..simulate.engine import simulate
+
+    if not out.parent.is_dir():
+        raise UserError(f"cannot write {out}: no folder {out.parent}")
+    text, stops = probe_program(rig, plans, ordered)
+    trial = out.parent / f".{out.name}.check.yaml"
+    try:
+        atomic_write_text(trial, text)
+        run = load_run(cell_path, str(trial))
+        run.clearance = rig.clearance
+        result = simulate(run)
+        untouched = [e for e in result.events if e.kind == "guard" and "did not" in e.detail]
+        if not result.ok or untouched:
+            report = result.collisions
+            first = (
+                [v.describe() for v in result.violations]
+                + ([c.describe() for c in report.contacts] if report is not None else [])
+                + [f"{e.detail} (step {e.step + 1})" for e in untouched]
+            )
+            raise CheckFailed(
+                f"cannot plan the probe program: the program does not pass the check "
+                f"({len(first)} problem(s)); the first: {first[0]}"
+            )
+        os.replace(trial, out)
+    finally:
+        trial.unlink(missing_ok=True)
+    return out, stops, result.cycle_time
+
+
+def simulate_probe_measurements(
+    cell_path: str,
+    truth_path: str,
+    program_path: str,
+    output: str,
+    sigma: float,
+    seed: int = 0,
+) -> dict:
+    """Run a probe program against a 'true' cell and write the probed points as a measurement
+    file (``rworld measure --simulate --program``).
+
+    The program runs on the nominal cell (its targets are where the robot believes the parts
+    are); each guarded move's contact is found on the truth cell, where the same joint values
+    carry the ball along the same line (:func:`~rworld_cli.calibration.probing.probe_run`),
+    and Gaussian noise ``sigma`` [m] is added.
+
+    Raises
+    ------
+    UserError
+        Bad input; the truth cell differs in its features or probe.
+    CheckFailed
+        A guarded move touches nothing on the truth cell (the part is farther from its nominal
+        place than the move's overtravel); nothing written.
+    """
+    from ..calibration.probing import measurement_features, probe_run
+    from ..errors import CheckFailed
+    from ..schema.loader import load_cell
+    from ..schema.measurements import today, write_measurements
+    from ..schema.programs import load_run
+    from ..simulate.engine import simulate
+
+    if not (sigma >= 0 and np.isfinite(sigma)):
+        raise UserError(f"sigma must be a finite length >= 0, got {sigma}")
+    run = load_run(cell_path, program_path)
+    nominal = run.cell
+    truth = load_cell(truth_path).cell
+    if set(nominal.features) != set(truth.features) or set(nominal.sensors) != set(truth.sensors):
+        raise UserError(
+            f"the truth cell {truth_path} must have the same features and sensors as {cell_path}"
+        )
+    result = simulate(run, collisions=False)
+    probed = probe_run(result, run, truth)
+    if not probed:
+        raise UserError(f"{program_path} has no 'probe:' steps: nothing is measured")
+    missing = [p for p in probed if p.true is None]
+    if missing:
+        lines = [f"{p.feature} at {p.where}" for p in missing]
+        raise CheckFailed(
+            f"{len(missing)} guarded move(s) touch nothing on the truth cell (the part is farther "
+            "from its nominal place than the move's overtravel): " + "; ".join(lines)
+        )
+    radii = {float(truth.sensors[s].ball or 0.0) for s in truth.sensors if truth.sensors[s].ball}
+    radius = radii.pop() if len(radii) == 1 else 0.0
+    features = measurement_features(nominal, probed, sigma, seed)
+    write_measurements(
+        output,
+        features,
+        nominal.name,
+        [
+            "Synthetic measurements (rworld measure --simulate --program)",
+            f"program: {program_path}, truth: {truth_path}, sigma: {sigma * 1000:g} mm, seed: "
+            f"{seed}",
+        ],
+        sigma=sigma if sigma > 0 else 1e-12,
+        probe_radius=radius,
+        instrument="simulated probe program",
+        date=today(),
+    )
+    deviation = max(float(np.linalg.norm(p.true - p.nominal)) for p in probed)
+    warnings = []
+    off = [p for p in probed if p.off_edge]
+    if off:
+        warnings.append(
+            f"{len(off)} edge probe(s) landed on a face, not on the edge ("
+            + ", ".join(f"{p.feature} at {p.where}" for p in off[:3])
+            + "): the part lies farther from its nominal place than the ball can bridge (its "
+            "radius times the sine of half the faces' angle); use a larger ball, or better "
+            "nominal poses first"
+        )
+    return {
+        "warnings": warnings,
+        "features": sorted(features),
+        "points": {k: len(v.points) for k, v in features.items()},
+        "written": output,
+        "largest_deviation_mm": deviation * 1000,
+    }
+
+
+def write_measurement_template(output: str, cell_name: str, plans, radius: float = 0.0) -> None:
     """A measurement file whose points are the planned probe targets (nominal, world): fill in
     the measured values.
     """
@@ -181,15 +436,28 @@ def write_measurement_template(output: str, cell_name: str, plans) -> None:
     features: dict = {}
     for plan in plans:
         for d in plan.directives:
-            features.setdefault(d.feature, FeatureProbes(d.points, d.above, d.ordered, d.how))
+            features.setdefault(
+                d.feature,
+                FeatureProbes(
+                    d.points,
+                    d.above,
+                    d.ordered,
+                    d.how,
+                    offset=d.offset,
+                    boss=d.candidates.boss,
+                    depth=d.candidates.depth,
+                ),
+            )
     write_measurements(
         output,
         features,
         cell_name,
         [
             f"Probe targets for {cell_name} from 'rworld plan-measurements' (nominal, world, mm).",
-            "Replace each point by the measured one; keep the order of ordered lines.",
+            "Replace each point by the measured one (the ball's centre); keep the order of ordered",
+            "lines.",
         ],
+        probe_radius=radius,
         digits=3,
     )
 

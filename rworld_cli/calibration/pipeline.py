@@ -38,12 +38,11 @@ def simulate_measurements(
     from .targets import farthest_points, feature_candidates
 
     rng = np.random.default_rng(seed)
-    world, nominal_world = World(truth), World(nominal)
+    world = World(truth)
     out = {}
     for name in features:
         f = nominal.features[name]
-        up = nominal_world.T_world(f.owner)[:3, :3].T @ np.array([0.0, 0.0, 1.0])
-        cand = feature_candidates(nominal, f, 0.0, 1e-3, up=up)
+        cand = feature_candidates(nominal, f, 0.0, 1e-3)
         pick = farthest_points(cand.points, n_points.get(name, 8))
         if f.kind == "line":
             pick = pick[np.argsort(cand.points[pick] @ f.direction)]
@@ -55,7 +54,9 @@ def simulate_measurements(
             above = T[:3, :3] @ (pts.mean(axis=0) + 0.01 * f.direction) + T[:3, 3]
             if f.kind == "circle":
                 above = T[:3, :3] @ (f.point + 0.01 * f.direction) + T[:3, 3]
-        out[name] = FeatureProbes(pw, above, f.kind == "line", offset=cand.offset, boss=cand.boss)
+        out[name] = FeatureProbes(
+            pw, above, f.kind == "line", offset=cand.offset, boss=cand.boss, depth=cand.depth
+        )
     return out
 
 
@@ -83,7 +84,11 @@ def _fit(feature: Feature, m: Measurement, T_owner: np.ndarray) -> FeatureFit:
     maximum-likelihood solve compensates exactly, in the owner's frame)."""
     R = T_owner[:3, :3]
     side = R @ feature.direction if feature.direction is not None else None
-    points = m.points if m.offset is None else m.points - R @ m.offset
+    points = m.points
+    if m.offset is not None:  # a line touched by a ball: its centres, moved onto the edge
+        points = points - R @ m.offset
+    if m.depth is not None:  # a circle probed on its wall: the points, moved up to the rim
+        points = points + m.depth * (R @ feature.direction)
     if feature.kind == "plane":
         fit = fit_plane(feature.name, points, m.above, m.probe_radius, side)
     elif feature.kind == "line":
@@ -145,7 +150,12 @@ def calibrate(
         if c.code in ("C1", "C2"):
             feats = [cell.features[f] for f in c.features]
             own = {f: fits[f] for f in c.features}
-            offsets = [f for f in feats if measured.measurements[f.name].offset is not None]
+            offsets = [
+                f
+                for f in feats
+                if measured.measurements[f.name].offset is not None
+                or measured.measurements[f.name].depth is not None
+            ]
             # a probing offset is compensated in the owner's pose: the nominal one first, then
             # the solution's, so the closed form converges to the exact one too
             for _ in range(3 if offsets else 1):

@@ -32,7 +32,7 @@ from ..model.cell import CellModel
 from ..model.measurements import Probing
 from ..units import MIN_POINTS as MINIMUM
 from ..world.tree import World
-from .solve import REFUSE_CONDITION, _jacobian
+from .solve import REFUSE_CONDITION, _jacobian, residual_widths
 from .targets import Candidates, d_optimal, farthest_points, feature_candidates
 
 LADDER = [3, 4, 6, 8, 10, 15, 20, 30, 50]
@@ -66,11 +66,7 @@ class Directive:
 
     @property
     def probing(self) -> Probing:
-        return Probing(
-            self.probe_radius if self.kind in ("plane", "circle") else 0.0,
-            self.offset,
-            self.candidates.boss,
-        )
+        return _probing(self.candidates, self.probe_radius)
 
     @property
     def how(self) -> str:
@@ -78,10 +74,9 @@ class Directive:
         if self.kind == "plane":
             return f"{n} points on the face, then 1 point above it (outside the object)"
         if self.kind == "line":
-            inset = np.linalg.norm(self.offset) if self.offset is not None else 0.0
             return (
-                f"{n} points on a face beside the edge (ball centres {inset * 1000:.3g} mm off "
-                "it), in the listed order (first -> last gives the direction)"
+                f"{n} points on the edge, the ball coming in between its two faces, in the listed "
+                "order (first -> last gives the direction)"
             )
         if self.kind == "circle":
             what = "boss" if self.candidates.boss else "hole"
@@ -123,6 +118,11 @@ class ProbeGeometry:
         return self.radius + 1e-3 if self.margin is None else self.margin
 
 
+def _probing(c: Candidates, radius: float) -> Probing:
+    """How the candidates of a feature are probed (for the Jacobian and the template)."""
+    return Probing(radius if c.feature.kind != "point" else 0.0, c.offset, c.boss, c.depth)
+
+
 def _rows(cand: Candidates, T_world_owner: np.ndarray, T_frame: np.ndarray, probing) -> np.ndarray:
     """Each candidate's residual rows (M, r, 6) for the frame pose (rotation vector, translation
     in world axes), at the nominal pose."""
@@ -133,11 +133,10 @@ def _rows(cand: Candidates, T_world_owner: np.ndarray, T_frame: np.ndarray, prob
     M = len(centres)
     if f.kind == "plane":
         return J.reshape(M, 1, 6)
-    if f.kind == "line":
-        return J.reshape(M, 2, 6)
-    if f.kind == "circle":  # axial rows first, then radial
+    width = residual_widths([f], {f.name: probing})[f.name]
+    if f.kind == "circle" and width == 2:  # axial rows first, then radial
         return np.stack([J[:M], J[M:]], axis=1)
-    return J.reshape(M, 3, 6)
+    return J.reshape(M, width, 6)
 
 
 def _stack(rows: list[np.ndarray]) -> np.ndarray:
@@ -189,7 +188,6 @@ def plan_measurements(
     """
     probe = probe or ProbeGeometry()
     world = World(cell)
-    up = np.array([0.0, 0.0, 1.0])
     cands: dict[str, Candidates] = {}
     verdicts: dict[tuple[str, int], str | None] = {}
     dropped: dict[str, list[str]] = {}
@@ -197,14 +195,12 @@ def plan_measurements(
     def candidates(name: str) -> Candidates:
         if name not in cands:
             f = cell.features[name]
-            R = world.T_world(f.owner)[:3, :3]
             cands[name] = feature_candidates(
                 cell,
                 f,
                 probe.radius,
                 probe.edge_margin,
                 probe.depths.get(name, probe.default_depth),
-                R.T @ up,
             )
             c = cands[name]
             if len(c) > SUBSAMPLE:  # spread evenly: neighbours of a refused target stay apart
@@ -293,9 +289,7 @@ def plan_measurements(
         for name in names:
             c = candidates(name)
             T_owner = world.T_world(c.feature.owner)
-            probing = Probing(
-                probe.radius if c.feature.kind in ("plane", "circle") else 0.0, c.offset, c.boss
-            )
+            probing = _probing(c, probe.radius)
             rows.append(_rows(c, T_owner, T_frame, probing))
             positions.append(c.points)
         plan = None
@@ -308,7 +302,13 @@ def plan_measurements(
                 gaps = np.linalg.norm(spread[:, None] - spread[None], axis=2)
                 gaps[np.diag_indices(len(spread))] = np.inf
                 spacing.append(0.5 * float(gaps.min()) if len(spread) > 1 else 0.0)
-            chosen = d_optimal(rows, counts, spacing, positions, lambda f, k: ok(names[f], k))
+            seeds = [
+                list(uniform(name, 12)) if cell.features[name].kind == "plane" else []
+                for name in names
+            ]  # a plane's own fit needs 3 points spread in two directions
+            chosen = d_optimal(
+                rows, counts, spacing, positions, lambda f, k: ok(names[f], k), seeds
+            )
             short = [
                 f"{name} ({len(ch)} reachable, a {cell.features[name].kind} needs "
                 f"{MINIMUM[cell.features[name].kind]})"

@@ -532,3 +532,122 @@ def find_probe(cell: CellModel, device: str, tcp: str | None, sensor: str | None
             f"'{tcp}' is not a frame carried by '{device}'; its TCPs: {', '.join(dev.tcps)}"
         )
     return full, sensor
+
+
+# --------------------------------------------------------------------------- simulated probing
+
+
+@dataclass
+class ProbedPoint:
+    """One probe of a simulated probe program: nominal and true ball centres at contact."""
+
+    feature: str
+    step: int  # 1-based, the guarded move's step
+    where: str  # its program file:line
+    nominal: np.ndarray  # (3,) world [m]
+    true: np.ndarray | None  # (3,) world [m]; None when the truth cell gave no contact
+    objects: list[str] = field(default_factory=list)
+    off_edge: bool = False  # a line's probe landed on a face, not on the edge (truth known)
+
+
+def probe_run(result, run, truth: CellModel) -> list[ProbedPoint]:
+    """The contacts of a probe program's guarded moves, as they would be on ``truth``.
+
+    ``result`` is the program simulated on the nominal cell (``run``): it gives, per ``probe:``
+    step, the guarded move before it, with the joint values it started from and planned to end
+    at.  On the truth cell (the same cell with other poses) the device takes the same joint
+    values, so its ball moves along the same straight line in the truth world; the first
+    contact there (:func:`~rworld_cli.sensing.sensors.ball_first_contact`, exact to 1e-10 m)
+    is the point the probe records.
+    """
+    from ..sensing.sensors import ball_first_contact, sensable_bodies
+
+    world = World(truth)
+    out = []
+    for device, resolved in result.resolved.items():
+        moves = {item.step.index: item for item in resolved}
+        probes = [
+            e for e in result.events if e.device == device and e.kind == "probe" and e.reading
+        ]
+        for event in probes:
+            item = moves[event.reading["guard_step"] - 1]
+            move, sensor = item.move, item.move.guard
+            radius = float(truth.sensors[sensor].ball or 0.0)
+            points = []
+            for q in (move.q_start, move.q_planned):
+                world.set_joints(device, q)
+                points.append(world.T_world(sensor)[:3, 3].copy())
+            bodies = [b for b in sensable_bodies(world) if b.owner != device]
+            hit = ball_first_contact(points[0], points[1], radius, bodies)
+            true, objects, off_edge = None, [], False
+            if hit is not None:
+                true = points[0] + hit[0] * (points[1] - points[0])
+                objects = hit[1]
+                f = truth.features[event.reading["feature"]]
+                if f.kind == "line" and radius > 0:  # did the ball meet the edge itself?
+                    T = world.T_world(f.owner)
+                    v = (true - T[:3, 3]) @ T[:3, :3] - f.point
+                    gap = np.linalg.norm(v - (v @ f.direction) * f.direction) - radius
+                    off_edge = gap > 1e-7
+            out.append(
+                ProbedPoint(
+                    event.reading["feature"],
+                    item.step.index + 1,
+                    item.step.where,
+                    np.array(event.reading["point"]),
+                    true,
+                    objects,
+                    off_edge,
+                )
+            )
+    return out
+
+
+def measurement_features(
+    nominal: CellModel, probed: list[ProbedPoint], sigma: float, seed: int
+) -> dict:
+    """Measurement-file entries (SI, world) from the probed points, with Gaussian noise
+    ``sigma`` [m] added to each true contact.
+
+    Planes and circles get an 'above' point 10 mm out along the nominal normal; lines are
+    sorted first -> last along the nominal direction, their ``offset`` where the nominal ball
+    centres lie from the edge (owner frame); a circle's ``depth`` is how far below the rim the
+    nominal contacts are, and one probed from outside is a boss.
+    """
+    from ..model.measurements import FeatureProbes
+
+    rng = np.random.default_rng(seed)
+    world = World(nominal)
+    by_feature: dict[str, list[ProbedPoint]] = {}
+    for p in probed:
+        by_feature.setdefault(p.feature, []).append(p)
+    out = {}
+    for name, points in by_feature.items():
+        f = nominal.features[name]
+        T = world.T_world(f.owner)
+        R, t = T[:3, :3], T[:3, 3]
+        true = np.array([p.true for p in points])
+        measured = true + rng.normal(0.0, sigma, true.shape)
+        local = (np.array([p.nominal for p in points]) - t) @ R  # nominal centres, owner frame
+        above, offset, boss, depth = None, None, False, None
+        if f.kind == "line":
+            order = np.argsort(measured @ (R @ f.direction))
+            measured = measured[order]
+            v = local - f.point
+            offset = (v - np.outer(v @ f.direction, f.direction)).mean(axis=0)
+        elif f.kind == "plane":
+            above = measured.mean(axis=0) + ABOVE * (R @ f.direction)
+        elif f.kind == "circle":
+            v = local - f.point
+            axial = v @ f.direction
+            depth = float(-axial.mean())
+            radial = np.linalg.norm(v - np.outer(axial, f.direction), axis=1)
+            boss = bool(radial.mean() > f.radius)
+            above = R @ f.point + t + ABOVE * (R @ f.direction)
+        out[name] = FeatureProbes(
+            measured, above, f.kind == "line", offset=offset, boss=boss, depth=depth
+        )
+    return out
+
+
+ABOVE = 0.01  # [m]: a plane's or circle's 'above' point, this far out along the normal

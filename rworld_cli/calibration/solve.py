@@ -225,11 +225,13 @@ def _residuals(
     for f in features:
         x = (fits[f.name].points - t) @ R  # into the object frame
         how = probing.get(f.name, NO_PROBING)
-        if how.offset is not None:
-            x = x - how.offset
         rp = how.radius
         if f.kind == "plane":
             out.append((x - f.point) @ f.direction - rp)
+        elif f.kind == "line" and how.offset is not None:
+            # a ball touched the edge: its centre lies the radius from the line
+            v = x - f.point
+            out.append(np.linalg.norm(v - np.outer(v @ f.direction, f.direction), axis=1) - rp)
         elif f.kind == "line":
             e1, e2 = _perpendicular_basis(f.direction)  # two independent residuals per point
             v = x - f.point
@@ -238,7 +240,8 @@ def _residuals(
             v = x - f.point
             axial = v @ f.direction
             radial = np.linalg.norm(v - np.outer(axial, f.direction), axis=1)
-            out.append(axial)
+            if how.depth is None:  # probed at the rim: in its plane too
+                out.append(axial)
             out.append(radial - (f.radius + rp if how.boss else f.radius - rp))
         else:
             out.append((x - f.point).ravel())
@@ -251,18 +254,33 @@ def _perpendicular_basis(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return e1, np.cross(d, e1)
 
 
+def residual_widths(features: list[Feature], probing: dict[str, Probing]) -> dict[str, int]:
+    """Residuals per probe point of each feature (see :func:`_residuals`)."""
+    out = {}
+    for f in features:
+        how = probing.get(f.name, NO_PROBING)
+        if f.kind == "line":
+            out[f.name] = 1 if how.offset is not None else 2
+        elif f.kind == "circle":
+            out[f.name] = 1 if how.depth is not None else 2
+        else:
+            out[f.name] = {"plane": 1, "point": 3}[f.kind]
+    return out
+
+
 def point_distances(
     features: list[Feature], fits: dict[str, FeatureFit], probing: dict[str, Probing], T: np.ndarray
 ) -> np.ndarray:
     """Each probe point's distance from its nominal feature under pose T [m]."""
     r = _residuals(features, fits, probing, T)
+    widths = residual_widths(features, probing)
     out, k = [], 0
     for f in features:
         n = fits[f.name].n_points
-        width = {"plane": 1, "line": 2, "circle": 2, "point": 3}[f.kind]
+        width = widths[f.name]
         block = r[k : k + n * width]
         k += n * width
-        if f.kind == "circle":  # axial values first, then radial
+        if f.kind == "circle" and width == 2:  # axial values first, then radial
             out.append(np.hypot(block[:n], block[n:]))
         else:
             out.append(np.linalg.norm(block.reshape(n, width), axis=1))

@@ -10,16 +10,16 @@ outward surface normal and the ball centre at contact, keeping ``margin``
   inside a triangle and ``margin`` from the face's boundary edges (its outline
   and its holes' rims).  The ball centre is the point plus ``radius`` along
   the normal (compensated by ``probe_radius``).
-* **line** - the mesh edges lying on the line give its extent; the points
-  lie on one of the two faces meeting there (the one facing most upward in
-  world), ``margin`` in from the edge.  The ball centres' displacement from
-  the line, ``margin`` into the face plus ``radius`` along its normal, is the
-  measurement's ``offset`` (owner frame).
+* **line** - a convex edge: the mesh edges lying on the line give its
+  extent (points ``margin`` from its ends); the ball comes in along the
+  bisector of the two faces' normals, so it first touches the edge itself
+  and its centre lies ``radius`` from the line (the measurement's ``offset``
+  is that displacement, owner frame).
 * **circle** - a hole (material outside the circle below its rim) or a boss
   (inside).  The wall is probed at ``depth`` below the rim, the ball centre at
-  ``R - radius`` (hole) or ``R + radius`` (boss) from the axis; the depth is
-  the ``offset`` (-depth along the normal), the radius compensated by
-  ``probe_radius``.  The wall must exist there (winding number of the solid).
+  ``R - radius`` (hole) or ``R + radius`` (boss) from the axis; a wall gives
+  the distance from the axis only.  The wall must exist there (winding
+  number of the solid).
 * **point** - the point itself, approached along the normal of the face it
   lies on.
 
@@ -200,20 +200,22 @@ def plane_candidates(mesh: MeshData, feature: Feature, radius: float, margin: fl
             "(facing along its normal): check the plane's point and normal against the geometry"
         )
     xy = _grid(face, margin)
-    if not len(xy):
+    spread = np.linalg.svd(xy - xy.mean(axis=0), compute_uv=False) if len(xy) >= 3 else [0, 0]
+    if not len(xy) or spread[1] <= 1e-6 * max(spread[0], 1e-12):
         raise UserError(
-            f"feature '{feature.name}': no point of its face is {margin * 1000:g} mm (the margin) "
-            f"from the face's edges; the face is {face.area * 1e6:.4g} mm^2"
+            f"feature '{feature.name}': the face leaves "
+            + ("no point" if not len(xy) else "points on one line only")
+            + f" {margin * 1000:g} mm (the margin) from its edges; the face is "
+            f"{face.area * 1e6:.4g} mm^2: a smaller --margin or ball, or another face"
         )
     points = face.to_3d(xy)
     normals = np.repeat(feature.direction[None], len(points), axis=0)
     return Candidates(feature, points, normals, points + radius * normals)
 
 
-def line_candidates(
-    mesh: MeshData, feature: Feature, radius: float, margin: float, up: np.ndarray
-) -> Candidates:
-    """``up``: world +z in the owner's frame (the face probed is the one facing most upward)."""
+def line_candidates(mesh: MeshData, feature: Feature, radius: float, margin: float) -> Candidates:
+    """A convex edge touched by the ball coming in along the bisector of its two faces' normals:
+    the first contact is the edge itself, the centre ``radius`` out along the bisector."""
     d, p0 = feature.direction, feature.point
     faces = mesh.faces
     edges = np.unique(
@@ -229,43 +231,46 @@ def line_candidates(
         )
     s = ends[on] @ d
     s0, s1 = float(s.min()), float(s.max())
-    # the faces meeting at the edge: triangles with an edge on the line
     tri = mesh.triangles()
     fn = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     fn /= np.maximum(np.linalg.norm(fn, axis=1), 1e-300)[:, None]
     rel = tri - p0
     near = np.linalg.norm(rel - (rel @ d)[..., None] * d, axis=2) < PLANE_TOLERANCE
-    normals = fn[near.sum(axis=1) >= 2]
     distinct: list[np.ndarray] = []
-    for n in normals:
+    for n in fn[near.sum(axis=1) >= 2]:  # triangles with an edge on the line
         if not any(n @ m > 1 - 1e-6 for m in distinct):
             distinct.append(n)
-    mid = p0 + 0.5 * (s0 + s1) * d
-    best = None
-    for n in sorted(distinct, key=lambda n: -float(n @ up)):
-        face = _face(mesh, mid, n)
-        if face is None:
-            continue
-        inward = np.cross(n, d)
-        probe = face.to_2d(mid + margin * inward)
-        if not face.inside(probe)[0]:
-            inward = -inward
-        s = np.linspace(s0 + margin, s1 - margin, max(int((s1 - s0) / 1e-3), 2))
-        points = p0 + s[:, None] * d + margin * inward
-        xy = face.to_2d(points)
-        keep = face.inside(xy) & (face.edge_distance(xy) >= margin - 1e-9)
-        if keep.sum() >= 2:
-            best = (points[keep], n, inward)
-            break
-    if best is None:
+    if len(distinct) != 2:
         raise UserError(
-            f"feature '{feature.name}': neither face along this edge leaves {margin * 1000:g} mm "
-            "(the margin) for the ball beside it"
+            f"feature '{feature.name}': {len(distinct)} face(s) meet at this edge of "
+            f"'{feature.owner}''s geometry; an edge to probe joins two faces"
         )
-    points, n, inward = best
-    normals = np.repeat(n[None], len(points), axis=0)
+    bisector = distinct[0] + distinct[1]
+    if np.linalg.norm(bisector) < 1e-6:
+        raise UserError(f"feature '{feature.name}': the two faces at this edge are opposite")
+    bisector /= np.linalg.norm(bisector)
+    mid = p0 + 0.5 * (s0 + s1) * d
+    eps = 1e-4
+    solid = winding_number(np.stack([mid - eps * bisector, mid + eps * bisector]), tri) > 0.5
+    if not (solid[0] and not solid[1]):
+        raise UserError(
+            f"feature '{feature.name}': the edge is concave (an inside corner): a ball cannot "
+            "touch it; probe its two faces as planes"
+        )
+    if s1 - s0 <= 2 * margin:
+        raise UserError(
+            f"feature '{feature.name}': the edge is {(s1 - s0) * 1000:.4g} mm long, too short for "
+            f"points {margin * 1000:g} mm (the margin) from its ends"
+        )
+    s = np.linspace(s0 + margin, s1 - margin, max(int((s1 - s0) / 1e-3), 2))
+    points = p0 + s[:, None] * d
+    normals = np.repeat(bisector[None], len(points), axis=0)
     return Candidates(
-        feature, points, normals, points + radius * normals, offset=margin * inward + radius * n
+        feature,
+        points,
+        normals,
+        points + radius * normals,
+        offset=radius * bisector if radius > 0 else None,
     )
 
 
@@ -360,7 +365,6 @@ def feature_candidates(
     radius: float,
     margin: float,
     depth: float | None = None,
-    up: np.ndarray | None = None,
 ) -> Candidates:
     """Candidate probe contacts on ``feature`` for a ball of ``radius`` [m] (module docstring).
 
@@ -374,9 +378,7 @@ def feature_candidates(
     if feature.kind == "plane":
         return plane_candidates(mesh, feature, radius, margin)
     if feature.kind == "line":
-        return line_candidates(
-            mesh, feature, radius, margin, np.array([0, 0, 1.0]) if up is None else up
-        )
+        return line_candidates(mesh, feature, radius, margin)
     if feature.kind == "circle":
         return circle_candidates(mesh, feature, radius, depth)
     return point_candidates(mesh, feature, radius)
@@ -403,7 +405,7 @@ def d_optimal(
     spacing: list[float],
     positions: list[np.ndarray],
     feasible,
-    prior: np.ndarray | None = None,
+    seeds: list[list[int]] | None = None,
 ) -> list[list[int]]:
     """Greedy D-optimal choice of probe points for one frame's features.
 
@@ -420,6 +422,9 @@ def d_optimal(
         The candidates' positions (for the spacing).
     feasible : callable(feature index, candidate index) -> bool
         Reachability check, asked lazily for the best candidate (False drops it).
+    seeds : list of list of int, optional
+        Per feature, candidates to try first, in order: the first three feasible ones are taken
+        (a plane's most spread points, so that its own fit is defined).
 
     Returns
     -------
@@ -430,9 +435,18 @@ def d_optimal(
     increases ``log det`` of the information matrix ``sum J^T J`` (the inverse of the
     predicted covariance up to sigma^2).
     """
-    M = np.eye(6) * 1e-12 if prior is None else prior.copy()
+    M = np.eye(6) * 1e-12
     chosen: list[list[int]] = [[] for _ in rows]
     alive = [np.ones(len(r), dtype=bool) for r in rows]
+    for f, seed in enumerate(seeds or []):
+        for k in seed:
+            if len(chosen[f]) >= min(3, counts[f]) or not alive[f][k]:
+                continue
+            if feasible(f, k):
+                chosen[f].append(k)
+                M = M + rows[f][k].T @ rows[f][k]
+                alive[f] &= np.linalg.norm(positions[f] - positions[f][k], axis=1) >= spacing[f]
+            alive[f][k] = False
     while True:
         progressed = False
         for f, R in enumerate(rows):

@@ -204,6 +204,12 @@ def _render(run) -> None:
     help="Only the features of these frames' conditions.",
 )
 @click.option(
+    "--program",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Run this probe program (from plan-measurements --program) against the truth cell.",
+)
+@click.option(
     "-o",
     "--output",
     required=True,
@@ -212,30 +218,39 @@ def _render(run) -> None:
 )
 @json_option
 @handle_errors
-def measure(cell, simulate_flag, truth, sigma, seed, points, frames, output, json_output):
+def measure(cell, simulate_flag, truth, sigma, seed, points, frames, program, output, json_output):
     """Synthetic probe points for trials, demos and tests (--simulate).
 
-    Probes the features of CELL's frame conditions where plan-measurements
-    would (spread over each feature's face), on TRUE_CELL's poses, with
-    Gaussian noise, and writes a measurement file that 'rworld calibrate'
-    reads.
+    Without --program: probes the features of CELL's frame conditions on
+    their material (spread over each feature's face), on TRUE_CELL's poses,
+    with Gaussian noise.  With --program: runs the probe program - the robot
+    goes where the nominal cell says, and each guarded move's contact is where
+    its ball first touches the truth cell's parts - and adds the noise.
+    Either way it writes a measurement file that 'rworld calibrate' reads.
 
     \b
-    Example:
+    Examples:
       rworld measure --simulate workcells/calibration_example --truth trial/ --sigma 0.05mm --seed 1
       -o m.yaml
-    """
-    from ..api import parse_length, simulate_measurement_file
+      rworld measure --simulate workcells/probing --truth trial/ --program
+      workcells/probing/programs/probe.yaml -o m.yaml
 
-    info = simulate_measurement_file(
-        cell,
-        truth,
-        output,
-        parse_length(sigma),
-        seed,
-        points,
-        frames.split(",") if frames else None,
-    )
+    Exit codes: 0 written, 1 a guarded move touches nothing on the truth cell, 2 bad input.
+    """
+    from ..api import parse_length, simulate_measurement_file, simulate_probe_measurements
+
+    if program is not None:
+        info = simulate_probe_measurements(cell, truth, program, output, parse_length(sigma), seed)
+    else:
+        info = simulate_measurement_file(
+            cell,
+            truth,
+            output,
+            parse_length(sigma),
+            seed,
+            points,
+            frames.split(",") if frames else None,
+        )
     if json_output:
         emit_json(info)
     else:
@@ -243,3 +258,5 @@ def measure(cell, simulate_flag, truth, sigma, seed, points, frames, output, jso
             f"wrote {output}: {len(info['features'])} feature(s), {sum(info['points'].values())} "
             "point(s)"
         )
+        for line in info.get("warnings", []):
+            click.echo(f"warning: {line}", err=True)

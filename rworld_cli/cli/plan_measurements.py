@@ -53,6 +53,51 @@ def _plan_dict(plan) -> dict:
     "--tolerance", default="0.1mm", show_default=True, help="Wanted pose accuracy at 2 sigma."
 )
 @click.option(
+    "--program",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Write a probe program for the robot (checked in simulation first).",
+)
+@click.option(
+    "--device",
+    default=None,
+    help="The device that probes (default: the one with a ball-tip probe).",
+)
+@click.option(
+    "--tcp", default=None, help="The probe's TCP (default: the frame the probe sensor is on)."
+)
+@click.option(
+    "--sensor", default=None, help="The ball-tip touch sensor (default: the device's only one)."
+)
+@click.option(
+    "--start",
+    default=None,
+    help="Named position the program starts and ends at (default: 'ready', else 'home').",
+)
+@click.option(
+    "--probe-radius",
+    default=None,
+    help="Ball radius for targets without a program (default: the probe sensor's, else 0).",
+)
+@click.option(
+    "--margin",
+    default=None,
+    help="Least distance of a target from a face's edges and holes (default: ball radius + 1mm).",
+)
+@click.option(
+    "--depth",
+    "depths",
+    multiple=True,
+    metavar="[FEATURE=]LENGTH",
+    help="Probing depth below a circle's rim (repeatable; default: the middle of the wall).",
+)
+@click.option(
+    "--clearance",
+    default="0mm",
+    show_default=True,
+    help="Required distance of the robot from what it may not touch.",
+)
+@click.option(
     "-o",
     "--output",
     default=None,
@@ -61,48 +106,102 @@ def _plan_dict(plan) -> dict:
 )
 @json_option
 @handle_errors
-def plan_measurements(cell, frames, sigma, tolerance, output, json_output):
+def plan_measurements(
+    cell,
+    frames,
+    sigma,
+    tolerance,
+    program,
+    device,
+    tcp,
+    sensor,
+    start,
+    probe_radius,
+    margin,
+    depths,
+    clearance,
+    output,
+    json_output,
+):
     """Measuring directives for CELL's frame conditions: which features, how many points, where, in
-    what order.
+    what order - and, with --program, a probe program for the robot.
 
-    Points are spread over each feature's face using its owner's geometry;
-    their number is the smallest that brings the predicted pose error (the
-    Cramer-Rao bound for the probe noise) within the tolerance.  Planes get
-    one extra point above the surface and lines are probed first -> last,
-    which carries the orientation information C2 needs.
+    Targets lie on material: on each feature's face, hole wall or beside its edge, in the owner's
+    geometry, at least the margin from edges and holes.  Natural frames (C1, C2) take theirs by
+    greedy D-optimal choice (the most information about the pose); their number is the smallest
+    that brings the predicted pose error (the Cramer-Rao bound for the probe noise) within the
+    tolerance.  Holes are probed on their wall below the rim, lines on a face beside the edge; the
+    offsets are written into the template.
+
+    With --program, every target's approach, contact and guarded end are solved by IK within the
+    joint limits and checked collision-free (a target that fails is replaced, the reasons listed);
+    the stops are ordered by nearest neighbour and 2-opt; the program (approach, a guarded move
+    until the probe touches, 'probe: feature', retract) is simulated with the collision check and
+    written only if it passes.
 
     \b
     Examples:
       rworld plan-measurements workcells/calibration_example
-      rworld plan-measurements workcells/calibration_example --sigma 0.02mm --tolerance 0.05mm -o
-      targets.yaml
+      rworld plan-measurements workcells/calibration_example --sigma 0.02mm -o targets.yaml
+      rworld plan-measurements workcells/probing --program workcells/probing/programs/probe.yaml
+      rworld plan-measurements workcells/probing --depth plate.hole1=4mm --json
 
-    Exit codes: 0 every frame can be determined, 1 a frame's conditions cannot determine it, 2 bad
-    input.
+    Exit codes: 0 every frame can be determined (and the program passes), 1 a frame cannot be
+    determined or probed, or the program fails its check (nothing written), 2 bad input.
     """
     from ..api import parse_length, plan_cell_measurements, write_measurement_template
 
-    cell_model, plans = plan_cell_measurements(
-        cell, frames.split(",") if frames else None, parse_length(sigma), parse_length(tolerance)
+    parsed_depths = {}
+    for item in depths:
+        name, _, value = item.rpartition("=")
+        parsed_depths[name or "*"] = parse_length(value)
+    result = plan_cell_measurements(
+        cell,
+        frames.split(",") if frames else None,
+        parse_length(sigma),
+        parse_length(tolerance),
+        probe_radius=parse_length(probe_radius) if probe_radius is not None else None,
+        margin=parse_length(margin) if margin is not None else None,
+        depths=parsed_depths,
+        device=device,
+        tcp=tcp,
+        sensor=sensor,
+        program=program,
+        start=start,
+        clearance=parse_length(clearance),
     )
-    if output:
-        write_measurement_template(output, cell_model.name, plans)
+    plans = result.plans
+    if output and all(p.determined for p in plans):
+        write_measurement_template(output, result.cell.name, plans, result.radius)
+    elif output:
+        output = None
     if json_output:
         emit_json(
-            {"cell": cell_model.name, "frames": [_plan_dict(p) for p in plans], "written": output}
+            {
+                "cell": result.cell.name,
+                "probe_radius_mm": result.radius * 1000,
+                "frames": [_plan_dict(p) for p in plans],
+                "written": output,
+                "program": str(result.program) if result.program else None,
+                "probe": result.probe,
+                "stops": result.stops if result.program else None,
+                "cycle_time_s": result.cycle_time,
+            }
         )
     else:
-        _render(cell_model.name, plans, output)
+        _render(result, output)
     if not all(p.determined for p in plans):
         sys.exit(EXIT_CHECK_FAILED)
 
 
-def _render(name, plans, output) -> None:
+def _render(result, output) -> None:
     from rich.console import Console
 
     console = Console(highlight=False)
-    console.print(f"[bold]{name}[/]: measuring directives")
-    for p in plans:
+    console.print(f"[bold]{result.cell.name}[/]: measuring directives", markup=True)
+    if result.radius:
+        console.print(f"for a ball of radius {result.radius * 1000:g} mm")
+    for p in result.plans:
         if p.determined:
             sigma = f"predicted sigma {p.sigma_translation * 1000:.4f} mm"
             if p.code in ("C1", "C2"):
@@ -110,6 +209,15 @@ def _render(name, plans, output) -> None:
                     f", {p.sigma_rotation / ARCSEC:.1f} arcsec (condition number {p.condition:.3g})"
                 )
             console.print(f"\n[bold]{p.frame}[/] ({p.code}): {sigma}")
+            if (
+                p.code in ("C1", "C2")
+                and p.uniform_sigma_translation == p.uniform_sigma_translation
+            ):
+                console.print(
+                    f"  the same numbers of points spread uniformly: "
+                    f"{p.uniform_sigma_translation * 1000:.4f} mm, "
+                    f"{p.uniform_sigma_rotation / ARCSEC:.1f} arcsec"
+                )
         else:
             console.print(
                 f"\n[bold]{p.frame}[/] ({p.code}): [red]cannot be determined[/]: {p.reason}"
@@ -118,5 +226,14 @@ def _render(name, plans, output) -> None:
             console.print(f"  {k}. {d.feature} ({d.kind}): {d.how}", markup=False)
         for w in p.warnings:
             console.print(f"  [yellow]warning[/]: {w}")
+        if p.dropped:
+            console.print(f"  {len(p.dropped)} target(s) the robot cannot probe, replaced; e.g.:")
+            for why in p.dropped[:3]:
+                console.print(f"    {why}", markup=False)
     if output:
         console.print(f"\nwrote {output} (probe targets; fill in the measured points)")
+    if result.program:
+        console.print(
+            f"\nwrote {result.program}: {result.stops} stop(s), cycle time "
+            f"{result.cycle_time:.2f} s in simulation (limits and collisions checked)"
+        )

@@ -19,12 +19,13 @@ class Measurement:
     ordered: bool  # lines: first -> last along the direction
     probe_radius: float  # [m]
     source: str  # the file it came from
-    offset: np.ndarray | None = None  # (3,) ball centres' displacement, owner frame [m]
+    offset: np.ndarray | None = None  # lines: (3,) ball centres from the edge, owner frame [m]
     boss: bool = False  # circles: probed from outside
+    depth: float | None = None  # circles: probed on the wall this far below the rim [m]
 
     @property
     def probing(self) -> Probing:
-        return Probing(self.probe_radius, self.offset, self.boss)
+        return Probing(self.probe_radius, self.offset, self.boss, self.depth)
 
 
 @dataclass(frozen=True)
@@ -35,17 +36,22 @@ class Probing:
     ----------
     radius : float
         Ball radius [m]: planes are moved back along their outside normal by it, circles'
-        radii grow by it (holes) or shrink by it (bosses).
+        radii grow by it (holes) or shrink by it (bosses); a line with an ``offset`` was
+        touched at its edge, the ball centres ``radius`` from it.
     offset : ndarray, shape (3,) or None
-        The ball centres' further displacement from the feature, in the feature owner's frame
-        [m]: a line probed on a face beside its edge, a circle probed below its rim.
+        Lines touched by a ball: the ball centres' displacement from the edge at contact, in
+        the owner's frame [m] (the radius along the approach), for the line's fit.
     boss : bool
         Circles: probed from outside.
+    depth : float or None
+        Circles probed on their wall, this far below the rim [m]: a wall gives the distance
+        from the axis only, not the position along it.
     """
 
     radius: float = 0.0
     offset: np.ndarray | None = None
     boss: bool = False
+    depth: float | None = None
 
 
 @dataclass
@@ -65,5 +71,8 @@ class FeatureProbes:
     above: np.ndarray | None = None
     ordered: bool = False
     comment: str = ""
-    offset: np.ndarray | None = None  # (3,) owner frame [m], see Probing
-    boss: bool = False  # written after the feature's name (e.g. how to probe it)
+    offset: np.ndarray | None = None  # lines, (3,) owner frame [m], see Probing
+    boss: bool = False
+    depth: float | None = (
+        None  # circles [m], see Probing  # written after the feature's name (e.g. how to probe it)
+    )

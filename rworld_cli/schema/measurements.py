@@ -18,7 +18,7 @@ YAML (``measurements/<cell>/*.yaml``)::
 
 CSV (as CMM software exports): a header ``feature,x,y,z`` and one point per
 row; an optional fifth column ``role`` marks ``above`` points, the feature's
-``offset`` (owner frame) and ``boss`` (coordinates ignored); the length unit
+``offset`` (owner frame), ``boss`` (coordinates ignored) and ``depth`` (in x); the length unit
 comes from the caller (default mm).
 """
 
@@ -58,13 +58,17 @@ class FeaturePoints(Strict):
     )
     offset: Vec3 | None = Field(
         None,
-        description="The probe-ball centres' displacement from the feature they probe, in the "
-        "feature owner's frame [length unit], beyond what probe_radius compensates: a line "
-        "probed on a face beside its edge (the ball radius along the face normal plus the inset "
-        "from the edge), a circle probed below its rim (the depth, along -normal).",
+        description="Lines touched at their edge by the ball: the ball centres' displacement "
+        "from the edge at contact, in the feature owner's frame [length unit] (the ball radius "
+        "along the approach). The solve uses the centres' distance from the line (the radius).",
     )
     boss: bool = Field(
         False, description="Circles: probed from outside (a boss or shaft), not inside a hole."
+    )
+    depth: NonNegative | None = Field(
+        None,
+        description="Circles probed on their wall, this far below the rim [length unit]: only "
+        "the points' distance from the axis is used (a wall gives no position along it).",
     )
 
 
@@ -150,6 +154,7 @@ def _read_csv(path: str, length_unit: str) -> tuple[dict, list[Issue]]:
             {"points": [], "above": None, "ordered": True, "line": lineno, "offset": None},
         )
         entry.setdefault("boss", False)
+        entry.setdefault("depth", None)
         role = fields[4].lower() if len(fields) == 5 else ""
         if role == "above":
             entry["above"] = xyz
@@ -157,6 +162,8 @@ def _read_csv(path: str, length_unit: str) -> tuple[dict, list[Issue]]:
             entry["offset"] = xyz
         elif role == "boss":
             entry["boss"] = True
+        elif role == "depth":
+            entry["depth"] = xyz[0]
         elif role in ("", "point"):
             entry["points"].append(xyz)
         else:
@@ -166,8 +173,8 @@ def _read_csv(path: str, length_unit: str) -> tuple[dict, list[Issue]]:
                     lineno,
                     len(",".join(fields[:4])) + 2,
                     "(row)",
-                    f"unknown role '{fields[4]}'; use 'above', 'offset' or 'boss', or leave it "
-                    "empty",
+                    f"unknown role '{fields[4]}'; use 'above', 'offset', 'boss' or 'depth' "
+                    "(in x), or leave it empty",
                 )
             )
     return data, issues
@@ -198,6 +205,7 @@ def load_measurements(paths: list[str], cell: CellModel, csv_units: str = "mm") 
                     ("line", e["line"]),
                     np.array(e["offset"]) if e["offset"] is not None else None,
                     e["boss"],
+                    e["depth"],
                 )
                 for name, e in data.items()
             }
@@ -222,12 +230,13 @@ def load_measurements(paths: list[str], cell: CellModel, csv_units: str = "mm") 
                     None,
                     np.array(f.offset, dtype=float) * L if f.offset is not None else None,
                     f.boss,
+                    f.depth * L if f.depth is not None else None,
                 )
                 for name, f in mf.features.items()
             }
             locate = lambda key, doc=doc: doc.issue(("features", key), "", prefer="key")  # noqa: E731
         files.append({"path": path, "sha256": _digest(Path(path)), **meta})
-        for name, (points, above, ordered, _, offset, boss) in entries.items():
+        for name, (points, above, ordered, _, offset, boss, depth) in entries.items():
             where = locate(name)
             feature = cell.features.get(name)
             if feature is None:
@@ -238,10 +247,22 @@ def load_measurements(paths: list[str], cell: CellModel, csv_units: str = "mm") 
                     )
                 )
                 continue
-            if boss and feature.kind != "circle":
+            wrong = [
+                key
+                for key, given, kind in (
+                    ("boss", boss, "circle"),
+                    ("depth", depth is not None, "circle"),
+                    ("offset", offset is not None, "line"),
+                )
+                if given and feature.kind != kind
+            ]
+            if wrong:
                 issues.append(
                     replace(
-                        where, message=f"'boss' applies to circles; '{name}' is a {feature.kind}"
+                        where,
+                        message=f"'{wrong[0]}' applies to "
+                        f"{'circles' if wrong[0] != 'offset' else 'lines'}; '{name}' is a "
+                        f"{feature.kind}",
                     )
                 )
                 continue
@@ -271,6 +292,7 @@ def load_measurements(paths: list[str], cell: CellModel, csv_units: str = "mm") 
                 path,
                 offset,
                 bool(boss),
+                depth,
             )
     if issues:
         raise UserError(
@@ -325,11 +347,11 @@ def measurement_text(
         if f.ordered:
             lines.append("    ordered: true")
         if f.offset is not None:
-            lines.append(
-                "    offset: " + mm(f.offset) + "   # ball centres from the feature, owner's frame"
-            )
+            lines.append("    offset: " + mm(f.offset) + "   # ball centres from the edge, owner's")
         if f.boss:
             lines.append("    boss: true")
+        if f.depth is not None:
+            lines.append(f"    depth: {f.depth * 1000!r}   # probed on the wall, below the rim")
     return "\n".join(lines) + "\n"
 
 

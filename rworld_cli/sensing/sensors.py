@@ -110,38 +110,77 @@ def read_sensors(
     return readings
 
 
-def ball_contacts(T_world_sensor: np.ndarray, radius: float, bodies: list[Body]) -> list[Body]:
-    """The bodies a ball tip of ``radius`` [m] centred on the sensor's origin touches or
-    overlaps: exact sphere distances (the collision room's), a gap of 0 counts as contact."""
-    centre = T_world_sensor[:3, 3]
-    near = []
-    for b in bodies:  # bounding-box cull: only bodies whose box the ball reaches
-        box = b.shape.bounding_box
-        T = b.T_world_owner @ box.T_owner_box
-        local = np.abs((centre - T[:3, 3]) @ T[:3, :3])
-        if np.all(local <= box.half_extents + radius):
-            near.append(b)
-    if not near:
-        return []
+def ball_gaps(centre: np.ndarray, radius: float, bodies: list[Body]) -> np.ndarray:
+    """Each body's distance from a ball of ``radius`` [m] at ``centre`` (world) [m]: exact
+    (the collision room's sphere distances; a mesh's by point-to-triangle distance and, for a
+    closed mesh, the inside test), 0 where the ball touches or overlaps it."""
     from ..collision.bodies import ball_body, make_body, point_triangle_distance
     from .geometry import winding_number
 
     ball = ball_body("probe ball", radius)
     T_ball = spatial.make_transform(np.eye(3), centre)[None]
-    out = []
-    for b in near:
-        if b.shape.kind == "mesh":  # the centre's distance to the surface, and inside or not
+    out = np.empty(len(bodies))
+    for k, b in enumerate(bodies):
+        if b.shape.kind == "mesh":
             local = (centre - b.T_world_owner[:3, 3]) @ b.T_world_owner[:3, :3]
             tri = shape_mesh(b.shape).triangles()
-            touching = point_triangle_distance(local, tri).min() <= radius or (
-                b.shape.closed and winding_number(local[None], tri)[0] > 0.5
-            )
+            inside = b.shape.closed and winding_number(local[None], tri)[0] > 0.5
+            gap = point_triangle_distance(local, tri).min() - radius
+            out[k] = 0.0 if inside else max(gap, 0.0)
         else:
             other = make_body(b.label, b.owner, b.label, b.shape)
-            touching = bool(pair_distance(ball, other, T_ball, b.T_world_owner[None]).overlap[0])
-        if touching:
-            out.append(b)
+            out[k] = pair_distance(ball, other, T_ball, b.T_world_owner[None]).distance[0]
     return out
+
+
+def _near_ball(centre: np.ndarray, radius: float, bodies: list[Body]) -> list[Body]:
+    """The bodies whose bounding box the ball reaches."""
+    near = []
+    for b in bodies:
+        box = b.shape.bounding_box
+        T = b.T_world_owner @ box.T_owner_box
+        local = np.abs((centre - T[:3, 3]) @ T[:3, :3])
+        if np.all(local <= box.half_extents + radius):
+            near.append(b)
+    return near
+
+
+def ball_contacts(T_world_sensor: np.ndarray, radius: float, bodies: list[Body]) -> list[Body]:
+    """The bodies a ball tip of ``radius`` [m] centred on the sensor's origin touches or
+    overlaps (a gap of 0 counts as contact)."""
+    centre = T_world_sensor[:3, 3]
+    near = _near_ball(centre, radius, bodies)
+    if not near:
+        return []
+    gaps = ball_gaps(centre, radius, near)
+    return [b for b, gap in zip(near, gaps) if gap <= 0.0]
+
+
+def ball_first_contact(
+    start: np.ndarray, end: np.ndarray, radius: float, bodies: list[Body], tolerance: float = 1e-10
+) -> tuple[float, list[str]] | None:
+    """Where a ball moving straight from ``start`` to ``end`` (world) first touches a body:
+    the fraction of the way, and what it touches; None when it touches nothing.
+
+    Conservative advancement: the ball moves by its exact distance to the nearest body, which
+    cannot pass through anything (distance is 1-Lipschitz in the centre), until the gap is
+    below ``tolerance`` [m].
+    """
+    length = float(np.linalg.norm(end - start))
+    if length == 0.0:
+        return None
+    direction = (end - start) / length
+    travelled = 0.0
+    for _ in range(10_000):
+        centre = start + travelled * direction
+        gaps = ball_gaps(centre, radius, bodies)
+        gap = float(gaps.min()) if len(gaps) else np.inf
+        if gap <= tolerance:
+            return travelled / length, [b.label for b, g in zip(bodies, gaps) if g <= tolerance]
+        travelled += gap
+        if travelled > length:
+            return None
+    return None
 
 
 def overlap_volume(sensor, T_world_sensor: np.ndarray, bodies: list[Body]) -> float:
