@@ -116,7 +116,16 @@ class Comment:
     where: str
 
 
-Instruction = Tool | Move | Output | Wait | Comment
+@dataclass
+class Record:
+    """A probe step: report where the last search stopped, as a probe point of a feature."""
+
+    feature: str
+    where: str
+    text: str
+
+
+Instruction = Tool | Move | Output | Wait | Comment | Record
 
 
 @dataclass
@@ -211,6 +220,8 @@ def instructions(
             program.instructions.append(
                 Output("tool_changer", step.kind == "attach_tool", step.where, text)
             )
+        elif step.kind == "probe":
+            program.instructions.append(Record(step.spec.feature, step.where, text))
         elif step.kind == "wait" and step.spec.time is not None:
             program.instructions.append(Wait(float(step.spec.time), step.where, text))
         else:

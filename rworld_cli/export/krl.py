@@ -7,7 +7,18 @@ from __future__ import annotations
 import numpy as np
 
 from . import Signals
-from .common import Comment, DeviceProgram, Move, Output, Tool, Wait, kuka_abc, number, sanitise
+from .common import (
+    Comment,
+    DeviceProgram,
+    Move,
+    Output,
+    Record,
+    Tool,
+    Wait,
+    kuka_abc,
+    number,
+    sanitise,
+)
 
 
 def frame(T) -> str:
@@ -83,6 +94,9 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             src.append(f"WAIT SEC {number(item.seconds, 6)}")
         elif isinstance(item, Comment):
             src.append(f"; {item.where}: {item.text}")
+        elif isinstance(item, Record):
+            src.append(f"; {item.where}: {item.text}: the contact is $POS_INT (latched by the")
+            src.append("; search's interrupt); record it for 'rworld calibrate'")
     src += ["END", ""]
     dat += ["ENDDAT", ""]
     return {f"{name}.src": "\n".join(src), f"{name}.dat": "\n".join(dat)}

@@ -13,6 +13,7 @@ from .common import (
     DeviceProgram,
     Move,
     Output,
+    Record,
     Tool,
     Wait,
     abb_confdata,
@@ -57,6 +58,7 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         )
     body = ["  PROC main()"]
     current_tool = ""
+    last_hit = None
     for k, item in enumerate(program.instructions):
         if isinstance(item, Tool):
             current_tool = tool_names[item.name]  # the tooldata of the moves that follow
@@ -74,6 +76,7 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             body.append(f"    ! {item.where}: {item.text}")
             if item.guard:  # a search: SearchL stops where the sensor's input closes
                 lines.append(f"  VAR robtarget hit{k + 1};")
+                last_hit = f"hit{k + 1}"
                 body.append(
                     f"    SearchL \\Stop, di_{signals.sensor}, hit{k + 1}, {label}, s{k + 1}, "
                     f"{current_tool}\\WObj:={wobj};"
@@ -91,5 +94,9 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             body.append(f"    WaitTime {number(item.seconds, 6)};")
         elif isinstance(item, Comment):
             body.append(f"    ! {item.where}: {item.text}")
+        elif isinstance(item, Record):
+            body.append(f"    ! {item.where}: {item.text}")
+            if last_hit is not None:  # SearchL's search point: where the input closed
+                body.append(f'    TPWrite "rworld probe {item.feature}" \\Pos:={last_hit}.trans;')
     lines += body + ["  ENDPROC", "ENDMODULE", ""]
     return {f"{name}.mod": "\n".join(lines)}

@@ -9,6 +9,7 @@ from .common import (
     DeviceProgram,
     Move,
     Output,
+    Record,
     Tool,
     Wait,
     number,
@@ -88,5 +89,8 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             lines.append(f"  sleep({number(item.seconds, 6)})")
         elif isinstance(item, Comment):
             lines.append(f"  # {item.where}: {item.text}")
+        elif isinstance(item, Record):  # where the search stopped (after its stopping distance)
+            lines.append(f"  # {item.where}: {item.text}")
+            lines.append(f'  textmsg("rworld probe {item.feature}: ", get_actual_tcp_pose())')
     lines += ["end", f"{name}()", ""]
     return {f"{program.name}.script": "\n".join(lines)}
