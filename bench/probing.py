@@ -141,36 +141,27 @@ def main() -> None:
         print(f"targets on material: {good} of {total} ({100 * good / total:.0f} %); reachable and")
         print(f"  collision-free: the program passed the check ({result.stops} stops)")
         print()
-        print(
-            f"{'frame':8s} {'points':>6s} {'D-optimal sigma':>22s} {'uniform sigma':>22s} {'ratio':>6s}"
-        )
+        head = ("frame", "points", "D-optimal sigma", "uniform sigma", "ratio")
+        print(f"{head[0]:8s} {head[1]:>6s} {head[2]:>22s} {head[3]:>22s} {head[4]:>6s}")
         for p in plans:
             n = sum(len(d.points) for d in p.directives)
             print(
-                f'{p.frame:8s} {n:6d} {p.sigma_translation * 1e3:9.4f} mm {p.sigma_rotation / ARCSEC:6.1f}" '
+                f"{p.frame:8s} {n:6d} {p.sigma_translation * 1e3:9.4f} mm "
+                f'{p.sigma_rotation / ARCSEC:6.1f}" '
                 f"{p.uniform_sigma_translation * 1e3:9.4f} mm "
                 f'{p.uniform_sigma_rotation / ARCSEC:6.1f}" '
                 f"{p.sigma_translation / p.uniform_sigma_translation:6.3f}"
             )
-        # the same targets in the planned order, no ordering step
-        from rworld_cli.api.calibration import _probe_rig
-
-        rig = _probe_rig(cell, "puma", None, None, None, 0.0)
-        for plan in plans:  # solve the chosen targets again on a fresh rig
-            for d in plan.directives:
-                T = rig.world.T_world(cell.features[d.feature].owner)
-                for k in d.index:
-                    assert rig.solve(d.candidates, int(k), T) is None
-        ordered_text, _ = probe_program(rig, plans, ordered=True)
-        planned_text, _ = probe_program(rig, plans, ordered=False)
-        t_ordered, ok1 = cycle_time(CELL, ordered_text, CELL / "programs", ".bench-ordered.yaml")
-        t_planned, ok2 = cycle_time(CELL, planned_text, CELL / "programs", ".bench-planned.yaml")
-        for name in (".bench-ordered.yaml", ".bench-planned.yaml"):
-            (CELL / "programs" / name).unlink()
+        # the same targets in the planned order (frame by frame, feature by feature)
+        ordered_text, _ = probe_program(result.rig, plans, ordered=True)
+        planned_text, _ = probe_program(result.rig, plans, ordered=False)
+        t_ordered, ok1 = cycle_time(CELL, ordered_text, tmp, "ordered.yaml")
+        t_planned, ok2 = cycle_time(CELL, planned_text, tmp, "planned.yaml")
+        verdict = {True: "ok", False: "FAILED"}
         print()
         print(
-            f"cycle time (simulated): ordered {t_ordered:.2f} s (check {'ok' if ok1 else 'FAILED'}), "
-            f"planned order {t_planned:.2f} s (check {'ok' if ok2 else 'FAILED'}), ratio "
+            f"cycle time (simulated): ordered {t_ordered:.2f} s (check {verdict[ok1]}), "
+            f"planned order {t_planned:.2f} s (check {verdict[ok2]}), ratio "
             f"{t_ordered / t_planned:.3f}"
         )
         # the round trip on a true cell

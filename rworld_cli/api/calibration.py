@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -168,6 +168,7 @@ class MeasurementPlan:
     program: Path | None = None
     stops: int = 0
     cycle_time: float | None = None
+    rig: object = field(default=None, repr=False)  # the ProbeRig with every target solved
 
 
 def plan_cell_measurements(
@@ -260,7 +261,7 @@ def plan_cell_measurements(
     )
     feasible = None if rig is None else rig.solve
     plans = plan_measurements(cell, frames, sigma, tolerance, geometry, feasible)
-    out = MeasurementPlan(cell, plans, geometry.radius)
+    out = MeasurementPlan(cell, plans, geometry.radius, rig=rig)
     if rig is not None:
         out.probe = {"device": rig.device, "tcp": rig.tcp, "sensor": rig.sensor, "start": rig.start}
     if program is None or rig is None or not all(p.determined for p in plans):
@@ -326,7 +327,7 @@ def _write_probe_program(cell_path: str, rig, plans, out: Path, ordered: bool = 
             first = (
                 [v.describe() for v in result.violations]
                 + ([c.describe() for c in report.contacts] if report is not None else [])
-                + [f"{e.detail} (step {e.step + 1})" for e in untouched]
+                + [f"{e.detail} (step {(e.step or 0) + 1})" for e in untouched]
             )
             raise CheckFailed(
                 f"cannot plan the probe program: the program does not pass the check "

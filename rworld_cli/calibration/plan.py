@@ -36,6 +36,7 @@ from .solve import REFUSE_CONDITION, _jacobian, residual_widths
 from .targets import Candidates, d_optimal, farthest_points, feature_candidates
 
 LADDER = [3, 4, 6, 8, 10, 15, 20, 30, 50]
+MAX_REFUSED = 30  # a feature whose first this many targets are all refused is given up
 SUBSAMPLE = 120  # candidates kept per feature, spread by farthest-point sampling
 ABOVE = 0.01  # [m]: the 'above' point of planes and circles, this far out along the normal
 
@@ -220,6 +221,13 @@ def plan_measurements(
     def ok(name: str, k: int) -> bool:
         if feasible is None:
             return True
+        refused = dropped.get(name, [])
+        if (
+            (name, k) not in verdicts
+            and len(refused) >= MAX_REFUSED
+            and len(refused) == sum(1 for key in verdicts if key[0] == name)
+        ):  # nothing on this feature has worked yet: stop trying, the reasons are listed
+            return False
         if (name, k) not in verdicts:
             c = candidates(name)
             T = world.T_world(c.feature.owner)

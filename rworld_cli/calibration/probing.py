@@ -135,7 +135,10 @@ class ProbeRig:
         self.half = np.array([b.shape.bounding_box.half_extents for b in self.bodies])
         self.centres = np.array([b.center for b in self.bodies]).reshape(-1, 3)
         self.radii = np.array([b.radius for b in self.bodies])
-        self._hole_spin: dict[str, float] = {}
+        self._hole_spin: dict[str, tuple] = {}
+        self._last: dict[str, tuple] = {}  # per feature: stylus, spin, joints of the last success
+        self.reach = _reach_bound(dev, self.mount, self.T_tcp_sensor)
+        self.T_world_base = self.world.T_world(self.device)
         self.vmax = np.where(
             np.isfinite(dev.limit_array("velocity")), dev.limit_array("velocity"), 1.0
         )
@@ -152,10 +155,15 @@ class ProbeRig:
         return spatial.make_transform(R, centre - R @ self.T_tcp_sensor[:3, 3])
 
     def ik(self, T_world_tcp: np.ndarray, seed: np.ndarray, restarts: int = 2):
-        result = solve_ik(
-            self.dev, self.T_base_world @ T_world_tcp, self.mount, seed, restarts=restarts
+        # from a good seed IK converges in a few iterations; 80 bounds the cost of a miss
+        return solve_ik(
+            self.dev,
+            self.T_base_world @ T_world_tcp,
+            self.mount,
+            seed,
+            restarts=restarts,
+            max_iterations=80,
         )
-        return result
 
     def collision(self, q: np.ndarray) -> str | None:
         """The first pair closer than the clearance at joint values ``q``, described; None."""
@@ -243,12 +251,25 @@ class ProbeRig:
             start, entry = centre + self.approach * normal, None
             spins = SPINS
         end = centre - self.overtravel * normal
+        distance = float(np.linalg.norm(centre - self.T_world_base[:3, 3]))
+        if distance > self.reach:  # no pose can reach: say so without trying
+            return (
+                f"{f.name} target {k + 1} is {distance * 1000:.0f} mm from {self.device}'s base, "
+                f"beyond its reach ({self.reach * 1000:.0f} mm at most)"
+            )
         why = "no spin of the probe about its stylus"
         best = None
-        for stylus_k, spin in self._orientations(f.kind, stylus, spins):
+        orientations = list(self._orientations(f.kind, stylus, spins))
+        last = self._last.get(f.name)
+        if last is not None:  # what worked on this feature's last target first, from its joints
+            orientations.sort(
+                key=lambda o: abs(o[1] - last[1]) + float(np.linalg.norm(o[0] - last[0]))
+            )
+        seed = self.q_start if last is None else last[2]
+        for stylus_k, spin in orientations:
             poses = [self.tcp_pose(p, stylus_k, spin) for p in (centre, start, end)]
             # the contact first (most targets fail there), then the approach, the end, the entry
-            q_contact, why_k = self._reach(poses[0], self.q_start, 1, f"{f.name} target {k + 1}")
+            q_contact, why_k = self._reach(poses[0], seed, 1, f"{f.name} target {k + 1}")
             if q_contact is None:
                 why = why_k
                 continue
@@ -299,6 +320,7 @@ class ProbeRig:
         if best is None:
             return why
         spin, stylus, poses, qs, (T_lift, q_lift) = best
+        self._last[f.name] = (stylus, spin, qs[1])
         if f.kind == "circle":
             self._hole_spin.setdefault(f.name, (spin, stylus))
         T_owner_world = np.linalg.inv(T_world_owner)
@@ -346,6 +368,21 @@ class ProbeRig:
     # ------------------------------------------------------------------ order
     def travel_time(self, qa: np.ndarray, qb: np.ndarray) -> float:
         return float(np.max(np.abs(qa - qb) / self.vmax))
+
+
+def _reach_bound(dev, mount: ToolMount, T_tcp_sensor: np.ndarray) -> float:
+    """An upper bound on the distance from the device's base origin to the probe ball's centre
+    [m]: every offset of the chain, prismatic travel, the tool and the sensor, added up (the
+    triangle inequality; turns keep lengths)."""
+    frames = dev.joint_frames()
+    total = float(np.linalg.norm(frames[-1][2][:3, 3]))  # the last link frame from its joint's
+    for (origin, _, _), joint in zip(frames, dev.joints):
+        total += float(np.linalg.norm(origin[:3, 3]))
+        if joint.kind == "prismatic":
+            total += max(abs(joint.limits.lower), abs(joint.limits.upper))
+    return total + float(
+        np.linalg.norm(mount.T_link_tool[:3, 3]) + np.linalg.norm(T_tcp_sensor[:3, 3])
+    )
 
 
 def tour(costs: np.ndarray, start: np.ndarray) -> list[int]:

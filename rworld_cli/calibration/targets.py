@@ -340,7 +340,7 @@ def circle_candidates(
     points = centre + R * radial
     normals = -radial if hole else radial
     centres = points + radius * normals
-    return Candidates(feature, points, normals, centres, -depth * n, boss, float(depth), wall_depth)
+    return Candidates(feature, points, normals, centres, None, boss, float(depth), wall_depth)
 
 
 def point_candidates(mesh: MeshData, feature: Feature, radius: float) -> Candidates:
