@@ -68,7 +68,27 @@ def probed(planned, tmp_path_factory):
     truth_dir = make_truth(tmp_path_factory.mktemp("truth") / "truth")
     run = load_run(str(cell), str(program))
     truth = load_cell(str(truth_dir)).cell
-    return run.cell, truth, truth_dir, probe_run(simulate(run, collisions=False), run, truth)
+    result = simulate(run, collisions=False)
+    return run.cell, truth, truth_dir, probe_run(result, run, truth), result
+
+
+SHORT = """device: puma
+units: {length: mm, angle: deg}
+steps:
+  - move: {to: ready}
+  - move: {to: plate, tcp: probe, offset: {xyz: [80, 60, 130], rpy: [180, 0, -90]}}
+  - move: {to: plate, tcp: probe, offset: {xyz: [80, 60, 38], rpy: [180, 0, -90]}, motion: linear}
+  - move: {to: plate, tcp: probe, offset: {xyz: [80, 60, 14], rpy: [180, 0, -90]}, motion: linear,
+      speed: 0.04, until: probe_ball}
+  - probe: plate.top
+  - move: {to: plate, tcp: probe, offset: {xyz: [80, 60, 38], rpy: [180, 0, -90]}, motion: linear}
+"""
+
+
+def short_program(folder):
+    path = folder / "short.yaml"
+    path.write_text(SHORT)
+    return path
 
 
 # ---------------------------------------------------------------- targets on material
@@ -181,7 +201,7 @@ def test_a_feature_the_robot_cannot_reach_exits_1_and_writes_nothing(cli, tmp_pa
     out = cell / "programs" / "far.yaml"
     result = cli(["plan-measurements", str(cell), "--frames", "plate", "--program", str(out)])
     assert result.exit_code == 1, result.output
-    assert "too few reachable targets" in result.output and "unreachable" in result.output
+    assert "too few reachable targets" in result.output and "beyond its reach" in result.output
     assert not out.exists()
 
 
@@ -201,7 +221,7 @@ def _measured(nominal, probed, sigma, seed):
 
 
 def test_noiseless_probing_recovers_the_true_parts(probed):
-    nominal, truth, _, points = probed
+    nominal, truth, _, points, _ = probed
     assert not any(p.off_edge for p in points) and all(p.true is not None for p in points)
     result = calibrate(nominal, _measured(nominal, points, 0.0, 0))
     world = World(truth)
@@ -215,7 +235,7 @@ def test_noiseless_probing_recovers_the_true_parts(probed):
 def test_round_trip_errors_are_at_the_cramer_rao_bound(probed):
     """Median rotation and translation errors over 100 noise seeds within 1.2 of the bound for
     the points actually probed (bench/probing.py prints the same figures)."""
-    nominal, truth, _, points = probed
+    nominal, truth, _, points, _ = probed
     world = World(truth)
     exact = _measured(nominal, points, 0.0, 0)
     errors = {"bracket": [], "plate": []}
@@ -247,7 +267,7 @@ def test_measure_calibrate_then_the_production_program_goes_where_the_plate_is(
     cli, planned, probed, tmp_path
 ):
     cell_dir, program, _ = planned
-    _, truth, truth_dir, _ = probed
+    _, truth, truth_dir, _, _ = probed
     m = tmp_path / "m.yaml"
     info = simulate_probe_measurements(
         str(cell_dir), str(truth_dir), str(program), str(m), SIGMA, 3
@@ -283,8 +303,8 @@ def test_measure_calibrate_then_the_production_program_goes_where_the_plate_is(
         (cell_dir / "cell.yaml").write_text(text)
 
 
-def test_a_guarded_move_that_touches_nothing_on_the_truth_exits_1(cli, planned, tmp_path):
-    cell_dir, program, _ = planned
+def test_a_guarded_move_that_touches_nothing_on_the_truth_exits_1(cli, tmp_path):
+    cell_dir, program = CELL, short_program(tmp_path)
     truth = tmp_path / "truth"
     shutil.copytree(CELL, truth)
     poses = truth / "poses.yaml"
@@ -308,7 +328,7 @@ def test_a_guarded_move_that_touches_nothing_on_the_truth_exits_1(cli, planned, 
         ]
     )
     assert result.exit_code == 1, result.output
-    assert "touch nothing on the truth cell" in result.output and "planned.yaml:" in result.output
+    assert "touch nothing on the truth cell" in result.output and "short.yaml:7" in result.output
     assert not out.exists()
 
 
@@ -391,12 +411,13 @@ def test_a_boss_is_compensated_outward():
     assert fit_circle("c", centres, probe_radius=0.003).radius == pytest.approx(0.016)
 
 
-def test_the_ball_probe_latches_its_contact_exactly():
-    run = load_run(str(CELL), str(CELL / "programs" / "probe.yaml"))
-    result = simulate(run, collisions=False)
-    world = World(run.cell)
-    for event in [e for e in result.events if e.kind == "probe"][:4]:
-        f = run.cell.features[event.reading["feature"]]
+def test_the_ball_probe_latches_its_contact_exactly(probed):
+    nominal, _, _, _, result = probed
+    world = World(nominal)
+    events = [e for e in result.events if e.kind == "probe"]
+    assert len(events) == len([e for e in result.events if e.kind == "guard"])
+    for event in events:
+        f = nominal.features[event.reading["feature"]]
         if f.kind != "plane":
             continue
         T = world.T_world(f.owner)
