@@ -168,10 +168,18 @@ def _face(mesh: MeshData, point: np.ndarray, normal: np.ndarray) -> _Face | None
     unique, counts = np.unique(edges, axis=0, return_counts=True)
     boundary = unique[counts == 1]
     u, v = _basis(normal)
-    face = _Face(point, u, v, np.zeros((0, 3, 2)), np.zeros((0, 2, 2)))
-    face.triangles = face.to_2d(mesh.vertices[faces].reshape(-1, 3)).reshape(-1, 3, 2)
-    face.boundary = face.to_2d(mesh.vertices[boundary].reshape(-1, 3)).reshape(-1, 2, 2)
-    return face
+
+    def flat(p: np.ndarray) -> np.ndarray:
+        d = p.reshape(-1, 3) - point
+        return np.stack([d @ u, d @ v], axis=-1)
+
+    return _Face(
+        point,
+        u,
+        v,
+        flat(mesh.vertices[faces]).reshape(-1, 3, 2),
+        flat(mesh.vertices[boundary]).reshape(-1, 2, 2),
+    )
 
 
 def _grid(face: _Face, margin: float, count: int = CANDIDATES) -> np.ndarray:

@@ -25,13 +25,24 @@ def _plan_dict(plan) -> dict:
         if np.isfinite(plan.sigma_rotation)
         else None,
         "condition_number": plan.condition if np.isfinite(plan.condition) else None,
+        "uniform_sigma_mm": plan.uniform_sigma_translation * 1000
+        if np.isfinite(plan.uniform_sigma_translation)
+        else None,
+        "uniform_sigma_arcsec": plan.uniform_sigma_rotation / ARCSEC
+        if np.isfinite(plan.uniform_sigma_rotation)
+        else None,
+        "refused": plan.dropped,
         "warnings": plan.warnings,
         "directives": [
             {
                 "feature": d.feature,
                 "kind": d.kind,
                 "how": d.how,
-                "points_mm": (d.points * 1000).tolist(),
+                "points_mm": (d.points * 1000).tolist(),  # ball centres at contact
+                "contacts_mm": (d.contacts * 1000).tolist(),  # the surface points touched
+                "normals": d.normals.tolist(),  # outward: the ball comes in along -normal
+                "offset_mm": (d.offset * 1000).tolist() if d.offset is not None else None,
+                "depth_mm": d.candidates.depth * 1000 if d.candidates.depth is not None else None,
                 "above_mm": (d.above * 1000).tolist() if d.above is not None else None,
                 "ordered": d.ordered,
             }
