@@ -152,6 +152,38 @@ MIRROR = (
 )
 
 
+def _oriented_form(features: list[Feature], fits: dict[str, FeatureFit]):
+    """Eq. 13 from oriented directions (plane normals with their 'above' side, lines in
+    probing order, circles' axes) and t from the features' linear equations; None when short."""
+    pairs = [
+        (fits[f.name].direction, f.direction)
+        for f in features
+        if f.kind in ("plane", "line", "circle") and fits[f.name].oriented
+    ]
+    if len(pairs) >= 2:
+        W, A = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+        if np.linalg.matrix_rank(A, tol=0.05) >= 2:
+            R, mirrored = kabsch_checked(W, A)
+            rows, rhs = [], []
+            for f in features:
+                fit = fits[f.name]
+                if f.kind == "plane":
+                    n = R @ f.direction
+                    rows.append(n[None]), rhs.append([n @ fit.point - f.direction @ f.point])
+                elif f.kind == "line":
+                    P = np.eye(3) - np.outer(fit.direction, fit.direction)
+                    rows.append(P), rhs.append(P @ (fit.point - R @ f.point))
+                else:
+                    rows.append(np.eye(3)), rhs.append(fit.point - R @ f.point)
+            Aeq, beq = np.vstack(rows), np.concatenate(rhs)
+            if np.linalg.matrix_rank(Aeq, tol=1e-6) == 3:
+                t = np.linalg.lstsq(Aeq, beq, rcond=None)[0]
+                return spatial.make_transform(R, t), "closed form (oriented directions, eq. 13)" + (
+                    f"; {MIRROR}" if mirrored else ""
+                )
+    return None
+
+
 def closed_form(
     code: str, features: list[Feature], fits: dict[str, FeatureFit]
 ) -> tuple[np.ndarray | None, str]:
@@ -159,34 +191,9 @@ def closed_form(
     when it applies.
     """
     if code == "C2":
-        pairs = [
-            (fits[f.name].direction, f.direction)
-            for f in features
-            if f.kind in ("plane", "line", "circle") and fits[f.name].oriented
-        ]
-        if len(pairs) >= 2:
-            W, A = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
-            if np.linalg.matrix_rank(A, tol=0.05) >= 2:
-                R, mirrored = kabsch_checked(W, A)
-                rows, rhs = [], []
-                for f in features:
-                    fit = fits[f.name]
-                    if f.kind == "plane":
-                        n = R @ f.direction
-                        rows.append(n[None]), rhs.append([n @ fit.point - f.direction @ f.point])
-                    elif f.kind == "line":
-                        P = np.eye(3) - np.outer(fit.direction, fit.direction)
-                        rows.append(P), rhs.append(P @ (fit.point - R @ f.point))
-                    else:
-                        rows.append(np.eye(3)), rhs.append(fit.point - R @ f.point)
-                Aeq, beq = np.vstack(rows), np.concatenate(rhs)
-                if np.linalg.matrix_rank(Aeq, tol=1e-6) == 3:
-                    t = np.linalg.lstsq(Aeq, beq, rcond=None)[0]
-                    return spatial.make_transform(
-                        R, t
-                    ), "closed form (oriented directions, eq. 13)" + (
-                        f"; {MIRROR}" if mirrored else ""
-                    )
+        oriented = _oriented_form(features, fits)
+        if oriented is not None:
+            return oriented
         # fall through to the points when orientation information is short
     nominal, world = _intersections(features, fits)
     if len(nominal) >= 3:
@@ -205,7 +212,10 @@ def closed_form(
             None,
             "too few oriented directions or non-collinear intersection points for the closed form",
         )
-    return (  # C1: no orientation information, so only points can start it
+    oriented = _oriented_form(features, fits)  # C1 whose measurements happen to be oriented
+    if oriented is not None:
+        return oriented
+    return (  # C1 with no orientation information: only points can start it
         None,
         f"the features give {len(nominal)} intersection point(s) (points, circle centres, plane "
         "triples, line or circle axis x plane, line pairs), not 3 non-collinear ones, for the "
