@@ -42,6 +42,9 @@ class FeatureFit:
         How well the points define the feature: for planes and circles the ratio of the
         in-plane spreads (1 = round, 0 = collinear); for lines 1 - (cross spread / along spread).
     warnings : list of str
+    axis_only : bool
+        A circle probed on its wall at one depth: where its axis crosses that depth is measured,
+        not the axis' direction (the points lie in whatever plane the probe moved in).
     """
 
     feature: str
@@ -57,6 +60,7 @@ class FeatureFit:
     n_points: int
     points: np.ndarray
     warnings: list[str] = field(default_factory=list)
+    axis_only: bool = False  # a circle's wall probed at one depth: its axis direction unmeasured
 
 
 def _scatter(points: np.ndarray):

@@ -95,6 +95,7 @@ def _fit(feature: Feature, m: Measurement, T_owner: np.ndarray) -> FeatureFit:
         fit = fit_line(feature.name, points, m.ordered)
     elif feature.kind == "circle":
         fit = fit_circle(feature.name, points, m.above, m.probe_radius, side, m.boss)
+        fit.axis_only = m.depth is not None
     else:
         fit = fit_point(feature.name, points)
     fit.points = m.points

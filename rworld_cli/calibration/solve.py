@@ -158,7 +158,9 @@ def _oriented_form(features: list[Feature], fits: dict[str, FeatureFit]):
     pairs = [
         (fits[f.name].direction, f.direction)
         for f in features
-        if f.kind in ("plane", "line", "circle") and fits[f.name].oriented
+        if f.kind in ("plane", "line", "circle")
+        and fits[f.name].oriented
+        and not fits[f.name].axis_only
     ]
     if len(pairs) >= 2:
         W, A = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
@@ -170,8 +172,9 @@ def _oriented_form(features: list[Feature], fits: dict[str, FeatureFit]):
                 if f.kind == "plane":
                     n = R @ f.direction
                     rows.append(n[None]), rhs.append([n @ fit.point - f.direction @ f.point])
-                elif f.kind == "line":
-                    P = np.eye(3) - np.outer(fit.direction, fit.direction)
+                elif f.kind == "line" or fit.axis_only:  # a wall: its axis, as a line
+                    d = R @ f.direction if fit.axis_only else fit.direction
+                    P = np.eye(3) - np.outer(d, d)
                     rows.append(P), rhs.append(P @ (fit.point - R @ f.point))
                 else:
                     rows.append(np.eye(3)), rhs.append(fit.point - R @ f.point)
