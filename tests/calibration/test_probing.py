@@ -438,3 +438,27 @@ def test_export_records_each_probe(tmp_path):
     export_program(str(CELL), "probe", "rapid", str(tmp_path / "abb"))
     text = next((tmp_path / "abb").glob("*.mod")).read_text()
     assert text.count('TPWrite "rworld probe ') == text.count("SearchL ") > 0
+
+
+def test_a_boss_wall_is_found_and_probed_from_outside(tmp_path):
+    cell_dir = tmp_path / "cell"
+    shutil.copytree(CELL, cell_dir)
+    text = (cell_dir / "cell.yaml").read_text()
+    pin = """  - name: pin              # a boss: a 20 mm pin, 30 mm tall
+    geometry: {cylinder: {radius: 0.01, length: 0.03}, origin: {xyz: [0, 0, 0.015]}}
+    features:
+      - name: rim
+        circle: {center: [0, 0, 0.03], normal: [0, 0, 1], radius: 0.01}
+
+sensors:"""
+    (cell_dir / "cell.yaml").write_text(text.replace("\nsensors:", "\n" + pin, 1))
+    poses = cell_dir / "poses.yaml"
+    poses.write_text(poses.read_text() + "  pin: {xyz: [0.5, -0.1, 0.4]}\n")
+    cell = load_cell(str(cell_dir)).cell
+    f = cell.features["pin.rim"]
+    c = feature_candidates(cell, f, 0.003, 0.004)
+    assert c.boss and c.depth == pytest.approx(0.015, abs=2e-4)  # the middle of the wall
+    v = c.centres - f.point
+    radial = np.linalg.norm(v - np.outer(v @ f.direction, f.direction), axis=1)
+    np.testing.assert_allclose(radial, 0.013, atol=1e-12)  # R + r: the ball outside
+    np.testing.assert_allclose(np.einsum("ij,ij->i", c.normals, v), radial, atol=1e-12)
