@@ -141,8 +141,8 @@ def plan_measurements(
     geometry, at least the margin from edges and holes.  Natural frames (C1, C2) take theirs by
     greedy D-optimal choice (the most information about the pose); their number is the smallest
     that brings the predicted pose error (the Cramer-Rao bound for the probe noise) within the
-    tolerance.  Holes are probed on their wall below the rim, lines on a face beside the edge; the
-    offsets are written into the template.
+    tolerance.  Holes are probed on their wall below the rim, edges by a ball coming in between
+    their two faces; the template (-o) gives ball centres, offsets and depths.
 
     With --program, every target's approach, contact and guarded end are solved by IK within the
     joint limits and checked collision-free (a target that fails is replaced, the reasons listed);
