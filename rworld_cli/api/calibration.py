@@ -187,6 +187,7 @@ def plan_cell_measurements(
     start: str | None = None,
     clearance: float = 0.0,
     ordered: bool = True,
+    progress=None,
 ) -> MeasurementPlan:
     """Measuring directives for a cell's conditioned frames (calibration/plan.py) and, with
     ``program``, the probe program for ``device``'s ball-tip probe (calibration/probing.py),
@@ -197,6 +198,8 @@ def plan_cell_measurements(
     ----------
     depths : dict, optional
         Circle feature -> probing depth below the rim [m]; the key ``"*"`` for every circle.
+    progress : callable(done, total, what), optional
+        Called as targets are solved and the program is simulated (the CLI draws a bar).
 
     Raises
     ------
@@ -259,7 +262,16 @@ def plan_cell_measurements(
         {k: v for k, v in depths.items() if k != "*"},
         depths.get("*"),
     )
-    feasible = None if rig is None else rig.solve
+    feasible = None
+    if rig is not None:
+        tried = [0]
+
+        def feasible(cand, k, T):
+            tried[0] += 1
+            if progress is not None:
+                progress(tried[0], None, f"probe targets: {tried[0]} solved (IK, collisions)")
+            return rig.solve(cand, k, T)
+
     plans = plan_measurements(cell, frames, sigma, tolerance, geometry, feasible)
     out = MeasurementPlan(cell, plans, geometry.radius, rig=rig)
     if rig is not None:
@@ -267,7 +279,7 @@ def plan_cell_measurements(
     if program is None or rig is None or not all(p.determined for p in plans):
         return out
     out.program, out.stops, out.cycle_time = _write_probe_program(
-        cell_path, rig, plans, Path(program), ordered
+        cell_path, rig, plans, Path(program), ordered, progress
     )
     return out
 
@@ -301,7 +313,9 @@ def _probe_rig(cell, device, tcp, sensor, start, clearance):
     return ProbeRig(cell, device, full_tcp, sensor, start=start, clearance=clearance)
 
 
-def _write_probe_program(cell_path: str, rig, plans, out: Path, ordered: bool = True):
+def _write_probe_program(
+    cell_path: str, rig, plans, out: Path, ordered: bool = True, progress=None
+):
     """Write the probe program to ``out`` after it passes the simulation check; (path, stops,
     cycle time)."""
     import os
@@ -320,7 +334,7 @@ def _write_probe_program(cell_path: str, rig, plans, out: Path, ordered: bool = 
         atomic_write_text(trial, text)
         run = load_run(cell_path, str(trial))
         run.clearance = rig.clearance
-        result = simulate(run)
+        result = simulate(run, progress)
         untouched = [e for e in result.events if e.kind == "guard" and "did not" in e.detail]
         if not result.ok or untouched:
             report = result.collisions
@@ -346,6 +360,7 @@ def simulate_probe_measurements(
     output: str,
     sigma: float,
     seed: int = 0,
+    progress=None,
 ) -> dict:
     """Run a probe program against a 'true' cell and write the probed points as a measurement
     file (``rworld measure --simulate --program``).
@@ -379,7 +394,7 @@ def simulate_probe_measurements(
         raise UserError(
             f"the truth cell {truth_path} must have the same features and sensors as {cell_path}"
         )
-    result = simulate(run, collisions=False)
+    result = simulate(run, progress, collisions=False)
     probed = probe_run(result, run, truth)
     if not probed:
         raise UserError(f"{program_path} has no 'probe:' steps: nothing is measured")

@@ -6,7 +6,14 @@ import sys
 
 import click
 
-from .common import EXIT_CHECK_FAILED, emit_json, frames_option, handle_errors, json_option
+from .common import (
+    EXIT_CHECK_FAILED,
+    emit_json,
+    frames_option,
+    handle_errors,
+    json_option,
+    with_progress,
+)
 
 
 def _solution_dict(sol) -> dict:
@@ -240,7 +247,13 @@ def measure(cell, simulate_flag, truth, sigma, seed, points, frames, program, ou
     from ..api import parse_length, simulate_measurement_file, simulate_probe_measurements
 
     if program is not None:
-        info = simulate_probe_measurements(cell, truth, program, output, parse_length(sigma), seed)
+        info = with_progress(
+            not json_output and sys.stderr.isatty(),
+            lambda progress: simulate_probe_measurements(
+                cell, truth, program, output, parse_length(sigma), seed, progress
+            ),
+            "running the probe program",
+        )
     else:
         info = simulate_measurement_file(
             cell,

@@ -117,3 +117,20 @@ def parse_joint_assignments(values: tuple[str, ...]) -> dict[str, list[float]]:
             )
         out[name] = q
     return out
+
+
+def with_progress(show: bool, call, what: str):
+    """``call(progress)`` under a transient rich progress bar on stderr when ``show`` (else
+    ``call(None)``); ``progress(done, total, what)`` updates it (``total`` None: no end known)."""
+    if not show:
+        return call(None)
+    from rich.console import Console
+    from rich.progress import Progress
+
+    with Progress(transient=True, console=Console(stderr=True)) as bar:
+        task = bar.add_task(what, total=None)
+
+        def progress(done, total, text):
+            bar.update(task, completed=done, total=total, description=text)
+
+        return call(progress)

@@ -7,7 +7,14 @@ import sys
 import click
 
 from ..units import ARCSEC
-from .common import EXIT_CHECK_FAILED, emit_json, frames_option, handle_errors, json_option
+from .common import (
+    EXIT_CHECK_FAILED,
+    emit_json,
+    frames_option,
+    handle_errors,
+    json_option,
+    with_progress,
+)
 
 
 def _plan_dict(plan) -> dict:
@@ -166,20 +173,25 @@ def plan_measurements(
     for item in depths:
         name, _, value = item.rpartition("=")
         parsed_depths[name or "*"] = parse_length(value)
-    result = plan_cell_measurements(
-        cell,
-        frames.split(",") if frames else None,
-        parse_length(sigma),
-        parse_length(tolerance),
-        probe_radius=parse_length(probe_radius) if probe_radius is not None else None,
-        margin=parse_length(margin) if margin is not None else None,
-        depths=parsed_depths,
-        device=device,
-        tcp=tcp,
-        sensor=sensor,
-        program=program,
-        start=start,
-        clearance=parse_length(clearance),
+    result = with_progress(
+        program is not None and not json_output and sys.stderr.isatty(),
+        lambda progress: plan_cell_measurements(
+            cell,
+            frames.split(",") if frames else None,
+            parse_length(sigma),
+            parse_length(tolerance),
+            probe_radius=parse_length(probe_radius) if probe_radius is not None else None,
+            margin=parse_length(margin) if margin is not None else None,
+            depths=parsed_depths,
+            device=device,
+            tcp=tcp,
+            sensor=sensor,
+            program=program,
+            start=start,
+            clearance=parse_length(clearance),
+            progress=progress,
+        ),
+        "planning the probe program",
     )
     plans = result.plans
     if output and all(p.determined for p in plans):
