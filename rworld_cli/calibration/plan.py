@@ -325,15 +325,8 @@ def plan_measurements(
             ]
             directives = [directive(name, ch) for name, ch in zip(names, chosen)]
             if short:
-                plan = FramePlan(
-                    cond.frame,
-                    cond.code,
-                    directives,
-                    False,
-                    np.inf,
-                    np.inf,
-                    np.inf,
-                    "too few reachable targets: " + ", ".join(short),
+                plan = _undetermined(
+                    cond, directives, np.inf, "too few reachable targets: " + ", ".join(short)
                 )
                 break
             picked = [r[ch] for r, ch in zip(rows, chosen)]
@@ -341,13 +334,9 @@ def plan_measurements(
             points = np.concatenate([d.points for d in directives])
             condition = _condition(J, points)
             if condition > REFUSE_CONDITION:
-                plan = FramePlan(
-                    cond.frame,
-                    cond.code,
+                plan = _undetermined(
+                    cond,
                     directives,
-                    False,
-                    np.inf,
-                    np.inf,
                     condition,
                     f"the conditions cannot determine this frame (condition number "
                     f"{condition:.3g}): add features",
@@ -380,6 +369,10 @@ def plan_measurements(
     for plan in plans:
         plan.dropped = [why for d in plan.directives for why in dropped.get(d.feature, [])]
     return plans
+
+
+def _undetermined(cond, directives: list[Directive], condition: float, reason: str) -> FramePlan:
+    return FramePlan(cond.frame, cond.code, directives, False, np.inf, np.inf, condition, reason)
 
 
 def _share_features(plans: list[FramePlan], directive, sigma: float) -> None:

@@ -268,46 +268,38 @@ class ProbeRig:
         seed = self.q_start if last is None else last[2]
         for stylus_k, spin in orientations:
             poses = [self.tcp_pose(p, stylus_k, spin) for p in (centre, start, end)]
+            target = f"{f.name} target {k + 1}"
             # the contact first (most targets fail there), then the approach, the end, the entry
-            q_contact, why_k = self._reach(poses[0], seed, 1, f"{f.name} target {k + 1}")
+            q_contact, why_k = self._at(poses[0], seed, 1, target, target)
             if q_contact is None:
                 why = why_k
                 continue
-            hit = self.collision(q_contact)
-            if hit is not None:
-                why = f"{f.name} target {k + 1}: {hit}"
+            q_start, why_k = self._at(poses[1], q_contact, 0, f"{f.name} approach {k + 1}", target)
+            if q_start is None:
+                why = why_k
                 continue
-            q_start, why_k = self._reach(poses[1], q_contact, 0, f"{f.name} approach {k + 1}")
-            q_end, why_e = self._reach(poses[2], q_contact, 0, f"{f.name} guarded end {k + 1}")
-            if q_start is None or q_end is None:
-                why = why_k or why_e
+            q_end, why_k = self._at(poses[2], q_contact, 0, f"{f.name} guarded end {k + 1}")
+            if q_end is None:
+                why = why_k
                 continue
-            hit = self.collision(q_start)
             q_entry = None
-            if hit is None and entry is not None:
-                q_entry, why_k = self._reach(
-                    self.tcp_pose(entry, stylus_k, spin), q_start, 0, f"{f.name} entry"
-                )
+            if entry is not None:
+                T_entry = self.tcp_pose(entry, stylus_k, spin)
+                q_entry, why_k = self._at(T_entry, q_start, 0, f"{f.name} entry", target)
                 if q_entry is None:
                     why = why_k
                     continue
-                hit = self.collision(q_entry)
-            if hit is not None:
-                why = f"{f.name} target {k + 1}: {hit}"
-                continue
             way_in = self.tcp_pose(entry if entry is not None else start, stylus_k, spin)
             q_in = q_entry if q_entry is not None else q_start
             T_lift, q_lift = way_in, q_in
             if self._ball_z(way_in) < self.safe_z:  # transits go in and out from above
                 T_lift = way_in.copy()
                 T_lift[2, 3] += self.safe_z - self._ball_z(way_in)
-                q_lift, why_k = self._reach(T_lift, q_in, 0, f"{f.name} way in {k + 1}")
+                q_lift, why_k = self._at(
+                    T_lift, q_in, 0, f"{f.name} way in {k + 1}", f"{target}, above it"
+                )
                 if q_lift is None:
                     why = why_k
-                    continue
-                hit = self.collision(q_lift)
-                if hit is not None:
-                    why = f"{f.name} target {k + 1}, above it: {hit}"
                     continue
             best = (
                 spin,
@@ -357,6 +349,16 @@ class ProbeRig:
 
     def _ball_z(self, T_world_tcp: np.ndarray) -> float:
         return float((T_world_tcp @ self.T_tcp_sensor)[2, 3])
+
+    def _at(self, T_world_tcp, seed, restarts: int, what: str, collide: str | None = None):
+        """Joint values at the pose, collision-free when ``collide`` names it for the message;
+        or (None, why not)."""
+        q, why = self._reach(T_world_tcp, seed, restarts, what)
+        if q is not None and collide is not None:
+            hit = self.collision(q)
+            if hit is not None:
+                return None, f"{collide}: {hit}"
+        return q, why
 
     def _reach(self, T_world_tcp: np.ndarray, seed: np.ndarray, restarts: int, what: str):
         """(joint values, None) at the pose, or (None, why not)."""
