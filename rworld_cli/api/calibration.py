@@ -288,16 +288,21 @@ def _probe_rig(cell, device, tcp, sensor, start, clearance):
     from ..calibration.probing import ProbeRig, find_probe
     from ..errors import did_you_mean
 
-    if device is None:
-        carriers = [
-            d
-            for d in cell.devices
-            if any(m.type == "touch" and m.ball is not None for m in cell.sensors.values())
-        ]
-        if len(carriers) != 1:
+    if device is None:  # the one device that carries a ball-tip probe
+        from ..world.tree import World
+
+        world = World(cell)
+        balls = [s for s, m in cell.sensors.items() if m.type == "touch" and m.ball is not None]
+        carriers = [d for d in cell.devices if set(balls) & set(world.subtree(d))]
+        if not carriers:
             raise UserError(
-                "name the device that probes with --device"
-                + (f" (one of {', '.join(cell.devices)})" if cell.devices else "")
+                "no device carries a ball-tip touch probe: give a touch sensor 'ball: RADIUS' "
+                "and affix it to a device's TCP (docs/calibration.md)"
+            )
+        if len(carriers) > 1:
+            raise UserError(
+                f"several devices carry a ball-tip probe ({', '.join(carriers)}): name one "
+                "with --device"
             )
         device = carriers[0]
     full_tcp, sensor = find_probe(cell, device, tcp, sensor)
