@@ -15,17 +15,24 @@ from rworld_cli.spatial import dh_standard  # noqa: E402
 
 
 def pinocchio_model(device):
-    """The device as a Pinocchio model: revolute-z joints at DH frame i-1, bodies in DH frame i."""
+    """The device (standard DH) as a Pinocchio model: revolute-z or prismatic-z joints at DH
+    frame i-1, bodies in DH frame i.
+
+    A joint moves about or along z_{i-1}, then the fixed part Rz(theta) Tz(d) Tx(a) Rx(alpha)
+    follows: for a revolute joint Rz(q) Rz(theta) = Rz(q + theta), for a prismatic one Tz(q)
+    commutes with Rz(theta), so Tz(q) Rz(theta) Tz(d) = Rz(theta) Tz(q + d).
+    """
     import pinocchio as pin
 
+    if device.convention != "standard":
+        raise SystemExit("this bench builds standard-DH chains only")
     model = pin.Model()
     parent = 0
     placement = pin.SE3.Identity()
     for joint, link in zip(device.joints, device.links):
-        if joint.kind != "revolute" or joint.theta != 0.0:
-            raise SystemExit("this bench builds revolute chains without angle offsets only")
-        jid = model.addJoint(parent, pin.JointModelRZ(), placement, joint.name)
-        fixed = dh_standard(joint.a, joint.alpha, joint.d, 0.0)  # Tz(d) Tx(a) Rx(alpha)
+        kind = pin.JointModelRZ() if joint.kind == "revolute" else pin.JointModelPZ()
+        jid = model.addJoint(parent, kind, placement, joint.name)
+        fixed = dh_standard(joint.a, joint.alpha, joint.d, joint.theta)
         M = pin.SE3(fixed[:3, :3], fixed[:3, 3])
         inertial = link.inertial
         model.appendBodyToJoint(jid, pin.Inertia(inertial.mass, inertial.com, inertial.inertia), M)

@@ -51,7 +51,7 @@ ROOMS = {
         3.0,
         0.0,
         6.0,
-        "errors, units, spatial, codegen, fileio  - shared, know no room",
+        "errors, units, spatial, codegen, kernels, fileio  - shared, know no room",
         "#eeeeee",
     ),
 }

@@ -7,11 +7,14 @@ by hand (section 4, eqs. 6-9: "for most commercially available manipulators
 the link twist angles are either 0 or 90 degrees").  We do it mechanically:
 the formulas are written once against :class:`Emitter`, which folds every
 operation with a constant 0, 1 or -1, shares common subexpressions, and emits
-Python source with one operation per line.  Compiled, that source runs
+Python source with one operation per line.  The emitted program runs three ways:
 
-* on per-joint columns of shape ``(N,)`` - one numpy call per surviving
-  operation, vectorised over all samples (no Python loop over samples), and
-* on plain Python floats - a single state with no numpy overhead at all.
+* compiled to machine code by LLVM (:mod:`rworld_cli.kernels`): one loop over the samples
+  with the straight-line body inside, on both cores for large batches - the default;
+* as Python source on per-joint columns of shape ``(N,)`` - one numpy call per surviving
+  operation, vectorised over all samples (no Python loop over samples) - the fallback when
+  LLVM is unavailable or ``RWORLD_KERNELS=numpy``;
+* as the same source on plain Python floats - a single state, in the fallback.
 
 An operand (``Num``) is either a Python ``float`` (a folded constant) or the
 name (``str``) of a generated variable or argument.
@@ -21,6 +24,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from typing import Any, TypeGuard
 
 import numpy as np
 
@@ -43,6 +47,8 @@ class Emitter:
 
     def __init__(self) -> None:
         self.lines: list[str] = []
+        # the same program as operations: (result name, (opcode, operands...)), for the compiler
+        self.ops: list[tuple[str, tuple]] = []
         self._memo: dict[tuple, str] = {}
         self._count = 0
 
@@ -52,11 +58,12 @@ class Emitter:
             name = f"t{self._count}"
             self._count += 1
             self.lines.append(f"    {name} = {text}")
+            self.ops.append((name, key))
             self._memo[key] = name
         return name
 
     @staticmethod
-    def _const(x: Num) -> bool:
+    def _const(x: Num) -> TypeGuard[float]:
         return isinstance(x, float)
 
     def mul(self, a: Num, b: Num) -> Num:
@@ -103,10 +110,35 @@ class Emitter:
             return -a
         return self._emit(("neg", a), f"-{a}")
 
+    def div(self, a: Num, b: Num) -> Num:
+        if self._const(a) and self._const(b):
+            return a / b
+        if self._const(a) and a == 0.0:
+            return 0.0
+        if self._const(b) and b == 1.0:
+            return a
+        text_a = repr(a) if self._const(a) else a
+        text_b = repr(b) if self._const(b) else b
+        return self._emit(("/", a, b), f"{text_a} / {text_b}")
+
     def call(self, fn: str, a: Num) -> Num:
+        """``fn(a)`` for ``fn`` in cos, sin, sqrt."""
+        if fn not in FUNCTIONS:
+            raise ValueError(f"no generated function {fn!r}")
         if self._const(a):
             return snap(getattr(math, fn)(a))
         return self._emit((fn, a), f"{fn}({a})")
+
+    def coulomb(self, velocity: Num, positive: float, negative: float) -> Num:
+        """Coulomb friction torque: ``positive`` if velocity > 0, ``-negative`` if < 0, else 0."""
+        if positive == 0.0 and negative == 0.0:
+            return 0.0
+        if self._const(velocity):
+            return positive if velocity > 0 else -negative if velocity < 0 else 0.0
+        return self._emit(
+            ("coulomb", velocity, float(positive), float(negative)),
+            f"coulomb({velocity}, {float(positive)!r}, {float(negative)!r})",
+        )
 
     # ---------------------------------------------------------------- vectors
     def vadd(self, a: Vec, b: Vec) -> Vec:
@@ -141,64 +173,129 @@ class Emitter:
         )
 
     # ---------------------------------------------------------------- compile
-    def compile(self, name: str, args: Sequence[str], outputs: Sequence[Num]) -> Generated:
-        """Compile to two functions (numpy and math) returning the outputs as a tuple."""
+    def compile(
+        self, name: str, groups: Sequence[tuple[str, int]], outputs: Sequence[Num]
+    ) -> Generated:
+        """Wrap the program up: inputs in ``groups``, results ``outputs``.
+
+        Parameters
+        ----------
+        name : str
+            Function name (shows in tracebacks and in the compiled symbol).
+        groups : sequence of (prefix, size)
+            The inputs as arrays: group ``("q", 6)`` is the arguments ``q0 .. q5``, passed as one
+            array of shape (6,) or (N, 6).
+        outputs : sequence of Num
+            Results, in order; names or folded constants.
+        """
+        args = [f"{prefix}{i}" for prefix, size in groups for i in range(size)]
         body = "\n".join(self.lines)
         ret = ", ".join(o if isinstance(o, str) else repr(o) for o in outputs)
         source = (
             f"def {name}({', '.join(args)}):\n{body}\n    return "
             f"({ret}{',' if len(outputs) == 1 else ''})\n"
         )
-        code = compile(source, f"<rworld generated {name}>", "exec")
-        fns = {}
-        for label, lib in (("array", np), ("scalar", math)):
-            namespace = {"cos": lib.cos, "sin": lib.sin}
-            exec(code, namespace)
-            fns[label] = namespace[name]
-        return Generated(source, fns["array"], fns["scalar"], len(self.lines))
+        return Generated(name, source, list(groups), list(self.ops), list(outputs))
+
+
+FUNCTIONS = ("cos", "sin", "sqrt")
+
+
+def _coulomb_array(v, positive: float, negative: float):
+    return np.where(v > 0, positive, np.where(v < 0, -negative, 0.0))
+
+
+def _coulomb_scalar(v: float, positive: float, negative: float) -> float:
+    return positive if v > 0 else -negative if v < 0 else 0.0
 
 
 CHUNK = 2048  # samples per block: temporaries stay in cache and reuse the allocator's small blocks
 
 
 class Generated:
-    """A generated function in two flavours: numpy columns, or Python floats."""
+    """A generated function: its operations, its Python source, and how to run it.
 
-    def __init__(self, source: str, array_fn: Callable, scalar_fn: Callable, operations: int):
+    ``evaluate`` runs the compiled kernel when LLVM is available (:mod:`rworld_cli.kernels`),
+    else the Python source on numpy columns (a batch) or on floats (one state).
+    """
+
+    def __init__(
+        self,
+        name: str,
+        source: str,
+        groups: list[tuple[str, int]],
+        ops: list[tuple[str, tuple]],
+        outputs: list[Num],
+    ):
+        self.name = name
         self.source = source
-        self.array = array_fn
-        self.scalar = scalar_fn
-        self.operations = operations
+        self.groups = groups
+        self.ops = ops
+        self.outputs = outputs
+        self.operations = len(ops)
+        self._python: tuple[Callable, Callable] | None = None
+        self._kernel: Any = None  # kernels.Kernel once looked up; False when unavailable
 
-    def evaluate(
-        self, columns: Sequence, constants: Sequence[float], n_out: int, single: bool
-    ) -> np.ndarray:
+    @property
+    def n_out(self) -> int:
+        return len(self.outputs)
+
+    def python(self) -> tuple[Callable, Callable]:
+        """The source compiled by Python: (numpy-columns function, float function)."""
+        if self._python is None:
+            code = compile(self.source, f"<rworld generated {self.name}>", "exec")
+            fns = []
+            for lib, coulomb in ((np, _coulomb_array), (math, _coulomb_scalar)):
+                namespace = {fn: getattr(lib, fn) for fn in FUNCTIONS}
+                namespace["coulomb"] = coulomb
+                exec(code, namespace)
+                fns.append(namespace[self.name])
+            self._python = (fns[0], fns[1])
+        return self._python
+
+    def kernel(self):
+        """The compiled kernel, or None when compiled kernels are off or unavailable."""
+        if self._kernel is None:
+            from .kernels import compiled_kernel
+
+            self._kernel = compiled_kernel(self) or False
+        return self._kernel or None
+
+    def evaluate(self, inputs: Sequence[np.ndarray], compiled: bool = True) -> np.ndarray:
         """Run on one state or a batch.
 
         Parameters
         ----------
-        columns : sequence
-            Per-argument values: floats (``single``) or contiguous arrays of shape (N,).
-        constants : sequence of float
-            Trailing arguments shared by all samples (e.g. gravity).
-        n_out : int
-            Number of outputs.
+        inputs : sequence of ndarray
+            One float array per group, in order: shape (size,) - the same for every sample,
+            or one state - or (N, size).
+        compiled : bool
+            Use the compiled kernel when there is one (False: the numpy source, for comparisons).
 
         Returns
         -------
-        ndarray, shape (n_out,) or (N, n_out)
+        ndarray, shape (n_out,) when every input is 1-D, else (N, n_out)
 
-        Why chunks: on arrays of 1e5 samples each of the hundreds of
+        Why chunks in the numpy fallback: on arrays of 1e5 samples each of the hundreds of
         temporaries is a fresh 800 kB allocation that the C library maps and
         page-faults anew; blocks of 2048 samples stay in cache and run 3-6x faster.
         """
-        if single:
-            return np.array(self.scalar(*columns, *constants), dtype=float)
-        N = len(columns[0]) if columns else 1
-        out = np.empty((N, n_out))
+        kernel = self._kernel
+        if kernel is None:
+            kernel = self.kernel()
+        if kernel and compiled:
+            return kernel(inputs)
+        array_fn, scalar_fn = self.python()
+        if all(x.ndim == 1 for x in inputs):
+            return np.array(scalar_fn(*(v for x in inputs for v in x.tolist())), dtype=float)
+        N = next(len(x) for x in inputs if x.ndim == 2)
+        columns: list = []
+        for x in inputs:
+            columns += x.tolist() if x.ndim == 1 else list(np.ascontiguousarray(x.T))
+        out = np.empty((N, self.n_out))
         for start in range(0, N, CHUNK):
             stop = min(start + CHUNK, N)
-            values = self.array(*(c[start:stop] for c in columns), *constants)
+            values = array_fn(*(c if isinstance(c, float) else c[start:stop] for c in columns))
             for k, v in enumerate(values):
                 out[start:stop, k] = v
         return out

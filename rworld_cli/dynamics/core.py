@@ -10,6 +10,7 @@ from world).  Torques are what the actuators apply: ``tau = M qdd + C qd + g``
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,9 +19,10 @@ from ..codegen import Generated
 from ..kinematics.forward import link_poses
 from ..kinematics.jacobian import ToolMount
 from ..model.cell import DeviceModel, Inertial
-from .rnea import generate_rnea
+from .rnea import SingularMassMatrix, generate_rnea
 
 DEFAULT_GRAVITY = np.array([0.0, 0.0, -9.81])
+DEFAULT_GRAVITY.flags.writeable = False  # shared by every call that gives no gravity
 
 
 @dataclass(frozen=True)
@@ -68,20 +70,20 @@ def combine_inertials(a: Inertial, b: Inertial) -> Inertial:
     return Inertial.combine([(a, np.eye(4)), (b, np.eye(4))])
 
 
-def _as_batch(*arrays) -> tuple[bool, list[np.ndarray]]:
-    out = [np.asarray(a, dtype=float) for a in arrays]
-    return out[0].ndim == 1, out
-
-
-def _columns(x: np.ndarray, single: bool) -> list:
-    return x.tolist() if single else list(np.ascontiguousarray(x.T))
-
-
-def _gravity(gravity) -> list[float]:
+def _gravity(gravity, batch: int | None) -> np.ndarray:
+    """Gravity as an input row (3,) or, per sample, (N, 3); checked finite."""
     g = np.asarray(gravity, dtype=float)
-    if g.shape != (3,) or not np.all(np.isfinite(g)):
-        raise ValueError(f"gravity must be a finite 3-vector, got {g.tolist()}")
-    return [float(x) for x in g]
+    if g.shape == (3,):
+        x, y, z = g.tolist()  # three floats: cheaper than a numpy reduction on a single state
+        if math.isfinite(x) and math.isfinite(y) and math.isfinite(z):
+            return g
+    if g.ndim == 2 and batch is not None:
+        if g.shape != (batch, 3) or not np.all(np.isfinite(g)):
+            raise ValueError(
+                f"per-sample gravity must be finite with shape ({batch}, 3), got {g.shape}"
+            )
+        return g
+    raise ValueError(f"gravity must be a finite 3-vector, got {g.tolist()}")
 
 
 class DeviceDynamics:
@@ -146,19 +148,43 @@ class DeviceDynamics:
         self._has_friction = bool(
             np.any(self.viscous) or np.any(self.coulomb_positive) or np.any(self.coulomb_negative)
         )
+        self._generated: dict[str, Generated] = {}
 
     def _gen(self, mode: str) -> Generated:
-        return generate_rnea(self.device, self.inertials, mode)
+        generated = self._generated.get(mode)
+        if generated is None:
+            generated = self._generated[mode] = generate_rnea(
+                self.device,
+                self.inertials,
+                mode,
+                self.armature,
+                (self.viscous, self.coulomb_positive, self.coulomb_negative),
+            )
+        return generated
 
-    def _check(self, *arrays):
-        single, arrays = _as_batch(*arrays)
-        for a in arrays:
-            if a.shape != arrays[0].shape or a.shape[-1] != self.n or a.ndim not in (1, 2):
-                raise ValueError(
-                    f"joint arrays of '{self.device.name}' must all have shape (n,) or (N, n), n "
-                    f"= {self.n}; got {[x.shape for x in arrays]}"
-                )
-        return single, arrays
+    def _check(self, *arrays) -> list[np.ndarray]:
+        out = [np.asarray(a, dtype=float) for a in arrays]
+        shape = out[0].shape
+        if len(shape) > 2 or shape[-1:] != (self.n,):
+            self._wrong_shapes(out)
+        for a in out:
+            if a.shape != shape:
+                self._wrong_shapes(out)
+        return out
+
+    def _check3(self, a, b, c) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`_check` for three arrays, unrolled: single states pay for every line here."""
+        a, b, c = np.asarray(a, dtype=float), np.asarray(b, dtype=float), np.asarray(c, dtype=float)
+        shape = a.shape
+        if not (shape == b.shape == c.shape) or len(shape) > 2 or shape[-1:] != (self.n,):
+            self._wrong_shapes([a, b, c])
+        return a, b, c
+
+    def _wrong_shapes(self, arrays: list[np.ndarray]):
+        raise ValueError(
+            f"joint arrays of '{self.device.name}' must all have shape (n,) or (N, n), n "
+            f"= {self.n}; got {[x.shape for x in arrays]}"
+        )
 
     def friction_torque(self, qd) -> np.ndarray:
         """Actuator torque that overcomes friction: ``B qd + Tc+ [qd > 0] - Tc- [qd < 0]``."""
@@ -185,36 +211,25 @@ class DeviceDynamics:
         Returns
         -------
         ndarray, shape (n,) or (N, n)
-            Actuator torques [N m] / forces [N].
+            Actuator torques [N m] / forces [N], armature and friction included when enabled.
         """
-        single, (q, qd, qdd) = self._check(q, qd, qdd)
-        cols = _columns(q, single) + _columns(qd, single) + _columns(qdd, single)
-        g = np.asarray(gravity, dtype=float)
-        if g.ndim == 2 and not single:
-            if g.shape != (q.shape[0], 3) or not np.all(np.isfinite(g)):
-                raise ValueError(
-                    f"per-sample gravity must be finite with shape ({q.shape[0]}, 3), got {g.shape}"
-                )
-            tau = self._gen("full").evaluate(
-                cols + list(np.ascontiguousarray(g.T)), (), self.n, single
-            )
-        else:
-            tau = self._gen("full").evaluate(cols, _gravity(g), self.n, single)
-        tau += self.armature * qdd
-        if self._has_friction:
-            tau += self.friction_torque(qd)
-        return tau
+        q, qd, qdd = self._check3(q, qd, qdd)
+        g = (
+            gravity
+            if gravity is DEFAULT_GRAVITY
+            else _gravity(gravity, len(q) if q.ndim == 2 else None)
+        )
+        return self._gen("full").evaluate([q, qd, qdd, g])
 
     def gravity_torques(self, q, gravity=DEFAULT_GRAVITY) -> np.ndarray:
         """``g(q)``: the torques that hold the device still; shape like ``q``."""
-        single, (q,) = self._check(q)
-        return self._gen("gravity").evaluate(_columns(q, single), _gravity(gravity), self.n, single)
+        (q,) = self._check(q)
+        return self._gen("gravity").evaluate([q, _gravity(gravity, None)])
 
     def nonlinear_torques(self, q, qd, gravity=DEFAULT_GRAVITY) -> np.ndarray:
         """``C(q, qd) qd + g(q)`` (rigid body, no friction); shape like ``q``."""
-        single, (q, qd) = self._check(q, qd)
-        cols = _columns(q, single) + _columns(qd, single)
-        return self._gen("bias").evaluate(cols, _gravity(gravity), self.n, single)
+        q, qd = self._check(q, qd)
+        return self._gen("bias").evaluate([q, qd, _gravity(gravity, None)])
 
     def coriolis_torques(self, q, qd) -> np.ndarray:
         """``C(q, qd) qd``: centrifugal and Coriolis torques."""
@@ -222,34 +237,49 @@ class DeviceDynamics:
 
     def mass_matrix(self, q) -> np.ndarray:
         """Joint-space inertia ``M(q)`` including the armature; shape (n, n) or (N, n, n)."""
-        single, (q,) = self._check(q)
-        n = self.n
-        upper = self._gen("mass").evaluate(_columns(q, single), (), n * (n + 1) // 2, single)
-        M = np.empty(upper.shape[:-1] + (n, n))
-        k = 0
-        for j in range(n):
-            for i in range(j + 1):
-                M[..., i, j] = upper[..., k]
-                M[..., j, i] = upper[..., k]
-                k += 1
-        M[..., np.arange(n), np.arange(n)] += self.armature
-        return M
+        (q,) = self._check(q)
+        flat = self._gen("mass").evaluate([q])
+        return flat.reshape(flat.shape[:-1] + (self.n, self.n))
 
     def forward(self, q, qd, tau, gravity=DEFAULT_GRAVITY) -> np.ndarray:
         """Accelerations from torques: ``qdd = M(q)^-1 (tau - C qd - g - friction)``.
 
+        Solved by a generated Cholesky factorisation of ``M`` (armature included).
+
         Returns
         -------
         ndarray, shape (n,) or (N, n)
+
+        Raises
+        ------
+        ValueError
+            Where ``M`` is singular: a joint that moves no inertia has no defined acceleration.
         """
-        single, (q, qd, tau) = self._check(q, qd, tau)
-        rhs = tau - self.nonlinear_torques(q, qd, gravity) - self.friction_torque(qd)
-        M = self.mass_matrix(q)
-        return np.linalg.solve(M, rhs[..., None])[..., 0]
+        q, qd, tau = self._check3(q, qd, tau)
+        try:
+            program = self._gen("forward")
+        except SingularMassMatrix as error:  # zero by construction, whatever the state
+            raise ValueError(
+                f"the mass matrix of '{self.device.name}' is singular (joint {error.joint} "
+                "moves no inertia): no forward dynamics"
+            ) from None
+        qdd = program.evaluate([q, qd, tau, _gravity(gravity, None)])
+        if not np.all(np.isfinite(qdd)):
+            inputs_finite = np.all(np.isfinite(np.concatenate([q, qd, tau], axis=-1)), axis=-1)
+            bad = np.argwhere(
+                ~np.isfinite(np.atleast_2d(qdd)) & np.atleast_1d(inputs_finite)[:, None]
+            )
+            if len(bad):  # non-finite inputs give non-finite results, as numpy would
+                where = f" at sample {bad[0][0]}" if q.ndim == 2 else ""
+                raise ValueError(
+                    f"the mass matrix of '{self.device.name}' is singular{where} (joint "
+                    f"{bad[0][1] + 1} moves no inertia): no forward dynamics"
+                )
+        return qdd
 
     def energy(self, q, qd, gravity=DEFAULT_GRAVITY) -> tuple[np.ndarray, np.ndarray | float]:
         """Kinetic ``qd^T M qd / 2`` and potential ``-sum m_i g . c_i`` energy [J] (base frame)."""
-        single, (q, qd) = self._check(q, qd)
+        q, qd = self._check(q, qd)
         M = self.mass_matrix(q)
         kinetic = 0.5 * np.einsum("...i,...ij,...j->...", qd, M, qd)
         T = link_poses(self.device, q)

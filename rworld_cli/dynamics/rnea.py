@@ -104,40 +104,146 @@ def _rnea_outputs(
     return taus
 
 
-def generate_rnea(device: DeviceModel, inertials: list[Inertial], mode: str) -> Generated:
-    """Compiled Newton-Euler code for one device and set of link inertials.
+class SingularMassMatrix(ValueError):
+    """M(q) has a zero pivot whatever q is: joint ``joint`` (1-based) moves no inertia."""
+
+    def __init__(self, joint: int):
+        super().__init__(f"joint {joint} moves no inertia")
+        self.joint = joint
+
+
+def _cholesky_solve(em: Emitter, M: list[list[Num]], rhs: list[Num]) -> list[Num]:
+    """Emit ``M^-1 rhs`` for a symmetric positive definite ``M``, by Cholesky ``M = L L^T``.
+
+    A singular ``M`` (a joint that moves no inertia) gives non-finite values, which the caller
+    reports.
+    """
+    n = len(rhs)
+    L: list[list[Num]] = [[0.0] * n for _ in range(n)]
+    inverse_diagonal: list[Num] = [0.0] * n
+    for j in range(n):
+        s = M[j][j]
+        for k in range(j):
+            s = em.sub(s, em.mul(L[j][k], L[j][k]))
+        if isinstance(s, float) and s <= 0.0:
+            raise SingularMassMatrix(j + 1)
+        L[j][j] = em.call("sqrt", s)
+        inverse_diagonal[j] = em.div(1.0, L[j][j])
+        for i in range(j + 1, n):
+            s = M[i][j]
+            for k in range(j):
+                s = em.sub(s, em.mul(L[i][k], L[j][k]))
+            L[i][j] = em.mul(s, inverse_diagonal[j])
+    y: list[Num] = [0.0] * n
+    for i in range(n):  # L y = rhs
+        s = rhs[i]
+        for k in range(i):
+            s = em.sub(s, em.mul(L[i][k], y[k]))
+        y[i] = em.mul(s, inverse_diagonal[i])
+    x: list[Num] = [0.0] * n
+    for i in reversed(range(n)):  # L^T x = y
+        s = y[i]
+        for k in range(i + 1, n):
+            s = em.sub(s, em.mul(L[k][i], x[k]))
+        x[i] = em.mul(s, inverse_diagonal[i])
+    return x
+
+
+def _mass_matrix(em: Emitter, device, inertials, q, armature) -> list[list[Num]]:
+    """Emit M(q) column by column (Newton-Euler with qd = 0, g = 0, qdd = unit vectors)."""
+    n = device.dof
+    zeros = [0.0] * n
+    M: list[list[Num]] = [[0.0] * n for _ in range(n)]
+    for j in range(n):
+        unit = [1.0 if k == j else 0.0 for k in range(n)]
+        column = _rnea_outputs(em, device, inertials, q, zeros, unit, (0.0, 0.0, 0.0))
+        for i in range(j + 1):  # the upper triangle; the lower one is its mirror
+            M[i][j] = M[j][i] = column[i]
+    for j in range(n):
+        M[j][j] = em.add(M[j][j], float(armature[j]))
+    return M
+
+
+MODES = ("full", "gravity", "bias", "mass", "forward")
+
+
+def generate_rnea(
+    device: DeviceModel,
+    inertials: list[Inertial],
+    mode: str,
+    armature=None,
+    friction=None,
+) -> Generated:
+    """Generated Newton-Euler code for one device and set of link inertials.
 
     Parameters
     ----------
-    mode : {"full", "gravity", "bias", "mass"}
-        ``full``: tau(q, qd, qdd, g); ``gravity``: g(q, g); ``bias``:
-        C(q, qd) qd + g(q) (qdd = 0); ``mass``: the upper triangle of M(q),
-        row by row (qd = 0, g = 0, qdd = unit vectors).
+    mode : {"full", "gravity", "bias", "mass", "forward"}
+        ``full``: actuator torques tau(q, qd, qdd, g), armature and friction included;
+        ``gravity``: g(q, g); ``bias``: C(q, qd) qd + g(q) (rigid body, no friction);
+        ``mass``: M(q) with the armature on its diagonal, n x n row by row;
+        ``forward``: qdd(q, qd, tau, g) = M^-1 (tau - C qd - g - friction), by Cholesky.
+    armature : sequence of float, optional
+        ``Jm G^2`` per joint [kg m^2]; default none.
+    friction : (viscous, coulomb_positive, coulomb_negative), optional
+        Per-joint friction coefficients; default none.
     """
-    key = (device_key(device), _inertial_key(inertials), mode)
+    n = device.dof
+    armature = tuple(float(x) for x in (armature if armature is not None else [0.0] * n))
+    if friction is None:
+        friction = ([0.0] * n,) * 3
+    viscous, coulomb_positive, coulomb_negative = (
+        tuple(float(x) for x in column) for column in friction
+    )
+    key = (
+        device_key(device),
+        _inertial_key(inertials),
+        mode,
+        armature,
+        viscous,
+        coulomb_positive,
+        coulomb_negative,
+    )
     if key in _CACHE:
         return _CACHE[key]
-    n = device.dof
     em = Emitter()
     q = [f"q{i}" for i in range(n)]
     qd = [f"qd{i}" for i in range(n)]
     qdd = [f"qdd{i}" for i in range(n)]
     g = ["g0", "g1", "g2"]
     zeros = [0.0] * n
+
+    def friction_torque(i: int) -> Num:
+        return em.add(
+            em.mul(qd[i], viscous[i]), em.coulomb(qd[i], coulomb_positive[i], coulomb_negative[i])
+        )
+
+    outputs: list[Num]
     if mode == "full":
-        args, outputs = q + qd + qdd + g, _rnea_outputs(em, device, inertials, q, qd, qdd, g)
+        groups = [("q", n), ("qd", n), ("qdd", n), ("g", 3)]
+        rigid = _rnea_outputs(em, device, inertials, q, qd, qdd, g)
+        outputs = [
+            em.add(em.add(rigid[i], em.mul(qdd[i], armature[i])), friction_torque(i))
+            for i in range(n)
+        ]
     elif mode == "gravity":
-        args, outputs = q + g, _rnea_outputs(em, device, inertials, q, zeros, zeros, g)
+        groups = [("q", n), ("g", 3)]
+        outputs = _rnea_outputs(em, device, inertials, q, zeros, zeros, g)
     elif mode == "bias":
-        args, outputs = q + qd + g, _rnea_outputs(em, device, inertials, q, qd, zeros, g)
+        groups = [("q", n), ("qd", n), ("g", 3)]
+        outputs = _rnea_outputs(em, device, inertials, q, qd, zeros, g)
     elif mode == "mass":
-        args, outputs = q, []
-        for j in range(n):
-            unit = [1.0 if k == j else 0.0 for k in range(n)]
-            column = _rnea_outputs(em, device, inertials, q, zeros, unit, (0.0, 0.0, 0.0))
-            outputs += column[: j + 1]  # M[i, j] for i <= j
+        groups = [("q", n)]
+        M = _mass_matrix(em, device, inertials, q, armature)
+        outputs = [M[i][j] for i in range(n) for j in range(n)]
+    elif mode == "forward":
+        tau = [f"tau{i}" for i in range(n)]
+        groups = [("q", n), ("qd", n), ("tau", n), ("g", 3)]
+        bias = _rnea_outputs(em, device, inertials, q, qd, zeros, g)
+        rhs = [em.sub(em.sub(tau[i], bias[i]), friction_torque(i)) for i in range(n)]
+        outputs = _cholesky_solve(em, _mass_matrix(em, device, inertials, q, armature), rhs)
     else:
-        raise ValueError(f"unknown mode {mode!r}")
-    gen = em.compile(f"rnea_{mode}", args, outputs)
+        raise ValueError(f"unknown mode {mode!r}; one of {', '.join(MODES)}")
+    gen = em.compile(f"rnea_{mode}", groups, outputs)
     _CACHE[key] = gen
     return gen

@@ -25,6 +25,7 @@ entry by entry so that a coordinate axis folds to the familiar ``Rz(q)``: its di
 
 from __future__ import annotations
 
+import hashlib
 import math
 from dataclasses import dataclass
 
@@ -105,26 +106,34 @@ def _frame_step(em: Emitter, joint, qi: Num) -> ChainStep:
     return ChainStep(em.matmul(R_o, rot), k, p_o, (0.0, 0.0, 0.0), False)
 
 
-def device_key(device: DeviceModel) -> tuple:
-    """A hashable key of everything the generated code of ``device`` depends on."""
-    rows = tuple(
-        (
-            j.kind,
-            j.a,
-            j.alpha,
-            j.d,
-            j.theta,
-            None if j.origin is None else tuple(np.asarray(j.origin).ravel().tolist()),
-            None if j.axis is None else tuple(np.asarray(j.axis).tolist()),
+def device_key(device: DeviceModel) -> str:
+    """A short key of everything the generated code of ``device`` depends on.
+
+    A digest of the joints and the link mass properties, kept on the (frozen) model after the
+    first call: hot single-state calls look their kernels up by it in well under a microsecond.
+    """
+    key = device.__dict__.get("_generated_key")
+    if key is None:
+        rows = tuple(
+            (
+                j.kind,
+                j.a,
+                j.alpha,
+                j.d,
+                j.theta,
+                None if j.origin is None else tuple(np.asarray(j.origin).ravel().tolist()),
+                None if j.axis is None else tuple(np.asarray(j.axis).tolist()),
+            )
+            for j in device.joints
         )
-        for j in device.joints
-    )
-    links = tuple(
-        (
-            l.inertial.mass,
-            tuple(np.asarray(l.inertial.com).tolist()),
-            tuple(np.asarray(l.inertial.inertia).ravel().tolist()),
+        links = tuple(
+            (
+                l.inertial.mass,
+                tuple(np.asarray(l.inertial.com).tolist()),
+                tuple(np.asarray(l.inertial.inertia).ravel().tolist()),
+            )
+            for l in device.links
         )
-        for l in device.links
-    )
-    return (device.convention, rows, links)
+        key = hashlib.sha256(repr((device.convention, rows, links)).encode()).hexdigest()
+        object.__setattr__(device, "_generated_key", key)  # a cache, not a field: frozen stays true
+    return key

@@ -35,14 +35,17 @@ class ToolMount:
             np.eye(4) if T_link_tool is None else np.asarray(T_link_tool, dtype=float)
         )
 
-    def key(self) -> tuple:
-        return (self.link, tuple(np.round(self.T_link_tool, 15).ravel().tolist()))
+    def key(self) -> str:
+        """A short key of the mount, computed once (kernels are looked up by it)."""
+        key = self.__dict__.get("_key")
+        if key is None:
+            key = self._key = repr((self.link, np.round(self.T_link_tool, 15).ravel().tolist()))
+        return key
 
 
-def _generate(device: DeviceModel, mount_key: tuple, with_jacobian: bool) -> Generated:
+def _generate(device: DeviceModel, mount: ToolMount, with_jacobian: bool) -> Generated:
     n = device.dof
-    link, T_flat = mount_key
-    T = np.array(T_flat).reshape(4, 4)
+    link, T = mount.link, mount.T_link_tool
     em = Emitter()
     names = [f"q{i}" for i in range(n)]
     q: list[Num] = list(names)
@@ -59,7 +62,10 @@ def _generate(device: DeviceModel, mount_key: tuple, with_jacobian: bool) -> Gen
         R0, p0 = R1, p1
     Rt = em.matmul(R0, tuple(tuple(snap(float(v)) for v in row) for row in T[:3, :3]))
     pt = em.vadd(p0, em.matvec(R0, tuple(float(v) for v in T[:3, 3])))
-    outputs = [Rt[i][j] for i in range(3) for j in range(3)] + list(pt)
+    outputs: list[Num] = []
+    for i in range(3):  # the 4 x 4 pose, row by row
+        outputs += [Rt[i][0], Rt[i][1], Rt[i][2], pt[i]]
+    outputs += [0.0, 0.0, 0.0, 1.0]
     if with_jacobian:
         cols = []
         for i in range(n):
@@ -72,7 +78,7 @@ def _generate(device: DeviceModel, mount_key: tuple, with_jacobian: bool) -> Gen
             else:
                 cols.append(tuple(em.cross(axis, em.vsub(pt, point))) + tuple(axis))
         outputs += [cols[c][r] for r in range(6) for c in range(n)]  # row-major 6 x n
-    return em.compile("fk_jacobian", names, outputs)
+    return em.compile("fk_jacobian" if with_jacobian else "fk", [("q", n)], outputs)
 
 
 _CACHE: dict[tuple, Generated] = {}
@@ -80,24 +86,27 @@ _CACHE: dict[tuple, Generated] = {}
 
 def generated(device: DeviceModel, mount: ToolMount | None, with_jacobian: bool) -> Generated:
     """The compiled tool-pose (and Jacobian) code of ``device``, generated once per geometry."""
-    mount = mount or ToolMount(device.dof)
-    key = (device_key(device), mount.key(), with_jacobian)
-    if key not in _CACHE:
-        _CACHE[key] = _generate(device, mount.key(), with_jacobian)
-    return _CACHE[key]
-
-
-def _evaluate(gen: Generated, q: np.ndarray, n_out: int) -> np.ndarray:
-    """Run generated code on (n,) or (N, n) joint values; returns (n_out,) or (N, n_out)."""
-    q = np.asarray(q, dtype=float)
-    single = q.ndim == 1
-    columns = q.tolist() if single else list(np.ascontiguousarray(q.T))
-    return gen.evaluate(columns, (), n_out, single)
+    # looked up on the device first: a single state pays for every dictionary here
+    programs = device.__dict__.get("_tool_programs")
+    if programs is None:
+        programs = {}
+        object.__setattr__(device, "_tool_programs", programs)  # a cache, not a field
+    local_key = (None if mount is None else mount.key(), with_jacobian)
+    program = programs.get(local_key)
+    if program is None:
+        if mount is None:
+            mount = ToolMount(device.dof)
+        key = (device_key(device), mount.key(), with_jacobian)
+        program = _CACHE.get(key)
+        if program is None:
+            program = _CACHE[key] = _generate(device, mount, with_jacobian)
+        programs[local_key] = program
+    return program
 
 
 def _check_q(device: DeviceModel, q) -> np.ndarray:
     q = np.asarray(q, dtype=float)
-    if q.shape[-1:] != (device.dof,) or q.ndim not in (1, 2):
+    if len(q.shape) > 2 or q.shape[-1:] != (device.dof,):
         raise ValueError(
             f"joint values of '{device.name}' must have shape (n,) or (N, n) with n = "
             f"{device.dof}, got {q.shape}"
@@ -121,16 +130,8 @@ def tool_pose(device: DeviceModel, q, mount: ToolMount | None = None) -> np.ndar
     ndarray, shape (4, 4) or (N, 4, 4)
     """
     q = _check_q(device, q)
-    flat = _evaluate(generated(device, mount, False), q, 12)
-    return _to_transform(flat)
-
-
-def _to_transform(flat: np.ndarray) -> np.ndarray:
-    T = np.zeros(flat.shape[:-1] + (4, 4))
-    T[..., :3, :3] = flat[..., :9].reshape(flat.shape[:-1] + (3, 3))
-    T[..., :3, 3] = flat[..., 9:12]
-    T[..., 3, 3] = 1.0
-    return T
+    flat = generated(device, mount, False).evaluate([q])
+    return flat.reshape(flat.shape[:-1] + (4, 4))
 
 
 def tool_pose_and_jacobian(
@@ -151,9 +152,10 @@ def tool_pose_and_jacobian(
         Rows ``[vx, vy, vz, wx, wy, wz]`` of the tool origin, base frame.
     """
     q = _check_q(device, q)
-    n = device.dof
-    flat = _evaluate(generated(device, mount, True), q, 12 + 6 * n)
-    return _to_transform(flat), flat[..., 12:].reshape(flat.shape[:-1] + (6, n))
+    flat = generated(device, mount, True).evaluate([q])
+    if q.ndim == 1:
+        return flat[:16].reshape(4, 4), flat[16:].reshape(6, device.dof)
+    return flat[:, :16].reshape(-1, 4, 4), flat[:, 16:].reshape(-1, 6, device.dof)
 
 
 def jacobian(
