@@ -19,10 +19,13 @@ Problems:
 toppra 0.6 runs in its best ordinary setup: the seidel solver,
 ParametrizeConstAccel output, the torque constraint discretised by
 Interpolation (as the reference), and its torques from Pinocchio's ``rnea``
-(the same model: rigid bodies, armature Jm G^2, no friction).  Both results
-are sampled at 20 001 instants (and both sides of every grid instant for
-rworld); "worst" is the largest |value| / limit there.  Runtimes: best of
---repeat, in the same run; rworld's includes its checks and local repairs
+(the same model: rigid bodies, armature Jm G^2, no friction); the bench
+first checks that the two inverse dynamics agree to 1e-9 N m on random
+states, and stops if not.  Both results are sampled at 20 001 instants (and
+both sides of every grid instant for rworld); "worst" is the largest
+|value| / limit there.  Runtimes: best of --repeat (default 5), the two
+taking turns within each repetition, each timed from the waypoints (its
+spline built, then solved); rworld's includes its checks and local repairs
 between grid points.  "grid only" is rworld's solution before those repairs -
 the same problem toppra solves.  Payload capacity (exact, affine in mass) on
 toppra's rated timing, on rworld's, and on a 5 s quintic, against the
@@ -55,13 +58,33 @@ REF = json.loads(
 )
 
 
-def best(fn, repeat):
-    out, t = None, np.inf
+def best_interleaved(fns, repeat):
+    """Each function's output and best time over ``repeat`` rounds, the functions taking turns
+    within a round, so that a busy spell of the shared machine hits them alike."""
+    out, t = [None] * len(fns), [np.inf] * len(fns)
     for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        t = min(t, time.perf_counter() - t0)
+        for i, fn in enumerate(fns):
+            t0 = time.perf_counter()
+            out[i] = fn()
+            t[i] = min(t[i], time.perf_counter() - t0)
     return out, t
+
+
+def check_dynamics_agree(device, dyn, model, gravity, samples=200, tolerance=1e-9):
+    """The largest |tau_rworld - tau_pinocchio| over random states [N m]; exits if above
+    ``tolerance``: the runtimes below compare the same dynamics or nothing."""
+    import pinocchio as pin
+
+    rng = np.random.default_rng(7)
+    n = len(device.joints)
+    q, qd, qdd = (rng.uniform(-2.0, 2.0, (samples, n)) for _ in range(3))
+    ours = dyn.inverse(q, qd, qdd, gravity)
+    data = model.createData()
+    theirs = np.array([pin.rnea(model, data, *state) for state in zip(q, qd, qdd)])
+    worst = float(np.abs(ours - theirs).max())
+    if not worst <= tolerance:
+        raise SystemExit(f"{device.name}: rworld and Pinocchio differ by {worst:.1e} N m")
+    return worst
 
 
 def problems():
@@ -110,7 +133,7 @@ def problems():
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--grids", type=int, nargs="+", default=[100, 500, 1000, 2000])
-    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--repeat", type=int, default=5)
     args = parser.parse_args()
     try:
         import pinocchio as pin
@@ -168,20 +191,45 @@ def main():
         return t, traj(t), traj(t, 1), traj(t, 2)
 
     ref_T = {(r["config"], r["gridpoints"]): r["duration_s"] for r in REF["toppra_results"]}
+    cases = problems()
+    for name, (device, _, _, _, g, _) in cases.items():
+        agree = check_dynamics_agree(
+            device,
+            DeviceDynamics(device, armature=True, friction=False),
+            pinocchio_with_armature(device, g)[0],
+            g,
+        )
+        print(
+            f"{name}: rworld's and Pinocchio's inverse dynamics (armature, no friction) agree to "
+            f"{agree:.1e} N m on 200 random states"
+        )
+    print()
     print(
         f"{'config':8s} {'grid':>5s} | {'toppra T [s]':>13s} {'vs ref':>8s} {'worst':>8s} "
         f"{'ms':>7s} | {'grid only':>9s} | "
         f"{'rworld T [s]':>13s} {'worst':>9s} {'ms':>7s} | {'T ratio':>8s} {'time ratio':>10s}"
     )
     toppra_rated, ratios_T = None, []
-    for name, (device, knots, waypoints, boundary, g, configs) in problems().items():
+    for name, (device, knots, waypoints, boundary, g, configs) in cases.items():
         dyn = DeviceDynamics(device, armature=True, friction=False)
         model, _ = pinocchio_with_armature(device, g)
         ours_path = JointPath(waypoints, knots, boundary)
         for config, (limits, torque) in configs.items():
             for grid in args.grids:
-                traj, t_toppra = best(
-                    lambda: toppra_solve(knots, waypoints, boundary, limits, torque, grid, model),
+                # each timed from the waypoints: its spline built, then the solve
+                (traj, (timing, _)), (t_toppra, t_ours) = best_interleaved(
+                    [
+                        lambda: toppra_solve(
+                            knots, waypoints, boundary, limits, torque, grid, model
+                        ),
+                        lambda: time_optimal(
+                            JointPath(waypoints, knots, boundary),
+                            limits,
+                            dyn if torque else None,
+                            g,
+                            grid,
+                        ),
+                    ],
                     args.repeat,
                 )
                 _, q, qd, qdd = sampled_toppra(traj)
@@ -193,10 +241,6 @@ def main():
                     toppra_rated = traj
                 plain, _ = time_optimal(
                     ours_path, limits, dyn if torque else None, g, grid, repair=False
-                )
-                (timing, _), t_ours = best(
-                    lambda: time_optimal(ours_path, limits, dyn if torque else None, g, grid),
-                    args.repeat,
                 )
                 _, q, qd, qdd = sample_trajectory(ours_path, timing, 20001, switches=True)
                 worst_ours = max(
@@ -225,7 +269,7 @@ def main():
         "\npayload capacity (point mass at [0, 0, 0.1] m in frame 6), exact (torque is affine in "
         "mass):"
     )
-    device, knots, waypoints, _, g, configs = problems()["puma"]
+    device, knots, waypoints, _, g, configs = cases["puma"]
     ours_path = JointPath(waypoints, knots)
     ref = {c["label"]: c for c in REF["payload_capacity"]}
 

@@ -275,6 +275,17 @@ def path_coefficients(path: JointPath, s: np.ndarray, dynamics=None, gravity=Non
     return q, dq, ddq, (a_t, b_t, c_t)
 
 
+def check_cells(intervals: int) -> int:
+    """Default number of fine cells of the torque bound for ``intervals`` grid intervals: four
+    per interval, at least 1 000.
+
+    The bound's margin shrinks with the square of the cell width; at 1 000 cells on the bench's
+    paths it is about 1e-5 of the limit, well inside the repair's own margin, and the
+    coefficients then cost three batched Newton-Euler passes of a few thousand samples.
+    """
+    return max(1000, 4 * intervals)
+
+
 class JointTorque:
     """|tau_j| <= tau_max_j with tau = a u + b x + c (a = M q', b = M q'' + C(q, q') q', c = g(q)).
 
@@ -290,8 +301,12 @@ class JointTorque:
 
     kind = "torque"
     SAFETY = 2.0  # on the curvature estimated by second differences
+    # A torque repair shifts the neighbours' sddot, which can push their torque over in turn:
+    # aiming 1e-4 inside (on x, about 5e-5 of the local speed) ends that cascade in two to four
+    # solves on the bench's paths, where 1e-6 took up to twelve.
+    repair_margin = 1e-4
 
-    def __init__(self, limit, dynamics, gravity=None, check_samples: int = 20001):
+    def __init__(self, limit, dynamics, gravity=None, check_samples: int | None = None):
         if getattr(dynamics, "_has_friction", False):
             raise ValueError(
                 "torque constraints take dynamics without friction (friction is not affine in "
@@ -304,7 +319,8 @@ class JointTorque:
 
     def prepare(self, path: JointPath, s: np.ndarray) -> None:
         N = len(s) - 1
-        per_interval = max(1, int(np.ceil((self.check_samples - 1) / N)))
+        cells = check_cells(N) if self.check_samples is None else self.check_samples - 1
+        per_interval = max(1, int(np.ceil(cells / N)))
         sub = (
             s[:-1, None] + np.diff(s)[:, None] * (np.arange(per_interval) / per_interval)
         ).ravel()
@@ -312,7 +328,11 @@ class JointTorque:
         inner = breaks[(breaks > s[0]) & (breaks < s[-1])]
         fine = np.union1d(np.append(sub, s[-1]), inner)
         self.grid_index = np.searchsorted(fine, s)
-        _, _, _, (a, b, c) = path_coefficients(path, fine, self.dynamics, self.gravity)
+        family = getattr(self.dynamics, "torque_coefficients", None)  # payload.PointMassFamily
+        if family is not None:
+            a, b, c = family(path, fine, self.gravity)
+        else:
+            _, _, _, (a, b, c) = path_coefficients(path, fine, self.dynamics, self.gravity)
         self.a, self.b, self.c = a, b, c
         h = np.diff(fine)
         mid = 0.5 * (fine[:-1] + fine[1:])
@@ -322,22 +342,18 @@ class JointTorque:
         )  # a fine cell's ends, from its grid interval's start
         self.offset1 = fine[1:] - s[self.interval]
         smooth = ~np.isin(fine[1:-1], inner)  # second differences only inside a cubic piece
-
-        def second(f):
-            d = (
-                2.0
-                * ((f[2:] - f[1:-1]) / h[1:, None] - (f[1:-1] - f[:-2]) / h[:-1, None])
-                / (h[1:] + h[:-1])[:, None]
-            )
-            d = np.where(smooth[:, None], np.abs(d), 0.0)
-            at = np.vstack([d[:1], d, d[-1:]])  # (P, n): an estimate at every fine point
-            before = np.vstack([at[:1], at[:-1]])
-            after = np.vstack([at[1:], at[-1:]])
-            near = np.maximum(np.maximum(at, before), after)  # each point and its neighbours
-            return self.SAFETY * np.maximum(near[:-1], near[1:])  # per cell
-
-        a2, b2, c2 = second(a), second(b), second(c)
-        b1 = np.abs(np.diff(b, axis=0)) / h[:, None] + h[:, None] * b2
+        n = a.shape[1]
+        f = np.concatenate([a, b, c], axis=1)  # the three at once: (P, 3n)
+        slope = np.diff(f, axis=0) / h[:, None]  # per cell
+        d = np.abs(np.diff(slope, axis=0)) * (2.0 / (h[1:] + h[:-1]))[:, None]  # per inner point
+        d[~smooth] = 0.0
+        # a cell's estimate: the largest at its two ends and their neighbours (edge values
+        # repeated), i.e. a window of four over d padded by two at each end
+        padded = np.concatenate([d[:1], d[:1], d, d[-1:], d[-1:]])
+        pairs = np.maximum(padded[:-1], padded[1:])
+        curvature = self.SAFETY * np.maximum(pairs[:-2], pairs[2:])  # (P - 1, 3n)
+        a2, b2, c2 = curvature[:, :n], curvature[:, n : 2 * n], curvature[:, 2 * n :]
+        b1 = np.abs(slope[:, n : 2 * n]) + h[:, None] * b2
         w = (h * h / 8.0)[:, None]
         self.e_u = w * (a2 + 4.0 * b1)  # the bound's margin: e_u |u| + e_x x + e_c
         self.e_x = w * b2
@@ -362,22 +378,21 @@ class JointTorque:
         x1 = (timing.x[k] + 2.0 * timing.u[k] * self.offset1)[:, None]
         t0 = a[:-1] * u + b[:-1] * x0 + c[:-1]
         t1 = a[1:] * u + b[1:] * x1 + c[1:]
-        margin = self.e_u * np.abs(u) + self.e_x * np.maximum(x0, x1) + self.e_c
-        right = np.abs(t1) > np.abs(t0)
-        tau = np.where(right, t1, t0)
-        grav = np.where(right, c[1:], c[:-1])
-        bound = np.abs(tau) + margin
+        bound = np.maximum(np.abs(t0), np.abs(t1))
+        bound += self.e_u * np.abs(u) + self.e_x * np.maximum(x0, x1) + self.e_c
         ratio = bound / self.limit
         worst = float(ratio.max(initial=0.0))
         rows, cols = np.nonzero(ratio > 1.0)
         if not len(rows):
             return Excess.none(worst)
-        side = np.where(tau[rows, cols] >= 0, 1.0, -1.0)
-        room = side * self.limit[cols] - grav[rows, cols]  # what the motion part may use
+        # only where it is exceeded: the end that binds, its sign and its gravity part
+        t0, t1 = t0[rows, cols], t1[rows, cols]
+        right = np.abs(t1) > np.abs(t0)
+        side = np.where(np.where(right, t1, t0) >= 0, 1.0, -1.0)
+        grav = np.where(right, c[1:][rows, cols], c[:-1][rows, cols])
+        room = side * self.limit[cols] - grav  # what the motion part may use
         if np.any(room * side <= 0):
             raise InfeasiblePath("gravity alone exceeds a torque limit on the path")
-        motion = (
-            side * bound[rows, cols] - grav[rows, cols]
-        )  # the bound less gravity: it scales with the timing
+        motion = side * bound[rows, cols] - grav  # the bound less gravity: it scales with timing
         labels = np.array([f"torque {j + 1}" for j in range(a.shape[1])], dtype=object)[cols]
         return Excess(k[rows], room / motion * (1.0 - repair_margin), labels, worst)

@@ -28,8 +28,6 @@ class HermitePath(JointPath):
     """q(s) from q0 (tangent 0) to q1 (tangent m1), cubic Hermite, s in [0, 1]."""
 
     def __init__(self, q0, q1, m1):
-        from scipy.interpolate import PPoly
-
         self.q0, self.q1, self.m1 = (np.asarray(v, dtype=float) for v in (q0, q1, m1))
         self.waypoints = np.stack([self.q0, self.q1])
         dq = self.q1 - self.q0
@@ -37,7 +35,7 @@ class HermitePath(JointPath):
         coefficients = np.stack([-2 * dq + self.m1, 3 * dq - self.m1, np.zeros_like(dq), self.q0])[
             :, None, :
         ]
-        self._set_polynomial(PPoly(coefficients, np.array([0.0, 1.0])))
+        self._set_polynomial(np.array([0.0, 1.0]), coefficients)
 
 
 @dataclass
@@ -88,7 +86,7 @@ def max_impulse(
 
     lower, upper = device.limit_array("lower"), device.limit_array("upper")
 
-    def evaluate(log_l: float, check_samples: int = 4001):
+    def evaluate(log_l: float, check_samples: int | None = None):
         L = base * np.exp(log_l)
         path = HermitePath(q_start, q_end, L * w)
         if range_excursions(

@@ -89,6 +89,43 @@ class LoadOptimal:
     )
 
 
+class PointMassFamily:
+    """The dynamics of a device carrying a point mass m, for the torque limits of a planner, as
+    ``tau(m) = tau_0 + m (tau_1 - tau_0)``.
+
+    Torque is affine in the mass of a point load (its mass, first and second moments enter
+    Newton-Euler linearly), so the torque coefficients of a path for any m follow from two
+    passes: without the load (``bare``) and with 1 kg at the same place (``unit``).  A bisection
+    on the mass then runs Newton-Euler twice per path, not twice per probe.  ``at(m)`` gives the
+    member with mass m; members share one cache of coefficients, keyed by path and s grid.
+    """
+
+    _has_friction = False  # what the torque constraint asks of its dynamics
+
+    def __init__(self, bare: DeviceDynamics, unit: DeviceDynamics, mass: float = 0.0):
+        self.bare, self.unit, self.mass = bare, unit, float(mass)
+        self._cache: dict = {}
+
+    def at(self, mass: float) -> PointMassFamily:
+        member = PointMassFamily(self.bare, self.unit, mass)
+        member._cache = self._cache
+        return member
+
+    def torque_coefficients(self, path, s: np.ndarray, gravity):
+        """``(a, b, c)`` of :func:`rworld_cli.planning.constraints.path_coefficients` at mass m,
+        each of shape (len(s), n)."""
+        from .constraints import path_coefficients
+
+        key = (id(path), s.tobytes(), None if gravity is None else np.asarray(gravity).tobytes())
+        entry = self._cache.get(key)
+        if entry is None or entry[0] is not path:
+            bare = path_coefficients(path, s, self.bare, gravity)[3]
+            unit = path_coefficients(path, s, self.unit, gravity)[3]
+            entry = self._cache[key] = (path, bare, tuple(u - b for u, b in zip(unit, bare)))
+        _, bare, per_kg = entry
+        return tuple(b + self.mass * d for b, d in zip(bare, per_kg))
+
+
 def _heaviest(
     device,
     path,
@@ -99,7 +136,7 @@ def _heaviest(
     mount,
     gridpoints,
     tolerance,
-    check_samples=4001,
+    check_samples=None,
     link_loads=None,
 ):
     """(mass, timing, static bound) of the heaviest point mass ``path`` carries within ``duration``.
@@ -115,18 +152,24 @@ def _heaviest(
     """
     from .topp import InfeasiblePath, time_optimal
 
-    def fastest(m: float):
-        dyn = DeviceDynamics(
-            device,
-            Payload.point_mass(m, com_in_tool),
-            mount,
-            armature=True,
-            friction=False,
-            link_loads=link_loads,
+    family = PointMassFamily(
+        *(
+            DeviceDynamics(
+                device,
+                Payload.point_mass(m, com_in_tool),
+                mount,
+                armature=True,
+                friction=False,
+                link_loads=link_loads,
+            )
+            for m in (0.0, 1.0)
         )
+    )
+
+    def fastest(m: float):
         try:
             timing, _ = time_optimal(
-                path, limits, dyn, gravity, gridpoints, check_samples=check_samples
+                path, limits, family.at(m), gravity, gridpoints, check_samples=check_samples
             )
             return timing
         except InfeasiblePath:
@@ -251,9 +294,9 @@ def optimise_knots(
             seen[key] = 10.0 * duration  # refused: outside the position limits, or no timing at all
             if candidate is not None:
                 try:
-                    seen[key] = time_optimal(
-                        candidate, limits, dyn, gravity, gridpoints, check_samples=4001
-                    )[0].duration
+                    seen[key] = time_optimal(candidate, limits, dyn, gravity, gridpoints)[
+                        0
+                    ].duration
                 except InfeasiblePath:
                     pass
             return seen[key]

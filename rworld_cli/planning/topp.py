@@ -157,9 +157,12 @@ def _times(s: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 _MARGIN = 1e-9  # the grid solution aims this far (relative) inside the limits
 # A repair aims this far inside: capping one interval moves its neighbours' sddot a little, and a
-# margin
-# well above the torque bound's own (about 1e-7 relative) keeps them from needing another round.
+# margin well above the torque bound's own keeps them from needing another round.  A constraint
+# may ask for more (``repair_margin``: the torque bound, whose repairs cascade).
 _REPAIR_MARGIN = 1e-6
+# After a repair, an excess this small (value over limit) is taken out by slowing the whole timing
+# - about 1e-5 of the cycle time at most - rather than by more rounds, each a full solve.
+_SETTLE = 1e-5
 
 
 def _per_stage(mask, *arrays):
@@ -320,26 +323,50 @@ class _Stages:
         self.lw_hi = _per_stage(lw_ok & (dd > eps), g0, g1)  # x_i <= g0 + g1 K_hi'
         self.lw_lo = _per_stage(lw_ok & (dd < -eps), g0, g1)  # x_i >= g0 + g1 K_hi'
 
-    def backward(self, caps: np.ndarray, end_at_rest: bool) -> tuple[list, list]:
+    def backward(
+        self, caps: np.ndarray, end_at_rest: bool, previous=None
+    ) -> tuple[list, list, int]:
         """Controllable sets [K_lo_i, K_hi_i] of x_i, from the end (at rest, or at any allowed
         speed).
 
         ``caps`` (N + 1,): extra upper bounds on x at the grid points (inf: none).
+        ``previous``: (K_lo, K_hi, caps) of an earlier pass.  Set i depends only on set i+1 and
+        on the stage and cap at i, so the pass starts at the last changed cap and stops, below
+        the first one, where a set comes out as before: a repair round costs what it changes.
+
+        Returns
+        -------
+        K_lo, K_hi : list of float, N + 1 each
+        lowest : int
+            The lowest index whose set was computed (0 for a full pass): sets below it are the
+            previous ones.
         """
         N = len(self.ds)
         s = self.s
         eps = self.EPS
-        xlo_l, ds_l, caps_l = self.x_lo.tolist(), self.ds.tolist(), caps.tolist()
-        xhi_l = np.minimum(self.x_hi, caps[:-1]).tolist()
-        hi0_l = np.minimum(np.minimum(self.x_hi, caps[:-1]), self.up_hi0).tolist()
+        if previous is None:
+            K_lo = [0.0] * (N + 1)
+            K_hi = [0.0] * (N + 1)
+            if not end_at_rest:
+                K_hi[-1] = float(min(self.xvel[-1], caps[-1], 1e12))
+            top, bottom = N - 1, 0
+        else:
+            K_lo, K_hi, old_caps = list(previous[0]), list(previous[1]), previous[2]
+            changed = np.flatnonzero(caps != old_caps)
+            if not len(changed):
+                return K_lo, K_hi, N + 1
+            if changed[-1] == N and not end_at_rest:
+                K_hi[-1] = float(min(self.xvel[-1], caps[-1], 1e12))
+            top, bottom = min(int(changed[-1]), N - 1), int(changed[0])
+        caps_stage = caps[:-1]
+        xlo_l, ds_l = self.x_lo.tolist(), self.ds.tolist()
+        xhi_l = np.minimum(self.x_hi, caps_stage).tolist()
+        hi0_l = np.minimum(np.minimum(self.x_hi, caps_stage), self.up_hi0).tolist()
         lo0_l = np.maximum(self.x_lo, self.up_lo0).tolist()
         up_Q, up_P = self.up_Q, self.up_P
         (hi_g0, hi_g1), (lo_g0, lo_g1) = self.lw_hi, self.lw_lo
-        K_lo = [0.0] * (N + 1)
-        K_hi = [0.0] * (N + 1)
-        if not end_at_rest:
-            K_hi[-1] = float(min(self.xvel[-1], caps_l[-1], 1e12))
-        for i in range(N - 1, -1, -1):  # stage i couples to i+1: sequential by nature
+        lowest = 0
+        for i in range(top, -1, -1):  # stage i couples to i+1: sequential by nature
             K_lo1, K_hi1 = K_lo[i + 1], K_hi[i + 1]
             if K_lo1 == 0.0:
                 lo_i, hi_i = lo0_l[i], hi0_l[i]
@@ -367,26 +394,42 @@ class _Stages:
                     f"the path cannot be followed to rest from s = {s[i]:.4f}: the limits leave "
                     "no speed there"
                 )
-            K_lo[i], K_hi[i] = max(lo_i, 0.0), max(hi_i, 0.0)
+            new_lo, new_hi = max(lo_i, 0.0), max(hi_i, 0.0)
+            if previous is not None and i < bottom and new_lo == K_lo[i] and new_hi == K_hi[i]:
+                lowest = i + 1  # as before from here down
+                break
+            K_lo[i], K_hi[i] = new_lo, new_hi
         if K_lo[0] > 1e-12:
             raise InfeasiblePath("the path cannot start from rest within the limits")
-        return K_lo, K_hi
+        return K_lo, K_hi, lowest
 
     def forward(
-        self, K_lo: list, K_hi: list, caps: np.ndarray, cap_cause: list
+        self, K_lo: list, K_hi: list, caps: np.ndarray, cap_cause: list, previous=None
     ) -> tuple[np.ndarray, np.ndarray, list]:
         """From rest, the largest u on every stage that keeps x controllable; (x, u, what binds
         per stage).
+
+        ``previous``: (x, u, binding, first, last) of an earlier pass and the span of grid
+        points whose sets or caps changed since: the stages before ``first`` are kept, and past
+        ``last`` the pass stops where x comes back onto the previous solution.
         """
         N = len(self.ds)
         ds_l, xvel_l, caps_l = self.ds.tolist(), self.xvel.tolist(), caps.tolist()
         labels, up_Q, up_P, up_row = self.labels, self.up_Q, self.up_P, self.up_row
-        x = [0.0] * (N + 1)
-        u = [0.0] * N
-        binding = []
-        for i in range(N):
+        if previous is None:
+            x = [0.0] * (N + 1)
+            u = [0.0] * N
+            binding = [""] * N
+            start, last, old_x = 0, N, None
+        else:
+            old_x, old_u, old_binding, first, last = previous
+            x, u, binding = old_x.tolist(), old_u.tolist(), list(old_binding)
+            start = max(first - 1, 0)  # stage i reads the set and cap of point i + 1
+        for i in range(start, N):
             h = 2.0 * ds_l[i]
             xi = x[i]
+            if old_x is not None and i > last and xi == old_x[i]:
+                break  # same speed, same sets and caps from here on: the rest is as before
             ui = (K_hi[i + 1] - xi) / h
             if K_hi[i + 1] >= xvel_l[i + 1] - 1e-9:
                 which = "velocity"
@@ -401,11 +444,17 @@ class _Stages:
             ui = max(ui, (K_lo[i + 1] - xi) / h)
             x[i + 1] = min(max(xi + h * ui, K_lo[i + 1]), K_hi[i + 1])
             u[i] = (x[i + 1] - xi) / h
-            binding.append(which)
+            binding[i] = which
         return np.array(x), np.array(u), binding
 
 
-def interval_excess(timing: Timing, constraints: list, segments: Segments):
+def interval_excess(
+    timing: Timing,
+    constraints: list,
+    segments: Segments,
+    repair_margin: float = _REPAIR_MARGIN,
+    own_margins: bool = True,
+):
     """Per grid interval, the factor f <= 1 on x (at both its ends) that keeps every constraint
     inside it.
 
@@ -423,7 +472,14 @@ def interval_excess(timing: Timing, constraints: list, segments: Segments):
     N = len(timing.u)
     factor = np.ones(N)
     between = BetweenGridPoints(timing, segments)
-    found = [c.excess(timing, between, _REPAIR_MARGIN) for c in constraints]
+    found = [
+        c.excess(
+            timing,
+            between,
+            max(repair_margin, getattr(c, "repair_margin", 0.0) if own_margins else 0.0),
+        )
+        for c in constraints
+    ]
     worst = max((e.worst for e in found), default=0.0)
     where = np.concatenate([e.interval for e in found]) if found else np.zeros(0, dtype=int)
     factors = np.concatenate([e.factor for e in found]) if found else np.zeros(0)
@@ -439,7 +495,7 @@ def interval_excess(timing: Timing, constraints: list, segments: Segments):
 
 
 def constraints_from_limits(
-    limits: Limits, dynamics=None, gravity=None, check_samples: int = 20001
+    limits: Limits, dynamics=None, gravity=None, check_samples: int | None = None
 ) -> list:
     """The constraint objects of joint limits: velocity, and acceleration and torque where given."""
     out: list = [JointVelocity(limits.velocity)]
@@ -459,7 +515,7 @@ def time_optimal(
     dynamics=None,
     gravity=None,
     gridpoints: int = 1000,
-    check_samples: int = 20001,
+    check_samples: int | None = None,
     end_at_rest: bool = True,
     repair: bool = True,
     max_rounds: int = 12,
@@ -478,9 +534,11 @@ def time_optimal(
         In the device's base frame [m/s^2].
     gridpoints : int
         Grid points on s in [0, 1] (``gridpoints - 1`` intervals), as toppra counts them.
-    check_samples : int
+    check_samples : int, optional
         Points of the fine s grid on which torque is bounded between grid points (at least
-        one per grid interval; every grid point and spline break is among them).
+        one cell per grid interval; every grid point and spline break is among them).  Default:
+        :func:`~rworld_cli.planning.constraints.check_cells` cells, four per grid interval and
+        at least 1 000.
     end_at_rest, repair, max_rounds
         See :func:`time_optimal_constrained`.
 
@@ -539,10 +597,22 @@ def time_optimal_constrained(
     caps = np.full(gridpoints, np.inf)
     cap_cause = [""] * gridpoints
     rounds = 0
+    solved = None  # the previous round's sets, caps and solution: repairs re-solve locally
     while True:
         rounds += 1
-        K_lo, K_hi = stages.backward(caps, end_at_rest)
-        x, u, binding = stages.forward(K_lo, K_hi, caps, cap_cause)
+        if solved is None:
+            K_lo, K_hi, _ = stages.backward(caps, end_at_rest)
+            x, u, binding = stages.forward(K_lo, K_hi, caps, cap_cause)
+        else:
+            old_K_lo, old_K_hi, old_caps, old_x, old_u, old_binding = solved
+            K_lo, K_hi, lowest = stages.backward(caps, end_at_rest, (old_K_lo, old_K_hi, old_caps))
+            changed = np.flatnonzero(caps != old_caps)
+            first = min(lowest, int(changed[0])) if len(changed) else gridpoints
+            last = int(changed[-1]) if len(changed) else -1
+            x, u, binding = stages.forward(
+                K_lo, K_hi, caps, cap_cause, (old_x, old_u, old_binding, first, last)
+            )
+        solved = (K_lo, K_hi, caps.copy(), x, u, binding)
         unbounded = np.flatnonzero(~(x < _SPEED_CEILING))
         if len(unbounded):
             raise InfeasiblePath(
@@ -555,14 +625,20 @@ def time_optimal_constrained(
         bad = np.flatnonzero(factor < 1.0)
         if not repair or not len(bad):
             break
-        if (
-            rounds >= max_rounds
-        ):  # not settled locally: slow the whole timing by what the check asks for
+        settle = rounds >= 2 and ratio <= 1.0 + _SETTLE
+        if rounds >= max_rounds or settle:
+            # not settled locally, or only a trace left (repairs that moved the excess next door
+            # by 1e-6): slow the whole timing by what the check asks for - for a trace, without
+            # the repairs' margins
+            if settle:
+                factor, _, ratio = interval_excess(timing, constraints, segments, _MARGIN, False)
             scale = 1.0
             for _ in range(5):
                 scale /= np.sqrt(factor.min())
                 timing = Timing(s, x / scale**2, u / scale**2, _times(s, x / scale**2), scale)
-                factor, _, ratio = interval_excess(timing, constraints, segments)
+                factor, _, ratio = interval_excess(
+                    timing, constraints, segments, _MARGIN if settle else _REPAIR_MARGIN, not settle
+                )
                 if factor.min() >= 1.0:
                     break
             else:

@@ -381,7 +381,7 @@ def test_torque_bound_holds_ten_times_denser_than_the_check(grid):
     path, limits, dyn = ur5_case()
     g = np.array([0, 0, -9.81])
     timing, info = time_optimal(path, limits, dyn, g, grid, check_samples=20001)
-    assert info["dense_ratio"] <= 1.0 and timing.scale == 1.0
+    assert info["dense_ratio"] <= 1.0 and timing.scale <= 1.0 + 1e-5  # at most a trace settled
     _, q, qd, qdd = sample_trajectory(path, timing, 200001, switches=True)
     ratios = limit_ratios(q, qd, qdd, limits, dyn, g)
     assert ratios["torque"].max() <= 1.0 and ratios["velocity"].max() <= 1.0

@@ -1,0 +1,107 @@
+"""Wall time of the planning commands, for one or more source trees of rworld, in one run.
+
+Run:  .venv/bin/python bench/planning_commands.py [--trees DIR ...] [--repeat 3]
+
+Each tree is a checkout of this repository (``git worktree add /tmp/before REV`` gives an older
+one); the commands run with that tree first on ``PYTHONPATH``, under this interpreter, in fresh
+processes that take turns (tree after tree within each repetition), so a busy spell of the shared
+machine hits every tree alike.  Reported: the best wall time per command and tree, and each tree
+against the first.  The kernel cache is warm (a first run before the timed ones).
+
+Commands (the examples of ``docs/planning.md``, on ``workcells/puma560``):
+
+* ``time-optimal``: the reference path, rated limits and torque, 400 grid points;
+* ``payload``: the capacity of that path's time-optimal timing;
+* ``load-optimal --shape``: the heaviest payload in 2.2 s, knots moved (Nelder-Mead);
+* ``impulse``: the probe TCP to ``table.drop`` straight down with 2 kg.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+CELL = str(REPO / "workcells" / "puma560")  # the same input files for every tree
+PATH = str(REPO / "workcells" / "puma560" / "paths" / "reference.yaml")
+COMMANDS = {
+    "time-optimal": ["plan", "time-optimal", CELL, "--path", PATH],
+    "payload": ["plan", "payload", CELL, "--path", PATH, "--tcp", "probe"],
+    "load-optimal --shape": [
+        "plan",
+        "load-optimal",
+        CELL,
+        "--path",
+        PATH,
+        "--tcp",
+        "probe",
+        "--duration",
+        "2.2",
+        "--shape",
+    ],
+    "impulse": [
+        "plan",
+        "impulse",
+        CELL,
+        "--tcp",
+        "probe",
+        "--target",
+        "table.drop",
+        "--direction",
+        "0,0,-1",
+        "--payload-mass",
+        "2",
+    ],
+}
+
+
+def run(tree: Path, args: list[str]) -> float:
+    """Wall time [s] of ``rworld ARGS`` with ``tree``'s package, in a fresh process."""
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    code = (
+        "import sys; from rworld_cli.cli import main; sys.argv = ['rworld'] + sys.argv[1:]; main()"
+    )
+    t0 = time.perf_counter()
+    done = subprocess.run(
+        [sys.executable, "-c", code, "--json", *args],
+        cwd=tree,  # python -c puts the working folder first on sys.path
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    elapsed = time.perf_counter() - t0
+    if done.returncode != 0:
+        raise SystemExit(f"{tree}: rworld {' '.join(args)} exited {done.returncode}\n{done.stderr}")
+    return elapsed
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--trees", nargs="+", type=Path, default=[REPO])
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--only", nargs="+", choices=list(COMMANDS), default=list(COMMANDS))
+    args = parser.parse_args()
+    trees = [t.resolve() for t in args.trees]
+    for tree in trees:  # warm the kernel cache and the imports' bytecode
+        for name in args.only:
+            run(tree, COMMANDS[name])
+    best = {(name, tree): float("inf") for name in args.only for tree in trees}
+    for _ in range(args.repeat):
+        for name in args.only:
+            for tree in trees:
+                best[name, tree] = min(best[name, tree], run(tree, COMMANDS[name]))
+    labels = [str(t) for t in trees]
+    print(f"best of {args.repeat}, wall time of a fresh process [s]; ratio to the first tree\n")
+    print(f"{'command':22s} | " + " | ".join(f"{label[-28:]:>28s}" for label in labels))
+    for name in args.only:
+        first = best[name, trees[0]]
+        cells = [f"{best[name, t]:8.2f} s ({best[name, t] / first:5.2f}x)".rjust(28) for t in trees]
+        print(f"{name:22s} | " + " | ".join(cells))
+
+
+if __name__ == "__main__":
+    main()
