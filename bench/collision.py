@@ -9,7 +9,8 @@ Run:  .venv/bin/pip install -e ".[bench]" && .venv/bin/python bench/collision.py
    and the largest distance error on separated pairs.
 2. Distance queries per second on the same shapes and poses.  fcl's best ordinary setup: the
    collision objects built once, one setTransform and one fcl.distance per pair.  rworld answers
-   a batch in one call (the way the sweep asks).
+   a batch in one call (the way the sweep asks), with its compiled GJK, and with the numpy GJK
+   it falls back to (``RWORLD_KERNELS=numpy``).
 3. A small box buried inside a closed mesh: fcl (meshes are surfaces) against rworld (solids).
 4. `rworld check` with the continuous collision check against `--no-collisions`, fresh
    processes, best of REPEAT.
@@ -20,12 +21,14 @@ Ratios are of one run on one machine; the machines are shared and noisy.
 from __future__ import annotations
 
 import argparse
+import os
 import platform
 import shutil
 import subprocess
 import sys
 import tempfile
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -135,6 +138,20 @@ def fcl_distances(kind_a: str, kind_b: str, Tb: np.ndarray) -> tuple[np.ndarray,
     return out, time.perf_counter() - t0
 
 
+@contextmanager
+def numpy_kernels():
+    """rworld with ``RWORLD_KERNELS=numpy``: the numpy GJK instead of the compiled one."""
+    before = os.environ.get("RWORLD_KERNELS")
+    os.environ["RWORLD_KERNELS"] = "numpy"
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ["RWORLD_KERNELS"]
+        else:
+            os.environ["RWORLD_KERNELS"] = before
+
+
 def rworld_distances(kind_a: str, kind_b: str, Tb: np.ndarray) -> tuple[cv.Distances, float]:
     I = np.tile(np.eye(4), (len(Tb), 1, 1))
     a, b = rworld_pieces(kind_a, I, "a"), rworld_pieces(kind_b, Tb, "b")
@@ -150,9 +167,10 @@ def exactness_and_rate(n: int, n_cyl: int, repeat: int) -> None:
     )
     print(
         "| pair | poses | rworld wrong | rworld max error [m] | fcl wrong | fcl max error [m] "
-        "| rworld us/query | fcl us/query | rate ratio rworld/fcl |"
+        "| rworld us/query | fcl us/query | rate ratio rworld/fcl | numpy GJK wrong "
+        "| numpy GJK us/query | numpy GJK / fcl |"
     )
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     cases = [
         ("sphere", "sphere"),
         ("sphere", "box"),
@@ -171,7 +189,17 @@ def exactness_and_rate(n: int, n_cyl: int, repeat: int) -> None:
             (rworld_distances(ka, kb, T_all) for _ in range(repeat)), key=lambda x: x[1]
         )
         f_all, t_f = min((fcl_distances(ka, kb, T_all) for _ in range(repeat)), key=lambda x: x[1])
+        with numpy_kernels():  # the fallback: the same GJK vectorised in numpy
+            np_all, t_n = min(
+                (rworld_distances(ka, kb, T_all) for _ in range(repeat)), key=lambda x: x[1]
+            )
         res = cv.Distances(*(value[:m] for value in vars(res_all).values()))
+        wrong_n = int(
+            np.sum(
+                (ref_over | (np.nan_to_num(ref_d, nan=0.0) > TOL))
+                & (np_all.overlap[:m] != ref_over)
+            )
+        )
         f = f_all[:m]
         known = ref_over | (np.nan_to_num(ref_d, nan=0.0) > TOL)
         wrong_r = int(np.sum(known & (res.overlap != ref_over)))
@@ -179,10 +207,11 @@ def exactness_and_rate(n: int, n_cyl: int, repeat: int) -> None:
         sep = known & ~ref_over
         err_r = float(np.max(np.abs(res.distance[sep] - ref_d[sep]), initial=0))
         err_f = float(np.max(np.abs(np.maximum(f[sep], 0) - ref_d[sep]), initial=0))
-        us_r, us_f = 1e6 * t_r / n, 1e6 * t_f / n
+        us_r, us_f, us_n = 1e6 * t_r / n, 1e6 * t_f / n, 1e6 * t_n / n
         print(
             f"| {ka}-{kb} | {m} | {wrong_r} | {err_r:.1e} | {wrong_f} | {err_f:.1e} "
-            f"| {us_r:.2f} | {us_f:.2f} | {us_f / us_r:.2f} |"
+            f"| {us_r:.2f} | {us_f:.2f} | {us_f / us_r:.2f} | {wrong_n} | {us_n:.2f} "
+            f"| {us_f / us_n:.2f} |"
         )
 
 

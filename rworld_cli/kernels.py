@@ -228,7 +228,9 @@ def compiled_kernel(gen) -> Kernel | None:
             return _COMPILED[key]
         symbol = f"rworld_{gen.name}_{key[:20]}"
         try:
-            addresses = _load(llvm, key, symbol, ir.replace("@KERNEL", f"@{symbol}"))
+            addresses = _load(
+                llvm, key, [symbol, f"{symbol}_single"], ir.replace("@KERNEL", f"@{symbol}")
+            )
         except Exception as error:  # an LLVM failure must not stop the physics: fall back
             warnings.warn(
                 f"compiling the {gen.name} kernel failed ({error}); using numpy", stacklevel=2
@@ -239,14 +241,46 @@ def compiled_kernel(gen) -> Kernel | None:
         return kernel
 
 
-def _load(llvm, key: str, symbol: str, ir: str) -> tuple[int, int]:
-    """Addresses of the batch and single entries: from the disk cache, else compiled (and stored
-    when possible)."""
+def compile_ir(name: str, build, symbols: list[str], source: str) -> list[int] | None:
+    """Machine code for a module of LLVM IR: the addresses of its functions ``symbols``, or None
+    when kernels are off (``RWORLD_KERNELS=numpy``, no llvmlite) or compiling failed (with a
+    warning naming ``name``).
+
+    For kernels written by hand rather than generated (the collision room's GJK): the same
+    engine, disk cache and fallback as :func:`compiled_kernel`.  ``build()`` returns the IR
+    text; it runs only when the object is not cached, which is keyed by ``source`` (what
+    determines the IR: the generator's own source and constants), the LLVM version and the CPU.
+    The symbols must be unique to that source (put its hash in them).
+    """
+    if backend() != "llvm":
+        return None
+    llvm = _llvm()
+    key = hashlib.sha256(f"{KERNEL_FORMAT}|{_STATE['host']}|{source}".encode()).hexdigest()
+    with _LOCK:
+        if key in _COMPILED_IR:
+            return _COMPILED_IR[key]
+        try:
+            addresses = _load(llvm, key, symbols, build)
+        except Exception as error:  # a failed compile must not stop the caller: it falls back
+            warnings.warn(
+                f"compiling the {name} kernel failed ({error}); using numpy", stacklevel=2
+            )
+            return None
+        _COMPILED_IR[key] = addresses
+        return addresses
+
+
+_COMPILED_IR: dict[str, list[int]] = {}
+
+
+def _load(llvm, key: str, symbols: list[str], ir) -> list[int]:
+    """Addresses of ``symbols``: from the disk cache, else compiled from ``ir`` (the text, or a
+    function that returns it) and stored when possible."""
     engine = _STATE["engine"]
     path = cache_dir() / f"{key}.o"
     obj = _read_cached(path)
     if obj is None:
-        module = llvm.parse_assembly(ir)
+        module = llvm.parse_assembly(ir() if callable(ir) else ir)
         module.verify()
         tuning = llvm.create_pipeline_tuning_options(speed_level=3)
         builder = llvm.create_pass_builder(_STATE["machine"], tuning)
@@ -257,9 +291,9 @@ def _load(llvm, key: str, symbol: str, ir: str) -> tuple[int, int]:
     engine.add_object_file(ref)
     engine.finalize_object()
     _STATE["keep"].append(ref)
-    addresses = engine.get_function_address(symbol), engine.get_function_address(f"{symbol}_single")
+    addresses = [engine.get_function_address(symbol) for symbol in symbols]
     if not all(addresses):
-        raise RuntimeError(f"symbol {symbol} not found after linking")
+        raise RuntimeError(f"symbols {symbols} not found after linking")
     return addresses
 
 

@@ -142,7 +142,11 @@ class Distances:
 
 
 def distance(a: Pieces, b: Pieces, max_iterations: int = MAX_ITERATIONS) -> Distances:
-    """Distance between pieces ``a[k]`` and ``b[k]`` for every k (GJK, vectorised).
+    """Distance between pieces ``a[k]`` and ``b[k]`` for every k (GJK).
+
+    Runs the compiled GJK (:mod:`rworld_cli.collision.compiled`, one pair at a time in machine
+    code) where kernels are available, else the same algorithm vectorised over the pairs in
+    numpy; the two agree to rounding.
 
     Parameters
     ----------
@@ -157,6 +161,28 @@ def distance(a: Pieces, b: Pieces, max_iterations: int = MAX_ITERATIONS) -> Dist
     -------
     Distances
     """
+    from .compiled import gjk
+
+    rows = gjk(a, b, max_iterations)
+    if rows is None:
+        return _distances(a, b, *_gjk_numpy(a, b, max_iterations))
+    return _distances(
+        a,
+        b,
+        rows[:, 1:4],
+        rows[:, 4:7],
+        rows[:, 7] != 0.0,
+        rows[:, 8].astype(int),
+        rows[:, 9],
+        rows[:, 10] != 0.0,
+    )
+
+
+def _gjk_numpy(a: Pieces, b: Pieces, max_iterations: int):
+    """GJK on the cores, vectorised over the pairs: (point_a, point_b, overlap, iterations,
+    lower, unfinished) - the cores' nearest points (P, 3) each, whether they overlap, the
+    iterations run, GJK's last lower bound on the distance, and whether a pair ran out of
+    iterations."""
     P = len(a)
     # results, by pair
     weights_out = np.zeros((P, 4))
@@ -242,9 +268,15 @@ def distance(a: Pieces, b: Pieces, max_iterations: int = MAX_ITERATIONS) -> Dist
     if len(index):  # out of iterations
         finish(np.arange(len(index)))
         unfinished[index] = True
-    weights, from_a, from_b, lower = weights_out, from_a_out, from_b_out, lower_out
-    pa = np.einsum("pk,pki->pi", weights, from_a)
-    pb = np.einsum("pk,pki->pi", weights, from_b)
+    pa = np.einsum("pk,pki->pi", weights_out, from_a_out)
+    pb = np.einsum("pk,pki->pi", weights_out, from_b_out)
+    return pa, pb, overlap, iterations, lower_out, unfinished
+
+
+def _distances(a, b, pa, pb, overlap, iterations, lower, unfinished) -> Distances:
+    """The solids' distances from the cores' GJK (see :func:`_gjk_numpy`): the lower bound
+    where a pair ran out of iterations, then the margins (spheres' radii)."""
+    P = len(pa)
     core = np.where(overlap, 0.0, np.linalg.norm(pa - pb, axis=1))
     error = np.zeros(P)
     if unfinished.any():  # out of iterations: report the lower bound

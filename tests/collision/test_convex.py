@@ -1,6 +1,7 @@
 """Exact distances of convex pieces against independent oracles, on thousands of random poses.
 
-Oracles (none shares code with rworld_cli.collision):
+Each test runs twice: on the compiled GJK (``collision/compiled.py``) and on the numpy GJK that
+``RWORLD_KERNELS=numpy`` selects.  Oracles (none shares code with rworld_cli.collision):
 
 * sphere-sphere, sphere-box, sphere-cylinder: closed forms (point to solid, minus the radius);
 * box-box: the least of the 16 vertex-to-box distances and the 144 edge-to-edge distances
@@ -27,6 +28,13 @@ from rworld_cli.collision.oracle import (
 from rworld_cli.sensing.geometry import obb_overlap
 
 TOL = 1e-9  # m, the required distance accuracy on primitives
+
+
+@pytest.fixture(autouse=True, params=["llvm", "numpy"])
+def gjk_backend(request, monkeypatch):
+    """Every oracle test runs on the compiled GJK and on the numpy fallback."""
+    monkeypatch.setenv("RWORLD_KERNELS", request.param)
+    return request.param
 
 
 def random_poses(n: int, seed: int, spread: float = 0.35) -> np.ndarray:
