@@ -70,9 +70,17 @@ def combine_inertials(a: Inertial, b: Inertial) -> Inertial:
     return Inertial.combine([(a, np.eye(4)), (b, np.eye(4))])
 
 
+_NDARRAY = np.ndarray
+_FLOAT = np.dtype(float)
+
+
 def _gravity(gravity, batch: int | None) -> np.ndarray:
     """Gravity as an input row (3,) or, per sample, (N, 3); checked finite."""
-    g = np.asarray(gravity, dtype=float)
+    g = (
+        gravity
+        if gravity.__class__ is _NDARRAY and gravity.dtype is _FLOAT
+        else np.asarray(gravity, dtype=float)
+    )
     if g.shape == (3,):
         x, y, z = g.tolist()  # three floats: cheaper than a numpy reduction on a single state
         if math.isfinite(x) and math.isfinite(y) and math.isfinite(z):
@@ -149,6 +157,7 @@ class DeviceDynamics:
             np.any(self.viscous) or np.any(self.coulomb_positive) or np.any(self.coulomb_negative)
         )
         self._generated: dict[str, Generated] = {}
+        self._row = (self.n,)  # the last dimension every joint array must have
 
     def _gen(self, mode: str) -> Generated:
         generated = self._generated.get(mode)
@@ -174,6 +183,17 @@ class DeviceDynamics:
 
     def _check3(self, a, b, c) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`_check` for three arrays, unrolled: single states pay for every line here."""
+        if (
+            a.__class__ is _NDARRAY
+            and b.__class__ is _NDARRAY
+            and c.__class__ is _NDARRAY
+            and a.dtype is _FLOAT
+            and b.dtype is _FLOAT
+            and c.dtype is _FLOAT
+        ):  # already float arrays (the usual call): no conversion, shapes checked below
+            shape = a.shape
+            if shape == b.shape == c.shape and shape[-1:] == self._row and len(shape) <= 2:
+                return a, b, c
         a, b, c = np.asarray(a, dtype=float), np.asarray(b, dtype=float), np.asarray(c, dtype=float)
         shape = a.shape
         if not (shape == b.shape == c.shape) or len(shape) > 2 or shape[-1:] != (self.n,):
