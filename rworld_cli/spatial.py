@@ -14,6 +14,8 @@ This module never imports the schema or the CLI.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__ = [
@@ -141,6 +143,8 @@ def matrix_to_quat(R) -> np.ndarray:
     ndarray, shape (..., 4)
     """
     R = np.asarray(R, dtype=float)
+    if R.shape == (3, 3):  # one rotation: the same branches on floats (IK calls this per step)
+        return np.array(_matrix_to_quat_single(R.tolist()))
     batch = R.shape[:-2]
     Rf = R.reshape(-1, 3, 3)
     out = np.empty((Rf.shape[0], 4))
@@ -174,6 +178,28 @@ def matrix_to_quat(R) -> np.ndarray:
             out[m] = q
     out *= np.where(out[:, :1] < 0, -1.0, 1.0)
     return out.reshape(batch + (4,))
+
+
+def _matrix_to_quat_single(r: list) -> tuple[float, float, float, float]:
+    """:func:`matrix_to_quat` of one matrix given as nested lists: the same branch and the same
+    operations in the same order as the batched code, so the same bits, ~30x faster."""
+    tr = r[0][0] + r[1][1] + r[2][2]
+    diag = (r[0][0], r[1][1], r[2][2])
+    top = max(diag)
+    case = 3 if tr > top else diag.index(top)  # argmax: the first of equal values
+    if case == 3:
+        s = 2.0 * math.sqrt(1.0 + tr)
+        q = [0.25 * s, (r[2][1] - r[1][2]) / s, (r[0][2] - r[2][0]) / s, (r[1][0] - r[0][1]) / s]
+    else:
+        i, j, k = case, (case + 1) % 3, (case + 2) % 3
+        s = 2.0 * math.sqrt(1.0 + r[i][i] - r[j][j] - r[k][k])
+        q = [0.0] * 4
+        q[0] = (r[k][j] - r[j][k]) / s
+        q[1 + i] = 0.25 * s
+        q[1 + j] = (r[j][i] + r[i][j]) / s
+        q[1 + k] = (r[k][i] + r[i][k]) / s
+    sign = -1.0 if q[0] < 0 else 1.0
+    return (q[0] * sign, q[1] * sign, q[2] * sign, q[3] * sign)
 
 
 def make_transform(R=None, p=None) -> np.ndarray:
@@ -356,6 +382,12 @@ def rotation_vector(R) -> np.ndarray:
 
     Via the quaternion, so it stays accurate near 0 and near pi.
     """
+    R = np.asarray(R, dtype=float)
+    if R.shape == (3, 3):  # one rotation, on floats (IK calls this per step)
+        w, x, y, z = _matrix_to_quat_single(R.tolist())
+        s = math.sqrt(x * x + y * y + z * z)
+        scale = 2.0 * math.atan2(s, w) / s if s > 1e-12 else 2.0  # small angles: 2 v
+        return np.array((x * scale, y * scale, z * scale))
     q = matrix_to_quat(R)
     v = q[..., 1:]
     s = np.linalg.norm(v, axis=-1)

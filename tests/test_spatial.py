@@ -72,3 +72,25 @@ def test_dh_closed_forms():
         @ spatial.make_transform(p=[0, 0, d])
     )
     np.testing.assert_allclose(spatial.dh_modified(a, alpha, d, theta), expected, atol=1e-15)
+
+
+def test_one_rotation_takes_the_batched_codes_answer():
+    """matrix_to_quat and rotation_vector of a single (3, 3) run on floats; they give the batched
+    code's bits, on random rotations and on the branch edges (identity, half turns, tiny angles)."""
+    from scipy.spatial.transform import Rotation
+
+    R = np.concatenate(
+        [
+            Rotation.random(3000, random_state=5).as_matrix(),
+            np.array([np.eye(3), np.diag([1.0, -1, -1]), np.diag([-1.0, 1, -1])]),
+            np.array([np.diag([-1.0, -1, 1]), Rotation.from_rotvec([1e-13, 0, 0]).as_matrix()]),
+            Rotation.from_rotvec(np.pi * np.eye(3) * (1 - 1e-12)).as_matrix(),
+        ]
+    )
+    for batched_fn in (spatial.matrix_to_quat, spatial.rotation_vector):
+        batched = batched_fn(R)
+        single = np.array([batched_fn(r) for r in R])
+        assert np.array_equal(single, batched), batched_fn.__name__
+    np.testing.assert_allclose(
+        spatial.rotation_vector(R), Rotation.from_matrix(R).as_rotvec(), atol=1e-12
+    )

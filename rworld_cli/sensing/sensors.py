@@ -123,14 +123,32 @@ def ball_gaps(centre: np.ndarray, radius: float, bodies: list[Body]) -> np.ndarr
     for k, b in enumerate(bodies):
         if b.shape.kind == "mesh":
             local = (centre - b.T_world_owner[:3, 3]) @ b.T_world_owner[:3, :3]
-            tri = shape_mesh(b.shape).triangles()
-            inside = b.shape.closed and winding_number(local[None], tri)[0] > 0.5
-            gap = point_triangle_distance(local, tri).min() - radius
-            out[k] = 0.0 if inside else max(gap, 0.0)
+            tri, lo, hi = _triangle_boxes(b.shape)
+            # the nearest triangle is among those whose box is no farther than the nearest
+            # vertex: exact distances on those alone
+            below = np.linalg.norm(np.maximum(np.maximum(lo - local, local - hi), 0.0), axis=1)
+            above = np.linalg.norm(tri[:, 0] - local, axis=1).min()
+            gap = point_triangle_distance(local, tri[below <= above]).min() - radius
+            if gap <= 0.0:
+                out[k] = 0.0
+            else:  # clear of the surface: inside the solid, or outside it
+                inside = b.shape.closed and winding_number(local[None], tri)[0] > 0.5
+                out[k] = 0.0 if inside else gap
         else:
             other = make_body(b.label, b.owner, b.label, b.shape)
             out[k] = pair_distance(ball, other, T_ball, b.T_world_owner[None]).distance[0]
     return out
+
+
+def _triangle_boxes(shape) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A shape's triangles (F, 3, 3) in its owner's frame and their bounding boxes' corners
+    (F, 3) each, computed once per shape (a guarded move asks at every clock sample)."""
+    cached = shape.__dict__.get("_triangle_boxes")
+    if cached is None:
+        tri = shape_mesh(shape).triangles()
+        cached = (tri, tri.min(axis=1), tri.max(axis=1))
+        object.__setattr__(shape, "_triangle_boxes", cached)  # a cache, not a field
+    return cached
 
 
 def _near_ball(centre: np.ndarray, radius: float, bodies: list[Body]) -> list[Body]:

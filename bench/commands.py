@@ -1,6 +1,6 @@
-"""Wall time of the planning commands, for one or more source trees of rworld, in one run.
+"""Wall time of rworld commands, for one or more source trees of rworld, in one run.
 
-Run:  .venv/bin/python bench/planning_commands.py [--trees DIR ...] [--repeat 3]
+Run:  .venv/bin/python bench/commands.py [--trees DIR ...] [--repeat 3] [--only NAME ...]
 
 Each tree is a checkout of this repository (``git worktree add /tmp/before REV`` gives an older
 one); the commands run with that tree first on ``PYTHONPATH``, under this interpreter, in fresh
@@ -8,12 +8,16 @@ processes that take turns (tree after tree within each repetition), so a busy sp
 machine hits every tree alike.  Reported: the best wall time per command and tree, and each tree
 against the first.  The kernel cache is warm (a first run before the timed ones).
 
-Commands (the examples of ``docs/planning.md``, on ``workcells/puma560``):
+Commands (the examples of ``docs/planning.md`` on ``workcells/puma560``, and the probing
+example of ``docs/calibration.md``):
 
 * ``time-optimal``: the reference path, rated limits and torque, 400 grid points;
 * ``payload``: the capacity of that path's time-optimal timing;
 * ``load-optimal --shape``: the heaviest payload in 2.2 s, knots moved (Nelder-Mead);
-* ``impulse``: the probe TCP to ``table.drop`` straight down with 2 kg.
+* ``impulse``: the probe TCP to ``table.drop`` straight down with 2 kg;
+* ``check probe``: ``rworld check workcells/probing probe`` (29 stops, 39 guarded moves);
+* ``plan-measurements --program``: the probe program planned, checked and written (to a
+  temporary file).
 """
 
 from __future__ import annotations
@@ -22,12 +26,15 @@ import argparse
 import os
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 CELL = str(REPO / "workcells" / "puma560")  # the same input files for every tree
 PATH = str(REPO / "workcells" / "puma560" / "paths" / "reference.yaml")
+PROBING = str(REPO / "workcells" / "probing")
+OUT = Path(tempfile.gettempdir()) / "rworld-bench-probe.yaml"
 COMMANDS = {
     "time-optimal": ["plan", "time-optimal", CELL, "--path", PATH],
     "payload": ["plan", "payload", CELL, "--path", PATH, "--tcp", "probe"],
@@ -56,12 +63,15 @@ COMMANDS = {
         "--payload-mass",
         "2",
     ],
+    "check probe": ["check", PROBING, "probe"],
+    "plan-measurements --program": ["plan-measurements", PROBING, "--program", str(OUT)],
 }
 
 
 def run(tree: Path, args: list[str]) -> float:
     """Wall time [s] of ``rworld ARGS`` with ``tree``'s package, in a fresh process."""
     env = dict(os.environ, PYTHONPATH=str(tree))
+    OUT.unlink(missing_ok=True)  # plan-measurements writes it
     code = (
         "import sys; from rworld_cli.cli import main; sys.argv = ['rworld'] + sys.argv[1:]; main()"
     )
@@ -96,11 +106,11 @@ def main():
                 best[name, tree] = min(best[name, tree], run(tree, COMMANDS[name]))
     labels = [str(t) for t in trees]
     print(f"best of {args.repeat}, wall time of a fresh process [s]; ratio to the first tree\n")
-    print(f"{'command':22s} | " + " | ".join(f"{label[-28:]:>28s}" for label in labels))
+    print(f"{'command':28s} | " + " | ".join(f"{label[-28:]:>28s}" for label in labels))
     for name in args.only:
         first = best[name, trees[0]]
         cells = [f"{best[name, t]:8.2f} s ({best[name, t] / first:5.2f}x)".rjust(28) for t in trees]
-        print(f"{name:22s} | " + " | ".join(cells))
+        print(f"{name:28s} | " + " | ".join(cells))
 
 
 if __name__ == "__main__":
