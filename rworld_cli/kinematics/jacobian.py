@@ -104,6 +104,10 @@ def generated(device: DeviceModel, mount: ToolMount | None, with_jacobian: bool)
     return program
 
 
+_NDARRAY = np.ndarray
+_FLOAT = np.dtype(float)
+
+
 def _check_q(device: DeviceModel, q) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     if len(q.shape) > 2 or q.shape[-1:] != (device.dof,):
@@ -151,11 +155,16 @@ def tool_pose_and_jacobian(
     J : ndarray, shape (6, n) or (N, 6, n)
         Rows ``[vx, vy, vz, wx, wy, wz]`` of the tool origin, base frame.
     """
+    program = generated(device, mount, True)
+    n = program.groups[0][1]  # the joint count
+    if q.__class__ is _NDARRAY and q.dtype is _FLOAT and q.shape == (n,):  # one state, as is
+        flat = program.evaluate([q])
+        return flat[:16].reshape(4, 4), flat[16:].reshape(6, n)
     q = _check_q(device, q)
-    flat = generated(device, mount, True).evaluate([q])
+    flat = program.evaluate([q])
     if q.ndim == 1:
-        return flat[:16].reshape(4, 4), flat[16:].reshape(6, device.dof)
-    return flat[:, :16].reshape(-1, 4, 4), flat[:, 16:].reshape(-1, 6, device.dof)
+        return flat[:16].reshape(4, 4), flat[16:].reshape(6, n)
+    return flat[:, :16].reshape(-1, 4, 4), flat[:, 16:].reshape(-1, 6, n)
 
 
 def jacobian(
