@@ -385,9 +385,9 @@ def rotation_vector(R) -> np.ndarray:
     R = np.asarray(R, dtype=float)
     if R.shape == (3, 3):  # one rotation, on floats (IK calls this per step)
         w, x, y, z = _matrix_to_quat_single(R.tolist())
-        s = math.sqrt(x * x + y * y + z * z)
-        scale = 2.0 * math.atan2(s, w) / s if s > 1e-12 else 2.0  # small angles: 2 v
-        return np.array((x * scale, y * scale, z * scale))
+        half = math.sqrt(x * x + y * y + z * z)
+        factor = 2.0 * math.atan2(half, w) / half if half > 1e-12 else 2.0  # small angles: 2 v
+        return np.array((x * factor, y * factor, z * factor))
     q = matrix_to_quat(R)
     v = q[..., 1:]
     s = np.linalg.norm(v, axis=-1)
