@@ -126,6 +126,19 @@ class PointMassFamily:
         return tuple(b + self.mass * d for b, d in zip(bare, per_kg))
 
 
+def _carrying(device, mass: float, com_in_tool, mount, link_loads) -> DeviceDynamics:
+    """The planning dynamics (armature, no friction) of ``device`` carrying a point mass [kg]
+    at ``com_in_tool`` [m], with what the cell puts on its links."""
+    return DeviceDynamics(
+        device,
+        Payload.point_mass(mass, com_in_tool),
+        mount,
+        armature=True,
+        friction=False,
+        link_loads=link_loads,
+    )
+
+
 def _heaviest(
     device,
     path,
@@ -153,17 +166,7 @@ def _heaviest(
     from .topp import InfeasiblePath, time_optimal
 
     family = PointMassFamily(
-        *(
-            DeviceDynamics(
-                device,
-                Payload.point_mass(m, com_in_tool),
-                mount,
-                armature=True,
-                friction=False,
-                link_loads=link_loads,
-            )
-            for m in (0.0, 1.0)
-        )
+        *(_carrying(device, m, com_in_tool, mount, link_loads) for m in (0.0, 1.0))
     )
 
     def fastest(m: float):
@@ -271,14 +274,7 @@ def optimise_knots(
     except InfeasiblePath:
         best_mass = mass
     for _ in range(3):
-        dyn = DeviceDynamics(
-            device,
-            Payload.point_mass(best_mass, com_in_tool),
-            mount,
-            armature=True,
-            friction=False,
-            link_loads=link_loads,
-        )
+        dyn = _carrying(device, best_mass, com_in_tool, mount, link_loads)
 
         seen: dict[tuple, float] = {}
 
