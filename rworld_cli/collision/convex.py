@@ -1,4 +1,4 @@
-"""Exact distance between convex pieces, vectorised over pairs (GJK).
+"""Exact distance between convex pieces (GJK), for many pairs in one call.
 
 A **piece** is a convex solid in world coordinates, one of
 
@@ -10,7 +10,9 @@ A **piece** is a convex solid in world coordinates, one of
 grown by a **margin** (a sphere is its centre point grown by its radius).
 :class:`Pieces` holds P of them as flat arrays.
 
-:func:`distance` runs Gilbert-Johnson-Keerthi on P pairs at once.  The
+:func:`distance` runs Gilbert-Johnson-Keerthi on P pairs at once: compiled to machine code
+(:mod:`rworld_cli.collision.compiled`, one pair after another) where kernels are available,
+otherwise vectorised over the pairs in numpy (below); the two are the same algorithm.  The
 nearest point of each simplex (at most 4 points of the Minkowski difference)
 to the origin is found by brute force over its 15 faces: each face's affine
 projection is solved and kept when its barycentric weights are all
