@@ -124,6 +124,7 @@ def ball_gaps(centre: np.ndarray, radius: float, bodies: list[Body]) -> np.ndarr
         if b.shape.kind == "mesh":
             local = (centre - b.T_world_owner[:3, 3]) @ b.T_world_owner[:3, :3]
             tri, lo, hi = _triangle_boxes(b.shape)
+            lo_all, hi_all = lo.min(axis=0), hi.max(axis=0)
             # the nearest triangle is among those whose box is no farther than the nearest
             # vertex: exact distances on those alone
             below = np.linalg.norm(np.maximum(np.maximum(lo - local, local - hi), 0.0), axis=1)
@@ -131,8 +132,12 @@ def ball_gaps(centre: np.ndarray, radius: float, bodies: list[Body]) -> np.ndarr
             gap = point_triangle_distance(local, tri[below <= above]).min() - radius
             if gap <= 0.0:
                 out[k] = 0.0
-            else:  # clear of the surface: inside the solid, or outside it
-                inside = b.shape.closed and winding_number(local[None], tri)[0] > 0.5
+            else:  # clear of the surface: inside the solid (only within its box), or outside
+                inside = (
+                    b.shape.closed
+                    and bool(np.all((local >= lo_all) & (local <= hi_all)))
+                    and winding_number(local[None], tri)[0] > 0.5
+                )
                 out[k] = 0.0 if inside else gap
         else:
             other = make_body(b.label, b.owner, b.label, b.shape)
