@@ -61,6 +61,10 @@ class IKResult:
 
 def _errors(T: np.ndarray, target: np.ndarray) -> np.ndarray:
     """(K, 6): position error, then rotation vector from tool to target, base frame."""
+    if T.ndim == 2:  # one pose (the tracking loop's every step)
+        return np.concatenate(
+            [target[:3, 3] - T[:3, 3], spatial.rotation_vector(target[:3, :3] @ T[:3, :3].T)]
+        )
     e = np.empty(T.shape[:-2] + (6,))
     e[..., :3] = target[:3, 3] - T[..., :3, 3]
     e[..., 3:] = spatial.rotation_vector(target[:3, :3] @ np.swapaxes(T[..., :3, :3], -1, -2))
@@ -202,6 +206,7 @@ def track(
     """
     lower, upper = device.limit_array("lower"), device.limit_array("upper")
     rows = slice(0, 3) if position_only else slice(0, 6)
+    damping = 1e-10 * np.eye(3 if position_only else 6)  # made once: every step adds it
     q = np.asarray(q0, dtype=float).copy()
     out = np.empty((len(targets), device.dof))
     worst = 1.0
@@ -209,11 +214,11 @@ def track(
         for _ in range(max_iterations):
             T, J = tool_pose_and_jacobian(device, q, mount)
             err = _errors(T, target)[rows]
-            if np.all(np.abs(err) <= tolerance):
+            if abs(err).max() <= tolerance:
                 break
             Jr = J[rows]
-            dq = Jr.T @ np.linalg.solve(Jr @ Jr.T + 1e-10 * np.eye(Jr.shape[0]), err)
-            q = np.clip(q + dq, lower, upper)
+            dq = Jr.T @ np.linalg.solve(Jr @ Jr.T + damping, err)
+            q = np.minimum(np.maximum(q + dq, lower), upper)
         else:
             out[k:] = q
             return TrackResult(out, k, "unreachable", float(np.linalg.norm(err[:3])), worst)
