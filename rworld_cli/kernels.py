@@ -216,29 +216,30 @@ _MAGIC = b"rworld-kernel\n"
 def compiled_kernel(gen) -> Kernel | None:
     """The compiled kernel of a generated program, or None (numpy fallback).
 
-    Compiled once per process; the object file is cached on disk across processes.
+    Compiled once per process (through :func:`compile_ir`); the object file is cached on disk
+    across processes.
     """
     if backend() != "llvm":
         return None
-    llvm = _llvm()
     ir = kernel_ir(gen, "KERNEL")
-    key = hashlib.sha256(f"{KERNEL_FORMAT}|{_STATE['host']}|{ir}".encode()).hexdigest()
+    key = _cache_key(ir)
     with _LOCK:
-        if key in _COMPILED:
-            return _COMPILED[key]
-        symbol = f"rworld_{gen.name}_{key[:20]}"
-        try:
-            addresses = _load(
-                llvm, key, [symbol, f"{symbol}_single"], ir.replace("@KERNEL", f"@{symbol}")
+        kernel = _COMPILED.get(key)
+        if kernel is None:
+            symbol = f"rworld_{gen.name}_{key[:20]}"
+            addresses = compile_ir(
+                gen.name, ir.replace("@KERNEL", f"@{symbol}"), [symbol, f"{symbol}_single"], ir
             )
-        except Exception as error:  # an LLVM failure must not stop the physics: fall back
-            warnings.warn(
-                f"compiling the {gen.name} kernel failed ({error}); using numpy", stacklevel=2
-            )
-            return None
-        kernel = Kernel(gen, *addresses)
-        _COMPILED[key] = kernel
+            if addresses is None:
+                return None
+            kernel = _COMPILED[key] = Kernel(gen, *addresses)
         return kernel
+
+
+def _cache_key(source: str) -> str:
+    """The disk cache's name for the object compiled from ``source`` on this LLVM and CPU."""
+    _llvm()
+    return hashlib.sha256(f"{KERNEL_FORMAT}|{_STATE['host']}|{source}".encode()).hexdigest()
 
 
 def compile_ir(name: str, build, symbols: list[str], source: str) -> list[int] | None:
@@ -246,16 +247,16 @@ def compile_ir(name: str, build, symbols: list[str], source: str) -> list[int] |
     when kernels are off (``RWORLD_KERNELS=numpy``, no llvmlite) or compiling failed (with a
     warning naming ``name``).
 
-    For kernels written by hand rather than generated (the collision room's GJK): the same
-    engine, disk cache and fallback as :func:`compiled_kernel`.  ``build()`` returns the IR
-    text; it runs only when the object is not cached, which is keyed by ``source`` (what
-    determines the IR: the generator's own source and constants), the LLVM version and the CPU.
-    The symbols must be unique to that source (put its hash in them).
+    ``build`` is the IR text, or a function returning it that runs only when the object is not
+    cached (the collision room's GJK: building its IR costs more than loading it).  The cache
+    is keyed by ``source`` (what determines the IR: the text itself, or the generator's source
+    and constants), the LLVM version and the CPU.  The symbols must be unique to that source
+    (put its hash in them).
     """
     if backend() != "llvm":
         return None
     llvm = _llvm()
-    key = hashlib.sha256(f"{KERNEL_FORMAT}|{_STATE['host']}|{source}".encode()).hexdigest()
+    key = _cache_key(source)
     with _LOCK:
         if key in _COMPILED_IR:
             return _COMPILED_IR[key]
@@ -263,7 +264,7 @@ def compile_ir(name: str, build, symbols: list[str], source: str) -> list[int] |
             addresses = _load(llvm, key, symbols, build)
         except Exception as error:  # a failed compile must not stop the caller: it falls back
             warnings.warn(
-                f"compiling the {name} kernel failed ({error}); using numpy", stacklevel=2
+                f"compiling the {name} kernel failed ({error}); using numpy", stacklevel=3
             )
             return None
         _COMPILED_IR[key] = addresses

@@ -31,18 +31,10 @@ from pathlib import Path
 import numpy as np
 
 from .. import kernels
-from .convex import ABSOLUTE_TOLERANCE, RELATIVE_TOLERANCE
+from .convex import _FACES, ABSOLUTE_TOLERANCE, RELATIVE_TOLERANCE
 
 SHAPE_COLUMNS = 9
 OUT_COLUMNS = 11
-# faces of a simplex of n points that contain its newest point (index n - 1), in the numpy
-# code's order
-_FACES: dict[int, list[tuple[int, ...]]] = {
-    1: [(0,)],
-    2: [(1,), (0, 1)],
-    3: [(2,), (0, 2), (1, 2), (0, 1, 2)],
-    4: [(3,), (0, 3), (1, 3), (2, 3), (0, 1, 3), (0, 2, 3), (1, 2, 3), (0, 1, 2, 3)],
-}
 
 
 def gjk_ir(symbol: str) -> str:
@@ -286,7 +278,8 @@ def gjk_ir(symbol: str) -> str:
         near_best = [c(0.0)] * 3
         inside = ir.Constant(I1, 0)
         for face in _FACES[n]:
-            lam, valid = _affine_nearest(b, c, sqrt, [Y[s] for s in face], dot, sub, cross, select)
+            # the faces that contain the newest point, in the numpy code's order
+            lam, valid = _affine_nearest(b, c, [Y[s] for s in face], dot, sub, cross, select)
             pt = [c(0.0)] * 3
             for weight, s in zip(lam, face):
                 pt = [b.fadd(pt[j], b.fmul(weight, Y[s][j])) for j in range(3)]
@@ -361,7 +354,7 @@ def gjk_ir(symbol: str) -> str:
     return str(module)
 
 
-def _affine_nearest(b, c, sqrt, pts, dot, sub, cross, select):
+def _affine_nearest(b, c, pts, dot, sub, cross, select):
     """Barycentric weights of the origin's projection on the affine hull of the points, and
     whether they are all non-negative with a non-degenerate hull (the numpy code's
     ``_affine_nearest``, one face)."""

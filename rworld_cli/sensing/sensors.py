@@ -123,8 +123,7 @@ def ball_gaps(centre: np.ndarray, radius: float, bodies: list[Body]) -> np.ndarr
     for k, b in enumerate(bodies):
         if b.shape.kind == "mesh":
             local = (centre - b.T_world_owner[:3, 3]) @ b.T_world_owner[:3, :3]
-            tri, lo, hi = _triangle_boxes(b.shape)
-            lo_all, hi_all = lo.min(axis=0), hi.max(axis=0)
+            tri, lo, hi, lo_all, hi_all = _triangle_boxes(b.shape)
             # the nearest triangle is among those whose box is no farther than the nearest
             # vertex: exact distances on those alone
             below = np.linalg.norm(np.maximum(np.maximum(lo - local, local - hi), 0.0), axis=1)
@@ -145,13 +144,15 @@ def ball_gaps(centre: np.ndarray, radius: float, bodies: list[Body]) -> np.ndarr
     return out
 
 
-def _triangle_boxes(shape) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A shape's triangles (F, 3, 3) in its owner's frame and their bounding boxes' corners
-    (F, 3) each, computed once per shape (a guarded move asks at every clock sample)."""
+def _triangle_boxes(shape) -> tuple[np.ndarray, ...]:
+    """A shape's triangles (F, 3, 3) in its owner's frame, their bounding boxes' corners (F, 3)
+    each, and the whole mesh's box corners (3,) each, computed once per shape (a guarded move
+    asks at every clock sample)."""
     cached = shape.__dict__.get("_triangle_boxes")
     if cached is None:
         tri = shape_mesh(shape).triangles()
-        cached = (tri, tri.min(axis=1), tri.max(axis=1))
+        lo, hi = tri.min(axis=1), tri.max(axis=1)
+        cached = (tri, lo, hi, lo.min(axis=0), hi.max(axis=0))
         object.__setattr__(shape, "_triangle_boxes", cached)  # a cache, not a field
     return cached
 
