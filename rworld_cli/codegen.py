@@ -212,6 +212,9 @@ def _coulomb_scalar(v: float, positive: float, negative: float) -> float:
 CHUNK = 2048  # samples per block: temporaries stay in cache and reuse the allocator's small blocks
 
 
+_empty = np.empty
+
+
 class Generated:
     """A generated function: its operations, its Python source, and how to run it.
 
@@ -260,6 +263,19 @@ class Generated:
 
             self._kernel = compiled_kernel(self) or False
         return self._kernel or None
+
+    def direct(self, *inputs: np.ndarray) -> np.ndarray | None:
+        """One state the quickest way: the (n_out,) result when the compiled kernel takes
+        ``inputs`` as they are (exact float64 arrays, 1-D, of their groups' sizes), else None
+        and the caller goes through :meth:`evaluate`, which converts or reports."""
+        kernel = self._kernel
+        if kernel is None:
+            kernel = self.kernel()
+        if kernel and kernel.direct is not None:
+            out = _empty(self.n_out)
+            if kernel.direct(*inputs, out) is out:
+                return out
+        return None
 
     def evaluate(self, inputs: Sequence[np.ndarray], compiled: bool = True) -> np.ndarray:
         """Run on one state or a batch.

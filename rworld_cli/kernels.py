@@ -44,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-KERNEL_FORMAT = 2  # bump when the IR layout changes: old cache files are then never looked up
+KERNEL_FORMAT = 3  # bump when the IR layout changes: old cache files are then never looked up
 PARALLEL_MIN = 16384  # samples; below this a second thread costs more than it saves
 
 _LOCK = threading.RLock()
@@ -152,14 +152,18 @@ def kernel_ir(gen, symbol: str) -> str:
         offset += size
     arguments += ["ptr %_out", "i64 0"]
     single += [f"  call void @{symbol}({', '.join(arguments)})", "  ret void", "}"]
-    body = single + [
-        f"define void @{symbol}({', '.join(params)}) nounwind noinline {{",
-        "entry:",
-        "  %_none = icmp sle i64 %_N, 0",
-        "  br i1 %_none, label %exit, label %loop",
-        "loop:",
-        "  %_k = phi i64 [0, %entry], [%_next, %loop]",
-    ]
+    body = (
+        single
+        + _direct_ir(symbol, [size for _, size in gen.groups], gen.n_out)
+        + [
+            f"define void @{symbol}({', '.join(params)}) nounwind noinline {{",
+            "entry:",
+            "  %_none = icmp sle i64 %_N, 0",
+            "  br i1 %_none, label %exit, label %loop",
+            "loop:",
+            "  %_k = phi i64 [0, %entry], [%_next, %loop]",
+        ]
+    )
     for g, (prefix, size) in enumerate(gen.groups):
         body.append(f"  %_row{g} = mul i64 %_k, %_s{g}")
         for j in range(size):
@@ -208,6 +212,101 @@ def kernel_ir(gen, symbol: str) -> str:
     return "\n".join(body) + "\n"
 
 
+# numpy's array struct (PyArrayObject_fields, numpy/ndarraytypes.h), 64-bit: the byte offsets the
+# direct entry reads.  Checked against a live array before the entry is used (_layout_holds).
+_DATA, _NDIM, _DIMS, _STRIDES, _DESCR, _FLAGS = 16, 24, 32, 40, 56, 64
+_WRITEABLE = 0x0400  # NPY_ARRAY_WRITEABLE
+_TYPE = 8  # ob_type in every object's head
+_API = ("Py_IncRef", "ndarray", "float64", "None")  # the addresses the direct entry needs
+
+
+def _direct_ir(symbol: str, sizes: list[int], n_out: int) -> list[str]:
+    """A METH_FASTCALL entry for one state: ``symbol_direct(*inputs, out)``.
+
+    ``PyObject *symbol_direct(PyObject *self, PyObject *const *args, Py_ssize_t nargs)`` runs the
+    kernel on the arrays themselves and returns ``out`` when every argument is an exact
+    ``numpy.ndarray`` of float64, 1-D, unit stride, aligned, of its group's size (``out``
+    writeable), else ``None`` with nothing written: the caller then takes the general path,
+    which converts or reports.  Python objects are only read here, and the one reference
+    returned is taken through ``Py_IncRef``; the addresses it needs come from the table
+    ``symbol_api`` (filled in after loading, since they change from process to process).
+    """
+    count = len(sizes) + 1
+    ir = [
+        f"@{symbol}_api = global [{len(_API)} x i64] zeroinitializer",
+        f"define ptr @{symbol}_direct(ptr %self, ptr %args, i64 %nargs) nounwind {{",
+        "entry:",
+        f"  %incref = load ptr, ptr @{symbol}_api",
+        f"  %p_type = getelementptr i64, ptr @{symbol}_api, i64 1",
+        "  %ndarray = load i64, ptr %p_type",
+        f"  %p_descr = getelementptr i64, ptr @{symbol}_api, i64 2",
+        "  %float64 = load i64, ptr %p_descr",
+        f"  %p_none = getelementptr i64, ptr @{symbol}_api, i64 3",
+        "  %none = load ptr, ptr %p_none",
+        f"  %count_ok = icmp eq i64 %nargs, {count}",
+        "  br i1 %count_ok, label %arg0, label %fail",
+    ]
+    for k, size in enumerate(sizes + [n_out]):
+        nxt = f"arg{k + 1}" if k + 1 < count else "run"
+        ir += [
+            f"arg{k}:",
+            f"  %pp{k} = getelementptr ptr, ptr %args, i64 {k}",
+            f"  %o{k} = load ptr, ptr %pp{k}",
+            f"  %pt{k} = getelementptr i8, ptr %o{k}, i64 {_TYPE}",
+            f"  %t{k} = load i64, ptr %pt{k}",
+            f"  %tok{k} = icmp eq i64 %t{k}, %ndarray",
+            f"  br i1 %tok{k}, label %nd{k}, label %fail",
+            f"nd{k}:",  # an ndarray: its fields can be read
+            f"  %pn{k} = getelementptr i8, ptr %o{k}, i64 {_NDIM}",
+            f"  %n{k} = load i32, ptr %pn{k}",
+            f"  %nok{k} = icmp eq i32 %n{k}, 1",
+            f"  br i1 %nok{k}, label %shape{k}, label %fail",
+            f"shape{k}:",  # 1-D: its one dimension and stride can be read
+            f"  %ppd{k} = getelementptr i8, ptr %o{k}, i64 {_DIMS}",
+            f"  %pd{k} = load ptr, ptr %ppd{k}",
+            f"  %d{k} = load i64, ptr %pd{k}",
+            f"  %dok{k} = icmp eq i64 %d{k}, {size}",
+            f"  %pps{k} = getelementptr i8, ptr %o{k}, i64 {_STRIDES}",
+            f"  %ps{k} = load ptr, ptr %pps{k}",
+            f"  %s{k} = load i64, ptr %ps{k}",
+            f"  %sok{k} = icmp eq i64 %s{k}, 8",
+            f"  %pe{k} = getelementptr i8, ptr %o{k}, i64 {_DESCR}",
+            f"  %e{k} = load i64, ptr %pe{k}",
+            f"  %eok{k} = icmp eq i64 %e{k}, %float64",
+            f"  %ppx{k} = getelementptr i8, ptr %o{k}, i64 {_DATA}",
+            f"  %x{k} = load ptr, ptr %ppx{k}",
+            f"  %xi{k} = ptrtoint ptr %x{k} to i64",
+            f"  %xa{k} = and i64 %xi{k}, 7",
+            f"  %aok{k} = icmp eq i64 %xa{k}, 0",
+            f"  %ok1_{k} = and i1 %dok{k}, %sok{k}",
+            f"  %ok2_{k} = and i1 %eok{k}, %aok{k}",
+        ]
+        if k == len(sizes):  # the output must also be writeable (NPY_ARRAY_WRITEABLE)
+            ir += [
+                f"  %pf{k} = getelementptr i8, ptr %o{k}, i64 {_FLAGS}",
+                f"  %f{k} = load i32, ptr %pf{k}",
+                f"  %fw{k} = and i32 %f{k}, {_WRITEABLE}",
+                f"  %wok{k} = icmp ne i32 %fw{k}, 0",
+                f"  %ok3_{k} = and i1 %ok2_{k}, %wok{k}",
+                f"  %ok{k} = and i1 %ok1_{k}, %ok3_{k}",
+            ]
+        else:
+            ir.append(f"  %ok{k} = and i1 %ok1_{k}, %ok2_{k}")
+        ir.append(f"  br i1 %ok{k}, label %{nxt}, label %fail")
+    arguments = ["i64 1"] + [f"ptr %x{k}, i64 0" for k in range(count)]
+    ir += [
+        "run:",
+        f"  call void @{symbol}({', '.join(arguments)})",
+        f"  call void %incref(ptr %o{len(sizes)})",
+        f"  ret ptr %o{len(sizes)}",
+        "fail:",
+        "  call void %incref(ptr %none)",
+        "  ret ptr %none",
+        "}",
+    ]
+    return ir
+
+
 # ------------------------------------------------------------------------------- compile
 _COMPILED: dict[str, Kernel] = {}
 _MAGIC = b"rworld-kernel\n"
@@ -228,7 +327,10 @@ def compiled_kernel(gen) -> Kernel | None:
         if kernel is None:
             symbol = f"rworld_{gen.name}_{key[:20]}"
             addresses = compile_ir(
-                gen.name, ir.replace("@KERNEL", f"@{symbol}"), [symbol, f"{symbol}_single"], ir
+                gen.name,
+                ir.replace("@KERNEL", f"@{symbol}"),
+                [symbol, f"{symbol}_single", f"{symbol}_direct", f"{symbol}_api"],
+                ir,
             )
             if addresses is None:
                 return None
@@ -324,6 +426,9 @@ def _write_cached(path: Path, obj: bytes) -> None:
 
 
 # ---------------------------------------------------------------------------------- call
+_empty = np.empty
+
+
 def _address(a: np.ndarray) -> int:
     return a.__array_interface__["data"][0]
 
@@ -336,6 +441,70 @@ def _pool(workers: int) -> ThreadPoolExecutor:
         return _POOL
 
 
+class _MethodDef(ctypes.Structure):
+    """CPython's ``PyMethodDef``."""
+
+    _fields_ = [
+        ("ml_name", ctypes.c_char_p),
+        ("ml_meth", ctypes.c_void_p),
+        ("ml_flags", ctypes.c_int),
+        ("ml_doc", ctypes.c_char_p),
+    ]
+
+
+_METH_FASTCALL = 0x0080
+_LAYOUT: list[bool] = []  # once known: whether numpy's array struct is as _direct_ir reads it
+
+
+def _layout_holds() -> bool:
+    """Whether a live float array has its fields at the offsets the direct entry reads (numpy's
+    struct has been stable since 1.7; a build where it is not just uses the packing path)."""
+    if not _LAYOUT:
+        a = np.zeros(3)
+        base = id(a)
+
+        def word(offset: int, kind=ctypes.c_int64) -> int:
+            return kind.from_address(base + offset).value
+
+        holds = (
+            ctypes.sizeof(ctypes.c_void_p) == 8
+            and word(_TYPE) == id(np.ndarray)
+            and word(_DATA) == _address(a)
+            and word(_NDIM, ctypes.c_int32) == 1
+            and ctypes.c_int64.from_address(word(_DIMS)).value == 3
+            and ctypes.c_int64.from_address(word(_STRIDES)).value == 8
+            and word(_DESCR) == id(a.dtype) == id(_FLOAT)
+            and bool(word(_FLAGS, ctypes.c_int32) & _WRITEABLE)
+        )
+        a.flags.writeable = False
+        _LAYOUT.append(holds and not word(_FLAGS, ctypes.c_int32) & _WRITEABLE)
+    return _LAYOUT[0]
+
+
+_FLOAT = np.dtype(float)
+
+
+def _direct_function(name: str, address: int, api_address: int):
+    """A builtin function object whose call runs the direct entry at ``address`` (a
+    ``PyMethodDef`` made into a function, as a C extension would), or None when numpy's
+    layout is not the one the entry reads."""
+    if not _layout_holds():
+        return None
+    incref = ctypes.cast(ctypes.pythonapi.Py_IncRef, ctypes.c_void_p).value
+    if not incref:
+        return None
+    table = (ctypes.c_uint64 * len(_API)).from_address(api_address)
+    table[:] = [incref, id(np.ndarray), id(_FLOAT), id(None)]
+    label = f"{name}_direct".encode()
+    method = _MethodDef(label, address, _METH_FASTCALL, None)
+    new = ctypes.pythonapi.PyCFunction_NewEx
+    new.restype = ctypes.py_object
+    new.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
+    function = new(ctypes.addressof(method), None, None)
+    _STATE["keep"].append((label, method))  # the function points at these for its lifetime
+    return function
+
+
 class Kernel:
     """A compiled program, called on arrays.
 
@@ -343,7 +512,7 @@ class Kernel:
     same for every sample) or (N, size), and returns (n_out,) or (N, n_out).
     """
 
-    def __init__(self, gen, address: int, single_address: int):
+    def __init__(self, gen, address: int, single_address: int, direct: int, api: int):
         self.name = gen.name
         self.sizes = [size for _, size in gen.groups]
         self.n_out = gen.n_out
@@ -351,12 +520,17 @@ class Kernel:
         self._fn = ctypes.CFUNCTYPE(None, *argtypes)(address)  # releases the GIL while it runs
         self._single = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)(single_address)
         self._local = threading.local()
+        #: ``direct(*inputs, out)``: one state straight from float arrays into ``out``; returns
+        #: ``out``, or None (nothing written) when an argument is not an exact, aligned, 1-D
+        #: float64 array of its size.  None when unavailable.
+        self.direct = _direct_function(f"{gen.name}", direct, api)
 
     def single(self, inputs) -> np.ndarray:
         """One state: every input 1-D of its group's size; returns a new (n_out,) array.
 
-        The inputs are packed into a per-thread row whose address was taken once (taking an
-        array's address costs numpy 1.6 us; copying six numbers costs 0.25 us)."""
+        Float arrays of the right sizes go straight in through :attr:`direct` (in
+        :meth:`__call__`); other inputs (other dtypes, strides) are packed here into a per-thread
+        row whose address was taken once (taking an array's address costs numpy 1.6 us)."""
         try:
             buffer, output, addresses = self._local.buffers
         except AttributeError:  # first call on this thread: its own rows, addresses taken once
@@ -377,6 +551,11 @@ class Kernel:
         return output.copy()
 
     def __call__(self, inputs) -> np.ndarray:
+        direct = self.direct
+        if direct is not None:  # one state of float arrays: no checks in Python
+            out = _empty(self.n_out)
+            if direct(*inputs, out) is out:
+                return out
         for x in inputs:
             if x.ndim != 1:
                 break

@@ -76,7 +76,9 @@ ALLOWED = {
     **{room: CALCULATION | {"model"} | COMMON for room in CALCULATION - {"world"}},
     # robot-language writers over resolved programs: text from plain data, no files
     "export": {"export", "model", "kinematics"} | COMMON,
-    "api": {"api", "schema", "model", "export"} | CALCULATION | COMMON,
+    # the viewer page: text from the scene's bytes and panel data, its vendored assets
+    "viewer": {"viewer"} | COMMON,
+    "api": {"api", "schema", "model", "export", "viewer"} | CALCULATION | COMMON,
     "cli": {"cli", "api", "errors", "units", ""},  # units: for showing arcsec
 }
 

@@ -86,7 +86,10 @@ from .simulation import (  # noqa: F401
     render_run_contact,
     run_path,
     run_summary,
+    run_view,
     simulate_run,
     unlimited_notes,
+    view_run_directory,
     write_run_outputs,
+    write_run_view,
 )

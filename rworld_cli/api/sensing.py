@@ -65,17 +65,32 @@ def render_scene(
     view: tuple[float, float] = (25.0, -60.0),
     frames: bool = True,
 ) -> Path:
-    """Draw the cell with its sensors' readings: a PNG (matplotlib) or a glTF binary (.glb), by
-    the file's suffix.
+    """Draw the cell with its sensors' readings: a PNG (matplotlib), a glTF binary (.glb) or a
+    self-contained HTML viewer of the one state (.html), by the file's suffix.
     """
     from ..sensing.render import render_glb, render_png
     from ..units import SENSING_TOLERANCE
 
     suffix = output.lower().rsplit(".", 1)[-1] if "." in output else ""
-    if suffix not in ("png", "glb"):
-        raise UserError(f"cannot tell the format of '{output}': give a .png or .glb file")
+    if suffix not in ("png", "glb", "html"):
+        raise UserError(f"cannot tell the format of '{output}': give a .png, .glb or .html file")
     world, _ = sense(cell_path, joints, None, tolerance)
     tol = SENSING_TOLERANCE if tolerance is None else tolerance
     if suffix == "png":
         return render_png(world, output, tol, view, frames)
+    if suffix == "html":
+        return still_page(world, output, world.cell.name)
     return render_glb(world, output, tol)
+
+
+def still_page(world, output: str, title: str, highlight: tuple[str, ...] = ()) -> Path:
+    """The viewer page (as ``rworld view`` writes for a run) of the world's current state;
+    ``highlight``: bodies drawn in the collision colour."""
+    from ..fileio import atomic_write_text
+    from ..schema.gltf import scene_glb
+    from ..simulate.scene import state_scene
+    from ..viewer.page import viewer_page
+
+    scene = state_scene(world, title, highlight)
+    atomic_write_text(output, viewer_page(scene_glb(scene), scene.info))
+    return Path(output)

@@ -131,7 +131,7 @@ def render_run_contact(
     collision_tolerance: float | str | None = None,
 ):
     """Simulate RUN and draw the state of its first contact (its deepest instant), the two
-    bodies in the collision colour: a PNG or a .glb by the file's suffix.
+    bodies in the collision colour: a PNG, a .glb or an .html viewer by the file's suffix.
 
     Returns
     -------
@@ -142,8 +142,8 @@ def render_run_contact(
     from ..world.tree import World
 
     suffix = output.lower().rsplit(".", 1)[-1] if "." in output else ""
-    if suffix not in ("png", "glb"):
-        raise UserError(f"cannot tell the format of '{output}': give a .png or .glb file")
+    if suffix not in ("png", "glb", "html"):
+        raise UserError(f"cannot tell the format of '{output}': give a .png, .glb or .html file")
     loaded, result = simulate_run(
         cell, run, None, None, clearance, collision_tolerance, collisions=True
     )
@@ -168,6 +168,63 @@ def render_run_contact(
             title=title,
             marks=[first.contact.point_a, first.contact.point_b],
         )
+    elif suffix == "html":
+        from .sensing import still_page
+
+        path = still_page(world, output, title, state["pair"])
     else:
         path = render_glb(world, output, SENSING_TOLERANCE, highlight=state["pair"])
     return path, first
+
+
+def run_view(loaded, result, progress=None) -> tuple[bytes, dict]:
+    """The animated scene of a simulated run (.glb bytes) and the viewer's panel data.
+
+    Parameters
+    ----------
+    loaded, result : what :func:`simulate_run` returned.
+    progress : callable(done, total, what), optional
+    """
+    from ..schema.gltf import scene_glb
+    from ..simulate.scene import run_scene
+
+    scene = run_scene(loaded.cell, result, progress=progress)
+    return scene_glb(scene), scene.info
+
+
+def write_run_view(
+    glb: bytes,
+    info: dict,
+    glb_path: str | None = None,
+    html_path: str | None = None,
+    directory: str | None = None,
+) -> list[Path]:
+    """Write a run's scene: a .glb file, a viewer page, and/or the scene files of an output
+    directory (``run.glb``, ``view.json``, which ``rworld view DIR`` reads); atomically."""
+    from ..fileio import atomic_write_bytes, atomic_write_text
+    from ..schema.results import write_scene_files
+    from ..viewer.page import viewer_page
+
+    written = []
+    if directory:
+        written += write_scene_files(directory, glb, info)
+    if glb_path:
+        written.append(atomic_write_bytes(glb_path, glb))
+    if html_path:
+        atomic_write_text(html_path, viewer_page(glb, info))
+        written.append(Path(html_path))
+    return written
+
+
+def view_run_directory(directory: str, output: str | None = None) -> Path:
+    """The viewer page of a run output directory (``simulate -o DIR``), written to ``output``
+    (default ``DIR/view.html``); a directory with missing or damaged files is a UserError and
+    nothing is written."""
+    from ..fileio import atomic_write_text
+    from ..schema.results import read_scene_files
+    from ..viewer.page import viewer_page
+
+    glb, info = read_scene_files(directory)
+    path = Path(output) if output else Path(directory) / "view.html"
+    atomic_write_text(path, viewer_page(glb, info))
+    return path

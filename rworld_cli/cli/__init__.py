@@ -34,7 +34,13 @@ COMMANDS = {
     "simulate": (
         "simulate",
         "simulate",
-        "Run programs of several devices on one clock; timelines, events, limits, plots.",
+        "Run programs of several devices on one clock; timelines, events, limits, plots, an "
+        "animated glTF and an HTML viewer.",
+    ),
+    "view": (
+        "simulate",
+        "view",
+        "A self-contained HTML page that plays a run written by 'simulate -o DIR'.",
     ),
     "check": (
         "simulate",

@@ -12,9 +12,16 @@ from .common import emit_json, handle_errors, joints_option, json_option, parse_
 @click.option(
     "-o",
     "--output",
-    required=True,
+    default=None,
     type=click.Path(dir_okay=False),
-    help="A .png picture or a .glb glTF scene.",
+    help="A .png picture, a .glb glTF scene or an .html viewer page.",
+)
+@click.option(
+    "--html",
+    "html_path",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Also (or only) write the state as a self-contained HTML viewer page.",
 )
 @joints_option
 @click.option(
@@ -46,7 +53,9 @@ from .common import emit_json, handle_errors, joints_option, json_option, parse_
 )
 @json_option
 @handle_errors
-def render(cell, output, joints, view, no_frames, tolerance, run, clearance, json_output):
+def render(
+    cell, output, html_path, joints, view, no_frames, tolerance, run, clearance, json_output
+):
     """Draw CELL: objects, devices, frame triads, sensors with colour-coded cells.
 
     A sensor cell is red when it senses something, green when free (the
@@ -57,6 +66,7 @@ def render(cell, output, joints, view, no_frames, tolerance, run, clearance, jso
     Examples:
       rworld render workcells/paper_fig9 -o cell.png
       rworld render workcells/paper_fig9 -o cell.glb
+      rworld render workcells/paper_fig9 --html cell.html     # orbit it in a browser
       rworld render workcells/puma560 --joints puma=0,0.5,-1,0,0.3,0 -o puma.png --view 20,-120
       rworld render workcells/puma560 --run through_table -o first_contact.png
     """
@@ -64,22 +74,40 @@ def render(cell, output, joints, view, no_frames, tolerance, run, clearance, jso
     from .physics_common import parse_vector
 
     elev, azim = parse_vector(view, "--view", 2)
+    outputs = [path for path in (output, html_path) if path]
+    if not outputs:
+        raise click.UsageError("give the file to write: -o FILE (.png, .glb, .html) or --html FILE")
+    if html_path and not html_path.lower().endswith(".html"):
+        raise click.UsageError(f"--html writes an HTML page: '{html_path}' does not end in .html")
     if run is not None:
         if joints:
             raise click.UsageError("--run draws the run's own state: leave out --joints")
-        written, contact = render_run_contact(
-            cell, run, output, (elev, azim), not no_frames, clearance
-        )
+        results = [
+            render_run_contact(cell, run, path, (elev, azim), not no_frames, clearance)
+            for path in outputs
+        ]
+        contact = results[0][1]
         if json_output:
-            emit_json({"cell": cell, "written": str(written), "contact": contact.as_dict()})
+            emit_json(
+                {
+                    "cell": cell,
+                    "written": [str(path) for path, _ in results],
+                    "contact": contact.as_dict(),
+                }
+            )
         else:
             click.echo(contact.describe())
-            click.echo(f"wrote {written}")
+            for path, _ in results:
+                click.echo(f"wrote {path}")
         return
-    written = render_scene(
-        cell, output, parse_joint_assignments(joints), tolerance, (elev, azim), not no_frames
-    )
+    written = [
+        render_scene(
+            cell, path, parse_joint_assignments(joints), tolerance, (elev, azim), not no_frames
+        )
+        for path in outputs
+    ]
     if json_output:
-        emit_json({"cell": cell, "written": str(written)})
+        emit_json({"cell": cell, "written": [str(path) for path in written]})
     else:
-        click.echo(f"wrote {written}")
+        for path in written:
+            click.echo(f"wrote {path}")

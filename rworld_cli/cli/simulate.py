@@ -79,11 +79,35 @@ def _checks(clearance, collision_tolerance, no_collisions) -> dict:
     is_flag=True,
     help="Also write PNG plots of joint positions and limit ratios (needs -o).",
 )
+@click.option(
+    "--glb",
+    "glb_path",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Write the run as an animated glTF binary (.glb) for any glTF viewer.",
+)
+@click.option(
+    "--view",
+    "view_path",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Write a self-contained HTML page that plays the run (works offline).",
+)
 @collision_options
 @json_option
 @handle_errors
 def simulate(
-    cell, run, output, dt, plot, clearance, collision_tolerance, no_collisions, json_output
+    cell,
+    run,
+    output,
+    dt,
+    plot,
+    glb_path,
+    view_path,
+    clearance,
+    collision_tolerance,
+    no_collisions,
+    json_output,
 ):
     """Run the programs of RUN on CELL: several devices on one clock.
 
@@ -93,12 +117,19 @@ def simulate(
     (grasps, releases, tool changes, syncs), any limit violations, and
     collisions and clearance violations with the steps that caused them.
     With -o it also writes collisions.json and a clearance column in the
-    timelines.
+    timelines, and the run's animated scene (run.glb, view.json) for
+    'rworld view DIR'.
+
+    --glb writes the run as an animated glTF file; --view writes one HTML
+    page that plays it beside a timeline with the events, joint plots and
+    each device's program line (docs/viewer.md).
 
     \b
     Examples:
       rworld simulate workcells/puma560 pick_place
       rworld simulate workcells/paper_fig9 transfer -o out/fig9 --plot
+      rworld simulate workcells/paper_fig9 transfer --view fig9.html
+      rworld simulate workcells/paper_fig9 transfer --glb fig9.glb
       rworld simulate workcells/paper_fig9 transfer --clearance 5mm
       rworld simulate workcells/paper_fig9 transfer --json | jq .cycle_time
     """
@@ -114,6 +145,8 @@ def simulate(
         _checks(clearance, collision_tolerance, no_collisions),
     )
     written = write_run_outputs(result, output, plot) if output else []
+    if output or glb_path or view_path:
+        written += _write_view(loaded, result, output, glb_path, view_path, not json_output)
     if json_output:
         payload = run_summary(result)
         payload["written"] = [str(p) for p in written]
@@ -125,6 +158,60 @@ def simulate(
     _render(result)
     for p in written:
         click.echo(f"wrote {p}")
+
+
+def _write_view(loaded, result, directory, glb_path, view_path, show_progress) -> list:
+    from ..api import run_view, write_run_view
+
+    if not (show_progress and sys.stderr.isatty()):
+        glb, info = run_view(loaded, result)
+    else:
+        from rich.progress import Progress
+
+        with Progress(transient=True) as bar:
+            task = bar.add_task("scene", total=None)
+            glb, info = run_view(
+                loaded,
+                result,
+                lambda done, total, what: bar.update(
+                    task, completed=done, total=total, description=what
+                ),
+            )
+    return write_run_view(glb, info, glb_path, view_path, directory)
+
+
+@click.command()
+@click.argument("directory", metavar="RUN_OUTPUT_DIR", type=click.Path(file_okay=False))
+@click.option(
+    "-o",
+    "--output",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="The HTML file to write (default RUN_OUTPUT_DIR/view.html).",
+)
+@json_option
+@handle_errors
+def view(directory, output, json_output):
+    """Write a self-contained HTML page that plays the run in RUN_OUTPUT_DIR (the -o DIR of
+    'rworld simulate'): play, pause, speed, a timeline with the events (click one to jump
+    there), joint plots, orbit / pan / zoom, labels, each device's current program line.
+
+    It reads run.glb and view.json from the directory; one missing or damaged is an error
+    (exit 2) and nothing is written.  The page needs no network: open it from disk.
+
+    \b
+    Examples:
+      rworld simulate workcells/paper_fig9 transfer -o out/fig9
+      rworld view out/fig9                  # writes out/fig9/view.html
+      rworld view out/fig9 -o fig9.html
+    """
+    from ..api import view_run_directory
+
+    path = view_run_directory(directory, output)
+    if json_output:
+        emit_json({"directory": directory, "written": [str(path)]})
+    else:
+        click.echo(f"wrote {path}")
 
 
 @click.command()

@@ -74,6 +74,12 @@ _NDARRAY = np.ndarray
 _FLOAT = np.dtype(float)
 
 
+def _finite(x: np.ndarray) -> bool:
+    """Whether a short 1-D float array is finite, by its sum (False also when the sum of
+    finite entries overflows: callers then take their full check)."""
+    return math.isfinite(sum(x.tolist()))
+
+
 def _gravity(gravity, batch: int | None) -> np.ndarray:
     """Gravity as an input row (3,) or, per sample, (N, 3); checked finite."""
     g = (
@@ -233,6 +239,12 @@ class DeviceDynamics:
         ndarray, shape (n,) or (N, n)
             Actuator torques [N m] / forces [N], armature and friction included when enabled.
         """
+        # one state of float arrays, their shapes checked by the kernel; gravity finite (a
+        # finite sum, taken on floats: numpy's reductions cost a microsecond; an overflow only
+        # sends it on to the full check)
+        tau = self._gen("full").direct(q, qd, qdd, gravity)
+        if tau is not None and (gravity is DEFAULT_GRAVITY or _finite(gravity)):
+            return tau
         q, qd, qdd = self._check3(q, qd, qdd)
         g = (
             gravity
@@ -257,6 +269,9 @@ class DeviceDynamics:
 
     def mass_matrix(self, q) -> np.ndarray:
         """Joint-space inertia ``M(q)`` including the armature; shape (n, n) or (N, n, n)."""
+        flat = self._gen("mass").direct(q)  # one state of floats, checked by the kernel
+        if flat is not None:
+            return flat.reshape(self.n, self.n)
         (q,) = self._check(q)
         flat = self._gen("mass").evaluate([q])
         return flat.reshape(flat.shape[:-1] + (self.n, self.n))
@@ -275,7 +290,6 @@ class DeviceDynamics:
         ValueError
             Where ``M`` is singular: a joint that moves no inertia has no defined acceleration.
         """
-        q, qd, tau = self._check3(q, qd, tau)
         try:
             program = self._gen("forward")
         except SingularMassMatrix as error:  # zero by construction, whatever the state
@@ -283,6 +297,12 @@ class DeviceDynamics:
                 f"the mass matrix of '{self.device.name}' is singular (joint {error.joint} "
                 "moves no inertia): no forward dynamics"
             ) from None
+        # one state of float arrays as in inverse(); finite accelerations mean a regular mass
+        # matrix (else the full check below)
+        qdd = program.direct(q, qd, tau, gravity)
+        if qdd is not None and _finite(qdd) and (gravity is DEFAULT_GRAVITY or _finite(gravity)):
+            return qdd
+        q, qd, tau = self._check3(q, qd, tau)
         qdd = program.evaluate([q, qd, tau, _gravity(gravity, None)])
         if not np.all(np.isfinite(qdd)):
             inputs_finite = np.all(np.isfinite(np.concatenate([q, qd, tau], axis=-1)), axis=-1)

@@ -104,10 +104,6 @@ def generated(device: DeviceModel, mount: ToolMount | None, with_jacobian: bool)
     return program
 
 
-_NDARRAY = np.ndarray
-_FLOAT = np.dtype(float)
-
-
 def _check_q(device: DeviceModel, q) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     if len(q.shape) > 2 or q.shape[-1:] != (device.dof,):
@@ -157,8 +153,8 @@ def tool_pose_and_jacobian(
     """
     program = generated(device, mount, True)
     n = program.groups[0][1]  # the joint count
-    if q.__class__ is _NDARRAY and q.dtype is _FLOAT and q.shape == (n,):  # one state, as is
-        flat = program.evaluate([q])
+    flat = program.direct(q)  # one state of floats, checked by the kernel
+    if flat is not None:
         return flat[:16].reshape(4, 4), flat[16:].reshape(6, n)
     q = _check_q(device, q)
     flat = program.evaluate([q])

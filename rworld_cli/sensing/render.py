@@ -25,7 +25,7 @@ COLORS = {
 }
 
 
-def _cell_boxes(sensor, reading):
+def cell_boxes(sensor, reading):
     """(T_sensor_cell, size, sensed) for every cell of a sensor."""
     kind = sensor_type(sensor.type)
     counts = kind.counts(sensor)
@@ -57,7 +57,7 @@ def _scene_meshes(world, tolerance, highlight=()):
     readings = {r.sensor: r for r in read_sensors(world, tolerance=tolerance)}
     for name, sensor in world.cell.sensors.items():
         T_ws = world.T_world(name)
-        for k, (T, size, sensed) in enumerate(_cell_boxes(sensor, readings[name])):
+        for k, (T, size, sensed) in enumerate(cell_boxes(sensor, readings[name])):
             box = trimesh.creation.box(extents=size * 0.96)  # a small gap shows the cells apart
             T_world = T_ws @ T
             v = np.asarray(box.vertices) @ T_world[:3, :3].T + T_world[:3, 3]

@@ -149,6 +149,10 @@ class SimulationResult:
     )  # device -> kind -> joints with no limit
     collisions: Any = None  # simulate.collisions.CollisionReport, or None when not checked
     resolved: dict[str, list[ResolvedStep]] = field(default_factory=dict)  # device -> steps
+    step_where: dict[str, list[str]] = field(default_factory=dict)  # device -> 'file:line' per step
+    # (t, World.snapshot()) at the start and after every affixment change: the tree each stretch
+    # of samples ran in (a sample at t belongs to the latest snapshot at or before it)
+    snapshots: list[tuple[float, dict]] = field(default_factory=list)
 
     @property
     def cycle_time(self) -> float:
@@ -790,6 +794,8 @@ def _sample(run: Run, sched: _Scheduler, progress) -> SimulationResult:
         step_texts,
         unlimited,
         resolved=sched.resolved,
+        step_where={d: [st.where for st in sched.tracks[d].program.steps] for d in run_devices},
+        snapshots=list(snaps),
     )
 
 

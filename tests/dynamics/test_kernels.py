@@ -151,6 +151,63 @@ def test_a_singular_mass_matrix_is_reported_not_divided_by():
     assert np.all(np.isnan(nan))
 
 
+def test_the_direct_entry_takes_only_what_it_can_read_and_leaks_nothing():
+    device = load_cell(REPO / "workcells" / "puma560").cell.devices["puma"]
+    dyn = DeviceDynamics(device)
+    program = dyn._gen("full")
+    kernel = program.kernel()
+    assert kernel.direct is not None, "numpy's array layout was not recognised"
+    rng = np.random.default_rng(3)
+    q, qd, qdd = rng.uniform(-2, 2, (3, 6))
+    g = np.array([0.0, 0.0, -9.81])
+    reference = program.evaluate([q, qd, qdd, g], compiled=False)
+    out = np.empty(6)
+    assert kernel.direct(q, qd, qdd, g, out) is out
+    assert close(out, reference) < 1e-12
+    assert np.array_equal(kernel.single([q, qd, qdd, g]), out)  # the packing path: same bits
+    wide = np.zeros((6, 2))
+    readonly = np.empty(6)
+    readonly.flags.writeable = False
+    refused = {
+        "int array": (q.astype(int), qd, qdd, g, out),
+        "float32": (q.astype(np.float32), qd, qdd, g, out),
+        "big-endian": (q.astype(">f8"), qd, qdd, g, out),
+        "strided": (wide[:, 0], qd, qdd, g, out),
+        "too short": (q[:5], qd, qdd, g, out),
+        "2-D": (q[None], qd, qdd, g, out),
+        "0-D": (np.float64(1.0), qd, qdd, g, out),
+        "list": (q.tolist(), qd, qdd, g, out),
+        "subclass": (q.view(np.ma.MaskedArray), qd, qdd, g, out),
+        "misaligned": (np.frombuffer(bytes(49), offset=1), qd, qdd, g, out),
+        "read-only output": (q, qd, qdd, g, readonly),
+        "one argument short": (q, qd, qdd, out),
+        "no arguments": (),
+    }
+    for label, arguments in refused.items():
+        before = out.copy()
+        assert kernel.direct(*arguments) is None, label
+        assert np.array_equal(out, before), label  # nothing written
+    # what the direct entry refuses still computes, through the general path
+    assert close(dyn.inverse(q.tolist(), qd, qdd), reference) < 1e-12
+    assert (
+        close(
+            dyn.inverse(wide[:, 0] + q, qd, qdd), program.evaluate([q, qd, qdd, g], compiled=False)
+        )
+        < 1e-12
+    )
+    for bad in (np.array([0.0, 0.0, np.nan]), np.array([np.inf, 0.0, 0.0])):  # checked still
+        with pytest.raises(ValueError, match="gravity must be a finite 3-vector"):
+            dyn.inverse(q, qd, qdd, bad)
+        with pytest.raises(ValueError, match="gravity must be a finite 3-vector"):
+            dyn.forward(q, qd, reference, bad)
+    counts = [sys.getrefcount(x) for x in (q, out, None)]
+    for _ in range(1000):
+        kernel.direct(q, qd, qdd, g, out)
+        kernel.direct(q, qd, qdd, g)
+    assert [sys.getrefcount(x) for x in (q, out)] == counts[:2]
+    assert abs(sys.getrefcount(None) - counts[2]) < 100  # None's count moves with the runtime
+
+
 def test_constants_are_written_bit_exact():
     for x in (0.1, -1e-300, 2.0 / 3.0, 6.123233995736766e-17, 1e308):
         bits = kernels._literal(x)

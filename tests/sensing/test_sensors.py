@@ -161,7 +161,7 @@ def test_render_png_and_glb(cli, tmp_path):
             "tolerance must be a finite length >= 0",
         ),
         (["sense", "workcells/puma560", "--png", "x.png"], "no tactile or proximity sensor"),
-        (["render", "workcells/paper_fig9", "-o", "cell.jpg"], "give a .png or .glb file"),
+        (["render", "workcells/paper_fig9", "-o", "cell.jpg"], "give a .png, .glb or .html file"),
     ],
 )
 def test_bad_sensing_input_exits_2(cli, tmp_path, args, message):

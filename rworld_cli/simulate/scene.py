@@ -1,0 +1,346 @@
+"""A run as a scene to watch: every body's world pose at the run's samples, sensor cells with their
+readings over time, collision spans, and what the viewer shows beside the 3D view.
+
+Plain data for the writers: ``schema/gltf.py`` makes it an animated glTF file and
+``viewer/page.py`` a self-contained HTML page (docs/viewer.md).
+
+The poses are the simulator's: for each stretch of samples between two affixment changes the
+world is restored to the scheduler's snapshot and the frames' poses are computed for all the
+stretch's joint states at once (``World.T_world_frames``), so a grasped object follows its
+holder from the grasp's sample on, exactly as the events say.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+#: sensor readings are taken at most this far apart [s] (each reading is an interference
+#: check of every sensor cell against every body, about 10 ms on paper_fig9); a reading is
+#: also taken at every affixment change and at the last sample
+SENSOR_PERIOD = 0.05
+
+AXES_FRAME = 0.05  # triad length of auxiliary frames and TCPs [m]
+AXES_BODY = 0.1  # triad length of bodies drawn without geometry [m]
+
+
+@dataclass
+class SceneMesh:
+    """Triangles in their node's frame [m]; ``colour`` '#rrggbb'."""
+
+    vertices: np.ndarray  # (V, 3)
+    faces: np.ndarray  # (F, 3) int
+    colour: str
+
+
+@dataclass
+class SceneNode:
+    """One frame of the cell, drawn as its mesh and/or axes.
+
+    Attributes
+    ----------
+    name : str
+        The frame's name (unique).
+    kind : str
+        object | device | link | sensor | frame
+    poses : ndarray, shape (K, 4, 4)
+        ``T_world_node`` at the scene's times.
+    mesh : SceneMesh or None
+    axes : float
+        Length of an x-y-z triad drawn at the frame [m] (0: none).
+    highlight : list of (t0, t1)
+        When the node's body is in a collision or clearance violation [s].
+    """
+
+    name: str
+    kind: str
+    poses: np.ndarray
+    mesh: SceneMesh | None = None
+    axes: float = 0.0
+    highlight: list[tuple[float, float]] = field(default_factory=list)
+
+
+@dataclass
+class SensorCells:
+    """A sensor's cells (boxes in the sensor frame) and which of them sense, over time.
+
+    Attributes
+    ----------
+    name : str
+        The sensor (its node has the same name).
+    boxes : list of (ndarray (4, 4), ndarray (3,))
+        ``T_sensor_cell`` and the cell's size [m].
+    times : ndarray, shape (M,)
+        When the readings were taken [s].
+    sensed : ndarray of bool, shape (M, cells)
+    """
+
+    name: str
+    boxes: list[tuple[np.ndarray, np.ndarray]]
+    times: np.ndarray
+    sensed: np.ndarray
+
+
+@dataclass
+class RunScene:
+    """Everything drawn, and the viewer's side panels (``info``, JSON-ready)."""
+
+    title: str
+    times: np.ndarray  # (K,) [s]
+    nodes: list[SceneNode]
+    sensors: list[SensorCells]
+    without_geometry: list[str]
+    info: dict
+
+
+def _frame_nodes(cell) -> list[tuple[str, str, object, float]]:
+    """(frame, kind, shape or None, axes length) for everything the scene draws."""
+    out = []
+    for name, obj in cell.objects.items():
+        out.append((name, "object", obj.shape, 0.0 if obj.shape is not None else AXES_BODY))
+    for name, dev in cell.devices.items():
+        out.append((name, "device", dev.shape, 0.0 if dev.shape is not None else AXES_BODY))
+        for link, frame in zip(dev.links, dev.link_frames):
+            out.append((frame, "link", link.shape, 0.0 if link.shape is not None else AXES_BODY))
+    for name in cell.sensors:
+        out.append((name, "sensor", None, 0.0))
+    for name, decl in cell.frames.items():
+        if decl.kind in ("auxiliary", "tcp", "free"):
+            out.append((name, "frame", None, AXES_FRAME))
+    return out
+
+
+def _meshes(cell, shapes) -> dict[str, SceneMesh]:
+    from ..sensing.geometry import shape_mesh
+    from ..sensing.render import COLORS
+
+    meshes = {}
+    for name, kind, shape in shapes:
+        if shape is None:
+            continue
+        mesh = shape_mesh(shape)
+        colour = COLORS["device" if kind in ("device", "link") else "object"]
+        meshes[name] = SceneMesh(
+            np.asarray(mesh.vertices, dtype=float), np.asarray(mesh.faces, dtype=np.int64), colour
+        )
+    return meshes
+
+
+def _stretches(snapshots, times: np.ndarray):
+    """(snapshot, first sample, end sample) for each stretch of one tree, as the engine splits
+    them (a sample at a snapshot's instant belongs to it)."""
+    K = len(times)
+    bounds = [int(np.searchsorted(times, t, side="left")) for t, _ in snapshots[1:]] + [K]
+    starts = [0] + bounds[:-1]
+    return [(snap, a, b) for (_, snap), a, b in zip(snapshots, starts, bounds) if b > a]
+
+
+def run_scene(cell, result, sensor_period: float = SENSOR_PERIOD, progress=None) -> RunScene:
+    """The scene of a simulated run.
+
+    Parameters
+    ----------
+    cell : CellModel
+        The cell the run was simulated on.
+    result : SimulationResult
+        With its snapshots (``simulate`` keeps them).
+    sensor_period : float
+        Longest time between two sensor readings [s].
+    progress : callable(done, total, what), optional
+    """
+    from ..world.tree import World
+
+    times = np.asarray(result.times, dtype=float)
+    K = len(times)
+    joints = {}
+    for d, dev in cell.devices.items():
+        tl = result.devices.get(d)
+        joints[d] = tl.q if tl is not None else np.tile(dev.home, (K, 1))
+    world = World(cell)
+    specs = _frame_nodes(cell)
+    names = [name for name, *_ in specs]
+    poses = {name: np.empty((K, 4, 4)) for name in names}
+    stretches = _stretches(result.snapshots, times)
+    for snap, a, b in stretches:
+        world.restore(snap)
+        frames = world.T_world_frames(names, {d: q[a:b] for d, q in joints.items()})
+        for name in names:
+            poses[name][a:b] = frames[name]
+    meshes = _meshes(cell, [(name, kind, shape) for name, kind, shape, _ in specs])
+    nodes = [
+        SceneNode(name, kind, poses[name], meshes.get(name), axes)
+        for name, kind, shape, axes in specs
+    ]
+    _highlight(nodes, result)
+    sensors = _sensor_readings(cell, world, result, joints, stretches, sensor_period, progress)
+    world.restore(result.snapshots[-1][1])
+    without = [n.name for n in nodes if n.kind in ("object", "device", "link") and n.mesh is None]
+    info = viewer_info(result, without)
+    info["labels"] = _labels(cell)
+    return RunScene(info["title"], times, nodes, sensors, without, info)
+
+
+def state_scene(world, title: str, highlight: tuple[str, ...] = ()) -> RunScene:
+    """The scene of one state of a world (``rworld render --html``): one sample at t = 0;
+    the bodies named in ``highlight`` drawn in the collision colour."""
+    cell = world.cell
+    specs = _frame_nodes(cell)
+    meshes = _meshes(cell, [(name, kind, shape) for name, kind, shape, _ in specs])
+    nodes = [
+        SceneNode(
+            name,
+            kind,
+            world.T_world(name)[None],
+            meshes.get(name),
+            axes,
+            [(0.0, 1.0)] if name in highlight else [],
+        )
+        for name, kind, shape, axes in specs
+    ]
+    sensors = []
+    if cell.sensors:
+        from ..sensing.render import cell_boxes
+        from ..sensing.sensors import read_sensors
+        from ..units import SENSING_TOLERANCE
+
+        for reading in read_sensors(world, tolerance=SENSING_TOLERANCE):
+            boxes = cell_boxes(cell.sensors[reading.sensor], reading)
+            sensors.append(
+                SensorCells(
+                    reading.sensor,
+                    [(T, size) for T, size, _ in boxes],
+                    np.zeros(1),
+                    np.array([[sensed for *_, sensed in boxes]]),
+                )
+            )
+    without = [n.name for n in nodes if n.kind in ("object", "device", "link") and n.mesh is None]
+    info = {
+        "title": title,
+        "t_end": 0.0,
+        "devices": {},
+        "marks": [],
+        "without_geometry": without,
+        "labels": _labels(cell),
+    }
+    return RunScene(title, np.zeros(1), nodes, sensors, without, info)
+
+
+def _highlight(nodes: list[SceneNode], result) -> None:
+    """Collision and clearance spans onto the bodies' nodes (a span of one sample is shown for
+    one clock step)."""
+    report = result.collisions
+    if report is None:
+        return
+    by_name = {n.name: n for n in nodes}
+    for rc in report.contacts:
+        c = rc.contact
+        for label in (c.a, c.b):
+            node = by_name.get(label)
+            if node is not None and node.mesh is not None:
+                node.highlight.append((c.t_start, max(c.t_end, c.t_start + result.dt)))
+
+
+def _sensor_readings(cell, world, result, joints, stretches, period, progress):
+    """Every sensor's cells, read at samples at most ``period`` apart (and at each stretch's
+    first and last sample)."""
+    if not cell.sensors:
+        return []
+    from ..sensing.render import cell_boxes
+    from ..sensing.sensors import read_sensors
+    from ..units import SENSING_TOLERANCE
+
+    times = result.times
+    every = max(1, int(round(period / result.dt)))
+    picks = []
+    for snap, a, b in stretches:
+        picks += [(snap, k) for k in sorted(set(range(a, b, every)) | {b - 1})]
+    names = list(cell.sensors)
+    when, grids = [], {name: [] for name in names}
+    boxes = {}
+    for done, (snap, k) in enumerate(picks):
+        world.restore(snap)
+        for d, q in joints.items():
+            world.set_joints(d, q[k])
+        for reading in read_sensors(world, tolerance=SENSING_TOLERANCE):
+            cells = cell_boxes(cell.sensors[reading.sensor], reading)
+            boxes.setdefault(reading.sensor, [(T, size) for T, size, _ in cells])
+            grids[reading.sensor].append([sensed for *_, sensed in cells])
+        when.append(float(times[k]))
+        if progress:
+            progress(done + 1, len(picks), "sensor readings")
+    return [
+        SensorCells(name, boxes[name], np.array(when), np.array(grids[name], dtype=bool))
+        for name in names
+    ]
+
+
+def _labels(cell) -> list[dict]:
+    """What the label toggle names: devices (at their base) and auxiliary frames and TCPs."""
+    labels = [{"node": d, "text": d, "kind": "device"} for d in cell.devices]
+    labels += [
+        {"node": name, "text": name, "kind": "frame"}
+        for name, decl in cell.frames.items()
+        if decl.kind in ("auxiliary", "tcp", "free")
+    ]
+    return labels
+
+
+def _spans(step: np.ndarray, times: np.ndarray) -> list[list]:
+    """[t_start, step index] at every change of the running step (index -1: none)."""
+    change = np.flatnonzero(np.diff(step)) + 1
+    starts = np.concatenate([[0], change]) if len(step) else np.zeros(0, dtype=int)
+    return [[round(float(times[k]), 6), int(step[k])] for k in starts]
+
+
+def viewer_info(result, without_geometry: list[str]) -> dict:
+    """What the viewer shows beside the 3D view (JSON-ready): per device its joint values, its
+    steps with their ``file:line``, and the timeline's marks."""
+    times = np.asarray(result.times, dtype=float)
+    devices = {}
+    for d, tl in result.devices.items():
+        devices[d] = {
+            "q": np.round(tl.q, 6).T.tolist(),  # per joint, for the plots
+            "steps": [
+                {"text": text, "where": where}
+                for text, where in zip(result.step_texts[d], result.step_where.get(d, []))
+            ],
+            "spans": _spans(tl.step, times),
+            "cycle_time": tl.cycle_time,
+        }
+    marks = []
+    for e in result.events:
+        marks.append(
+            {
+                "t": e.t,
+                "kind": e.kind,
+                "device": e.device,
+                "text": f"{e.device}: {e.kind}: {e.detail}",
+            }
+        )
+    for v in result.violations:
+        marks.append(
+            {"t": v.t_start, "kind": "violation", "device": v.device, "text": v.describe()}
+        )
+    report = result.collisions
+    if report is not None:
+        for rc in report.contacts:
+            c = rc.contact
+            marks.append(
+                {
+                    "t": c.t_start,
+                    "kind": "collision" if c.collision else "clearance",
+                    "device": rc.steps[0].device if rc.steps else "",
+                    "text": rc.describe().split(";")[0],
+                }
+            )
+    marks.sort(key=lambda m: m["t"])
+    return {
+        "title": f"{result.cell}: {result.run}",
+        "t": np.round(times, 6).tolist(),
+        "t_end": float(times[-1]) if len(times) else 0.0,
+        "devices": devices,
+        "marks": marks,
+        "without_geometry": without_geometry,
+        "labels": [],  # run_scene fills them in from the cell
+    }
