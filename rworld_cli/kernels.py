@@ -34,6 +34,7 @@ never load a compiler.
 from __future__ import annotations
 
 import ctypes
+import functools
 import hashlib
 import os
 import struct
@@ -453,32 +454,30 @@ class _MethodDef(ctypes.Structure):
 
 
 _METH_FASTCALL = 0x0080
-_LAYOUT: list[bool] = []  # once known: whether numpy's array struct is as _direct_ir reads it
 
 
+@functools.cache
 def _layout_holds() -> bool:
     """Whether a live float array has its fields at the offsets the direct entry reads (numpy's
     struct has been stable since 1.7; a build where it is not just uses the packing path)."""
-    if not _LAYOUT:
-        a = np.zeros(3)
-        base = id(a)
+    a = np.zeros(3)
+    base = id(a)
 
-        def word(offset: int, kind=ctypes.c_int64) -> int:
-            return kind.from_address(base + offset).value
+    def word(offset: int, kind=ctypes.c_int64) -> int:
+        return kind.from_address(base + offset).value
 
-        holds = (
-            ctypes.sizeof(ctypes.c_void_p) == 8
-            and word(_TYPE) == id(np.ndarray)
-            and word(_DATA) == _address(a)
-            and word(_NDIM, ctypes.c_int32) == 1
-            and ctypes.c_int64.from_address(word(_DIMS)).value == 3
-            and ctypes.c_int64.from_address(word(_STRIDES)).value == 8
-            and word(_DESCR) == id(a.dtype) == id(_FLOAT)
-            and bool(word(_FLAGS, ctypes.c_int32) & _WRITEABLE)
-        )
-        a.flags.writeable = False
-        _LAYOUT.append(holds and not word(_FLAGS, ctypes.c_int32) & _WRITEABLE)
-    return _LAYOUT[0]
+    holds = (
+        ctypes.sizeof(ctypes.c_void_p) == 8
+        and word(_TYPE) == id(np.ndarray)
+        and word(_DATA) == _address(a)
+        and word(_NDIM, ctypes.c_int32) == 1
+        and ctypes.c_int64.from_address(word(_DIMS)).value == 3
+        and ctypes.c_int64.from_address(word(_STRIDES)).value == 8
+        and word(_DESCR) == id(a.dtype) == id(_FLOAT)
+        and bool(word(_FLAGS, ctypes.c_int32) & _WRITEABLE)
+    )
+    a.flags.writeable = False
+    return holds and not word(_FLAGS, ctypes.c_int32) & _WRITEABLE
 
 
 _FLOAT = np.dtype(float)

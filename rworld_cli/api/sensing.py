@@ -59,28 +59,62 @@ def write_sensor_maps(readings, path: str) -> Path:
 
 def render_scene(
     cell_path: str,
-    output: str,
+    outputs: str | list[str],
     joints: dict[str, list[float]] | None = None,
     tolerance: float | None = None,
     view: tuple[float, float] = (25.0, -60.0),
     frames: bool = True,
-) -> Path:
-    """Draw the cell with its sensors' readings: a PNG (matplotlib), a glTF binary (.glb) or a
-    self-contained HTML viewer of the one state (.html), by the file's suffix.
+) -> list[Path]:
+    """Draw the cell with its sensors' readings into each of ``outputs``: a PNG (matplotlib), a
+    glTF binary (.glb) or a self-contained HTML viewer of the one state (.html), by the file's
+    suffix.  The cell is loaded and its sensors read once for all of them.
     """
-    from ..sensing.render import render_glb, render_png
     from ..units import SENSING_TOLERANCE
 
-    suffix = output.lower().rsplit(".", 1)[-1] if "." in output else ""
-    if suffix not in ("png", "glb", "html"):
-        raise UserError(f"cannot tell the format of '{output}': give a .png, .glb or .html file")
+    outputs = picture_outputs(outputs)
     world, _ = sense(cell_path, joints, None, tolerance)
     tol = SENSING_TOLERANCE if tolerance is None else tolerance
-    if suffix == "png":
-        return render_png(world, output, tol, view, frames)
-    if suffix == "html":
-        return still_page(world, output, world.cell.name)
-    return render_glb(world, output, tol)
+    return draw_world(world, outputs, tol, view, frames, title=world.cell.name)
+
+
+def picture_outputs(outputs: str | list[str]) -> list[str]:
+    """The files to draw, each a .png, .glb or .html (UserError before any work otherwise)."""
+    outputs = [outputs] if isinstance(outputs, str) else list(outputs)
+    for output in outputs:
+        suffix = output.lower().rsplit(".", 1)[-1] if "." in output else ""
+        if suffix not in ("png", "glb", "html"):
+            raise UserError(
+                f"cannot tell the format of '{output}': give a .png, .glb or .html file"
+            )
+    return outputs
+
+
+def draw_world(
+    world,
+    outputs: list[str],
+    tolerance: float,
+    view: tuple[float, float] = (25.0, -60.0),
+    frames: bool = True,
+    highlight: tuple[str, ...] = (),
+    title: str | None = None,
+    marks: list | None = None,
+) -> list[Path]:
+    """The world's current state into each file of ``outputs`` (checked by
+    :func:`picture_outputs`), by suffix; ``highlight``: bodies in the collision colour."""
+    from ..sensing.render import render_glb, render_png
+
+    written = []
+    for output in outputs:
+        suffix = output.lower().rsplit(".", 1)[-1]
+        if suffix == "png":
+            written.append(
+                render_png(world, output, tolerance, view, frames, highlight, title, marks)
+            )
+        elif suffix == "html":
+            written.append(still_page(world, output, title or world.cell.name, highlight))
+        else:
+            written.append(render_glb(world, output, tolerance, highlight))
+    return written
 
 
 def still_page(world, output: str, title: str, highlight: tuple[str, ...] = ()) -> Path:

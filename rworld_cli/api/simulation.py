@@ -124,26 +124,25 @@ def collision_notes(result) -> list[str]:
 def render_run_contact(
     cell: str,
     run: str,
-    output: str,
+    outputs: str | list[str],
     view: tuple[float, float] = (25.0, -60.0),
     frames: bool = True,
     clearance: float | str | None = None,
     collision_tolerance: float | str | None = None,
 ):
-    """Simulate RUN and draw the state of its first contact (its deepest instant), the two
-    bodies in the collision colour: a PNG, a .glb or an .html viewer by the file's suffix.
+    """Simulate RUN once and draw the state of its first contact (its deepest instant), the two
+    bodies in the collision colour, into each of ``outputs``: a PNG, a .glb or an .html viewer
+    by the file's suffix.
 
     Returns
     -------
-    (Path, RunContact)
+    (list of Path, RunContact)
     """
-    from ..sensing.render import render_glb, render_png
     from ..units import SENSING_TOLERANCE
     from ..world.tree import World
+    from .sensing import draw_world, picture_outputs
 
-    suffix = output.lower().rsplit(".", 1)[-1] if "." in output else ""
-    if suffix not in ("png", "glb", "html"):
-        raise UserError(f"cannot tell the format of '{output}': give a .png, .glb or .html file")
+    outputs = picture_outputs(outputs)
     loaded, result = simulate_run(
         cell, run, None, None, clearance, collision_tolerance, collisions=True
     )
@@ -157,24 +156,9 @@ def render_run_contact(
         world.set_joints(device, q)
     first = next(rc for rc in report.contacts if (rc.contact.a, rc.contact.b) == state["pair"])
     title = f"{loaded.cell.name}: {first.describe().split(';')[0]} (t = {state['t']:.3f} s)"
-    if suffix == "png":
-        path = render_png(
-            world,
-            output,
-            SENSING_TOLERANCE,
-            view,
-            frames,
-            highlight=state["pair"],
-            title=title,
-            marks=[first.contact.point_a, first.contact.point_b],
-        )
-    elif suffix == "html":
-        from .sensing import still_page
-
-        path = still_page(world, output, title, state["pair"])
-    else:
-        path = render_glb(world, output, SENSING_TOLERANCE, highlight=state["pair"])
-    return path, first
+    marks = [first.contact.point_a, first.contact.point_b]
+    paths = draw_world(world, outputs, SENSING_TOLERANCE, view, frames, state["pair"], title, marks)
+    return paths, first
 
 
 def run_view(loaded, result, progress=None) -> tuple[bytes, dict]:

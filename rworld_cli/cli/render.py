@@ -82,30 +82,25 @@ def render(
     if run is not None:
         if joints:
             raise click.UsageError("--run draws the run's own state: leave out --joints")
-        results = [
-            render_run_contact(cell, run, path, (elev, azim), not no_frames, clearance)
-            for path in outputs
-        ]
-        contact = results[0][1]
+        written, contact = render_run_contact(
+            cell, run, outputs, (elev, azim), not no_frames, clearance
+        )
         if json_output:
             emit_json(
                 {
                     "cell": cell,
-                    "written": [str(path) for path, _ in results],
+                    "written": [str(path) for path in written],
                     "contact": contact.as_dict(),
                 }
             )
         else:
             click.echo(contact.describe())
-            for path, _ in results:
+            for path in written:
                 click.echo(f"wrote {path}")
         return
-    written = [
-        render_scene(
-            cell, path, parse_joint_assignments(joints), tolerance, (elev, azim), not no_frames
-        )
-        for path in outputs
-    ]
+    written = render_scene(
+        cell, outputs, parse_joint_assignments(joints), tolerance, (elev, azim), not no_frames
+    )
     if json_output:
         emit_json({"cell": cell, "written": [str(path) for path in written]})
     else:

@@ -9,20 +9,29 @@ import click
 from .common import EXIT_CHECK_FAILED, emit_json, handle_errors, json_option
 
 
-def _simulate(cell: str, run: str, dt: float | None, show_progress: bool, checks: dict):
-    from ..api import simulate_run
-
-    if not show_progress:
-        return simulate_run(cell, run, dt, None, **checks)
+def _with_progress(show: bool, label: str, work):
+    """``work(progress)``, with a transient progress bar when ``show`` (else progress None)."""
+    if not show:
+        return work(None)
     from rich.progress import Progress
 
     with Progress(transient=True) as bar:
-        task = bar.add_task("simulating", total=None)
+        task = bar.add_task(label, total=None)
 
         def progress(done, total, what):
             bar.update(task, completed=done, total=total, description=what)
 
-        return simulate_run(cell, run, dt, progress, **checks)
+        return work(progress)
+
+
+def _simulate(cell: str, run: str, dt: float | None, show_progress: bool, checks: dict):
+    from ..api import simulate_run
+
+    return _with_progress(
+        show_progress,
+        "simulating",
+        lambda progress: simulate_run(cell, run, dt, progress, **checks),
+    )
 
 
 def collision_options(fn):
@@ -163,20 +172,11 @@ def simulate(
 def _write_view(loaded, result, directory, glb_path, view_path, show_progress) -> list:
     from ..api import run_view, write_run_view
 
-    if not (show_progress and sys.stderr.isatty()):
-        glb, info = run_view(loaded, result)
-    else:
-        from rich.progress import Progress
-
-        with Progress(transient=True) as bar:
-            task = bar.add_task("scene", total=None)
-            glb, info = run_view(
-                loaded,
-                result,
-                lambda done, total, what: bar.update(
-                    task, completed=done, total=total, description=what
-                ),
-            )
+    glb, info = _with_progress(
+        show_progress and sys.stderr.isatty(),
+        "scene",
+        lambda progress: run_view(loaded, result, progress),
+    )
     return write_run_view(glb, info, glb_path, view_path, directory)
 
 

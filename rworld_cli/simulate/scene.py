@@ -111,20 +111,44 @@ def _frame_nodes(cell) -> list[tuple[str, str, object, float]]:
     return out
 
 
-def _meshes(cell, shapes) -> dict[str, SceneMesh]:
+def _nodes(cell, poses, highlight=()) -> list[SceneNode]:
+    """The scene's nodes: each frame of :func:`_frame_nodes` with its mesh; ``poses(name)``
+    gives its (K, 4, 4) world poses; bodies named in ``highlight`` are red for the whole scene
+    (one state)."""
     from ..sensing.geometry import shape_mesh
     from ..sensing.render import COLORS
 
-    meshes = {}
-    for name, kind, shape in shapes:
-        if shape is None:
-            continue
-        mesh = shape_mesh(shape)
-        colour = COLORS["device" if kind in ("device", "link") else "object"]
-        meshes[name] = SceneMesh(
-            np.asarray(mesh.vertices, dtype=float), np.asarray(mesh.faces, dtype=np.int64), colour
-        )
-    return meshes
+    nodes = []
+    for name, kind, shape, axes in _frame_nodes(cell):
+        mesh = None
+        if shape is not None:
+            raw = shape_mesh(shape)
+            mesh = SceneMesh(
+                np.asarray(raw.vertices, dtype=float),
+                np.asarray(raw.faces, dtype=np.int64),
+                COLORS["device" if kind in ("device", "link") else "object"],
+            )
+        spans = [(0.0, 1.0)] if name in highlight else []
+        nodes.append(SceneNode(name, kind, poses(name), mesh, axes, spans))
+    return nodes
+
+
+def _without_geometry(nodes: list[SceneNode]) -> list[str]:
+    return [n.name for n in nodes if n.kind in ("object", "device", "link") and n.mesh is None]
+
+
+def _read_cells(world) -> dict[str, tuple[list, list[bool]]]:
+    """Per sensor, in the world's current state: its cells' boxes ``(T_sensor_cell, size)``
+    and which of them sense."""
+    from ..sensing.render import cell_boxes
+    from ..sensing.sensors import read_sensors
+    from ..units import SENSING_TOLERANCE
+
+    out = {}
+    for reading in read_sensors(world, tolerance=SENSING_TOLERANCE):
+        cells = cell_boxes(world.cell.sensors[reading.sensor], reading)
+        out[reading.sensor] = ([(T, size) for T, size, _ in cells], [on for *_, on in cells])
+    return out
 
 
 def _stretches(snapshots, times: np.ndarray):
@@ -158,8 +182,7 @@ def run_scene(cell, result, sensor_period: float = SENSOR_PERIOD, progress=None)
         tl = result.devices.get(d)
         joints[d] = tl.q if tl is not None else np.tile(dev.home, (K, 1))
     world = World(cell)
-    specs = _frame_nodes(cell)
-    names = [name for name, *_ in specs]
+    names = [name for name, *_ in _frame_nodes(cell)]
     poses = {name: np.empty((K, 4, 4)) for name in names}
     stretches = _stretches(result.snapshots, times)
     for snap, a, b in stretches:
@@ -167,17 +190,12 @@ def run_scene(cell, result, sensor_period: float = SENSOR_PERIOD, progress=None)
         frames = world.T_world_frames(names, {d: q[a:b] for d, q in joints.items()})
         for name in names:
             poses[name][a:b] = frames[name]
-    meshes = _meshes(cell, [(name, kind, shape) for name, kind, shape, _ in specs])
-    nodes = [
-        SceneNode(name, kind, poses[name], meshes.get(name), axes)
-        for name, kind, shape, axes in specs
-    ]
+    nodes = _nodes(cell, poses.__getitem__)
     _highlight(nodes, result)
-    sensors = _sensor_readings(cell, world, result, joints, stretches, sensor_period, progress)
+    sensors = _sensor_readings(world, result, joints, stretches, sensor_period, progress)
     world.restore(result.snapshots[-1][1])
-    without = [n.name for n in nodes if n.kind in ("object", "device", "link") and n.mesh is None]
-    info = viewer_info(result, without)
-    info["labels"] = _labels(cell)
+    without = _without_geometry(nodes)
+    info = viewer_info(result, without, _labels(cell))
     return RunScene(info["title"], times, nodes, sensors, without, info)
 
 
@@ -185,36 +203,12 @@ def state_scene(world, title: str, highlight: tuple[str, ...] = ()) -> RunScene:
     """The scene of one state of a world (``rworld render --html``): one sample at t = 0;
     the bodies named in ``highlight`` drawn in the collision colour."""
     cell = world.cell
-    specs = _frame_nodes(cell)
-    meshes = _meshes(cell, [(name, kind, shape) for name, kind, shape, _ in specs])
-    nodes = [
-        SceneNode(
-            name,
-            kind,
-            world.T_world(name)[None],
-            meshes.get(name),
-            axes,
-            [(0.0, 1.0)] if name in highlight else [],
-        )
-        for name, kind, shape, axes in specs
+    nodes = _nodes(cell, lambda name: world.T_world(name)[None], highlight)
+    sensors = [
+        SensorCells(name, boxes, np.zeros(1), np.array([sensed]))
+        for name, (boxes, sensed) in _read_cells(world).items()
     ]
-    sensors = []
-    if cell.sensors:
-        from ..sensing.render import cell_boxes
-        from ..sensing.sensors import read_sensors
-        from ..units import SENSING_TOLERANCE
-
-        for reading in read_sensors(world, tolerance=SENSING_TOLERANCE):
-            boxes = cell_boxes(cell.sensors[reading.sensor], reading)
-            sensors.append(
-                SensorCells(
-                    reading.sensor,
-                    [(T, size) for T, size, _ in boxes],
-                    np.zeros(1),
-                    np.array([[sensed for *_, sensed in boxes]]),
-                )
-            )
-    without = [n.name for n in nodes if n.kind in ("object", "device", "link") and n.mesh is None]
+    without = _without_geometry(nodes)
     info = {
         "title": title,
         "t_end": 0.0,
@@ -241,37 +235,29 @@ def _highlight(nodes: list[SceneNode], result) -> None:
                 node.highlight.append((c.t_start, max(c.t_end, c.t_start + result.dt)))
 
 
-def _sensor_readings(cell, world, result, joints, stretches, period, progress):
+def _sensor_readings(world, result, joints, stretches, period, progress):
     """Every sensor's cells, read at samples at most ``period`` apart (and at each stretch's
     first and last sample)."""
-    if not cell.sensors:
+    if not world.cell.sensors:
         return []
-    from ..sensing.render import cell_boxes
-    from ..sensing.sensors import read_sensors
-    from ..units import SENSING_TOLERANCE
-
-    times = result.times
     every = max(1, int(round(period / result.dt)))
     picks = []
     for snap, a, b in stretches:
         picks += [(snap, k) for k in sorted(set(range(a, b, every)) | {b - 1})]
-    names = list(cell.sensors)
-    when, grids = [], {name: [] for name in names}
-    boxes = {}
+    readings = []
     for done, (snap, k) in enumerate(picks):
         world.restore(snap)
         for d, q in joints.items():
             world.set_joints(d, q[k])
-        for reading in read_sensors(world, tolerance=SENSING_TOLERANCE):
-            cells = cell_boxes(cell.sensors[reading.sensor], reading)
-            boxes.setdefault(reading.sensor, [(T, size) for T, size, _ in cells])
-            grids[reading.sensor].append([sensed for *_, sensed in cells])
-        when.append(float(times[k]))
+        readings.append(_read_cells(world))
         if progress:
             progress(done + 1, len(picks), "sensor readings")
+    when = np.array([float(result.times[k]) for _, k in picks])
     return [
-        SensorCells(name, boxes[name], np.array(when), np.array(grids[name], dtype=bool))
-        for name in names
+        SensorCells(
+            name, boxes, when, np.array([reading[name][1] for reading in readings], dtype=bool)
+        )
+        for name, (boxes, _) in readings[0].items()
     ]
 
 
@@ -293,9 +279,9 @@ def _spans(step: np.ndarray, times: np.ndarray) -> list[list]:
     return [[round(float(times[k]), 6), int(step[k])] for k in starts]
 
 
-def viewer_info(result, without_geometry: list[str]) -> dict:
+def viewer_info(result, without_geometry: list[str], labels: list[dict]) -> dict:
     """What the viewer shows beside the 3D view (JSON-ready): per device its joint values, its
-    steps with their ``file:line``, and the timeline's marks."""
+    steps with their ``file:line``, the timeline's marks, and the labels (:func:`_labels`)."""
     times = np.asarray(result.times, dtype=float)
     devices = {}
     for d, tl in result.devices.items():
@@ -342,5 +328,5 @@ def viewer_info(result, without_geometry: list[str]) -> dict:
         "devices": devices,
         "marks": marks,
         "without_geometry": without_geometry,
-        "labels": [],  # run_scene fills them in from the cell
+        "labels": labels,
     }
