@@ -174,7 +174,11 @@ class Emitter:
 
     # ---------------------------------------------------------------- compile
     def compile(
-        self, name: str, groups: Sequence[tuple[str, int]], outputs: Sequence[Num]
+        self,
+        name: str,
+        groups: Sequence[tuple[str, int]],
+        outputs: Sequence[Num],
+        shapes: Sequence[tuple[int, ...]] | None = None,
     ) -> Generated:
         """Wrap the program up: inputs in ``groups``, results ``outputs``.
 
@@ -187,6 +191,9 @@ class Emitter:
             array of shape (6,) or (N, 6).
         outputs : sequence of Num
             Results, in order; names or folded constants.
+        shapes : sequence of tuple of int, optional
+            The arrays a single state's results come in (:attr:`Generated.direct`), splitting
+            ``outputs`` in order (row-major); default one array of all of them.
         """
         args = [f"{prefix}{i}" for prefix, size in groups for i in range(size)]
         body = "\n".join(self.lines)
@@ -195,7 +202,7 @@ class Emitter:
             f"def {name}({', '.join(args)}):\n{body}\n    return "
             f"({ret}{',' if len(outputs) == 1 else ''})\n"
         )
-        return Generated(name, source, list(groups), list(self.ops), list(outputs))
+        return Generated(name, source, list(groups), list(self.ops), list(outputs), shapes)
 
 
 FUNCTIONS = ("cos", "sin", "sqrt")
@@ -215,6 +222,10 @@ CHUNK = 2048  # samples per block: temporaries stay in cache and reuse the alloc
 _empty = np.empty
 
 
+def _refuse(*inputs):
+    return None  # no compiled kernel: always the general path
+
+
 class Generated:
     """A generated function: its operations, its Python source, and how to run it.
 
@@ -229,6 +240,7 @@ class Generated:
         groups: list[tuple[str, int]],
         ops: list[tuple[str, tuple]],
         outputs: list[Num],
+        shapes: Sequence[tuple[int, ...]] | None = None,
     ):
         self.name = name
         self.source = source
@@ -236,8 +248,19 @@ class Generated:
         self.ops = ops
         self.outputs = outputs
         self.operations = len(ops)
+        #: the arrays :attr:`direct` returns, splitting the outputs in order
+        self.shapes = [tuple(shape) for shape in shapes] if shapes else [(len(outputs),)]
+        if sum(math.prod(shape) for shape in self.shapes) != len(outputs):
+            raise ValueError(f"{name}: shapes {self.shapes} do not hold {len(outputs)} outputs")
         self._python: tuple[Callable, Callable] | None = None
         self._kernel: Any = None  # kernels.Kernel once looked up; False when unavailable
+        #: ``direct(*inputs)``: one state the quickest way - an array of each of
+        #: :attr:`shapes` (the array itself when there is one, else a tuple) when the compiled
+        #: kernel takes ``inputs`` as they are (exact float64 arrays, 1-D, of their groups'
+        #: sizes), else None and the caller goes through :meth:`evaluate`, which converts or
+        #: reports.  Built on the first call (an attribute, not a method: a single state pays
+        #: for every Python frame).
+        self.direct: Callable[..., Any] = self._first_direct
 
     @property
     def n_out(self) -> int:
@@ -264,18 +287,39 @@ class Generated:
             self._kernel = compiled_kernel(self) or False
         return self._kernel or None
 
-    def direct(self, *inputs: np.ndarray) -> np.ndarray | None:
-        """One state the quickest way: the (n_out,) result when the compiled kernel takes
-        ``inputs`` as they are (exact float64 arrays, 1-D, of their groups' sizes), else None
-        and the caller goes through :meth:`evaluate`, which converts or reports."""
-        kernel = self._kernel
-        if kernel is None:
-            kernel = self.kernel()
-        if kernel and kernel.direct is not None:
-            out = _empty(self.n_out)
-            if kernel.direct(*inputs, out) is out:
-                return out
-        return None
+    def _first_direct(self, *inputs: np.ndarray):
+        self.direct = self._direct_call()
+        return self.direct(*inputs)
+
+    def _direct_call(self) -> Callable[..., Any]:
+        """The function behind :attr:`direct`: the kernel's direct entry with fresh outputs."""
+        kernel = self.kernel()
+        entry = kernel.direct if kernel else None
+        if entry is None:
+            return _refuse
+        shapes = self.shapes
+        if len(shapes) == 1:
+            (shape,) = shapes
+
+            def one(*inputs):
+                out = _empty(shape)
+                return out if entry(*inputs, out) is out else None
+
+            return one
+        if len(shapes) == 2:
+            first, second = shapes
+
+            def two(*inputs):
+                a, b = _empty(first), _empty(second)
+                return (a, b) if entry(*inputs, a, b) is a else None
+
+            return two
+
+        def several(*inputs):
+            outs = tuple(_empty(shape) for shape in shapes)
+            return outs if entry(*inputs, *outs) is outs[0] else None
+
+        return several
 
     def evaluate(self, inputs: Sequence[np.ndarray], compiled: bool = True) -> np.ndarray:
         """Run on one state or a batch.

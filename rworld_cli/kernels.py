@@ -45,7 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
-KERNEL_FORMAT = 3  # bump when the IR layout changes: old cache files are then never looked up
+KERNEL_FORMAT = 4  # bump when the IR layout changes: old cache files are then never looked up
 PARALLEL_MIN = 16384  # samples; below this a second thread costs more than it saves
 
 _LOCK = threading.RLock()
@@ -155,7 +155,7 @@ def kernel_ir(gen, symbol: str) -> str:
     single += [f"  call void @{symbol}({', '.join(arguments)})", "  ret void", "}"]
     body = (
         single
-        + _direct_ir(symbol, [size for _, size in gen.groups], gen.n_out)
+        + _direct_ir(symbol, [size for _, size in gen.groups], gen.shapes)
         + [
             f"define void @{symbol}({', '.join(params)}) nounwind noinline {{",
             "entry:",
@@ -214,29 +214,34 @@ def kernel_ir(gen, symbol: str) -> str:
 
 
 # numpy's array struct (PyArrayObject_fields, numpy/ndarraytypes.h), 64-bit: the byte offsets the
-# direct entry reads.  Checked against a live array before the entry is used (_layout_holds).
+# direct entry reads.  Checked against live arrays before the entry is used (_layout_holds).
 _DATA, _NDIM, _DIMS, _STRIDES, _DESCR, _FLAGS = 16, 24, 32, 40, 56, 64
-_WRITEABLE = 0x0400  # NPY_ARRAY_WRITEABLE
+_C_CONTIGUOUS, _ALIGNED, _WRITEABLE = 0x0001, 0x0100, 0x0400  # NPY_ARRAY_* flags
 _TYPE = 8  # ob_type in every object's head
 _API = ("Py_IncRef", "ndarray", "float64", "None")  # the addresses the direct entry needs
 
 
-def _direct_ir(symbol: str, sizes: list[int], n_out: int) -> list[str]:
-    """A METH_FASTCALL entry for one state: ``symbol_direct(*inputs, out)``.
+def _direct_ir(symbol: str, sizes: list[int], shapes: list[tuple[int, ...]]) -> list[str]:
+    """A METH_FASTCALL entry for one state: ``symbol_direct(*inputs, *outputs)``.
 
     ``PyObject *symbol_direct(PyObject *self, PyObject *const *args, Py_ssize_t nargs)`` runs the
-    kernel on the arrays themselves and returns ``out`` when every argument is an exact
-    ``numpy.ndarray`` of float64, 1-D, unit stride, aligned, of its group's size (``out``
-    writeable), else ``None`` with nothing written: the caller then takes the general path,
-    which converts or reports.  Python objects are only read here, and the one reference
-    returned is taken through ``Py_IncRef``; the addresses it needs come from the table
-    ``symbol_api`` (filled in after loading, since they change from process to process).
+    kernel on the arrays themselves and returns the first output when every argument is an
+    exact ``numpy.ndarray`` of float64 - each input 1-D, unit stride, aligned, of its group's
+    size; each output C-contiguous, aligned, writeable, of its shape in ``shapes`` (which
+    split the results in order) - else ``None`` with nothing written: the caller then takes
+    the general path, which converts or reports.  Several outputs are filled from one row on
+    the stack.  Python objects are only read here, and the one reference returned is taken
+    through ``Py_IncRef``; the addresses it needs come from the table ``symbol_api`` (filled
+    in after loading, since they change from process to process).
     """
-    count = len(sizes) + 1
+    n_in = len(sizes)
+    count = n_in + len(shapes)
+    n_out = sum(int(np.prod(shape)) for shape in shapes)
     ir = [
         f"@{symbol}_api = global [{len(_API)} x i64] zeroinitializer",
         f"define ptr @{symbol}_direct(ptr %self, ptr %args, i64 %nargs) nounwind {{",
         "entry:",
+        f"  %row = alloca [{n_out} x double], align 16",
         f"  %incref = load ptr, ptr @{symbol}_api",
         f"  %p_type = getelementptr i64, ptr @{symbol}_api, i64 1",
         "  %ndarray = load i64, ptr %p_type",
@@ -247,7 +252,8 @@ def _direct_ir(symbol: str, sizes: list[int], n_out: int) -> list[str]:
         f"  %count_ok = icmp eq i64 %nargs, {count}",
         "  br i1 %count_ok, label %arg0, label %fail",
     ]
-    for k, size in enumerate(sizes + [n_out]):
+    wanted = [(size,) for size in sizes] + [tuple(shape) for shape in shapes]
+    for k, shape in enumerate(wanted):
         nxt = f"arg{k + 1}" if k + 1 < count else "run"
         ir += [
             f"arg{k}:",
@@ -260,50 +266,73 @@ def _direct_ir(symbol: str, sizes: list[int], n_out: int) -> list[str]:
             f"nd{k}:",  # an ndarray: its fields can be read
             f"  %pn{k} = getelementptr i8, ptr %o{k}, i64 {_NDIM}",
             f"  %n{k} = load i32, ptr %pn{k}",
-            f"  %nok{k} = icmp eq i32 %n{k}, 1",
+            f"  %nok{k} = icmp eq i32 %n{k}, {len(shape)}",
             f"  br i1 %nok{k}, label %shape{k}, label %fail",
-            f"shape{k}:",  # 1-D: its one dimension and stride can be read
+            f"shape{k}:",  # of the right rank: its dimensions can be read
             f"  %ppd{k} = getelementptr i8, ptr %o{k}, i64 {_DIMS}",
             f"  %pd{k} = load ptr, ptr %ppd{k}",
-            f"  %d{k} = load i64, ptr %pd{k}",
-            f"  %dok{k} = icmp eq i64 %d{k}, {size}",
-            f"  %pps{k} = getelementptr i8, ptr %o{k}, i64 {_STRIDES}",
-            f"  %ps{k} = load ptr, ptr %pps{k}",
-            f"  %s{k} = load i64, ptr %ps{k}",
-            f"  %sok{k} = icmp eq i64 %s{k}, 8",
             f"  %pe{k} = getelementptr i8, ptr %o{k}, i64 {_DESCR}",
             f"  %e{k} = load i64, ptr %pe{k}",
-            f"  %eok{k} = icmp eq i64 %e{k}, %float64",
+            f"  %ok{k}_e = icmp eq i64 %e{k}, %float64",
+        ]
+        last = f"%ok{k}_e"
+        for axis, extent in enumerate(shape):
+            ir += [
+                f"  %pd{k}_{axis} = getelementptr i64, ptr %pd{k}, i64 {axis}",
+                f"  %d{k}_{axis} = load i64, ptr %pd{k}_{axis}",
+                f"  %dok{k}_{axis} = icmp eq i64 %d{k}_{axis}, {extent}",
+                f"  %ok{k}_{axis} = and i1 {last}, %dok{k}_{axis}",
+            ]
+            last = f"%ok{k}_{axis}"
+        ir += [
             f"  %ppx{k} = getelementptr i8, ptr %o{k}, i64 {_DATA}",
             f"  %x{k} = load ptr, ptr %ppx{k}",
-            f"  %xi{k} = ptrtoint ptr %x{k} to i64",
-            f"  %xa{k} = and i64 %xi{k}, 7",
-            f"  %aok{k} = icmp eq i64 %xa{k}, 0",
-            f"  %ok1_{k} = and i1 %dok{k}, %sok{k}",
-            f"  %ok2_{k} = and i1 %eok{k}, %aok{k}",
         ]
-        if k == len(sizes):  # the output must also be writeable (NPY_ARRAY_WRITEABLE)
+        if k < n_in:  # an input: unit stride and an aligned address
+            ir += [
+                f"  %pps{k} = getelementptr i8, ptr %o{k}, i64 {_STRIDES}",
+                f"  %ps{k} = load ptr, ptr %pps{k}",
+                f"  %s{k} = load i64, ptr %ps{k}",
+                f"  %sok{k} = icmp eq i64 %s{k}, 8",
+                f"  %xi{k} = ptrtoint ptr %x{k} to i64",
+                f"  %xa{k} = and i64 %xi{k}, 7",
+                f"  %aok{k} = icmp eq i64 %xa{k}, 0",
+                f"  %ok{k}_s = and i1 {last}, %sok{k}",
+                f"  %ok{k} = and i1 %ok{k}_s, %aok{k}",
+            ]
+        else:  # an output: numpy's flags say C-contiguous, aligned and writeable
+            mask = _C_CONTIGUOUS | _ALIGNED | _WRITEABLE
             ir += [
                 f"  %pf{k} = getelementptr i8, ptr %o{k}, i64 {_FLAGS}",
                 f"  %f{k} = load i32, ptr %pf{k}",
-                f"  %fw{k} = and i32 %f{k}, {_WRITEABLE}",
-                f"  %wok{k} = icmp ne i32 %fw{k}, 0",
-                f"  %ok3_{k} = and i1 %ok2_{k}, %wok{k}",
-                f"  %ok{k} = and i1 %ok1_{k}, %ok3_{k}",
+                f"  %fm{k} = and i32 %f{k}, {mask}",
+                f"  %fok{k} = icmp eq i32 %fm{k}, {mask}",
+                f"  %ok{k} = and i1 {last}, %fok{k}",
             ]
-        else:
-            ir.append(f"  %ok{k} = and i1 %ok1_{k}, %ok2_{k}")
         ir.append(f"  br i1 %ok{k}, label %{nxt}, label %fail")
-    arguments = ["i64 1"] + [f"ptr %x{k}, i64 0" for k in range(count)]
+    arguments = ["i64 1"] + [f"ptr %x{k}, i64 0" for k in range(n_in)]
+    ir.append("run:")
+    if len(shapes) == 1:  # straight into the one output
+        ir.append(f"  call void @{symbol}({', '.join(arguments + [f'ptr %x{n_in}, i64 0'])})")
+    else:  # into the row, then each output's part of it
+        ir.append(f"  call void @{symbol}({', '.join(arguments + ['ptr %row, i64 0'])})")
+        offset = 0
+        for k, shape in zip(range(n_in, count), shapes):
+            size = int(np.prod(shape))
+            ir += [
+                f"  %part{k} = getelementptr double, ptr %row, i64 {offset}",
+                f"  call void @llvm.memcpy.p0.p0.i64(ptr %x{k}, ptr %part{k}, i64 {8 * size}, "
+                "i1 false)",
+            ]
+            offset += size
     ir += [
-        "run:",
-        f"  call void @{symbol}({', '.join(arguments)})",
-        f"  call void %incref(ptr %o{len(sizes)})",
-        f"  ret ptr %o{len(sizes)}",
+        f"  call void %incref(ptr %o{n_in})",
+        f"  ret ptr %o{n_in}",
         "fail:",
         "  call void %incref(ptr %none)",
         "  ret ptr %none",
         "}",
+        "declare void @llvm.memcpy.p0.p0.i64(ptr, ptr, i64, i1)",
     ]
     return ir
 
@@ -458,26 +487,32 @@ _METH_FASTCALL = 0x0080
 
 @functools.cache
 def _layout_holds() -> bool:
-    """Whether a live float array has its fields at the offsets the direct entry reads (numpy's
+    """Whether live float arrays have their fields at the offsets the direct entry reads (numpy's
     struct has been stable since 1.7; a build where it is not just uses the packing path)."""
-    a = np.zeros(3)
-    base = id(a)
 
-    def word(offset: int, kind=ctypes.c_int64) -> int:
-        return kind.from_address(base + offset).value
+    def word(a: np.ndarray, offset: int, kind=ctypes.c_int64) -> int:
+        return kind.from_address(id(a) + offset).value
 
+    def flags(a: np.ndarray) -> int:
+        return word(a, _FLAGS, ctypes.c_int32)
+
+    a, b = np.zeros(3), np.zeros((2, 3))
     holds = (
         ctypes.sizeof(ctypes.c_void_p) == 8
-        and word(_TYPE) == id(np.ndarray)
-        and word(_DATA) == _address(a)
-        and word(_NDIM, ctypes.c_int32) == 1
-        and ctypes.c_int64.from_address(word(_DIMS)).value == 3
-        and ctypes.c_int64.from_address(word(_STRIDES)).value == 8
-        and word(_DESCR) == id(a.dtype) == id(_FLOAT)
-        and bool(word(_FLAGS, ctypes.c_int32) & _WRITEABLE)
+        and word(a, _TYPE) == id(np.ndarray)
+        and word(a, _DATA) == _address(a)
+        and word(a, _NDIM, ctypes.c_int32) == 1
+        and ctypes.c_int64.from_address(word(a, _DIMS)).value == 3
+        and ctypes.c_int64.from_address(word(a, _STRIDES)).value == 8
+        and word(a, _DESCR) == id(a.dtype) == id(_FLOAT)
+        and word(b, _NDIM, ctypes.c_int32) == 2
+        and [ctypes.c_int64.from_address(word(b, _DIMS) + 8 * i).value for i in (0, 1)] == [2, 3]
+        and all(flags(x) & _C_CONTIGUOUS and flags(x) & _ALIGNED for x in (a, b))
+        and not flags(b.T) & _C_CONTIGUOUS
+        and bool(flags(a) & _WRITEABLE)
     )
     a.flags.writeable = False
-    return holds and not word(_FLAGS, ctypes.c_int32) & _WRITEABLE
+    return holds and not flags(a) & _WRITEABLE
 
 
 _FLOAT = np.dtype(float)
@@ -515,21 +550,28 @@ class Kernel:
         self.name = gen.name
         self.sizes = [size for _, size in gen.groups]
         self.n_out = gen.n_out
+        #: the outputs of :attr:`direct`, splitting the results in order
+        self.shapes = list(gen.shapes)
         argtypes = [ctypes.c_int64] + [ctypes.c_void_p, ctypes.c_int64] * (len(self.sizes) + 1)
         self._fn = ctypes.CFUNCTYPE(None, *argtypes)(address)  # releases the GIL while it runs
         self._single = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p)(single_address)
         self._local = threading.local()
-        #: ``direct(*inputs, out)``: one state straight from float arrays into ``out``; returns
-        #: ``out``, or None (nothing written) when an argument is not an exact, aligned, 1-D
-        #: float64 array of its size.  None when unavailable.
+        #: ``direct(*inputs, *outputs)``: one state straight from float arrays into the outputs
+        #: (one array of each shape in :attr:`shapes`); returns the first output, or None
+        #: (nothing written) when an input is not an exact, aligned, 1-D float64 array of its
+        #: size or an output not a C-contiguous, aligned, writeable float64 array of its shape.
+        #: None when unavailable.
         self.direct = _direct_function(f"{gen.name}", direct, api)
+        # __call__'s one-state shortcut: the whole row as one output
+        self._flat_direct = self.direct if self.shapes == [(self.n_out,)] else None
 
     def single(self, inputs) -> np.ndarray:
         """One state: every input 1-D of its group's size; returns a new (n_out,) array.
 
         Float arrays of the right sizes go straight in through :attr:`direct` (in
-        :meth:`__call__`); other inputs (other dtypes, strides) are packed here into a per-thread
-        row whose address was taken once (taking an array's address costs numpy 1.6 us)."""
+        :meth:`__call__`, when its one output is the whole row); other inputs (other dtypes,
+        strides) are packed here into a per-thread row whose address was taken once (taking an
+        array's address costs numpy 1.6 us)."""
         try:
             buffer, output, addresses = self._local.buffers
         except AttributeError:  # first call on this thread: its own rows, addresses taken once
@@ -550,7 +592,7 @@ class Kernel:
         return output.copy()
 
     def __call__(self, inputs) -> np.ndarray:
-        direct = self.direct
+        direct = self._flat_direct
         if direct is not None:  # one state of float arrays: no checks in Python
             out = _empty(self.n_out)
             if direct(*inputs, out) is out:

@@ -269,9 +269,9 @@ class DeviceDynamics:
 
     def mass_matrix(self, q) -> np.ndarray:
         """Joint-space inertia ``M(q)`` including the armature; shape (n, n) or (N, n, n)."""
-        flat = self._gen("mass").direct(q)  # one state of floats, checked by the kernel
-        if flat is not None:
-            return flat.reshape(self.n, self.n)
+        M = self._gen("mass").direct(q)  # one state of floats, checked by the kernel
+        if M is not None:
+            return M
         (q,) = self._check(q)
         flat = self._gen("mass").evaluate([q])
         return flat.reshape(flat.shape[:-1] + (self.n, self.n))

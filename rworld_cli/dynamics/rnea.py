@@ -244,6 +244,7 @@ def generate_rnea(
         outputs = _cholesky_solve(em, _mass_matrix(em, device, inertials, q, armature), rhs)
     else:
         raise ValueError(f"unknown mode {mode!r}; one of {', '.join(MODES)}")
-    gen = em.compile(f"rnea_{mode}", groups, outputs)
+    shapes = [(n, n)] if mode == "mass" else None  # a single state's M comes as a matrix
+    gen = em.compile(f"rnea_{mode}", groups, outputs, shapes)
     _CACHE[key] = gen
     return gen

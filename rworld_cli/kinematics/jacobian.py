@@ -78,7 +78,9 @@ def _generate(device: DeviceModel, mount: ToolMount, with_jacobian: bool) -> Gen
             else:
                 cols.append(tuple(em.cross(axis, em.vsub(pt, point))) + tuple(axis))
         outputs += [cols[c][r] for r in range(6) for c in range(n)]  # row-major 6 x n
-    return em.compile("fk_jacobian" if with_jacobian else "fk", [("q", n)], outputs)
+    # a single state's results come as T (4, 4) and J (6, n)
+    shapes = [(4, 4), (6, n)] if with_jacobian else [(4, 4)]
+    return em.compile("fk_jacobian" if with_jacobian else "fk", [("q", n)], outputs, shapes)
 
 
 _CACHE: dict[tuple, Generated] = {}
@@ -129,8 +131,12 @@ def tool_pose(device: DeviceModel, q, mount: ToolMount | None = None) -> np.ndar
     -------
     ndarray, shape (4, 4) or (N, 4, 4)
     """
+    program = generated(device, mount, False)
+    T = program.direct(q)  # one state of floats, checked by the kernel
+    if T is not None:
+        return T
     q = _check_q(device, q)
-    flat = generated(device, mount, False).evaluate([q])
+    flat = program.evaluate([q])
     return flat.reshape(flat.shape[:-1] + (4, 4))
 
 
@@ -152,12 +158,12 @@ def tool_pose_and_jacobian(
         Rows ``[vx, vy, vz, wx, wy, wz]`` of the tool origin, base frame.
     """
     program = generated(device, mount, True)
-    n = program.groups[0][1]  # the joint count
-    flat = program.direct(q)  # one state of floats, checked by the kernel
-    if flat is not None:
-        return flat[:16].reshape(4, 4), flat[16:].reshape(6, n)
+    pose_and_jacobian = program.direct(q)  # one state of floats, checked by the kernel
+    if pose_and_jacobian is not None:
+        return pose_and_jacobian
     q = _check_q(device, q)
     flat = program.evaluate([q])
+    n = device.dof
     if q.ndim == 1:
         return flat[:16].reshape(4, 4), flat[16:].reshape(6, n)
     return flat[:, :16].reshape(-1, 4, 4), flat[:, 16:].reshape(-1, 6, n)

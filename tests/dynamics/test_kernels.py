@@ -208,6 +208,56 @@ def test_the_direct_entry_takes_only_what_it_can_read_and_leaks_nothing():
     assert abs(sys.getrefcount(None) - counts[2]) < 100  # None's count moves with the runtime
 
 
+def test_the_direct_entry_fills_shaped_outputs_and_refuses_the_wrong_ones():
+    """Tool pose and Jacobian come as (4, 4) and (6, n), the mass matrix as (n, n): the same bits
+    as the batch path; outputs of another shape, order, layout or dtype are refused untouched."""
+    device = load_cell(REPO / "workcells" / "ur5").cell.devices["ur5"]
+    mount = ToolMount(
+        device.dof, np.array([[0, -1, 0, 0.01], [1, 0, 0, 0.02], [0, 0, 1, 0.1], [0, 0, 0, 1.0]])
+    )
+    program = generated(device, mount, True)
+    kernel = program.kernel()
+    assert kernel.shapes == [(4, 4), (6, 6)]
+    q = np.random.default_rng(5).uniform(-2, 2, 6)
+    flat = program.evaluate([q[None]])[0]  # the batch path
+    T, J = program.direct(q)
+    assert T.shape == (4, 4) and J.shape == (6, 6) and T.flags.owndata and J.flags.owndata
+    assert np.array_equal(T.ravel(), flat[:16]) and np.array_equal(J.ravel(), flat[16:])
+    M = DeviceDynamics(device).mass_matrix(q)
+    assert M.shape == (6, 6)
+    assert np.array_equal(M, DeviceDynamics(device).mass_matrix(q[None])[0])
+
+    a, b = np.full((4, 4), 7.0), np.full((6, 6), 7.0)
+    assert kernel.direct(q, a, b) is a and np.array_equal(a, T) and np.array_equal(b, J)
+    readonly = np.zeros((6, 6))
+    readonly.flags.writeable = False
+    refused = {
+        "one flat output": (q, np.empty(52)),
+        "outputs swapped": (q, np.empty((6, 6)), np.empty((4, 4))),
+        "flat first output": (q, np.empty(16), np.empty((6, 6))),
+        "transposed": (q, np.empty((4, 4)), np.empty((6, 6)).T),
+        "Fortran order": (q, np.empty((4, 4)), np.asfortranarray(np.empty((6, 6)))),
+        "strided": (q, np.empty((4, 8))[:, ::2], np.empty((6, 6))),
+        "float32": (q, np.empty((4, 4), np.float32), np.empty((6, 6))),
+        "read-only": (q, np.empty((4, 4)), readonly),
+        "3-D": (q, np.empty((1, 4, 4)), np.empty((6, 6))),
+        "one output short": (q, np.empty((4, 4))),
+    }
+    for label, arguments in refused.items():
+        before = [x.copy() for x in arguments[1:]]
+        assert kernel.direct(*arguments) is None, label
+        assert all(np.array_equal(x, y, equal_nan=True) for x, y in zip(arguments[1:], before)), (
+            label
+        )
+    # what the entry refuses (a list, ints) still computes, through the general path
+    from rworld_cli.kinematics.jacobian import tool_pose, tool_pose_and_jacobian
+
+    T2, J2 = tool_pose_and_jacobian(device, q.tolist(), mount)
+    assert np.array_equal(T2, T) and np.array_equal(J2, J)
+    assert np.array_equal(tool_pose(device, q, mount), T)
+    assert np.array_equal(tool_pose(device, q.tolist(), mount), T)
+
+
 def test_constants_are_written_bit_exact():
     for x in (0.1, -1e-300, 2.0 / 3.0, 6.123233995736766e-17, 1e308):
         bits = kernels._literal(x)
