@@ -560,7 +560,8 @@ class Kernel:
         #: (one array of each shape in :attr:`shapes`); returns the first output, or None
         #: (nothing written) when an input is not an exact, aligned, 1-D float64 array of its
         #: size or an output not a C-contiguous, aligned, writeable float64 array of its shape.
-        #: None when unavailable.
+        #: The outputs must not share memory with the inputs (the kernel's pointers are
+        #: ``noalias``); :attr:`Generated.direct` passes fresh ones.  None when unavailable.
         self.direct = _direct_function(f"{gen.name}", direct, api)
         # __call__'s one-state shortcut: the whole row as one output
         self._flat_direct = self.direct if self.shapes == [(self.n_out,)] else None
