@@ -172,22 +172,42 @@ def winding_number(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     ----------
     points : ndarray, shape (M, 3)
     triangles : ndarray, shape (F, 3, 3)
+        Corners in the points' frame [m], outward-facing (counter-clockwise seen from outside).
+
+    Returns
+    -------
+    ndarray, shape (M,)
+
+    Why components: each coordinate of each corner is a contiguous (F,) row, so every step
+    is one ufunc over a (block, F) array - no (block, F, 3) strided temporaries, no
+    ``norm``/``cross``/``einsum`` dispatch - and blocks of 2^16 pairs keep the temporaries
+    in cache: 7x the speed of the vector form on a 2 880-triangle part, 400 points (one run).
     """
+    points = np.asarray(points, dtype=float)
     out = np.empty(len(points))
-    for start in range(0, len(points), 256):  # blocks of points bound the (block, F) temporaries
-        p = points[start : start + 256]
-        a = triangles[None, :, 0, :] - p[:, None, :]
-        b = triangles[None, :, 1, :] - p[:, None, :]
-        c = triangles[None, :, 2, :] - p[:, None, :]
-        la, lb, lc = (np.linalg.norm(x, axis=-1) for x in (a, b, c))
-        num = np.einsum("mfi,mfi->mf", a, np.cross(b, c))
+    if len(points) == 0:
+        return out
+    corners = [
+        np.ascontiguousarray(triangles[:, k, i], dtype=float) for k in range(3) for i in range(3)
+    ]
+    block = max(1, 2**16 // max(1, len(triangles)))
+    for start in range(0, len(points), block):
+        p = points[start : start + block]
+        px, py, pz = p[:, 0, None], p[:, 1, None], p[:, 2, None]
+        ax, ay, az = corners[0] - px, corners[1] - py, corners[2] - pz
+        bx, by, bz = corners[3] - px, corners[4] - py, corners[5] - pz
+        cx, cy, cz = corners[6] - px, corners[7] - py, corners[8] - pz
+        la = np.sqrt(ax * ax + ay * ay + az * az)
+        lb = np.sqrt(bx * bx + by * by + bz * bz)
+        lc = np.sqrt(cx * cx + cy * cy + cz * cz)
+        num = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
         den = (
             la * lb * lc
-            + np.einsum("mfi,mfi->mf", a, b) * lc
-            + np.einsum("mfi,mfi->mf", b, c) * la
-            + np.einsum("mfi,mfi->mf", c, a) * lb
+            + (ax * bx + ay * by + az * bz) * lc
+            + (bx * cx + by * cy + bz * cz) * la
+            + (cx * ax + cy * ay + cz * az) * lb
         )
-        out[start : start + 256] = (2.0 * np.arctan2(num, den)).sum(axis=1) / (4 * np.pi)
+        out[start : start + block] = np.arctan2(num, den).sum(axis=1) / (2 * np.pi)
     return out
 
 

@@ -107,6 +107,29 @@ def test_winding_number_inside_outside():
     np.testing.assert_allclose(w, [1, 0, 1, 0], atol=1e-9)
 
 
+def test_winding_number_equals_the_solid_angle_sum_and_the_mesh_containment():
+    """The component form against Van Oosterom & Strackee written with vectors, on many blocks
+    (more points than a block holds), and against trimesh's containment test."""
+    vertices, faces, _ = holed_box()
+    tri = vertices[faces]
+    points = np.random.default_rng(8).uniform(-0.07, 0.07, (700, 3))
+    a, b, c = (tri[None, :, k, :] - points[:, None, :] for k in range(3))
+    la, lb, lc = (np.linalg.norm(x, axis=-1) for x in (a, b, c))
+    num = np.einsum("mfi,mfi->mf", a, np.cross(b, c))
+    den = (
+        la * lb * lc
+        + np.einsum("mfi,mfi->mf", a, b) * lc
+        + np.einsum("mfi,mfi->mf", b, c) * la
+        + np.einsum("mfi,mfi->mf", c, a) * lb
+    )
+    reference = (2.0 * np.arctan2(num, den)).sum(axis=1) / (4 * np.pi)
+    w = winding_number(points, tri)
+    assert np.abs(w - reference).max() < 1e-12
+    inside = trimesh.Trimesh(vertices, faces).contains(points)
+    assert np.array_equal(w > 0.5, inside)
+    assert winding_number(np.empty((0, 3)), tri).shape == (0,)
+
+
 def test_obb_broad_phase_agrees_with_overlap_volumes():
     import manifold3d as m3
 
