@@ -192,8 +192,8 @@ class Emitter:
         outputs : sequence of Num
             Results, in order; names or folded constants.
         shapes : sequence of tuple of int, optional
-            The arrays a single state's results come in (:attr:`Generated.direct`), splitting
-            ``outputs`` in order (row-major); default one array of all of them.
+            The one or two arrays a single state's results come in (:attr:`Generated.direct`),
+            splitting ``outputs`` in order (row-major); default one array of all of them.
         """
         args = [f"{prefix}{i}" for prefix, size in groups for i in range(size)]
         body = "\n".join(self.lines)
@@ -250,12 +250,14 @@ class Generated:
         self.operations = len(ops)
         #: the arrays :attr:`direct` returns, splitting the outputs in order
         self.shapes = [tuple(shape) for shape in shapes] if shapes else [(len(outputs),)]
-        if sum(math.prod(shape) for shape in self.shapes) != len(outputs):
-            raise ValueError(f"{name}: shapes {self.shapes} do not hold {len(outputs)} outputs")
+        if len(self.shapes) > 2 or sum(map(math.prod, self.shapes)) != len(outputs):
+            raise ValueError(
+                f"{name}: shapes {self.shapes} are not one or two arrays of {len(outputs)} outputs"
+            )
         self._python: tuple[Callable, Callable] | None = None
         self._kernel: Any = None  # kernels.Kernel once looked up; False when unavailable
         #: ``direct(*inputs)``: one state the quickest way - an array of each of
-        #: :attr:`shapes` (the array itself when there is one, else a tuple) when the compiled
+        #: :attr:`shapes` (the array itself when there is one, else a pair) when the compiled
         #: kernel takes ``inputs`` as they are (exact float64 arrays, 1-D, of their groups'
         #: sizes), else None and the caller goes through :meth:`evaluate`, which converts or
         #: reports.  Built on the first call (an attribute, not a method: a single state pays
@@ -306,20 +308,13 @@ class Generated:
                 return out if entry(*inputs, out) is out else None
 
             return one
-        if len(shapes) == 2:
-            first, second = shapes
+        first, second = shapes
 
-            def two(*inputs):
-                a, b = _empty(first), _empty(second)
-                return (a, b) if entry(*inputs, a, b) is a else None
+        def two(*inputs):
+            a, b = _empty(first), _empty(second)
+            return (a, b) if entry(*inputs, a, b) is a else None
 
-            return two
-
-        def several(*inputs):
-            outs = tuple(_empty(shape) for shape in shapes)
-            return outs if entry(*inputs, *outs) is outs[0] else None
-
-        return several
+        return two
 
     def evaluate(self, inputs: Sequence[np.ndarray], compiled: bool = True) -> np.ndarray:
         """Run on one state or a batch.

@@ -70,10 +70,6 @@ def combine_inertials(a: Inertial, b: Inertial) -> Inertial:
     return Inertial.combine([(a, np.eye(4)), (b, np.eye(4))])
 
 
-_NDARRAY = np.ndarray
-_FLOAT = np.dtype(float)
-
-
 def _finite(x: np.ndarray) -> bool:
     """Whether a short 1-D float array is finite, by its sum (False also when the sum of
     finite entries overflows: callers then take their full check)."""
@@ -82,11 +78,7 @@ def _finite(x: np.ndarray) -> bool:
 
 def _gravity(gravity, batch: int | None) -> np.ndarray:
     """Gravity as an input row (3,) or, per sample, (N, 3); checked finite."""
-    g = (
-        gravity
-        if gravity.__class__ is _NDARRAY and gravity.dtype is _FLOAT
-        else np.asarray(gravity, dtype=float)
-    )
+    g = np.asarray(gravity, dtype=float)
     if g.shape == (3,):
         x, y, z = g.tolist()  # three floats: cheaper than a numpy reduction on a single state
         if math.isfinite(x) and math.isfinite(y) and math.isfinite(z):
@@ -163,7 +155,6 @@ class DeviceDynamics:
             np.any(self.viscous) or np.any(self.coulomb_positive) or np.any(self.coulomb_negative)
         )
         self._generated: dict[str, Generated] = {}
-        self._row = (self.n,)  # the last dimension every joint array must have
 
     def _gen(self, mode: str) -> Generated:
         generated = self._generated.get(mode)
@@ -186,25 +177,6 @@ class DeviceDynamics:
             if a.shape != shape:
                 self._wrong_shapes(out)
         return out
-
-    def _check3(self, a, b, c) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`_check` for three arrays, unrolled: single states pay for every line here."""
-        if (
-            a.__class__ is _NDARRAY
-            and b.__class__ is _NDARRAY
-            and c.__class__ is _NDARRAY
-            and a.dtype is _FLOAT
-            and b.dtype is _FLOAT
-            and c.dtype is _FLOAT
-        ):  # already float arrays (the usual call): no conversion, shapes checked below
-            shape = a.shape
-            if shape == b.shape == c.shape and shape[-1:] == self._row and len(shape) <= 2:
-                return a, b, c
-        a, b, c = np.asarray(a, dtype=float), np.asarray(b, dtype=float), np.asarray(c, dtype=float)
-        shape = a.shape
-        if not (shape == b.shape == c.shape) or len(shape) > 2 or shape[-1:] != (self.n,):
-            self._wrong_shapes([a, b, c])
-        return a, b, c
 
     def _wrong_shapes(self, arrays: list[np.ndarray]):
         raise ValueError(
@@ -245,7 +217,7 @@ class DeviceDynamics:
         tau = self._gen("full").direct(q, qd, qdd, gravity)
         if tau is not None and (gravity is DEFAULT_GRAVITY or _finite(gravity)):
             return tau
-        q, qd, qdd = self._check3(q, qd, qdd)
+        q, qd, qdd = self._check(q, qd, qdd)
         g = (
             gravity
             if gravity is DEFAULT_GRAVITY
@@ -302,7 +274,7 @@ class DeviceDynamics:
         qdd = program.direct(q, qd, tau, gravity)
         if qdd is not None and _finite(qdd) and (gravity is DEFAULT_GRAVITY or _finite(gravity)):
             return qdd
-        q, qd, tau = self._check3(q, qd, tau)
+        q, qd, tau = self._check(q, qd, tau)
         qdd = program.evaluate([q, qd, tau, _gravity(gravity, None)])
         if not np.all(np.isfinite(qdd)):
             inputs_finite = np.all(np.isfinite(np.concatenate([q, qd, tau], axis=-1)), axis=-1)
