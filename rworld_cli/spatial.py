@@ -386,7 +386,9 @@ def rotation_vector(R) -> np.ndarray:
     if R.shape == (3, 3):  # one rotation, on floats (IK calls this per step)
         w, x, y, z = _matrix_to_quat_single(R.tolist())
         half = math.sqrt(x * x + y * y + z * z)
-        factor = 2.0 * math.atan2(half, w) / half if half > 1e-12 else 2.0  # small angles: 2 v
+        # numpy's arctan2, not math.atan2: on CPUs with AVX-512 numpy vectorises it and differs
+        # from libm in the last bit, and the single path must give the batched path's bits
+        factor = 2.0 * float(np.arctan2(half, w)) / half if half > 1e-12 else 2.0  # small: 2 v
         return np.array((x * factor, y * factor, z * factor))
     q = matrix_to_quat(R)
     v = q[..., 1:]

@@ -1,4 +1,5 @@
-"""Shared fixtures: paths, and running the real CLI in-process."""
+"""Shared fixtures: paths, running the real CLI in-process, and the example runs simulated once
+per test process (the suite runs on every core with pytest-xdist: each worker is one process)."""
 
 from __future__ import annotations
 
@@ -35,3 +36,19 @@ def cli():
 @pytest.fixture(params=EXAMPLE_CELLS)
 def example_cell(request) -> Path:
     return WORKCELLS / request.param
+
+
+@pytest.fixture(scope="session")
+def example_run():
+    """``example_run(cell, run)`` -> ``simulate_run``'s (Run, SimulationResult) for an example
+    cell, simulated once per test process and shared: tests read the result, never change it."""
+    from rworld_cli.api import simulate_run
+
+    done: dict[tuple[str, str], tuple] = {}
+
+    def get(cell: str, run: str):
+        if (cell, run) not in done:
+            done[cell, run] = simulate_run(str(WORKCELLS / cell), run)
+        return done[cell, run]
+
+    return get

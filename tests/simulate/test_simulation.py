@@ -20,13 +20,13 @@ from tests.conftest import WORKCELLS
 
 
 @pytest.fixture(scope="module")
-def fig9():
-    return simulate(load_run("workcells/paper_fig9", "workcells/paper_fig9/runs/transfer.yaml"))
+def fig9(example_run):
+    return example_run("paper_fig9", "transfer")[1]
 
 
 @pytest.fixture(scope="module")
-def puma():
-    return simulate(load_run("workcells/puma560", "workcells/puma560/runs/pick_place.yaml"))
+def puma(example_run):
+    return example_run("puma560", "pick_place")[1]
 
 
 def copy_cell(tmp_path: Path, name: str) -> Path:

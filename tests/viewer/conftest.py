@@ -5,14 +5,10 @@ from __future__ import annotations
 
 import pytest
 
-from tests.conftest import WORKCELLS
-
 
 @pytest.fixture(scope="session")
-def fig9_run():
-    from rworld_cli.api import simulate_run
-
-    return simulate_run(str(WORKCELLS / "paper_fig9"), "transfer")
+def fig9_run(example_run):
+    return example_run("paper_fig9", "transfer")
 
 
 @pytest.fixture(scope="session")

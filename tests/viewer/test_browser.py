@@ -1,7 +1,8 @@
 """The viewer page of paper_fig9 transfer in a real browser (headless Chromium): it loads with no
 console error, draws a known body where it must be at three instants, the picture changes between
-them, and a frame's work during playback stays within 16 ms.  Skipped, with the reason, where
-Chromium is missing (.ci/run installs Debian's chromium, so CI runs these)."""
+them, and playback moves the run on.  Frame times are a figure of bench/viewer.py, never asserted
+here.  Skipped, with the reason, where Chromium is missing (.ci/run installs Debian's chromium, so
+CI runs these)."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import io
 import numpy as np
 import pytest
 
-from tests.viewer.browser import Browser, chromium
+from rworld_cli.viewer.chromium import Browser, chromium
 
 pytestmark = pytest.mark.skipif(
     chromium() is None,
@@ -71,9 +72,25 @@ def test_a_known_body_is_drawn_where_it_is_and_moves(page, fig9_run):
     page.evaluate("rworld.showLabels(true)")
 
 
-def test_frame_work_during_playback_stays_within_16_ms(page):
-    stats = page.evaluate("rworld.measure(3000)", timeout=60)
-    print(stats)  # the interval between frames too: with software GL it is set by rasterising
-    assert stats["frames"] >= 20
-    assert stats["work_p95"] <= 16.0, stats
+def test_playback_advances_the_run_and_draws_it_where_the_simulator_puts_it(page, fig9_run):
+    """Playing moves the clock and the bodies with it; how fast the page draws is a figure of
+    bench/viewer.py, never asserted here (a busy machine draws slower and is not wrong)."""
+    _, result = fig9_run
+    page.evaluate("rworld.seek(0.5)")
+    page.evaluate("rworld.play()")
+    page.evaluate(
+        "new Promise((done) => { const wait = () => rworld.time() > 1.0 ? done() : "
+        "requestAnimationFrame(wait); wait(); })",
+        timeout=120,
+    )
+    page.evaluate("rworld.pause()")
+    t = page.evaluate("rworld.time()")
+    assert 1.0 < t < result.times[-1]
+    page.evaluate("rworld.frameDrawn()")
+    shown = np.array(page.evaluate("rworld.worldPosition('robot.tool_plate')"))
+    k = np.searchsorted(result.times, t)  # the shown pose lies between the samples around t
+    around = result.devices["robot"].tcp[max(k - 1, 0) : k + 1, :3, 3]
+    lo, hi = around.min(axis=0) - 1.01e-4, around.max(axis=0) + 1.01e-4  # glTF: 0.1 mm
+    assert np.all((lo <= shown) & (shown <= hi)), (t, shown, around)
     assert page.evaluate("window.rworld.errors") == []
+    assert page.console_errors() == []

@@ -1,5 +1,6 @@
 """Headless Chromium driven over the DevTools protocol on a pipe (--remote-debugging-pipe): no
-driver, no websocket library.  Used by the viewer's browser tests."""
+driver, no websocket library.  Used by the viewer's browser tests (``tests/viewer``) and its
+playback bench (``bench/viewer.py``); rworld's commands never start a browser."""
 
 from __future__ import annotations
 
@@ -48,6 +49,12 @@ class Browser:
                 "--enable-unsafe-swiftshader",
                 "--no-first-run",
                 "--disable-extensions",
+                # no connections of its own: this machine's network is closed, and a test or a
+                # bench must not wait on look-ups that are refused
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+                "--disable-quic",
                 f"--user-data-dir={self.profile}",
                 f"--window-size={width},{height}",
             ],
