@@ -1,38 +1,356 @@
-"""File writing that never leaves a half-written file behind."""
+"""Writing outputs so that a kill at any instant leaves the old output or the new one, whole.
+
+Two mechanisms, one naming scheme (docs/architecture.md, "Writes that survive a kill"):
+
+* **One file** (:func:`atomic_write_bytes`): a temporary beside the target, fsync, rename over
+  it.  A reader sees the old file or the new one.
+* **Several files or a folder** (:func:`output_set`): every file a command writes inside the
+  ``with`` block is staged - in a staging copy of a claimed folder, or as a temporary beside a
+  loose target - and nothing appears until the block ends.  Then a journal naming every staged
+  unit is written (the commit point), each folder is swapped in (``renameat2(RENAME_EXCHANGE)``
+  on Linux: the path is never missing; elsewhere two renames) and each loose file renamed over
+  its target, and the journal is removed.  A run killed before the journal leaves the old
+  output; after it, the next rworld command that writes any of the targets rolls the journal
+  forward and so completes the new output.
+
+Every temporary is named ``.<target name>.rworld-<kind>.<pid>.<random>`` beside its target
+(journals ``.rworld-journal.<pid>.<random>.json``), so rworld knows its own debris: before
+writing a target, a command finishes or removes what a killed run (a process no longer alive on
+this machine) left beside it, and says so in one line on the ``rworld`` logger (the CLI prints it
+on stderr).  ``rworld validate`` lists such debris in a cell folder (:func:`debris_in`).
+"""
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
+import errno
+import json
 import os
-import tempfile
+import re
+import secrets
+import shutil
+import sys
+from dataclasses import dataclass, field
 from pathlib import Path
+
+_NAME = re.compile(r"^\.(?P<target>.+)\.rworld-(?P<kind>tmp|stage|old)\.(?P<pid>\d+)\.[0-9a-f]+")
+_JOURNAL = re.compile(r"^\.rworld-journal\.(?P<pid>\d+)\.[0-9a-f]+\.json$")
+
+
+def _temporary_name(target: Path, kind: str) -> Path:
+    """A name beside ``target`` that marks the file as rworld's (kind: tmp, stage, old)."""
+    return target.parent / f".{target.name}.rworld-{kind}.{os.getpid()}.{secrets.token_hex(4)}"
+
+
+def temporary_path(target: str | Path, suffix: str = "") -> Path:
+    """A fresh rworld-named temporary path beside ``target`` (with ``suffix``, e.g. '.yaml' for a
+    trial file that a reader recognises by its ending); removed by the next run if left."""
+    target = Path(target)
+    return target.parent / (_temporary_name(target, "tmp").name + suffix)
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` runs on this machine (the owner of a temporary is still writing)."""
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    except OSError:
+        return True
+    return True
+
+
+def _mode_for(path: Path) -> int:
+    """The old file's mode, or the umask's default for a new file (mkstemp alone makes 0600)."""
+    if path.exists():
+        return path.stat().st_mode & 0o777
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
+def _write_new_file(path: Path, data: bytes, mode: int) -> None:
+    """Create ``path`` (never through an existing link: staged copies share inodes) and fsync."""
+    path.unlink(missing_ok=True)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, mode)
+    try:
+        os.fchmod(fd, mode)
+        with os.fdopen(fd, "wb") as fh:
+            fd = -1
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+    finally:
+        if fd >= 0:
+            os.close(fd)
+
+
+def _fsync_dir(folder: Path) -> None:
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+# ------------------------------------------------------------------ swapping folders
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swap the entries ``a`` and ``b`` in one step (Linux renameat2 RENAME_EXCHANGE); False where
+    the kernel, the libc or the file system cannot."""
+    if not sys.platform.startswith("linux"):
+        return False
+    import ctypes
+
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        renameat2 = libc.renameat2
+    except (OSError, AttributeError):
+        return False
+    at_fdcwd, rename_exchange = -100, 2
+    renameat2.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p]
+    renameat2.argtypes += [ctypes.c_uint]
+    if renameat2(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), rename_exchange) == 0:
+        return True
+    code = ctypes.get_errno()
+    if code in (errno.ENOSYS, errno.EINVAL, errno.EOPNOTSUPP):
+        return False
+    raise OSError(code, os.strerror(code), str(a))
+
+
+def _swap_in(staged: Path, target: Path) -> None:
+    """Put the folder ``staged`` at ``target``; the old folder (if any) is removed afterwards."""
+    if not target.exists():
+        os.rename(staged, target)
+        return
+    if _exchange(staged, target):  # the path is never missing; ``staged`` now holds the old
+        shutil.rmtree(staged, ignore_errors=True)
+        return
+    old = _temporary_name(target, "old")  # elsewhere: two renames, the journal covers the gap
+    os.rename(target, old)
+    os.rename(staged, target)
+    shutil.rmtree(old, ignore_errors=True)
+
+
+# ------------------------------------------------------------------ output sets
+
+
+@dataclass
+class _Unit:
+    target: str  # absolute path of the output (a folder or a file)
+    staged: str  # where it is staged, beside the target
+    folder: bool
+    inode: int = 0  # the staged folder's inode: after a swap the target has it
+
+
+@dataclass
+class OutputSet:
+    """The files of one command's output, staged until :meth:`commit` (see the module doc)."""
+
+    units: list[_Unit] = field(default_factory=list)
+
+    def claim_folder(self, folder: str | Path, keep_others: bool = False) -> Path:
+        """Make ``folder`` an output replaced as a whole: files written under it go to a staging
+        copy.  ``keep_others``: the copy starts with the folder's present files (hard links where
+        the file system allows), so files the command does not write survive (a cell's programs
+        when its robot is imported again)."""
+        target = Path(os.path.abspath(folder))
+        if target.exists() and not target.is_dir():
+            from .errors import UserError
+
+            raise UserError(f"{folder} exists and is not a folder")
+        for unit in self.units:
+            if unit.folder and Path(unit.target) == target:
+                return Path(unit.staged)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        recover(target)
+        staged = _temporary_name(target, "stage")
+        if keep_others and target.is_dir():
+            shutil.copytree(target, staged, symlinks=True, copy_function=_link_or_copy)
+        else:
+            staged.mkdir()
+        staged.chmod(target.stat().st_mode & 0o777 if target.exists() else 0o777 & ~_umask())
+        self.units.append(_Unit(str(target), str(staged), True, staged.stat().st_ino))
+        return staged
+
+    def stage(self, path: str | Path, data: bytes) -> Path:
+        """Stage ``data`` for ``path``; returns ``path`` (where it will be)."""
+        target = Path(os.path.abspath(path))
+        for unit in self.units:
+            if unit.folder and target.is_relative_to(unit.target):
+                inside = Path(unit.staged) / target.relative_to(unit.target)
+                inside.parent.mkdir(parents=True, exist_ok=True)
+                _write_new_file(inside, data, _mode_for(target))
+                return Path(path)
+            if not unit.folder and Path(unit.target) == target:
+                _write_new_file(Path(unit.staged), data, _mode_for(target))
+                return Path(path)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        recover(target)
+        staged = _temporary_name(target, "tmp")
+        _write_new_file(staged, data, _mode_for(target))
+        self.units.append(_Unit(str(target), str(staged), False))
+        return Path(path)
+
+    def commit(self) -> None:
+        """Write the journal, move every unit into place, remove the journal."""
+        if not self.units:
+            return
+        for unit in self.units:
+            if unit.folder:
+                _fsync_tree(Path(unit.staged))
+        journals = _write_journals(self.units)
+        _roll_forward(self.units)
+        for path in journals:
+            path.unlink(missing_ok=True)
+        self.units = []
+
+    def abort(self) -> None:
+        """Remove everything staged; the old outputs stay as they were."""
+        for unit in self.units:
+            staged = Path(unit.staged)
+            if unit.folder:
+                shutil.rmtree(staged, ignore_errors=True)
+            else:
+                staged.unlink(missing_ok=True)
+        self.units = []
+
+
+_ACTIVE: contextvars.ContextVar[OutputSet | None] = contextvars.ContextVar(
+    "rworld_outputs", default=None
+)
+
+
+@contextlib.contextmanager
+def output_set(*folders: str | Path | None, keep_others: bool = False):
+    """Stage every file written in the block (by any writer in rworld: they all go through
+    :func:`atomic_write_bytes`) and commit them together when the block ends without an error.
+
+    ``folders`` (None entries are skipped) are claimed as whole outputs first
+    (:meth:`OutputSet.claim_folder`).  An exception in the block removes what was staged and
+    leaves every old output as it was.  Sets do not nest: an inner block joins the outer one.
+    """
+    outer = _ACTIVE.get()
+    if outer is not None:
+        for folder in folders:
+            if folder is not None:
+                outer.claim_folder(folder, keep_others)
+        yield outer
+        return
+    outputs = OutputSet()
+    token = _ACTIVE.set(outputs)
+    try:
+        for folder in folders:
+            if folder is not None:
+                outputs.claim_folder(folder, keep_others)
+        yield outputs
+        _ACTIVE.reset(token)
+        token = None
+        outputs.commit()
+    except BaseException:
+        outputs.abort()
+        raise
+    finally:
+        if token is not None:
+            _ACTIVE.reset(token)
+
+
+def _umask() -> int:
+    umask = os.umask(0)
+    os.umask(umask)
+    return umask
+
+
+def _link_or_copy(src: str, dst: str) -> None:
+    try:
+        os.link(src, dst)
+    except OSError:
+        shutil.copy2(src, dst)
+
+
+def _fsync_tree(folder: Path) -> None:
+    for root, dirs, _ in os.walk(folder):
+        for name in dirs:
+            _fsync_dir(Path(root) / name)
+    _fsync_dir(folder)
+
+
+def _write_journals(units: list[_Unit]) -> list[Path]:
+    """The commit point: one journal in each folder that holds a target, written atomically."""
+    name = f".rworld-journal.{os.getpid()}.{secrets.token_hex(4)}.json"
+    parents = sorted({str(Path(u.target).parent) for u in units})
+    journals = [Path(p) / name for p in parents]
+    text = json.dumps(
+        {
+            "units": [u.__dict__ for u in units],
+            "journals": [str(j) for j in journals],
+        },
+        indent=1,
+    ).encode()
+    for journal in journals:
+        staged = _temporary_name(journal, "tmp")
+        _write_new_file(staged, text, 0o644)
+        os.replace(staged, journal)
+        _fsync_dir(journal.parent)
+    return journals
+
+
+def _roll_forward(units: list[_Unit]) -> None:
+    """Move every staged unit into place; units already in place are left alone (this runs on
+    commit and again when a killed run's journal is found)."""
+    for unit in units:
+        staged, target = Path(unit.staged), Path(unit.target)
+        if unit.folder:
+            if target.exists() and target.stat().st_ino == unit.inode:
+                shutil.rmtree(staged, ignore_errors=True)  # swapped: staged holds the old
+            elif staged.is_dir() and staged.stat().st_ino == unit.inode:
+                _swap_in(staged, target)
+        elif staged.exists():
+            os.replace(staged, target)
+        _fsync_dir(target.parent)
+
+
+# ------------------------------------------------------------------ the writers
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically: a temporary file in the same folder, then rename.
 
     A reader sees the old file or the new one, never a mix; a crash leaves the old file intact.
-    The file keeps the old file's mode, or gets the umask default (mkstemp alone would make 0600).
+    The file keeps the old file's mode, or gets the umask default.  Inside :func:`output_set`
+    the file is staged with the set's other files and appears with them.
     """
+    outputs = _ACTIVE.get()
+    if outputs is not None:
+        return outputs.stage(path, data)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    recover(path)
+    tmp = _temporary_name(path, "tmp")
     try:
-        if path.exists():
-            mode = path.stat().st_mode & 0o777
-        else:
-            umask = os.umask(0)
-            os.umask(umask)
-            mode = 0o666 & ~umask
-        os.chmod(tmp, mode)
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
+        _write_new_file(tmp, data, _mode_for(path))
         os.replace(tmp, path)
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)
         raise
     return path
+
+
+def write_scratch(path: str | Path, data: bytes) -> None:
+    """Write a scratch file now, outside any output set (a trial a command reads back before it
+    decides what to write); name it with :func:`temporary_path` so a killed run's is removed."""
+    _write_new_file(Path(path), data, _mode_for(Path(path)))
 
 
 def atomic_write_text(path: str | Path, text: str) -> None:
@@ -50,3 +368,65 @@ def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
     fig.savefig(buf, dpi=dpi, format="png")
     plt.close(fig)
     return atomic_write_bytes(path, buf.getvalue())
+
+
+# ------------------------------------------------------------------ what a killed run left
+
+
+def debris_in(folder: str | Path) -> list[Path]:
+    """rworld's temporaries and journals in ``folder`` whose writer is no longer running."""
+    out = []
+    try:
+        entries = sorted(Path(folder).iterdir())
+    except OSError:
+        return out
+    for entry in entries:
+        match = _NAME.match(entry.name) or _JOURNAL.match(entry.name)
+        if match and not _alive(int(match["pid"])):
+            out.append(entry)
+    return out
+
+
+def recover(target: str | Path) -> list[str]:
+    """Finish or remove what killed runs left beside ``target``: roll forward their committed
+    journals in its folder, then remove their temporaries of ``target``.  Returns one line per
+    thing done (also logged on the ``rworld`` logger)."""
+    target = Path(os.path.abspath(target))
+    done = []
+    for entry in debris_in(target.parent):
+        if _JOURNAL.match(entry.name) and entry.exists():
+            done += _recover_journal(entry)
+    for entry in debris_in(target.parent):
+        match = _NAME.match(entry.name)
+        if match and (match["target"] == target.name or _JOURNAL.match(match["target"])):
+            _remove(entry)
+            done.append(f"removed {entry}, left by a killed rworld run")
+    if done:
+        import logging
+
+        log = logging.getLogger("rworld")
+        for line in done:
+            log.warning(line)
+    return done
+
+
+def _recover_journal(journal: Path) -> list[str]:
+    try:
+        doc = json.loads(journal.read_text(encoding="utf-8"))
+        units = [_Unit(**u) for u in doc["units"]]
+        journals = [Path(j) for j in doc["journals"]]
+    except (OSError, ValueError, TypeError, KeyError):  # torn or foreign: nothing to finish
+        journal.unlink(missing_ok=True)
+        return [f"removed {journal}, an unreadable journal of a killed rworld run"]
+    _roll_forward(units)
+    for path in journals:
+        path.unlink(missing_ok=True)
+    targets = ", ".join(u.target for u in units)
+    return [f"completed the output of a killed rworld run: {targets}"]
+
+
+def _remove(entry: Path) -> None:
+    if entry.is_dir() and not entry.is_symlink():
+        shutil.rmtree(entry, ignore_errors=True)
+    else:
+        entry.unlink(missing_ok=True)

@@ -6,6 +6,7 @@ dataclasses; problems are raised as :class:`~rworld_cli.errors.UserError` (exit 
 :class:`~rworld_cli.errors.CheckFailed` (exit 1).
 """
 
+from ..fileio import output_set  # noqa: F401  (every command's writes: one set)
 from .calibration import (  # noqa: F401
     CalibrationRun,
     MeasurementPlan,

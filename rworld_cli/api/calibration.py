@@ -323,20 +323,18 @@ def _write_probe_program(
 ):
     """Write the probe program to ``out`` after it passes the simulation check; (path, stops,
     cycle time)."""
-    import os
-
     from ..calibration.probing import probe_program
     from ..errors import CheckFailed
-    from ..fileio import atomic_write_text
+    from ..fileio import atomic_write_text, temporary_path, write_scratch
     from ..schema.programs import load_run
     from ..simulate.engine import simulate
 
     if not out.parent.is_dir():
         raise UserError(f"cannot write {out}: no folder {out.parent}")
     text, stops = probe_program(rig, plans, ordered)
-    trial = out.parent / f".{out.name}.check.yaml"
+    trial = temporary_path(out, ".yaml")  # beside it: the program names files relative to it
     try:
-        atomic_write_text(trial, text)
+        write_scratch(trial, text.encode("utf-8"))
         run = load_run(cell_path, str(trial))
         run.clearance = rig.clearance
         result = simulate(run, progress)
@@ -352,7 +350,7 @@ def _write_probe_program(
                 f"cannot plan the probe program: the program does not pass the check "
                 f"({len(first)} problem(s)); the first: {first[0]}"
             )
-        os.replace(trial, out)
+        atomic_write_text(out, text)
     finally:
         trial.unlink(missing_ok=True)
     return out, stops, result.cycle_time

@@ -177,7 +177,7 @@ def validate_files(paths: list[str], cell: str | None = None) -> list[FileReport
         try:
             if kind == "cell":
                 loaded = load_cell(raw, doc)
-                report.warnings = loaded.warnings
+                report.warnings = loaded.warnings + _leftovers(shown)
                 c = loaded.cell
                 report.summary = (
                     f"{len(c.devices)} device(s), {len(c.objects)} object(s), {len(c.sensors)} "
@@ -213,6 +213,30 @@ def validate_files(paths: list[str], cell: str | None = None) -> list[FileReport
             report.warnings = [i for i in exc.issues if i.severity == "warning"]
         reports.append(report)
     return reports
+
+
+def _leftovers(cell_file: str) -> list[Issue]:
+    """Warnings for what killed rworld runs left in a cell's folder or beside it (staging
+    folders, temporaries, journals); the next command that writes there finishes or removes
+    them (docs/architecture.md, "Writes that survive a kill")."""
+    from ..fileio import debris_in
+
+    folder = Path(cell_file).parent
+    found = debris_in(folder) + [
+        p for p in debris_in(folder.parent) if p.name.startswith(f".{folder.name}.rworld-")
+    ]
+    return [
+        Issue(
+            str(p),
+            0,
+            0,
+            "(file)",
+            "left by a killed rworld run; the next command that writes here finishes or "
+            "removes it (or delete it)",
+            "warning",
+        )
+        for p in found
+    ]
 
 
 # --------------------------------------------------------------------------- show

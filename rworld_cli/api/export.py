@@ -3,9 +3,6 @@ and what a calibration changed in them."""
 
 from __future__ import annotations
 
-import os
-import shutil
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -273,27 +270,11 @@ def _changes(cell, run, dt, against, loaded, result, devices) -> list[TargetChan
 
 
 def _write_together(output: str, files: dict[str, str]) -> None:
-    """Write ``files`` into the folder ``output`` so that they appear together or not at all:
-    staged in a sibling folder, then swapped in by renames (an older export is replaced
-    whole)."""
-    out = Path(output).resolve()
-    if out.exists() and not out.is_dir():
-        raise UserError(f"{output} exists and is not a folder")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
+    """Write ``files`` as the folder ``output``, replacing an older export whole: after a kill at
+    any instant the folder is the complete old export or the complete new one
+    (``fileio.output_set``)."""
+    from ..fileio import atomic_write_text, output_set
+
+    with output_set(output):
         for name, text in files.items():
-            (staging / name).write_text(text, encoding="utf-8")
-            os.chmod(staging / name, 0o644)
-        os.chmod(staging, 0o755)
-        if out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
-            old.rmdir()
-            out.rename(old)
-            staging.rename(out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            staging.rename(out)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
+            atomic_write_text(Path(output) / name, text)

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import shutil
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -93,6 +91,7 @@ def import_urdf(
     UserError
         Bad URDF (located), bad options, or an existing cell at ``output`` without ``force``.
     """
+    from ..fileio import atomic_write_bytes, output_set
     from ..schema.loader import load_cell
     from ..schema.urdf import read_urdf
     from ..schema.urdf_cell import cell_from_urdf
@@ -110,12 +109,12 @@ def import_urdf(
     imported = cell_from_urdf(robot, name, base, tip, tcp, device_name)
     files = {"cell.yaml": imported.cell_text.encode(), "poses.yaml": imported.poses_text.encode()}
     files.update(imported.meshes)
-    out.resolve().parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=out.resolve().parent))
-    try:
+    # the cell is written as a unit: the folder is swapped whole (its other files, programs and
+    # runs, carried over), so no instant shows a cell.yaml of one import with another's poses
+    with output_set(out, keep_others=True) as outputs:
+        staging = outputs.claim_folder(out, keep_others=True)
         for rel, data in files.items():
-            (staging / rel).parent.mkdir(parents=True, exist_ok=True)
-            (staging / rel).write_bytes(data)
+            atomic_write_bytes(out / rel, data)
         try:
             loaded = load_cell(staging)
         except UserError as exc:  # what we wrote must load: anything else is our bug
@@ -133,17 +132,6 @@ def import_urdf(
             )
             for w in loaded.warnings
         ]
-        if not out.exists():
-            staging.rename(out)
-        else:
-            for rel in files:
-                target = out / rel
-                target.parent.mkdir(parents=True, exist_ok=True)
-                (staging / rel).replace(target)  # one rename per file: each is whole or old
-            shutil.rmtree(staging, ignore_errors=True)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
     return UrdfImport(
         str(out),
         sorted(files),

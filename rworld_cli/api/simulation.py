@@ -82,12 +82,14 @@ def write_run_outputs(result, directory: str, plots: bool = False) -> list[Path]
     """Timelines (CSV, JSON), events, summary and (``plots``) PNG plots of a run, written
     atomically.
     """
+    from ..fileio import output_set
     from ..schema.results import write_results
     from ..simulate.output import output_files, write_plots
 
-    written = write_results(directory, *output_files(result))
-    if plots:
-        written += write_plots(result, Path(directory))
+    with output_set(directory, keep_others=True):  # the folder's new files appear together
+        written = write_results(directory, *output_files(result))
+        if plots:
+            written += write_plots(result, Path(directory))
     return written
 
 
@@ -185,18 +187,19 @@ def write_run_view(
 ) -> list[Path]:
     """Write a run's scene: a .glb file, a viewer page, and/or the scene files of an output
     directory (``run.glb``, ``view.json``, which ``rworld view DIR`` reads); atomically."""
-    from ..fileio import atomic_write_bytes, atomic_write_text
+    from ..fileio import atomic_write_bytes, atomic_write_text, output_set
     from ..schema.results import write_scene_files
     from ..viewer.page import viewer_page
 
     written = []
-    if directory:
-        written += write_scene_files(directory, glb, info)
-    if glb_path:
-        written.append(atomic_write_bytes(glb_path, glb))
-    if html_path:
-        atomic_write_text(html_path, viewer_page(glb, info))
-        written.append(Path(html_path))
+    with output_set(directory, keep_others=True):  # all of them appear together
+        if directory:
+            written += write_scene_files(directory, glb, info)
+        if glb_path:
+            written.append(atomic_write_bytes(glb_path, glb))
+        if html_path:
+            atomic_write_text(html_path, viewer_page(glb, info))
+            written.append(Path(html_path))
     return written
 
 

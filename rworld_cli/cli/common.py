@@ -32,6 +32,36 @@ def emit_json(payload: Any) -> None:
     click.echo(json.dumps(payload, indent=2, ensure_ascii=False, allow_nan=False))
 
 
+def _in_one_output_set(fn: Callable, args, kwargs):
+    """Run a command with every file it writes in one output set (``fileio.output_set``): the
+    files appear together when it ends, or - on bad input, an interrupt or a bug - none do.
+    A failed check (exit 1) keeps what the command wrote (its report of the failure)."""
+    import logging
+
+    from ..api import output_set
+    from ..errors import CheckFailed
+
+    log = logging.getLogger("rworld")
+    if not log.handlers:  # what a killed run left and this one finished or removed: one line each
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(logging.Formatter("rworld: %(message)s"))
+        log.addHandler(handler)
+        log.propagate = False
+    failed = None
+    with output_set():
+        try:
+            result = fn(*args, **kwargs)
+        except CheckFailed as exc:
+            failed = exc
+        except SystemExit as exc:
+            if exc.code not in (None, 0, EXIT_CHECK_FAILED):
+                raise
+            failed = exc
+    if failed is not None:
+        raise failed
+    return result
+
+
 def handle_errors(fn: Callable) -> Callable:
     """Turn rworld errors into printed lines and exit codes; never a traceback for bad input.
 
@@ -45,7 +75,7 @@ def handle_errors(fn: Callable) -> Callable:
         from ..errors import RworldError, UserError
 
         try:
-            return fn(*args, **kwargs)
+            return _in_one_output_set(fn, args, kwargs)
         except click.exceptions.Exit:
             raise
         except click.ClickException:
