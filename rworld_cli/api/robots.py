@@ -111,7 +111,7 @@ def import_urdf(
     files.update(imported.meshes)
     # the cell is written as a unit: the folder is swapped whole (its other files, programs and
     # runs, carried over), so no instant shows a cell.yaml of one import with another's poses
-    with output_set(out, keep_others=True) as outputs:
+    with output_set() as outputs:
         staging = outputs.claim_folder(out, keep_others=True)
         for rel, data in files.items():
             atomic_write_bytes(out / rel, data)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import json
+import logging
 import sys
 from collections.abc import Callable
 from typing import Any
@@ -32,20 +33,23 @@ def emit_json(payload: Any) -> None:
     click.echo(json.dumps(payload, indent=2, ensure_ascii=False, allow_nan=False))
 
 
+class _StderrLines(logging.Handler):
+    """The ``rworld`` logger's records as ``rworld: message`` lines on the stderr of the moment."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        click.echo(f"rworld: {record.getMessage()}", err=True)
+
+
 def _in_one_output_set(fn: Callable, args, kwargs):
     """Run a command with every file it writes in one output set (``fileio.output_set``): the
     files appear together when it ends, or - on bad input, an interrupt or a bug - none do.
     A failed check (exit 1) keeps what the command wrote (its report of the failure)."""
-    import logging
-
     from ..api import output_set
     from ..errors import CheckFailed
 
     log = logging.getLogger("rworld")
     if not log.handlers:  # what a killed run left and this one finished or removed: one line each
-        handler = logging.StreamHandler(sys.stderr)
-        handler.setFormatter(logging.Formatter("rworld: %(message)s"))
-        log.addHandler(handler)
+        log.addHandler(_StderrLines())
         log.propagate = False
     failed = None
     with output_set():
