@@ -31,6 +31,8 @@ from rworld_cli import fileio
 from tests.conftest import REPO, WORKCELLS
 
 RWORLD = [sys.executable, "-c", "from rworld_cli.cli import main; main()"]
+
+
 def _strace_works() -> bool:
     """strace present and allowed to trace here (ptrace may be forbidden in a container)."""
     if shutil.which("strace") is None:
