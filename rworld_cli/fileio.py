@@ -58,10 +58,8 @@ def _alive(pid: int) -> bool:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
-    except PermissionError:
-        return True
-    except OSError:
-        return True
+    except OSError:  # it exists but is not ours (PermissionError), or we cannot tell: alive
+        pass
     return True
 
 
@@ -69,25 +67,17 @@ def _mode_for(path: Path) -> int:
     """The old file's mode, or the umask's default for a new file (mkstemp alone makes 0600)."""
     if path.exists():
         return path.stat().st_mode & 0o777
-    umask = os.umask(0)
-    os.umask(umask)
-    return 0o666 & ~umask
+    return 0o666 & ~_umask()
 
 
 def _write_new_file(path: Path, data: bytes, mode: int) -> None:
     """Create ``path`` (never through an existing link: staged copies share inodes) and fsync."""
     path.unlink(missing_ok=True)
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, mode)
-    try:
-        os.fchmod(fd, mode)
-        with os.fdopen(fd, "wb") as fh:
-            fd = -1
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-    finally:
-        if fd >= 0:
-            os.close(fd)
+    with os.fdopen(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, mode), "wb") as fh:
+        os.fchmod(fh.fileno(), mode)  # the mode as asked, whatever the umask
+        fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
 
 
 def _fsync_dir(folder: Path) -> None:
@@ -242,24 +232,21 @@ def output_set(*folders: str | Path | None, keep_others: bool = False):
     leaves every old output as it was.  Sets do not nest: an inner block joins the outer one.
     """
     outer = _ACTIVE.get()
-    if outer is not None:
-        for folder in folders:
-            if folder is not None:
-                outer.claim_folder(folder, keep_others)
-        yield outer
-        return
-    outputs = OutputSet()
-    token = _ACTIVE.set(outputs)
+    outputs = outer if outer is not None else OutputSet()
+    token = _ACTIVE.set(outputs) if outer is None else None
     try:
         for folder in folders:
             if folder is not None:
                 outputs.claim_folder(folder, keep_others)
         yield outputs
+        if token is None:
+            return  # joined: the outer set commits
         _ACTIVE.reset(token)
         token = None
         outputs.commit()
     except BaseException:
-        outputs.abort()
+        if outer is None:  # a joined set is the outer block's to keep or drop
+            outputs.abort()
         raise
     finally:
         if token is not None:
@@ -375,7 +362,7 @@ def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
 
 def debris_in(folder: str | Path) -> list[Path]:
     """rworld's temporaries and journals in ``folder`` whose writer is no longer running."""
-    out = []
+    out: list[Path] = []
     try:
         entries = sorted(Path(folder).iterdir())
     except OSError:
@@ -393,11 +380,14 @@ def recover(target: str | Path) -> list[str]:
     thing done (also logged on the ``rworld`` logger)."""
     target = Path(os.path.abspath(target))
     done = []
-    for entry in debris_in(target.parent):
+    found = debris_in(target.parent)
+    for entry in found:
         if _JOURNAL.match(entry.name) and entry.exists():
             done += _recover_journal(entry)
-    for entry in debris_in(target.parent):
+    for entry in found:
         match = _NAME.match(entry.name)
+        if not entry.exists() and not entry.is_symlink():
+            continue  # a journal's roll-forward took it
         if match and (match["target"] == target.name or _JOURNAL.match(match["target"])):
             _remove(entry)
             done.append(f"removed {entry}, left by a killed rworld run")
