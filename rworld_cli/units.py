@@ -24,6 +24,7 @@ COLLISION_TOLERANCE = 1e-3  # m
 LENGTH_WORDS = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "in": 0.0254}  # -> metres
 _UNIT_NAMES = {"m": "metres", "mm": "millimetres"}
 TIME_WORDS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}  # -> seconds
+ANGLE_WORDS = {"rad": 1.0, "deg": math.pi / 180.0}  # -> radians
 
 
 def parse_quantity(text, words: dict[str, float], default_unit: str) -> float:

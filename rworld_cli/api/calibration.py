@@ -344,6 +344,7 @@ def _write_probe_program(
             first = (
                 [v.describe() for v in result.violations]
                 + ([c.describe() for c in report.contacts] if report is not None else [])
+                + ([h.describe() for h in report.handling] if report is not None else [])
                 + [f"{e.detail} (step {(e.step or 0) + 1})" for e in untouched]
             )
             raise CheckFailed(

@@ -69,6 +69,7 @@ def import_urdf(
     tcp: str | None = None,
     device_name: str | None = None,
     force: bool = False,
+    locks: dict[str, str] | None = None,
 ) -> UrdfImport:
     """Write a cell (``cell.yaml``, ``poses.yaml``, ``meshes/``) for a URDF robot's chain.
 
@@ -84,6 +85,7 @@ def import_urdf(
     package_paths : list of str
         Folders holding ROS packages, for ``package://`` mesh names.
     base, tip, tcp, device_name : str, optional
+    locks : dict, optional
         See :func:`rworld_cli.schema.urdf_cell.cell_from_urdf`.
 
     Raises
@@ -106,7 +108,7 @@ def import_urdf(
         )
     robot, warnings = read_urdf(urdf, package_paths)
     name = out.resolve().name
-    imported = cell_from_urdf(robot, name, base, tip, tcp, device_name)
+    imported = cell_from_urdf(robot, name, base, tip, tcp, device_name, locks)
     files = {"cell.yaml": imported.cell_text.encode(), "poses.yaml": imported.poses_text.encode()}
     files.update(imported.meshes)
     # the cell is written as a unit: the folder is swapped whole (its other files, programs and

@@ -44,29 +44,48 @@ def import_group():
     metavar="NAME",
     help="Device name (default: the robot's).",
 )
+@click.option(
+    "--lock",
+    "locks",
+    multiple=True,
+    metavar="JOINT=VALUE",
+    help="Lock a moving joint off the chain (a gripper's finger) at VALUE with its unit, e.g. "
+    "panda_finger_joint1=20mm (default 0); repeatable.",
+)
 @click.option("--force", is_flag=True, help="Overwrite cell.yaml, poses.yaml and meshes in DIR.")
 @json_option
 @handle_errors
-def import_urdf(urdf, output, package_paths, base, tip, tcp, device_name, force, json_output):
+def import_urdf(
+    urdf, output, package_paths, base, tip, tcp, device_name, locks, force, json_output
+):
     """Write a cell for the serial chain of a URDF robot: cell.yaml, poses.yaml, meshes/.
 
     Joints become joint frames (origin, axis) with their position, velocity and effort limits
     and damping; links fixed to a moving link (by fixed joints, or in branches off the chain)
     are merged into it - masses combined, shapes joined into one mesh (collision geometry
-    preferred over visual) - and kept as frames.  Moving joints off the chain are locked at 0,
-    with a warning.  Mimic joints on the chain, floating and planar joints are refused.
+    preferred over visual) - and kept as frames.  Moving joints off the chain are locked at 0
+    (or at their --lock value), with a warning.  Mimic joints on the chain, floating and planar joints are refused.
     xacro files must be expanded first (xacro robot.urdf.xacro > robot.urdf).
     Nothing is written unless the whole import succeeds.
 
     \b
     Examples:
       rworld import urdf ur5_robot.urdf -o workcells/ur5_urdf --package-path /opt/ros/share
-      rworld import urdf panda.urdf -o workcells/panda --tip panda_hand --package-path share
+      rworld import urdf panda.urdf -o workcells/panda --tip panda_hand --package-path share \
+          --lock panda_finger_joint1=20mm --lock panda_finger_joint2=20mm
       rworld import urdf robot.urdf -o cells/r --base base_link --tip tool0 --json
     """
     from ..api import import_urdf as run
 
-    result = run(urdf, output, list(package_paths), base, tip, tcp, device_name, force)
+    lock_values = {}
+    for text in locks:
+        name, sep, value = text.partition("=")
+        if not sep or not name.strip():
+            raise click.BadParameter(
+                f"'{text}': write JOINT=VALUE, e.g. finger=20mm", param_hint="--lock"
+            )
+        lock_values[name.strip()] = value.strip()
+    result = run(urdf, output, list(package_paths), base, tip, tcp, device_name, force, lock_values)
     if json_output:
         emit_json(result.as_dict())
         return

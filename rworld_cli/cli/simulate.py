@@ -40,7 +40,7 @@ def collision_options(fn):
         "--no-collisions",
         "no_collisions",
         is_flag=True,
-        help="Skip the collision and clearance check (limits only).",
+        help="Skip the collision, clearance and handling checks (limits only).",
     )(fn)
     fn = click.option(
         "--collision-tolerance",
@@ -291,12 +291,16 @@ def check(cell, run, dt, clearance, collision_tolerance, no_collisions, json_out
         contacts = report.contacts if report is not None else []
         for c in contacts:
             click.echo(c.describe(), err=True)
+        for h in report.handling if report is not None else []:
+            click.echo(h.describe(), err=True)
         parts = [f"{len(result.violations)} limit violation(s)"]
         if report is not None:
             parts += [
                 f"{len(report.collisions)} collision(s)",
                 f"{len(report.clearance_violations)} clearance violation(s)",
             ]
+            if report.handling:
+                parts.append(f"{len(report.handling)} impossible grasp(s) or placement(s)")
         click.echo(f"failed: {result.run}: {', '.join(parts)}", err=True)
     if not result.ok:
         sys.exit(EXIT_CHECK_FAILED)
@@ -370,7 +374,7 @@ def _render(result) -> None:
         console.print()
         for line in collision_notes(result):
             console.print(f"[yellow]note[/]: {line}", markup=True)
-        for c in report.contacts:
+        for c in [*report.contacts, *report.handling]:
             kind, text = c.describe().split(": ", 1)
             console.print(f"[red]{kind}[/]: {text}", markup=True, soft_wrap=True)
         if not report.contacts:

@@ -151,8 +151,10 @@ def sweep(
         Contacts shallower than this may be missed between samples [m] (> 0).
     clearance : float
         Required distance between bodies that may not touch [m] (0: contact only).
-    touches : iterable of (t0, t1, device, names)
-        ``touch:`` steps: the device's bodies may touch the named ones during [t0, t1].
+    touches : iterable of (t0, t1, device, depths)
+        ``touch:`` steps: during [t0, t1] the device's bodies may touch each named body
+        (``depths``: name -> the depth allowed [m]); a contact deeper than that, or a body
+        buried in the other, is still a collision.
     report_within : float
         Also record every pair closer than this at the clock's samples [m] (``close``).
     """
@@ -160,23 +162,24 @@ def sweep(
     found, close, touch_windows, stats = run.found, run.close, run.touch_windows, run.stats
     for iv in intervals:
         world.restore(iv.snap)
-        for t0, t1, device, names in touches:
+        for t0, t1, device, depths in touches:
             if t1 < iv.t0 or t0 > iv.t1:
                 continue
-            mine, named = touch_bodies(world, model, device, names)
-            pairs = {(min(a, b), max(a, b)) for a in mine for b in named if a != b}
+            pairs: dict[tuple[int, int], float] = {}
+            for name, depth in depths.items():
+                mine, named = touch_bodies(world, model, device, [name])
+                for a in mine:
+                    for b in named:
+                        if a != b:
+                            key = (min(a, b), max(a, b))
+                            pairs[key] = max(pairs.get(key, 0.0), depth)
             touch_windows.append((max(t0, iv.t0), min(t1, iv.t1), pairs))
         _sweep_interval(run, iv)
     if intervals:
         world.restore(intervals[-1].snap)
-    kept = [
-        f
-        for f in found
-        if not any(
-            t0 - 1e-12 <= f[2] <= t1 + 1e-12 and (f[0], f[1]) in p for t0, t1, p in touch_windows
-        )
-    ]
-    dt = float(np.min(np.diff(clock))) if len(clock) > 1 else 1.0
+    kept = [f for f in found if not _touch_allows(f, touch_windows)]
+    # the clock's step (its last interval may be shorter: the run's end is not on the grid)
+    dt = float(np.max(np.diff(clock))) if len(clock) > 1 else 1.0
     keys = ("a", "b", "sample", "distance", "point_a", "point_b")
     near = {
         k: np.concatenate([c[n] for c in close])
@@ -201,7 +204,7 @@ class _Sweep:
     found: list = field(default_factory=list)  # (i, j, t, distance, depth, pa, pb, buried,
     # between, collision)
     close: list = field(default_factory=list)  # per interval: (a, b, sample, distance, pa, pb)
-    touch_windows: list = field(default_factory=list)  # (t0, t1, set of allowed pairs)
+    touch_windows: list = field(default_factory=list)  # (t0, t1, {allowed pair: depth})
     stats: dict = field(default_factory=lambda: {"queries": 0, "refinements": 0})
 
     def sample_index(self, t: np.ndarray) -> np.ndarray:
@@ -380,6 +383,17 @@ def _reportable(res, tolerance: float, clearance: float) -> np.ndarray:
     collide = res.overlap & ((res.depth > tolerance) | res.buried)
     close = (res.distance < clearance) if clearance > 0 else np.zeros_like(collide)
     return np.flatnonzero(collide | close)
+
+
+def _touch_allows(f: tuple, touch_windows: list) -> bool:
+    """A finding within a ``touch:`` window of its pair and no deeper than that window allows
+    (a buried body never is)."""
+    for t0, t1, pairs in touch_windows:
+        allowed = pairs.get((f[0], f[1]))
+        if allowed is not None and t0 - 1e-12 <= f[2] <= t1 + 1e-12:
+            if not f[9] or (f[4] <= allowed and not f[7]):
+                return True
+    return False
 
 
 def _finding(i, j, t: float, res, n: int, between: bool, tolerance: float) -> tuple:

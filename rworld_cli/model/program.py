@@ -31,6 +31,9 @@ class Step:
         ``file:line`` of the step, for messages.
     T_offset : ndarray, shape (4, 4)
         Move offsets in SI (identity when none).
+    touch : dict
+        A move's ``touch:`` bodies -> the depth they may be touched to [m] (None: the run's
+        collision tolerance).
     """
 
     index: int
@@ -38,6 +41,7 @@ class Step:
     spec: Any
     where: str
     T_offset: np.ndarray = field(default_factory=lambda: np.eye(4))
+    touch: dict[str, float | None] = field(default_factory=dict)
 
     def describe(self) -> str:
         s = self.spec

@@ -46,10 +46,13 @@ class MoveSpec(Strict):
     until: Name | None = Field(
         None, description="Guarded move: stop where this sensor first senses something."
     )
-    touch: list[FrameRef] = Field(
+    touch: list[FrameRef] | dict[FrameRef, float | str] = Field(
         default_factory=list,
         description="Bodies the device and what it carries may touch during this move (a probe, "
-        "a guarded approach, setting a part down): objects, devices or links as 'device.link'.",
+        "a guarded approach, setting a part down): objects, devices or links as 'device.link'. "
+        "A list allows contact up to the run's collision tolerance; a mapping gives each body "
+        "the depth it may be touched to ({table: 2mm}, a bare number in the program's length "
+        "unit). Deeper is a collision.",
     )
 
 

@@ -89,15 +89,27 @@ def _check_program(
                 )
             if spec.touch:
                 bodies = body_names(cell.objects, cell.devices)
-                for k, name in enumerate(spec.touch):
+                depths = spec.touch if isinstance(spec.touch, dict) else dict.fromkeys(spec.touch)
+                for k, (name, depth) in enumerate(depths.items()):
+                    at = path + ("touch", name if isinstance(spec.touch, dict) else k)
                     if name not in bodies:
                         issues.append(
                             doc.issue(
-                                path + ("touch", k),
+                                at,
                                 f"unknown object, device or link '{name}'"
                                 f"{did_you_mean(name, bodies)}",
                             )
                         )
+                    if depth is None:
+                        continue
+                    try:
+                        step.touch[name] = parse_length(
+                            depth, f"the depth '{name}' may be touched to", pf.units.length
+                        )
+                    except ValueError as exc:
+                        issues.append(doc.issue(at, str(exc)))
+                for name in depths:
+                    step.touch.setdefault(name, None)
             if spec.offset is not None:
                 T, error, warning = pose_to_matrix(spec.offset, L, A)
                 if error:

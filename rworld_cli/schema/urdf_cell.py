@@ -204,6 +204,36 @@ def _pose(T: np.ndarray) -> dict:
     return out
 
 
+def _lock_values(robot: UrdfRobot, on_chain: set[str], texts: dict[str, str]) -> dict[str, float]:
+    """``--lock`` values in SI (rad or m), each checked against its joint."""
+    from ..units import ANGLE_WORDS, LENGTH_WORDS, parse_quantity
+
+    out = {}
+    for name, text in texts.items():
+        joint = robot.joints.get(name)
+        prismatic = joint is not None and joint.type == "prismatic"
+        value = parse_quantity(text, LENGTH_WORDS if prismatic else ANGLE_WORDS, "")
+        why = (
+            f"is not a joint of the robot{did_you_mean(name, robot.joints)}"
+            if joint is None
+            else "is on the chain; only joints off it are locked"
+            if name in on_chain
+            else f"is a {joint.type} joint; only moving joints are locked"
+            if joint.type not in MOVING
+            else "needs a value with its unit, e.g. "
+            + ("20mm (a prismatic joint)" if prismatic else "30deg (a revolute joint)")
+            if not np.isfinite(value)
+            else f"is outside its limits [{joint.lower:g}, {joint.upper:g}] "
+            + ("m" if prismatic else "rad")
+            if not joint.lower - 1e-12 <= value <= joint.upper + 1e-12
+            else None
+        )
+        if why:
+            raise UserError(f"{robot.file}: --lock {name}={text}: '{name}' {why}")
+        out[name] = value
+    return out
+
+
 def cell_from_urdf(
     robot: UrdfRobot,
     cell_name: str,
@@ -211,6 +241,7 @@ def cell_from_urdf(
     tip: str | None = None,
     tcp: str | None = None,
     device_name: str | None = None,
+    locks: dict[str, str] | None = None,
 ) -> ImportedCell:
     """The cell files for the serial chain ``base`` -> ``tip`` of a URDF robot.
 
@@ -225,6 +256,9 @@ def cell_from_urdf(
         ``tool0`` on the imported part, else ``tip``.
     device_name : str, optional
         Default: the robot's name.
+    locks : dict, optional
+        Moving joints off the chain -> the value they are locked at, with its unit ('20mm',
+        '30deg'; default 0): a gripper's fingers open, or closed on the part it grasps.
 
     Raises
     ------
@@ -243,6 +277,7 @@ def cell_from_urdf(
     tip = tip or _default_tip(robot, base)
     chain = _chain(robot, base, tip)
     on_chain = {j.name for j in chain}
+    locks = _lock_values(robot, on_chain, locks or {})
     for j in chain:
         if j.type in ("floating", "planar"):
             issues.append(
@@ -307,13 +342,16 @@ def cell_from_urdf(
                     robot,
                     j,
                     f"joint[{j.name}]",
-                    f"{j.type} joint '{j.name}' is off the chain {base} -> {tip}: locked at 0, and "
-                    f"'{j.child}' merged into the link it hangs on",
+                    f"{j.type} joint '{j.name}' is off the chain {base} -> {tip}: locked at "
+                    f"{locks.get(j.name, 0.0):g} (--lock {j.name}=VALUE), and '{j.child}' "
+                    "merged into the link it hangs on",
                     "warning",
                 )
             )
         g, T_head_parent = placed[hanger]
         T = T_head_parent @ j.origin
+        if j.type in MOVING and locks.get(j.name, 0.0) != 0.0:
+            T = T @ spatial.joint_frame(np.eye(4), j.axis, locks[j.name], j.type == "prismatic")
         groups[g].append((robot.links[j.child], T))
         placed[j.child] = (g, T)
         stack.extend((j.child, c) for c in reversed(robot.child_joints(j.child)))

@@ -8,11 +8,12 @@ and program lines that were running.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..collision.bodies import collision_model
+from ..collision.handling import grasp_gap, rest
 from ..collision.sweep import Contact, Interval, sweep
 from ..motion.trajectory import sample_track
 
@@ -74,6 +75,41 @@ class RunContact:
 
 
 @dataclass
+class HandlingProblem:
+    """A grasp of an object that is not at the TCP, or an object set on a support it does not
+    rest on (inside it, or floating above it); ``step`` is None for the cell's own initial
+    ``rests_on`` affixments."""
+
+    kind: str  # grasp | place | detach_tool | rests_on
+    object: str
+    t: float
+    problem: str  # what is wrong, e.g. "is 20.0 mm deep inside table"
+    gap: float  # [m]
+    depth: float  # [m]
+    step: StepRef | None
+
+    def describe(self) -> str:
+        where = (
+            f"; {self.step.device} step {self.step.step + 1} ({self.step.text}) at "
+            f"{self.step.where}"
+            if self.step
+            else " (the cell's affixments)"
+        )
+        return f"{self.kind}: {self.object} {self.problem} at t = {self.t:.3f} s{where}"
+
+    def as_dict(self) -> dict:
+        return {
+            "kind": self.kind,
+            "object": self.object,
+            "t": self.t,
+            "problem": self.problem,
+            "gap": self.gap,
+            "depth": self.depth,
+            "steps": [self.step.as_dict()] if self.step else [],
+        }
+
+
+@dataclass
 class CollisionReport:
     """What the collision check of a run found.
 
@@ -105,6 +141,12 @@ class CollisionReport:
     queries: int = 0
     refinements: int = 0
     first_state: dict | None = None  # the first contact's worst instant: t, snap, joints
+    handling: list[HandlingProblem] = field(default_factory=list)
+
+    @property
+    def failed(self) -> bool:
+        """A collision, a clearance violation or an impossible grasp or placement."""
+        return bool(self.contacts or self.handling)
 
     @property
     def collisions(self) -> list[RunContact]:
@@ -123,6 +165,7 @@ class CollisionReport:
             "nearest_per_step": self.nearest_steps,
             "not_checked": self.unchecked,
             "open_meshes": self.open_meshes,
+            "handling": [h.as_dict() for h in self.handling],
             "queries": self.queries,
             "refinements": self.refinements,
         }
@@ -165,9 +208,17 @@ def check_run(run, sched, times: np.ndarray, report_within: float = REPORT_WITHI
     ]
     spans = _step_spans(sched, end)
     touches = [
-        (t0, t1, d, step.spec.touch)
+        (
+            t0,
+            t1,
+            d,
+            {
+                name: run.collision_tolerance if depth is None else max(depth, 0.0)
+                for name, depth in step.touch.items()
+            },
+        )
         for d, t0, t1, step in spans
-        if step.kind == "move" and getattr(step.spec, "touch", None)
+        if step.kind == "move" and step.touch
     ]
     watch = max(report_within, run.clearance)
     result = sweep(
@@ -201,7 +252,60 @@ def check_run(run, sched, times: np.ndarray, report_within: float = REPORT_WITHI
         result.queries,
         result.refinements,
         first,
+        _handling(run, sched, model, states),
     )
+
+
+def _handling(run, sched, model, states) -> list[HandlingProblem]:
+    """Every grasp, placement and tool set down checked at its instant (module
+    :mod:`rworld_cli.collision.handling`), and the cell's own resting objects at the start."""
+    world = sched.world
+    tolerance = run.collision_tolerance
+    out: list[HandlingProblem] = []
+    steps = {d: tr.program.steps for d, tr in sched.tracks.items()}
+
+    def at(t: float, snap: dict) -> None:
+        world.restore(snap)
+        for d, v in states([t]).items():
+            world.set_joints(d, v[0][0])
+
+    at(0.0, sched.snapshots[0][1])
+    for aff in world.affixments:
+        if aff.type == "non_rigid":
+            r = rest(world, model, aff.child, aff.parent)
+            problem = r.problem(tolerance) if r else None
+            if problem:
+                out.append(
+                    HandlingProblem("rests_on", aff.child, 0.0, problem, r.gap, r.depth, None)
+                )
+    changes = [e for e in sched.events if e.tree is not None]
+    for event, (_, snap) in zip(changes, sched.snapshots[1:]):
+        tree = event.tree
+        if event.kind not in ("grasp", "place", "detach_tool") or tree["parent"] is None:
+            continue
+        at(event.t, snap)
+        step = steps[event.device][event.step]
+        ref = StepRef(event.device, step.index, step.describe(), step.where)
+        child = tree["child"]
+        if event.kind == "grasp":
+            gap = grasp_gap(world, model, child, tree["parent"])
+            if gap > tolerance:
+                problem = (
+                    f"is {1000 * gap:.1f} mm from the TCP {tree['parent']} (a grasp takes an "
+                    f"object within {1000 * tolerance:g} mm of the TCP, the collision tolerance)"
+                )
+                out.append(HandlingProblem("grasp", child, event.t, problem, gap, 0.0, ref))
+            continue
+        r = rest(world, model, child, tree["parent"])
+        problem = r.problem(tolerance) if r else None
+        if problem:
+            problem += (
+                f" (it must rest on the surface within {1000 * tolerance:g} mm, the collision "
+                "tolerance)"
+            )
+            out.append(HandlingProblem(event.kind, child, event.t, problem, r.gap, r.depth, ref))
+    world.restore(sched.snapshots[-1][1])
+    return out
 
 
 def _step_spans(sched, end: float) -> list[tuple]:

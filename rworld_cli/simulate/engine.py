@@ -161,8 +161,8 @@ class SimulationResult:
 
     @property
     def ok(self) -> bool:
-        """No limit violation, no collision and no clearance violation."""
-        return not self.violations and not (self.collisions and self.collisions.contacts)
+        """No limit violation, no collision, no clearance violation, no impossible handling."""
+        return not self.violations and not (self.collisions and self.collisions.failed)
 
     def peak_ratios(self, device: str) -> dict[str, list[float]]:
         return {

@@ -52,6 +52,7 @@ def _collision_summary(result: SimulationResult) -> dict | None:
             "required_clearance",
             "collisions",
             "clearance_violations",
+            "handling",
             "not_checked",
             "open_meshes",
         )

@@ -320,6 +320,15 @@ def viewer_info(result, without_geometry: list[str], labels: list[dict]) -> dict
                     "text": rc.describe().split(";")[0],
                 }
             )
+        for h in report.handling:
+            marks.append(
+                {
+                    "t": h.t,
+                    "kind": "collision",
+                    "device": h.step.device if h.step else "",
+                    "text": h.describe().split(";")[0],
+                }
+            )
     marks.sort(key=lambda m: m["t"])
     return {
         "title": f"{result.cell}: {result.run}",

@@ -139,8 +139,78 @@ def test_allowed_contacts_and_touch_steps(tmp_path):
     )
     root = make_cell(tmp_path / "a", plate_x=550, cell_extra=allowed)
     assert contacts(root)[1] == []
+    # touching allows contact, not depth: the cube goes up to 21 mm deep into the 2 mm plate
     root = make_cell(tmp_path / "b", plate_x=550, touch=", touch: [plate]")
+    [c] = contacts(root)[1]
+    assert c.contact.collision and 0.015 < c.contact.depth <= 0.021 + 1e-9
+    root = make_cell(tmp_path / "c", plate_x=550, touch=", touch: {plate: 25mm}")
     assert contacts(root)[1] == []
+    root = make_cell(tmp_path / "d", plate_x=550, touch=", touch: {plate: 0.015}")  # metres
+    assert contacts(root)[1][0].contact.depth > 0.015
+
+
+def _puma_with(tmp_path, drop_z: str | None = None, drop_program=False) -> Path:
+    cell = tmp_path / "puma560"
+    shutil.copytree(WORKCELLS / "puma560", cell)
+    if drop_z is not None:
+        poses = cell / "poses.yaml"
+        poses.write_text(
+            poses.read_text().replace("table.drop: {xyz: [-0.1, -0.3, 0.05]", drop_z, 1)
+        )
+    if drop_program:  # no linear approach: the grasp happens 100 mm above the workpiece
+        program = cell / "programs" / "pick_place.yaml"
+        lines = program.read_text().splitlines(keepends=True)
+        program.write_text("".join(x for x in lines if "speed: 0.5, touch: [workpiece]" not in x))
+    return cell
+
+
+@pytest.mark.parametrize("depth", [20, 50])
+def test_a_part_set_down_into_the_table_fails_with_its_depth(cli, tmp_path, depth):
+    """The issue's case: table.drop lower by 20 or 50 mm, and the set-down move is a touch."""
+    z = 0.05 - depth / 1000
+    cell = _puma_with(tmp_path, f"table.drop: {{xyz: [-0.1, -0.3, {z:.3f}]")
+    out = cli(["check", str(cell), "pick_place"])
+    assert out.exit_code == 1, out.output
+    assert f"collision: table with workpiece" in out.output
+    assert (
+        f"depth {depth}.0 mm" in out.output
+        and "puma step 6 (move to table.drop (linear))" in out.output
+    )
+    assert f"place: workpiece is {depth}.0 mm deep inside table" in out.output
+    assert "pick_place.yaml:15" in out.output
+    data = json.loads(cli(["check", str(cell), "pick_place", "--json"]).stdout)
+    [place] = data["collisions"]["handling"]
+    assert place["kind"] == "place" and place["depth"] == pytest.approx(depth / 1000, abs=1e-6)
+
+
+def test_a_part_placed_in_the_air_and_a_grasp_from_afar_fail(cli, tmp_path):
+    cell = _puma_with(tmp_path, "table.drop: {xyz: [-0.1, -0.3, 0.35]")
+    out = cli(["check", str(cell), "pick_place"])
+    assert out.exit_code == 1
+    assert "place: workpiece floats 300.0 mm away from table" in out.output
+    cell = _puma_with(tmp_path / "b", drop_program=True)
+    out = cli(["check", str(cell), "pick_place"])
+    assert out.exit_code == 1
+    assert "grasp: workpiece is 100.0 mm from the TCP puma.probe" in out.output
+    assert "puma step 3 (grasp workpiece)" in out.output
+
+
+def test_a_long_contact_is_one_span_when_the_run_ends_just_after_a_tick(tmp_path):
+    """The merge gap is the clock's step, not its smallest difference (the end instant)."""
+    root = make_cell(tmp_path / "probe", plate_x=1000)
+    (root / "program.yaml").write_text(
+        "device: slider\nsteps:\n  - move: {to: far}\n  - wait: {time: 1}\n"
+    )
+    end = simulate_run(str(root), str(root / "run.yaml"), collisions=False)[1].cycle_time
+    dt = end / 40.0001  # the last tick 2.5e-6 of the run before its end
+    root = make_cell(tmp_path / "cell", plate_x=1000, dt=f"{dt!r}")
+    (root / "program.yaml").write_text(
+        "device: slider\nsteps:\n  - move: {to: far}\n  - wait: {time: 1}\n"
+    )
+    result, found = contacts(root)
+    assert result.times[-1] - result.times[-2] < 1e-5
+    [c] = found
+    assert c.contact.t_end == pytest.approx(end) and c.contact.t_end - c.contact.t_start > 0.9
 
 
 def test_bad_names_and_lengths_are_located(cli, tmp_path):
