@@ -64,8 +64,9 @@ def import_urdf(
     and damping; links fixed to a moving link (by fixed joints, or in branches off the chain)
     are merged into it - masses combined, shapes joined into one mesh (collision geometry
     preferred over visual) - and kept as frames.  Moving joints off the chain are locked at 0
-    (or at their --lock value), with a warning.  Mimic joints on the chain, floating and planar joints are refused.
-    xacro files must be expanded first (xacro robot.urdf.xacro > robot.urdf).
+    (or at their --lock value), with a warning.  Mimic joints on the chain, floating and
+    planar joints are refused.  xacro files must be expanded first (xacro robot.urdf.xacro >
+    robot.urdf).
     Nothing is written unless the whole import succeeds.
 
     \b

@@ -171,7 +171,7 @@ def test_a_part_set_down_into_the_table_fails_with_its_depth(cli, tmp_path, dept
     cell = _puma_with(tmp_path, f"table.drop: {{xyz: [-0.1, -0.3, {z:.3f}]")
     out = cli(["check", str(cell), "pick_place"])
     assert out.exit_code == 1, out.output
-    assert f"collision: table with workpiece" in out.output
+    assert "collision: table with workpiece" in out.output
     assert (
         f"depth {depth}.0 mm" in out.output
         and "puma step 6 (move to table.drop (linear))" in out.output
