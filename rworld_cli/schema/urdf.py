@@ -28,6 +28,7 @@ from .loader import INERTIA_ENTRIES, inertia_entries, inertia_matrix, inertia_pr
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 MOVING = ("revolute", "continuous", "prismatic")
 _XACRO_NS = "http://www.ros.org/wiki/xacro"
+_XACRO_SUBSTITUTION = re.compile(r"\$\{|\$\((find|arg|env|optenv|eval|dirname|cwd)\b")
 
 
 @dataclass(frozen=True)
@@ -424,18 +425,26 @@ def read_urdf(
     if root.tag != "robot":
         reader.err(root, "(root)", f"the root element is <{root.tag}>; a URDF file has <robot>")
         raise UserError(f"invalid: {shown}", reader.issues)
-    macros = [
-        el
-        for el in root.iter()
-        if isinstance(el.tag, str) and el.tag.startswith("{" + _XACRO_NS + "}")
-    ]
-    if macros or "${" in text:
-        el = macros[0] if macros else root
+    # xacro is recognised on the parsed tree: elements in its namespace, or substitutions in
+    # attribute values - never words in comments (xacro's output keeps them)
+    macro = next(
+        (
+            el
+            for el in root.iter()
+            if isinstance(el.tag, str)
+            and (
+                el.tag.startswith("{" + _XACRO_NS + "}")
+                or any(_XACRO_SUBSTITUTION.search(v) for v in el.attrib.values())
+            )
+        ),
+        None,
+    )
+    if macro is not None:
         reader.err(
-            el,
+            macro,
             "(root)",
-            "this file holds xacro macros (xacro:... elements or ${...} expressions); expand it "
-            "to plain URDF first: 'xacro FILE.urdf.xacro > FILE.urdf'",
+            "this file holds xacro macros (xacro:... elements or ${...} / $(...) expressions); "
+            "expand it to plain URDF first: 'xacro FILE.urdf.xacro > FILE.urdf'",
         )
         raise UserError(f"invalid: {shown}", reader.issues)
     links: dict[str, UrdfLink] = {}
