@@ -200,12 +200,19 @@ def limit_warnings(
     return out
 
 
+INTEGER_COLUMNS = ("step",)  # counts, written as integers (1-based program steps, 0: none)
+
+
 def format_csv(columns: list[str], data: np.ndarray) -> str:
-    """CSV text with a header; numbers in repr (round-trip exact)."""
+    """CSV text with a header; numbers in repr (round-trip exact), the columns named in
+    ``INTEGER_COLUMNS`` as integers."""
+    whole = [c in INTEGER_COLUMNS for c in columns]
     buf = io.StringIO()
     buf.write(",".join(columns) + "\n")
     for row in np.atleast_2d(data):
-        buf.write(",".join(repr(float(v)) for v in row) + "\n")
+        buf.write(
+            ",".join(str(int(v)) if w else repr(float(v)) for v, w in zip(row, whole)) + "\n"
+        )
     return buf.getvalue()
 
 

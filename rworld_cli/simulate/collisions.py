@@ -30,7 +30,12 @@ class StepRef:
     where: str  # file:line
 
     def as_dict(self) -> dict:
-        return {"device": self.device, "step": self.step, "text": self.text, "where": self.where}
+        return {
+            "device": self.device,
+            "step": self.step + 1,  # 1-based, as in text
+            "text": self.text,
+            "where": self.where,
+        }
 
 
 @dataclass
@@ -378,7 +383,7 @@ def _clearance_columns(sched, model, result, times, spans):
         steps.append(
             {
                 "device": d,
-                "step": step.index,
+                "step": step.index + 1,
                 "text": step.describe(),
                 "where": step.where,
                 "pairs": [

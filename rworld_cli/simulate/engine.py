@@ -56,7 +56,7 @@ class Event:
         return {
             "t": self.t,
             "device": self.device,
-            "step": self.step,
+            "step": None if self.step is None else self.step + 1,  # 1-based, as in text
             "kind": self.kind,
             "detail": self.detail,
             "tree": self.tree,
@@ -91,10 +91,9 @@ class Violation:
                 "t_end",
                 "peak",
                 "limit",
-                "step",
                 "step_text",
             )
-        }
+        } | {"step": None if self.step is None else self.step + 1}  # 1-based, as in text
 
     def describe(self) -> str:
         where = f"step {self.step + 1} ({self.step_text})" if self.step is not None else "at rest"

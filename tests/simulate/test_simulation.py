@@ -433,3 +433,24 @@ def test_unknown_run_name_lists_the_cells_runs(cli):
     assert result.exit_code == 2
     assert "no run 'pick_plce'" in result.stderr and "did you mean 'pick_place'" in result.stderr
     assert "pick_place, probe, through_table" in result.stderr
+
+
+def test_step_numbers_are_one_based_in_json_and_whole_in_csv(cli, tmp_path):
+    """Text, JSON and CSV name a step by the same number."""
+    out = tmp_path / "out"
+    result = cli(["simulate", str(WORKCELLS / "puma560"), "pick_place", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    events = json.loads((out / "events.json").read_text())
+    grasp = next(e for e in events if e["kind"] == "grasp")
+    assert grasp["step"] == 4 and "grasp workpiece" in grasp["detail"]  # the 4th step
+    assert {e["step"] for e in events if e["step"] is not None} == set(range(1, 10))
+    rows = (out / "timeline_puma.csv").read_text().splitlines()[1:]
+    steps = [row.split(",")[1] for row in rows]
+    assert all(s.isdigit() for s in steps) and set(steps) <= {str(k) for k in range(10)}
+    data = json.loads(cli(["check", str(WORKCELLS / "puma560"), "through_table", "--json"]).stdout)
+    first = data["collisions"]["collisions"][0]["steps"][0]
+    assert (
+        first["step"] >= 1
+        and f"step {first['step']} "
+        in cli(["check", str(WORKCELLS / "puma560"), "through_table"]).output
+    )
