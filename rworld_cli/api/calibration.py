@@ -64,16 +64,21 @@ def calibrate_cell(
     measurement_paths: list[str],
     frames: list[str] | None = None,
     output: str | None = None,
-    csv_units: str = "mm",
+    csv_units: str | None = None,
     dry_run: bool = False,
+    max_correction: float | str = "50mm",
 ) -> CalibrationRun:
     """Calibrate a cell's conditioned frames and write the overlay (unless ``dry_run`` or a
     frame is undetermined).
+
+    ``max_correction``: the largest plausible correction (metres, or text with its unit such
+    as '50mm'); implausible measurements or corrections raise :class:`UserError`.
     """
     from ..calibration.pipeline import calibrate
     from ..schema.loader import load_cell, resolve_cell_path
     from ..schema.measurements import load_measurements
     from ..schema.poses import write_overlay
+    from ..units import LENGTH_WORDS, parse_quantity
 
     loaded = load_cell(cell_path)
     cell = loaded.cell
@@ -86,7 +91,16 @@ def calibrate_cell(
             "(default: calibrated.yaml beside cell.yaml)"
         )
     measured = load_measurements(measurement_paths, cell, csv_units)
-    result = calibrate(cell, measured, frames)
+    limit = (
+        float(max_correction)
+        if isinstance(max_correction, (int, float))
+        else parse_quantity(max_correction, LENGTH_WORDS, "")
+    )
+    if not limit > 0:
+        raise UserError(
+            f"--max-correction '{max_correction}' is not a length above 0 with its unit, e.g. 50mm"
+        )
+    result = calibrate(cell, measured, frames, limit)
     written = None
     if not dry_run and not result.undetermined:
         write_overlay(out, result, measured.files)

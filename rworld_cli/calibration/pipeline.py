@@ -9,7 +9,7 @@ overlay of calibrated poses; nominal pose files are never rewritten.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -102,15 +102,137 @@ def _fit(feature: Feature, m: Measurement, T_owner: np.ndarray) -> FeatureFit:
     return fit
 
 
+MAX_CORRECTION = 0.05  # m: nominal poses further off than this are not a calibration's work
+MAX_ROTATION = np.radians(10.0)  # rad: the same for turns
+RESIDUAL_SIGMAS = 10.0  # residuals above this many of the instrument's sigma do not fit
+UNIT_FACTORS = {"m read as mm": 1000.0, "mm read as m": 0.001}
+
+
+def nominal_distances(cell: CellModel, measured: MeasurementSet) -> dict[str, float]:
+    """Per measured feature, the median distance of its probe points from the nominal feature
+    [m] (ball radius left in: it is small beside what this looks for)."""
+    world = World(cell)
+    out = {}
+    for name, m in measured.measurements.items():
+        f = cell.features[name]
+        T = world.T_world(f.owner)
+        p0 = T[:3, :3] @ f.point + T[:3, 3]
+        v = m.points - p0
+        d = T[:3, :3] @ f.direction if f.direction is not None else None
+        if f.kind == "plane":
+            dist = np.abs(v @ d)
+        elif f.kind == "line":
+            dist = np.linalg.norm(np.cross(v, d), axis=1)
+        elif f.kind == "circle":
+            axial = v @ d
+            radial = np.linalg.norm(v - axial[:, None] * d, axis=1)
+            dist = np.hypot(axial, radial - (f.radius or 0.0))
+        else:
+            dist = np.linalg.norm(v, axis=1)
+        out[name] = float(np.median(dist))
+    return out
+
+
+def _unit_hint(cell: CellModel, measured: MeasurementSet, max_correction: float) -> str:
+    """What the points look like when read in the other unit, if that makes them fit."""
+    for what, k in UNIT_FACTORS.items():
+        scaled = MeasurementSet(
+            {
+                n: replace(
+                    m,
+                    points=m.points * k,
+                    above=None if m.above is None else m.above * k,
+                    probe_radius=m.probe_radius * k,
+                    offset=None if m.offset is None else m.offset * k,
+                    depth=None if m.depth is None else m.depth * k,
+                )
+                for n, m in measured.measurements.items()
+            },
+            measured.files,
+            measured.sigma,
+        )
+        far = float(np.median(list(nominal_distances(cell, scaled).values())))
+        if far <= max_correction:
+            return (
+                f" Scaled by {k:g} they lie {1000 * far:.2f} mm from them: the points are most "
+                f"likely in the other unit ({what}); check the unit the file states (units:, a "
+                "CSV header's x_mm, --csv-units)."
+            )
+    return (
+        " Check the unit the file states (units:, a CSV header's x_mm, --csv-units) - a unit "
+        "read wrongly is the usual cause - and that the points belong to this cell."
+    )
+
+
+def _implausible_before(cell: CellModel, measured: MeasurementSet, max_correction: float) -> None:
+    far = nominal_distances(cell, measured)
+    median = float(np.median(list(far.values()))) if far else 0.0
+    if median > max_correction:
+        worst = sorted(far.items(), key=lambda kv: -kv[1])[:3]
+        raise UserError(
+            "implausible measurements, nothing written: the probe points lie a median "
+            f"{1000 * median:.1f} mm from their nominal features ("
+            + ", ".join(f"{n} {1000 * d:.1f} mm" for n, d in worst)
+            + f"), more than --max-correction {1000 * max_correction:g} mm."
+            + _unit_hint(cell, measured, max_correction)
+        )
+
+
+def _implausible_after(
+    cell: CellModel,
+    measured: MeasurementSet,
+    solutions: dict[str, FrameSolution],
+    max_correction: float,
+) -> None:
+    problems = []
+    for name, sol in solutions.items():
+        if not sol.determined:
+            continue
+        move, turn = sol.correction
+        if move > max_correction:
+            problems.append(
+                f"{name} moves by {1000 * move:.2f} mm (more than --max-correction "
+                f"{1000 * max_correction:g} mm)"
+            )
+        elif turn > MAX_ROTATION:
+            problems.append(
+                f"{name} turns by {np.degrees(turn):.1f} deg (more than "
+                f"{np.degrees(MAX_ROTATION):g} deg)"
+            )
+        if measured.sigma and sol.residual_rms > RESIDUAL_SIGMAS * measured.sigma:
+            problems.append(
+                f"{name}'s probe points miss its features by {1000 * sol.residual_rms:.3f} mm "
+                f"RMS, {sol.residual_rms / measured.sigma:.0f} times the instrument's sigma "
+                f"{1000 * measured.sigma:g} mm"
+            )
+    if problems:
+        raise UserError(
+            "implausible calibration, nothing written: "
+            + "; ".join(problems)
+            + "."
+            + _unit_hint(cell, measured, max_correction)
+        )
+
+
 def calibrate(
-    cell: CellModel, measured: MeasurementSet, frames: list[str] | None = None
+    cell: CellModel,
+    measured: MeasurementSet,
+    frames: list[str] | None = None,
+    max_correction: float = MAX_CORRECTION,
 ) -> CalibrationResult:
     """Calibrate the conditioned frames of ``cell`` from the measurements.
+
+    Parameters
+    ----------
+    max_correction : float
+        The largest plausible correction of a frame [m]; points farther from their nominal
+        features, or a larger correction, are refused (units read wrongly, a wrong cell).
 
     Raises
     ------
     UserError
-        A measured feature's points cannot define it (collinear plane points, ...), with the figure.
+        A measured feature's points cannot define it (collinear plane points, ...), with the
+        figure; implausible measurements or corrections, naming units as the likely cause.
     """
     world = World(cell)
     conditions = {c.frame: c for c in cell.conditions}
@@ -133,6 +255,7 @@ def calibrate(
             problems.append(f"{name} ({m.source}): {exc}")
     if problems:
         raise UserError("measured points do not define their features:\n  " + "\n  ".join(problems))
+    _implausible_before(cell, measured, max_correction)
     solutions: dict[str, FrameSolution] = {}
     undetermined: dict[str, str] = {}
     # natural frames first, then auxiliary frames parents-first (a frame's parent may be conditioned
@@ -207,6 +330,9 @@ def calibrate(
     for name in wanted:
         if name not in solutions and name not in undetermined:
             undetermined[name] = "not solved"
+    _implausible_after(
+        cell, measured, {n: s for n, s in solutions.items() if n in wanted}, max_correction
+    )
     return CalibrationResult(
         cell.name,
         solutions,

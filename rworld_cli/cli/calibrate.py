@@ -56,14 +56,22 @@ def _solution_dict(sol) -> dict:
 @click.option(
     "--csv-units",
     type=click.Choice(["mm", "m"]),
-    default="mm",
+    default=None,
+    help="Length unit of CSV point files that do not state it (in the header, x_mm, or a "
+    "'# units: mm' line); never assumed.",
+)
+@click.option(
+    "--max-correction",
+    default="50mm",
     show_default=True,
-    help="Length unit of CSV point files.",
+    metavar="LENGTH",
+    help="The largest plausible correction of a frame, with its unit; farther points or larger "
+    "corrections are refused (a unit read wrongly, a wrong cell).",
 )
 @click.option("--dry-run", is_flag=True, help="Report, write nothing.")
 @json_option
 @handle_errors
-def calibrate(cell, measurements, output, frames, csv_units, dry_run, json_output):
+def calibrate(cell, measurements, output, frames, csv_units, max_correction, dry_run, json_output):
     """Calibrate CELL's conditioned frames from probe-point MEASUREMENTS (YAML or CSV).
 
     Fits every measured feature by total least squares, solves the natural
@@ -80,13 +88,24 @@ def calibrate(cell, measurements, output, frames, csv_units, dry_run, json_outpu
       rworld calibrate workcells/calibration_example measurements/calibration_example/block.yaml
       rworld calibrate workcells/calibration_example points.csv --csv-units mm --dry-run --json
 
+    Implausible input is refused before anything is written: probe points
+    far from their nominal features, a correction beyond --max-correction or
+    10 deg, residuals above 10 times the instrument's sigma.  The message
+    says whether the points fit when read in the other unit.
+
     Exit codes: 0 calibrated, 1 a requested frame is not determined by the
-    measurements (nothing written), 2 bad input.
+    measurements (nothing written), 2 bad input (implausible included).
     """
     from ..api import calibrate_cell
 
     run = calibrate_cell(
-        cell, list(measurements), frames.split(",") if frames else None, output, csv_units, dry_run
+        cell,
+        list(measurements),
+        frames.split(",") if frames else None,
+        output,
+        csv_units,
+        dry_run,
+        max_correction,
     )
     res = run.result
     if json_output:

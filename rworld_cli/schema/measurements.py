@@ -18,14 +18,17 @@ YAML (``measurements/<cell>/*.yaml``)::
 
 CSV (as CMM software exports): a header ``feature,x,y,z`` and one point per
 row; an optional fifth column ``role`` marks ``above`` points, the feature's
-``offset`` (owner frame), ``boss`` (coordinates ignored) and ``depth`` (in x); the length unit
-comes from the caller (default mm).
+``offset`` (owner frame), ``boss`` (coordinates ignored) and ``depth`` (in x).  The length
+unit is stated, never defaulted: in the header (``x_mm``, ``x [mm]``), in a ``# units: mm``
+line above it, or by the caller (``--csv-units``).  Read with the csv module
+(:mod:`.csvtext`): a byte-order mark, ``;`` or tab delimiters and quoted fields are fine.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
 import hashlib
+import re
 from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
@@ -40,7 +43,7 @@ from ..model.cell import CellModel
 from ..model.measurements import FeatureProbes, Measurement, MeasurementSet
 from ..units import LENGTH, MIN_POINTS
 from .loader import validate_document
-from .models import NonNegative, Strict, Units, Vec3
+from .models import LengthUnits, NonNegative, Strict, Vec3
 from .yamlio import read_yaml
 
 
@@ -76,7 +79,7 @@ class MeasurementFile(Strict):
     """Probe points per feature, for calibration."""
 
     cell: str | None = Field(None, description="The cell these measurements are of (informative).")
-    units: Units = Field(default_factory=Units)
+    units: LengthUnits
     date: str | None = None
     instrument: str | None = None
     probe_radius: NonNegative = Field(
@@ -92,34 +95,64 @@ def _digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-def _read_csv(path: str, length_unit: str) -> tuple[dict, list[Issue]]:
+_HEADER_UNIT = re.compile(r"^([a-z]+)\s*(?:_|\[|\(|/)\s*(mm|m)\s*[\])]?$")
+
+
+def _read_csv(path: str, length_unit: str | None) -> tuple[dict, list[Issue]]:
+    """Probe points of a CSV file (module docstring): the header names the columns and, in
+    them or in a ``# units: mm`` comment, the length unit; ``length_unit`` (``--csv-units``)
+    stands in when the file states none and must agree when it does."""
+    from .csvtext import read_csv_table
+
+    table = read_csv_table(path, "feature,x_mm,y_mm,z_mm[,role]")
     issues: list[Issue] = []
-    try:
-        lines = Path(path).read_text(encoding="utf-8").splitlines()
-    except FileNotFoundError:
-        raise UserError(
-            f"{path}: no such file", [Issue(path, 0, 0, "(file)", "no such file")]
-        ) from None
-    header = [h.strip().lower() for h in (lines[0].split(",") if lines else [])]
-    if header[:4] != ["feature", "x", "y", "z"]:
+    names, units = [], set()
+    for h in table.header:
+        m = _HEADER_UNIT.match(h.lower())
+        names.append(m.group(1) if m else h.lower())
+        if m:
+            units.add(m.group(2))
+    at_header = lambda message: Issue(path, table.header_line, 1, "(header)", message)  # noqa: E731
+    if names[:4] != ["feature", "x", "y", "z"] or len(names) > 5 or names[4:] not in ([], ["role"]):
         raise UserError(
             f"{path}: bad header",
             [
-                Issue(
-                    path,
-                    1,
-                    1,
-                    "(header)",
-                    "expected the header 'feature,x,y,z' (and optionally ',role')",
+                at_header(
+                    f"the header is '{table.delimiter.join(table.header)}'; expected "
+                    "'feature,x,y,z' with the unit (x_mm or 'x [mm]', or a '# units: mm' line "
+                    "above), and optionally ',role'"
                 )
             ],
         )
-    scale = LENGTH[length_unit]
+    stated, stated_line = table.stated("units")
+    if stated is not None and stated not in LENGTH:
+        return {}, [
+            Issue(path, stated_line, 1, "(units)", f"unknown length unit '{stated}'; use mm or m")
+        ]
+    if stated is not None:
+        units.add(stated)
+    if len(units) > 1:
+        return {}, [at_header(f"the file states two length units: {', '.join(sorted(units))}")]
+    unit = next(iter(units), None)
+    if unit is not None and length_unit is not None and unit != length_unit:
+        return {}, [
+            at_header(
+                f"the file states its points in {unit}, but --csv-units says {length_unit}; "
+                "drop --csv-units or correct the file"
+            )
+        ]
+    unit = unit or length_unit
+    if unit is None:
+        return {}, [
+            at_header(
+                "the file does not state its length unit, and rworld never guesses one: name "
+                "it in the header (feature,x_mm,y_mm,z_mm or 'x [m]'), add a '# units: mm' line "
+                "above it, or pass --csv-units mm|m"
+            )
+        ]
+    scale = LENGTH[unit]
     data: dict[str, dict] = {}
-    for lineno, line in enumerate(lines[1:], start=2):
-        if not line.strip() or line.startswith("#"):
-            continue
-        fields = [f.strip() for f in line.split(",")]
+    for lineno, fields, columns in table.rows:
         if len(fields) not in (4, 5):
             issues.append(
                 Issue(
@@ -127,27 +160,32 @@ def _read_csv(path: str, length_unit: str) -> tuple[dict, list[Issue]]:
                     lineno,
                     1,
                     "(row)",
-                    f"{len(fields)} field(s); expected feature,x,y,z[,role]",
+                    f"{len(fields)} field(s) separated by '{table.delimiter}'; expected "
+                    "feature,x,y,z[,role]",
                 )
             )
             continue
         try:
             xyz = [float(v) * scale for v in fields[1:4]]
         except ValueError:
+            bad = next(k for k in (1, 2, 3) if not _is_number(fields[k]))
+            hint = (
+                " (a decimal comma? use '.' or separate the fields with ';')"
+                if "," in fields[bad] or re.fullmatch(r"-?\d+,\d+", fields[bad])
+                else ""
+            )
             issues.append(
                 Issue(
                     path,
                     lineno,
-                    len(fields[0]) + 2,
+                    columns[bad],
                     "(row)",
-                    f"coordinates must be numbers, got {fields[1:4]}",
+                    f"coordinate '{fields[bad]}' is not a number{hint}",
                 )
             )
             continue
         if not np.all(np.isfinite(xyz)):
-            issues.append(
-                Issue(path, lineno, len(fields[0]) + 2, "(row)", "coordinates must be finite")
-            )
+            issues.append(Issue(path, lineno, columns[1], "(row)", "coordinates must be finite"))
             continue
         entry = data.setdefault(
             fields[0],
@@ -171,7 +209,7 @@ def _read_csv(path: str, length_unit: str) -> tuple[dict, list[Issue]]:
                 Issue(
                     path,
                     lineno,
-                    len(",".join(fields[:4])) + 2,
+                    columns[4],
                     "(row)",
                     f"unknown role '{fields[4]}'; use 'above', 'offset', 'boss' or 'depth' "
                     "(in x), or leave it empty",
@@ -180,7 +218,17 @@ def _read_csv(path: str, length_unit: str) -> tuple[dict, list[Issue]]:
     return data, issues
 
 
-def load_measurements(paths: list[str], cell: CellModel, csv_units: str = "mm") -> MeasurementSet:
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def load_measurements(
+    paths: list[str], cell: CellModel, csv_units: str | None = None
+) -> MeasurementSet:
     """Read measurement files (YAML or CSV) and check them against the cell.
 
     Raises

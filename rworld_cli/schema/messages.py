@@ -15,7 +15,7 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from ..errors import Issue, did_you_mean
-from .models import NAME_PATTERN, REF_PATTERN
+from .models import NAME_PATTERN, REF_PATTERN, UNITS_HINT
 from .yamlio import Marked, format_path
 
 
@@ -104,6 +104,10 @@ def _message(err: dict, root: type[BaseModel]) -> tuple[str, str]:
     value = err.get("input")
     ctx = err.get("ctx") or {}
     if kind == "missing":
+        if loc[-1] == "units":
+            return f"missing required key 'units': {UNITS_HINT}", "parent"
+        if loc[-2:-1] == ("units",):
+            return f"missing required key 'units.{loc[-1]}': {UNITS_HINT}", "parent"
         return f"missing required key '{loc[-1]}'", "parent"
     if kind == "extra_forbidden":
         model = model_at(root, loc[:-1])

@@ -59,10 +59,31 @@ class Strict(BaseModel):
 
 
 class Units(Strict):
-    """Units of the numbers in this file; converted to SI when the file is loaded."""
+    """Units of the numbers in this file; converted to SI when the file is loaded.  Both are
+    required: rworld never guesses a unit (docs/formats.md, conventions)."""
 
-    length: Literal["m", "mm"] = Field("m", description="Unit of every length in the file.")
-    angle: Literal["rad", "deg"] = Field("rad", description="Unit of every angle in the file.")
+    length: Literal["m", "mm"] = Field(description="Unit of every length in the file.")
+    angle: Literal["rad", "deg"] = Field(description="Unit of every angle in the file.")
+
+
+class LengthUnits(Strict):
+    """Units of a file that holds lengths only (measurements)."""
+
+    length: Literal["m", "mm"] = Field(description="Unit of every length in the file.")
+    angle: Literal["rad", "deg"] | None = Field(None, description="Unused: no angles here.")
+
+
+class PartUnits(Strict):
+    """Units of a file that holds lengths or angles only in some cases (programs: offsets;
+    paths: revolute and prismatic joints); the ones it uses must be given."""
+
+    length: Literal["m", "mm"] | None = Field(None, description="Unit of every length in the file.")
+    angle: Literal["rad", "deg"] | None = Field(
+        None, description="Unit of every angle in the file."
+    )
+
+
+UNITS_HINT = "declare them, e.g. 'units: {length: mm, angle: deg}': rworld never guesses units"
 
 
 class Pose(Strict):
@@ -530,7 +551,7 @@ class CellFile(Strict):
 
     name: Name
     description: str | None = None
-    units: Units = Field(default_factory=Units)
+    units: Units
     pose_files: Annotated[list[str], Len(1)] = Field(
         default_factory=lambda: ["poses.yaml"],
         description="Numeric pose files relative to this file; later files override earlier ones "
@@ -560,7 +581,7 @@ class CellFile(Strict):
 class PoseFile(Strict):
     """Numeric data: frame poses relative to their parents.  Calibration rewrites these files."""
 
-    units: Units = Field(default_factory=Units)
+    units: Units
     poses: dict[str, Pose] = Field(description="Frame name -> pose relative to its parent.")
     provenance: dict[str, Any] | None = Field(
         None,

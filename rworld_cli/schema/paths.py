@@ -66,6 +66,16 @@ def read_path(path_file: str, device) -> LoadedPath:
                     f"knots must rise strictly from 0 to 1, one per waypoint ({len(pf.waypoints)})",
                 )
             )
+    kinds = {j.kind for j in device.joints}
+    for kind, unit, example in (("revolute", "angle", "deg"), ("prismatic", "length", "mm")):
+        if kind in kinds and getattr(pf.units, unit) is None:
+            issues.append(
+                doc.issue(
+                    ("units",),
+                    f"'{device.name}' has {kind} joints, and the file gives no units.{unit}: add "
+                    f"it (e.g. {unit}: {example}); rworld never guesses units",
+                )
+            )
     if issues:
         raise UserError(f"{path_file}: invalid path", issues)
     scale = np.array(
@@ -110,7 +120,8 @@ def write_path_with_knots(path_file: str, knots, output: str, note: str = "") ->
     lines = [f"# {path_file} with new knots{': ' + note if note else ''}"]
     if pf.device:
         lines.append(f"device: {pf.device}")
-    lines.append(f"units: {{length: {pf.units.length}, angle: {pf.units.angle}}}")
+    units = {k: v for k, v in (("length", pf.units.length), ("angle", pf.units.angle)) if v}
+    lines.append("units: {" + ", ".join(f"{k}: {v}" for k, v in units.items()) + "}")
     lines.append("waypoints:")
     lines += ["  - [" + ", ".join(repr(float(v)) for v in row) + "]" for row in pf.waypoints]
     lines.append("knots: [" + ", ".join(f"{float(k):.9g}" for k in knots) + "]")

@@ -15,7 +15,7 @@ from typing import Annotated, Literal
 from pydantic import Field, field_validator, model_validator
 
 from ..units import parse_length
-from .models import FrameRef, Name, Pose, Strict, Units
+from .models import FrameRef, Name, PartUnits, Pose, Strict
 
 Fraction = Annotated[float, Field(gt=0, le=1)]
 
@@ -177,7 +177,10 @@ class ProgramFile(Strict):
 
     device: Name
     description: str | None = None
-    units: Units = Field(default_factory=Units, description="Units of offsets in this file.")
+    units: PartUnits | None = Field(
+        None,
+        description="Units of offsets and touch depths in this file; required when it has them.",
+    )
     steps: Annotated[list[Step], Field(min_length=1)]
 
 
@@ -221,9 +224,8 @@ class PathFile(Strict):
     device: Name | None = Field(
         None, description="The device the path is for (informative; --device wins)."
     )
-    units: Units = Field(
-        default_factory=Units,
-        description="Units of the joint values (angle for revolute, length for prismatic joints).",
+    units: PartUnits = Field(
+        description="Units of the joint values (angle for revolute, length for prismatic joints)."
     )
     waypoints: Annotated[list[list[float]], Field(min_length=2)] = Field(
         description="Joint values, one row per waypoint."

@@ -26,7 +26,9 @@ def _step_spec(step: sp.Step):
 def _check_program(
     doc: Marked, pf: sp.ProgramFile, cell: CellModel, run_devices: set[str], issues: list[Issue]
 ) -> Program:
-    L, A = LENGTH[pf.units.length], ANGLE[pf.units.angle]
+    units = pf.units
+    L = LENGTH[units.length] if units and units.length else None
+    A = ANGLE[units.angle] if units and units.angle else None
     device = cell.devices.get(pf.device)
     if device is None:
         issues.append(
@@ -102,15 +104,35 @@ def _check_program(
                         )
                     if depth is None:
                         continue
+                    if not isinstance(depth, str) and L is None:
+                        issues.append(
+                            doc.issue(
+                                at,
+                                f"a bare depth ({depth}) needs the file's units.length, and "
+                                "rworld never guesses it: write it with its unit (2mm) or add "
+                                "'units: {length: mm, angle: deg}'",
+                            )
+                        )
+                        continue
                     try:
                         step.touch[name] = parse_length(
-                            depth, f"the depth '{name}' may be touched to", pf.units.length
+                            depth,
+                            f"the depth '{name}' may be touched to",
+                            units.length if units and units.length else "",
                         )
                     except ValueError as exc:
                         issues.append(doc.issue(at, str(exc)))
                 for name in depths:
                     step.touch.setdefault(name, None)
-            if spec.offset is not None:
+            if spec.offset is not None and (L is None or A is None):
+                issues.append(
+                    doc.issue(
+                        path + ("offset",),
+                        "an offset needs the file's units, and rworld never guesses them: add "
+                        "'units: {length: mm, angle: deg}' at the top of the program",
+                    )
+                )
+            elif spec.offset is not None:
                 T, error, warning = pose_to_matrix(spec.offset, L, A)
                 if error:
                     issues.append(doc.issue(path + ("offset",), error))

@@ -210,9 +210,7 @@ def format_csv(columns: list[str], data: np.ndarray) -> str:
     buf = io.StringIO()
     buf.write(",".join(columns) + "\n")
     for row in np.atleast_2d(data):
-        buf.write(
-            ",".join(str(int(v)) if w else repr(float(v)) for v, w in zip(row, whole)) + "\n"
-        )
+        buf.write(",".join(str(int(v)) if w else repr(float(v)) for v, w in zip(row, whole)) + "\n")
     return buf.getvalue()
 
 

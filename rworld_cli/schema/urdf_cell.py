@@ -277,7 +277,7 @@ def cell_from_urdf(
     tip = tip or _default_tip(robot, base)
     chain = _chain(robot, base, tip)
     on_chain = {j.name for j in chain}
-    locks = _lock_values(robot, on_chain, locks or {})
+    locked = _lock_values(robot, on_chain, locks or {})
     for j in chain:
         if j.type in ("floating", "planar"):
             issues.append(
@@ -343,15 +343,15 @@ def cell_from_urdf(
                     j,
                     f"joint[{j.name}]",
                     f"{j.type} joint '{j.name}' is off the chain {base} -> {tip}: locked at "
-                    f"{locks.get(j.name, 0.0):g} (--lock {j.name}=VALUE), and '{j.child}' "
+                    f"{locked.get(j.name, 0.0):g} (--lock {j.name}=VALUE), and '{j.child}' "
                     "merged into the link it hangs on",
                     "warning",
                 )
             )
         g, T_head_parent = placed[hanger]
         T = T_head_parent @ j.origin
-        if j.type in MOVING and locks.get(j.name, 0.0) != 0.0:
-            T = T @ spatial.joint_frame(np.eye(4), j.axis, locks[j.name], j.type == "prismatic")
+        if j.type in MOVING and locked.get(j.name, 0.0) != 0.0:
+            T = T @ spatial.joint_frame(np.eye(4), j.axis, locked[j.name], j.type == "prismatic")
         groups[g].append((robot.links[j.child], T))
         placed[j.child] = (g, T)
         stack.extend((j.child, c) for c in reversed(robot.child_joints(j.child)))

@@ -395,7 +395,7 @@ def test_probing_offsets_round_trip_through_yaml_and_csv(tmp_path):
     np.testing.assert_allclose(m["bracket.top_edge"].offset, [0.0021, 0, 0.0021])
     assert m["plate.hole1"].depth == pytest.approx(0.0075) and not m["plate.hole1"].boss
     (tmp_path / "m.csv").write_text(
-        "feature,x,y,z,role\nplate.hole1,1,0,0,\nplate.hole1,0,1,0,\nplate.hole1,-1,0,0,\n"
+        "feature,x_mm,y_mm,z_mm,role\nplate.hole1,1,0,0,\nplate.hole1,0,1,0,\nplate.hole1,-1,0,0,\n"
         "plate.hole1,7.5,0,0,depth\nplate.hole1,0,0,0,boss\n"
     )
     c = load_measurements([str(tmp_path / "m.csv")], cell).measurements["plate.hole1"]

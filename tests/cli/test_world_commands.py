@@ -19,8 +19,12 @@ def test_validate_all_examples(cli):
 
 
 def test_validate_json_reports_errors_with_positions(cli, tmp_path):
-    (tmp_path / "cell.yaml").write_text("name: x\nobjects:\n  - name: b\n    mass: lots\n")
-    (tmp_path / "poses.yaml").write_text("poses: {b: {xyz: [0, 0, 0]}}\n")
+    (tmp_path / "cell.yaml").write_text(
+        "name: x\nobjects:\n  - name: b\n    mass: lots\nunits: {length: m, angle: rad}\n"
+    )
+    (tmp_path / "poses.yaml").write_text(
+        "poses: {b: {xyz: [0, 0, 0]}}\nunits: {length: m, angle: rad}\n"
+    )
     result = cli(["validate", "--json", str(tmp_path)])
     assert result.exit_code == 2
     payload = json.loads(result.stdout)

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from rworld_cli.api import simulate_run
+from rworld_cli.errors import UserError
 from tests.conftest import WORKCELLS
 
 CELL = """\
@@ -145,7 +146,15 @@ def test_allowed_contacts_and_touch_steps(tmp_path):
     assert c.contact.collision and 0.015 < c.contact.depth <= 0.021 + 1e-9
     root = make_cell(tmp_path / "c", plate_x=550, touch=", touch: {plate: 25mm}")
     assert contacts(root)[1] == []
-    root = make_cell(tmp_path / "d", plate_x=550, touch=", touch: {plate: 0.015}")  # metres
+    # a bare depth takes the program's length unit, which it must state
+    root = make_cell(tmp_path / "d", plate_x=550, touch=", touch: {plate: 15}")
+    with pytest.raises(UserError) as refused:
+        contacts(root)
+    assert "program.yaml:3:" in "\n".join(refused.value.lines())
+    assert "needs the file's units.length" in "\n".join(refused.value.lines())
+    (root / "program.yaml").write_text(
+        (root / "program.yaml").read_text() + "units: {length: mm, angle: deg}\n"
+    )
     assert contacts(root)[1][0].contact.depth > 0.015
 
 

@@ -297,7 +297,7 @@ def test_validate_checks_path_files_against_their_cell(cli, tmp_path):
         ),
         (
             "waypoints:\n  - [0, 0, 0, 0, 0, 0]\n  - [1, 1, 1, 1, 1, 1]\n  - [0, 0, 0, 0, 0, "
-            "0]\nknots: [0, 0.7, 0.3]\n",
+            "0]\nknots: [0, 0.7, 0.3]\nunits: {angle: rad}\n",
             "p.yaml:5:8: knots: knots must rise strictly from 0 to 1",
         ),
     ],

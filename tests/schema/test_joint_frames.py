@@ -212,6 +212,7 @@ def _random_cell(rng) -> tuple[str, int]:
         )
     doc = {
         "name": "random",
+        "units": {"length": "m", "angle": "rad"},
         "pose_files": ["poses.yaml"],
         "devices": [
             {
@@ -239,6 +240,7 @@ def test_random_joint_frame_arms_out_to_urdf_match_pinocchio(tmp_path):
         text, n = _random_cell(rng)
         (folder / "cell.yaml").write_text(text)
         (folder / "poses.yaml").write_text(
+            "units: {length: m, angle: rad}\n"
             "poses:\n  arm: {xyz: [0, 0, 0]}\n  arm.tool: {xyz: [0.05, 0, 0.1]}\n"
         )
         export_urdf(str(folder), str(folder / "arm.urdf"))

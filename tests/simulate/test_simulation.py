@@ -226,7 +226,7 @@ def test_unreachable_target_names_the_step(tmp_path):
         cell,
         {
             "far.yaml": "device: puma\nsteps:\n  - move: {to: ready}\n  - move: {to: table.drop, "
-            "offset: {xyz: [0, 0, -3]}}\n"
+            "offset: {xyz: [0, 0, -3]}}\nunits: {length: m, angle: rad}\n"
         },
     )
     with pytest.raises(
@@ -244,7 +244,7 @@ def test_linear_move_out_of_the_workspace_names_the_fraction(tmp_path):
         {
             "line.yaml": "device: puma\nsteps:\n  - move: {to: ready}\n"
             "  - move: {to: table.drop, offset: {xyz: [0, 0, -2.5]}, motion: linear, "
-            "position_only: true}\n"
+            "position_only: true}\nunits: {length: m, angle: rad}\n"
         },
     )
     with pytest.raises(
