@@ -159,12 +159,60 @@ def load_cell(
             update={"pose_files": [str(Path(f).resolve()) for f in pose_files]}
         )
     builder = _Builder(doc, cell_file, real.parent, Path(shown).parent)
+    builder.issues.extend(implausible_values(doc, cell_file.units))
     cell = builder.build(real)
     errors = [i for i in builder.issues if i.severity == "error"]
     ordered = sorted(builder.issues, key=lambda i: (i.file != shown, i.file, i.line, i.column))
     if errors:
         raise UserError(f"{shown}: {len(errors)} error(s)", ordered)
     return LoadedCell(cell, [i for i in ordered if i.severity == "warning"])
+
+
+ANGLE_KEYS = {"alpha", "theta", "rpy"}  # keys whose numbers are angles in the file's unit
+LENGTH_KEYS = {"a", "d", "xyz", "box", "radius", "length", "point", "center", "size", "com"}
+LARGEST_LENGTH = 100.0  # m: a cell is a room; longer is a unit read wrongly
+
+
+def implausible_values(doc: Marked, units: sm.Units) -> list[Issue]:
+    """Warnings for numbers that make sense only in another unit: an angle above a full turn
+    in a radian file (``alpha: 90``), a length above 100 m (a link 400 m long)."""
+    out: list[Issue] = []
+    A = ANGLE[units.angle]
+    L = LENGTH[units.length]
+
+    def walk(node, path: tuple, key: str | None) -> None:
+        if isinstance(node, dict):
+            for k, v in node.items():
+                walk(v, path + (k,), k if isinstance(k, str) else key)
+            return
+        if isinstance(node, list):
+            for i, v in enumerate(node):
+                walk(v, path + (i,), key)
+            return
+        if isinstance(node, bool) or not isinstance(node, (int, float)):
+            return
+        value = float(node)
+        if key in ANGLE_KEYS and units.angle == "rad" and abs(value) > 2 * np.pi + 1e-9:
+            out.append(
+                doc.issue(
+                    path,
+                    f"{value:g} rad is {abs(value) / (2 * np.pi):.1f} turns: the file's angles "
+                    "are in rad (units.angle); is it in deg?",
+                    severity="warning",
+                )
+            )
+        elif key in LENGTH_KEYS and abs(value) * L > LARGEST_LENGTH:
+            out.append(
+                doc.issue(
+                    path,
+                    f"{value:g} {units.length} is {abs(value) * L:g} m, more than a cell holds "
+                    f"({LARGEST_LENGTH:g} m): is the file's length unit (units.length) right?",
+                    severity="warning",
+                )
+            )
+
+    walk(doc.data, (), None)
+    return out
 
 
 def load_pose_file_doc(path: str | Path, display: str | None = None) -> tuple[Marked, sm.PoseFile]:
@@ -198,13 +246,13 @@ def pose_to_matrix(
         return T, None, None
     p = np.array(pose.xyz if pose.xyz is not None else [0.0, 0.0, 0.0]) * length
     warning = None
-    if pose.quat is not None:
-        q = np.array(pose.quat, dtype=float)
+    if pose.quaternion_wxyz is not None:
+        q = np.array(pose.quaternion_wxyz, dtype=float)
         norm = float(np.linalg.norm(q))
         if norm < 1e-9:
             return (
                 np.eye(4),
-                "the quaternion is zero; a rotation needs a unit quaternion (w, x, y, z)",
+                "the quaternion is zero; a rotation needs a unit quaternion",
                 None,
             )
         if abs(norm - 1.0) > 1e-3:
@@ -1157,6 +1205,7 @@ class _Builder:
                 complete = False
                 continue
             files.append(real)
+            self.issues.extend(implausible_values(doc, pf.units))
             L, A = LENGTH[pf.units.length], ANGLE[pf.units.angle]
             for name, pose in pf.poses.items():
                 ppath = ("poses", name)

@@ -87,8 +87,9 @@ UNITS_HINT = "declare them, e.g. 'units: {length: mm, angle: deg}': rworld never
 
 
 class Pose(Strict):
-    """A pose relative to the frame's parent: ``xyz`` with ``rpy`` or ``quat``, or a 4x4
-    ``matrix``.
+    """A pose relative to the frame's parent: ``xyz`` with ``rpy``, ``quat_wxyz`` or
+    ``quat_xyzw``, or a 4x4 ``matrix``.  A quaternion's key says its order (``quat`` alone is
+    refused: both orders are common, and a wrong guess turns the frame silently).
     """
 
     xyz: Vec3 | None = Field(None, description="Translation [length unit]; default 0.")
@@ -97,8 +98,15 @@ class Pose(Strict):
         description="Roll, pitch, yaw [angle unit] about the fixed x, y, z axes: R = Rz(yaw) "
         "Ry(pitch) Rx(roll).",
     )
+    quat_wxyz: Annotated[list[float], Len(4, 4)] | None = Field(
+        None, description="Unit quaternion, scalar first: (w, x, y, z) (Eigen, ABB, glTF's w)."
+    )
+    quat_xyzw: Annotated[list[float], Len(4, 4)] | None = Field(
+        None, description="Unit quaternion, scalar last: (x, y, z, w) (ROS, scipy, glTF)."
+    )
     quat: Annotated[list[float], Len(4, 4)] | None = Field(
-        None, description="Unit quaternion (w, x, y, z)."
+        None,
+        description="Refused: say the order in the key, quat_wxyz or quat_xyzw.",
     )
     matrix: Annotated[list[Annotated[list[float], Len(4, 4)]], Len(4, 4)] | None = Field(
         None, description="Homogeneous 4x4 matrix, rows; translation in the length unit."
@@ -106,15 +114,27 @@ class Pose(Strict):
 
     @model_validator(mode="after")
     def _one_form(self):
-        if self.rpy is not None and self.quat is not None:
-            raise ValueError("give the rotation once: 'rpy' or 'quat', not both")
-        if self.matrix is not None and (
-            self.xyz is not None or self.rpy is not None or self.quat is not None
-        ):
+        if self.quat is not None:
             raise ValueError(
-                "'matrix' holds the whole pose; do not combine it with 'xyz', 'rpy' or 'quat'"
+                "'quat' does not say its order: write quat_wxyz: [w, x, y, z] (scalar first) or "
+                "quat_xyzw: [x, y, z, w] (scalar last, as ROS and scipy)"
+            )
+        rotations = [k for k in ("rpy", "quat_wxyz", "quat_xyzw") if getattr(self, k) is not None]
+        if len(rotations) > 1:
+            raise ValueError(f"give the rotation once: {' or '.join(rotations)}, not both")
+        if self.matrix is not None and (self.xyz is not None or rotations):
+            raise ValueError(
+                "'matrix' holds the whole pose; do not combine it with 'xyz' or a rotation"
             )
         return self
+
+    @property
+    def quaternion_wxyz(self) -> list[float] | None:
+        """The quaternion, scalar first, whichever key gave it."""
+        if self.quat_xyzw is not None:
+            x, y, z, w = self.quat_xyzw
+            return [w, x, y, z]
+        return self.quat_wxyz
 
 
 class Inertia(Strict):

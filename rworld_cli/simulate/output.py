@@ -112,7 +112,7 @@ def timeline_dict(result: SimulationResult) -> dict:
             "qdd": tl.qdd.tolist(),
             "tau": tl.tau.tolist(),
             "tcp_xyz": tl.tcp[:, :3, 3].tolist(),
-            "tcp_quat": matrix_to_quat(tl.tcp[:, :3, :3]).tolist(),
+            "tcp_quat_wxyz": matrix_to_quat(tl.tcp[:, :3, :3]).tolist(),
             "active_tcp": [{"from": t, "tcp": name_} for t, name_ in tl.tcp_names],
         }
         if result.collisions is not None:
