@@ -177,7 +177,6 @@ def implausible_values(doc: Marked, units: sm.Units) -> list[Issue]:
     """Warnings for numbers that make sense only in another unit: an angle above a full turn
     in a radian file (``alpha: 90``), a length above 100 m (a link 400 m long)."""
     out: list[Issue] = []
-    A = ANGLE[units.angle]
     L = LENGTH[units.length]
 
     def walk(node, path: tuple, key: str | None) -> None:

@@ -480,3 +480,91 @@ def test_c1_closed_form_from_circle_axes_and_a_plane():
         fits[f.name] = dataclasses.replace(fits[f.name], direction=T[:3, :3] @ f.direction)
     pose, how = closed_form("C1", parallel, fits)
     assert pose is None and "2 intersection point(s)" in how and "not 3 non-collinear" in how
+
+
+def _csv_rows(doc, scale: float) -> list[list[str]]:
+    rows = []
+    for name, entry in doc.items():
+        rows += [[name, *(repr(float(x) * scale) for x in p), ""] for p in entry.points]
+        if entry.offset is not None:
+            rows.append([name, *(repr(float(x) * scale) for x in entry.offset), "offset"])
+    return rows
+
+
+@pytest.mark.parametrize(
+    "header, delimiter, bom, quoted, csv_units",
+    [
+        ("feature,x_mm,y_mm,z_mm,role", ",", False, False, None),  # the unit in the header
+        ("feature;x [mm];y [mm];z [mm];role", ";", True, True, None),  # Excel: BOM, ;, quotes
+        ("feature\tx\ty\tz\trole", "\t", False, False, "mm"),  # tabs, --csv-units
+        ("# units: mm\nfeature,x,y,z,role", ",", False, True, None),  # a units line
+    ],
+)
+def test_csv_dialects_and_stated_units(tmp_path, header, delimiter, bom, quoted, csv_units):
+    nominal = load_cell(WORKCELLS / "calibration_example").cell
+    truth = load_cell(make_truth(tmp_path)).cell
+    lines = [header]
+    for row in _csv_rows(measure(nominal, truth, 0.0, 0), 1000):
+        lines.append(
+            delimiter.join(f'"{f}"' if quoted and k == 0 else f for k, f in enumerate(row))
+        )
+    text = ("\ufeff" if bom else "") + "\n".join(lines) + "\n"
+    (tmp_path / "m.csv").write_text(text, encoding="utf-8")
+    result = calibrate(nominal, load_measurements([str(tmp_path / "m.csv")], nominal, csv_units))
+    np.testing.assert_allclose(
+        result.solutions["block"].T_world, World(truth).T_world("block"), atol=1e-9
+    )
+
+
+@pytest.mark.parametrize(
+    "text, csv_units, where, message",
+    [
+        ("feature,x,y,z\nblock.f1,1,2,3\n", None, "m.csv:1:1:", "does not state its length unit"),
+        ("feature,x_m,y_m,z_m\nblock.f1,1,2,3\n", "mm", "m.csv:1:1:", "but --csv-units says mm"),
+        ("feature;x_mm;y_mm;z_mm\nblock.f1;1,5;2;3\n", None, "m.csv:2:10:", "a decimal comma?"),
+        ("feature,x_mm,y_mm,z_mm\nblock.f1,1,2\n", None, "m.csv:2:1:", "3 field(s) separated"),
+        ("feature x y z\nblock.f1 1 2 3\n", None, "m.csv:1:1:", "has no delimiter"),
+        ("# units: inch\nfeature,x,y,z\nb,1,2,3\n", None, "m.csv:1:1:", "unknown length unit"),
+    ],
+)
+def test_csv_refusals_say_why(cli, tmp_path, text, csv_units, where, message):
+    (tmp_path / "m.csv").write_text(text)
+    args = ["calibrate", "workcells/calibration_example", str(tmp_path / "m.csv"), "--dry-run"]
+    result = cli(args + (["--csv-units", csv_units] if csv_units else []))
+    assert result.exit_code == 2, result.output
+    assert where in result.output and message in result.output, result.output
+
+
+def test_points_in_metres_given_as_millimetres_never_make_an_overlay(cli, tmp_path):
+    """The issue's case: a 930.86 mm correction of block.frame5 was written with exit 0."""
+    nominal = load_cell(WORKCELLS / "calibration_example").cell
+    truth = load_cell(make_truth(tmp_path)).cell
+    rows = _csv_rows(measure(nominal, truth, 0.0, 0), 1.0)  # metres
+    (tmp_path / "m.csv").write_text(
+        "feature,x_mm,y_mm,z_mm,role\n" + "\n".join(",".join(r) for r in rows) + "\n"
+    )
+    out = tmp_path / "out.yaml"
+    for frames in (["--frames", "block.frame5"], []):
+        args = ["calibrate", "workcells/calibration_example", str(tmp_path / "m.csv"), "-o"]
+        result = cli(args + [str(out), *frames])
+        assert result.exit_code == 2, result.output
+        assert "implausible measurements, nothing written" in result.output
+        assert "(m read as mm)" in result.output
+        assert not out.exists()
+
+
+def test_implausible_corrections_and_residuals_are_refused(cli, tmp_path):
+    """A block 80 mm off its nominal pose, and points 50 times noisier than the stated sigma."""
+    nominal = load_cell(WORKCELLS / "calibration_example").cell
+    far = make_truth(tmp_path, {TRUE_BLOCK: "block: {xyz: [-100, -75, 80], rpy: [0, 0, 15]}"})
+    doc = measure(nominal, load_cell(far).cell, 0.0, 0)
+    (tmp_path / "m.yaml").write_text(measurement_text(doc, "calibration_example", [], sigma=1e-5))
+    args = ["calibrate", "workcells/calibration_example", str(tmp_path / "m.yaml"), "--dry-run"]
+    result = cli(args)
+    assert result.exit_code == 2 and "more than --max-correction 50 mm" in result.output
+    assert cli(args + ["--max-correction", "100mm"]).exit_code == 0
+    assert cli(args + ["--max-correction", "100"]).exit_code == 2  # no unit
+    noisy = measure(nominal, load_cell(make_truth(tmp_path / "n")).cell, 5e-4, 1)
+    (tmp_path / "m.yaml").write_text(measurement_text(noisy, "calibration_example", [], sigma=1e-5))
+    result = cli(args)
+    assert result.exit_code == 2 and "times the instrument's sigma 0.01 mm" in result.output
