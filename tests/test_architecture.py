@@ -27,7 +27,7 @@ CALCULATION = {
     "collision",
 }
 # shared utilities every room may use: they know no room
-COMMON = {"errors", "units", "spatial", "codegen", "kernels", "fileio"}
+COMMON = {"errors", "units", "spatial", "codegen", "kernels", "fileio", "jsonvalues"}
 
 
 def room_of(module: str) -> str:

@@ -7,6 +7,7 @@ dataclasses; problems are raised as :class:`~rworld_cli.errors.UserError` (exit 
 """
 
 from ..fileio import output_set  # noqa: F401  (every command's writes: one set)
+from ..jsonvalues import finite as json_ready  # noqa: F401  (every JSON document: no inf, NaN)
 from .calibration import (  # noqa: F401
     CalibrationRun,
     MeasurementPlan,
@@ -39,10 +40,13 @@ from .physics import (  # noqa: F401
     carried_summary,
     device_context,
     device_dynamics,
+    forward_dynamics,
     forward_kinematics,
+    grasped,
     inverse_kinematics,
     jacobians,
     joint_states,
+    load_notes,
     pose_rows,
     resolve_payload,
     static_torques,

@@ -155,15 +155,40 @@ def inverse_kinematics(
     return result
 
 
+def grasped(ctx: DeviceContext) -> list[tuple[str, float]]:
+    """Objects the device grasps in the cell's state: [(name, mass [kg])]."""
+    out = []
+    for name, _, bodies in ctx.world.carried(ctx.device.name):
+        aff = ctx.world.affixment(name)
+        if aff is not None and aff.kind == "grasp" and name in ctx.world.cell.objects:
+            out.append((name, float(sum(inertial.mass for inertial, _ in bodies))))
+    return out
+
+
 def resolve_payload(ctx: DeviceContext, object_name: str | None, mass: float | None, com=None):
     """A Payload from an object of the cell (at its current pose relative to the TCP, or at the
     TCP) or a point mass.
+
+    Raises
+    ------
+    UserError
+        Both given; or a point mass while the device grasps an object in the cell's state (the
+        load would count twice: the object is already carried).
     """
     from ..dynamics import Payload
     from ..errors import did_you_mean
 
     if object_name and mass is not None:
         raise UserError("give --payload OBJECT or --payload-mass KG, not both")
+    holding = grasped(ctx)
+    if mass is not None and holding:
+        name, kg = holding[0]
+        raise UserError(
+            f"a load given twice: --payload-mass {mass:g} kg at {ctx.tcp}, and '{name}' "
+            f"({kg:g} kg), which {ctx.device.name} grasps in the cell's state and is counted "
+            f"already; give the object as the payload (--payload {name}, counted once) or leave "
+            "--payload-mass out"
+        )
     if object_name:
         objects = ctx.world.cell.objects
         if object_name not in objects:
@@ -184,6 +209,41 @@ def carried_loads(ctx: DeviceContext, exclude=()) -> dict[int, list]:
     leave
     out (an object given as the payload)."""
     return ctx.world.carried_loads(ctx.device.name, set(exclude))
+
+
+def load_notes(ctx: DeviceContext, payload, payload_object: str | None, exclude=()) -> list[str]:
+    """What a dynamics result includes beyond the device's own links, one line each: the
+    payload, and everything the cell's state puts on its links (a hand, a grasped part)."""
+    out = []
+    if payload is not None and payload.mass > 0:
+        what = f"'{payload_object}'" if payload_object else "a point mass"
+        out.append(f"includes the payload: {what}, {payload.mass:g} kg at {ctx.tcp}")
+    for item in carried_summary(ctx, exclude):
+        out.append(
+            f"includes what {ctx.device.name} carries in the cell's state: {item['name']}, "
+            f"{item['mass']:g} kg on link {item['link']}"
+        )
+    dyn_mass = sum(link.inertial.mass for link in ctx.device.links)
+    if dyn_mass == 0 and not out:
+        out.append(
+            f"every link of '{ctx.device.name}' is massless (an imported URDF without "
+            "<inertial>?): its torques are armature and friction alone"
+        )
+    return out
+
+
+def forward_dynamics(ctx: DeviceContext, dyn, q, qd, tau) -> np.ndarray:
+    """``dyn.forward`` with a singular mass matrix as bad input (the model has a joint that
+    moves no inertia), not as a bug."""
+    try:
+        return dyn.forward(q, qd, tau, ctx.gravity_base)
+    except ValueError as exc:
+        if "singular" not in str(exc):
+            raise
+        raise UserError(
+            f"{exc}; give the links mass and inertia in the cell (an imported URDF without "
+            "<inertial> elements has none), or a payload"
+        ) from None
 
 
 def carried_summary(ctx: DeviceContext, exclude=()) -> list[dict]:

@@ -4,7 +4,7 @@ controllers.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -298,6 +298,12 @@ def plan_payload(
     from ..dynamics import Payload
     from ..planning.payload import payload_capacity, quintic_timing
 
+    if not np.isfinite(ctx.device.limit_array("effort")).any():
+        raise UserError(
+            f"no joint of '{ctx.device.name}' has a torque (effort) limit, so nothing bounds its "
+            "payload: give the joints' effort limits in the cell (ROS-Industrial URDFs carry "
+            'effort="0", which rworld reads as none)'
+        )
     if trajectory_file is not None:
         tr = read_trajectory(trajectory_file, ctx.device)
         t, q, qd, qdd, T = tr.t - tr.t[0], tr.q, tr.qd, tr.qdd, tr.duration
@@ -360,6 +366,8 @@ class TimeOptimalPlan:
     unlimited: dict  # kind -> joints without a limit of it
     carried: list  # what the cell's state puts on the links
     written: list  # files written
+    loads_counted: bool = True  # the torque limits (and so the loads) took part
+    notes: list = field(default_factory=list)  # what loads the torques include, one line each
 
     def as_dict(self) -> dict:
         return {
@@ -372,6 +380,8 @@ class TimeOptimalPlan:
             "peak_ratio": self.peak_ratio,
             "unlimited": self.unlimited,
             "carried": self.carried,
+            "loads_counted": self.loads_counted,
+            "notes": self.notes,
             "rows": len(self.rows.t),
         }
 
@@ -403,7 +413,7 @@ def time_optimal_plan(
     """
     from ..planning.topp import limit_ratios
     from ..schema.tables import write_csv
-    from .physics import carried_summary, resolve_payload
+    from .physics import carried_summary, load_notes, resolve_payload
 
     path = load_joint_path(path_file, ctx.device)
     payload = resolve_payload(ctx, payload_object, payload_mass, payload_com)
@@ -424,7 +434,11 @@ def time_optimal_plan(
     if output:
         write_csv(output, *trajectory_table(rows, dyn, ctx.gravity_base))
         written.append(output)
-    peaks = {k: float(np.max(np.where(np.isfinite(v), v, 0.0))) for k, v in ratios.items()}
+    # a kind no joint limits has no peak ratio (None in JSON, n/a in text), never 0
+    peaks = {
+        k: float(np.max(v[np.isfinite(v)])) if np.isfinite(v).any() else float("nan")
+        for k, v in ratios.items()
+    }
     return TimeOptimalPlan(
         timing,
         info,
@@ -432,8 +446,10 @@ def time_optimal_plan(
         peaks,
         binding_shares(info["binding"]),
         unlimited_joints(ctx.device, limits),
-        carried_summary(ctx, exclude) if dyn is not None else [],
+        carried_summary(ctx, exclude),
         written,
+        dyn is not None,
+        load_notes(ctx, payload, payload_object, exclude) if dyn is not None else [],
     )
 
 

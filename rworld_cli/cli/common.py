@@ -30,7 +30,9 @@ def json_option(fn: Callable) -> Callable:
 
 
 def emit_json(payload: Any) -> None:
-    click.echo(json.dumps(payload, indent=2, ensure_ascii=False, allow_nan=False))
+    from ..api import json_ready
+
+    click.echo(json.dumps(json_ready(payload), indent=2, ensure_ascii=False, allow_nan=False))
 
 
 class _StderrLines(logging.Handler):

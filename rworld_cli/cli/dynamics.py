@@ -45,18 +45,14 @@ def _payload(ctx, payload_object, payload_mass, payload_com):
 
 
 def _model(ctx, payload_object, payload_mass, payload_com, no_armature, no_friction):
-    """The device's dynamics with the payload options; a payload object is not counted again as
-    carried.
-    """
-    from ..api import device_dynamics
+    """The device's dynamics with the payload options (a payload object is not counted again as
+    carried), and the lines that say which loads it includes."""
+    from ..api import device_dynamics, load_notes
 
-    return device_dynamics(
-        ctx,
-        _payload(ctx, payload_object, payload_mass, payload_com),
-        not no_armature,
-        not no_friction,
-        exclude=[payload_object] if payload_object else (),
-    )
+    payload = _payload(ctx, payload_object, payload_mass, payload_com)
+    exclude = [payload_object] if payload_object else ()
+    notes = load_notes(ctx, payload, payload_object, exclude)
+    return device_dynamics(ctx, payload, not no_armature, not no_friction, exclude), notes
 
 
 @click.group()
@@ -105,7 +101,7 @@ def inverse(
     """
     ctx = context(cell, device, tcp, other_joints)
     data, warnings = joint_rows(ctx, states, None, ["q", "qd", "qdd"])
-    dyn = _model(ctx, payload_object, payload_mass, payload_com, no_armature, no_friction)
+    dyn, notes = _model(ctx, payload_object, payload_mass, payload_com, no_armature, no_friction)
     tau = dyn.inverse(data["q"], data["qd"], data["qdd"], ctx.gravity_base)
     emit(
         [f"tau{i}" for i in range(1, ctx.device.dof + 1)],
@@ -114,6 +110,7 @@ def inverse(
         json_output,
         output,
         warnings,
+        notes,
     )
 
 
@@ -150,8 +147,10 @@ def forward(
     """
     ctx = context(cell, device, tcp, other_joints)
     data, warnings = joint_rows(ctx, states, None, ["q", "qd", "tau"])
-    dyn = _model(ctx, payload_object, payload_mass, payload_com, no_armature, no_friction)
-    qdd = dyn.forward(data["q"], data["qd"], data["tau"], ctx.gravity_base)
+    from ..api import forward_dynamics
+
+    dyn, notes = _model(ctx, payload_object, payload_mass, payload_com, no_armature, no_friction)
+    qdd = forward_dynamics(ctx, dyn, data["q"], data["qd"], data["tau"])
     emit(
         [f"qdd{i}" for i in range(1, ctx.device.dof + 1)],
         qdd,
@@ -159,6 +158,7 @@ def forward(
         json_output,
         output,
         warnings,
+        notes,
     )
 
 
@@ -208,19 +208,15 @@ def static(
     """
     import numpy as np
 
-    from ..api import static_torques
+    from ..api import load_notes, static_torques
 
     ctx = context(cell, device, tcp, other_joints)
     data, warnings = joint_rows(ctx, states, q, ["q"])
     w = parse_vector(wrench, "--wrench", 6)
-    res = static_torques(
-        ctx,
-        data["q"],
-        w,
-        _payload(ctx, payload_object, payload_mass, payload_com),
-        not no_gravity,
-        exclude=[payload_object] if payload_object else (),
-    )
+    load = _payload(ctx, payload_object, payload_mass, payload_com)
+    exclude = [payload_object] if payload_object else ()
+    res = static_torques(ctx, data["q"], w, load, not no_gravity, exclude=exclude)
+    notes = load_notes(ctx, load, payload_object, exclude) if not no_gravity else []
     names = [j.name for j in ctx.device.joints]
     limiting = [names[i] if i >= 0 else None for i in res.limiting_joint]
     scale = [float(s) if np.isfinite(s) else None for s in res.max_scale]
@@ -242,4 +238,5 @@ def static(
         json_output,
         output,
         warnings,
+        notes,
     )

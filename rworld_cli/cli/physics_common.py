@@ -83,16 +83,22 @@ def joint_rows(ctx, states: str | None, q: str | None, groups: list[str]):
     return joint_states(ctx, states, parse_vector(q, "--q", n) if states is None else None, groups)
 
 
-def emit(columns, rows, payload: dict, json_output: bool, output: str | None, warnings) -> None:
-    """JSON on stdout, or CSV to a file or stdout; warnings on stderr (in the JSON with --json)."""
+def emit(
+    columns, rows, payload: dict, json_output: bool, output: str | None, warnings, notes=()
+) -> None:
+    """JSON on stdout, or CSV to a file or stdout; warnings and notes (what loads a result
+    includes) on stderr, in the JSON with --json."""
     from ..api import table_text, write_table
 
     if json_output:
         payload["warnings"] = [w.as_dict() for w in warnings]
+        payload["notes"] = list(notes)
         emit_json(payload)
         return
     for w in warnings:
         click.echo(w.format(), err=True)
+    for note in notes:
+        click.echo(f"note: {note}", err=True)
     if output:
         write_table(output, columns, rows)
         click.echo(f"wrote {output} ({len(rows)} row(s))", err=True)

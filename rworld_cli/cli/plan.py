@@ -184,13 +184,17 @@ def time_optimal(
         f"{ctx.device.name}: {path_file}: cycle time {timing.duration:.6f} s ({gridpoints} grid "
         "points)"
     )
-    _echo_carried(carried)
+    for note in p.notes:
+        click.echo(f"note: {note}")
+    if not p.loads_counted and carried:
+        _echo_carried(carried)
+        click.echo("  (no torque limit in the timing, so no load counts)")
     if unlimited:
         click.echo(_unlimited_line(unlimited))
     click.echo("binding along the path: " + ", ".join(f"{k} {v:.0%}" for k, v in binding.items()))
     click.echo(
         f"peak ratio to the limits ({len(p.rows.t)} rows): "
-        + ", ".join(f"{k} {v:.6f}" for k, v in peaks.items())
+        + ", ".join(f"{k} {v:.6f}" if v == v else f"{k} n/a" for k, v in peaks.items())
     )
     if info["repaired"]:
         click.echo(

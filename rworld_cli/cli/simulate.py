@@ -328,8 +328,11 @@ def _render(result) -> None:
         n_viol = sum(1 for v in result.violations if v.device == name)
 
         def fmt(values):
-            worst = max(values) if values else 0.0
-            j = int(max(range(len(values)), key=lambda i: values[i])) + 1 if values else 0
+            limited = [(v, i) for i, v in enumerate(values) if v == v]  # NaN: no limit
+            if not limited:
+                return "n/a (no limits)"
+            worst, j = max(limited)
+            j += 1
             style = "red" if worst > 1 else ("yellow" if worst > 0.9 else "")
             text = f"{worst:.2f} (joint {j})"
             return f"[{style}]{text}[/]" if style else text

@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 from ..fileio import atomic_write_text
+from ..jsonvalues import finite
 from .tables import format_csv
 
 
@@ -19,7 +20,8 @@ def write_results(directory: str | Path, tables: dict, documents: dict) -> list[
         atomic_write_text(out / name, format_csv(columns, rows))
         written.append(out / name)
     for name, payload in documents.items():
-        atomic_write_text(out / name, json.dumps(payload, indent=2, allow_nan=False) + "\n")
+        text = json.dumps(finite(payload), indent=2, allow_nan=False)
+        atomic_write_text(out / name, text + "\n")
         written.append(out / name)
     return written
 
@@ -44,7 +46,7 @@ def write_scene_files(directory: str | Path, glb: bytes, info: dict) -> list[Pat
 
     out = Path(directory)
     atomic_write_bytes(out / SCENE_FILE, glb)
-    atomic_write_text(out / VIEW_FILE, json.dumps(info, allow_nan=False) + "\n")
+    atomic_write_text(out / VIEW_FILE, json.dumps(finite(info), allow_nan=False) + "\n")
     return [out / SCENE_FILE, out / VIEW_FILE]
 
 

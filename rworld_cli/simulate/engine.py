@@ -116,7 +116,8 @@ class DeviceTimeline:
     step : ndarray of int, shape (K,)
         Index of the program step running at each sample (-1: none).
     ratios : dict
-        'velocity' | 'acceleration' | 'torque' -> ndarray (K, n) of |value| / limit.
+        'velocity' | 'acceleration' | 'torque' -> ndarray (K, n) of |value| / limit (NaN for
+        a joint without that limit).
     cycle_time : float
         When the device's program ended [s].
     """
@@ -164,10 +165,15 @@ class SimulationResult:
         return not self.violations and not (self.collisions and self.collisions.failed)
 
     def peak_ratios(self, device: str) -> dict[str, list[float]]:
-        return {
-            k: np.max(v, axis=0).tolist() if len(v) else []
-            for k, v in self.devices[device].ratios.items()
-        }
+        """Per kind, each joint's largest ratio to its limit (NaN: the joint has no limit)."""
+        out = {}
+        for k, v in self.devices[device].ratios.items():
+            if not len(v):
+                out[k] = []
+                continue
+            peak = np.max(np.where(np.isnan(v), -np.inf, v), axis=0)
+            out[k] = np.where(np.isfinite(peak), peak, np.nan).tolist()
+        return out
 
 
 @dataclass
@@ -758,10 +764,13 @@ def _sample(run: Run, sched: _Scheduler, progress) -> SimulationResult:
         step_index = np.full(K, -1)
         for t0, idx in sched.tracks[d].step_starts:
             step_index[times >= t0 - 1e-12] = idx
-        ratios = {
-            "velocity": np.abs(qd[d]) / dev.limit_array("velocity"),
-            "acceleration": np.abs(qdd[d]) / dev.limit_array("acceleration"),
-            "torque": np.abs(tau) / dev.limit_array("effort"),
+        ratios = {  # NaN for a joint without that limit: no ratio, not 0
+            kind: np.where(np.isfinite(limit), np.abs(value) / limit, np.nan)
+            for kind, value, limit in (
+                ("velocity", qd[d], dev.limit_array("velocity")),
+                ("acceleration", qdd[d], dev.limit_array("acceleration")),
+                ("torque", tau, dev.limit_array("effort")),
+            )
         }
         timelines[d] = DeviceTimeline(
             d,

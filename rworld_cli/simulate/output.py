@@ -158,8 +158,20 @@ def write_plots(result: SimulationResult, directory: Path) -> list[Path]:
         t = result.times
         for j in range(tl.q.shape[1]):
             axes[0].plot(t, tl.q[:, j], label=f"q{j + 1}")
-            axes[1].plot(t, tl.ratios["torque"][:, j], label=f"joint {j + 1}")
-            axes[2].plot(t, tl.ratios["velocity"][:, j], label=f"joint {j + 1}")
+            for ax, kind in ((axes[1], "torque"), (axes[2], "velocity")):
+                if np.isfinite(tl.ratios[kind][:, j]).any():  # a joint without a limit: no line
+                    ax.plot(t, tl.ratios[kind][:, j], label=f"joint {j + 1}")
+        for ax, kind in ((axes[1], "torque"), (axes[2], "velocity")):
+            if not np.isfinite(tl.ratios[kind]).any():
+                ax.text(
+                    0.5,
+                    0.5,
+                    f"no {kind} limits in the cell",
+                    transform=ax.transAxes,
+                    ha="center",
+                    va="center",
+                    color="grey",
+                )
         axes[0].set_ylabel("joint value [rad, m]")
         axes[1].set_ylabel("|torque| / limit")
         axes[2].set_ylabel("|velocity| / limit")
@@ -187,7 +199,8 @@ def write_plots(result: SimulationResult, directory: Path) -> list[Path]:
                 kind = "collision" if c.collision else "clearance"
                 _mark(axes[0], c.t_start, f"{kind} {c.a} / {c.b}", "red", top=False)
         axes[0].legend(loc="upper right", fontsize=8, ncol=3)
-        axes[1].legend(loc="upper right", fontsize=8, ncol=3)
+        if np.isfinite(tl.ratios["torque"]).any():  # joints with a torque limit have lines
+            axes[1].legend(loc="upper right", fontsize=8, ncol=3)
         axes[2].set_xlabel("time [s]")
         fig.suptitle(f"{result.cell}: {name} (cycle time {tl.cycle_time:.2f} s)")
         written.append(save_figure(fig, directory / f"plot_{name}.png"))

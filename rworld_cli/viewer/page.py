@@ -14,6 +14,8 @@ import json
 import re
 from importlib import resources
 
+from ..jsonvalues import finite
+
 THREE_VERSION = "0.169.0"
 
 # import-map name -> vendored file; the add-ons import 'three' and each other by these names
@@ -43,9 +45,13 @@ def _import_map() -> str:
 
 
 def _script_json(payload) -> str:
-    """JSON safe inside a <script> element."""
-    text = json.dumps(payload, separators=(",", ":"), allow_nan=False)
-    return text.replace("</", "<\\/").replace("<!--", "<\\!--")
+    """JSON safe inside a <script> element, and still JSON: ``<``, ``>`` and ``&`` as ``\\u``
+    escapes (no ``</script>`` or ``<!--`` can form), and the line separators JavaScript once
+    refused in strings."""
+    text = json.dumps(finite(payload), separators=(",", ":"), allow_nan=False)
+    for ch in "<>&\u2028\u2029":
+        text = text.replace(ch, f"\\u{ord(ch):04x}")
+    return text
 
 
 def viewer_page(glb: bytes, info: dict) -> str:
