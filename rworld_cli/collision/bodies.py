@@ -268,24 +268,44 @@ def point_triangle_distance(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
     d3, d4 = (ab * bp).sum(-1), (ac * bp).sum(-1)
     d5, d6 = (ab * cp).sum(-1), (ac * cp).sum(-1)
     va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
-    with np.errstate(divide="ignore", invalid="ignore"):
+    # a zero-area triangle (a sliver meshes from CAD often hold) has no face region: its
+    # divisions are 0/0 and its distance is that of its nearest edge, below
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         denom = va + vb + vc
         v_in, w_in = vb / denom, vc / denom
         t_ab = d1 / (d1 - d3)
         t_ac = d2 / (d2 - d6)
         t_bc = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-    closest = a + v_in[..., None] * ab + w_in[..., None] * ac  # inside the face
-    rules = [  # later rules take precedence where their region applies
-        ((vc <= 0) & (d1 >= 0) & (d3 <= 0), a + t_ab[..., None] * ab),
-        ((vb <= 0) & (d2 >= 0) & (d6 <= 0), a + t_ac[..., None] * ac),
-        ((va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0), b + t_bc[..., None] * (c - b)),
-        ((d6 >= 0) & (d5 <= d6), c),
-        ((d3 >= 0) & (d4 <= d3), b),
-        ((d1 <= 0) & (d2 <= 0), a),
-    ]
-    for region, point in rules:
-        closest = np.where(region[..., None], np.broadcast_to(point, closest.shape), closest)
-    return np.linalg.norm(p - closest, axis=-1)
+        closest = a + v_in[..., None] * ab + w_in[..., None] * ac  # inside the face
+        rules = [  # later rules take precedence where their region applies
+            ((vc <= 0) & (d1 >= 0) & (d3 <= 0), a + t_ab[..., None] * ab),
+            ((vb <= 0) & (d2 >= 0) & (d6 <= 0), a + t_ac[..., None] * ac),
+            ((va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0), b + t_bc[..., None] * (c - b)),
+            ((d6 >= 0) & (d5 <= d6), c),
+            ((d3 >= 0) & (d4 <= d3), b),
+            ((d1 <= 0) & (d2 <= 0), a),
+        ]
+        for region, point in rules:
+            closest = np.where(region[..., None], np.broadcast_to(point, closest.shape), closest)
+        out = np.linalg.norm(p - closest, axis=-1)
+    bad = ~np.isfinite(out)
+    if bad.any():
+        edges = np.minimum(
+            np.minimum(_segment_distance(p, a, b), _segment_distance(p, b, c)),
+            _segment_distance(p, c, a),
+        )
+        out = np.where(bad, edges, out)
+    return out
+
+
+def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance from points to segments a-b, broadcast (a point segment included)."""
+    ab = b - a
+    length2 = (ab * ab).sum(-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.clip(((p - a) * ab).sum(-1) / length2, 0.0, 1.0)
+    t = np.where(length2 > 0, t, 0.0)
+    return np.linalg.norm(p - (a + t[..., None] * ab), axis=-1)
 
 
 def _bounding_sphere(shape: Shape) -> tuple[np.ndarray, float]:

@@ -127,3 +127,43 @@ def test_a_mesh_of_convex_parts_is_checked_as_their_hulls(tmp_path):
     ell_path = tmp_path / "ell.stl"
     ell.export(ell_path)
     assert convex_parts(mesh_shape(ell_path, [0.3, 0.3, 0.1])) is None
+
+
+def test_zero_area_triangles_have_their_edges_distance():
+    """A sliver (collinear corners) has no face region: its distance is its nearest edge's."""
+    from rworld_cli.collision.bodies import point_triangle_distance
+
+    sliver = np.array([[[0.0, 0, 0], [1, 0, 0], [2, 0, 0]], [[1.0, 1, 1], [1, 1, 1], [1, 1, 1]]])
+    p = np.array([[0.5, 1.0, 0.0], [1.0, 1.0, 3.0]])
+    with np.errstate(all="raise"):
+        got = point_triangle_distance(p, sliver)
+    np.testing.assert_allclose(got, [1.0, 2.0])
+
+
+@pytest.mark.filterwarnings("error")
+def test_a_vendor_mesh_with_slivers_loads_and_checks_without_warnings(cli, tmp_path):
+    """ABB's IRB 4600 wrist (ROS-Industrial) holds zero-area triangles; they once gave NaN
+    hull deviations and a numpy RuntimeWarning on every command."""
+    import shutil
+
+    from tests.conftest import REPO
+
+    (tmp_path / "meshes").mkdir()
+    shutil.copy(REPO / "tests/data/abb_irb4600/link_6.stl", tmp_path / "meshes/link_6.stl")
+    (tmp_path / "cell.yaml").write_text(
+        "name: wrist\nunits: {length: m, angle: deg}\nobjects:\n"
+        "  - {name: wrist, mass: 1, geometry: {mesh: {file: meshes/link_6.stl}}}\n"
+        "  - {name: block, mass: 1, geometry: {box: [0.1, 0.1, 0.1]}}\n"
+    )
+    (tmp_path / "poses.yaml").write_text(
+        "units: {length: m, angle: deg}\nposes:\n  wrist: {xyz: [0, 0, 0]}\n"
+        "  block: {xyz: [0.5, 0, 0]}\n"
+    )
+    out = cli(["validate", str(tmp_path)])
+    assert out.exit_code == 0 and "warning" not in out.output.lower(), out.output
+    out = cli(["clearance", str(tmp_path), "--json"])
+    assert out.exit_code == 0, out.output
+    import json
+
+    [pair] = json.loads(out.stdout)["pairs"]
+    assert 0.2 < pair["distance"] < 0.5
