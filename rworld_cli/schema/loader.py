@@ -271,14 +271,11 @@ def _mesh_facts(file: str, mtime_ns: int, size: int):
 
     Cached on (path, mtime, size): cells are reloaded often (validate, simulate).
     """
-    import trimesh  # heavy: only when a cell has meshes
+    from .meshfile import read_mesh
 
-    try:
-        tm = trimesh.load(file, force="mesh")
-    except Exception as exc:  # trimesh raises many kinds
-        return f"cannot read mesh: {exc}"
-    if not isinstance(tm, trimesh.Trimesh) or len(tm.faces) == 0:
-        return "the mesh file holds no triangles"
+    tm, problem = read_mesh(file)
+    if tm is None:
+        return problem
     obb = tm.bounding_box_oriented.primitive
     return (
         np.array(obb.transform, dtype=float),

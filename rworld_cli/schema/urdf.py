@@ -28,6 +28,8 @@ from .loader import INERTIA_ENTRIES, inertia_entries, inertia_matrix, inertia_pr
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 MOVING = ("revolute", "continuous", "prismatic")
 _XACRO_NS = "http://www.ros.org/wiki/xacro"
+_DECIMAL = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?", re.ASCII)
+MAX_MAGNITUDE = 1e12  # as in cell files (schema/loader.py)
 _XACRO_SUBSTITUTION = re.compile(r"\$\{|\$\((find|arg|env|optenv|eval|dirname|cwd)\b")
 
 
@@ -152,13 +154,22 @@ class _Reader:
             if default is None:
                 self.err(el, location, f"<{el.tag}> needs '{attr}'")
             return default
-        try:
-            values = [float(x) for x in raw.split()]
-        except ValueError:
-            self.err(el, location, f'{attr}="{raw}" is not {count} number(s)')
+        tokens = raw.split()
+        # XML's decimal numbers only: Python's float() also takes '1_0', Arabic-Indic digits
+        # and 'infinity', which no URDF tool writes or reads the same
+        if not all(_DECIMAL.fullmatch(t) for t in tokens):
+            self.err(el, location, f'{attr}="{raw}" is not {count} decimal number(s)')
             return default
+        values = [float(x) for x in tokens]
         if len(values) != count or not all(np.isfinite(values)):
             self.err(el, location, f'{attr}="{raw}" must be {count} finite number(s)')
+            return default
+        if any(abs(v) > MAX_MAGNITUDE for v in values):
+            self.err(
+                el,
+                location,
+                f'{attr}="{raw}": a magnitude above {MAX_MAGNITUDE:g} is a typo, not data',
+            )
             return default
         return values
 
@@ -285,8 +296,11 @@ class _Reader:
                     if candidate is root / inner and root.name != package:
                         continue
                     tried.append(candidate)
-                    if candidate.is_file():
-                        return candidate, ""
+                    try:
+                        if candidate.is_file():
+                            return candidate, ""
+                    except (OSError, ValueError):  # a name too long: no file has it
+                        continue
             if not self.package_paths:
                 return None, (
                     f"no such mesh file: '{filename}' names ROS package '{package}'; give the "
@@ -299,8 +313,11 @@ class _Reader:
         path = Path(filename[len("file://") :]) if filename.startswith("file://") else None
         if path is None:
             path = self.base_dir / filename
-        if path.is_file():
-            return path, ""
+        try:
+            if path.is_file():
+                return path, ""
+        except (OSError, ValueError) as exc:  # a name too long, a NUL: no file has it
+            return None, f"cannot use mesh file name '{filename[:80]}': {exc.__class__.__name__}"
         return None, f"no such mesh file: {path}"
 
     # ------------------------------------------------------------------ joints

@@ -33,6 +33,7 @@ from ..model.cell import CellModel, Inertial
 from .loader import inertia_entries
 from .models import NAME_PATTERN
 from .urdf import MOVING, UrdfGeometry, UrdfJoint, UrdfLink, UrdfRobot
+from .yamlio import comment_text
 
 MESH_SUFFIXES = (".stl", ".obj", ".ply")
 
@@ -80,7 +81,7 @@ class _Names:
     """rworld names for URDF names: invalid characters become '_', clashes get a suffix."""
 
     def __init__(self) -> None:
-        self.used: set[str] = set()
+        self.used: set[str] = {"world"}  # the cell's world frame: no URDF name takes it
         self.renamed: dict[str, str] = {}
         self.of: dict[str, str] = {}
 
@@ -148,6 +149,20 @@ def _chain(robot: UrdfRobot, base: str, tip: str) -> list[UrdfJoint]:
     return path[::-1]
 
 
+def _checked_mesh(robot: UrdfRobot, g: UrdfGeometry):
+    """The mesh a ``<mesh>`` names, read and checked (:mod:`.meshfile`); a corrupt or empty
+    file is refused at the element."""
+    from .meshfile import read_mesh
+
+    mesh, problem = read_mesh(str(g.mesh_file))
+    if mesh is None:
+        raise UserError(
+            f"invalid: {robot.file}",
+            [Issue(robot.file, g.line, g.column, "mesh", f"{g.mesh_file}: {problem}")],
+        )
+    return mesh
+
+
 def _mesh_bytes(robot: UrdfRobot, parts: list[tuple[UrdfGeometry, np.ndarray]]) -> bytes:
     """One binary STL of ``parts`` (shape, ``T_link_shape``) in the link frame [m]."""
     import trimesh
@@ -161,22 +176,7 @@ def _mesh_bytes(robot: UrdfRobot, parts: list[tuple[UrdfGeometry, np.ndarray]]) 
         elif g.kind == "sphere":
             m = trimesh.creation.icosphere(subdivisions=3, radius=g.size[0])
         else:
-            try:
-                m = trimesh.load(str(g.mesh_file), force="mesh")
-            except Exception as exc:  # trimesh raises many kinds on files it cannot read
-                raise UserError(
-                    f"invalid: {robot.file}",
-                    [
-                        Issue(
-                            robot.file,
-                            g.line,
-                            g.column,
-                            "mesh",
-                            f"cannot read mesh {g.mesh_file}: {exc}",
-                        )
-                    ],
-                ) from None
-            m = m.copy()
+            m = _checked_mesh(robot, g).copy()
             m.apply_scale(g.mesh_scale)
         m.apply_transform(T)
         meshes.append(m)
@@ -476,14 +476,17 @@ def cell_from_urdf(
         device_doc["geometry"] = base_doc["geometry"]
     if "frames" in base_doc:
         device_doc["frames"] = base_doc["frames"]
+    # comments carry text from the URDF (its path, link names): one line each, escaped
+    source, chain_text = comment_text(robot.file), comment_text(f"{base} -> {tip}")
     head = (
         "# yaml-language-server: $schema=../../schemas/cell.schema.json\n"
-        f"# Imported by 'rworld import urdf' from {robot.file}: the chain {base} -> {tip}.\n"
+        f"# Imported by 'rworld import urdf' from {source}: the chain {chain_text}.\n"
         "# Joints are given by their frames (origin, axis) as in the URDF; links fixed to a\n"
         "# moving link are merged into it and kept as frames (their poses are in poses.yaml).\n"
     )
     if names.renamed:
-        head += "# Renamed: " + ", ".join(f"{a} -> {b}" for a, b in names.renamed.items()) + "\n"
+        renamed = ", ".join(f"{a} -> {b}" for a, b in names.renamed.items())
+        head += f"# Renamed: {comment_text(renamed)}\n"
     cell_doc = {
         "name": cell_name,
         "description": f"{robot.name} imported from URDF",
@@ -494,7 +497,7 @@ def cell_from_urdf(
     cell_text = head + yaml.dump(cell_doc, Dumper=_Dumper, sort_keys=False, width=100)
     poses_text = (
         "# yaml-language-server: $schema=../../schemas/poses.schema.json\n"
-        f"# Poses of the frames of '{device}' (imported from {robot.file}); calibration may\n"
+        f"# Poses of the frames of '{device}' (imported from {source}); calibration may\n"
         "# change these numbers.\n"
         + yaml.dump(
             {"units": {"length": "m", "angle": "rad"}, "poses": poses},
@@ -541,6 +544,7 @@ def _geometry_doc(
             and g.mesh_file.suffix.lower() in MESH_SUFFIXES
         ):
             name = f"meshes/{owner}{g.mesh_file.suffix.lower()}"
+            _checked_mesh(robot, g)  # copied as it is, once it reads as a solid's surface
             meshes[name] = g.mesh_file.read_bytes()
             doc["mesh"] = {"file": name, "units": "m" if g.mesh_scale[0] == 1.0 else "mm"}
         elif g.kind == "mesh":

@@ -86,6 +86,15 @@ class Marked:
         return Issue(self.file, line, col, format_path(path), message, severity)  # type: ignore[arg-type]
 
 
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]")
+
+
+def comment_text(text: object) -> str:
+    """``text`` fit for one line of a YAML comment: every control character (a newline would
+    end the comment and make the rest YAML) written as its escape, ``\\n``, ``\\x07``."""
+    return _CONTROL.sub(lambda m: repr(m.group())[1:-1], str(text))
+
+
 def format_path(path: PathKey) -> str:
     """``("devices", 0, "joints", 2, "a")`` -> ``devices[0].joints[2].a``; ``()`` -> ``(root)``."""
     out = ""
