@@ -387,9 +387,11 @@ def read_glb(data: bytes, where: str) -> tuple[dict, bytes]:
     if kind != CHUNK_JSON or 20 + length > len(data):
         raise bad("no JSON chunk first")
     try:
-        gltf = json.loads(data[20 : 20 + length])
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        gltf = json.loads(data[20 : 20 + length], parse_constant=_no_constant)
+    except (UnicodeDecodeError, json.JSONDecodeError, ValueError) as exc:
         raise bad(f"its JSON chunk does not parse ({exc})") from None
+    except RecursionError:
+        raise bad("its JSON chunk nests too deep") from None
     blob = b""
     offset = 20 + length
     if offset < len(data):
@@ -399,15 +401,219 @@ def read_glb(data: bytes, where: str) -> tuple[dict, bytes]:
         if kind != CHUNK_BIN or offset + 8 + blob_length > len(data):
             raise bad("a damaged binary chunk")
         blob = data[offset + 8 : offset + 8 + blob_length]
-    if not isinstance(gltf, dict) or gltf.get("asset", {}).get("version") != "2.0":
+    asset = gltf.get("asset") if isinstance(gltf, dict) else None
+    if not isinstance(asset, dict) or asset.get("version") != "2.0":
         raise bad("no asset version 2.0")
-    declared = sum(buffer.get("byteLength", 0) for buffer in gltf.get("buffers", []))
-    if declared > len(blob):
-        raise bad(f"its buffer declares {declared} bytes, the binary chunk has {len(blob)}")
-    for k, view in enumerate(gltf.get("bufferViews", [])):
-        if view.get("byteOffset", 0) + view.get("byteLength", 0) > len(blob):
-            raise bad(f"bufferView {k} reaches past the binary chunk")
+    if not isinstance(asset.get("generator", ""), str):
+        raise bad("its asset's generator is not text")
+    problem = _structure_problem(gltf, blob)
+    if problem:
+        raise bad(problem)
     return gltf, blob
+
+
+def _no_constant(name: str):
+    raise ValueError(f"{name} is not a JSON number")
+
+
+_COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
+_TYPE_SIZE = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+_PATH_SIZE = {"translation": "VEC3", "rotation": "VEC4", "scale": "VEC3"}
+
+
+def _structure_problem(gltf: dict, blob: bytes) -> str | None:
+    """What makes ``gltf`` (with its binary chunk) unusable by a viewer, or None: the glTF 2.0
+    rules this file's kind uses - every index in range, every accessor inside its view, float
+    data finite, animation inputs and outputs of one length, a node tree without cycles."""
+
+    def is_int(v) -> bool:
+        return isinstance(v, int) and not isinstance(v, bool)
+
+    def items(key: str) -> list:
+        value = gltf.get(key, [])
+        if not isinstance(value, list) or not all(isinstance(x, dict) for x in value):
+            raise _Bad(f"'{key}' is not a list of objects")
+        return value
+
+    def index(value, key: str, what: str) -> int:
+        if not is_int(value) or not 0 <= value < len(items(key)):
+            raise _Bad(f"{what} is {value!r}, not an index into '{key}' ({len(items(key))})")
+        return value
+
+    def numbers(value, n: int, what: str) -> None:
+        if (
+            not isinstance(value, list)
+            or len(value) != n
+            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in value)
+            or not np.isfinite(np.asarray(value, dtype=float)).all()
+        ):
+            raise _Bad(f"{what} is not {n} finite numbers")
+
+    try:
+        buffers = items("buffers")
+        if len(buffers) > 1 or not all(is_int(b.get("byteLength")) for b in buffers):
+            raise _Bad("'buffers' is not one buffer with a whole byteLength")
+        declared = sum(b["byteLength"] for b in buffers)
+        if declared > len(blob):
+            raise _Bad(f"its buffer declares {declared} bytes, the binary chunk has {len(blob)}")
+        for key in ("bufferViews", "accessors", "materials", "meshes", "nodes", "scenes"):
+            for k, item in enumerate(items(key)):
+                if not isinstance(item.get("name", ""), str):
+                    raise _Bad(f"{key} {k}'s name is not text")
+        for k, anim in enumerate(items("animations")):
+            if not isinstance(anim.get("name", ""), str):
+                raise _Bad(f"animation {k}'s name is not text")
+        views = items("bufferViews")
+        for k, v in enumerate(views):
+            if v.get("target", ARRAY_BUFFER) not in (ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER) or (
+                isinstance(v.get("target"), bool)
+            ):
+                raise _Bad(f"bufferView {k} has target {v.get('target')!r}")
+            index(v.get("buffer"), "buffers", f"bufferView {k}'s buffer")
+            offset, length = v.get("byteOffset", 0), v.get("byteLength")
+            if not (is_int(offset) and is_int(length) and offset >= 0 and length >= 0):
+                raise _Bad(f"bufferView {k} has no whole byteOffset and byteLength")
+            if offset + length > len(blob):
+                raise _Bad(f"bufferView {k} reaches past the binary chunk")
+        accessors = items("accessors")
+        for k, a in enumerate(accessors):
+            view = views[index(a.get("bufferView"), "bufferViews", f"accessor {k}'s bufferView")]
+            kind, component, count = a.get("type"), a.get("componentType"), a.get("count")
+            known = isinstance(kind, str) and kind in _TYPE_SIZE
+            if not known or not (is_int(component) and component in _COMPONENT_BYTES):
+                raise _Bad(f"accessor {k} has type {kind!r} / componentType {component!r}")
+            offset = a.get("byteOffset", 0)
+            if not (is_int(count) and count >= 1 and is_int(offset) and offset >= 0):
+                raise _Bad(f"accessor {k} has no whole count >= 1 and byteOffset")
+            for bound in ("min", "max"):
+                if bound in a:
+                    numbers(a[bound], _TYPE_SIZE[kind], f"accessor {k}'s {bound}")
+            size = _TYPE_SIZE[kind] * _COMPONENT_BYTES[component]
+            if offset + count * size > view["byteLength"]:
+                raise _Bad(f"accessor {k} ({count} x {size} bytes) reaches past its bufferView")
+            if component == FLOAT:
+                start = view.get("byteOffset", 0) + offset
+                values = np.frombuffer(blob, "<f4", count * _TYPE_SIZE[kind], start)
+                if not np.isfinite(values).all():
+                    raise _Bad(f"accessor {k} holds numbers that are not finite")
+        for k, m in enumerate(items("materials")):
+            pbr = m.get("pbrMetallicRoughness", {})
+            if not isinstance(pbr, dict):
+                raise _Bad(f"material {k}'s pbrMetallicRoughness is not an object")
+            numbers(pbr.get("baseColorFactor", [1, 1, 1, 1]), 4, f"material {k}'s baseColorFactor")
+            for factor in ("metallicFactor", "roughnessFactor"):
+                value = pbr.get(factor, 1.0)
+                if not isinstance(value, (int, float)) or isinstance(value, bool):
+                    raise _Bad(f"material {k}'s {factor} is not a number")
+                if not 0.0 <= value <= 1.0:
+                    raise _Bad(f"material {k}'s {factor} {value} is outside [0, 1]")
+            if not isinstance(m.get("doubleSided", False), bool):
+                raise _Bad(f"material {k}'s doubleSided is not true or false")
+        for k, mesh in enumerate(items("meshes")):
+            primitives = mesh.get("primitives")
+            if not isinstance(primitives, list) or not primitives:
+                raise _Bad(f"mesh {k} has no primitives")
+            for prim in primitives:
+                attributes = prim.get("attributes") if isinstance(prim, dict) else None
+                if not isinstance(attributes, dict) or "POSITION" not in attributes:
+                    raise _Bad(f"mesh {k} has a primitive without POSITION")
+                for name, acc in attributes.items():
+                    index(acc, "accessors", f"mesh {k}'s {name}")
+                if "indices" in prim:
+                    acc = accessors[index(prim["indices"], "accessors", f"mesh {k}'s indices")]
+                    if acc["componentType"] not in (5121, 5123, 5125) or acc["type"] != "SCALAR":
+                        raise _Bad(f"mesh {k}'s indices are not unsigned integers")
+                    vertices = accessors[attributes["POSITION"]]["count"]
+                    view = views[acc["bufferView"]]
+                    start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
+                    dtype = {5121: "<u1", 5123: "<u2", 5125: "<u4"}[acc["componentType"]]
+                    if np.frombuffer(blob, dtype, acc["count"], start).max() >= vertices:
+                        raise _Bad(f"mesh {k}'s indices reach past its {vertices} vertices")
+                if "material" in prim:
+                    index(prim["material"], "materials", f"mesh {k}'s material")
+                if not is_int(prim.get("mode", 4)) or prim.get("mode", 4) not in range(7):
+                    raise _Bad(f"mesh {k} has primitive mode {prim.get('mode')!r}")
+        nodes = items("nodes")
+        parent: dict[int, int] = {}
+        for k, node in enumerate(nodes):
+            if "mesh" in node:
+                index(node["mesh"], "meshes", f"node {k}'s mesh")
+            children = node.get("children", [])
+            if not isinstance(children, list):
+                raise _Bad(f"node {k}'s children are not a list")
+            for c in children:
+                index(c, "nodes", f"node {k}'s child")
+                if c in parent or c == k:
+                    raise _Bad(f"node {c} has two parents, or is its own")
+                parent[c] = k
+            for key, n in (("translation", 3), ("rotation", 4), ("scale", 3)):
+                if key in node:
+                    numbers(node[key], n, f"node {k}'s {key}")
+            extras = node.get("extras", {})
+            if not isinstance(extras, dict) or not all(isinstance(v, str) for v in extras.values()):
+                raise _Bad(f"node {k}'s extras are not names (text)")
+        for k in parent:  # a chain of parents that comes back is a cycle
+            seen, node = {k}, parent.get(k)
+            while node is not None:
+                if node in seen:
+                    raise _Bad(f"the node tree has a cycle through node {node}")
+                seen.add(node)
+                node = parent.get(node)
+        scenes = items("scenes")
+        if "scene" in gltf:
+            index(gltf["scene"], "scenes", "'scene'")
+        shown: set[int] = set()
+        for k, scene in enumerate(scenes):
+            for n in scene.get("nodes", []) if isinstance(scene.get("nodes", []), list) else [None]:
+                shown.add(index(n, "nodes", f"scene {k}'s node"))
+        hidden = sorted(set(range(len(nodes))) - set(parent) - shown)
+        if hidden:  # a root node outside every scene is never drawn
+            raise _Bad(f"node {hidden[0]} is in no scene and is no node's child")
+        for k, anim in enumerate(items("animations")):
+            samplers, channels = anim.get("samplers"), anim.get("channels")
+            if not isinstance(samplers, list) or not isinstance(channels, list):
+                raise _Bad(f"animation {k} has no samplers and channels lists")
+            for j, sampler in enumerate(samplers):
+                if not isinstance(sampler, dict):
+                    raise _Bad(f"animation {k}'s sampler {j} is not an object")
+                times = accessors[index(sampler.get("input"), "accessors", "a sampler's input")]
+                values = accessors[index(sampler.get("output"), "accessors", "a sampler's output")]
+                if times["type"] != "SCALAR" or times["componentType"] != FLOAT:
+                    raise _Bad(f"animation {k}'s sampler {j} has no float times")
+                if sampler.get("interpolation", "LINEAR") not in ("LINEAR", "STEP"):
+                    raise _Bad(f"animation {k}'s sampler {j} interpolates by an unknown rule")
+                if times["count"] != values["count"]:
+                    raise _Bad(
+                        f"animation {k}'s sampler {j} has {times['count']} times for "
+                        f"{values['count']} values"
+                    )
+                view = views[times["bufferView"]]
+                start = view.get("byteOffset", 0) + times.get("byteOffset", 0)
+                t = np.frombuffer(blob, "<f4", times["count"], start)
+                if np.any(np.diff(t) < 0):
+                    raise _Bad(f"animation {k}'s sampler {j} has times that go back")
+            for j, channel in enumerate(channels):
+                target = channel.get("target") if isinstance(channel, dict) else None
+                if not isinstance(target, dict):
+                    raise _Bad(f"animation {k}'s channel {j} has no target")
+                if not is_int(channel.get("sampler")) or not 0 <= channel["sampler"] < len(
+                    samplers
+                ):
+                    raise _Bad(f"animation {k}'s channel {j} names no sampler of it")
+                index(target.get("node"), "nodes", f"animation {k}'s channel {j} node")
+                path = target.get("path")
+                if not isinstance(path, str) or path not in _PATH_SIZE:
+                    raise _Bad(f"animation {k}'s channel {j} animates {path!r}")
+                output = accessors[samplers[channel["sampler"]]["output"]]
+                if output["type"] != _PATH_SIZE[path]:
+                    raise _Bad(f"animation {k}'s channel {j} gives {output['type']} for {path}")
+    except _Bad as exc:
+        return str(exc)
+    return None
+
+
+class _Bad(Exception):
+    """One structural problem of a glTF file (internal to :func:`_structure_problem`)."""
 
 
 def accessor_array(gltf: dict, blob: bytes, index: int) -> np.ndarray:
