@@ -115,7 +115,11 @@ def read_csv_table(path: str, expected: str) -> CsvTable:
     if header_at is None:
         raise UserError(
             f"{path}: empty",
-            [Issue(path, 1, 1, "(header)", f"the file has no header; expected '{expected}'")],
+            [
+                Issue(
+                    path, 1, 1, "(header)", f"the file is empty (no header); expected '{expected}'"
+                )
+            ],
         )
     counts = {d: lines[header_at].count(d) for d in DELIMITERS}
     delimiter = max(DELIMITERS, key=lambda d: counts[d])

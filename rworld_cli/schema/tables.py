@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import io
 import math
-from pathlib import Path
 
 import numpy as np
 
@@ -41,50 +40,18 @@ def read_states(
     UserError
         Missing file or columns, wrong field counts, text, NaN or infinite values; all at once.
     """
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise UserError(
-            f"{path}: no such file", [Issue(path, 0, 0, "(file)", "no such file")]
-        ) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UserError(
-            f"{path}: cannot read", [Issue(path, 0, 0, "(file)", f"cannot read: {exc}")]
-        ) from None
-    lines = text.splitlines()
-    issues: list[Issue] = []
-    header_index = next(
-        (i for i, line in enumerate(lines) if line.strip() and not line.lstrip().startswith("#")),
-        None,
-    )
-    if header_index is None:
-        raise UserError(
-            f"{path}: empty",
-            [
-                Issue(
-                    path,
-                    1,
-                    1,
-                    "(header)",
-                    "the file is empty; expected a header row such as "
-                    + ",".join(column_names("q", n)),
-                )
-            ],
-        )
-    header = [h.strip() for h in lines[header_index].split(",")]
+    from .csvtext import read_csv_table
+
     wanted = list(scalars) + [name for g in groups for name in column_names(g, n)]
+    table = read_csv_table(path, ",".join(wanted))
+    header, header_line = table.header, table.header_line
+    issues: list[Issue] = []
     missing = [w for w in wanted if w not in header]
     if missing:
         extra = [h for h in header if h and h[:1] in "qt" and h not in wanted]
         hint = f"; it has {', '.join(extra)} (the device has {n} joint(s))" if extra else ""
         issues.append(
-            Issue(
-                path,
-                header_index + 1,
-                1,
-                "(header)",
-                f"missing column(s) {', '.join(missing)}{hint}",
-            )
+            Issue(path, header_line, 1, "(header)", f"missing column(s) {', '.join(missing)}{hint}")
         )
         raise UserError(f"{path}: missing columns", issues)
     duplicated = sorted({h for h in header if header.count(h) > 1 and h in wanted})
@@ -93,11 +60,7 @@ def read_states(
             f"{path}: duplicate columns",
             [
                 Issue(
-                    path,
-                    header_index + 1,
-                    1,
-                    "(header)",
-                    f"duplicate column(s) {', '.join(duplicated)}",
+                    path, header_line, 1, "(header)", f"duplicate column(s) {', '.join(duplicated)}"
                 )
             ],
         )
@@ -105,10 +68,7 @@ def read_states(
     rows: list[list[float]] = []
     row_lines: list[int] = []
     scalar_cols: dict[str, list[int]] = {name: [] for name in scalars}
-    for lineno, line in enumerate(lines[header_index + 1 :], start=header_index + 2):
-        if not line.strip() or line.lstrip().startswith("#"):
-            continue
-        fields = line.split(",")
+    for lineno, fields, columns in table.rows:
         if len(fields) != len(header):
             issues.append(
                 Issue(
@@ -116,23 +76,30 @@ def read_states(
                     lineno,
                     1,
                     "(row)",
-                    f"{len(fields)} field(s) but the header has {len(header)}",
+                    f"{len(fields)} field(s) separated by '{table.delimiter}' but the header has "
+                    f"{len(header)}",
                 )
             )
             continue
-        starts = np.cumsum([0] + [len(f) + 1 for f in fields[:-1]])
         row = []
         cols = {}
         for name in wanted:
             k = index[name]
-            raw = fields[k].strip()
-            col = int(starts[k]) + 1 + (len(fields[k]) - len(fields[k].lstrip()))
+            raw = fields[k]
+            col = columns[k]
             cols[name] = col
             try:
                 value = float(raw)
             except ValueError:
+                hint = " (a decimal comma? use '.' or ';' between fields)" if "," in raw else ""
                 issues.append(
-                    Issue(path, lineno, col, f"column '{name}'", f"expected a number, got '{raw}'")
+                    Issue(
+                        path,
+                        lineno,
+                        col,
+                        f"column '{name}'",
+                        f"expected a number, got '{raw}'{hint}",
+                    )
                 )
                 continue
             if not math.isfinite(value):
@@ -157,7 +124,7 @@ def read_states(
     if not rows:
         raise UserError(
             f"{path}: no data",
-            [Issue(path, header_index + 1, 1, "(rows)", "the header is followed by no data rows")],
+            [Issue(path, header_line, 1, "(rows)", "the header is followed by no data rows")],
         )
     data = np.array(rows, dtype=float)
     out: dict = {name: data[:, i] for i, name in enumerate(scalars)}

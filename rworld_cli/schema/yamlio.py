@@ -145,16 +145,75 @@ def parse_yaml_text(text: str, file: str) -> Marked:
                 [Issue(file, 1, 1, "(root)", "the file is empty; expected a YAML mapping")],
             )
         issues: list[Issue] = []
-        doc.data = _walk(loader, root, (), doc, issues)
+        doc.data = _walk(loader, root, (), doc, issues, _WalkState())
         if issues:
             raise UserError("invalid YAML", issues)
         return doc
+    except RecursionError:
+        raise UserError(
+            "invalid YAML",
+            [Issue(file, 1, 1, "(yaml)", "the document nests too deep to be a file of rworld's")],
+        ) from None
     finally:
         loader.dispose()
 
 
-def _walk(loader, node: yaml.Node, path: PathKey, doc: Marked, issues: list[Issue]) -> Any:
+MAX_VALUES = 2_000_000  # values a document may expand to (aliases counted at each use)
+
+
+class _WalkState:
+    """What :func:`_walk` shares over one document: each node's value and size once built (an
+    alias reuses them, so ``*a`` costs one step however large ``&a`` is), the nodes being built
+    (an alias to one of them is a cycle), and the values counted so far."""
+
+    def __init__(self) -> None:
+        self.built: dict[int, tuple[Any, int]] = {}
+        self.active: set[int] = set()
+        self.values = 0
+
+
+def _walk(
+    loader, node: yaml.Node, path: PathKey, doc: Marked, issues: list[Issue], state: _WalkState
+) -> Any:
     doc.value_marks[path] = _mark(node)
+    key = id(node)
+    if key in state.active:  # an alias inside its own anchor
+        line, col = _mark(node)
+        issues.append(
+            Issue(doc.file, line, col, format_path(path), "an alias refers to itself (a cycle)")
+        )
+        return None
+    if key in state.built:  # an alias: the value built at the anchor, counted again
+        value, size = state.built[key]
+        state.values += size
+        if state.values > MAX_VALUES:
+            raise UserError(
+                "invalid YAML",
+                [
+                    Issue(
+                        doc.file,
+                        *_mark(node),
+                        format_path(path),
+                        f"through its aliases (*name) the document expands to more than "
+                        f"{MAX_VALUES:,} values; rworld reads no more (an alias bomb?)",
+                    )
+                ],
+            )
+        return value
+    before = state.values
+    state.active.add(key)
+    try:
+        value = _build(loader, node, path, doc, issues, state)
+    finally:
+        state.active.discard(key)
+    state.values += 1
+    state.built[key] = (value, state.values - before)
+    return value
+
+
+def _build(
+    loader, node: yaml.Node, path: PathKey, doc: Marked, issues: list[Issue], state: _WalkState
+) -> Any:
     if isinstance(node, yaml.MappingNode):
         loader.flatten_mapping(node)  # resolves '<<' merge keys
         out: dict[str, Any] = {}
@@ -188,10 +247,13 @@ def _walk(loader, node: yaml.Node, path: PathKey, doc: Marked, issues: list[Issu
                 )
                 continue
             doc.key_marks[child] = _mark(key_node)
-            out[key] = _walk(loader, value_node, child, doc, issues)
+            out[key] = _walk(loader, value_node, child, doc, issues, state)
         return out
     if isinstance(node, yaml.SequenceNode):
-        return [_walk(loader, item, path + (i,), doc, issues) for i, item in enumerate(node.value)]
+        return [
+            _walk(loader, item, path + (i,), doc, issues, state)
+            for i, item in enumerate(node.value)
+        ]
     try:
         return loader.construct_object(node, deep=True)
     except yaml.constructor.ConstructorError as exc:

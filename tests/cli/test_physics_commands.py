@@ -223,7 +223,7 @@ def test_static_hold_and_capacity(cli):
     "content, message",
     [
         ("q1,q2,q3\n1,2,3\n", "missing column(s) q4, q5, q6"),
-        ("q1,q2,q3,q4,q5,q6\n1,2,3,4,5\n", "5 field(s) but the header has 6"),
+        ("q1,q2,q3,q4,q5,q6\n1,2,3,4,5\n", "5 field(s) separated by ',' but the header has 6"),
         ("q1,q2,q3,q4,q5,q6\n1,2,x,4,5,6\n", ":2:5: column 'q3': expected a number, got 'x'"),
         ("q1,q2,q3,q4,q5,q6\n1,2,3,nan,5,6\n", "column 'q4': expected a finite number, got 'nan'"),
         ("q1,q2,q3,q4,q5,q6\n", "no data rows"),
