@@ -94,3 +94,30 @@ def test_playback_advances_the_run_and_draws_it_where_the_simulator_puts_it(page
     assert np.all((lo <= shown) & (shown <= hi)), (t, shown, around)
     assert page.evaluate("window.rworld.errors") == []
     assert page.console_errors() == []
+
+
+def test_hostile_text_in_the_data_stays_text(fig9_scene, tmp_path):
+    """A title, a step and a mark holding `</script>`, `<!--` and `&`: the page still loads and
+    plays, and shows them as the text they are (the data is JSON with \\u escapes)."""
+    import copy
+
+    from rworld_cli.schema.gltf import scene_glb
+    from rworld_cli.viewer.page import viewer_page
+
+    hostile = "a</script><script>window.pwned=1</script><!-- & \u2028 -->"
+    info = copy.deepcopy(fig9_scene.info)
+    info["title"] = hostile
+    info["marks"][0]["text"] = hostile
+    device = next(iter(info["devices"].values()))
+    device["steps"][0]["text"] = hostile
+    path = tmp_path / "hostile.html"
+    path.write_text(viewer_page(scene_glb(fig9_scene), info), encoding="utf-8")
+    browser = Browser(1000, 700)
+    try:
+        browser.open(path.as_uri(), "window.rworld && window.rworld.ready")
+        assert browser.evaluate("window.pwned === undefined")
+        assert browser.evaluate("document.getElementById('title').textContent") == hostile
+        assert browser.evaluate("window.rworld.errors") == []
+        assert browser.console_errors() == []
+    finally:
+        browser.close()
