@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -185,8 +186,13 @@ def convex_parts(shape: Shape) -> tuple[tuple[np.ndarray, np.ndarray], ...] | No
     """
     if not shape.closed:
         return None
+    stat = Path(shape.mesh_file).stat()  # the file as it is now: a long process sees edits
     return _convex_parts(
-        str(shape.mesh_file), float(shape.mesh_scale), shape.T_owner_shape.tobytes()
+        str(shape.mesh_file),
+        float(shape.mesh_scale),
+        shape.T_owner_shape.tobytes(),
+        stat.st_mtime_ns,
+        stat.st_size,
     )
 
 
@@ -194,7 +200,7 @@ HULL_DEVIATION = COLLISION_TOLERANCE / 2  # [m] how far a part's hull may stand 
 
 
 @functools.lru_cache(maxsize=256)
-def _convex_parts(mesh_file: str, scale: float, T_bytes: bytes):
+def _convex_parts(mesh_file: str, scale: float, T_bytes: bytes, mtime_ns: int = 0, size: int = 0):
     import trimesh
 
     T = np.frombuffer(T_bytes).reshape(4, 4)
