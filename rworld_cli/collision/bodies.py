@@ -184,7 +184,7 @@ def convex_parts(shape: Shape) -> tuple[tuple[np.ndarray, np.ndarray], ...] | No
     the exact ones, never above (the hull holds the part), and no hull overlap that shallow is
     a collision.
     """
-    if not shape.closed:
+    if not shape.closed or shape.mesh_file is None:
         return None
     stat = Path(shape.mesh_file).stat()  # the file as it is now: a long process sees edits
     return _convex_parts(
