@@ -16,6 +16,7 @@ import pytest
 import yaml
 
 from tests.conftest import WORKCELLS, run_cli
+from tests.fuzz import value_paths
 
 HOSTILE = [
     "", "abc", 1e300, -1e300, float("nan"), float("inf"), None, True, [], {}, [1, 2], {"a": 1},
@@ -42,19 +43,9 @@ STATES = "q1,q2,q3,q4,q5,q6,qd1,qd2,qd3,qd4,qd5,qd6,qdd1,qdd2,qdd3,qdd4,qdd5,qdd
 TOKENS = ["", "nan", "inf", "1e999", "abc", '"', '""', ";", "\t", "1,5", "\ufeff", "-", "#", "\n"]
 
 
-def _paths(node, path=()):
-    yield path
-    if isinstance(node, dict):
-        for k, v in node.items():
-            yield from _paths(v, path + (k,))
-    elif isinstance(node, list):
-        for i, v in enumerate(node[:4]):
-            yield from _paths(v, path + (i,))
-
-
 def _mutate_doc(rng: random.Random, doc):
     doc = json.loads(json.dumps(doc))
-    path = rng.choice([p for p in _paths(doc) if p])
+    path = rng.choice([p for p in value_paths(doc, per_list=4) if p])
     node = doc
     for k in path[:-1]:
         node = node[k]

@@ -17,6 +17,7 @@ import struct
 import pytest
 
 from tests.conftest import WORKCELLS, run_cli
+from tests.fuzz import value_paths
 
 SEEDS = range(12)
 CASES = 40  # per seed and file
@@ -28,16 +29,6 @@ def run_dir(tmp_path_factory):
     result = run_cli(["simulate", str(WORKCELLS / "puma560"), "pick_place", "-o", str(out)])
     assert result.exit_code == 0, result.output
     return out
-
-
-def _paths(node, path=()):
-    yield path
-    if isinstance(node, dict):
-        for k, v in node.items():
-            yield from _paths(v, path + (k,))
-    elif isinstance(node, list):
-        for i, v in enumerate(node[:3]):  # the first items stand for the rest
-            yield from _paths(v, path + (i,))
 
 
 def _set(doc, path, value):
@@ -63,7 +54,7 @@ def _damage(rng: random.Random, doc, required=None) -> tuple[object, str]:
     """A copy of the document with one rule of its format broken, and what was done;
     ``required``: the keys whose removal is damage (default: every key)."""
     doc = json.loads(json.dumps(doc))
-    paths = [p for p in _paths(doc) if p]
+    paths = [p for p in value_paths(doc, per_list=3) if p]
     path = rng.choice(paths)
     value = _get(doc, path)
     if isinstance(value, bool):
