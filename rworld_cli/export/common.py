@@ -258,21 +258,97 @@ def abb_confdata(q: np.ndarray) -> list[int]:
     return [int(quarter[0]), int(quarter[1]), int(quarter[2]), 0]
 
 
-def sanitise(name: str, limit: int, used: set[str], lower: bool = False) -> str:
-    """A name a robot language holds: letters, digits and '_', starting with a letter, at most
-    ``limit`` characters, unique among ``used`` (which it joins)."""
-    clean = re.sub(r"[^A-Za-z0-9_]", "_", name)
-    if not clean or not clean[0].isalpha():
-        clean = "n" + clean
-    clean = clean[:limit]
-    if lower:
-        clean = clean.lower()
-    candidate, k = clean, 2
-    while candidate.lower() in {u.lower() for u in used}:
-        suffix = f"_{k}"
-        candidate, k = clean[: limit - len(suffix)] + suffix, k + 1
-    used.add(candidate)
-    return candidate
+@dataclass(frozen=True)
+class Language:
+    """What a robot language lets a name or a comment be.
+
+    Every name and every text that comes from a file (a program's file name, a cell's folder,
+    frame names, step descriptions) reaches the program only through :meth:`identifier` or
+    :meth:`comment`: no file can put a statement into an exported program.
+
+    Attributes
+    ----------
+    comment_prefix : str
+        Starts a comment that runs to the end of the line.
+    limit : int
+        The controller's longest name.
+    reserved : frozenset of str
+        Keywords, built-in instructions and data types (lower case; the three languages compare
+        names without case, URScript's built-ins are lower case anyway).
+    lower : bool
+        Names in lower case (URScript's style).
+    """
+
+    name: str
+    comment_prefix: str
+    limit: int
+    reserved: frozenset[str]
+    lower: bool = False
+
+    def identifier(self, name: str, used: set[str]) -> str:
+        """A name the language holds: letters, digits and '_', starting with a letter, at most
+        ``limit`` characters, no keyword or built-in, unique among ``used`` (which it joins)."""
+        clean = re.sub(r"[^A-Za-z0-9_]", "_", name)
+        if not clean or not clean[0].isalpha():
+            clean = "n" + clean
+        clean = clean[: self.limit]
+        if self.lower:
+            clean = clean.lower()
+        if clean.lower() in self.reserved:
+            clean = clean[: self.limit - 2] + "_p"
+        candidate, k = clean, 2
+        taken = {u.lower() for u in used}
+        while candidate.lower() in taken or candidate.lower() in self.reserved:
+            suffix = f"_{k}"
+            candidate, k = clean[: self.limit - len(suffix)] + suffix, k + 1
+        used.add(candidate)
+        return candidate
+
+    def comment(self, text: object) -> str:
+        """``text`` safe inside one comment line: printable ASCII kept, anything else (a
+        newline, a carriage return, a tab, a character the controller's code page may lack)
+        written as an escape (``\\n``, ``\\u00fc``)."""
+        return "".join(ch if " " <= ch <= "~" else ascii(ch)[1:-1] for ch in str(text))
+
+    def renamed(self, identifier: str, original: str) -> list[str]:
+        """The comment line that gives a renamed program's original name (none when equal)."""
+        if identifier == original:
+            return []
+        return [f"{self.comment_prefix} '{identifier}' is program '{self.comment(original)}'"]
+
+
+_URSCRIPT_WORDS = """def end if elif else while for in return thread run kill join sec true false
+and
+or not global local halt break continue pass xor movej movel movec movep servoj servoc speedj
+speedl stopj stopl set_tcp set_payload set_digital_out set_standard_digital_out
+set_tool_digital_out set_configurable_digital_out get_digital_in get_standard_digital_in
+get_tool_digital_in get_digital_out set_analog_out get_analog_in sleep sync textmsg popup
+pose_trans pose_inv pose_add pose_sub pose_dist get_actual_tcp_pose get_actual_joint_positions
+get_target_tcp_pose get_forward_kin get_inverse_kin force_mode end_force_mode teach_mode
+end_teach_mode freedrive_mode end_freedrive_mode socket_open socket_send_string
+socket_read_ascii_float socket_close write_output_integer_register read_input_integer_register
+set_gravity set_tool_voltage is_within_safety_limits rpy2rotvec rotvec2rpy norm point_dist
+sqrt sin cos tan asin acos atan atan2 pow log floor ceil d2r r2d abs to_str to_num str_len
+random interpreter_mode p struct""".split()
+_KRL_WORDS = """def end deffct endfct defdat enddat if then else endif for to step endfor while
+endwhile repeat until loop endloop switch case default endswitch goto halt wait sec ptp lin circ
+ptp_rel lin_rel circ_rel interrupt decl when do brake brake_f resume global public const signal
+int real bool char struct enum frame pos e6pos axis e6axis true false and or not exor b_and b_or
+b_not b_exor bas import is continue exit return trigger distance delay prio anin anout digin on
+off c_ptp c_dis c_vel c_ori spline endspline spl slin scirc sptp time_block timer_block
+on_error_proceed bas_command tool_data base_data load_data main""".split()
+_RAPID_WORDS = """module endmodule proc endproc func endfunc trap endtrap if then else elseif endif
+for from to step do endfor while endwhile test case default endtest goto return raise retry
+trynext exit stop var pers const local task alias record endrecord and or xor not div mod true
+false error undo backward inout nostepin noview readonly sysmodule viewonly with main movej movel
+moveabsj movec searchl searchc waittime waitdi waituntil setdo reset set tpwrite tooldata
+wobjdata robtarget jointtarget speeddata zonedata num dnum bool string pos orient pose confdata
+extjoint loaddata fine z0 z1 z5 z10 z50 z100 v5 v10 v50 v100 v200 v500 v1000 tool0 wobj0 load0
+crobt cjointt offs reltool""".split()
+
+URSCRIPT = Language("URScript", "#", 60, frozenset(_URSCRIPT_WORDS), lower=True)
+KRL = Language("KRL", ";", 24, frozenset(_KRL_WORDS))
+RAPID = Language("RAPID", "!", 32, frozenset(_RAPID_WORDS))
 
 
 def number(x: float, digits: int = 9) -> str:

@@ -8,6 +8,7 @@ import numpy as np
 
 from . import Signals
 from .common import (
+    KRL,
     Comment,
     DeviceProgram,
     Move,
@@ -17,8 +18,9 @@ from .common import (
     Wait,
     kuka_abc,
     number,
-    sanitise,
 )
+
+note = KRL.comment  # every text from a file goes into a comment through this
 
 
 def frame(T) -> str:
@@ -29,38 +31,39 @@ def frame(T) -> str:
 
 def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
     used: set[str] = set()
-    name = sanitise(program.name, 24, used)
+    name = KRL.identifier(program.name, used)
     tools = {t.name: k + 1 for k, t in enumerate(program.tools)}
     src = [
         "&ACCESS RVP",
         f"DEF {name}( )",
-        f"; {program.name}: device '{program.device}', from {program.source}",
+        f"; {note(program.name)}: device '{note(program.device)}', from {note(program.source)}",
         "; written by 'rworld export program': targets resolved with the cell's current pose files",
         f"; outputs: gripper $OUT[{signals.gripper}] (TRUE = closed), tool changer "
         f"$OUT[{signals.tool_changer}] (TRUE = locked)",
+        *KRL.renamed(name, program.name),
     ]
     if program.user_frame:
-        src.append(f"BASE_DATA[1] = {{{frame(program.T_base_user)}}}  ; {program.user_frame}")
+        src.append(f"BASE_DATA[1] = {{{frame(program.T_base_user)}}}  ; {note(program.user_frame)}")
         src.append("$BASE = BASE_DATA[1]")
     else:
         src.append("$BASE = BASE_DATA[1]  ; the robot's base frame (identity)")
     if any(m.guard for m in program.moves):
         src.append(f"INTERRUPT DECL 10 WHEN $IN[{signals.sensor}]==TRUE DO BRAKE  ; searches")
-    dat = ["&ACCESS RVP", f"DEFDAT {name}", f"; targets of {program.name}"]
+    dat = ["&ACCESS RVP", f"DEFDAT {name}", f"; targets of {note(program.name)}"]
     for tool_name, k in tools.items():
-        dat.append(f"; TOOL_DATA[{k}] is {tool_name}")
+        dat.append(f"; TOOL_DATA[{k}] is {note(tool_name)}")
     k_target = 0
     for item in program.instructions:
         if isinstance(item, Tool):
             k = tools[item.name]
-            src.append(f"TOOL_DATA[{k}] = {{{frame(item.T_flange_tcp)}}}  ; {item.name}")
+            src.append(f"TOOL_DATA[{k}] = {{{frame(item.T_flange_tcp)}}}  ; {note(item.name)}")
             src.append(f"$TOOL = TOOL_DATA[{k}]")
         elif isinstance(item, Move):
             k_target += 1
-            src.append(f"; {item.where}: {item.text}")
+            src.append(f"; {note(item.where)}: {note(item.text)}")
             if item.guard:
                 src.append(
-                    f"; a search until {item.guard}: stops when $IN[{signals.sensor}] closes"
+                    f"; a search until {note(item.guard)}: stops when $IN[{signals.sensor}] closes"
                 )
                 src.append("INTERRUPT ON 10")
             if item.motion == "joint":
@@ -84,19 +87,21 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
                 src.append(f"LIN {label}")
             if item.guard:
                 src.append("INTERRUPT OFF 10")
-            dat.append(f"; {label}: {item.where} {item.text}")
+            dat.append(f"; {label}: {note(item.where)} {note(item.text)}")
         elif isinstance(item, Output):
             index = signals.output(item.signal)
-            src.append(f"; {item.where}: {item.text}")
+            src.append(f"; {note(item.where)}: {note(item.text)}")
             src.append(f"$OUT[{index}] = {'TRUE' if item.value else 'FALSE'}")
         elif isinstance(item, Wait):
-            src.append(f"; {item.where}: {item.text}")
+            src.append(f"; {note(item.where)}: {note(item.text)}")
             src.append(f"WAIT SEC {number(item.seconds, 6)}")
         elif isinstance(item, Comment):
-            src.append(f"; {item.where}: {item.text}")
+            src.append(f"; {note(item.where)}: {note(item.text)}")
         elif isinstance(item, Record):
-            src.append(f"; {item.where}: {item.text}: the contact is $POS_INT (latched by the")
-            src.append("; search's interrupt); record it for 'rworld calibrate'")
+            src.append(
+                f"; {note(item.where)}: {note(item.text)}: the contact is $POS_INT (latched by"
+            )
+            src.append("; the search's interrupt); record it for 'rworld calibrate'")
     src += ["END", ""]
     dat += ["ENDDAT", ""]
     return {f"{name}.src": "\n".join(src), f"{name}.dat": "\n".join(dat)}

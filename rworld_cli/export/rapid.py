@@ -5,10 +5,13 @@ by ``MoveL``; ``SetDO`` and ``WaitTime``."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from . import Signals
 from .common import (
+    RAPID,
     Comment,
     DeviceProgram,
     Move,
@@ -19,8 +22,9 @@ from .common import (
     abb_confdata,
     abb_quaternion,
     number,
-    sanitise,
 )
+
+note = RAPID.comment  # every text from a file goes into a comment through this
 
 EXTAX = "[9E9,9E9,9E9,9E9,9E9,9E9]"
 
@@ -33,25 +37,26 @@ def pose(T) -> str:
 
 def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
     used: set[str] = set()
-    name = sanitise(program.name, 32, used)
-    tool_names = {t.name: sanitise("t_" + t.name, 32, used) for t in program.tools}
+    name = RAPID.identifier(program.name, used)
+    tool_names = {t.name: RAPID.identifier("t_" + t.name, used) for t in program.tools}
     lines = [
         f"MODULE {name}",
-        f"  ! {program.name}: device '{program.device}', from {program.source}",
+        f"  ! {note(program.name)}: device '{note(program.device)}', from {note(program.source)}",
         "  ! written by 'rworld export program': targets resolved with the cell's current pose "
         "files",
         f"  ! outputs: gripper do_{signals.gripper} (1 = closed), tool changer "
         f"do_{signals.tool_changer} (1 = locked); searches stop on di_{signals.sensor}",
+        *("  " + line for line in RAPID.renamed(name, program.name)),
     ]
     wobj = "wobj_base"
     uframe = "[0,0,0],[1,0,0,0]"
     if program.user_frame:
-        wobj = sanitise("wobj_" + program.user_frame, 32, used)
+        wobj = RAPID.identifier("wobj_" + program.user_frame, used)
         uframe = pose(program.T_base_user)
-        lines.append(f"  ! {wobj} is {program.user_frame}")
+        lines.append(f"  ! {wobj} is {note(program.user_frame)}")
     lines.append(f'  PERS wobjdata {wobj} := [FALSE,TRUE,"",[{uframe}],[[0,0,0],[1,0,0,0]]];')
     for tool in program.tools:
-        lines.append(f"  ! {tool_names[tool.name]} is {tool.name}")
+        lines.append(f"  ! {tool_names[tool.name]} is {note(tool.name)}")
         lines.append(
             f"  PERS tooldata {tool_names[tool.name]} := [TRUE,[{pose(tool.T_flange_tcp)}],"
             "[0.001,[0,0,0.001],[1,0,0,0],0,0,0]];"
@@ -66,14 +71,14 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             label = f"p{k + 1}"
             joints = ",".join(number(np.degrees(v), 9) for v in item.q)
             cf = ",".join(str(c) for c in abb_confdata(item.q))
-            lines.append(f"  ! {label}: {item.where} {item.text}")
+            lines.append(f"  ! {label}: {note(item.where)} {note(item.text)}")
             lines.append(f"  CONST jointtarget j{k + 1} := [[{joints}],{EXTAX}];")
             T = item.T_target
             target = pose(program.in_user(T))
             lines.append(f"  CONST robtarget {label} := [{target},[{cf}],{EXTAX}];")
             speed = f"[{number(item.tool_speed * 1000, 3)},500,5000,1000]"
             lines.append(f"  CONST speeddata s{k + 1} := {speed};")
-            body.append(f"    ! {item.where}: {item.text}")
+            body.append(f"    ! {note(item.where)}: {note(item.text)}")
             if item.guard:  # a search: SearchL stops where the sensor's input closes
                 lines.append(f"  VAR robtarget hit{k + 1};")
                 last_hit = f"hit{k + 1}"
@@ -87,16 +92,17 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
                 body.append(f"    MoveL {label}, s{k + 1}, fine, {current_tool}\\WObj:={wobj};")
         elif isinstance(item, Output):
             index = signals.output(item.signal)
-            body.append(f"    ! {item.where}: {item.text}")
+            body.append(f"    ! {note(item.where)}: {note(item.text)}")
             body.append(f"    SetDO do_{index}, {1 if item.value else 0};")
         elif isinstance(item, Wait):
-            body.append(f"    ! {item.where}: {item.text}")
+            body.append(f"    ! {note(item.where)}: {note(item.text)}")
             body.append(f"    WaitTime {number(item.seconds, 6)};")
         elif isinstance(item, Comment):
-            body.append(f"    ! {item.where}: {item.text}")
+            body.append(f"    ! {note(item.where)}: {note(item.text)}")
         elif isinstance(item, Record):
-            body.append(f"    ! {item.where}: {item.text}")
+            body.append(f"    ! {note(item.where)}: {note(item.text)}")
             if last_hit is not None:  # SearchL's search point: where the input closed
-                body.append(f'    TPWrite "rworld probe {item.feature}" \\Pos:={last_hit}.trans;')
+                label = re.sub(r"[^A-Za-z0-9_.]", "_", item.feature)  # inside a string literal
+                body.append(f'    TPWrite "rworld probe {label}" \\Pos:={last_hit}.trans;')
     lines += body + ["  ENDPROC", "ENDMODULE", ""]
     return {f"{name}.mod": "\n".join(lines)}

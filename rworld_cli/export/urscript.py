@@ -3,8 +3,11 @@
 
 from __future__ import annotations
 
+import re
+
 from . import Signals
 from .common import (
+    URSCRIPT,
     Comment,
     DeviceProgram,
     Move,
@@ -14,8 +17,9 @@ from .common import (
     Wait,
     number,
     rotation_vector,
-    sanitise,
 )
+
+note = URSCRIPT.comment  # every text from a file goes into a comment through this
 
 
 def pose(T) -> str:
@@ -25,25 +29,24 @@ def pose(T) -> str:
 
 def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
     used: set[str] = set()
-    name = sanitise(program.name, 60, used, lower=True)
+    name = URSCRIPT.identifier(program.name, used)
     lines = [
-        f"# {program.name}: device '{program.device}', from {program.source}",
+        f"# {note(program.name)}: device '{note(program.device)}', from {note(program.source)}",
         "# written by 'rworld export program': targets resolved with the cell's current pose files",
         f"# digital outputs: gripper {signals.gripper} (True = closed), tool changer "
         f"{signals.tool_changer} (True = locked); searches stop on digital input {signals.sensor}",
         f"def {name}():",
     ]
-    if name != program.name:
-        lines.insert(1, f"# '{name}' is program '{program.name}'")
+    lines[1:1] = URSCRIPT.renamed(name, program.name)
     if program.user_frame:
-        lines.append(f"  # user frame: {program.user_frame}, in the base frame")
+        lines.append(f"  # user frame: {note(program.user_frame)}, in the base frame")
         lines.append(f"  user = {pose(program.T_base_user)}")
     for item in program.instructions:
         if isinstance(item, Tool):
-            lines.append(f"  # tool: {item.name}")
+            lines.append(f"  # tool: {note(item.name)}")
             lines.append(f"  set_tcp({pose(item.T_flange_tcp)})")
         elif isinstance(item, Move):
-            lines.append(f"  # {item.where}: {item.text}")
+            lines.append(f"  # {note(item.where)}: {note(item.text)}")
             k = len([i for i in lines if i.startswith("  # ")])
             if item.motion == "joint":
                 q = item.q_target
@@ -66,7 +69,7 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             # a search: the move runs in a thread; it stops when the sensor's input closes
             brake = number(max(item.tool_acceleration, 1.0), 4)
             lines += [
-                f"  # a search until {item.guard}: stops when digital input {signals.sensor} "
+                f"  # a search until {note(item.guard)}: stops when digital input {signals.sensor} "
                 "closes",
                 f"  done_{k} = False",
                 f"  thread search_{k}():",
@@ -82,15 +85,16 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             ]
         elif isinstance(item, Output):
             index = signals.output(item.signal)
-            lines.append(f"  # {item.where}: {item.text}")
+            lines.append(f"  # {note(item.where)}: {note(item.text)}")
             lines.append(f"  set_digital_out({index}, {'True' if item.value else 'False'})")
         elif isinstance(item, Wait):
-            lines.append(f"  # {item.where}: {item.text}")
+            lines.append(f"  # {note(item.where)}: {note(item.text)}")
             lines.append(f"  sleep({number(item.seconds, 6)})")
         elif isinstance(item, Comment):
-            lines.append(f"  # {item.where}: {item.text}")
+            lines.append(f"  # {note(item.where)}: {note(item.text)}")
         elif isinstance(item, Record):  # where the search stopped (after its stopping distance)
-            lines.append(f"  # {item.where}: {item.text}")
-            lines.append(f'  textmsg("rworld probe {item.feature}: ", get_actual_tcp_pose())')
+            lines.append(f"  # {note(item.where)}: {note(item.text)}")
+            label = re.sub(r"[^A-Za-z0-9_.]", "_", item.feature)  # inside a string literal
+            lines.append(f'  textmsg("rworld probe {label}: ", get_actual_tcp_pose())')
     lines += ["end", f"{name}()", ""]
-    return {f"{program.name}.script": "\n".join(lines)}
+    return {f"{name}.script": "\n".join(lines)}
