@@ -340,12 +340,13 @@ def _write_probe_program(
     from ..calibration.probing import probe_program
     from ..errors import CheckFailed
     from ..fileio import atomic_write_text, temporary_path, write_scratch
-    from ..schema.programs import load_run
+    from ..schema.programs import load_run, program_text
     from ..simulate.engine import simulate
 
     if not out.parent.is_dir():
         raise UserError(f"cannot write {out}: no folder {out.parent}")
-    text, stops = probe_program(rig, plans, ordered)
+    doc, stops = probe_program(rig, plans, ordered)
+    text = program_text(doc)
     trial = temporary_path(out, ".yaml")  # beside it: the program names files relative to it
     try:
         write_scratch(trial, text.encode("utf-8"))

@@ -427,16 +427,18 @@ def tour(costs: np.ndarray, start: np.ndarray) -> list[int]:
 # --------------------------------------------------------------------------- the program
 
 
-def _offset(T: np.ndarray) -> str:
-    xyz = ", ".join(f"{x * 1000:.6f}" for x in T[:3, 3])
-    rpy = ", ".join(f"{np.degrees(a):.9f}" for a in spatial.matrix_to_rpy(T[:3, :3]))
-    return f"{{xyz: [{xyz}], rpy: [{rpy}]}}"
+def _offset(T: np.ndarray) -> dict:
+    """A move offset in the program's units (mm, deg), to the decimals the program keeps."""
+    xyz = [round(float(x) * 1000, 6) + 0.0 for x in T[:3, 3]]  # + 0.0: no -0.0 in files
+    rpy = [round(float(np.degrees(a)), 9) + 0.0 for a in spatial.matrix_to_rpy(T[:3, :3])]
+    return {"xyz": xyz, "rpy": rpy}
 
 
 def probe_program(
     rig: ProbeRig, plans, ordered: bool = True, description: str | None = None
-) -> tuple[str, int]:
-    """The probe program (YAML text) visiting every planned target; and the number of stops.
+) -> tuple[dict, int]:
+    """The probe program visiting every planned target, as data (``schema.programs.
+    program_text`` writes it); and the number of stops.
 
     Parameters
     ----------
@@ -445,6 +447,13 @@ def probe_program(
     plans : list of FramePlan
     ordered : bool
         Visit in the short order (default) or as planned (frame by frame, feature by feature).
+
+    Returns
+    -------
+    dict
+        ``header`` (comment lines), ``device``, ``description``, ``units`` and ``steps``: a
+        list of (step mapping, trailing comment or None), offsets in mm and deg.
+    int
     """
     seen: dict[str, object] = {}
     for plan in plans:
@@ -464,63 +473,51 @@ def probe_program(
         stops = [stops[i] for i in tour(costs, start)]
     owner = {name: rig.cell.features[name].owner for name in seen}
     tcp = rig.tcp.split(".", 1)[1] if rig.tcp.startswith(rig.device + ".") else rig.tcp
-    fast = f"tcp: {tcp}"
-    guard = f"motion: linear, speed: {rig.speed:g}, until: {rig.sensor}"
-    lines = [
-        "# yaml-language-server: $schema=../../../schemas/program.schema.json",
-        "# Probe program written by 'rworld plan-measurements --program': each target is",
-        "# approached along its surface normal, touched by a guarded move that stops when the",
-        f"# probe's ball ({rig.sensor}) touches, recorded ('probe:') and left the way it came.",
-        "# Offsets are in the feature owner's frame (mm, deg): calibrating the owner moves them.",
-        f"device: {rig.device}",
-        f"description: {description or 'probe the conditioned features for calibration'}",
-        "units: {length: mm, angle: deg}",
-        "steps:",
-        f"  - move: {{to: {rig.start}}}",
-    ]
+    steps: list[tuple[dict, str | None]] = [({"move": {"to": rig.start}}, None)]
+
+    def move(o: str, T: np.ndarray, linear: bool = True, comment: str | None = None) -> None:
+        spec: dict = {"to": o, "tcp": tcp, "offset": _offset(T)}
+        if linear:
+            spec["motion"] = "linear"
+        steps.append(({"move": spec}, comment))
+
     for name, solved in stops:
         o = owner[name]
         first = solved[0]
-        lines.append(
-            f"  - move: {{to: {o}, {fast}, offset: {_offset(first.T_owner_lift)}}}"
-            f"   # {name}" + (f" target {first.index + 1}" if first.T_owner_entry is None else "")
-        )
+        label = name + (f" target {first.index + 1}" if first.T_owner_entry is None else "")
+        move(o, first.T_owner_lift, linear=False, comment=label)
         way_in = first.T_owner_entry if first.T_owner_entry is not None else first.T_owner_approach
         if not np.allclose(first.T_owner_lift, way_in):
-            lines.append(
-                f"  - move: {{to: {o}, {fast}, offset: {_offset(way_in)}, motion: linear}}"
-            )
+            move(o, way_in)
         if first.T_owner_entry is not None:  # a hole or boss: down the axis to the depth
-            lines.append(
-                f"  - move: {{to: {o}, {fast}, offset: {_offset(first.T_owner_approach)}, "
-                "motion: linear}"
-            )
+            move(o, first.T_owner_approach)
         for s in solved:
             if s is not first:
-                lines.append(
-                    f"  - move: {{to: {o}, {fast}, offset: {_offset(s.T_owner_approach)}, "
-                    "motion: linear}"
-                )
-            lines.append(
-                f"  - move: {{to: {o}, {fast}, offset: {_offset(s.T_owner_end)}, {guard}}}"
-            )
-            lines.append(f"  - probe: {name}")
-            lines.append(
-                f"  - move: {{to: {o}, {fast}, offset: {_offset(s.T_owner_approach)}, "
-                "motion: linear}"
-            )
+                move(o, s.T_owner_approach)
+            guarded = {"to": o, "tcp": tcp, "offset": _offset(s.T_owner_end)}
+            guarded.update(motion="linear", speed=float(f"{rig.speed:g}"), until=rig.sensor)
+            steps.append(({"move": guarded}, None))
+            steps.append(({"probe": name}, None))
+            move(o, s.T_owner_approach)
         if first.T_owner_entry is not None:
-            lines.append(
-                f"  - move: {{to: {o}, {fast}, offset: {_offset(first.T_owner_entry)}, "
-                "motion: linear}"
-            )
+            move(o, first.T_owner_entry)
         if not np.allclose(first.T_owner_lift, way_in):
-            lines.append(
-                f"  - move: {{to: {o}, {fast}, offset: {_offset(first.T_owner_lift)}, "
-                "motion: linear}"
-            )
-    lines.append(f"  - move: {{to: {rig.start}}}")
-    return "\n".join(lines) + "\n", len(stops)
+            move(o, first.T_owner_lift)
+    steps.append(({"move": {"to": rig.start}}, None))
+    header = [
+        "Probe program written by 'rworld plan-measurements --program': each target is",
+        "approached along its surface normal, touched by a guarded move that stops when the",
+        f"probe's ball ({rig.sensor}) touches, recorded ('probe:') and left the way it came.",
+        "Offsets are in the feature owner's frame (mm, deg): calibrating the owner moves them.",
+    ]
+    doc = {
+        "header": header,
+        "device": rig.device,
+        "description": description or "probe the conditioned features for calibration",
+        "units": {"length": "mm", "angle": "deg"},
+        "steps": steps,
+    }
+    return doc, len(stops)
 
 
 def find_probe(cell: CellModel, device: str, tcp: str | None, sensor: str | None):

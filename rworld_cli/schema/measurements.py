@@ -44,7 +44,7 @@ from ..model.measurements import FeatureProbes, Measurement, MeasurementSet
 from ..units import LENGTH, MIN_POINTS
 from .loader import validate_document
 from .models import LengthUnits, NonNegative, Strict, Vec3
-from .yamlio import read_yaml
+from .yamlio import comment_text, read_yaml, yaml_value
 
 
 class FeaturePoints(Strict):
@@ -377,17 +377,20 @@ def measurement_text(
             + "]"
         )
 
-    lines = [f"# {c}" for c in comments] + [f"cell: {cell}", "units: {length: mm}"]
+    lines = [f"# {comment_text(c)}" for c in comments]
+    lines += [f"cell: {yaml_value(cell)}", "units: {length: mm}"]
     if date is not None:
-        lines.append(f"date: '{date}'")
+        lines.append(f"date: {yaml_value(date)}")
     if instrument is not None:
-        lines.append(f"instrument: {instrument}")
+        lines.append(f"instrument: {yaml_value(instrument)}")
     if sigma is not None:
         lines.append(f"sigma: {sigma * 1000!r}")
     lines.append(f"probe_radius: {probe_radius * 1000:g}")
     lines.append("features:")
     for name, f in features.items():
-        lines.append(f"  {name}:" + (f"   # {f.comment}" if f.comment else ""))
+        lines.append(
+            f"  {yaml_value(name)}:" + (f"   # {comment_text(f.comment)}" if f.comment else "")
+        )
         lines.append("    points:")
         lines += ["      - " + mm(p) for p in f.points]
         if f.above is not None:

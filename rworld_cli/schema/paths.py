@@ -14,7 +14,7 @@ from ..model.paths import PathSpec
 from ..units import ANGLE, LENGTH
 from .loader import validate_document
 from .program import PathFile
-from .yamlio import Marked, read_yaml
+from .yamlio import Marked, comment_text, read_yaml, yaml_value
 
 
 @dataclass
@@ -117,9 +117,11 @@ def write_path_with_knots(path_file: str, knots, output: str, note: str = "") ->
     atomically.
     """
     pf = validate_document(read_yaml(path_file), PathFile)
-    lines = [f"# {path_file} with new knots{': ' + note if note else ''}"]
+    lines = [
+        f"# {comment_text(path_file)} with new knots{': ' + comment_text(note) if note else ''}"
+    ]
     if pf.device:
-        lines.append(f"device: {pf.device}")
+        lines.append(f"device: {yaml_value(pf.device)}")
     units = {k: v for k, v in (("length", pf.units.length), ("angle", pf.units.angle)) if v}
     lines.append("units: {" + ", ".join(f"{k}: {v}" for k, v in units.items()) + "}")
     lines.append("waypoints:")

@@ -9,6 +9,7 @@ import numpy as np
 from .. import spatial
 from ..fileio import atomic_write_text
 from ..units import ARCSEC
+from .yamlio import yaml_value
 
 
 def overlay_text(result, measurement_files: list[dict]) -> str:
@@ -29,12 +30,12 @@ def overlay_text(result, measurement_files: list[dict]) -> str:
     for name, T in result.overlay.items():
         xyz = ", ".join(repr(float(x) * 1000) for x in T[:3, 3])
         rpy = ", ".join(repr(float(x)) for x in np.degrees(spatial.matrix_to_rpy(T[:3, :3])))
-        lines.append(f"  {name}: {{xyz: [{xyz}], rpy: [{rpy}]}}")
+        lines.append(f"  {yaml_value(name)}: {{xyz: [{xyz}], rpy: [{rpy}]}}")
     lines.append("provenance:")
-    lines.append(f"  date: '{_dt.datetime.now().replace(microsecond=0).isoformat()}'")
+    lines.append(f"  date: {yaml_value(_dt.datetime.now().replace(microsecond=0).isoformat())}")
     lines.append("  measurements:")
-    for f in measurement_files:
-        lines.append(f"    - {{path: '{f['path']}', sha256: {f['sha256']}}}")
+    for f in measurement_files:  # paths are the user's: every character, quoted
+        lines.append(f"    - {{path: {yaml_value(str(f['path']))}, sha256: {f['sha256']}}}")
     lines.append("  frames:")
     for name, sol in result.solutions.items():
         if not sol.determined:
@@ -49,7 +50,7 @@ def overlay_text(result, measurement_files: list[dict]) -> str:
         if sol.sigma_translation is not None:
             entry.append(f"sigma_mm: {float(np.linalg.norm(sol.sigma_translation)) * 1000:.6g}")
             entry.append(f"sigma_arcsec: {float(np.linalg.norm(sol.sigma_rotation)) / ARCSEC:.6g}")
-        lines.append(f"    {name}: {{{', '.join(entry)}}}")
+        lines.append(f"    {yaml_value(name)}: {{{', '.join(entry)}}}")
     return "\n".join(lines) + "\n"
 
 

@@ -16,7 +16,7 @@ from ..model.program import Program, Run, Step
 from ..units import ANGLE, COLLISION_TOLERANCE, LENGTH, parse_length
 from . import program as sp
 from .loader import body_names, load_cell, pose_to_matrix, validate_document
-from .yamlio import Marked, parse_yaml_text, read_yaml
+from .yamlio import Marked, comment_text, parse_yaml_text, read_yaml, yaml_value
 
 
 def _step_spec(step: sp.Step):
@@ -279,3 +279,34 @@ def load_run(
         clearance=lengths.get("clearance", 0.0),
         collision_tolerance=lengths.get("collision_tolerance", COLLISION_TOLERANCE),
     )
+
+
+def flow(value) -> str:
+    """A program's value as one line of YAML flow text: mappings and lists by structure, their
+    keys the format's own words, every name or text a quoted scalar (:func:`yaml_value`)."""
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{key}: {flow(v)}" for key, v in value.items()) + "}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(flow(v) for v in value) + "]"
+    if isinstance(value, float):
+        return repr(value)
+    return yaml_value(value)
+
+
+def program_text(doc: dict) -> str:
+    """A program file from data: ``header`` (comment lines), ``device``, ``description``,
+    ``units``, ``steps`` as (step mapping, trailing comment or None).  Written through the YAML
+    library, so reading it back gives the same data whatever the names hold."""
+    lines = ["# yaml-language-server: $schema=../../../schemas/program.schema.json"]
+    lines += [f"# {comment_text(line)}" for line in doc.get("header", [])]
+    lines.append(f"device: {yaml_value(doc['device'])}")
+    if doc.get("description") is not None:
+        lines.append(f"description: {yaml_value(doc['description'])}")
+    if doc.get("units") is not None:
+        lines.append(f"units: {flow(doc['units'])}")
+    lines.append("steps:")
+    for step, comment in doc["steps"]:
+        [(kind, spec)] = step.items()  # one step, one kind
+        line = f"  - {kind}: {flow(spec)}"
+        lines.append(line + (f"   # {comment_text(comment)}" if comment else ""))
+    return "\n".join(lines) + "\n"

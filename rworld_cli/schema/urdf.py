@@ -24,6 +24,7 @@ from ..errors import Issue, UserError, did_you_mean
 from ..fileio import atomic_write_text
 from ..model.cell import Inertial
 from .loader import INERTIA_ENTRIES, inertia_entries, inertia_matrix, inertia_problem
+from .yamlio import comment_text
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
 MOVING = ("revolute", "continuous", "prismatic")
@@ -206,8 +207,8 @@ class _Reader:
         if mel is None:
             self.err(el, loc, "<inertial> needs <mass value=...>")
         else:
-            value = self.numbers(mel, "value", 1, loc + ".mass", default=[0.0])
-            mass = value[0]
+            value = self.numbers(mel, "value", 1, loc + ".mass")  # required, as URDF says
+            mass = value[0] if value else 0.0
             if mass < 0:
                 self.err(mel, loc + ".mass", f"mass {mass:g} kg is negative")
         I = np.zeros((3, 3))
@@ -215,12 +216,8 @@ class _Reader:
         if iel is None:
             self.err(el, loc, "<inertial> needs <inertia ixx=... iyy=... izz=...>")
         else:
-            I = inertia_matrix(
-                {
-                    key: self.numbers(iel, key, 1, loc + ".inertia", default=[0.0])[0]
-                    for key in INERTIA_ENTRIES
-                }
-            )
+            entries = {key: self.numbers(iel, key, 1, loc + ".inertia") for key in INERTIA_ENTRIES}
+            I = inertia_matrix({key: v[0] if v else 0.0 for key, v in entries.items()})
             problem = inertia_problem(I)
             if problem is not None:
                 self.err(iel, loc + ".inertia", problem)
@@ -422,15 +419,15 @@ def read_urdf(
     path = Path(path)
     if not path.is_file():
         raise UserError(f"no such URDF file: {shown}")
-    text = path.read_text(encoding="utf-8", errors="replace")
+    data = path.read_bytes()
     if path.suffix == ".xacro" or ".xacro" in path.suffixes:
         raise UserError(
             f"{shown}: a xacro file; expand it to URDF first: 'xacro {path.name} > "
             f"{path.name.replace('.xacro', '').removesuffix('.urdf')}.urdf' (ROS: "
             "'ros2 run xacro xacro ...')"
         )
-    try:
-        root = etree.fromstring(text.encode("utf-8"), etree.XMLParser(remove_comments=False))
+    try:  # the bytes as they are: the XML declaration's encoding holds (UTF-8 without one)
+        root = etree.fromstring(data, etree.XMLParser(remove_comments=False))
     except etree.XMLSyntaxError as exc:
         line, column = exc.position if exc.position else (0, 0)
         message = re.sub(r", line \d+, column \d+$", "", str(exc.msg))
@@ -438,6 +435,8 @@ def read_urdf(
             f"invalid: {shown}: malformed XML",
             [Issue(shown, line, max(column, 1), "(xml)", f"malformed XML: {message}")],
         ) from None
+    encoding = root.getroottree().docinfo.encoding or "utf-8"
+    text = data.decode(encoding, errors="replace")  # for columns in messages
     reader = _Reader(text, shown, path.parent, [Path(p) for p in package_paths or []])
     if root.tag != "robot":
         reader.err(root, "(root)", f"the root element is <{root.tag}>; a URDF file has <robot>")
@@ -573,7 +572,8 @@ def urdf_text(robot: UrdfRobot, mesh_names: dict[Path, str] | None = None) -> st
     mesh_names = mesh_names or {}
     root = etree.Element("robot", name=robot.name)
     if robot.comment:
-        root.append(etree.Comment(" " + robot.comment.replace("--", "- -") + " "))
+        text = comment_text(robot.comment).replace("--", "- -")  # XML: no control characters
+        root.append(etree.Comment(" " + text + " "))
 
     def origin(parent, T: np.ndarray) -> None:
         if np.allclose(T, np.eye(4), atol=0.0, rtol=0.0):

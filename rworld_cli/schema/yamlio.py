@@ -95,6 +95,24 @@ def comment_text(text: object) -> str:
     return _CONTROL.sub(lambda m: repr(m.group())[1:-1], str(text))
 
 
+_PLAIN = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-]*")
+_SPECIAL = {"true", "false", "yes", "no", "on", "off", "null", "y", "n"}  # YAML 1.1 and 1.2
+
+
+def yaml_value(value: object) -> str:
+    """One value as YAML flow text for a line a writer lays out: a name as it is when YAML reads
+    it back as that text (``plate.hole1``), any other text double-quoted with escapes (a name or
+    path holding ``: ``, ``#``, a quote, a newline, or reading as a boolean or null stays one
+    value on one line); numbers, booleans and lists as YAML writes them."""
+    if isinstance(value, str) and _PLAIN.fullmatch(value) and value.lower() not in _SPECIAL:
+        return value
+    if isinstance(value, str):
+        text = yaml.safe_dump(value, default_style='"', width=float("inf"), allow_unicode=False)
+    else:
+        text = yaml.safe_dump(value, default_flow_style=True, width=float("inf"))
+    return text.removesuffix("\n...\n").strip()
+
+
 def format_path(path: PathKey) -> str:
     """``("devices", 0, "joints", 2, "a")`` -> ``devices[0].joints[2].a``; ``()`` -> ``(root)``."""
     out = ""

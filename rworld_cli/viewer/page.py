@@ -68,7 +68,8 @@ def viewer_page(glb: bytes, info: dict) -> str:
     from html import escape
 
     fields = {
-        "TITLE": escape(info.get("title", "rworld")),
+        # the page is UTF-8: a lone surrogate (a file name's undecodable byte) becomes '?'
+        "TITLE": escape(str(info.get("title", "rworld"))).encode("utf-8", "replace").decode(),
         "STYLE": _asset("viewer.css"),
         "IMPORTMAP": _import_map(),
         "INFO": _script_json(info),
