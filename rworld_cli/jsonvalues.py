@@ -15,7 +15,8 @@ import numpy as np
 
 def finite(value: Any) -> Any:
     """``value`` with every non-finite float (numpy's too) replaced by None, numpy scalars and
-    arrays made plain; dicts, lists and tuples walked."""
+    arrays made plain, text that UTF-8 cannot carry (lone surrogates) with '?' in their place;
+    dicts, lists and tuples walked."""
     if isinstance(value, dict):
         return {k: finite(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
@@ -28,4 +29,9 @@ def finite(value: Any) -> Any:
         return float(value) if math.isfinite(value) else None
     if isinstance(value, np.integer):
         return int(value)
+    if isinstance(value, str):
+        try:
+            value.encode("utf-8")
+        except UnicodeEncodeError:  # a lone surrogate: a file name's byte that is not UTF-8
+            return value.encode("utf-8", "replace").decode("utf-8")
     return value

@@ -7,6 +7,7 @@ Commands live in their own modules and are imported only when run, so
 from __future__ import annotations
 
 import importlib
+import sys
 
 import click
 
@@ -168,3 +169,7 @@ def main(ctx: click.Context, json_output: bool) -> None:
     """
     ctx.ensure_object(dict)
     ctx.obj["json"] = json_output
+    for stream in (sys.stdout, sys.stderr):
+        # a file name whose bytes are not UTF-8 is printed as those bytes, never a crash
+        if hasattr(stream, "reconfigure") and getattr(stream, "errors", "") == "strict":
+            stream.reconfigure(errors="surrogateescape")

@@ -131,3 +131,37 @@ def test_urdf_attributes_urdf_requires_are_required(tmp_path, element, message):
     out = run_cli(["import", "urdf", str(tmp_path / "r.urdf"), "-o", str(tmp_path / "cell")])
     assert out.exit_code == 2 and message in out.output, out.output
     assert not (tmp_path / "cell").exists()
+
+
+@pytest.mark.parametrize(
+    "folder", ["cell\n</script><!--\r", b"cell\xff\xfe".decode("utf-8", "surrogateescape")]
+)
+def test_a_run_in_a_hostile_folder_views(tmp_path, folder):
+    """A folder name holding a newline, `</script>`, `<!--`, a carriage return, or bytes that are
+    not UTF-8: the run's view data stays valid JSON, `rworld view` reads it back, and the page's
+    embedded data parses as the same JSON."""
+    import json
+    import os
+    import re
+
+    root = tmp_path / folder
+    os.makedirs(os.fsencode(root))
+    cell = root / "puma560"
+    shutil.copytree(WORKCELLS / "puma560", cell)
+    out = tmp_path / "out"
+    result = run_cli(
+        ["simulate", str(cell), "pick_place", "-o", str(out), "--view", str(out / "a.html")]
+    )
+    assert result.exit_code == 0, result.output
+    assert run_cli(["view", str(out), "-o", str(out / "b.html")]).exit_code == 0
+    for page in ("a.html", "b.html"):
+        html = (out / page).read_text(encoding="utf-8")
+        [data] = re.findall(
+            r'<script type="application/json" id="rworld-info">(.*?)</script>', html, re.S
+        )
+        info = json.loads(data)
+        steps = info["devices"]["puma"]["steps"]
+        assert all(
+            s["where"].endswith(f"pick_place.yaml:{s['where'].rsplit(':', 1)[1]}") for s in steps
+        )
+        assert "\n" in steps[0]["where"] or "cell??" in steps[0]["where"]  # the name, kept
