@@ -118,9 +118,9 @@ def _read_csv(path: str, length_unit: str | None) -> tuple[dict, list[Issue]]:
             f"{path}: bad header",
             [
                 at_header(
-                    f"the header is '{table.delimiter.join(table.header)}'; expected "
-                    "'feature,x,y,z' with the unit (x_mm or 'x [mm]', or a '# units: mm' line "
-                    "above), and optionally ',role'"
+                    f"the header is '{table.delimiter.join(table.header)[:60]}'; expected "
+                    "'feature,x,y,z' (fields separated by ',', ';' or a tab) with the unit (x_mm "
+                    "or 'x [mm]', or a '# units: mm' line above), and optionally ',role'"
                 )
             ],
         )

@@ -523,7 +523,7 @@ def test_csv_dialects_and_stated_units(tmp_path, header, delimiter, bom, quoted,
         ("feature,x_m,y_m,z_m\nblock.f1,1,2,3\n", "mm", "m.csv:1:1:", "but --csv-units says mm"),
         ("feature;x_mm;y_mm;z_mm\nblock.f1;1,5;2;3\n", None, "m.csv:2:10:", "a decimal comma?"),
         ("feature,x_mm,y_mm,z_mm\nblock.f1,1,2\n", None, "m.csv:2:1:", "3 field(s) separated"),
-        ("feature x y z\nblock.f1 1 2 3\n", None, "m.csv:1:1:", "has no delimiter"),
+        ("feature x y z\nblock.f1 1 2 3\n", None, "m.csv:1:1:", "separated by ',', ';' or a tab"),
         ("# units: inch\nfeature,x,y,z\nb,1,2,3\n", None, "m.csv:1:1:", "unknown length unit"),
     ],
 )

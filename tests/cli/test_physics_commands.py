@@ -278,3 +278,11 @@ def test_bad_arguments_exit_2(cli, tmp_path, args, message):
     result = cli([str(tmp_path / a) if a == "x.csv" else a for a in args])
     assert result.exit_code == 2, result.output
     assert message in result.output and "Traceback" not in result.output
+
+
+def test_a_one_column_state_file_reads(tmp_path):
+    """A one-joint device's q column alone: no delimiter on the line, still CSV."""
+    from rworld_cli.schema.tables import read_states
+
+    (tmp_path / "q.csv").write_text("\ufeffq1\n0.5\n-0.25\n")
+    assert read_states(str(tmp_path / "q.csv"), 1, ["q"])["q"].ravel().tolist() == [0.5, -0.25]
