@@ -143,14 +143,14 @@ def export_program(
             )
         devices = [device]
     programs = {p.device: p for p in loaded.programs}
-    if frame is not None:  # a user frame: where it is at the run's start
-        from ..world.tree import World
+    from ..world.tree import World
 
+    world = World(loaded.cell)  # the run's start: user frames and the controllers' frames
+    if frame is not None:
         if frame not in loaded.cell.frames:
             raise UserError(
                 f"--frame: unknown frame '{frame}'{did_you_mean(frame, loaded.cell.frames)}"
             )
-        world = World(loaded.cell)
     files: dict[str, str] = {}
     notes = []
     moves = 0
@@ -179,6 +179,10 @@ def export_program(
                 f"({kinds}): export it with --format csv"
                 + (f", or choose the arm with --device {' or '.join(arms)}" if arms else "")
             )
+        profile = dev.controller
+        T_link_flange = None
+        if profile is not None and profile.flange is not None:
+            T_link_flange = world.mount_of(name, profile.flange)[1]
         program = instructions(
             dev,
             result.resolved[name],
@@ -186,7 +190,11 @@ def export_program(
             result.devices[name],
             stem,
             programs[name].file,
+            T_link_flange,
         )
+        program.controller = profile
+        if profile is not None and profile.base is not None:
+            program.T_base_controller = world.T(name, profile.base)
         flange = [r.move for r in result.resolved[name] if r.move and r.move.link != dev.dof]
         if flange:
             m = flange[0]

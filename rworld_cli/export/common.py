@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import spatial
+from ..model.cell import ControllerProfile
 from ..model.program import MoveTarget, ResolvedStep
 
 
@@ -138,11 +139,41 @@ class DeviceProgram:
     joint_names: list[str]
     instructions: list[Instruction] = field(default_factory=list)
     user_frame: str | None = None  # the cell frame Cartesian targets are given in (else the base)
-    T_base_user: np.ndarray = field(default_factory=lambda: np.eye(4))
+    T_base_user: np.ndarray | None = None  # the user frame in the device's natural frame
+    controller: ControllerProfile | None = None  # flange, base and axes (None: the defaults)
+    T_base_controller: np.ndarray = field(default_factory=lambda: np.eye(4))  # its base frame
 
     def in_user(self, T_base_tcp: np.ndarray) -> np.ndarray:
-        """A Cartesian target in the user frame (the base when there is none)."""
-        return np.linalg.solve(self.T_base_user, T_base_tcp)
+        """A Cartesian target in the user frame, or in the controller's base frame when there
+        is none (``T_base_tcp`` in the device's natural frame)."""
+        T = self.T_base_user if self.T_base_user is not None else self.T_base_controller
+        return np.linalg.solve(T, T_base_tcp)
+
+    @property
+    def T_controller_user(self) -> np.ndarray:
+        """The user frame as the controller holds it: in its base frame."""
+        user = self.T_base_user if self.T_base_user is not None else self.T_base_controller
+        return np.linalg.solve(self.T_base_controller, user)
+
+    def axes(self, q) -> np.ndarray:
+        """The controller's axis values of the cell's joint values (the joint map)."""
+        return self.controller.axes(q) if self.controller is not None else np.asarray(q)
+
+    def conventions(self) -> list[str]:
+        """What the program assumes of the controller, one comment line each."""
+        c = self.controller
+        flange = c.flange if c and c.flange else "the last link's (no controller flange given)"
+        base = c.base if c and c.base else f"'{self.device}' (no controller base given)"
+        axes = (
+            "the cell's joint values"
+            if c is None or (np.all(c.sign == 1) and not np.any(c.offset))
+            else "the cell's joint map (controller.axes)"
+        )
+        return [
+            f"tool data in the flange frame: {flange}",
+            f"targets in the base frame: {base}",
+            f"axis values: {axes}",
+        ]
 
     @property
     def moves(self) -> list[Move]:
@@ -183,7 +214,13 @@ def _peaks(device, mount, times, timeline, t0: float, t1: float) -> tuple[float,
 
 
 def instructions(
-    device, resolved: list[ResolvedStep], times, timeline, name: str, source: str
+    device,
+    resolved: list[ResolvedStep],
+    times,
+    timeline,
+    name: str,
+    source: str,
+    T_link_flange: np.ndarray | None = None,
 ) -> DeviceProgram:
     """The instructions of one device's program.
 
@@ -195,6 +232,8 @@ def instructions(
     times : ndarray, shape (K,)
     timeline : DeviceTimeline
         The device's simulated motion (for speeds and accelerations).
+    T_link_flange : ndarray, shape (4, 4), optional
+        The controller's flange in the last link's frame: tool data is given in it.
     """
     from ..kinematics.jacobian import ToolMount
 
@@ -205,7 +244,8 @@ def instructions(
         text = step.describe()
         if move is not None:
             if tool is None or tool.name != move.tcp:
-                tool = Tool(move.tcp, move.T_link_tcp)
+                flange = np.eye(4) if T_link_flange is None else T_link_flange
+                tool = Tool(move.tcp, np.linalg.solve(flange, move.T_link_tcp))
                 program.instructions.append(tool)
             mount = ToolMount(move.link, move.T_link_tcp)
             v_joint, a_joint, v_tool, a_tool = _peaks(

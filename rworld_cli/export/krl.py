@@ -41,9 +41,11 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         f"; outputs: gripper $OUT[{signals.gripper}] (TRUE = closed), tool changer "
         f"$OUT[{signals.tool_changer}] (TRUE = locked)",
         *KRL.renamed(name, program.name),
+        *(f"; {note(line)}" for line in program.conventions()),
     ]
     if program.user_frame:
-        src.append(f"BASE_DATA[1] = {{{frame(program.T_base_user)}}}  ; {note(program.user_frame)}")
+        user = frame(program.T_controller_user)
+        src.append(f"BASE_DATA[1] = {{{user}}}  ; {note(program.user_frame)}")
         src.append("$BASE = BASE_DATA[1]")
     else:
         src.append("$BASE = BASE_DATA[1]  ; the robot's base frame (identity)")
@@ -68,7 +70,7 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
                 src.append("INTERRUPT ON 10")
             if item.motion == "joint":
                 label = f"XP{k_target}"
-                q = item.q_target
+                q = program.axes(item.q_target)
                 axes = ", ".join(f"A{i + 1} {number(np.degrees(v), 9)}" for i, v in enumerate(q))
                 dat.append(f"DECL E6AXIS {label} = {{{axes}, E1 0, E2 0, E3 0, E4 0, E5 0, E6 0}}")
                 speed = max(1, min(100, round(100 * item.speed_fraction)))

@@ -47,12 +47,13 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         f"  ! outputs: gripper do_{signals.gripper} (1 = closed), tool changer "
         f"do_{signals.tool_changer} (1 = locked); searches stop on di_{signals.sensor}",
         *("  " + line for line in RAPID.renamed(name, program.name)),
+        *(f"  ! {note(line)}" for line in program.conventions()),
     ]
     wobj = "wobj_base"
     uframe = "[0,0,0],[1,0,0,0]"
     if program.user_frame:
         wobj = RAPID.identifier("wobj_" + program.user_frame, used)
-        uframe = pose(program.T_base_user)
+        uframe = pose(program.T_controller_user)
         lines.append(f"  ! {wobj} is {note(program.user_frame)}")
     lines.append(f'  PERS wobjdata {wobj} := [FALSE,TRUE,"",[{uframe}],[[0,0,0],[1,0,0,0]]];')
     for tool in program.tools:
@@ -69,8 +70,9 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             current_tool = tool_names[item.name]  # the tooldata of the moves that follow
         elif isinstance(item, Move):
             label = f"p{k + 1}"
-            joints = ",".join(number(np.degrees(v), 9) for v in item.q)
-            cf = ",".join(str(c) for c in abb_confdata(item.q))
+            axes = program.axes(item.q)
+            joints = ",".join(number(np.degrees(v), 9) for v in axes)
+            cf = ",".join(str(c) for c in abb_confdata(axes))
             lines.append(f"  ! {label}: {note(item.where)} {note(item.text)}")
             lines.append(f"  CONST jointtarget j{k + 1} := [[{joints}],{EXTAX}];")
             T = item.T_target

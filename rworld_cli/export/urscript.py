@@ -38,9 +38,10 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         f"def {name}():",
     ]
     lines[1:1] = URSCRIPT.renamed(name, program.name)
+    lines[-1:-1] = [f"# {note(line)}" for line in program.conventions()]
     if program.user_frame:
         lines.append(f"  # user frame: {note(program.user_frame)}, in the base frame")
-        lines.append(f"  user = {pose(program.T_base_user)}")
+        lines.append(f"  user = {pose(program.T_controller_user)}")
     for item in program.instructions:
         if isinstance(item, Tool):
             lines.append(f"  # tool: {note(item.name)}")
@@ -49,7 +50,7 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             lines.append(f"  # {note(item.where)}: {note(item.text)}")
             k = len([i for i in lines if i.startswith("  # ")])
             if item.motion == "joint":
-                q = item.q_target
+                q = program.axes(item.q_target)
                 motion = (
                     "movej([" + ", ".join(number(x) for x in q) + "], "
                     f"a={number(item.joint_acceleration, 4)}, v={number(item.joint_speed, 4)})"

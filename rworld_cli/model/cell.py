@@ -167,6 +167,31 @@ class Link:
 
 
 @dataclass(frozen=True)
+class ControllerProfile:
+    """How a robot controller sees a device (``docs/export.md``).
+
+    Attributes
+    ----------
+    flange : str or None
+        Qualified frame on the last link that tool data is given in (None: the last link).
+    base : str or None
+        Qualified frame fixed to the device base that Cartesian targets are given in (None: the
+        device's natural frame).
+    sign, offset : ndarray, shape (n,)
+        ``axis = sign * q + offset`` per joint (SI).
+    """
+
+    flange: str | None
+    base: str | None
+    sign: np.ndarray
+    offset: np.ndarray
+
+    def axes(self, q) -> np.ndarray:
+        """The controller's axis values of joint values ``q`` (..., n), SI."""
+        return self.sign * np.asarray(q, dtype=float) + self.offset
+
+
+@dataclass(frozen=True)
 class DeviceModel:
     """A serial-chain device.
 
@@ -192,6 +217,7 @@ class DeviceModel:
     home: np.ndarray
     shape: Shape | None = None
     positions: dict = field(default_factory=dict)  # name -> ndarray (n,), SI
+    controller: ControllerProfile | None = None  # None: stated defaults (ControllerProfile())
 
     @property
     def dof(self) -> int:

@@ -751,6 +751,7 @@ class _Builder:
         moving_rows = [d.joints[j] for j in moving]
         home = self._home(path, d, joints, moving_rows) if ok else np.zeros(len(joints))
         positions = self._positions(path, d, joints, local_names) if ok else {}
+        controller = self._controller(path, d, joints, last) if d.controller else None
         if not ok:
             return None
         return wm.DeviceModel(
@@ -762,7 +763,60 @@ class _Builder:
             home,
             base_shape,
             positions,
+            controller,
         )
+
+    def _controller(
+        self, path: tuple, d: sm.Device, joints: list[wm.Joint], last: str
+    ) -> wm.ControllerProfile:
+        """The controller profile: its flange on the last link, its base fixed to the base."""
+        spec = d.controller
+        assert spec is not None
+        path = path + ("controller",)
+
+        def link_of(frame: str) -> str | None:
+            node: str | None = frame
+            while node is not None and node in self.frames:
+                decl = self.frames[node]
+                if decl.kind == "link" or node == d.name:
+                    return node
+                node = decl.parent
+            return None
+
+        found = {}
+        for key, wanted, where in (
+            ("flange", last, "on the last link"),
+            ("base", d.name, "fixed to the device's base"),
+        ):
+            name = getattr(spec, key)
+            if name is None:
+                continue
+            qualified = f"{d.name}.{name}"
+            frames = [f for f in self.frames if f.startswith(d.name + ".")]
+            if qualified not in self.frames:
+                self.err(
+                    path + (key,),
+                    f"'{name}' is no frame of '{d.name}'{did_you_mean(qualified, frames)}",
+                )
+                continue
+            if link_of(qualified) != wanted:
+                self.err(path + (key,), f"the {key} '{name}' must be a frame {where}")
+                continue
+            found[key] = qualified
+        n = len(joints)
+        sign, offset = np.ones(n), np.zeros(n)
+        if spec.axes is not None:
+            if len(spec.axes) != n:
+                self.err(path + ("axes",), f"{len(spec.axes)} axis map(s) for {n} joint(s)")
+            else:
+                sign = np.array([float(a.sign) for a in spec.axes])
+                offset = np.array(
+                    [
+                        a.offset * (self.A if j.kind == "revolute" else self.L)
+                        for a, j in zip(spec.axes, joints)
+                    ]
+                )
+        return wm.ControllerProfile(found.get("flange"), found.get("base"), sign, offset)
 
     def _positions(self, path, d: sm.Device, joints: list[wm.Joint], local_names: dict) -> dict:
         """Named joint configurations, SI; checked for length, limits and clashes with frame

@@ -414,6 +414,36 @@ class Tcp(Strict):
     )
 
 
+class AxisMap(Strict):
+    """One controller axis: ``axis = sign * joint + offset`` (the joint's unit)."""
+
+    sign: Literal[1, -1] = 1
+    offset: float = Field(0.0, description="[angle or length unit]")
+
+
+class Controller(Strict):
+    """How the robot's controller sees the device: the frames its tool data and Cartesian
+    targets are given in, and its axis values (``docs/export.md``)."""
+
+    flange: Name | None = Field(
+        None,
+        description="A frame of the device on its last link: tool data is given in it (the "
+        "controller's flange: UR and ROS-Industrial 'tool0', KUKA $FLANGE). Default: the last "
+        "link's frame.",
+    )
+    base: Name | None = Field(
+        None,
+        description="A frame fixed to the device's base: Cartesian targets (and user frames) "
+        "are given in it (UR 'base', KUKA $ROBROOT, ABB base frame). Default: the device's "
+        "natural frame.",
+    )
+    axes: list[AxisMap] | None = Field(
+        None,
+        description="Per joint, the controller's axis value from the cell's joint value; default "
+        "the same.",
+    )
+
+
 class Device(Strict):
     """A device: a serial chain given by its DH table or by joint frames, with links, limits
     and TCPs.
@@ -451,6 +481,9 @@ class Device(Strict):
     )
     features: list[Feature] = Field(
         default_factory=list, description="Features of the base, in the natural frame."
+    )
+    controller: Controller | None = Field(
+        None, description="The robot controller's flange, base frame and axis values."
     )
 
     @model_validator(mode="after")

@@ -476,6 +476,29 @@ def cell_from_urdf(
         device_doc["geometry"] = base_doc["geometry"]
     if "frames" in base_doc:
         device_doc["frames"] = base_doc["frames"]
+    # the controller's frames, as the vendors' ROS description packages name them: 'tool0' is
+    # the flange (ROS-Industrial, ur_description), 'base' the controller's base frame
+    controller: dict = {}
+    last = len(groups) - 1
+    if "tool0" in placed and placed["tool0"][0] == last:
+        controller["flange"] = names("tool0")
+    if "base" in placed and placed["base"][0] == 0 and base != "base":
+        controller["base"] = names("base")
+    if controller:
+        device_doc["controller"] = controller
+        said = " and ".join(f"{key} '{value}'" for key, value in controller.items())
+        warnings.append(
+            Issue(
+                robot.file,
+                0,
+                0,
+                "controller",
+                f"assumed the controller's {said}, as the vendors' ROS packages name them "
+                "(tool data and targets are exported in them; change 'controller:' in cell.yaml "
+                "if this robot's controller differs)",
+                "warning",
+            )
+        )
     # comments carry text from the URDF (its path, link names): one line each, escaped
     source, chain_text = comment_text(robot.file), comment_text(f"{base} -> {tip}")
     head = (

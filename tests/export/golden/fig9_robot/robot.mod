@@ -2,6 +2,9 @@ MODULE robot
   ! robot: device 'robot', from workcells/paper_fig9/programs/robot.yaml
   ! written by 'rworld export program': targets resolved with the cell's current pose files
   ! outputs: gripper do_1 (1 = closed), tool changer do_2 (1 = locked); searches stop on di_1
+  ! tool data in the flange frame: the last link's (no controller flange given)
+  ! targets in the base frame: 'robot' (no controller base given)
+  ! axis values: the cell's joint values
   PERS wobjdata wobj_base := [FALSE,TRUE,"",[[0,0,0],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];
   ! t_hand_a_tcp is hand_a.tcp
   PERS tooldata t_hand_a_tcp := [TRUE,[[0,130,113.923048],[0.965925826289,-0.258819045103,0,0]],[0.001,[0,0,0.001],[1,0,0,0],0,0,0]];

@@ -2,6 +2,9 @@ MODULE pick_place
   ! pick_place: device 'puma', from workcells/puma560/programs/pick_place.yaml
   ! written by 'rworld export program': targets resolved with the cell's current pose files
   ! outputs: gripper do_1 (1 = closed), tool changer do_2 (1 = locked); searches stop on di_1
+  ! tool data in the flange frame: the last link's (no controller flange given)
+  ! targets in the base frame: 'puma' (no controller base given)
+  ! axis values: the cell's joint values
   PERS wobjdata wobj_base := [FALSE,TRUE,"",[[0,0,0],[1,0,0,0]],[[0,0,0],[1,0,0,0]]];
   ! t_puma_tool is puma.tool
   PERS tooldata t_puma_tool := [TRUE,[[0,0,0],[1,0,0,0]],[0.001,[0,0,0.001],[1,0,0,0],0,0,0]];
