@@ -71,6 +71,31 @@ def _errors(T: np.ndarray, target: np.ndarray) -> np.ndarray:
     return e
 
 
+def _revolute(device: DeviceModel) -> np.ndarray:
+    return np.array([j.kind == "revolute" for j in device.joints])
+
+
+def nearest_turns(q, seed, revolute, lower, upper) -> np.ndarray:
+    """Each revolute joint of ``q`` (..., n) moved by whole turns to lie nearest ``seed`` (n,)
+    within ``[lower, upper]``; the same tool pose. Prismatic joints, and revolute ones no turn
+    brings nearer within the limits, stay.
+
+    Returns
+    -------
+    ndarray, shape like ``q`` [rad or m]
+    """
+    q = np.asarray(q, dtype=float)
+    best = q.copy()
+    gap = np.abs(q - seed)
+    for k in (-2, -1, 1, 2):  # a joint's range is at most a few turns
+        shifted = q + 2.0 * np.pi * k
+        better = revolute & (shifted >= lower - 1e-12) & (shifted <= upper + 1e-12)
+        better &= np.abs(shifted - seed) < gap - 1e-12
+        best = np.where(better, shifted, best)
+        gap = np.where(better, np.abs(shifted - seed), gap)
+    return best
+
+
 def solve_ik(
     device: DeviceModel,
     T_base_target,
@@ -148,6 +173,10 @@ def solve_ik(
         )
         lam = np.where(better, np.maximum(lam / 3, 1e-9), np.minimum(lam * 4, 1e6))
     done = np.all(np.abs(err) <= tol, axis=1)
+    # a revolute joint reaches the same pose a whole turn away: of each solution, the turns
+    # nearest the seed within the limits (a wrist with a +-400 deg range turns 360 deg for nothing
+    # otherwise), then the solution nearest the seed
+    Q = nearest_turns(Q, seed, _revolute(device), lower, upper)
     if done.any():
         candidates = np.nonzero(done)[0]
         best = candidates[np.argmin(np.linalg.norm(Q[candidates] - seed, axis=1))]

@@ -59,3 +59,40 @@ def test_unreachable_reports_distance_and_limits():
         0.4318 + 0.4318 + 0.0203 + 0.15005
     )  # a generous bound of the arm's reach from the shoulder
     assert result.position_error > 2.0 - reach - 0.1
+
+
+def test_wide_range_joints_take_the_turn_nearest_the_seed():
+    """The UR5's joints range over +-360 deg: a solution a whole turn from the seed is the same
+    pose, and IK returns the turn nearest the seed (within the limits)."""
+    from tests.conftest import WORKCELLS
+
+    device = load_cell(WORKCELLS / "ur5").cell.devices["ur5"]
+    lower, upper = device.limit_array("lower"), device.limit_array("upper")
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        q_true = rng.uniform(-np.pi, np.pi, 6)
+        q_true[4] = rng.choice([-1, 1]) * rng.uniform(0.4, 2.7)  # clear of the wrist singularity
+        seed = q_true + rng.uniform(-0.2, 0.2, 6)
+        seed[3] += 2 * np.pi * rng.choice([-1, 1])  # the wrist a turn away
+        seed = np.clip(seed, lower, upper)
+        target = tool_pose(device, q_true)
+        result = solve_ik(device, target, seed=seed)
+        assert result.success
+        np.testing.assert_allclose(tool_pose(device, result.q), target, atol=1e-6)
+        # no whole turn within the limits brings any joint nearer the seed
+        for k in (-1, 1):
+            turned = result.q + 2 * np.pi * k
+            inside = (turned >= lower) & (turned <= upper)
+            assert np.all(~inside | (np.abs(turned - seed) >= np.abs(result.q - seed) - 1e-9))
+
+
+def test_nearest_turns_keeps_prismatic_joints_and_limits():
+    from rworld_cli.kinematics.inverse import nearest_turns
+
+    q = np.array([3.0, 0.5, -3.0])
+    seed = np.array([-3.0, 0.5 + 2 * np.pi, 3.0])
+    revolute = np.array([True, False, True])
+    lower, upper = np.array([-4.0, -10.0, -3.1]), np.array([4.0, 10.0, 3.1])
+    got = nearest_turns(q, seed, revolute, lower, upper)
+    # joint 1 turns down to 3 - 2 pi; joint 2 is prismatic; joint 3's turn would leave its range
+    np.testing.assert_allclose(got, [3.0 - 2 * np.pi, 0.5, -3.0])

@@ -119,7 +119,9 @@ def test_node_poses_equal_the_simulated_world_at_20_instants(fig9_run, fig9_scen
             T_glb = node_pose(gltf, tracks, index[frame], t)
             T_sim = world.T_world(frame)
             worst = max(worst, np.abs(T_glb[:3, 3] - T_sim[:3, 3]).max())
-            assert np.abs(T_glb[:3, :3] - T_sim[:3, :3]).max() < 1e-6, (frame, t)
+            # glTF stores times as float32: an instant near 10 s within 0.5 us, in which a link
+            # turning at 3 rad/s turns 1.5e-6 rad
+            assert np.abs(T_glb[:3, :3] - T_sim[:3, :3]).max() < 2e-6, (frame, t)
     assert worst < 1e-6
     # the grasped part rides with hand_a's TCP (grasped at t = 0) until it is placed
     placed = next(e.t for e in result.events if e.kind == "place" and e.tree["child"] == "part")

@@ -41,21 +41,21 @@ MODULE robot
   CONST robtarget p17 := [[-486.9,-109.15,422.159],[0,0.707106781187,0.707106781187,0],[0,-1,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
   CONST speeddata s17 := [1591.443,500,5000,1000];
   ! p18: workcells/paper_fig9/programs/robot.yaml:21 move to tool_rack.hand_a_slot
-  CONST jointtarget j18 := [[78.553400372,-82.286768412,73.238718914,-80.951950577,-89.999999995,168.553400382],[9E9,9E9,9E9,9E9,9E9,9E9]];
-  CONST robtarget p18 := [[0.000001,-549.999995,479.999995],[0.000000000648,1,-0.000000000087,-0.000000000084],[0,-1,1,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
-  CONST speeddata s18 := [779.096,500,5000,1000];
+  CONST jointtarget j18 := [[-78.553400408,-155.057697984,25.775549417,39.282148567,-90,11.446599592],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p18 := [[0,-550,480],[0,-1,0,0],[-1,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST speeddata s18 := [1572.207,500,5000,1000];
   ! p19: workcells/paper_fig9/programs/robot.yaml:22 move to tool_rack.hand_a_slot (linear)
-  CONST jointtarget j19 := [[78.553400408,-82.690167591,88.352984431,-95.662816839,-90,168.553400408],[9E9,9E9,9E9,9E9,9E9,9E9]];
-  CONST robtarget p19 := [[0.000001,-549.999997,380],[0,-1,0,0],[0,-2,1,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
-  CONST speeddata s19 := [125,500,5000,1000];
+  CONST jointtarget j19 := [[-78.553400408,-172.860645222,50.143912234,32.716732988,-90,11.446599592],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p19 := [[-0.000001,-549.999997,380],[0,-1,0,0],[-1,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST speeddata s19 := [116.31,500,5000,1000];
   ! p21: workcells/paper_fig9/programs/robot.yaml:24 move to tool_rack.hand_a_slot (linear)
-  CONST jointtarget j21 := [[78.553400408,-82.286768101,73.238717925,-80.951949824,-90,168.553400408],[9E9,9E9,9E9,9E9,9E9,9E9]];
-  CONST robtarget p21 := [[0.000001,-549.999997,479.999999],[0,1,0,0],[0,-1,1,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
-  CONST speeddata s21 := [250.001,500,5000,1000];
+  CONST jointtarget j21 := [[-78.553400408,-155.05770049,25.775554797,39.282145693,-90,11.446599592],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p21 := [[-0.000002,-549.999992,479.999995],[0,-1,0,0],[-1,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST speeddata s21 := [232.488,500,5000,1000];
   ! p22: workcells/paper_fig9/programs/robot.yaml:25 move to home
   CONST jointtarget j22 := [[0,-90,90,-90,-90,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
   CONST robtarget p22 := [[-486.9,-109.15,422.159],[0,0.707106781187,0.707106781187,0],[0,-1,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
-  CONST speeddata s22 := [779.559,500,5000,1000];
+  CONST speeddata s22 := [1571.6,500,5000,1000];
   PROC main()
     ! workcells/paper_fig9/programs/robot.yaml:7: sync arrived (at t = 0.000 s in the simulation)
     ! workcells/paper_fig9/programs/robot.yaml:8: move to table.slot_part
