@@ -17,6 +17,13 @@ MIN_POINTS = {"point": 1, "line": 2, "plane": 3, "circle": 3}
 
 SENSING_TOLERANCE = 1e-6  # m: surfaces this close to a sensor cell touch it (docs/sensing.md)
 
+# Cartesian limits of a linear move at speed = acceleration = 1 (docs/simulation.md); the
+# exporters write a move too short to measure at these, scaled by its step's fractions
+LINEAR_SPEED = 0.25  # m/s
+LINEAR_ACCELERATION = 1.0  # m/s^2
+ANGULAR_SPEED = 1.0  # rad/s
+ANGULAR_ACCELERATION = 2.0  # rad/s^2
+
 # Collision checking (docs/collision.md): contacts shallower than this may be missed between
 # two simulated instants; everything deeper is found.
 COLLISION_TOLERANCE = 1e-3  # m

@@ -189,17 +189,39 @@ class DeviceProgram:
         return list(out.values())
 
 
-MIN_SPEED = 1e-3  # [m/s, rad/s and their /s]: a move too short to sample still gets a speed
+MIN_SPEED = 1e-3  # [m/s, rad/s and their /s]: no speed written is lower
 
 
-def _peaks(device, mount, times, timeline, t0: float, t1: float) -> tuple[float, ...]:
-    """Peak joint speed and acceleration, peak TCP speed and acceleration over [t0, t1] of the
-    simulated motion (each at least ``MIN_SPEED``)."""
+def _commanded(device, move: MoveTarget) -> tuple[float, ...]:
+    """The speeds a move's step asks for: its fractions of the slowest joint's limits (1 rad/s
+    and 1 rad/s^2 where none is given) and of the Cartesian limits.  What a move too short to
+    measure is written at: a robot not exactly where the simulation had it still moves there
+    at a working speed, not at 1 mm/s."""
+    from ..units import LINEAR_ACCELERATION, LINEAR_SPEED
+
+    def slowest(kind: str) -> float:
+        limits = device.limit_array(kind)
+        finite = limits[np.isfinite(limits)]
+        return float(finite.min()) if len(finite) else 1.0
+
+    return (
+        move.speed * slowest("velocity"),
+        move.acceleration * slowest("acceleration"),
+        move.speed * LINEAR_SPEED,
+        move.acceleration * LINEAR_ACCELERATION,
+    )
+
+
+def _peaks(device, mount, times, timeline, move: MoveTarget) -> tuple[float, ...]:
+    """Peak joint speed and acceleration, peak TCP speed and acceleration over the move's time
+    of the simulated motion (each at least ``MIN_SPEED``); the step's commanded speeds for a
+    move too short to measure (:func:`_commanded`)."""
     from ..kinematics.jacobian import tool_pose
 
+    t0, t1 = move.t0, move.t1
     inside = np.flatnonzero((times >= t0 - 1e-12) & (times <= t1 + 1e-12))
-    if len(inside) < 2:
-        return (MIN_SPEED,) * 4
+    if len(inside) < 2:  # already there, or over within a clock step
+        return tuple(max(x, MIN_SPEED) for x in _commanded(device, move))
     dt = float(times[1] - times[0])
     p = tool_pose(device, timeline.q[inside], mount)[:, :3, 3]
     v = np.linalg.norm(np.diff(p, axis=0), axis=1) / dt
@@ -248,9 +270,7 @@ def instructions(
                 tool = Tool(move.tcp, np.linalg.solve(flange, move.T_link_tcp))
                 program.instructions.append(tool)
             mount = ToolMount(move.link, move.T_link_tcp)
-            v_joint, a_joint, v_tool, a_tool = _peaks(
-                device, mount, times, timeline, move.t0, move.t1
-            )
+            v_joint, a_joint, v_tool, a_tool = _peaks(device, mount, times, timeline, move)
             program.instructions.append(
                 Move(move, tool, v_joint, a_joint, v_tool, a_tool, step.where, text)
             )

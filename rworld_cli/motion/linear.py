@@ -12,13 +12,8 @@ from .. import spatial
 from ..kinematics.inverse import track
 from ..kinematics.jacobian import ToolMount, tool_pose
 from ..model.cell import DeviceModel
+from ..units import ANGULAR_ACCELERATION, ANGULAR_SPEED, LINEAR_ACCELERATION, LINEAR_SPEED
 from .trajectory import SampledMove, TrapezoidProfile, interpolate_poses
-
-# Cartesian limits of a linear move at speed = acceleration = 1 (docs/simulation.md)
-LINEAR_SPEED = 0.25  # m/s
-LINEAR_ACCELERATION = 1.0  # m/s^2
-ANGULAR_SPEED = 1.0  # rad/s
-ANGULAR_ACCELERATION = 2.0  # rad/s^2
 
 
 class PathError(Exception):

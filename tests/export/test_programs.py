@@ -267,3 +267,32 @@ def test_a_program_file_exports_alone(tmp_path):
     assert (tmp_path / "pick_place.script").read_text() == (
         via_run / "pick_place.script"
     ).read_text()
+
+
+def test_a_move_already_there_is_written_at_its_steps_speed(tmp_path):
+    """The simulated robot starts at home: a first move there takes no time, and the program
+    must not crawl (v = 0.001) where the real robot is not quite there."""
+    import re
+
+    from rworld_cli.schema.loader import load_cell
+
+    cell = tmp_path / "puma560"
+    shutil.copytree(WORKCELLS / "puma560", cell)
+    (cell / "programs" / "start.yaml").write_text(
+        "device: puma\nunits: {length: mm, angle: deg}\nsteps:\n"
+        "  - move: {to: home, speed: 0.5, acceleration: 0.4}\n"
+        "  - move: {to: table.drop, tcp: probe, offset: {xyz: [0, 0, -100]}}\n"
+        "  - move: {to: table.drop, tcp: probe, offset: {xyz: [0, 0, -100]}, motion: linear, "
+        "speed: 0.2}\n"
+    )
+    out = tmp_path / "out"
+    export_program(str(cell), str(cell / "programs" / "start.yaml"), "urscript", str(out))
+    text = (out / "start.script").read_text()
+    moves = re.findall(r"^\s*(movej|movel)\(.*a=([\d.]+), v=([\d.]+)\)", text, re.M)
+    device = load_cell(cell).cell.devices["puma"]
+    slowest = device.limit_array("velocity").min()
+    assert moves[0][0] == "movej" and float(moves[0][2]) == pytest.approx(0.5 * slowest, abs=1e-4)
+    assert float(moves[0][1]) == pytest.approx(
+        0.4 * device.limit_array("acceleration").min(), abs=1e-4
+    )
+    assert moves[2][0] == "movel" and float(moves[2][2]) == pytest.approx(0.2 * 0.25, abs=1e-4)
