@@ -191,6 +191,7 @@ def export_program(
             stem,
             programs[name].file,
             T_link_flange,
+            _flange_loads(world, result, name, T_link_flange),
         )
         program.controller = profile
         if profile is not None and profile.base is not None:
@@ -221,6 +222,36 @@ def export_program(
         changes = _changes(cell, run, dt, against, loaded, result, devices)
     _write_together(output, files)
     return ProgramExport(output, fmt, sorted(files), devices, moves, changes, notes)
+
+
+def _flange_loads(world, result, device: str, T_link_flange):
+    """``loads(t)``: what the device's flange carries at instant ``t`` of the run, tool and
+    payload apart (:class:`rworld_cli.export.common.Load`), from the run's affixment tree."""
+    from ..export.common import Load
+    from ..model.cell import Inertial
+
+    n = world.cell.devices[device].dof
+    flange = np.eye(4) if T_link_flange is None else T_link_flange
+
+    def loads(t: float) -> Load:
+        world.restore([s for ts, s in result.snapshots if ts <= t + 1e-12][-1])
+        k = int(np.searchsorted(result.times, t - 1e-12))
+        for d, tl in result.devices.items():
+            world.set_joints(d, tl.q[min(k, len(tl.q) - 1)])
+        parts: dict[str, list] = {"tool": [], "payload": []}
+        names: dict[str, list[str]] = {"tool": [], "payload": []}
+        for name, link, bodies in world.carried(device):
+            if link != n:
+                continue
+            aff = world.affixment(name)
+            kind = "payload" if aff is not None and aff.kind == "grasp" else "tool"
+            names[kind].append(name)
+            parts[kind] += [(inertial, np.linalg.solve(flange, T)) for inertial, T in bodies]
+        tool = Inertial.combine(parts["tool"]) if parts["tool"] else Inertial.zero()
+        payload = Inertial.combine(parts["payload"]) if parts["payload"] else Inertial.zero()
+        return Load(tool, payload, names["tool"], names["payload"])
+
+    return loads
 
 
 def _six_axis_arm(device) -> bool:

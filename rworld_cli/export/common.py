@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import spatial
-from ..model.cell import ControllerProfile
+from ..model.cell import ControllerProfile, Inertial
 from ..model.program import MoveTarget, ResolvedStep
 
 
@@ -91,6 +91,66 @@ class Move:
 
 
 @dataclass
+class Load:
+    """What the flange carries from here on (the cell's state at the next move): the tool
+    (hands, tools attached) and the payload (grasped parts), each as mass properties in the
+    flange frame.
+
+    Attributes
+    ----------
+    tool, payload : Inertial
+        Mass [kg], centre of mass [m] and inertia about it [kg m^2], flange axes.
+    tool_names, payload_names : list of str
+    """
+
+    tool: Inertial
+    payload: Inertial
+    tool_names: list[str]
+    payload_names: list[str]
+
+    @property
+    def total(self) -> Inertial:
+        return Inertial.combine([(self.tool, np.eye(4)), (self.payload, np.eye(4))])
+
+    def describe(self) -> str:
+        what = [
+            f"{', '.join(names)} {part.mass:g} kg"
+            for names, part in ((self.tool_names, self.tool), (self.payload_names, self.payload))
+            if names
+        ]
+        return "load on the flange: " + ("; ".join(what) if what else "none")
+
+
+def principal(inertial: Inertial) -> tuple[np.ndarray, np.ndarray]:
+    """(principal moments (3,) [kg m^2], rotation (3, 3) whose columns are the principal axes in
+    the flange frame, a proper rotation)."""
+    moments, axes = np.linalg.eigh(inertial.inertia)
+    # equal moments (a rod, a sphere) leave any axes in their plane principal, and LAPACK may
+    # pick others on every call: take the flange's own axes projected into that plane
+    scale = max(float(np.abs(moments).max()), 1e-30)
+    k = 0
+    while k < 3:
+        j = k
+        while j + 1 < 3 and abs(moments[j + 1] - moments[k]) <= 1e-9 * scale:
+            j += 1
+        if j > k:
+            P = axes[:, k : j + 1] @ axes[:, k : j + 1].T
+            basis: list[np.ndarray] = []
+            for e in np.eye(3):
+                v = P @ e - sum((b @ (P @ e)) * b for b in basis)
+                if np.linalg.norm(v) > 1e-6 and len(basis) < j - k + 1:
+                    basis.append(v / np.linalg.norm(v))
+            axes[:, k : j + 1] = np.array(basis).T
+        k = j + 1
+    for c in range(3):  # each axis along the flange axis it is nearest, not against it
+        if axes[np.argmax(np.abs(axes[:, c])), c] < 0:
+            axes[:, c] *= -1
+    if np.linalg.det(axes) < 0:
+        axes[:, 2] *= -1
+    return np.maximum(moments, 0.0), axes
+
+
+@dataclass
 class Output:
     """A digital output: the gripper (grasp closes, release and place open) or the tool changer
     (attach locks, detach unlocks)."""
@@ -126,7 +186,7 @@ class Record:
     text: str
 
 
-Instruction = Tool | Move | Output | Wait | Comment | Record
+Instruction = Tool | Load | Move | Output | Wait | Comment | Record
 
 
 @dataclass
@@ -243,6 +303,7 @@ def instructions(
     name: str,
     source: str,
     T_link_flange: np.ndarray | None = None,
+    loads=None,
 ) -> DeviceProgram:
     """The instructions of one device's program.
 
@@ -256,14 +317,23 @@ def instructions(
         The device's simulated motion (for speeds and accelerations).
     T_link_flange : ndarray, shape (4, 4), optional
         The controller's flange in the last link's frame: tool data is given in it.
+    loads : callable, optional
+        ``loads(t) -> Load``: what the flange carries at instant ``t``; a :class:`Load` is
+        written before each move whose load differs from the last one written.
     """
     from ..kinematics.jacobian import ToolMount
 
     program = DeviceProgram(device.name, name, source, [j.name for j in device.joints])
     tool: Tool | None = None
+    load: Load | None = None
     for item in resolved:
         step, move = item.step, item.move
         text = step.describe()
+        if move is not None and loads is not None:
+            now = loads(move.t0)
+            if load is None or now.describe() != load.describe():
+                load = now
+                program.instructions.append(load)
         if move is not None:
             if tool is None or tool.name != move.tcp:
                 flange = np.eye(4) if T_link_flange is None else T_link_flange

@@ -11,6 +11,7 @@ from .common import (
     KRL,
     Comment,
     DeviceProgram,
+    Load,
     Move,
     Output,
     Record,
@@ -18,6 +19,7 @@ from .common import (
     Wait,
     kuka_abc,
     number,
+    principal,
 )
 
 note = KRL.comment  # every text from a file goes into a comment through this
@@ -56,7 +58,17 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         dat.append(f"; TOOL_DATA[{k}] is {note(tool_name)}")
     k_target = 0
     for item in program.instructions:
-        if isinstance(item, Tool):
+        if isinstance(item, Load):
+            total = item.total
+            moments, principal_axes = principal(total)
+            a, b, c = kuka_abc(principal_axes)
+            x, y, z = total.com * 1000
+            cm = ", ".join(f"{k} {number(v, 6)}" for k, v in zip("XYZABC", (x, y, z, a, b, c)))
+            j = ", ".join(f"{k} {number(v, 6)}" for k, v in zip("XYZ", moments))
+            src.append(f"; {note(item.describe())}")
+            src.append(f"LOAD_DATA[1] = {{M {number(total.mass, 4)}, CM {{{cm}}}, J {{{j}}}}}")
+            src.append("$LOAD = LOAD_DATA[1]")
+        elif isinstance(item, Tool):
             k = tools[item.name]
             src.append(f"TOOL_DATA[{k}] = {{{frame(item.T_flange_tcp)}}}  ; {note(item.name)}")
             src.append(f"$TOOL = TOOL_DATA[{k}]")

@@ -14,6 +14,7 @@ from .common import (
     RAPID,
     Comment,
     DeviceProgram,
+    Load,
     Move,
     Output,
     Record,
@@ -22,11 +23,22 @@ from .common import (
     abb_confdata,
     abb_quaternion,
     number,
+    principal,
 )
 
 note = RAPID.comment  # every text from a file goes into a comment through this
 
 EXTAX = "[9E9,9E9,9E9,9E9,9E9,9E9]"
+
+
+def loaddata(inertial) -> str:
+    """RAPID ``loaddata``: mass [kg], centre of gravity [mm] and the principal axes (quaternion)
+    and moments [kg m^2] of inertia, in the flange (tool0) frame."""
+    moments, axes = principal(inertial)
+    cog = ",".join(number(v, 6) for v in inertial.com * 1000)
+    aom = ",".join(number(v, 12) for v in abb_quaternion(axes))
+    inertia = ",".join(number(v, 6) for v in moments)
+    return f"[{number(inertial.mass, 4)},[{cog}],[{aom}],{inertia}]"
 
 
 def pose(T) -> str:
@@ -56,18 +68,44 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         uframe = pose(program.T_controller_user)
         lines.append(f"  ! {wobj} is {note(program.user_frame)}")
     lines.append(f'  PERS wobjdata {wobj} := [FALSE,TRUE,"",[{uframe}],[[0,0,0],[1,0,0,0]]];')
+    # each tooldata carries the tool's own load as it is at the tool's first move; what is
+    # grasped comes and goes with GripLoad
+    first_load: dict[str, Load] = {}
+    pending: Load | None = None
+    current = None
+    for item in program.instructions:
+        if isinstance(item, Load):
+            pending = item
+        elif isinstance(item, Tool):
+            current = item.name
+        elif isinstance(item, Move) and current is not None and pending is not None:
+            first_load.setdefault(current, pending)
     for tool in program.tools:
         lines.append(f"  ! {tool_names[tool.name]} is {note(tool.name)}")
+        held = first_load.get(tool.name)
+        tload = loaddata(held.tool) if held is not None and held.tool.mass > 0 else None
+        if tload is None:
+            lines.append("  ! no tool mass in the cell: RAPID's smallest load (0.001 kg) stands in")
+            tload = "[0.001,[0,0,0.001],[1,0,0,0],0,0,0]"
         lines.append(
             f"  PERS tooldata {tool_names[tool.name]} := [TRUE,[{pose(tool.T_flange_tcp)}],"
-            "[0.001,[0,0,0.001],[1,0,0,0],0,0,0]];"
+            f"{tload}];"
         )
+    payloads: list[str] = []
     body = ["  PROC main()"]
     current_tool = ""
     last_hit = None
     for k, item in enumerate(program.instructions):
         if isinstance(item, Tool):
             current_tool = tool_names[item.name]  # the tooldata of the moves that follow
+        elif isinstance(item, Load):
+            body.append(f"    ! {note(item.describe())}")
+            if item.payload.mass > 0:
+                payloads.append(loaddata(item.payload))
+                lines.append(f"  PERS loaddata load{len(payloads)} := {payloads[-1]};")
+                body.append(f"    GripLoad load{len(payloads)};")
+            else:
+                body.append("    GripLoad load0;")
         elif isinstance(item, Move):
             label = f"p{k + 1}"
             axes = program.axes(item.q)

@@ -10,6 +10,7 @@ from .common import (
     URSCRIPT,
     Comment,
     DeviceProgram,
+    Load,
     Move,
     Output,
     Record,
@@ -46,6 +47,21 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         if isinstance(item, Tool):
             lines.append(f"  # tool: {note(item.name)}")
             lines.append(f"  set_tcp({pose(item.T_flange_tcp)})")
+        elif isinstance(item, Load):
+            total = item.total
+            inertia = total.inertia
+            six = [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2]]
+            six.append(inertia[1, 2])
+            lines.append(f"  # {note(item.describe())}")
+            lines.append(
+                f"  # inertia about the centre of gravity, flange axes (Ixx, Iyy, Izz, Ixy, Ixz, "
+                f"Iyz): [{', '.join(number(x, 6) for x in six)}] kg m^2"
+            )
+            lines.append(
+                f"  set_payload({number(total.mass, 4)}, ["
+                + ", ".join(number(x, 6) for x in total.com)
+                + "])"
+            )
         elif isinstance(item, Move):
             lines.append(f"  # {note(item.where)}: {note(item.text)}")
             k = len([i for i in lines if i.startswith("  # ")])

@@ -296,3 +296,61 @@ def test_a_move_already_there_is_written_at_its_steps_speed(tmp_path):
         0.4 * device.limit_array("acceleration").min(), abs=1e-4
     )
     assert moves[2][0] == "movel" and float(moves[2][2]) == pytest.approx(0.2 * 0.25, abs=1e-4)
+
+
+def test_the_load_on_the_flange_is_written_in_every_language(tmp_path):
+    """puma560 pick_place grasps the 1.2 kg workpiece: from the move after the grasp to the
+    place, the payload is its mass at its centre of gravity in the flange frame (computed here
+    from the world tree), and none before and after."""
+    import re
+
+    from rworld_cli.world.tree import World
+
+    cell = str(WORKCELLS / "puma560")
+    loaded = load_run(cell, f"{cell}/runs/pick_place.yaml")
+    result = simulate(loaded, collisions=False)
+    grasp = next(e for e in result.events if e.kind == "grasp")
+    world = World(loaded.cell)
+    world.restore([s for t, s in result.snapshots if t <= grasp.t + 1e-12][-1])
+    k = int(np.searchsorted(result.times, grasp.t))
+    world.set_joints("puma", result.devices["puma"].q[k])
+    workpiece = loaded.cell.objects["workpiece"].inertial
+    T = world.T("puma.link6", "workpiece")
+    cog = T[:3, :3] @ workpiece.com + T[:3, 3]  # [m], flange (last link) frame
+    for fmt in ARMS:
+        out = tmp_path / fmt
+        export_program(cell, "pick_place", fmt, str(out))
+        text = "\n".join(p.read_text() for p in sorted(out.iterdir()))
+        if fmt == "urscript":
+            found = re.findall(r"set_payload\(([\d.]+), \[(.*?)\]\)", text)
+            masses = [float(m) for m, _ in found]
+            held = np.array([float(x) for x in found[1][1].split(",")])
+        elif fmt == "krl":
+            found = re.findall(
+                r"LOAD_DATA\[1\] = \{M ([\d.]+), CM \{X (\S+), Y (\S+), Z (\S+),", text
+            )
+            masses = [float(m[0]) for m in found]
+            held = np.array([float(x.rstrip(",")) for x in found[1][1:]]) / 1000
+        else:
+            [(mass, body)] = re.findall(r"PERS loaddata load1 := \[([\d.]+),\[(.*?)\]", text)
+            masses = [0.0, float(mass), 0.0]
+            held = np.array([float(x) for x in body.split(",")]) / 1000
+            assert text.count("GripLoad load1;") == 1 and text.count("GripLoad load0;") == 2
+        assert masses == [0.0, pytest.approx(workpiece.mass), 0.0], fmt
+        np.testing.assert_allclose(held, cog, atol=1e-6)
+
+
+def test_principal_axes_are_proper_and_do_not_depend_on_lapack_in_equal_moments():
+    from rworld_cli.export.common import principal
+    from rworld_cli.model.cell import Inertial
+
+    rng = np.random.default_rng(3)
+    for moments in ([0.0, 0.5, 0.5], [1.0, 1.0, 1.0], [0.2, 0.7, 1.1], [0.3, 0.3, 0.9]):
+        R = Rotation.random(random_state=int(rng.integers(1000))).as_matrix()
+        I = R @ np.diag(moments) @ R.T
+        got, axes = principal(Inertial(1.0, np.zeros(3), I))
+        np.testing.assert_allclose(axes @ np.diag(got) @ axes.T, I, atol=1e-12)
+        assert np.linalg.det(axes) == pytest.approx(1.0)
+    # a rod along x: the two equal moments' axes are the flange's own y and z
+    got, axes = principal(Inertial(1.0, np.zeros(3), np.diag([0.0, 0.3, 0.3])))
+    np.testing.assert_allclose(axes, np.eye(3), atol=1e-12)
