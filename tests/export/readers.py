@@ -57,6 +57,11 @@ def _krl_frame(body: str) -> np.ndarray:
     return _pose(xyz, Rotation.from_euler("ZYX", abc, degrees=True).as_matrix())
 
 
+def krl_tools(src: str) -> list[np.ndarray]:
+    """Each ``TOOL_DATA[k] = {X, Y, Z, A, B, C}``: the TCP in $FLANGE (m)."""
+    return [_krl_frame(body) for body in re.findall(r"^TOOL_DATA\[\d+\] = \{(.*?)\}", src, re.M)]
+
+
 def krl(src: str, dat: str) -> list[tuple[str, np.ndarray]]:
     """PTP to E6AXIS (deg) and LIN to E6POS (mm; A, B, C about Z, Y', X''), in $BASE."""
     base = np.eye(4)

@@ -135,3 +135,69 @@ def test_a_wrong_controller_profile_is_located(ur5_cell, tmp_path, cli, controll
     root = _with_controller(ur5_cell, tmp_path, controller)
     out = cli(["validate", str(root)])
     assert out.exit_code == 2 and message in out.output and "cell.yaml:" in out.output, out.output
+
+
+KR16 = Path(__file__).parents[1] / "data" / "kuka_kr16" / "kr16_2.urdf"
+
+
+@pytest.fixture(scope="module")
+def kr16_cell(tmp_path_factory):
+    """The KR 16-2 of ROS-Industrial (meshes stripped: not vendored), a 120 mm tool on tool0."""
+    from lxml import etree
+
+    root_dir = tmp_path_factory.mktemp("kr16")
+    tree = etree.parse(str(KR16))
+    for el in tree.xpath("//visual | //collision"):
+        el.getparent().remove(el)
+    urdf = root_dir / "kr16_2.urdf"
+    tree.write(str(urdf))
+    root = root_dir / "cell"
+    import_urdf(str(urdf), str(root))
+    cell = yaml.safe_load((root / "cell.yaml").read_text())
+    [device] = cell["devices"]
+    assert device["controller"] == {"flange": "tool0", "base": "base"}
+    for joint in device["joints"]:
+        joint["limits"]["acceleration"] = 10.0
+    device["tcps"].append({"name": "tip", "parent": "tool0"})
+    cell["frames"] = [{"name": "target"}]
+    (root / "cell.yaml").write_text(yaml.safe_dump(cell, sort_keys=False))
+    poses = yaml.safe_load((root / "poses.yaml").read_text())
+    poses["poses"][f"{device['name']}.tip"] = {"xyz": [0.0, 0.0, 0.12]}
+    poses["poses"]["target"] = {"xyz": [1.2, 0.3, 0.6], "rpy": [3.0, 0.2, 0.5]}
+    (root / "poses.yaml").write_text(yaml.safe_dump(poses, sort_keys=False))
+    (root / "programs").mkdir()
+    (root / "programs" / "pick.yaml").write_text(
+        PROGRAM.replace("device: ur5", f"device: {device['name']}")
+    )
+    return root, device["name"]
+
+
+def test_krl_tool_and_targets_are_kukas_own(kr16_cell, tmp_path):
+    """TOOL_DATA relative to $FLANGE (tool0), E6POS in $ROBROOT (base) with A, B, C, E6AXIS the
+    URDF's joint values: checked against Pinocchio's forward kinematics of the original URDF."""
+    root, name = kr16_cell
+    out = tmp_path / "out"
+    export_program(str(root), str(root / "programs" / "pick.yaml"), "krl", str(out))
+    src, dat = (out / "pick.src").read_text(), (out / "pick.dat").read_text()
+    [tool] = readers.krl_tools(src)
+    np.testing.assert_allclose(
+        tool, np.array([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0.12], [0, 0, 0, 1]]), atol=1e-9
+    )
+    result = simulate(load_run(str(root), str(root / "programs" / "pick.yaml")), collisions=False)
+    moves = [r.move for r in result.resolved[name] if r.move is not None]
+    model = pin.buildModelFromUrdf(str(KR16))
+    data = model.createData()
+    read = readers.krl(src, dat)
+    assert [kind for kind, _ in read] == ["joint", "linear", "linear"]
+    for (kind, value), move in zip(read, moves):
+        if kind == "joint":  # KUKA's A1..A6 are the URDF's joint values (in degrees there)
+            np.testing.assert_allclose(value, move.q_goal, atol=1e-9)
+            continue
+        pin.framesForwardKinematics(model, data, move.q_goal)
+        base = data.oMf[model.getFrameId("base")].homogeneous
+        flange = data.oMf[model.getFrameId("tool0")].homogeneous
+        tip = np.eye(4)
+        tip[2, 3] = 0.12
+        expected = np.linalg.solve(base, flange @ tip)
+        assert np.abs(value[:3, 3] - expected[:3, 3]).max() < 1e-5  # 0.01 mm
+        assert np.degrees(np.linalg.norm(pin.log3(value[:3, :3].T @ expected[:3, :3]))) < 1e-3
