@@ -39,21 +39,30 @@ def ur5_cell(tmp_path_factory):
     root = tmp_path_factory.mktemp("ur5") / "cell"
     imported = import_urdf(str(UR5), str(root), package_paths=[str(SHARE)])
     assert imported.device == "ur5"
+    # a 150 mm tool on the flange
+    _prepare(root, 0.15, {"xyz": [0.35, 0.25, 0.3], "rpy": [3.1, 0.1, 0.4]})
+    return root
+
+
+def _prepare(root: Path, tool_length: float, target: dict) -> str:
+    """An imported robot made ready for the program: acceleration limits (URDF has none), a
+    tool tip on the flange, a target frame; the controller profile as import assumed it."""
     cell = yaml.safe_load((root / "cell.yaml").read_text())
     [device] = cell["devices"]
-    assert device["controller"] == {"flange": "tool0", "base": "base"}  # as import assumed
+    assert device["controller"] == {"flange": "tool0", "base": "base"}
     for joint in device["joints"]:
         joint["limits"]["acceleration"] = 10.0
     device["tcps"].append({"name": "tip", "parent": "tool0"})
     cell["frames"] = [{"name": "target"}]
     (root / "cell.yaml").write_text(yaml.safe_dump(cell, sort_keys=False))
     poses = yaml.safe_load((root / "poses.yaml").read_text())
-    poses["poses"]["ur5.tip"] = {"xyz": [0.0, 0.0, 0.15]}  # a 150 mm tool on the flange
-    poses["poses"]["target"] = {"xyz": [0.35, 0.25, 0.3], "rpy": [3.1, 0.1, 0.4]}
+    poses["poses"][f"{device['name']}.tip"] = {"xyz": [0.0, 0.0, tool_length]}
+    poses["poses"]["target"] = target
     (root / "poses.yaml").write_text(yaml.safe_dump(poses, sort_keys=False))
     (root / "programs").mkdir()
-    (root / "programs" / "pick.yaml").write_text(PROGRAM)
-    return root
+    program = PROGRAM.replace("device: ur5", f"device: {device['name']}")
+    (root / "programs" / "pick.yaml").write_text(program)
+    return device["name"]
 
 
 def _pinocchio_tcp(q: np.ndarray) -> np.ndarray:
@@ -153,23 +162,8 @@ def kr16_cell(tmp_path_factory):
     tree.write(str(urdf))
     root = root_dir / "cell"
     import_urdf(str(urdf), str(root))
-    cell = yaml.safe_load((root / "cell.yaml").read_text())
-    [device] = cell["devices"]
-    assert device["controller"] == {"flange": "tool0", "base": "base"}
-    for joint in device["joints"]:
-        joint["limits"]["acceleration"] = 10.0
-    device["tcps"].append({"name": "tip", "parent": "tool0"})
-    cell["frames"] = [{"name": "target"}]
-    (root / "cell.yaml").write_text(yaml.safe_dump(cell, sort_keys=False))
-    poses = yaml.safe_load((root / "poses.yaml").read_text())
-    poses["poses"][f"{device['name']}.tip"] = {"xyz": [0.0, 0.0, 0.12]}
-    poses["poses"]["target"] = {"xyz": [1.2, 0.3, 0.6], "rpy": [3.0, 0.2, 0.5]}
-    (root / "poses.yaml").write_text(yaml.safe_dump(poses, sort_keys=False))
-    (root / "programs").mkdir()
-    (root / "programs" / "pick.yaml").write_text(
-        PROGRAM.replace("device: ur5", f"device: {device['name']}")
-    )
-    return root, device["name"]
+    name = _prepare(root, 0.12, {"xyz": [1.2, 0.3, 0.6], "rpy": [3.0, 0.2, 0.5]})
+    return root, name
 
 
 def test_krl_tool_and_targets_are_kukas_own(kr16_cell, tmp_path):

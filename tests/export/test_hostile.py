@@ -56,23 +56,24 @@ def code_outside_comments_and_strings(text: str, language: str) -> str:
     return "\n".join(out)
 
 
-def _cell_at(tmp_path, folder: str):
-    root = tmp_path / folder
-    root.parent.mkdir(parents=True, exist_ok=True)
-    shutil.copytree(WORKCELLS / "puma560", root)
-    return root
+def _export(tmp_path, folder: str, stem: str, language: str) -> str:
+    """The puma560 cell in ``folder`` with pick_place as ``programs/<stem>.yaml``, exported:
+    the program file's text."""
+    cell = tmp_path / folder
+    cell.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copytree(WORKCELLS / "puma560", cell)
+    program = cell / "programs" / f"{stem}.yaml"
+    shutil.copy(cell / "programs" / "pick_place.yaml", program)
+    out = tmp_path / "out"
+    export_program(str(cell), str(program), language, str(out))
+    [written] = [p for p in out.iterdir() if p.suffix == FILES[language]]
+    return written.read_text()
 
 
 @pytest.mark.parametrize("language", ["urscript", "krl", "rapid"])
 def test_folder_and_file_names_cannot_inject_statements(tmp_path, language):
     payload = f"x\n{STATEMENTS[language]}\r\n"
-    cell = _cell_at(tmp_path, f"cell{payload}")
-    program = cell / "programs" / f"pick{payload}.yaml"
-    shutil.copy(cell / "programs" / "pick_place.yaml", program)
-    out = tmp_path / "out"
-    export_program(str(cell), str(program), language, str(out))
-    [written] = [p for p in out.iterdir() if p.suffix == FILES[language]]
-    text = written.read_text()
+    text = _export(tmp_path, f"cell{payload}", f"pick{payload}", language)
     assert MARKER in text  # the payload is there, as text
     code = code_outside_comments_and_strings(text, language)
     # the marker may survive inside a name made of the file name's characters, never as a word
@@ -86,13 +87,7 @@ def test_folder_and_file_names_cannot_inject_statements(tmp_path, language):
     "stem", ["movej", "end", "DEF", "PTP", "PROC", "MODULE", "ENDPROC", "main"]
 )
 def test_a_program_named_as_a_keyword_is_renamed_and_says_so(tmp_path, language, stem):
-    cell = _cell_at(tmp_path, "cell")
-    program = cell / "programs" / f"{stem}.yaml"
-    shutil.copy(cell / "programs" / "pick_place.yaml", program)
-    out = tmp_path / "out"
-    export_program(str(cell), str(program), language, str(out))
-    [written] = [p for p in out.iterdir() if p.suffix == FILES[language]]
-    text = written.read_text()
+    text = _export(tmp_path, "cell", stem, language)
     [name] = re.findall(NAMED[language], text, flags=re.MULTILINE)
     assert name.lower() not in KEYWORDS[language]
     if stem.lower() in KEYWORDS[language]:
