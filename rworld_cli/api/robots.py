@@ -70,6 +70,7 @@ def import_urdf(
     device_name: str | None = None,
     force: bool = False,
     locks: dict[str, str] | None = None,
+    srdf: str | None = None,
 ) -> UrdfImport:
     """Write a cell (``cell.yaml``, ``poses.yaml``, ``meshes/``) for a URDF robot's chain.
 
@@ -87,6 +88,8 @@ def import_urdf(
     base, tip, tcp, device_name : str, optional
     locks : dict, optional
         See :func:`rworld_cli.schema.urdf_cell.cell_from_urdf`.
+    srdf : str, optional
+        A MoveIt SRDF whose disabled collision pairs become the cell's ``allowed_contacts``.
 
     Raises
     ------
@@ -108,7 +111,12 @@ def import_urdf(
         )
     robot, warnings = read_urdf(urdf, package_paths)
     name = out.resolve().name
-    imported = cell_from_urdf(robot, name, base, tip, tcp, device_name, locks)
+    disabled = []
+    if srdf is not None:
+        from ..schema.srdf import read_srdf
+
+        disabled = read_srdf(srdf)
+    imported = cell_from_urdf(robot, name, base, tip, tcp, device_name, locks, disabled)
     files = {"cell.yaml": imported.cell_text.encode(), "poses.yaml": imported.poses_text.encode()}
     files.update(imported.meshes)
     # the cell is written as a unit: the folder is swapped whole (its other files, programs and

@@ -52,11 +52,17 @@ def import_group():
     help="Lock a moving joint off the chain (a gripper's finger) at VALUE with its unit, e.g. "
     "panda_finger_joint1=20mm (default 0); repeatable.",
 )
+@click.option(
+    "--srdf",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="A MoveIt SRDF: its disabled collision pairs become the cell's allowed_contacts.",
+)
 @click.option("--force", is_flag=True, help="Overwrite cell.yaml, poses.yaml and meshes in DIR.")
 @json_option
 @handle_errors
 def import_urdf(
-    urdf, output, package_paths, base, tip, tcp, device_name, locks, force, json_output
+    urdf, output, package_paths, base, tip, tcp, device_name, locks, srdf, force, json_output
 ):
     """Write a cell for the serial chain of a URDF robot: cell.yaml, poses.yaml, meshes/.
 
@@ -86,7 +92,9 @@ def import_urdf(
                 f"'{text}': write JOINT=VALUE, e.g. finger=20mm", param_hint="--lock"
             )
         lock_values[name.strip()] = value.strip()
-    result = run(urdf, output, list(package_paths), base, tip, tcp, device_name, force, lock_values)
+    result = run(
+        urdf, output, list(package_paths), base, tip, tcp, device_name, force, lock_values, srdf
+    )
     if json_output:
         emit_json(result.as_dict())
         return

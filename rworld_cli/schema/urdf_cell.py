@@ -204,6 +204,23 @@ def _pose(T: np.ndarray) -> dict:
     return out
 
 
+def _allowed_from_srdf(disabled, placed: dict, heads: list[str], device: str) -> list[dict]:
+    """``allowed_contacts`` entries for an SRDF's disabled pairs: each URDF link stands for the
+    moving link it was merged into (``device.link``); a pair in one body, or with a link off the
+    imported part, needs none.  Pairs with the base are left out: in ``allowed_contacts`` a
+    device's name stands for all its bodies, and the base touches only its first link, which is
+    allowed anyway."""
+    body = {link: f"{device}.{heads[g]}" for link, (g, _) in placed.items() if g > 0}
+    out: dict[tuple[str, str], str] = {}
+    for pair in disabled:
+        a, b = body.get(pair.link1), body.get(pair.link2)
+        if a is None or b is None or a == b:
+            continue
+        key = (min(a, b), max(a, b))
+        out.setdefault(key, f"SRDF: {pair.reason} ({pair.link1} / {pair.link2})")
+    return [{"between": list(k), "reason": reason} for k, reason in sorted(out.items())]
+
+
 def _lock_values(robot: UrdfRobot, on_chain: set[str], texts: dict[str, str]) -> dict[str, float]:
     """``--lock`` values in SI (rad or m), each checked against its joint."""
     from ..units import ANGLE_WORDS, LENGTH_WORDS, parse_quantity
@@ -242,6 +259,7 @@ def cell_from_urdf(
     tcp: str | None = None,
     device_name: str | None = None,
     locks: dict[str, str] | None = None,
+    disabled=(),
 ) -> ImportedCell:
     """The cell files for the serial chain ``base`` -> ``tip`` of a URDF robot.
 
@@ -259,6 +277,10 @@ def cell_from_urdf(
     locks : dict, optional
         Moving joints off the chain -> the value they are locked at, with its unit ('20mm',
         '30deg'; default 0): a gripper's fingers open, or closed on the part it grasps.
+    disabled : iterable of schema.srdf.DisabledPair
+        An SRDF's disabled collision pairs: the pairs of imported bodies they name become the
+        cell's ``allowed_contacts`` (pairs inside one merged body, or off the imported part,
+        need none).
 
     Raises
     ------
@@ -517,6 +539,9 @@ def cell_from_urdf(
         "pose_files": ["poses.yaml"],
         "devices": [device_doc],
     }
+    allowed = _allowed_from_srdf(disabled, placed, heads, device)
+    if allowed:
+        cell_doc["allowed_contacts"] = allowed
     cell_text = head + yaml.dump(cell_doc, Dumper=_Dumper, sort_keys=False, width=100)
     poses_text = (
         "# yaml-language-server: $schema=../../schemas/poses.schema.json\n"

@@ -365,3 +365,37 @@ def test_meshes_scaled_copied_or_joined(tmp_path):
     np.testing.assert_allclose(lo, [0.0, -0.03, -0.03], atol=1e-6)
     np.testing.assert_allclose(hi, [0.32, 0.03, 0.03], atol=1e-6)
     assert cell.frames["r.pad"].parent == "r.fore"  # the fixed link, kept as a frame
+
+
+def test_an_srdf_gives_the_cells_allowed_contacts(tmp_path, cli):
+    """The Panda's SRDF (MoveIt, in example-robot-data): its disabled pairs of imported links
+    become allowed_contacts of the merged bodies; pairs inside one body and with the base need
+    none; a broken SRDF is located."""
+    import yaml
+
+    srdf = ROBOTS / "panda_description" / "srdf" / "panda.srdf"
+    out = tmp_path / "panda"
+    import_urdf(
+        str(ROBOTS / "panda_description/urdf/panda.urdf"),
+        str(out),
+        package_paths=[str(SHARE)],
+        tip="panda_hand",
+        srdf=str(srdf),
+    )
+    allowed = yaml.safe_load((out / "cell.yaml").read_text())["allowed_contacts"]
+    pairs = {tuple(a["between"]): a["reason"] for a in allowed}
+    assert pairs[("panda.panda_link1", "panda.panda_link3")] == (
+        "SRDF: Never (panda_link1 / panda_link3)"
+    )
+    # the hand and fingers merged into link7: their pairs with link5 come as link5 / link7
+    assert ("panda.panda_link5", "panda.panda_link7") in pairs
+    assert all("panda" not in pair for pair in pairs)  # never the whole device
+    assert cli(["validate", str(out)]).exit_code == 0
+    (tmp_path / "bad.srdf").write_text('<robot name="p"><disable_collisions link1="a"/></robot>')
+    result = cli(
+        ["import", "urdf", str(ROBOTS / "panda_description/urdf/panda.urdf"), "-o"]
+        + [str(tmp_path / "b"), "--package-path", str(SHARE), "--tip", "panda_hand"]
+        + ["--srdf", str(tmp_path / "bad.srdf")]
+    )
+    assert result.exit_code == 2 and "bad.srdf:1:" in result.output and "link2" in result.output
+    assert not (tmp_path / "b").exists()
