@@ -191,7 +191,7 @@ def export_program(
             stem,
             programs[name].file,
             T_link_flange,
-            _flange_loads(world, result, name, T_link_flange),
+            _flange_loads(World(loaded.cell), result, name, T_link_flange),
         )
         program.controller = profile
         if profile is not None and profile.base is not None:
@@ -226,7 +226,9 @@ def export_program(
 
 def _flange_loads(world, result, device: str, T_link_flange):
     """``loads(t)``: what the device's flange carries at instant ``t`` of the run, tool and
-    payload apart (:class:`rworld_cli.export.common.Load`), from the run's affixment tree."""
+    payload apart (:class:`rworld_cli.export.common.Load`), from the run's affixment tree.
+    ``world`` is moved through the run: give one of its own (user frames are taken from the
+    run's start)."""
     from ..export.common import Load
     from ..model.cell import Inertial
 

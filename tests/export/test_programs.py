@@ -354,3 +354,20 @@ def test_principal_axes_are_proper_and_do_not_depend_on_lapack_in_equal_moments(
     # a rod along x: the two equal moments' axes are the flange's own y and z
     got, axes = principal(Inertial(1.0, np.zeros(3), np.diag([0.0, 0.3, 0.3])))
     np.testing.assert_allclose(axes, np.eye(3), atol=1e-12)
+
+
+def test_a_user_frame_is_where_it_is_at_the_runs_start(tmp_path):
+    """fig9's robot rides a conveyor: the user frame is written relative to its base at the
+    run's start, whatever state the exporter walked the run through (the loads on the flange)."""
+    import re
+
+    from rworld_cli.schema.loader import load_cell
+    from rworld_cli.world.tree import World
+
+    cell = str(WORKCELLS / "paper_fig9")
+    export_program(cell, "transfer", "krl", str(tmp_path), device="robot", frame="table")
+    src = (tmp_path / "robot.src").read_text()
+    [body] = re.findall(r"^BASE_DATA\[1\] = \{(.*?)\}", src, re.M)
+    world = World(load_cell(cell).cell)
+    expected = np.linalg.solve(world.T_world("robot"), world.T_world("table"))
+    np.testing.assert_allclose(readers._krl_frame(body), expected, atol=1e-6)
