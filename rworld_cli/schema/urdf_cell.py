@@ -230,21 +230,19 @@ def _lock_values(robot: UrdfRobot, on_chain: set[str], texts: dict[str, str]) ->
         joint = robot.joints.get(name)
         prismatic = joint is not None and joint.type == "prismatic"
         value = parse_quantity(text, LENGTH_WORDS if prismatic else ANGLE_WORDS, "")
-        why = (
-            f"is not a joint of the robot{did_you_mean(name, robot.joints)}"
-            if joint is None
-            else "is on the chain; only joints off it are locked"
-            if name in on_chain
-            else f"is a {joint.type} joint; only moving joints are locked"
-            if joint.type not in MOVING
-            else "needs a value with its unit, e.g. "
-            + ("20mm (a prismatic joint)" if prismatic else "30deg (a revolute joint)")
-            if not np.isfinite(value)
-            else f"is outside its limits [{joint.lower:g}, {joint.upper:g}] "
-            + ("m" if prismatic else "rad")
-            if not joint.lower - 1e-12 <= value <= joint.upper + 1e-12
-            else None
-        )
+        why = None
+        if joint is None:
+            why = f"is not a joint of the robot{did_you_mean(name, robot.joints)}"
+        elif name in on_chain:
+            why = "is on the chain; only joints off it are locked"
+        elif joint.type not in MOVING:
+            why = f"is a {joint.type} joint; only moving joints are locked"
+        elif not np.isfinite(value):
+            example = "20mm (a prismatic joint)" if prismatic else "30deg (a revolute joint)"
+            why = f"needs a value with its unit, e.g. {example}"
+        elif not joint.lower - 1e-12 <= value <= joint.upper + 1e-12:
+            unit = "m" if prismatic else "rad"
+            why = f"is outside its limits [{joint.lower:g}, {joint.upper:g}] {unit}"
         if why:
             raise UserError(f"{robot.file}: --lock {name}={text}: '{name}' {why}")
         out[name] = value
@@ -533,7 +531,7 @@ def cell_from_urdf(
         renamed = ", ".join(f"{a} -> {b}" for a, b in names.renamed.items())
         head += f"# Renamed: {comment_text(renamed)}\n"
     cell_doc = {
-        "name": cell_name,
+        "name": _Names()(cell_name),  # the folder's name, made a name ('0mm' -> '_0mm')
         "description": f"{robot.name} imported from URDF",
         "units": {"length": "m", "angle": "rad"},
         "pose_files": ["poses.yaml"],

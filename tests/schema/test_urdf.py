@@ -399,3 +399,44 @@ def test_an_srdf_gives_the_cells_allowed_contacts(tmp_path, cli):
     )
     assert result.exit_code == 2 and "bad.srdf:1:" in result.output and "link2" in result.output
     assert not (tmp_path / "b").exists()
+
+
+@pytest.mark.parametrize(
+    "lock, message",
+    [
+        ("panda_finger_joint1=20", "needs a value with its unit, e.g. 20mm"),
+        ("panda_finger_joint1=90mm", "is outside its limits [0, 0.04] m"),
+        ("nojoint=1mm", "is not a joint of the robot"),
+        ("panda_joint1=1deg", "is on the chain; only joints off it are locked"),
+        ("panda_finger_joint1", "write JOINT=VALUE"),
+    ],
+)
+def test_lock_values_are_checked(tmp_path, cli, lock, message):
+    args = ["import", "urdf", str(ROBOTS / "panda_description/urdf/panda.urdf"), "-o"]
+    out = cli(
+        args
+        + [str(tmp_path / "p"), "--package-path", str(SHARE), "--tip", "panda_hand"]
+        + ["--lock", lock]
+    )
+    assert out.exit_code == 2 and message in out.output, out.output
+    assert not (tmp_path / "p").exists()
+
+
+def test_locked_fingers_stand_open_by_their_value(tmp_path):
+    """--lock panda_finger_joint1=20mm moves the left finger 20 mm along its joint axis."""
+    import yaml
+
+    poses = {}
+    for value in ("0mm", "20mm"):  # also folder names that are no cell names
+        out = tmp_path / value
+        import_urdf(
+            str(ROBOTS / "panda_description/urdf/panda.urdf"),
+            str(out),
+            package_paths=[str(SHARE)],
+            tip="panda_hand",
+            locks={"panda_finger_joint1": value},
+        )
+        poses[value] = yaml.safe_load((out / "poses.yaml").read_text())["poses"]
+    a = np.array(poses["0mm"]["panda.panda_leftfinger"]["xyz"])
+    b = np.array(poses["20mm"]["panda.panda_leftfinger"]["xyz"])
+    assert np.linalg.norm(b - a) == pytest.approx(0.02, abs=1e-12)
