@@ -218,6 +218,7 @@ class DeviceModel:
     shape: Shape | None = None
     positions: dict = field(default_factory=dict)  # name -> ndarray (n,), SI
     controller: ControllerProfile | None = None  # None: stated defaults (ControllerProfile())
+    base_link: str | None = None  # the base's URDF link name, kept from an import
 
     @property
     def dof(self) -> int:

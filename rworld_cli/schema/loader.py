@@ -764,6 +764,7 @@ class _Builder:
             base_shape,
             positions,
             controller,
+            d.base_link,
         )
 
     def _controller(

@@ -485,6 +485,12 @@ class Device(Strict):
     controller: Controller | None = Field(
         None, description="The robot controller's flange, base frame and axis values."
     )
+    base_link: Name | None = Field(
+        None,
+        description="The base's link name in URDF ('rworld import urdf' keeps it, 'rworld "
+        "export urdf' writes it, so a MoveIt SRDF naming it still fits); default the device's "
+        "name.",
+    )
 
     @model_validator(mode="after")
     def _dh_or_frames(self):

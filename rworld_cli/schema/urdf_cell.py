@@ -496,6 +496,11 @@ def cell_from_urdf(
         device_doc["geometry"] = base_doc["geometry"]
     if "frames" in base_doc:
         device_doc["frames"] = base_doc["frames"]
+    # kept for 'export urdf': the URDF's own name of the base link (a URDF link may be 'world')
+    base_link = re.sub(r"[^A-Za-z0-9_\-]", "_", base)
+    base_link = base_link if re.match(NAME_PATTERN, base_link) else "_" + base_link
+    if base_link != device:
+        device_doc["base_link"] = base_link
     # the controller's frames, as the vendors' ROS description packages name them: 'tool0' is
     # the flange (ROS-Industrial, ur_description), 'base' the controller's base frame
     controller: dict = {}
@@ -637,7 +642,8 @@ def urdf_from_cell(cell: CellModel, device: str, output: str | Path) -> tuple[Ur
         for name, d in cell.frames.items()
         if d.owner == device and "." in name
     }
-    base = device if device not in taken else f"{device}_base"
+    base = dev.base_link or device
+    base = base if base not in taken else f"{base}_base"
     links: dict[str, UrdfLink] = {}
     joints: dict[str, UrdfJoint] = {}
     urdf_of = {device: (base, np.eye(4))}  # rworld frame -> (URDF link, T_urdflink_frame)

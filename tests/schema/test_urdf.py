@@ -26,6 +26,7 @@ from rworld_cli.api import (
     jacobians,
 )
 from rworld_cli.schema.loader import load_cell
+from rworld_cli.schema.urdf import read_urdf
 from tests.conftest import WORKCELLS, run_cli
 
 SHARE = Path(str(distribution("example-robot-data").locate_file("cmeel.prefix/share")))
@@ -188,6 +189,12 @@ def test_import_export_import_gives_the_same_model(name, imported, tmp_path):
         if frame in first.poses:
             np.testing.assert_allclose(first.poses[frame], second.poses[frame], atol=1e-12)
     assert first.devices[device].tcps == second.devices[device].tcps
+    # the URDF's own link names come back: the base's too (a MoveIt SRDF names it)
+    robot = read_urdf(str(ROBOTS / CASES[name][0]), [str(SHARE)])[0]
+    exported = read_urdf(str(urdf), [str(tmp_path)])[0]
+    assert first.devices[device].base_link == second.devices[device].base_link
+    assert exported.root == first.devices[device].base_link
+    assert exported.root in robot.links
 
 
 def test_exported_dh_robot_loads_in_pinocchio_and_yourdfpy(tmp_path):
