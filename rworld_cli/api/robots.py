@@ -204,6 +204,12 @@ def export_urdf(cell_path: str, output: str, device: str | None = None) -> UrdfE
         device = next(iter(cell.devices))
     if device not in cell.devices:
         raise UserError(f"no device '{device}' in {cell_path}{did_you_mean(device, cell.devices)}")
-    robot, mesh_names = urdf_from_cell(cell, device, output)
+    from ..world.tree import World
+
+    # what the cell's state has the device carry (a hand, a grasped part), at its home
+    carried = [
+        (name, link, bodies) for name, link, bodies in World(cell).carried(device) if link > 0
+    ]
+    robot, mesh_names = urdf_from_cell(cell, device, output, carried)
     write_urdf(output, robot, mesh_names)
     return UrdfExport(output, device, list(robot.links), list(robot.joints), robot.comment)

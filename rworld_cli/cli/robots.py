@@ -259,7 +259,10 @@ def export_urdf(cell, output, device, json_output):
         f"wrote {result.path}: device {result.device}, {len(result.links)} links, "
         f"{len(result.joints)} joints"
     )
-    if "Not in URDF" in result.note:
+    note, _, carried = result.note.partition(" Carried in the cell's state")
+    if "Not in URDF" in note:
         click.echo("  not in URDF:")
-        for item in result.note.split("Not in URDF: ", 1)[1].rstrip(".").split("; "):
+        for item in note.split("Not in URDF: ", 1)[1].rstrip(".").split("; "):
             click.echo(f"    {item}")
+    if carried:
+        click.echo(f"  carried in the cell's state{carried.rstrip('.')}")

@@ -627,8 +627,14 @@ def _shape_geometry(shape, T_urdf_owner: np.ndarray) -> UrdfGeometry:
     )
 
 
-def urdf_from_cell(cell: CellModel, device: str, output: str | Path) -> tuple[UrdfRobot, dict]:
+def urdf_from_cell(
+    cell: CellModel, device: str, output: str | Path, carried=()
+) -> tuple[UrdfRobot, dict]:
     """A device of a loaded cell (its current pose files applied) as a URDF robot.
+
+    ``carried``: what rides on the device's links, [(primitive name, link index 1..n,
+    [(Inertial, T_link_body)])] (``World.carried``): each body a fixed link with its mass
+    properties on the link that carries it, so the URDF's dynamics include the held tool.
 
     Returns
     -------
@@ -727,6 +733,20 @@ def urdf_from_cell(cell: CellModel, device: str, output: str | Path) -> tuple[Ur
         if len(rest) == len(pending):
             break
         pending = rest
+    for name, k, bodies in carried:  # the held tool and parts, as fixed links with their mass
+        link_name, T_urdf_link = urdf_of[dev.link_frames[k - 1]]
+        for j, (inertial, T_link_body) in enumerate(bodies):
+            body = f"carried_{name}" + (f"_{j + 1}" if len(bodies) > 1 else "")
+            links[body] = UrdfLink(body, inertial)
+            joints[body + "_joint"] = UrdfJoint(
+                body + "_joint",
+                "fixed",
+                link_name,
+                body,
+                T_urdf_link @ T_link_body,
+                np.array([1.0, 0.0, 0.0]),
+            )
+
     comment = (
         f"Written by 'rworld export urdf' from {cell.path}, device '{device}'"
         + (
@@ -740,6 +760,13 @@ def urdf_from_cell(cell: CellModel, device: str, output: str | Path) -> tuple[Ur
             + "; ".join(f"{kind}: {', '.join(items)}" for kind, items in notes.items())
             + "."
             if notes
+            else ""
+        )
+        + (
+            " Carried in the cell's state, as fixed links with their mass: "
+            + ", ".join(name for name, _, _ in carried)
+            + "."
+            if carried
             else ""
         )
     )

@@ -447,3 +447,23 @@ def test_locked_fingers_stand_open_by_their_value(tmp_path):
     a = np.array(poses["0mm"]["panda.panda_leftfinger"]["xyz"])
     b = np.array(poses["20mm"]["panda.panda_leftfinger"]["xyz"])
     assert np.linalg.norm(b - a) == pytest.approx(0.02, abs=1e-12)
+
+
+def test_export_includes_what_the_device_carries(tmp_path):
+    """paper_fig9's robot carries both hands, the part and the assembly (2.02 kg): the URDF holds
+    them as fixed links, so Pinocchio's gravity torques equal rworld's with the loads."""
+    from rworld_cli.api import device_context, device_dynamics
+
+    urdf = tmp_path / "robot.urdf"
+    export_urdf(str(WORKCELLS / "paper_fig9"), str(urdf), device="robot")
+    model = pin.buildModelFromUrdf(str(urdf))
+    data = model.createData()
+    ctx = device_context(str(WORKCELLS / "paper_fig9"), "robot")
+    dyn = device_dynamics(ctx, armature=False, friction=False)
+    q = np.array([0.3, -1.2, 1.1, -0.4, 0.7, 0.2])
+    g = ctx.gravity_base
+    ours = dyn.inverse(q, np.zeros(6), np.zeros(6), g)
+    model.gravity.linear = g
+    theirs = pin.rnea(model, data, q, np.zeros(6), np.zeros(6))
+    np.testing.assert_allclose(theirs, ours, atol=1e-9)
+    assert "carried_hand_a" in {f.name for f in model.frames}
