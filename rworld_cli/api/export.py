@@ -9,11 +9,16 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CheckFailed, UserError, did_you_mean
-from ..export import FORMATS, Signals
+from ..export import FORMATS, VENDOR_FORMATS, Signals
 from ..units import ARCSEC
 
 # the languages that drive 6-axis arms; csv streams any device
-ARM_FORMATS = {"urscript": "URScript", "krl": "KUKA KRL", "rapid": "ABB RAPID"}
+ARM_FORMATS = {
+    "urscript": "URScript",
+    "krl": "KUKA KRL",
+    "rapid": "ABB RAPID",
+    "fanuc": "FANUC TP",
+}
 
 
 @dataclass
@@ -81,7 +86,7 @@ def _simulate(cell: str, run: str, dt: float | None, pose_files: list[str] | Non
 def export_program(
     cell: str,
     run: str,
-    fmt: str,
+    fmt: str | None,
     output: str,
     device: str | None = None,
     period: str | float | None = None,
@@ -97,7 +102,8 @@ def export_program(
 
     Parameters
     ----------
-    fmt : {"urscript", "krl", "rapid", "csv"}
+    fmt : {"urscript", "krl", "rapid", "fanuc", "csv"} or None
+        None: the language of the devices' controller vendor (``controller.vendor``).
     output : str
         The folder to write; its files appear together or not at all.
     device : str, optional
@@ -119,10 +125,13 @@ def export_program(
     UserError
         Unknown format or device, a device the format cannot drive (exit 2).
     """
-    from ..export import csv_trajectory, krl, rapid, urscript
+    from ..export import csv_trajectory, fanuc, krl, rapid, urscript
     from ..export.common import instructions
     from .planning import parse_period
 
+    loaded_format = fmt is None
+    if fmt is None:
+        fmt = _vendor_format(cell, run, device)
     if fmt not in FORMATS:
         raise UserError(
             f"unknown format '{fmt}'{did_you_mean(fmt, FORMATS)}; choose one of "
@@ -180,6 +189,12 @@ def export_program(
                 + (f", or choose the arm with --device {' or '.join(arms)}" if arms else "")
             )
         profile = dev.controller
+        vendor = profile.vendor if profile is not None else None
+        if not loaded_format and vendor in VENDOR_FORMATS and VENDOR_FORMATS[vendor] != fmt:
+            notes.append(
+                f"'{name}' has a {vendor} controller (controller.vendor), whose language is "
+                f"{ARM_FORMATS[VENDOR_FORMATS[vendor]]}; written in {ARM_FORMATS[fmt]} as asked"
+            )
         T_link_flange = None
         if profile is not None and profile.flange is not None:
             T_link_flange = world.mount_of(name, profile.flange)[1]
@@ -207,7 +222,7 @@ def export_program(
             program.user_frame = frame
             program.T_base_user = np.linalg.solve(world.T_world(name), world.T_world(frame))
         moves += len(program.moves)
-        writer = {"urscript": urscript, "krl": krl, "rapid": rapid}[fmt]
+        writer = {"urscript": urscript, "krl": krl, "rapid": rapid, "fanuc": fanuc}[fmt]
         for file_name, text in writer.write(program, signals).items():
             if file_name in files:
                 file_name = f"{name}_{file_name}"
@@ -222,6 +237,27 @@ def export_program(
         changes = _changes(cell, run, dt, against, loaded, result, devices)
     _write_together(output, files)
     return ProgramExport(output, fmt, sorted(files), devices, moves, changes, notes)
+
+
+def _vendor_format(cell: str, run: str, device: str | None) -> str:
+    """The language of the run's devices' controllers, when no format is given."""
+    from ..schema.programs import load_run
+    from .simulation import run_path
+
+    loaded = load_run(cell, run_path(cell, run))
+    names = [p.device for p in loaded.programs if device is None or p.device == device]
+    vendors = {}
+    for name in names:
+        profile = loaded.cell.devices[name].controller
+        vendors[name] = profile.vendor if profile is not None else None
+    languages = {VENDOR_FORMATS.get(v or "") for v in vendors.values()}
+    if len(languages) == 1 and None not in languages:
+        return languages.pop()  # type: ignore[return-value]
+    said = ", ".join(f"'{n}' {v or 'no vendor'}" for n, v in vendors.items())
+    raise UserError(
+        f"give --format ({', '.join(FORMATS)}): the controllers do not name one language "
+        f"({said}; set controller.vendor in the cell to export without --format)"
+    )
 
 
 def _flange_loads(world, result, device: str, T_link_flange):

@@ -122,9 +122,10 @@ def export_group():
 @click.option(
     "--format",
     "fmt",
-    required=True,
-    type=click.Choice(["urscript", "krl", "rapid", "csv"]),
-    help="Robot language, or csv for a timed joint trajectory.",
+    default=None,
+    type=click.Choice(["urscript", "krl", "rapid", "fanuc", "csv"]),
+    help="Robot language (fanuc: TP as .ls), or csv for a timed joint trajectory; default the "
+    "language of the device's controller.vendor.",
 )
 @click.option("-o", "--output", required=True, metavar="DIR", help="The folder to write.")
 @click.option("--device", default=None, metavar="NAME", help="Only this device's program.")
@@ -194,6 +195,7 @@ def export_program(
       rworld export program workcells/puma560 pick_place --format rapid -o out/abb \\
           --against workcells/puma560/poses.yaml
       rworld export program workcells/puma560 pick_place --format csv --period 8ms -o out/csv
+      rworld export program workcells/puma560 pick_place --format fanuc -o out/fanuc
     """
     from ..api import Signals
     from ..api import export_program as run_export

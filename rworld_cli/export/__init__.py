@@ -5,7 +5,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-FORMATS = ("urscript", "krl", "rapid", "csv")
+FORMATS = ("urscript", "krl", "rapid", "fanuc", "csv")
+# the language of each vendor's controller (a device's controller.vendor)
+VENDOR_FORMATS = {"ur": "urscript", "kuka": "krl", "abb": "rapid", "fanuc": "fanuc"}
 
 
 @dataclass(frozen=True)

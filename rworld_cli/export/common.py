@@ -53,6 +53,7 @@ class Move:
     tool_acceleration: float
     where: str
     text: str
+    configuration: dict[str, str] | None = None  # shoulder, elbow, wrist at the joint target
 
     @property
     def motion(self) -> str:
@@ -226,9 +227,15 @@ class DeviceProgram:
         base = c.base if c and c.base else f"'{self.device}' (no controller base given)"
         axes = (
             "the cell's joint values"
-            if c is None or (np.all(c.sign == 1) and not np.any(c.offset))
+            if c is None or c.identity
             else "the cell's joint map (controller.axes)"
         )
+        if c is not None and c.coupling is not None and np.any(c.coupling):
+            i, j = np.nonzero(c.coupling)
+            axes += "; " + ", ".join(
+                f"axis {a + 1} counts {c.coupling[a, b]:+g} x joint {b + 1} (a parallel linkage)"
+                for a, b in zip(i, j)
+            )
         return [
             f"tool data in the flange frame: {flange}",
             f"targets in the base frame: {base}",
@@ -321,6 +328,7 @@ def instructions(
         ``loads(t) -> Load``: what the flange carries at instant ``t``; a :class:`Load` is
         written before each move whose load differs from the last one written.
     """
+    from ..kinematics.configuration import arm_configurations, is_arm
     from ..kinematics.jacobian import ToolMount
 
     program = DeviceProgram(device.name, name, source, [j.name for j in device.joints])
@@ -341,9 +349,10 @@ def instructions(
                 program.instructions.append(tool)
             mount = ToolMount(move.link, move.T_link_tcp)
             v_joint, a_joint, v_tool, a_tool = _peaks(device, mount, times, timeline, move)
-            program.instructions.append(
-                Move(move, tool, v_joint, a_joint, v_tool, a_tool, step.where, text)
-            )
+            item_move = Move(move, tool, v_joint, a_joint, v_tool, a_tool, step.where, text)
+            if is_arm(device):
+                item_move.configuration = arm_configurations(device, item_move.q_target).names()
+            program.instructions.append(item_move)
         elif step.kind in ("grasp", "release", "place"):
             program.instructions.append(Output("gripper", step.kind == "grasp", step.where, text))
         elif step.kind in ("attach_tool", "detach_tool"):
@@ -380,12 +389,42 @@ def abb_quaternion(R: np.ndarray) -> np.ndarray:
     return spatial.matrix_to_quat(R)
 
 
-def abb_confdata(q: np.ndarray) -> list[int]:
-    """ABB's ``confdata`` [cf1, cf4, cf6, cfx] of a 6-axis joint solution: the quarter
-    revolutions of axes 1, 4 and 6 (floor of angle / 90 deg); cfx 0 (the joint target is
-    written too, and joint moves use it)."""
-    quarter = np.floor(np.asarray(q)[[0, 3, 5]] / (np.pi / 2)).astype(int)
-    return [int(quarter[0]), int(quarter[1]), int(quarter[2]), 0]
+def abb_confdata(axes: np.ndarray, configuration: dict[str, str] | None) -> list[int]:
+    """ABB's ``confdata`` [cf1, cf4, cf6, cfx] of a 6-axis joint solution (the controller's
+    axis values [rad]): the quarter revolutions of axes 1, 4 and 6 (floor of angle / 90 deg);
+    cfx = 4 (wrist centre behind axis 1) + 2 (behind the lower arm: elbow down) + 1 (axis 5
+    negative)."""
+    quarter = np.floor(np.asarray(axes)[[0, 3, 5]] / (np.pi / 2)).astype(int)
+    cfx = 0
+    if configuration is not None:
+        cfx += 4 * (configuration["shoulder"] == "back") + 2 * (configuration["elbow"] == "down")
+    cfx += int(axes[4] < 0)
+    return [int(quarter[0]), int(quarter[1]), int(quarter[2]), cfx]
+
+
+def kuka_status_turn(axes: np.ndarray, configuration: dict[str, str] | None) -> tuple[int, int]:
+    """KUKA's Status and Turn of a joint solution (the controller's axis values [rad]).
+
+    Status: bit 0 the wrist centre in the overhead area (behind axis 1), bit 1 A3 >= phi (the
+    elbow up), bit 2 A5 <= 0.  Turn: bit i set when axis i+1 is negative.
+    """
+    status = 0
+    if configuration is not None:
+        status |= int(configuration["shoulder"] == "back") | 2 * int(configuration["elbow"] == "up")
+    status |= 4 * int(axes[4] <= 0)
+    turn = sum(1 << i for i, value in enumerate(np.asarray(axes)[:6]) if value < 0)
+    return status, int(turn)
+
+
+def fanuc_config(axes: np.ndarray, configuration: dict[str, str] | None) -> str:
+    """FANUC's configuration string of a joint solution (the controller's axis values [rad]):
+    'F' (J5 > 0) or 'N', 'U' (elbow up) or 'D', 'T' (wrist centre in front of J1) or 'B', then
+    the turn numbers of J4, J5 and J6 (0 for -180 < angle <= 180 deg)."""
+    flip = "F" if axes[4] > 0 else "N"
+    elbow = "U" if configuration is None or configuration["elbow"] == "up" else "D"
+    front = "T" if configuration is None or configuration["shoulder"] == "front" else "B"
+    turns = [int(np.ceil((np.degrees(a) - 180.0) / 360.0)) for a in np.asarray(axes)[3:6]]
+    return f"{flip} {elbow} {front}, " + ", ".join(str(t) for t in turns)
 
 
 @dataclass(frozen=True)
@@ -414,6 +453,8 @@ class Language:
     limit: int
     reserved: frozenset[str]
     lower: bool = False
+    upper: bool = False  # names in upper case (FANUC's)
+    escaped: str = ""  # printable characters a comment may not hold either
 
     def identifier(self, name: str, used: set[str]) -> str:
         """A name the language holds: letters, digits and '_', starting with a letter, at most
@@ -424,6 +465,8 @@ class Language:
         clean = clean[: self.limit]
         if self.lower:
             clean = clean.lower()
+        if self.upper:
+            clean = clean.upper()
         if clean.lower() in self.reserved:
             clean = clean[: self.limit - 2] + "_p"
         candidate, k = clean, 2
@@ -438,7 +481,13 @@ class Language:
         """``text`` safe inside one comment line: printable ASCII kept, anything else (a
         newline, a carriage return, a tab, a character the controller's code page may lack)
         written as an escape (``\\n``, ``\\u00fc``)."""
-        return "".join(ch if " " <= ch <= "~" else ascii(ch)[1:-1] for ch in str(text))
+
+        def safe(ch: str) -> str:
+            if ch in self.escaped:
+                return f"\\x{ord(ch):02x}"
+            return ch if " " <= ch <= "~" else ascii(ch)[1:-1]
+
+        return "".join(safe(ch) for ch in str(text))
 
     def renamed(self, identifier: str, original: str) -> list[str]:
         """The comment line that gives a renamed program's original name (none when equal)."""
@@ -476,7 +525,14 @@ wobjdata robtarget jointtarget speeddata zonedata num dnum bool string pos orien
 extjoint loaddata fine z0 z1 z5 z10 z50 z100 v5 v10 v50 v100 v200 v500 v1000 tool0 wobj0 load0
 crobt cjointt offs reltool""".split()
 
+_FANUC_WORDS = """j l c a p pr r sr ar di do ri ro gi go ai ao ui uo si so wait jmp lbl call
+end if then else endif select for endfor to downto skip offset tool_offset utool uframe
+utool_num uframe_num payload lpos jpos fine cnt acc on off and or not pulse run pause abort
+main""".split()
+
 URSCRIPT = Language("URScript", "#", 60, frozenset(_URSCRIPT_WORDS), lower=True)
+# program names: 36 characters on R-30iA and later; ';' ends a TP line, so not in comments
+FANUC = Language("FANUC TP", "!", 36, frozenset(_FANUC_WORDS), upper=True, escaped=";")
 KRL = Language("KRL", ";", 24, frozenset(_KRL_WORDS))
 RAPID = Language("RAPID", "!", 32, frozenset(_RAPID_WORDS))
 

@@ -18,6 +18,7 @@ from .common import (
     Tool,
     Wait,
     kuka_abc,
+    kuka_status_turn,
     number,
     principal,
 )
@@ -93,8 +94,10 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             else:
                 label = f"XP{k_target}"
                 position = frame(program.in_user(item.T_target))
+                status, turn = kuka_status_turn(program.axes(item.q_target), item.configuration)
                 dat.append(
-                    f"DECL E6POS {label} = {{{position}, E1 0, E2 0, E3 0, E4 0, E5 0, E6 0}}"
+                    f"DECL E6POS {label} = {{{position}, S {status}, T {turn}, E1 0, E2 0, E3 0, "
+                    "E4 0, E5 0, E6 0}"
                 )
                 src.append(f"$VEL.CP = {number(item.tool_speed, 4)}  ; m/s")
                 src.append(f"$ACC.CP = {number(item.tool_acceleration, 4)}  ; m/s^2")

@@ -108,9 +108,9 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
                 body.append("    GripLoad load0;")
         elif isinstance(item, Move):
             label = f"p{k + 1}"
-            axes = program.axes(item.q)
+            axes = program.axes(item.q_target)
             joints = ",".join(number(np.degrees(v), 9) for v in axes)
-            cf = ",".join(str(c) for c in abb_confdata(axes))
+            cf = ",".join(str(c) for c in abb_confdata(axes, item.configuration))
             lines.append(f"  ! {label}: {note(item.where)} {note(item.text)}")
             lines.append(f"  CONST jointtarget j{k + 1} := [[{joints}],{EXTAX}];")
             T = item.T_target

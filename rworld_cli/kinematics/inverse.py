@@ -107,6 +107,7 @@ def solve_ik(
     rotation_tolerance: float = 1e-7,
     max_iterations: int = 300,
     random_seed: int = 0,
+    accept=None,
 ) -> IKResult:
     """Joint values that put the tool frame on a target.
 
@@ -125,6 +126,10 @@ def solve_ik(
         Random starts within the limits besides the seed.
     position_tolerance, rotation_tolerance : float
         Success thresholds [m], [rad].
+    accept : callable, optional
+        ``accept(Q) -> bool array (K,)`` of joint states ``Q`` (K, n): only solutions it accepts
+        count (an arm configuration).  When none of the starts lands on one, 8 and then 64 times
+        as many random starts are tried.
 
     Returns
     -------
@@ -149,13 +154,21 @@ def solve_ik(
     cost = np.einsum("ki,ki->k", err, err)
     tol = np.array([position_tolerance] * 3 + ([] if position_only else [rotation_tolerance] * 3))
     eye = np.eye(err.shape[1])
+    revolute = _revolute(device)
+    settled = 0
     iterations = 0
     for iterations in range(
         1, max_iterations + 1
     ):  # iterations of the batch, not a loop over samples
         done = np.all(np.abs(err) <= tol, axis=1)
-        if done.all() or (done[0] and iterations > 1):
+        if done.all():
             break
+        if accept is None and done[0] and iterations > 1:
+            break
+        if accept is not None and done.sum() > settled:  # a start has landed: which?
+            settled = int(done.sum())
+            if (done & accept(nearest_turns(Q, seed, revolute, lower, upper))).any():
+                break
         Jr = J[:, rows, :]
         A = Jr @ np.swapaxes(Jr, 1, 2) + (lam**2)[:, None, None] * eye
         step = np.einsum("kji,kj->ki", Jr, np.linalg.solve(A, err[..., None])[..., 0])
@@ -176,7 +189,23 @@ def solve_ik(
     # a revolute joint reaches the same pose a whole turn away: of each solution, the turns
     # nearest the seed within the limits (a wrist with a +-400 deg range turns 360 deg for nothing
     # otherwise), then the solution nearest the seed
-    Q = nearest_turns(Q, seed, _revolute(device), lower, upper)
+    Q = nearest_turns(Q, seed, revolute, lower, upper)
+    if accept is not None:
+        done &= accept(Q)
+        if not done.any() and restarts < 64 * 16:
+            return solve_ik(
+                device,
+                T_base_target,
+                mount,
+                seed,
+                position_only,
+                max(restarts, 16) * 8,
+                position_tolerance,
+                rotation_tolerance,
+                max_iterations,
+                random_seed + 1,
+                accept,
+            )
     if done.any():
         candidates = np.nonzero(done)[0]
         best = candidates[np.argmin(np.linalg.norm(Q[candidates] - seed, axis=1))]

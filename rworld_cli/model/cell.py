@@ -178,17 +178,33 @@ class ControllerProfile:
         Qualified frame fixed to the device base that Cartesian targets are given in (None: the
         device's natural frame).
     sign, offset : ndarray, shape (n,)
-        ``axis = sign * q + offset`` per joint (SI).
+        ``axis = sign * q + offset`` per joint (SI) ...
+    coupling : ndarray, shape (n, n)
+        ... ``+ coupling @ q``: parallel linkages (ABB's and FANUC's J2-J3), zero diagonal.
+    vendor : str or None
+        abb, fanuc, kuka, ur, franka or generic.
     """
 
     flange: str | None
     base: str | None
     sign: np.ndarray
     offset: np.ndarray
+    coupling: np.ndarray | None = None
+    vendor: str | None = None
 
     def axes(self, q) -> np.ndarray:
         """The controller's axis values of joint values ``q`` (..., n), SI."""
-        return self.sign * np.asarray(q, dtype=float) + self.offset
+        q = np.asarray(q, dtype=float)
+        out = self.sign * q + self.offset
+        if self.coupling is not None:
+            out = out + q @ self.coupling.T
+        return out
+
+    @property
+    def identity(self) -> bool:
+        """The axis values are the cell's joint values."""
+        coupled = self.coupling is not None and np.any(self.coupling)
+        return bool(np.all(self.sign == 1) and not np.any(self.offset) and not coupled)
 
 
 @dataclass(frozen=True)

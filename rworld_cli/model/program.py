@@ -34,6 +34,9 @@ class Step:
     touch : dict
         A move's ``touch:`` bodies -> the depth they may be touched to [m] (None: the run's
         collision tolerance).
+    configuration, near
+        A move's ``config:``: the arm configuration asked for ({"elbow": "up", ...}), and the
+        joint values to take the IK solution nearest to.
     """
 
     index: int
@@ -42,6 +45,8 @@ class Step:
     where: str
     T_offset: np.ndarray = field(default_factory=lambda: np.eye(4))
     touch: dict[str, float | None] = field(default_factory=dict)
+    configuration: dict[str, str] = field(default_factory=dict)  # shoulder, elbow, wrist
+    near: np.ndarray | None = None  # (n,) joint values to take the solution nearest to (SI)
 
     def describe(self) -> str:
         s = self.spec

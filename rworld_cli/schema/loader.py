@@ -805,7 +805,7 @@ class _Builder:
                 continue
             found[key] = qualified
         n = len(joints)
-        sign, offset = np.ones(n), np.zeros(n)
+        sign, offset, coupling = np.ones(n), np.zeros(n), np.zeros((n, n))
         if spec.axes is not None:
             if len(spec.axes) != n:
                 self.err(path + ("axes",), f"{len(spec.axes)} axis map(s) for {n} joint(s)")
@@ -817,7 +817,27 @@ class _Builder:
                         for a, j in zip(spec.axes, joints)
                     ]
                 )
-        return wm.ControllerProfile(found.get("flange"), found.get("base"), sign, offset)
+                index = {j.name: k for k, j in enumerate(joints)}
+                for i, (a, j) in enumerate(zip(spec.axes, joints)):
+                    if a.coupling is None:
+                        continue
+                    at = path + ("axes", i, "coupling", "joint")
+                    other = index.get(a.coupling.joint)
+                    if other is None:
+                        self.err(
+                            at,
+                            f"'{a.coupling.joint}' is no joint of '{d.name}'"
+                            f"{did_you_mean(a.coupling.joint, list(index))}",
+                        )
+                    elif other == i:
+                        self.err(at, f"axis {i + 1} cannot be coupled to its own joint")
+                    elif joints[other].kind != j.kind:
+                        self.err(at, "a coupling joins two revolute or two prismatic joints")
+                    else:
+                        coupling[i, other] = a.coupling.factor
+        return wm.ControllerProfile(
+            found.get("flange"), found.get("base"), sign, offset, coupling, spec.vendor
+        )
 
     def _positions(self, path, d: sm.Device, joints: list[wm.Joint], local_names: dict) -> dict:
         """Named joint configurations, SI; checked for length, limits and clashes with frame

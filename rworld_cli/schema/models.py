@@ -414,17 +414,34 @@ class Tcp(Strict):
     )
 
 
+class Coupling(Strict):
+    """A parallel linkage: the controller's axis also counts another joint's value."""
+
+    joint: Name = Field(description="The other joint (its name in this device).")
+    factor: float = Field(
+        description="Added times that joint's value: ABB's coupled arms (IRB 2400, 6700) +1, "
+        "FANUC -1 (ROS-Industrial's J23 factors; docs/export.md)."
+    )
+
+
 class AxisMap(Strict):
-    """One controller axis: ``axis = sign * joint + offset`` (the joint's unit)."""
+    """One controller axis: ``axis = sign * joint + offset (+ factor * other joint)``, in the
+    joint's unit."""
 
     sign: Literal[1, -1] = 1
     offset: float = Field(0.0, description="[angle or length unit]")
+    coupling: Coupling | None = None
 
 
 class Controller(Strict):
     """How the robot's controller sees the device: the frames its tool data and Cartesian
     targets are given in, and its axis values (``docs/export.md``)."""
 
+    vendor: Literal["abb", "fanuc", "kuka", "ur", "franka", "generic"] | None = Field(
+        None,
+        description="Whose controller: 'export program' writes its language when no --format "
+        "is given (abb: RAPID, fanuc: TP, kuka: KRL, ur: URScript).",
+    )
     flange: Name | None = Field(
         None,
         description="A frame of the device on its last link: tool data is given in it (the "

@@ -20,6 +20,27 @@ from .models import FrameRef, Name, PartUnits, Pose, Strict
 Fraction = Annotated[float, Field(gt=0, le=1)]
 
 
+class ConfigSpec(Strict):
+    """The joint solution a Cartesian target is reached with (docs/programs.md)."""
+
+    shoulder: Literal["front", "back"] | None = Field(
+        None, description="The wrist centre in front of axis 1, or behind it (overhead)."
+    )
+    elbow: Literal["up", "down"] | None = Field(
+        None, description="The elbow above the line from the shoulder to the wrist, or below."
+    )
+    wrist: Literal["noflip", "flip"] | None = Field(
+        None,
+        description="Axis 5 bent the way that points the tool down from a forearm "
+        "reaching forward, or the other way.",
+    )
+    near: list[float] | None = Field(
+        None,
+        description="Joint values (the file's units) to take the solution nearest to, instead "
+        "of the joints' values before the move.",
+    )
+
+
 class MoveSpec(Strict):
     """Move the device: its TCP to a frame (joint or linear), or its joints to a named position."""
 
@@ -45,6 +66,12 @@ class MoveSpec(Strict):
     acceleration: Fraction = Field(1.0, description="Fraction of the acceleration limits.")
     until: Name | None = Field(
         None, description="Guarded move: stop where this sensor first senses something."
+    )
+    config: ConfigSpec | None = Field(
+        None,
+        description="A joint move: the arm configuration (shoulder, elbow, wrist) or the joint "
+        "values to reach the target nearest to. A linear move: the configuration it must end in "
+        "(a straight line cannot change it).",
     )
     touch: list[FrameRef] | dict[FrameRef, float | str] = Field(
         default_factory=list,

@@ -23,6 +23,61 @@ def _step_spec(step: sp.Step):
     return getattr(step, step.kind)
 
 
+def _check_config(doc, path, spec, step, device, named, L, A, issues) -> None:
+    """A move's ``config:``: an arm's configuration, joint values to be near (SI)."""
+    config = spec.config
+    wanted = {k: getattr(config, k) for k in ("shoulder", "elbow", "wrist")}
+    step.configuration = {k: v for k, v in wanted.items() if v is not None}
+    if named:
+        issues.append(
+            doc.issue(path, f"'{spec.to}' is a joint position: it has no other configuration")
+        )
+        return
+    if device is None:
+        return
+    arm = device.dof == 6 and all(j.kind == "revolute" for j in device.joints)
+    if step.configuration and not arm:
+        issues.append(
+            doc.issue(
+                path,
+                f"shoulder, elbow and wrist name the configurations of 6-axis arms; "
+                f"'{device.name}' has {device.dof} joint(s): give 'near:' joint values instead",
+            )
+        )
+    if config.near is None:
+        return
+    if spec.motion == "linear":
+        issues.append(
+            doc.issue(
+                path + ("near",),
+                "a linear move follows its line from where the joints are: 'near' is for joint "
+                "moves",
+            )
+        )
+        return
+    if len(config.near) != device.dof:
+        issues.append(
+            doc.issue(
+                path + ("near",),
+                f"{len(config.near)} value(s) for the {device.dof} joint(s) of '{device.name}'",
+            )
+        )
+        return
+    kinds = [j.kind for j in device.joints]
+    needs = {"revolute": A, "prismatic": L}
+    missing = sorted({k for k in kinds if needs[k] is None})
+    if missing:
+        issues.append(
+            doc.issue(
+                path + ("near",),
+                "joint values need the file's units, and rworld never guesses them: add "
+                "'units: {length: mm, angle: deg}' at the top of the program",
+            )
+        )
+        return
+    step.near = np.array([v * needs[k] for v, k in zip(config.near, kinds)])
+
+
 def _check_program(
     doc: Marked, pf: sp.ProgramFile, cell: CellModel, run_devices: set[str], issues: list[Issue]
 ) -> Program:
@@ -124,6 +179,8 @@ def _check_program(
                         issues.append(doc.issue(at, str(exc)))
                 for name in depths:
                     step.touch.setdefault(name, None)
+            if spec.config is not None:
+                _check_config(doc, path + ("config",), spec, step, device, named, L, A, issues)
             if spec.offset is not None and (L is None or A is None):
                 issues.append(
                     doc.issue(

@@ -509,9 +509,24 @@ def cell_from_urdf(
         controller["flange"] = names("tool0")
     if "base" in placed and placed["base"][0] == 0 and base != "base":
         controller["base"] = names("base")
+    vendor, j23 = vendor_conventions(robot.name)
+    if controller and vendor is not None:
+        controller = {"vendor": vendor, **controller}
+        moving_revolute = [j for j in moving if j.type in ("revolute", "continuous")]
+        if j23 and len(moving) == 6 and len(moving_revolute) == 6:
+            axes: list[dict] = [{} for _ in moving]
+            axes[2] = {"coupling": {"joint": names(moving[1].name), "factor": j23}}
+            controller["axes"] = axes
     if controller:
         device_doc["controller"] = controller
-        said = " and ".join(f"{key} '{value}'" for key, value in controller.items())
+        said = " and ".join(
+            f"{key} '{value}'" for key, value in controller.items() if key != "axes"
+        )
+        if "axes" in controller:
+            said += (
+                f", and axis 3 counting {j23:+g} x joint 2 (the parallel linkage, as "
+                "ROS-Industrial's driver for this robot does)"
+            )
         warnings.append(
             Issue(
                 robot.file,
@@ -777,3 +792,39 @@ def urdf_from_cell(
             if g.mesh_file is not None:
                 mesh_names[g.mesh_file] = os.path.relpath(Path(g.mesh_file).resolve(), folder)
     return UrdfRobot(device, str(output), links, joints, base, comment), mesh_names
+
+
+# ROS-Industrial's drivers couple joint 3 to joint 2 on these arms (the J23_factor of the
+# fanuc_*_support launch files, the J23_coupled of abb_*_support and abb_experimental):
+# controller axis 3 = URDF joint 3 + factor x URDF joint 2.
+_ABB_COUPLED = (
+    "irb1600",
+    "irb2400",
+    "irb4400",
+    "irb52",
+    "irb5400",
+    "irb6650s",
+    "irb6700",
+    "irb7600",
+)
+_FANUC_PLUS = ("m430ia",)  # J23_factor -1: the streamer adds joint 2
+
+
+def vendor_conventions(robot_name: str) -> tuple[str | None, float | None]:
+    """(vendor, J2-J3 coupling factor or None) of a robot from the vendors' ROS description
+    packages, by its URDF name (``abb_irb2400``, ``fanuc_lrmate200id``, ``kuka_kr16_2``,
+    ``ur5``, ``panda``); (None, None) when the name says nothing."""
+    name = robot_name.lower()
+    if re.match(r"^(abb_)?irb", name):
+        model = re.sub(r"^abb_", "", name)
+        return "abb", (1.0 if model.startswith(_ABB_COUPLED) else None)
+    if re.match(r"^(fanuc_|lrmate|m\d+i|cr\d+i|r\d+i)", name):
+        model = re.sub(r"^fanuc_", "", name)
+        return "fanuc", (1.0 if model.startswith(_FANUC_PLUS) else -1.0)
+    if re.match(r"^(kuka_|kr\d)", name):
+        return "kuka", None
+    if re.match(r"^(ur\d|ur_|universal)", name):
+        return "ur", None
+    if re.match(r"^(panda|fr3|franka)", name):
+        return "franka", None
+    return None, None

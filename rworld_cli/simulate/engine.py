@@ -28,6 +28,7 @@ import numpy as np
 
 from ..dynamics import DeviceDynamics
 from ..errors import UserError
+from ..kinematics.configuration import arm_configurations
 from ..kinematics.inverse import solve_ik
 from ..kinematics.jacobian import ToolMount, tool_pose
 from ..model.program import MoveTarget, Program, ResolvedStep, Run, Step
@@ -311,7 +312,25 @@ class _Scheduler:
             )
             position_only = spec.position_only or dev.dof < 6
             if spec.motion == "joint":
-                result = solve_ik(dev, T_base_target, mount, q_now, position_only)
+                wanted = step.configuration
+                accept = None
+                if wanted:
+
+                    def accept(Q, dev=dev, wanted=wanted):
+                        return arm_configurations(dev, Q).matches(wanted)
+
+                seed = q_now if step.near is None else step.near
+                result = solve_ik(dev, T_base_target, mount, seed, position_only, accept=accept)
+                if not result.success and wanted:
+                    anyhow = solve_ik(dev, T_base_target, mount, seed, position_only)
+                    if anyhow.success:
+                        have = arm_configurations(dev, anyhow.q).names()
+                        self.fail(
+                            device,
+                            step,
+                            f"no joint solution within the limits reaches '{spec.to}' with "
+                            f"{_said(wanted)} (one with {_said(have)} does)",
+                        )
                 if not result.success:
                     self.fail(
                         device,
@@ -336,6 +355,18 @@ class _Scheduler:
                     )
                 except PathError as exc:
                     self.fail(device, step, exc.detail)
+                wanted = step.configuration
+                if wanted:
+                    end = seg.q_end if seg is not None else q_now
+                    have = arm_configurations(dev, end).names()
+                    if any(have[k] != v for k, v in wanted.items()):
+                        self.fail(
+                            device,
+                            step,
+                            f"the line ends with {_said(have)}, not {_said(wanted)}: a straight "
+                            "line keeps the configuration it starts in; reach the start with a "
+                            "joint move in the configuration wanted",
+                        )
         planned = seg
         if seg is not None and spec.until is not None:
             seg = self._guard(device, tr, step, seg)
@@ -841,3 +872,8 @@ def _violations(device, dev, times, q, ratios, qd, qdd, tau, step_index, texts) 
                     )
                 )
     return out
+
+
+def _said(configuration: dict[str, str]) -> str:
+    """{'elbow': 'up', 'wrist': 'noflip'} as 'elbow up, wrist noflip'."""
+    return ", ".join(f"{k} {v}" for k, v in configuration.items())

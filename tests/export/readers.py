@@ -106,9 +106,73 @@ def _abb_pose(xyz: str, quat: str) -> np.ndarray:
     return _pose(np.array([float(v) for v in xyz.split(",")]) / 1000, R)
 
 
+def rapid_tools(text: str) -> list[np.ndarray]:
+    """Each ``tooldata``'s tframe: the TCP in the flange (m)."""
+    return [
+        _abb_pose(xyz, quat)
+        for xyz, quat in re.findall(r"PERS tooldata \w+ := \[TRUE,\[\[(.*?)\],\[(.*?)\]\]", text)
+    ]
+
+
+def rapid_configurations(text: str) -> list[list[int]]:
+    """The confdata [cf1, cf4, cf6, cfx] of each robtarget, in order of declaration."""
+    return [
+        [int(v) for v in body.split(",")]
+        for body in re.findall(r"CONST robtarget \w+ := \[\[.*?\],\[.*?\],\[(.*?)\]", text)
+    ]
+
+
+def _wpr(values) -> np.ndarray:
+    """X, Y, Z [mm], W, P, R [deg] -> pose (m); R = Rz(R) Ry(P) Rx(W), as FANUC's manuals give."""
+    x, y, z, w, p, r = values
+    R = Rotation.from_euler("xyz", [w, p, r], degrees=True).as_matrix()  # extrinsic x, y, z
+    return _pose(np.array([x, y, z]) / 1000, R)
+
+
+def _fanuc_registers(text: str) -> dict[str, dict[int, np.ndarray]]:
+    """UTOOL[n] / UFRAME[n] as the program sets them through position register elements."""
+    frames: dict[str, dict[int, np.ndarray]] = {"UTOOL": {}, "UFRAME": {}}
+    elements: dict[int, float] = {}
+    for line in re.findall(r"^\s*\d+:\s+(.*?) ;$", text, re.M):
+        found = re.match(rf"PR\[(\d+),(\d)\]=({NUM})$", line)
+        if found:
+            elements[int(found.group(2))] = float(found.group(3))
+            continue
+        found = re.match(r"(UTOOL|UFRAME)\[(\d+)\]=PR\[\d+\]$", line)
+        if found:
+            frames[found.group(1)][int(found.group(2))] = _wpr([elements[k] for k in range(1, 7)])
+    return frames
+
+
+def fanuc_tools(text: str) -> list[np.ndarray]:
+    return list(_fanuc_registers(text)["UTOOL"].values())
+
+
+def fanuc(text: str) -> list[tuple[str, np.ndarray]]:
+    """J to joint positions (deg: the controller's axes) and L to Cartesian positions (mm, W, P,
+    R) composed with their user frame (UF 0: the world frame)."""
+    frames = _fanuc_registers(text)["UFRAME"]
+    positions = {}
+    pattern = r"^P\[(\d+)\]\{\s*GP1:\s*UF : (\d+), UT : (\d+),(.*?)\};"
+    for label, uf, _ut, body in re.findall(pattern, text, re.M | re.S):
+        fields = dict(re.findall(rf"([A-Z]\d?) ?= *({NUM})", body))
+        if "J1" in fields:
+            positions[label] = ("joint", np.radians([float(fields[f"J{i}"]) for i in range(1, 7)]))
+        else:
+            T = _wpr([float(fields[k]) for k in ("X", "Y", "Z", "W", "P", "R")])
+            positions[label] = ("linear", (frames[int(uf)] if int(uf) else np.eye(4)) @ T)
+    return [positions[label] for label in re.findall(r"^\s*\d+:[JL] P\[(\d+)\]", text, re.M)]
+
+
+def fanuc_configurations(text: str) -> list[str]:
+    return re.findall(r"CONFIG : '(.*?)'", text)
+
+
 def read(folder: Path, fmt: str, stem: str) -> list[tuple[str, np.ndarray]]:
     if fmt == "urscript":
         return urscript((folder / f"{stem}.script").read_text())
     if fmt == "krl":
         return krl((folder / f"{stem}.src").read_text(), (folder / f"{stem}.dat").read_text())
+    if fmt == "fanuc":
+        return fanuc((folder / f"{stem.upper()}.ls").read_text())
     return rapid((folder / f"{stem}.mod").read_text())

@@ -49,7 +49,7 @@ def _prepare(root: Path, tool_length: float, target: dict) -> str:
     tool tip on the flange, a target frame; the controller profile as import assumed it."""
     cell = yaml.safe_load((root / "cell.yaml").read_text())
     [device] = cell["devices"]
-    assert device["controller"] == {"flange": "tool0", "base": "base"}
+    assert device["controller"]["flange"] == "tool0" and device["controller"]["base"] == "base"
     for joint in device["joints"]:
         joint["limits"]["acceleration"] = 10.0
     device["tcps"].append({"name": "tip", "parent": "tool0"})

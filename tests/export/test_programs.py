@@ -20,7 +20,7 @@ from tests.conftest import WORKCELLS
 from tests.export import readers
 
 GOLDEN = Path(__file__).parent / "golden"
-ARMS = ["urscript", "krl", "rapid"]
+ARMS = ["urscript", "krl", "rapid", "fanuc"]
 CASES = {  # name: (cell, run, device, program stem)
     "puma_pick_place": ("puma560", "pick_place", None, "pick_place"),
     "fig9_robot": ("paper_fig9", "transfer", "robot", "robot"),
@@ -88,6 +88,7 @@ def test_a_guarded_move_is_a_search_to_its_planned_end(fmt, tmp_path):
         "urscript": "while not get_digital_in(1) and not done_",
         "krl": "INTERRUPT DECL 10 WHEN $IN[1]==TRUE DO BRAKE",
         "rapid": "SearchL \\Stop, di_1,",
+        "fanuc": "SKIP CONDITION DI[1]=ON",
     }[fmt]
     assert marker in text
     read = readers.read(tmp_path, fmt, "probe")
@@ -331,6 +332,18 @@ def test_the_load_on_the_flange_is_written_in_every_language(tmp_path):
             )
             masses = [float(m[0]) for m in found]
             held = np.array([float(x.rstrip(",")) for x in found[1][1:]]) / 1000
+        elif fmt == "fanuc":  # kg and cm
+            masses = [float(m) for m in re.findall(r"\$PLST_GRP1\[1\]\.\$PAYLOAD=(\S+) ;", text)]
+            held = (
+                np.array(
+                    [
+                        float(v)
+                        for v in re.findall(r"\$PLST_GRP1\[1\]\.\$PAYLOAD_[XYZ]=(\S+) ;", text)[3:6]
+                    ]
+                )
+                / 100
+            )
+            assert text.count("PAYLOAD[1] ;") == 3
         else:
             [(mass, body)] = re.findall(r"PERS loaddata load1 := \[([\d.]+),\[(.*?)\]", text)
             masses = [0.0, float(mass), 0.0]

@@ -14,28 +14,28 @@ MODULE pick_place
   PERS tooldata t_puma_probe := [TRUE,[[0,0,100],[1,0,0,0]],[0.001,[0,0,0.001],[1,0,0,0],0,0,0]];
   ! p3: workcells/puma560/programs/pick_place.yaml:9 move to ready
   CONST jointtarget j3 := [[0,45,-135,0,-45,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
-  CONST robtarget p3 := [[737.128708,-150.05,956.858708],[0.382683432365,0,0.923879532511,0],[0,0,0,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p3 := [[737.128708,-150.05,956.858708],[0.382683432365,0,0.923879532511,0],[0,0,0,1],[9E9,9E9,9E9,9E9,9E9,9E9]];
   CONST speeddata s3 := [1038.304,500,5000,1000];
   ! p5: workcells/puma560/programs/pick_place.yaml:10 move to workpiece.grasp
   CONST jointtarget j5 := [[32.159231613,42.639713528,-176.595133608,-0.000000002,-46.044579916,-177.840768385],[9E9,9E9,9E9,9E9,9E9,9E9]];
-  CONST robtarget p5 := [[600,200,550],[0.000000000005,0.965925826291,0.258819045095,0.000000000038],[0,-1,-2,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p5 := [[600,200,550],[0.000000000005,0.965925826291,0.258819045095,0.000000000038],[0,-1,-2,1],[9E9,9E9,9E9,9E9,9E9,9E9]];
   CONST speeddata s5 := [1088.056,500,5000,1000];
   ! p6: workcells/puma560/programs/pick_place.yaml:11 move to workpiece.grasp (linear)
   CONST jointtarget j6 := [[32.159231609,32.354593311,-174.389015177,0,-37.965578134,-177.840768391],[9E9,9E9,9E9,9E9,9E9,9E9]];
-  CONST robtarget p6 := [[599.999998,199.999999,450],[0,0.965925826289,0.258819045103,0],[0,-1,-2,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p6 := [[599.999998,199.999999,450],[0,0.965925826289,0.258819045103,0],[0,-1,-2,1],[9E9,9E9,9E9,9E9,9E9,9E9]];
   CONST speeddata s6 := [125,500,5000,1000];
   PERS loaddata load1 := [1.2,[0.000002,0,125],[1,0,0,0],0.00125,0.00225,0.0035];
   ! p9: workcells/puma560/programs/pick_place.yaml:13 move to table.drop
   CONST jointtarget j9 := [[-13.639703236,38.906299534,-168.890973832,0,-50.015325701,-193.639703236],[9E9,9E9,9E9,9E9,9E9,9E9]];
-  CONST robtarget p9 := [[600,-300,550],[0,1,0,0],[-1,0,-3,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p9 := [[600,-300,550],[0,1,0,0],[-1,0,-3,1],[9E9,9E9,9E9,9E9,9E9,9E9]];
   CONST speeddata s9 := [1278.562,500,5000,1000];
   ! p10: workcells/puma560/programs/pick_place.yaml:14 move to table.drop (linear)
   CONST jointtarget j10 := [[-13.639703239,29.144437512,-166.655067913,0,-42.489369599,-193.639703239],[9E9,9E9,9E9,9E9,9E9,9E9]];
-  CONST robtarget p10 := [[599.999998,-300,450],[0,1,0,0],[-1,0,-3,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p10 := [[599.999998,-300,450],[0,1,0,0],[-1,0,-3,1],[9E9,9E9,9E9,9E9,9E9,9E9]];
   CONST speeddata s10 := [125,500,5000,1000];
   ! p13: workcells/puma560/programs/pick_place.yaml:16 move to table.drop (linear)
   CONST jointtarget j13 := [[-13.639703239,38.906299702,-168.890974185,0,-50.015325517,-193.639703239],[9E9,9E9,9E9,9E9,9E9,9E9]];
-  CONST robtarget p13 := [[599.999998,-300,550],[0,1,0,0],[-1,0,-3,0],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p13 := [[599.999998,-300,550],[0,1,0,0],[-1,0,-3,1],[9E9,9E9,9E9,9E9,9E9,9E9]];
   CONST speeddata s13 := [249.999,500,5000,1000];
   ! p15: workcells/puma560/programs/pick_place.yaml:17 move to home
   CONST jointtarget j15 := [[0,45,-180,0,45,0],[9E9,9E9,9E9,9E9,9E9,9E9]];

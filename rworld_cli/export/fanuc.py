@@ -1,0 +1,200 @@
+"""FANUC TP as ASCII (``.ls``, loaded by the controller's ASCII upload or MakeTP): joint moves
+``J P[k] n%`` to joint positions (J1..J6 in degrees, through the joint map), linear moves
+``L P[k] v mm/sec`` to Cartesian positions (X, Y, Z in mm, W, P, R in degrees:
+``R = Rz(R) Ry(P) Rx(W)``) with their configuration string, tool and user frames set through a
+position register, the payload schedule, ``DO[]``, ``WAIT``; a search is a ``SKIP CONDITION``
+with a skip move."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import Signals
+from .common import (
+    FANUC,
+    Comment,
+    DeviceProgram,
+    Load,
+    Move,
+    Output,
+    Record,
+    Tool,
+    Wait,
+    fanuc_config,
+    kuka_abc,
+)
+
+note = FANUC.comment  # every text from a file goes into a comment through this
+
+SCRATCH_PR = 90  # the position register that carries tool and user frame values
+PROBE_PR = 91  # where a probe's search stopped
+KGF_CM_S2 = 9.80665 * 0.01  # [kg m^2] in one kgf cm s^2 (FANUC's payload inertia unit)
+
+
+def _f(x: float, digits: int = 6) -> str:
+    text = f"{float(x):.{digits}f}"
+    return "0." + "0" * digits if float(text) == 0 else text
+
+
+def wpr(T) -> tuple[float, ...]:
+    """X, Y, Z [mm], W, P, R [deg] of a pose (R = Rz(R) Ry(P) Rx(W))."""
+    r, p, w = kuka_abc(T[:3, :3])
+    x, y, z = T[:3, 3] * 1000
+    return (x, y, z, w, p, r)
+
+
+def _comments(text: str) -> list[str]:
+    """``!`` lines of at most 32 characters (the pendant's comment length)."""
+    import textwrap
+
+    lines = textwrap.wrap(note(text), 32, break_on_hyphens=False) or [""]
+    return [f"!{line}" for line in lines]
+
+
+def _frame_set(kind: str, number: int, T, lines: list[str]) -> None:
+    """UTOOL[n] / UFRAME[n] = the pose T, through the scratch position register."""
+    lines.append(f"PR[{SCRATCH_PR}]=LPOS-LPOS")  # a Cartesian register of zeros
+    for k, value in enumerate(wpr(T), start=1):
+        lines.append(f"PR[{SCRATCH_PR},{k}]={_f(value)}")
+    lines.append(f"{kind}[{number}]=PR[{SCRATCH_PR}]")
+    lines.append(f"{kind}_NUM={number}")
+
+
+def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
+    used: set[str] = set()
+    name = FANUC.identifier(program.name, used)
+    tools = {t.name: k + 1 for k, t in enumerate(program.tools)}
+    body: list[str] = []
+    head = [
+        f"{program.name}: device '{program.device}', from {program.source}",
+        "written by 'rworld export program': targets resolved with the cell's current pose files",
+        f"outputs: gripper DO[{signals.gripper}] (ON = closed), tool changer "
+        f"DO[{signals.tool_changer}] (ON = locked), searches skip on DI[{signals.sensor}]",
+        *([f"'{name}' is program '{program.name}'"] if name != program.name else []),
+        *program.conventions(),
+        "CONFIG: F when J5 > 0, U elbow up, T wrist centre in front of J1, then the turns of "
+        "J4, J5, J6",
+        f"PR[{SCRATCH_PR}] carries tool and user frame values, PR[{PROBE_PR}] a probe's stop",
+    ]
+    for text in head:
+        body += _comments(text)
+    uframe = 0
+    if program.user_frame:
+        uframe = 1
+        body += _comments(f"UFRAME[1] is {program.user_frame}")
+        _frame_set("UFRAME", 1, program.T_controller_user, body)
+    else:
+        body += _comments("UFRAME 0: the world frame (the robot's base)")
+        body.append("UFRAME_NUM=0")
+    positions: list[str] = []
+    tool = 0
+    label = 0
+    for item in program.instructions:
+        if isinstance(item, Tool):
+            tool = tools[item.name]
+            body += _comments(f"UTOOL[{tool}] is {item.name}")
+            _frame_set("UTOOL", tool, item.T_flange_tcp, body)
+        elif isinstance(item, Load):
+            total = item.total
+            body += _comments(item.describe())
+            inertia = total.inertia / KGF_CM_S2
+            if np.abs(inertia - np.diag(np.diag(inertia))).max() > 1e-6 * max(
+                1.0, np.abs(inertia).max()
+            ):
+                body += _comments("products of inertia dropped: FANUC takes IX, IY, IZ only")
+            fields = {
+                "$PAYLOAD": total.mass,
+                "$PAYLOAD_X": total.com[0] * 100,
+                "$PAYLOAD_Y": total.com[1] * 100,
+                "$PAYLOAD_Z": total.com[2] * 100,
+                "$PAYLOAD_IX": inertia[0, 0],
+                "$PAYLOAD_IY": inertia[1, 1],
+                "$PAYLOAD_IZ": inertia[2, 2],
+            }
+            body += _comments("kg, cm, kgf cm s^2, flange axes")
+            for key, value in fields.items():
+                body.append(f"$PLST_GRP1[1].{key}={_f(value)}")
+            body.append("PAYLOAD[1]")
+        elif isinstance(item, Move):
+            label += 1
+            body += _comments(f"{item.where}: {item.text}")
+            axes = program.axes(item.q_target)
+            where = f"\tUF : {uframe}, UT : {tool},"
+            if item.motion == "joint":
+                values = [f"J{i + 1}={_f(np.degrees(v)):>12} deg" for i, v in enumerate(axes)]
+                positions += [
+                    f"P[{label}]{{",
+                    "   GP1:",
+                    where,
+                    "\t" + ",\t".join(values[:3]) + ",",
+                    "\t" + ",\t".join(values[3:]),
+                    "};",
+                ]
+                speed = max(1, min(100, round(100 * item.speed_fraction)))
+                motion = f"J P[{label}] {speed}% FINE"
+            else:
+                x, y, z, w, p, r = wpr(program.in_user(item.T_target))
+                config = fanuc_config(axes, item.configuration)
+                positions += [
+                    f"P[{label}]{{",
+                    "   GP1:",
+                    f"{where}\t\tCONFIG : '{config}',",
+                    f"\tX = {_f(x):>12}  mm,\tY = {_f(y):>12}  mm,\tZ = {_f(z):>12}  mm,",
+                    f"\tW = {_f(w):>12} deg,\tP = {_f(p):>12} deg,\tR = {_f(r):>12} deg",
+                    "};",
+                ]
+                speed = max(1, round(item.tool_speed * 1000))
+                motion = f"L P[{label}] {speed}mm/sec FINE"
+            if item.guard:
+                body += _comments(f"a search until {item.guard}: skips on DI[{signals.sensor}]")
+                body.append(f"SKIP CONDITION DI[{signals.sensor}]=ON")
+                body.append(f"{motion} Skip,LBL[{label}]")
+                body.append(f"LBL[{label}]")
+            else:
+                body.append(motion)
+        elif isinstance(item, Output):
+            body += _comments(f"{item.where}: {item.text}")
+            state = "ON" if item.value else "OFF"
+            body.append(f"DO[{signals.output(item.signal)}]={state}")
+        elif isinstance(item, Wait):
+            body += _comments(f"{item.where}: {item.text}")
+            body.append(f"WAIT {item.seconds:.2f}(sec)")
+        elif isinstance(item, Comment):
+            body += _comments(f"{item.where}: {item.text}")
+        elif isinstance(item, Record):
+            body += _comments(f"{item.where}: {item.text}")
+            body += _comments(f"the search's stop: record PR[{PROBE_PR}] for rworld calibrate")
+            body.append(f"PR[{PROBE_PR}]=LPOS")
+    numbered = []
+    for k, line in enumerate(body, start=1):
+        moves = line[:2] in ("J ", "L ")  # a motion line has its type after the number
+        numbered.append(f"{k:4d}:{line[0]} {line[2:]} ;" if moves else f"{k:4d}:  {line} ;")
+    text = [
+        f"/PROG  {name}",
+        "/ATTR",
+        "OWNER\t\t= MNEDITOR;",
+        'COMMENT\t\t= "rworld";',
+        "PROG_SIZE\t= 0;",
+        "CREATE\t\t= DATE 00-01-01  TIME 00:00:00;",
+        "MODIFIED\t= DATE 00-01-01  TIME 00:00:00;",
+        "FILE_NAME\t= ;",
+        "VERSION\t\t= 0;",
+        f"LINE_COUNT\t= {len(numbered)};",
+        "MEMORY_SIZE\t= 0;",
+        "PROTECT\t\t= READ_WRITE;",
+        "TCD:  STACK_SIZE\t= 0,",
+        "      TASK_PRIORITY\t= 50,",
+        "      TIME_SLICE\t= 0,",
+        "      BUSY_LAMP_OFF\t= 0,",
+        "      ABORT_REQUEST\t= 0,",
+        "      PAUSE_REQUEST\t= 0;",
+        "DEFAULT_GROUP\t= 1,*,*,*,*;",
+        "CONTROL_CODE\t= 00000000 00000000;",
+        "/MN",
+        *numbered,
+        "/POS",
+        *positions,
+        "/END",
+        "",
+    ]
+    return {f"{name}.ls": "\n".join(text)}

@@ -1,0 +1,251 @@
+"""Per vendor, a robot from the vendor's ROS description package, imported as users do, with a
+tool on its flange, joint and linear moves and a user frame: every target the exported program
+holds is read back by the independent readers (tests/export/readers.py: regex and scipy) and
+checked against Pinocchio's forward kinematics of the original URDF in the controller's own
+conventions - flange `tool0`, base `base`, UR rotation vector, KUKA A B C, ABB quaternion,
+FANUC W P R, mm and degrees, the controller's axis values (ABB's and FANUC's J2-J3 linkage, as
+ROS-Industrial's drivers convert them) - and configuration data consistent with the solution.
+"""
+
+from __future__ import annotations
+
+from importlib.metadata import distribution
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+import yaml
+
+from rworld_cli.api import export_program, import_urdf
+from rworld_cli.schema.programs import load_run
+from rworld_cli.simulate.engine import simulate
+from tests.export import readers
+
+DATA = Path(__file__).parents[1] / "data"
+SHARE = Path(str(distribution("example-robot-data").locate_file("cmeel.prefix/share")))
+
+
+def _undo_linkage(axes: np.ndarray, vendor: str) -> np.ndarray:
+    """The URDF's joint values of the controller's axis values, as ROS-Industrial's state
+    relays compute them: ``J3 = J3' + factor J2'`` with factor -1 for the coupled ABB arms
+    (abb_driver, J23_coupled) and +1 for FANUC (fanuc_driver, J23_factor 1)."""
+    q = np.array(axes, dtype=float)
+    factor = {"abb": -1.0, "fanuc": 1.0}.get(vendor, 0.0)
+    q[2] = q[2] + factor * q[1]
+    return q
+
+
+# name: (URDF, format, vendor, a target for the tool tip (world = base_link), the user frame)
+VENDORS = {
+    "ur5": (
+        SHARE / "example-robot-data" / "robots" / "ur_description" / "urdf" / "ur5_robot.urdf",
+        "urscript",
+        "ur",
+        {"xyz": [0.35, 0.25, 0.3], "rpy": [3.1, 0.1, 0.4]},
+    ),
+    "kr16": (
+        DATA / "kuka_kr16" / "kr16_2.urdf",
+        "krl",
+        "kuka",
+        {"xyz": [1.2, 0.3, 0.6], "rpy": [3.0, 0.2, 0.5]},
+    ),
+    "irb2400": (
+        DATA / "abb_irb2400" / "irb2400.urdf",
+        "rapid",
+        "abb",
+        {"xyz": [1.0, 0.25, 0.6], "rpy": [3.0, 0.15, 0.4]},
+    ),
+    "lrmate200id": (
+        DATA / "fanuc_lrmate200id" / "lrmate200id.urdf",
+        "fanuc",
+        "fanuc",
+        {"xyz": [0.45, 0.1, 0.25], "rpy": [3.0, 0.1, 0.3]},
+    ),
+}
+TIP = {"xyz": [0.01, -0.02, 0.12], "rpy": [0.0, 0.2, 0.1]}  # the tool on tool0 [m, rad]
+USER = {"xyz": [0.3, -0.2, 0.1], "rpy": [0.0, 0.0, 0.5]}  # the user frame "fixture"
+PROGRAM = """\
+device: {device}
+units: {{length: mm, angle: deg}}
+steps:
+  - move: {{to: target, tcp: tip, offset: {{xyz: [0, 0, -80]}}, config: {{elbow: up}}}}
+  - move: {{to: target, tcp: tip, motion: linear, speed: 0.3}}
+  - move: {{to: target, tcp: tip, offset: {{xyz: [40, -30, -60], rpy: [0, 10, 0]}}, motion: linear}}
+  - move: {{to: target, tcp: tip, offset: {{xyz: [0, 0, -100]}}, config: {{wrist: flip}}}}
+  - move: {{to: target, tcp: tip, offset: {{xyz: [0, 30, -100]}}, motion: linear}}
+"""
+
+
+def _T(pose: dict) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = pin.rpy.rpyToMatrix(*pose.get("rpy", [0, 0, 0]))
+    T[:3, 3] = pose["xyz"]
+    return T
+
+
+@pytest.fixture(scope="module", params=list(VENDORS))
+def vendor_cell(request, tmp_path_factory):
+    """The vendor's robot (meshes stripped: not vendored) with a tool, a target, a user frame
+    and the program, as import left it plus what a user adds."""
+    from lxml import etree
+
+    key = request.param
+    urdf_path, fmt, vendor, target = VENDORS[key]
+    folder = tmp_path_factory.mktemp(key)
+    tree = etree.parse(str(urdf_path))
+    for el in tree.xpath("//visual | //collision"):
+        el.getparent().remove(el)
+    urdf = folder / urdf_path.name
+    tree.write(str(urdf))
+    root = folder / "cell"
+    imported = import_urdf(str(urdf), str(root))
+    cell = yaml.safe_load((root / "cell.yaml").read_text())
+    [device] = cell["devices"]
+    assert device["controller"]["vendor"] == vendor
+    assert device["controller"]["flange"] == "tool0" and device["controller"]["base"] == "base"
+    for joint in device["joints"]:
+        joint["limits"]["acceleration"] = 10.0
+    device["tcps"].append({"name": "tip", "parent": "tool0"})
+    cell["frames"] = [{"name": "target"}, {"name": "fixture"}]
+    (root / "cell.yaml").write_text(yaml.safe_dump(cell, sort_keys=False))
+    poses = yaml.safe_load((root / "poses.yaml").read_text())
+    poses["poses"][f"{imported.device}.tip"] = TIP
+    poses["poses"]["target"] = target
+    poses["poses"]["fixture"] = USER
+    (root / "poses.yaml").write_text(yaml.safe_dump(poses, sort_keys=False))
+    (root / "programs").mkdir()
+    (root / "programs" / "pick.yaml").write_text(PROGRAM.format(device=imported.device))
+    return key, root, imported.device
+
+
+def _pinocchio(urdf: Path, q: np.ndarray) -> np.ndarray:
+    """The tool tip in the controller's base frame (URDF 'base'), by Pinocchio alone."""
+    model = pin.buildModelFromUrdf(str(urdf))
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q)
+    base = data.oMf[model.getFrameId("base")].homogeneous
+    flange = data.oMf[model.getFrameId("tool0")].homogeneous
+    return np.linalg.solve(base, flange @ _T(TIP))
+
+
+def _geometry(urdf: Path, q: np.ndarray) -> tuple[bool, bool]:
+    """(wrist centre in front of axis 1, elbow up) by Pinocchio's joint placements: the wrist
+    centre is joint 5's origin; seen in the frame that turns with joint 1 (x forward, z up), the
+    elbow is up when joint 3 lies above the line from joint 2 to the wrist centre."""
+    model = pin.buildModelFromUrdf(str(urdf))
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    frame1 = data.oMi[1]
+    P2, P3, W = (frame1.actInv(data.oMi[k]).translation for k in (2, 3, 5))
+    a, b = W - P2, P3 - P2
+    return bool(W[0] >= 0), bool(a[0] * b[2] - a[2] * b[0] > 0)
+
+
+def _read(fmt: str, out: Path) -> tuple[list, list]:
+    if fmt == "urscript":
+        text = (out / "pick.script").read_text()
+        return readers.urscript(text), readers.urscript_tcps(text)
+    if fmt == "krl":
+        src, dat = (out / "pick.src").read_text(), (out / "pick.dat").read_text()
+        return readers.krl(src, dat), readers.krl_tools(src)
+    if fmt == "rapid":
+        text = (out / "pick.mod").read_text()
+        return readers.rapid(text), readers.rapid_tools(text)
+    text = (out / "PICK.ls").read_text()
+    return readers.fanuc(text), readers.fanuc_tools(text)
+
+
+def test_every_target_is_the_robots_own(vendor_cell, tmp_path):
+    key, root, device = vendor_cell
+    urdf, fmt, vendor, _ = VENDORS[key]
+    out = tmp_path / "out"
+    result_export = export_program(
+        str(root), str(root / "programs" / "pick.yaml"), None, str(out), frame="fixture"
+    )
+    assert result_export.format == fmt  # the controller's vendor picks the language
+    read, tools = _read(fmt, out)
+    np.testing.assert_allclose(tools[0], _T(TIP), atol=1e-6)  # tool data in tool0
+    result = simulate(load_run(str(root), str(root / "programs" / "pick.yaml")), collisions=False)
+    moves = [r.move for r in result.resolved[device] if r.move is not None]
+    assert [kind for kind, _ in read] == ["joint", "linear", "linear", "joint", "linear"]
+    worst = {"mm": 0.0, "deg": 0.0, "joint deg": 0.0}
+    for (kind, value), move in zip(read, moves):
+        if kind == "joint":  # the controller's axes, back through the driver's linkage
+            q = _undo_linkage(value, vendor)
+            worst["joint deg"] = max(worst["joint deg"], np.degrees(np.abs(q - move.q_goal)).max())
+            value = _pinocchio(urdf, q)
+        expected = _pinocchio(urdf, move.q_goal)
+        worst["mm"] = max(worst["mm"], 1000 * np.abs(value[:3, 3] - expected[:3, 3]).max())
+        angle = np.degrees(np.linalg.norm(pin.log3(value[:3, :3].T @ expected[:3, :3])))
+        worst["deg"] = max(worst["deg"], angle)
+    print(f"{key}: {worst}")  # pytest -s
+    assert worst["mm"] < 0.01 and worst["deg"] < 0.001 and worst["joint deg"] < 1e-6, worst
+
+
+def test_configuration_data_is_the_solutions(vendor_cell, tmp_path):
+    """RAPID confdata, KRL Status and Turn, FANUC CONFIG: consistent with the joint solution
+    each target was reached with (Pinocchio's geometry, the controller's axis values); the
+    step's config (elbow up, then wrist flip) is the solution taken."""
+    key, root, device = vendor_cell
+    urdf, fmt, vendor, _ = VENDORS[key]
+    out = tmp_path / "out"
+    export_program(str(root), str(root / "programs" / "pick.yaml"), fmt, str(out))
+    result = simulate(load_run(str(root), str(root / "programs" / "pick.yaml")), collisions=False)
+    moves = [r.move for r in result.resolved[device] if r.move is not None]
+    # the controller's axes [deg]: the inverse of the driver's relay
+    factor = {"abb": 1.0, "fanuc": -1.0}.get(vendor, 0.0)
+    axes = []
+    for m in moves:
+        a = m.q_goal.copy()
+        a[2] = m.q_goal[2] + factor * m.q_goal[1]
+        axes.append(np.degrees(a))
+    geometry = [_geometry(urdf, m.q_goal) for m in moves]
+    assert geometry[0][1]  # config: {elbow: up}
+    # config: {wrist: flip}: axis 5 turned against the noflip sense (KUKA A5 < 0, ABB axis 5 < 0,
+    # FANUC J5 > 0: the tool bent up from a forearm reaching forward)
+    flip_sign = {"kuka": -1, "abb": -1, "fanuc": 1, "ur": None}[vendor]
+    if flip_sign is not None:
+        assert np.sign(axes[3][4]) == flip_sign
+    if fmt == "rapid":
+        text = (out / "pick.mod").read_text()
+        for cf, a, (front, up) in zip(readers.rapid_configurations(text), axes, geometry):
+            quarters = [int(np.floor(a[i] / 90.0)) for i in (0, 3, 5)]
+            cfx = 4 * (not front) + 2 * (not up) + (a[4] < 0)
+            assert cf == quarters + [cfx]
+    elif fmt == "krl":
+        dat = (out / "pick.dat").read_text()
+        import re
+
+        found = [tuple(map(int, st)) for st in re.findall(r"S (\d+), T (\d+)", dat)]
+        linear = [(a, g) for a, g, m in zip(axes, geometry, moves) if m.motion == "linear"]
+        assert len(found) == len(linear) == 3
+        for (status, turn), (a, (front, up)) in zip(found, linear):
+            assert status == (not front) + 2 * up + 4 * (a[4] <= 0)
+            assert turn == sum(1 << i for i in range(6) if a[i] < 0)
+    elif fmt == "fanuc":
+        text = (out / "PICK.ls").read_text()
+        linear = [(a, g) for a, g, m in zip(axes, geometry, moves) if m.motion == "linear"]
+        configs = readers.fanuc_configurations(text)
+        assert len(configs) == len(linear) == 3
+        for config, (a, (front, up)) in zip(configs, linear):
+            letters, *turns = [part.strip() for part in config.split(",")]
+            flip, elbow, side = letters.split()
+            assert flip == ("F" if a[4] > 0 else "N")
+            assert elbow == ("U" if up else "D") and side == ("T" if front else "B")
+            # the turn number k: -180 < angle - 360 k <= 180
+            assert [int(t) for t in turns] == [int(np.ceil((a[i] - 180) / 360)) for i in (3, 4, 5)]
+
+
+def test_import_states_the_vendors_linkage():
+    """What import assumed, per ROS-Industrial's drivers: ABB's coupled IRB 2400 adds joint 2 to
+    axis 3, FANUC subtracts it; KUKA and UR are uncoupled."""
+    from rworld_cli.schema.urdf_cell import vendor_conventions
+
+    assert vendor_conventions("abb_irb2400") == ("abb", 1.0)
+    assert vendor_conventions("abb_irb4600_60_205") == ("abb", None)
+    assert vendor_conventions("fanuc_lrmate200id") == ("fanuc", -1.0)
+    assert vendor_conventions("fanuc_m430ia2f") == ("fanuc", 1.0)
+    assert vendor_conventions("kuka_kr16_2") == ("kuka", None)
+    assert vendor_conventions("ur5") == ("ur", None)
+    assert vendor_conventions("my_robot") == (None, None)
