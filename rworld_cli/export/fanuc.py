@@ -169,7 +169,7 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
     for k, line in enumerate(body, start=1):
         moves = line[:2] in ("J ", "L ")  # a motion line has its type after the number
         numbered.append(f"{k:4d}:{line[0]} {line[2:]} ;" if moves else f"{k:4d}:  {line} ;")
-    text = [
+    lines = [
         f"/PROG  {name}",
         "/ATTR",
         "OWNER\t\t= MNEDITOR;",
@@ -197,4 +197,4 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         "/END",
         "",
     ]
-    return {f"{name}.ls": "\n".join(text)}
+    return {f"{name}.ls": "\n".join(lines)}
