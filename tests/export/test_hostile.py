@@ -22,8 +22,9 @@ STATEMENTS = {  # a line each language would run
     "urscript": f"movej([0, 0, 0, 0, 0, 0], a=9, v=9) # {MARKER}",
     "krl": f"PTP {{A1 0}} ; {MARKER}",
     "rapid": f"MoveAbsJ [[0,0,0,0,0,0],[9E9]], v1000, fine, tool0; ! {MARKER}",
+    "fanuc": f"  9:J P[1] 100% FINE ; {MARKER}[1]=ON ;",
 }
-FILES = {"urscript": ".script", "krl": ".src", "rapid": ".mod"}
+FILES = {"urscript": ".script", "krl": ".src", "rapid": ".mod", "fanuc": ".ls"}
 COMMENT = {"urscript": "#", "krl": ";", "rapid": "!"}
 # the statements that name the program, and some words each language reserves (written here
 # from the vendors' manuals, not taken from rworld)
@@ -31,16 +32,28 @@ NAMED = {
     "urscript": r"^\s*def\s+(\w+)\s*\(",
     "krl": r"^\s*DEF\s+(\w+)\s*\(",
     "rapid": r"^\s*MODULE\s+(\w+)",
+    "fanuc": r"^/PROG\s+(\w+)",
 }
 KEYWORDS = {
     "urscript": {"def", "end", "movej", "movel", "thread", "while", "if", "sleep", "textmsg"},
     "krl": {"def", "end", "ptp", "lin", "if", "wait", "decl", "interrupt", "deffct", "main"},
     "rapid": {"module", "endmodule", "proc", "endproc", "main", "movel", "movej", "tooldata"},
+    "fanuc": {"j", "l", "end", "main", "wait", "call", "jmp", "lbl", "pr", "do"},
 }
 
 
 def code_outside_comments_and_strings(text: str, language: str) -> str:
-    """What the controller runs: every line without its comment and its string literals."""
+    """What the controller runs: every line without its comment and its string literals.  A
+    FANUC TP line is ``N:  instruction ;``; a remark runs from ``!`` to the first ``;``, which
+    ends the instruction - what follows it on the line would be read as the next one."""
+    if language == "fanuc":
+        kept = []
+        for line in text.split("\n"):
+            body = re.sub(r"^\s*\d+:\s*", "", line)
+            if body.startswith("!"):
+                body = body.split(";", 1)[1] if ";" in body else ""
+            kept.append(body)
+        return "\n".join(kept)
     out = []
     for line in text.split("\n"):  # controllers end lines at \n; a \r is part of the line
         kept, quoted = [], False
@@ -70,7 +83,7 @@ def _export(tmp_path, folder: str, stem: str, language: str) -> str:
     return written.read_text()
 
 
-@pytest.mark.parametrize("language", ["urscript", "krl", "rapid"])
+@pytest.mark.parametrize("language", ["urscript", "krl", "rapid", "fanuc"])
 def test_folder_and_file_names_cannot_inject_statements(tmp_path, language):
     payload = f"x\n{STATEMENTS[language]}\r\n"
     text = _export(tmp_path, f"cell{payload}", f"pick{payload}", language)
@@ -82,7 +95,7 @@ def test_folder_and_file_names_cannot_inject_statements(tmp_path, language):
     assert "\r" not in text
 
 
-@pytest.mark.parametrize("language", ["urscript", "krl", "rapid"])
+@pytest.mark.parametrize("language", ["urscript", "krl", "rapid", "fanuc"])
 @pytest.mark.parametrize(
     "stem", ["movej", "end", "DEF", "PTP", "PROC", "MODULE", "ENDPROC", "main"]
 )

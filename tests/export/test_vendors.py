@@ -249,3 +249,41 @@ def test_import_states_the_vendors_linkage():
     assert vendor_conventions("kuka_kr16_2") == ("kuka", None)
     assert vendor_conventions("ur5") == ("ur", None)
     assert vendor_conventions("my_robot") == (None, None)
+
+
+@pytest.mark.parametrize(
+    "step, code, message",
+    [
+        ("{to: ready, config: {elbow: up}}", 2, "'ready' is a joint position"),
+        ("{to: workpiece.grasp, tcp: probe, config: {near: [0, 0, 0]}}", 2, "3 value(s) for the 6"),
+        ("{to: workpiece.grasp, tcp: probe, config: {elbow: sideways}}", 2, "'up' or 'down'"),
+        (
+            "{to: workpiece.grasp, tcp: probe, motion: linear, config: {near: [0, 0, 0, 0, 0, 0]}}",
+            2,
+            "'near' is for joint moves",
+        ),
+        (
+            "{to: workpiece.grasp, tcp: probe, offset: {xyz: [0, 0, -100]}, config: {wrist: flip}}",
+            2,
+            "with wrist flip (one with shoulder front, elbow up, wrist noflip does)",
+        ),
+    ],
+)
+def test_a_configuration_that_cannot_be_is_located(tmp_path, cli, step, code, message):
+    """Bad config: exit 2 at its line; so is one no solution within the limits has (the Puma's
+    joint 4 spans 280 deg: no flip here), naming the step and the configuration that reaches,
+    as 'check' does for every unreachable target."""
+    import shutil
+
+    from tests.conftest import WORKCELLS
+
+    cell = tmp_path / "puma"
+    shutil.copytree(WORKCELLS / "puma560", cell)
+    program = cell / "programs" / "config.yaml"
+    program.write_text(
+        "device: puma\nunits: {length: mm, angle: deg}\nsteps:\n  - move: {to: ready}\n"
+        f"  - move: {step}\n"
+    )
+    out = cli(["check", str(cell), str(program)])
+    assert out.exit_code == code, out.output
+    assert message in out.output and "config.yaml:5" in out.output, out.output
