@@ -71,6 +71,7 @@ def import_urdf(
     force: bool = False,
     locks: dict[str, str] | None = None,
     srdf: str | None = None,
+    overlap_states: int = 8,
 ) -> UrdfImport:
     """Write a cell (``cell.yaml``, ``poses.yaml``, ``meshes/``) for a URDF robot's chain.
 
@@ -90,6 +91,10 @@ def import_urdf(
         See :func:`rworld_cli.schema.urdf_cell.cell_from_urdf`.
     srdf : str, optional
         A MoveIt SRDF whose disabled collision pairs become the cell's ``allowed_contacts``.
+    overlap_states : int
+        Link pairs that overlap at the home and at ``overlap_states - 1`` seeded joint states
+        (meshes drawn into each other at a joint) become ``allowed_contacts`` too, each with a
+        warning; 0 skips the check.
 
     Raises
     ------
@@ -131,6 +136,25 @@ def import_urdf(
             raise RuntimeError(
                 "the imported cell does not load: " + "; ".join(exc.lines()[:5])
             ) from exc
+        overlaps = _always_overlapping(
+            loaded.cell, imported.device, overlap_states, str(out / "cell.yaml")
+        )
+        allow = [(a, b, reason) for a, b, reason, _, allowed in overlaps if allowed]
+        if allow:  # written as allowed contacts, the cell written and loaded again
+            imported = cell_from_urdf(
+                robot,
+                name,
+                base,
+                tip,
+                tcp,
+                device_name,
+                locks,
+                disabled,
+                allow,
+            )
+            atomic_write_bytes(out / "cell.yaml", imported.cell_text.encode())
+            loaded = load_cell(staging)
+        imported.warnings.extend(warning for _, _, _, warning, _ in overlaps)
         load_warnings = [
             Issue(
                 w.file.replace(str(staging), str(out)),
@@ -155,6 +179,44 @@ def import_urdf(
         imported.renamed,
         warnings + imported.warnings + load_warnings,
     )
+
+
+def _always_overlapping(
+    cell, device: str, states: int, file: str
+) -> list[tuple[str, str, str, Issue, bool]]:
+    """(body, body, reason, warning, to allow) of the pairs of ``device``'s bodies that overlap
+    at every one of ``states`` joint states; pairs with the base are only warned about (in
+    ``allowed_contacts`` a device's name stands for all its bodies).  Bodies that are no closed
+    solid get one warning (None as reason)."""
+    if states <= 0:
+        return []
+    from ..collision.selfoverlap import always_overlapping
+
+    found = always_overlapping(cell, device, states)
+    out = []
+    for o in found.overlaps:
+        amount = f"{o.volume * 1e6:.3g} cm^3"
+        reason = f"overlap at all {states} joint states sampled at import (at least {amount})"
+        with_base = device in (o.a, o.b)
+        what = (
+            "check them with care: a pair with the base cannot be allowed alone"
+            if with_base
+            else "written to allowed_contacts, as MoveIt disables its 'Always' pairs; remove "
+            "the entry to have them checked"
+        )
+        message = (
+            f"'{o.a}' and '{o.b}' overlap at all {states} joint states sampled (by at least "
+            f"{amount}): their meshes are drawn into each other; {what}"
+        )
+        out.append(
+            (o.a, o.b, reason, Issue(file, 0, 0, "collision", message, "warning"), not with_base)
+        )
+    if found.unchecked:
+        message = (
+            f"not checked for overlapping links: {', '.join(found.unchecked)} (no closed solid)"
+        )
+        out.append(("", "", "", Issue(file, 0, 0, "collision", message, "warning"), False))
+    return out
 
 
 @dataclass

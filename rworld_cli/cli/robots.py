@@ -58,11 +58,31 @@ def import_group():
     type=click.Path(dir_okay=False),
     help="A MoveIt SRDF: its disabled collision pairs become the cell's allowed_contacts.",
 )
+@click.option(
+    "--overlap-states",
+    default=8,
+    show_default=True,
+    type=click.IntRange(min=0),
+    metavar="N",
+    help="Link pairs that overlap at the home and N-1 seeded joint states become "
+    "allowed_contacts, each with a warning; 0 skips the check.",
+)
 @click.option("--force", is_flag=True, help="Overwrite cell.yaml, poses.yaml and meshes in DIR.")
 @json_option
 @handle_errors
 def import_urdf(
-    urdf, output, package_paths, base, tip, tcp, device_name, locks, srdf, force, json_output
+    urdf,
+    output,
+    package_paths,
+    base,
+    tip,
+    tcp,
+    device_name,
+    locks,
+    srdf,
+    overlap_states,
+    force,
+    json_output,
 ):
     """Write a cell for the serial chain of a URDF robot: cell.yaml, poses.yaml, meshes/.
 
@@ -72,7 +92,9 @@ def import_urdf(
     preferred over visual) - and kept as frames.  Moving joints off the chain are locked at 0
     (or at their --lock value), with a warning.  Mimic joints on the chain, floating and
     planar joints are refused.  xacro files must be expanded first (xacro robot.urdf.xacro >
-    robot.urdf).
+    robot.urdf).  Link pairs whose meshes overlap at every joint state sampled
+    (--overlap-states) are written to allowed_contacts with a warning, as MoveIt disables its
+    'Always' pairs; --srdf takes a MoveIt SRDF's disabled pairs.
     Nothing is written unless the whole import succeeds.
 
     \b
@@ -93,7 +115,17 @@ def import_urdf(
             )
         lock_values[name.strip()] = value.strip()
     result = run(
-        urdf, output, list(package_paths), base, tip, tcp, device_name, force, lock_values, srdf
+        urdf,
+        output,
+        list(package_paths),
+        base,
+        tip,
+        tcp,
+        device_name,
+        force,
+        lock_values,
+        srdf,
+        overlap_states,
     )
     if json_output:
         emit_json(result.as_dict())

@@ -212,7 +212,10 @@ def _convex_parts(mesh_file: str, scale: float, T_bytes: bytes, mtime_ns: int = 
         if not part.is_watertight:
             return None
         hull = part.convex_hull
-        if hull_deviation(hull.triangles, part.triangles) > HULL_DEVIATION:
+        if (
+            hull_deviation(hull.triangles, part.triangles, stop_above=HULL_DEVIATION)
+            > HULL_DEVIATION
+        ):
             return None
         vertices = np.asarray(hull.vertices, dtype=float)
         centred = vertices - vertices.mean(axis=0)
@@ -221,7 +224,9 @@ def _convex_parts(mesh_file: str, scale: float, T_bytes: bytes, mtime_ns: int = 
     return tuple(out) if out else None
 
 
-def hull_deviation(hull: np.ndarray, part: np.ndarray, per_edge: int = 3) -> float:
+def hull_deviation(
+    hull: np.ndarray, part: np.ndarray, per_edge: int = 3, stop_above: float = np.inf
+) -> float:
     """How far a hull stands off the solid it wraps: the largest distance from points on the
     hull's faces to the part's surface [m], over a barycentric grid of ``per_edge`` + 1 points a
     side on each hull face that is not a face of the part itself.
@@ -230,6 +235,9 @@ def hull_deviation(hull: np.ndarray, part: np.ndarray, per_edge: int = 3) -> flo
     ----------
     hull, part : ndarray, shape (F, 3, 3)
         Triangles of the hull and of the part.
+    stop_above : float
+        Return as soon as a distance above this is found (a part that is not convex is told in
+        its first chunk of points, not after all of them).
     """
 
     def keys(tri: np.ndarray) -> set:
@@ -251,7 +259,9 @@ def hull_deviation(hull: np.ndarray, part: np.ndarray, per_edge: int = 3) -> flo
     for start in range(0, len(points), 256):  # (256, F) at a time
         chunk = points[start : start + 256]
         best[start : start + 256] = point_triangle_distance(chunk[:, None, :], part[None]).min(1)
-    return float(best.max(initial=0.0))
+        if best[start : start + 256].max() > stop_above:
+            break
+    return float(best[np.isfinite(best)].max(initial=0.0))
 
 
 def point_triangle_distance(p: np.ndarray, tri: np.ndarray) -> np.ndarray:

@@ -258,6 +258,7 @@ def cell_from_urdf(
     device_name: str | None = None,
     locks: dict[str, str] | None = None,
     disabled=(),
+    always=(),
 ) -> ImportedCell:
     """The cell files for the serial chain ``base`` -> ``tip`` of a URDF robot.
 
@@ -279,6 +280,10 @@ def cell_from_urdf(
         An SRDF's disabled collision pairs: the pairs of imported bodies they name become the
         cell's ``allowed_contacts`` (pairs inside one merged body, or off the imported part,
         need none).
+    always : iterable of (body, body, reason)
+        Pairs of the device's link bodies (``device.link``) that overlap at every joint state
+        sampled (:func:`rworld_cli.collision.selfoverlap.always_overlapping`): allowed too, as
+        MoveIt's setup assistant disables its "Always" pairs.
 
     Raises
     ------
@@ -558,6 +563,10 @@ def cell_from_urdf(
         "devices": [device_doc],
     }
     allowed = _allowed_from_srdf(disabled, placed, heads, device)
+    allowed_pairs = {tuple(entry["between"]) for entry in allowed}
+    for a, b, reason in always:
+        if (min(a, b), max(a, b)) not in allowed_pairs:
+            allowed.append({"between": [min(a, b), max(a, b)], "reason": reason})
     if allowed:
         cell_doc["allowed_contacts"] = allowed
     cell_text = head + yaml.dump(cell_doc, Dumper=_Dumper, sort_keys=False, width=100)

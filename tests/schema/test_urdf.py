@@ -467,3 +467,54 @@ def test_export_includes_what_the_device_carries(tmp_path):
     theirs = pin.rnea(model, data, q, np.zeros(6), np.zeros(6))
     np.testing.assert_allclose(theirs, ours, atol=1e-9)
     assert "carried_hand_a" in {f.name for f in model.frames}
+
+
+IRB2400 = Path(__file__).parents[1] / "data" / "abb_irb2400"
+
+
+def test_link_pairs_that_always_overlap_are_reported_and_allowed(tmp_path, cli):
+    """The IRB 2400's collision meshes (ROS-Industrial) put link_6 inside link_4's wrist at every
+    joint state: import finds that pair alone (MoveIt's SRDF for this robot disables it too,
+    'Default'), allows it with the depth in the reason, and warns. The cell then checks clean;
+    --overlap-states 0 leaves it out and the check finds the overlap."""
+    import yaml
+
+    out = tmp_path / "irb"
+    result = cli(
+        ["import", "urdf", str(IRB2400 / "irb2400.urdf"), "-o", str(out)]
+        + ["--package-path", str(IRB2400)]
+    )
+    assert result.exit_code == 0, result.output
+    assert "'abb_irb2400.link_4' and 'abb_irb2400.link_6' overlap at all 8 joint states" in (
+        result.output
+    )
+    allowed = yaml.safe_load((out / "cell.yaml").read_text())["allowed_contacts"]
+    assert [a["between"] for a in allowed] == [["abb_irb2400.link_4", "abb_irb2400.link_6"]]
+    assert "overlap at all 8 joint states sampled at import" in allowed[0]["reason"]
+    from rworld_cli.collision.selfoverlap import always_overlapping
+    from rworld_cli.schema.loader import load_cell
+
+    cell = load_cell(str(out)).cell
+    assert always_overlapping(cell, "abb_irb2400").overlaps == []  # allowed now
+    bare = tmp_path / "bare"
+    result = cli(
+        ["import", "urdf", str(IRB2400 / "irb2400.urdf"), "-o", str(bare)]
+        + ["--package-path", str(IRB2400), "--overlap-states", "0"]
+    )
+    assert result.exit_code == 0 and "overlap at all" not in result.output
+    assert "allowed_contacts" not in yaml.safe_load((bare / "cell.yaml").read_text())
+    [pair] = always_overlapping(load_cell(str(bare)).cell, "abb_irb2400").overlaps
+    assert (pair.a, pair.b) == ("abb_irb2400.link_4", "abb_irb2400.link_6")
+    assert pair.volume > 1e-4  # 100 cm^3 and more: no touch
+    # the collision checker's own narrow phase (GJK on the convex parts) sees the same pair
+    # overlap at the home pose
+    from rworld_cli.collision.bodies import collision_model, distances
+    from rworld_cli.world.tree import World
+
+    cell = load_cell(str(bare)).cell
+    model = collision_model(cell)
+    world = World(cell)
+    index = {b.label: k for k, b in enumerate(model.bodies)}
+    i, j = index["abb_irb2400.link_4"], index["abb_irb2400.link_6"]
+    T = [world.T_world(model.bodies[k].frame)[None] for k in (i, j)]
+    assert distances(model.bodies, np.array([i]), np.array([j]), *T).overlap[0]
