@@ -13,6 +13,7 @@ from .calibration import (  # noqa: F401
     MeasurementPlan,
     analyze_calibration,
     calibrate_cell,
+    parse_angle,
     parse_length,
     plan_cell_measurements,
     simulate_measurement_file,

@@ -26,6 +26,20 @@ def parse_length(text: str, default_unit: str = "mm") -> float:
         raise UserError(str(exc)) from None
 
 
+def parse_angle(text: str, what: str = "angle") -> float:
+    """'0.001deg', '2e-5rad' -> radians (>= 0); the unit is required: rworld never guesses it."""
+    import math
+
+    from ..units import ANGLE_WORDS, parse_quantity
+
+    value = parse_quantity(text, ANGLE_WORDS, "")
+    if not (value >= 0 and math.isfinite(value)):
+        raise UserError(
+            f"{what} '{text}' is not an angle of at least 0 with its unit: write e.g. 0.001deg"
+        )
+    return value
+
+
 @dataclass
 class CalibrationRun:
     result: CalibrationResult
@@ -380,14 +394,17 @@ def simulate_probe_measurements(
     sigma: float,
     seed: int = 0,
     progress=None,
+    joint_sigma: float = 0.0,
 ) -> dict:
     """Run a probe program against a 'true' cell and write the probed points as a measurement
     file (``rworld measure --simulate --program``).
 
     The program runs on the nominal cell (its targets are where the robot believes the parts
-    are); each guarded move's contact is found on the truth cell, where the same joint values
-    carry the ball along the same line (:func:`~rworld_cli.calibration.probing.probe_run`),
-    and Gaussian noise ``sigma`` [m] is added.
+    are); the same joint values move the truth cell's device (its own DH rows or joint frames,
+    base and TCP), each guarded move's contact is found on the truth cell's parts, and the
+    point recorded is what the controller reports: its nominal forward kinematics at the
+    contact's joint values (:func:`~rworld_cli.calibration.probing.probe_run`), with
+    joint-encoder noise ``joint_sigma`` [rad] and Gaussian noise ``sigma`` [m].
 
     Raises
     ------
@@ -413,8 +430,10 @@ def simulate_probe_measurements(
         raise UserError(
             f"the truth cell {truth_path} must have the same features and sensors as {cell_path}"
         )
+    if not (joint_sigma >= 0 and np.isfinite(joint_sigma)):
+        raise UserError(f"the joint sigma must be a finite angle >= 0, got {joint_sigma}")
     result = simulate(run, progress, collisions=False)
-    probed = probe_run(result, run, truth)
+    probed = probe_run(result, run, truth, joint_sigma, seed)
     if not probed:
         raise UserError(f"{program_path} has no 'probe:' steps: nothing is measured")
     missing = [p for p in probed if p.true is None]
@@ -433,8 +452,8 @@ def simulate_probe_measurements(
         nominal.name,
         [
             "Synthetic measurements (rworld measure --simulate --program)",
-            f"program: {program_path}, truth: {truth_path}, sigma: {sigma * 1000:g} mm, seed: "
-            f"{seed}",
+            f"program: {program_path}, truth: {truth_path}, sigma: {sigma * 1000:g} mm, joint "
+            f"sigma: {np.degrees(joint_sigma):g} deg, seed: {seed}",
         ],
         sigma=sigma if sigma > 0 else 1e-12,
         probe_radius=radius,
@@ -442,6 +461,11 @@ def simulate_probe_measurements(
         date=today(),
     )
     deviation = max(float(np.linalg.norm(p.true - p.nominal)) for p in probed)
+    robot = max(
+        float(np.linalg.norm(p.reported - p.true))
+        for p in probed
+        if p.reported is not None and p.true is not None
+    )
     warnings = []
     off = [p for p in probed if p.off_edge]
     if off:
@@ -458,6 +482,7 @@ def simulate_probe_measurements(
         "points": {k: len(v.points) for k, v in features.items()},
         "written": output,
         "largest_deviation_mm": deviation * 1000,
+        "largest_robot_error_mm": robot * 1000,  # recorded against true contacts
     }
 
 

@@ -236,6 +236,12 @@ def _render(run) -> None:
     help="Run this probe program (from plan-measurements --program) against the truth cell.",
 )
 @click.option(
+    "--joint-sigma",
+    default=None,
+    metavar="ANGLE",
+    help="--program: joint-encoder noise, 1 sigma, with its unit (0.001deg, 2e-5rad).",
+)
+@click.option(
     "-o",
     "--output",
     required=True,
@@ -244,14 +250,31 @@ def _render(run) -> None:
 )
 @json_option
 @handle_errors
-def measure(cell, simulate_flag, truth, sigma, seed, points, frames, program, output, json_output):
+def measure(
+    cell,
+    simulate_flag,
+    truth,
+    sigma,
+    seed,
+    points,
+    frames,
+    program,
+    joint_sigma,
+    output,
+    json_output,
+):
     """Synthetic probe points for trials, demos and tests (--simulate).
 
     Without --program: probes the features of CELL's frame conditions on
     their material (spread over each feature's face), on TRUE_CELL's poses,
-    with Gaussian noise.  With --program: runs the probe program - the robot
-    goes where the nominal cell says, and each guarded move's contact is where
-    its ball first touches the truth cell's parts - and adds the noise.
+    with Gaussian noise: an external instrument (a CMM, a tracker), so the robot
+    plays no part.  With --program: runs the probe program - the controller
+    drives the joint values the nominal cell gives, they move TRUE_CELL's robot
+    (its own DH rows or joint frames, base and TCP), each guarded move stops
+    where that robot's ball first touches the truth cell's parts, and the point
+    recorded is the controller's nominal forward kinematics at that instant -
+    and adds the noise (--joint-sigma: encoder noise too).  A truth robot off
+    its model thus puts its error into the points, as on a real cell.
     Either way it writes a measurement file that 'rworld calibrate' reads.
 
     \b
@@ -263,13 +286,21 @@ def measure(cell, simulate_flag, truth, sigma, seed, points, frames, program, ou
 
     Exit codes: 0 written, 1 a guarded move touches nothing on the truth cell, 2 bad input.
     """
-    from ..api import parse_length, simulate_measurement_file, simulate_probe_measurements
+    from ..api import (
+        parse_angle,
+        parse_length,
+        simulate_measurement_file,
+        simulate_probe_measurements,
+    )
 
+    if joint_sigma is not None and program is None:
+        raise click.UsageError("--joint-sigma is for --program: encoders of the probing robot")
     if program is not None:
+        encoder = parse_angle(joint_sigma, "--joint-sigma") if joint_sigma is not None else 0.0
         info = with_progress(
             not json_output and sys.stderr.isatty(),
             lambda progress: simulate_probe_measurements(
-                cell, truth, program, output, parse_length(sigma), seed, progress
+                cell, truth, program, output, parse_length(sigma), seed, progress, encoder
             ),
             "running the probe program",
         )

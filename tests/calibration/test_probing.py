@@ -462,3 +462,43 @@ sensors:"""
     radial = np.linalg.norm(v - np.outer(v @ f.direction, f.direction), axis=1)
     np.testing.assert_allclose(radial, 0.013, atol=1e-12)  # R + r: the ball outside
     np.testing.assert_allclose(np.einsum("ij,ij->i", c.normals, v), radial, atol=1e-12)
+
+
+# ---------------------------------------------------------------- a robot that is not nominal
+
+
+def test_a_robot_off_its_model_puts_its_error_into_the_probe_points(planned, tmp_path):
+    """Issue 34: the truth cell's Puma has an upper arm (a2) 1 mm longer than its model; the
+    parts are exactly where the nominal cell has them.  The controller drives the nominal joint
+    values and records its nominal forward kinematics, so the recorded contacts are about 1 mm
+    from the true ones, and calibrating from them moves the parts by about that much - the
+    bias robot calibration exists for.  With the nominal robot as truth, recorded and true
+    contacts are the same points and the parts stay within 1 um."""
+    cell_dir, program, _ = planned
+    run = load_run(str(cell_dir), str(program))
+    result = simulate(run, collisions=False)
+    corrections = {}
+    for label, a2 in (("nominal", "0.4318"), ("a2 + 1 mm", "0.4328")):
+        truth_dir = tmp_path / label.replace(" ", "_")
+        shutil.copytree(CELL, truth_dir)
+        text = (truth_dir / "cell.yaml").read_text()
+        assert text.count("a: 0.4318") == 1
+        (truth_dir / "cell.yaml").write_text(text.replace("a: 0.4318", f"a: {a2}"))
+        truth = load_cell(str(truth_dir)).cell
+        points = probe_run(result, run, truth)
+        assert all(p.true is not None and p.reported is not None for p in points)
+        gap = np.array([np.linalg.norm(p.reported - p.true) for p in points])
+        calibrated = calibrate(run.cell, _measured(run.cell, points, 0.0, 0))
+        world = World(truth)
+        corrections[label] = {
+            frame: np.linalg.norm(s.T_world[:3, 3] - world.T_world(frame)[:3, 3])
+            for frame, s in calibrated.solutions.items()
+        }
+        if label == "nominal":
+            assert gap.max() < 1e-12
+        else:  # the arm's millimetre: the wrist, orientation kept, 1 mm along the upper arm
+            print(f"recorded - true: {gap.min() * 1000:.4f}-{gap.max() * 1000:.4f} mm")
+            np.testing.assert_allclose(gap, 1e-3, atol=1e-5)
+    print({k: {f: f"{v * 1000:.4f} mm" for f, v in c.items()} for k, c in corrections.items()})
+    assert max(corrections["nominal"].values()) < 1e-6, corrections
+    assert all(0.9e-3 < c < 1.1e-3 for c in corrections["a2 + 1 mm"].values()), corrections
