@@ -79,6 +79,7 @@ from .planning import (  # noqa: F401
     unlimited_joints,
     write_path_with_knots,
 )
+from .robotcal import RobotCalibrationRun, calibrate_robot  # noqa: F401
 from .robots import UrdfExport, UrdfImport, export_urdf, import_urdf  # noqa: F401
 from .sensing import (  # noqa: F401
     describe_reading,

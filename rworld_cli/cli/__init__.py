@@ -69,6 +69,11 @@ COMMANDS = {
         "calibrate",
         "Calibrate frames from probe points on features; write an overlay pose file.",
     ),
+    "calibrate-robot": (
+        "robotcal",
+        "calibrate_robot",
+        "The robot's own kinematic errors from tracker / CMM points; write an overlay pose file.",
+    ),
     "measure": (
         "calibrate",
         "measure",
@@ -94,7 +99,7 @@ COMMANDS = {
         "robots",
         "export_group",
         "Robot programs out with calibrated numbers (export program: URScript, KRL, RAPID, "
-        "CSV), and devices as URDF (export urdf).",
+        "FANUC TP, CSV), and devices as URDF (export urdf).",
     ),
     "analyze": (
         "analyze",

@@ -4,7 +4,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -76,3 +76,31 @@ class FeatureProbes:
     depth: float | None = (
         None  # circles [m], see Probing  # written after the feature's name (e.g. how to probe it)
     )
+
+
+@dataclass
+class RobotObservations:
+    """Points an instrument measured on a device frame (SI).
+
+    Attributes
+    ----------
+    device, target, frame : str
+        The device, the measured frame (on one of its links), the frame the points are in.
+    q : ndarray, shape (K, n)
+        Joint values of each observation [rad or m].
+    points : ndarray, shape (K, 3)
+        The measured points in ``frame`` [m].
+    sigma : float
+        1 sigma per coordinate [m].
+    lines : list of str
+        ``file:line`` of each observation, for messages.
+    """
+
+    device: str
+    target: str
+    frame: str
+    q: np.ndarray
+    points: np.ndarray
+    sigma: float
+    lines: list[str] = field(default_factory=list)
+    instrument: str = ""

@@ -366,7 +366,13 @@ class _Builder:
         self._check_owned_parents()
         affixments = self._affixments()
         conditions = self._conditions()
-        poses, sources, files = self._poses()
+        poses, sources, files, origins = self._poses(devices)
+        for name, replaced in origins.items():
+            dev = devices[name]
+            joints = tuple(
+                dataclasses.replace(j, origin=replaced.get(j.name, j.origin)) for j in dev.joints
+            )
+            devices[name] = dataclasses.replace(dev, joints=joints)
         self._check_cycles(affixments)
         allowed = self._allowed_contacts(objects, devices)
         return wm.CellModel(
@@ -1256,8 +1262,9 @@ class _Builder:
         return out
 
     # ------------------------------------------------------------------ poses
-    def _poses(self):
+    def _poses(self, devices):
         poses: dict[str, np.ndarray] = dict(self.fixed_poses)
+        origins: dict[str, dict[str, np.ndarray]] = {}  # device -> joint -> origin (SI)
         sources: dict[str, Path] = {}
         files: list[Path] = []
         complete = True  # every pose file was read and schema-valid
@@ -1316,6 +1323,36 @@ class _Builder:
                     self.warn(ppath, warning, doc=doc)
                 poses[name] = T
                 sources[name] = real
+            for name, pose in pf.joints.items():
+                jpath = ("joints", name)
+                device, _, joint = name.rpartition(".")
+                dev = devices.get(device)
+                names = [j.name for j in dev.joints] if dev is not None else []
+                if dev is None or joint not in names:
+                    known = [f"{d}.{j.name}" for d, m in devices.items() for j in m.joints]
+                    self.err(
+                        jpath,
+                        f"unknown joint '{name}'{did_you_mean(name, known)}; write 'device.joint'",
+                        prefer="key",
+                        doc=doc,
+                    )
+                    continue
+                if dev.convention != "frames":
+                    self.err(
+                        jpath,
+                        f"'{device}' is given by a DH table: a pose file sets the origins of "
+                        "joint-frame devices only",
+                        prefer="key",
+                        doc=doc,
+                    )
+                    continue
+                T, error, warning = pose_to_matrix(pose, L, A)
+                if error:
+                    self.err(jpath, error, doc=doc)
+                    continue
+                if warning:
+                    self.warn(jpath, warning, doc=doc)
+                origins.setdefault(device, {})[joint] = T
         if complete:  # otherwise the missing poses may well be in the file we could not read
             shown_files = ", ".join(str(self.display_dir / r) for r in self.cf.pose_files)
             for name, decl in self.frames.items():
@@ -1326,7 +1363,7 @@ class _Builder:
                     f"no pose for frame '{name}' in {shown_files}; add '{name}: {{xyz: [x, y, z], "
                     "rpy: [r, p, y]}'",
                 )
-        return poses, sources, files
+        return poses, sources, files, origins
 
 
 # the six entries of a symmetric inertia tensor, by name (as cell files and URDF write them)

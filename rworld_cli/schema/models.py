@@ -658,7 +658,15 @@ class PoseFile(Strict):
     """Numeric data: frame poses relative to their parents.  Calibration rewrites these files."""
 
     units: Units
-    poses: dict[str, Pose] = Field(description="Frame name -> pose relative to its parent.")
+    poses: dict[str, Pose] = Field(
+        default_factory=dict, description="Frame name -> pose relative to its parent."
+    )
+    joints: dict[str, Pose] = Field(
+        default_factory=dict,
+        description="'device.joint' -> the joint's frame in the previous link's frame (its "
+        "origin, the joint value's zero about its axis included), replacing the cell's: a "
+        "joint-frame device's calibrated kinematics ('rworld calibrate-robot').",
+    )
     provenance: dict[str, Any] | None = Field(
         None,
         description="Written by 'rworld calibrate': date, measurement files and their hashes, "

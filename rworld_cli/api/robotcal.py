@@ -1,0 +1,289 @@
+"""``rworld calibrate-robot``: the robot's own kinematic errors from instrument observations,
+written as a pose-file overlay (joint frames, the measured frame, the instrument's frame)."""
+
+from __future__ import annotations
+
+import datetime as _dt
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UserError
+
+IMPLAUSIBLE = 100.0  # residual rms over this many sigma: the data do not fit this robot
+
+
+@dataclass
+class RobotCalibrationRun:
+    """What ``calibrate-robot`` found and wrote."""
+
+    device: str
+    target: str
+    frame: str
+    observations: int
+    parameters: int
+    identified: int
+    observability: float
+    sigma: float  # the instrument's [m]
+    before: dict  # position errors on the fit's observations [m]: rms, p95, max
+    after: dict
+    validation_before: dict | None
+    validation_after: dict | None
+    predicted_validation: float | None  # rms the covariance predicts (estimate only) [m]
+    unidentifiable: list[str]
+    parameter_rows: list[dict]  # name, correction, sigma (SI)
+    flagged: list[str]  # file:line of observations with a residual over 4 sigma
+    output: str
+    written: bool
+    listed: bool
+    seconds: float = 0.0
+    notes: list[str] = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        mm = lambda d: None if d is None else {k: v * 1000 for k, v in d.items()}  # noqa: E731
+        return {
+            "device": self.device,
+            "target": self.target,
+            "frame": self.frame,
+            "observations": self.observations,
+            "parameters": self.parameters,
+            "identified": self.identified,
+            "observability_index": self.observability,
+            "sigma_mm": self.sigma * 1000,
+            "fit_mm": {"before": mm(self.before), "after": mm(self.after)},
+            "validation_mm": None
+            if self.validation_before is None
+            else {
+                "before": mm(self.validation_before),
+                "after": mm(self.validation_after),
+                "predicted_rms_of_the_estimate": None
+                if self.predicted_validation is None
+                else self.predicted_validation * 1000,
+            },
+            "unidentifiable": self.unidentifiable,
+            "parameters_identified": [
+                {
+                    "name": r["name"],
+                    "correction": r["correction"],
+                    "sigma": r["sigma"],
+                    "unit": r["unit"],
+                }
+                for r in self.parameter_rows
+            ],
+            "flagged": self.flagged,
+            "output": self.output,
+            "written": self.written,
+            "listed": self.listed,
+            "seconds": self.seconds,
+            "notes": self.notes,
+        }
+
+
+def _merge(observations):
+    from ..model.measurements import RobotObservations
+
+    first = observations[0]
+    for o in observations[1:]:
+        if (o.device, o.target, o.frame) != (first.device, first.target, first.frame):
+            raise UserError(
+                "the observation files measure different things: "
+                f"{first.device}/{first.target} in {first.frame} against "
+                f"{o.device}/{o.target} in {o.frame}"
+            )
+    sigma = float(np.sqrt(np.mean([o.sigma**2 for o in observations])))
+    return RobotObservations(
+        first.device,
+        first.target,
+        first.frame,
+        np.vstack([o.q for o in observations]),
+        np.vstack([o.points for o in observations]),
+        sigma,
+        [line for o in observations for line in o.lines],
+        first.instrument,
+    )
+
+
+def calibrate_robot(
+    cell_path: str,
+    observation_paths: list[str],
+    device: str | None = None,
+    output: str | None = None,
+    dry_run: bool = False,
+    validate: list[str] | None = None,
+) -> RobotCalibrationRun:
+    """Identify a joint-frame device's kinematic errors from instrument observations and write
+    them as a pose-file overlay (unless ``dry_run``).
+
+    Raises
+    ------
+    UserError
+        Bad or mismatched observation files (located), a DH device, a target without a pose,
+        data that do not fit the robot (residuals over 100 sigma: a unit read wrongly), an
+        output that is one of the cell's own files.
+    """
+    import time
+
+    from ..calibration.robot import RobotModel, identify, position_errors
+    from ..schema.loader import load_cell, resolve_cell_path
+    from ..schema.robotobs import read_observations
+    from ..world.tree import World
+    from .calibration import _protected_files
+
+    started = time.perf_counter()
+    cell = load_cell(cell_path).cell
+    real, _ = resolve_cell_path(cell_path)
+    out = Path(output) if output else real.parent / "robot_calibrated.yaml"
+    what = _protected_files(real, cell).get(out.resolve())
+    if what is not None:
+        raise UserError(
+            f"refusing to write the calibrated robot to {out}: it is {what}; write an overlay "
+            "(default: robot_calibrated.yaml beside cell.yaml)"
+        )
+    if not observation_paths:
+        raise UserError("give at least one observation file")
+    read = [read_observations(p, cell) for p in observation_paths]
+    obs = _merge([o for o, _ in read])
+    if device is not None and device != obs.device:
+        raise UserError(f"--device {device}, but the observations are of '{obs.device}'")
+    dev = cell.devices[obs.device]
+    if dev.convention != "frames":
+        raise UserError(
+            f"'{dev.name}' is given by a DH table; calibrate-robot identifies devices given by "
+            "joint frames (origin, axis: as 'rworld import urdf' writes them), whose frames take "
+            "the small tilts a DH row cannot hold"
+        )
+    world = World(cell)
+    link, T_link_target = world.mount_of(obs.device, obs.target)
+    if obs.target not in cell.pose_sources:
+        raise UserError(
+            f"'{obs.target}' has no pose of its own (a link frame): measure a frame with a pose "
+            "on the link (a TCP, a reflector's frame), whose offset can be calibrated"
+        )
+    T_world_base = world.T_world(obs.device)
+    estimated = obs.frame != "world"
+    T_world_frame = world.T_world(obs.frame) if estimated else np.eye(4)
+    model = RobotModel(
+        dev,
+        np.linalg.solve(T_world_frame, T_world_base),
+        link,
+        T_link_target[:3, 3].copy(),
+        estimated,
+    )
+    if 3 * len(obs.q) < 12:
+        raise UserError(f"{len(obs.q)} observation(s): too few to identify anything")
+    result = identify(model, obs)
+    rms = float(np.sqrt(np.mean(np.sum(result.residuals**2, axis=1)) / 3))
+    if rms > IMPLAUSIBLE * obs.sigma:
+        raise UserError(
+            f"the observations do not fit '{obs.device}': residuals of {rms * 1000:.4g} mm rms "
+            f"per coordinate after the fit, {rms / obs.sigma:.0f} times the instrument's sigma "
+            f"({obs.sigma * 1000:g} mm). Check the units the files state (a joint in rad read as "
+            "deg, points in m read as mm), the joint order, and that the points are of "
+            f"'{obs.target}' in '{obs.frame}'"
+        )
+    zeros = np.zeros_like(result.p)
+    before = position_errors(model, zeros, obs)
+    after = position_errors(model, result.p, obs)
+    validation_before = validation_after = predicted = None
+    if validate:
+        checks = _merge([read_observations(p, cell)[0] for p in validate])
+        if (checks.device, checks.target, checks.frame) != (obs.device, obs.target, obs.frame):
+            raise UserError("the validation files measure another device, target or frame")
+        validation_before = position_errors(model, zeros, checks)
+        validation_after = position_errors(model, result.p, checks)
+        predicted = result.predicted_rms(checks.q)
+    rows = []
+    for name, value, sigma in zip(model.names, result.p, result.sigma):
+        angular = name.rsplit(".", 1)[-1] in ("rx", "ry", "rz")
+        rows.append(
+            {
+                "name": name,
+                "correction": float(np.degrees(value) if angular else value * 1000),
+                "sigma": float(np.degrees(sigma) if angular else sigma * 1000),
+                "unit": "deg" if angular else "mm",
+            }
+        )
+    written = False
+    if not dry_run:
+        _write_overlay(out, obs, model, result, [d for _, d in read], world, T_link_target)
+        written = True
+    listed = out.resolve() in {p.resolve() for p in cell.pose_files}
+    return RobotCalibrationRun(
+        obs.device,
+        obs.target,
+        obs.frame,
+        len(obs.q),
+        len(result.p),
+        result.rank,
+        result.observability,
+        obs.sigma,
+        before,
+        after,
+        validation_before,
+        validation_after,
+        predicted,
+        [u.describe() for u in result.unidentifiable],
+        rows,
+        [obs.lines[k] for k in result.flagged if k < len(obs.lines)],
+        str(out),
+        written,
+        listed,
+        time.perf_counter() - started,
+    )
+
+
+def _write_overlay(out: Path, obs, model, result, digests, world, T_link_target) -> None:
+    """The calibrated numbers as a pose file (mm, deg): every joint's frame, the measured
+    frame's pose, the instrument frame's pose; provenance with the files' hashes."""
+    from .. import spatial
+    from ..calibration.robot import small_pose
+    from ..fileio import atomic_write_text
+    from ..schema.yamlio import yaml_value
+
+    def pose(T) -> str:
+        xyz = ", ".join(repr(float(x) * 1000) for x in T[:3, 3])
+        rpy = ", ".join(repr(float(x)) for x in np.degrees(spatial.matrix_to_rpy(T[:3, :3])))
+        return f"{{xyz: [{xyz}], rpy: [{rpy}]}}"
+
+    def T_world(frame: str | None) -> np.ndarray:
+        return world.T_world(frame) if frame not in (None, "world") else np.eye(4)
+
+    n = result.device.dof
+    lines = [
+        "# The robot's calibrated kinematics, written by 'rworld calibrate-robot'.  List this",
+        "# file last in the cell's pose_files; the nominal values stay where they are.",
+        "units: {length: mm, angle: deg}",
+        "joints:",
+    ]
+    for j in result.device.joints:
+        lines.append(f"  {yaml_value(f'{obs.device}.{j.name}')}: {pose(j.origin)}")
+    # the measured frame: its point on the link moved by the estimate, relative to its parent
+    # (on the same link, so any joint state gives the same relative pose)
+    T_link_new = T_link_target.copy()
+    T_link_new[:3, 3] += result.p[6 * n : 6 * n + 3]
+    T_world_link = world.T_world(obs.target) @ np.linalg.inv(T_link_target)
+    poses = {
+        obs.target: np.linalg.solve(T_world(world.parent(obs.target)), T_world_link @ T_link_new)
+    }
+    if model.frame_estimated:  # the instrument's frame F' = F E
+        E = small_pose(result.p[6 * n + 3 : 6 * n + 9])
+        poses[obs.frame] = np.linalg.solve(
+            T_world(world.parent(obs.frame)), world.T_world(obs.frame) @ E
+        )
+    lines.append("poses:")
+    for name, T in poses.items():
+        lines.append(f"  {yaml_value(name)}: {pose(T)}")
+    lines.append("provenance:")
+    lines.append(f"  date: {yaml_value(_dt.datetime.now().replace(microsecond=0).isoformat())}")
+    lines.append("  tool: rworld calibrate-robot")
+    lines.append(f"  device: {yaml_value(obs.device)}")
+    lines.append("  observations:")
+    for d in digests:
+        lines.append(f"    - {{path: {yaml_value(str(d['path']))}, sha256: {d['sha256']}}}")
+    lines.append(f"  points: {len(obs.q)}")
+    lines.append(f"  identified: {yaml_value(f'{result.rank} of {len(result.p)} parameters')}")
+    lines.append(f"  observability_index: {result.observability:.6g}")
+    rms = float(np.sqrt(np.mean(np.sum(result.residuals**2, axis=1))))
+    lines.append(f"  residual_rms_mm: {rms * 1000:.6g}")
+    atomic_write_text(out, "\n".join(lines) + "\n")

@@ -1,0 +1,102 @@
+"""rworld calibrate-robot"""
+
+from __future__ import annotations
+
+import click
+
+from .common import emit_json, handle_errors, json_option
+
+
+@click.command("calibrate-robot")
+@click.argument("cell", metavar="CELL")
+@click.argument("observations", nargs=-1, required=True, metavar="OBSERVATIONS...")
+@click.option(
+    "--device", default=None, metavar="NAME", help="The device (checked against the files)."
+)
+@click.option(
+    "-o",
+    "--output",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="The overlay pose file to write (default: robot_calibrated.yaml beside cell.yaml).",
+)
+@click.option("--dry-run", is_flag=True, help="Identify and report; write nothing.")
+@click.option(
+    "--validate",
+    multiple=True,
+    type=click.Path(dir_okay=False),
+    metavar="FILE",
+    help="Observations not used in the fit: their position errors before and after; repeatable.",
+)
+@click.option("--all", "show_all", is_flag=True, help="List every identified parameter.")
+@json_option
+@handle_errors
+def calibrate_robot(cell, observations, device, output, dry_run, validate, show_all, json_output):
+    """Identify the robot's own kinematic errors from points an instrument measured on a frame
+    it carries (laser tracker, CMM arm), and write them as a pose-file overlay.
+
+    Every joint frame takes a small pose error (three lengths, two tilts of its axis, its
+    zero), the measured frame its offset, an instrument frame other than the world its pose.
+    Combinations the data cannot determine are found (SVD of the scaled identification
+    Jacobian), kept nominal and listed; the rest is the maximum-likelihood estimate, with each
+    parameter's sigma.  Listed last in the cell's pose_files, the overlay moves every command
+    to the calibrated robot; programs and cell.yaml stay as they are (docs/calibration.md).
+
+    \b
+    Examples:
+      rworld calibrate-robot workcells/ur5 measurements/ur5/tracker.yaml --dry-run
+      rworld calibrate-robot workcells/ur5 tracker.yaml --validate check.yaml -o cal.yaml --json
+
+    Exit codes: 0 identified (and written), 2 bad input or data that do not fit the robot.
+    """
+    from ..api import calibrate_robot as run
+
+    result = run(cell, list(observations), device, output, dry_run, list(validate) or None)
+    if json_output:
+        emit_json(result.as_dict())
+        return
+    mm = lambda d: (
+        f"rms {d['rms'] * 1000:.4f} mm, 95 % {d['p95'] * 1000:.4f}, max {d['max'] * 1000:.4f}"
+    )  # noqa: E731,E501
+    click.echo(
+        f"{result.device}: {result.observations} points of {result.target} in {result.frame}, "
+        f"sigma {result.sigma * 1000:g} mm; {result.identified} of {result.parameters} "
+        f"parameters identified, observability index O1 {result.observability:.4g}"
+    )
+    click.echo(f"  fit:        before {mm(result.before)}")
+    click.echo(f"              after  {mm(result.after)}")
+    if result.validation_before is not None:
+        click.echo(f"  validation: before {mm(result.validation_before)}")
+        click.echo(f"              after  {mm(result.validation_after)}")
+        if result.predicted_validation is not None:
+            click.echo(
+                f"              the estimate's own error predicted: rms "
+                f"{result.predicted_validation * 1000:.4f} mm (besides the instrument's noise)"
+            )
+    rows = sorted(
+        result.parameter_rows, key=lambda r: -abs(r["correction"]) / max(r["sigma"], 1e-12)
+    )
+    shown = rows if show_all else rows[:8]
+    click.echo("  largest corrections (in sigmas):" if not show_all else "  parameters:")
+    for r in shown:
+        click.echo(f"    {r['name']:<28} {r['correction']:+.4f} {r['unit']} +- {r['sigma']:.4f}")
+    if result.unidentifiable:
+        click.echo(
+            f"  kept nominal ({len(result.unidentifiable)} combinations the data cannot determine):"
+        )
+        for u in result.unidentifiable[:6]:
+            click.echo(f"    {u}")
+        if len(result.unidentifiable) > 6:
+            click.echo(f"    ... {len(result.unidentifiable) - 6} more (--json lists them)")
+    for line in result.flagged:
+        click.echo(f"warning: {line}: a residual over 4 sigma", err=True)
+    if result.written:
+        click.echo(f"wrote {result.output}")
+        if not result.listed:
+            click.echo(
+                f"note: list {result.output} last in the cell's pose_files to use the calibrated "
+                "robot",
+                err=True,
+            )
+    else:
+        click.echo("nothing written (--dry-run)")

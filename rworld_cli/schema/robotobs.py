@@ -1,0 +1,264 @@
+"""Robot calibration observations: points an external instrument measured on a frame the robot
+carries, with the joint values at each (``rworld calibrate-robot``).
+
+YAML::
+
+    units: {length: mm, angle: deg}
+    device: ur5
+    instrument: laser tracker
+    sigma: 0.02                 # 1 sigma per coordinate, length unit
+    target: ur5.tip             # the device frame the instrument measures
+    frame: world                # the frame the points are in; its pose is estimated unless world
+    observations:
+      - {joints: [0, -30, 60, 0, 45, 0], point: [1203.4, -22.1, 803.9]}
+
+CSV: a header naming the device's joints and ``x, y, z``, units stated as in the header
+(``x_mm``, ``shoulder_pan_joint_deg``) or a ``# units: mm, deg`` line above it, never
+defaulted; ``device``, ``target``, ``frame`` and ``sigma`` in ``# key: value`` lines above.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+from annotated_types import Len
+from pydantic import Field
+
+from ..errors import Issue, UserError, did_you_mean
+from ..model.cell import CellModel
+from ..model.measurements import RobotObservations
+from ..units import ANGLE, LENGTH
+from .loader import validate_document
+from .models import Name, Strict, Units, Vec3
+from .yamlio import read_yaml
+
+
+class Observation(Strict):
+    joints: Annotated[list[float], Len(1)] = Field(
+        description="The device's joint values (angle unit, length unit for prismatic joints)."
+    )
+    point: Vec3 = Field(description="The measured point in 'frame' [length unit].")
+
+
+class ObservationFile(Strict):
+    """Points an instrument measured on a device frame, with the joint values at each."""
+
+    units: Units
+    device: Name
+    instrument: str = ""
+    sigma: float = Field(gt=0, description="1 sigma per coordinate [length unit].")
+    target: str = Field(description="The measured frame: a frame with a pose on a link.")
+    frame: str = Field("world", description="The frame the points are in.")
+    observations: Annotated[list[Observation], Len(1)]
+
+
+def _refuse(issues: list[Issue]) -> UserError:
+    """A located refusal: every issue printed with its file:line:col."""
+    return UserError(issues[0].message, issues)
+
+
+def _check(cell: CellModel, shown: str, device: str, target: str, frame: str, at) -> None:
+    """Device, target and frame exist and fit together; errors located by ``at(key)``."""
+    issues = []
+    dev = cell.devices.get(device)
+    if dev is None:
+        issues.append(
+            at("device", f"unknown device '{device}'{did_you_mean(device, cell.devices)}")
+        )
+    if target not in cell.frames:
+        qualified = f"{device}.{target}"
+        if qualified not in cell.frames:
+            issues.append(
+                at("target", f"unknown frame '{target}'{did_you_mean(target, cell.frames)}")
+            )
+    if frame != "world" and frame not in cell.frames:
+        issues.append(at("frame", f"unknown frame '{frame}'{did_you_mean(frame, cell.frames)}"))
+    if issues:
+        raise _refuse(issues)
+
+
+def read_observations(path: str, cell: CellModel) -> tuple[RobotObservations, dict]:
+    """The observations of ``path`` (YAML, or CSV by its suffix), SI, checked against ``cell``;
+    with the file's path and SHA-256 for provenance.
+
+    Raises
+    ------
+    UserError
+        Bad syntax, types, units, unknown names, a wrong number of joint values, a value outside
+        a joint's limits or not finite: located.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise UserError(f"no such observation file: {path}")
+    digest = {"path": str(path), "sha256": hashlib.sha256(p.read_bytes()).hexdigest()}
+    if p.suffix.lower() == ".csv":
+        return _read_csv(p, cell), digest
+    doc = read_yaml(p, str(path))
+    f = validate_document(doc, ObservationFile)
+    L, A = LENGTH[f.units.length], ANGLE[f.units.angle]
+
+    def at(key, message):
+        return doc.issue((key,), message)
+
+    _check(cell, str(path), f.device, f.target, f.frame, at)
+    dev = cell.devices[f.device]
+    scale = np.array([A if j.kind == "revolute" else L for j in dev.joints])
+    issues = []
+    q, points, lines = [], [], []
+    for k, o in enumerate(f.observations):
+        where = ("observations", k)
+        if len(o.joints) != dev.dof:
+            issues.append(
+                doc.issue(
+                    where + ("joints",),
+                    f"{len(o.joints)} joint value(s) for the {dev.dof} joints of '{dev.name}'",
+                )
+            )
+            continue
+        values = np.array(o.joints) * scale
+        point = np.array(o.point) * L
+        if not (np.all(np.isfinite(values)) and np.all(np.isfinite(point))):
+            issues.append(doc.issue(where, "a value is not a finite number"))
+            continue
+        issues += _limits(dev, values, lambda message, w=where: doc.issue(w + ("joints",), message))
+        q.append(values)
+        points.append(point)
+        lines.append(f"{path}:{doc.position(where)[0]}")
+    if issues:
+        raise _refuse(issues)
+    target = f.target if f.target in cell.frames else f"{f.device}.{f.target}"
+    obs = RobotObservations(
+        f.device, target, f.frame, np.array(q), np.array(points), f.sigma * L, lines, f.instrument
+    )
+    return obs, digest
+
+
+def _limits(dev, values, issue) -> list[Issue]:
+    lower, upper = dev.limit_array("lower"), dev.limit_array("upper")
+    out = []
+    for i, j in enumerate(dev.joints):
+        if values[i] < lower[i] - 1e-9 or values[i] > upper[i] + 1e-9:
+            out.append(
+                issue(
+                    f"joint {j.name}: {values[i]:.6g} is outside its limits "
+                    f"[{lower[i]:.6g}, {upper[i]:.6g}] (SI): a joint value in the wrong unit?"
+                )
+            )
+    return out
+
+
+def _read_csv(p: Path, cell: CellModel) -> RobotObservations:
+    """The CSV form: ``# key: value`` lines, then a header naming the joints and x, y, z."""
+    from .csvtext import read_csv_table
+
+    shown = str(p)
+    table = read_csv_table(shown, "<joint names>,x,y,z")
+    meta: dict[str, tuple[str, int]] = {}
+    for number, text in table.comments:
+        key, sep, value = text.partition(":")
+        if sep and number < table.header_line:
+            meta[key.strip()] = (value.strip(), number)
+
+    def need(key: str) -> tuple[str, int]:
+        if key not in meta:
+            raise _refuse(
+                [Issue(shown, 1, 1, key, f"the CSV needs a '# {key}: ...' line above its header")]
+            )
+        return meta[key]
+
+    def at(key, message):
+        return Issue(shown, meta.get(key, ("", 1))[1], 1, key, message)
+
+    device, _ = need("device")
+    target, _ = need("target")
+    frame = meta.get("frame", ("world", 0))[0]
+    sigma_text, sigma_line = need("sigma")
+    _check(cell, shown, device, target, frame, at)
+    dev = cell.devices[device]
+    words = [w.strip() for w in meta.get("units", ("", 0))[0].split(",") if w.strip()]
+    length_word = next((w for w in words if w in LENGTH), None)
+    angle_word = next((w for w in words if w in ANGLE), None)
+    columns: dict[str, tuple[int, str]] = {}
+    for k, h in enumerate(table.header):
+        base, _, unit = h.rpartition("_")
+        if base and (unit in LENGTH or unit in ANGLE):
+            columns[base] = (k, unit)
+        else:
+            columns[h] = (k, "")
+    revolute = {j.name for j in dev.joints if j.kind == "revolute"}
+    wanted = [j.name for j in dev.joints] + ["x", "y", "z"]
+    missing = [w for w in wanted if w not in columns]
+    if missing:
+        raise _refuse(
+            [
+                Issue(
+                    shown,
+                    table.header_line,
+                    1,
+                    "header",
+                    f"the header lacks {', '.join(missing)} (it names {', '.join(table.header)})",
+                )
+            ]
+        )
+    scales = []
+    for w in wanted:
+        unit = columns[w][1] or (angle_word if w in revolute else length_word) or ""
+        units = ANGLE if w in revolute else LENGTH
+        if unit not in units:
+            example = f"{w}_{'deg' if w in revolute else 'mm'}"
+            raise _refuse(
+                [
+                    Issue(
+                        shown,
+                        table.header_line,
+                        1,
+                        "header",
+                        f"no unit for '{w}': write it in the header ('{example}') or in a "
+                        "'# units: mm, deg' line; rworld never guesses units",
+                    )
+                ]
+            )
+        scales.append(units[unit])
+    try:
+        sigma = float(sigma_text) * (LENGTH[length_word] if length_word else float("nan"))
+    except ValueError:
+        sigma = float("nan")
+    if not (sigma > 0 and np.isfinite(sigma)):
+        raise _refuse(
+            [
+                Issue(
+                    shown,
+                    sigma_line,
+                    1,
+                    "sigma",
+                    f"sigma '{sigma_text}' needs a value above 0 and the length unit of a "
+                    "'# units: mm, deg' line",
+                )
+            ]
+        )
+    issues = []
+    q, points, lines = [], [], []
+    for line_number, fields, cols in table.rows:
+        try:
+            values = np.array([float(fields[columns[w][0]]) for w in wanted]) * np.array(scales)
+        except (ValueError, IndexError):
+            issues.append(Issue(shown, line_number, 1, "row", "a value is missing or no number"))
+            continue
+        if not np.all(np.isfinite(values)):
+            issues.append(Issue(shown, line_number, 1, "row", "a value is not a finite number"))
+            continue
+        issues += _limits(
+            dev, values[: dev.dof], lambda m, n=line_number: Issue(shown, n, 1, "row", m)
+        )
+        q.append(values[: dev.dof])
+        points.append(values[dev.dof :])
+        lines.append(f"{shown}:{line_number}")
+    if issues:
+        raise _refuse(issues)
+    if not q:
+        raise _refuse([Issue(shown, table.header_line, 1, "rows", "no observations")])
+    target = target if target in cell.frames else f"{device}.{target}"
+    return RobotObservations(device, target, frame, np.array(q), np.array(points), sigma, lines)

@@ -1,0 +1,232 @@
+"""Robot kinematic calibration (``rworld calibrate-robot``): a UR5 from Universal Robots'
+description whose true joint frames are off by lengths of 0.5 mm and angles of 0.05 deg (and
+its tool by 0.5 mm), measured by a simulated laser tracker (0.02 mm) at random joint states."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+from importlib.metadata import distribution
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from rworld_cli import spatial
+from rworld_cli.api import import_urdf
+from rworld_cli.schema.loader import load_cell
+from rworld_cli.world.tree import World
+
+SHARE = Path(str(distribution("example-robot-data").locate_file("cmeel.prefix/share")))
+UR5 = SHARE / "example-robot-data" / "robots" / "ur_description" / "urdf" / "ur5_robot.urdf"
+SIGMA = 0.02  # mm
+
+
+@pytest.fixture(scope="module")
+def cells(tmp_path_factory):
+    """The nominal UR5 cell with a tracker reflector 'tip' on tool0, and a truth cell: the same
+    with an overlay of perturbed joint frames and tip."""
+    from lxml import etree
+
+    folder = tmp_path_factory.mktemp("robotcal")
+    tree = etree.parse(str(UR5))
+    for el in tree.xpath("//visual | //collision"):
+        el.getparent().remove(el)
+    urdf = folder / "ur5.urdf"
+    tree.write(str(urdf))
+    nominal = folder / "ur5"
+    import_urdf(str(urdf), str(nominal), overlap_states=0)
+    cell = yaml.safe_load((nominal / "cell.yaml").read_text())
+    cell["devices"][0]["tcps"].append({"name": "tip", "parent": "tool0"})
+    (nominal / "cell.yaml").write_text(yaml.safe_dump(cell, sort_keys=False))
+    poses = yaml.safe_load((nominal / "poses.yaml").read_text())
+    poses["poses"]["ur5.tip"] = {"xyz": [0.02, 0.01, 0.1]}
+    (nominal / "poses.yaml").write_text(yaml.safe_dump(poses, sort_keys=False))
+    truth = folder / "truth"
+    shutil.copytree(nominal, truth)
+    rng = np.random.default_rng(7)
+    dev = load_cell(str(nominal)).cell.devices["ur5"]
+    lines = ["units: {length: mm, angle: deg}", "joints:"]
+    for j in dev.joints:
+        E = np.eye(4)
+        E[:3, :3] = spatial.rpy_to_matrix(rng.normal(0, np.radians(0.05), 3))
+        E[:3, 3] = rng.normal(0, 0.5e-3, 3)
+        T = j.origin @ E
+        xyz = ", ".join(repr(float(v) * 1000) for v in T[:3, 3])
+        rpy = ", ".join(repr(float(v)) for v in np.degrees(spatial.matrix_to_rpy(T[:3, :3])))
+        lines.append(f"  ur5.{j.name}: {{xyz: [{xyz}], rpy: [{rpy}]}}")
+    tip = np.array([0.02, 0.01, 0.1]) + rng.normal(0, 0.5e-3, 3)
+    lines += ["poses:", f"  ur5.tip: {{xyz: [{', '.join(repr(float(v) * 1000) for v in tip)}]}}"]
+    (truth / "truth.yaml").write_text("\n".join(lines) + "\n")
+    text = (truth / "cell.yaml").read_text()
+    (truth / "cell.yaml").write_text(
+        text.replace("pose_files:\n- poses.yaml", "pose_files:\n- poses.yaml\n- truth.yaml")
+    )
+    assert load_cell(str(truth)).cell.pose_files[-1].name == "truth.yaml"
+    return nominal, truth
+
+
+def _states(cell, count: int, seed: int) -> np.ndarray:
+    dev = cell.devices["ur5"]
+    lo, hi = dev.limit_array("lower"), dev.limit_array("upper")
+    rng = np.random.default_rng(seed)
+    return rng.uniform(np.maximum(lo, -np.pi), np.minimum(hi, np.pi), (count, dev.dof))
+
+
+def _tip(cell, Q: np.ndarray) -> np.ndarray:
+    world = World(cell)
+    out = []
+    for q in Q:
+        world.set_joints("ur5", q)
+        out.append(world.T_world("ur5.tip")[:3, 3])
+    return np.array(out)
+
+
+def _observe(truth_dir: Path, path: Path, count: int, seed: int, hold: int | None = None) -> None:
+    """A tracker file: the truth robot's tip at random joint states (joint ``hold`` kept at 0),
+    in mm, with noise."""
+    truth = load_cell(str(truth_dir)).cell
+    Q = _states(truth, count, seed)
+    if hold is not None:
+        Q[:, hold] = 0.0
+    points = _tip(truth, Q) * 1000 + np.random.default_rng(seed + 100).normal(0, SIGMA, (count, 3))
+    lines = [
+        "units: {length: mm, angle: deg}",
+        "device: ur5",
+        "instrument: laser tracker (simulated)",
+        f"sigma: {SIGMA}",
+        "target: ur5.tip",
+        "frame: world",
+        "observations:",
+    ]
+    for q, p in zip(Q, points):
+        joints = ", ".join(f"{v:.9f}" for v in np.degrees(q))
+        lines.append(f"  - {{joints: [{joints}], point: [{', '.join(f'{v:.6f}' for v in p)}]}}")
+    path.write_text("\n".join(lines) + "\n")
+
+
+def _digest(folder: Path) -> dict:
+    return {
+        str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file()
+    }
+
+
+def test_the_calibrated_robot_is_the_true_one_at_the_bound(cells, tmp_path, cli):
+    nominal, truth_dir = cells
+    fit, check = tmp_path / "tracker.yaml", tmp_path / "check.yaml"
+    _observe(truth_dir, fit, 50, 1)
+    _observe(truth_dir, check, 200, 2)
+    before = _digest(nominal)
+    out = tmp_path / "cal.yaml"
+    result = cli(
+        ["calibrate-robot", str(nominal), str(fit), "--validate", str(check), "-o", str(out)]
+        + ["--json"]
+    )
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.output)
+    # a 6R arm measured in position: 4 x 6 + 6 - 3 = 27 identifiable parameters of 39
+    assert report["identified"] == 27 and report["parameters"] == 39
+    assert len(report["unidentifiable"]) == 12
+    validation = report["validation_mm"]
+    assert validation["before"]["rms"] > 1.0  # the nominal robot: millimetres off
+    # after: the instrument's own noise (sqrt(3) x 0.02 mm) and the estimate's error
+    noise = np.sqrt(3) * SIGMA
+    expected = np.hypot(noise, validation["predicted_rms_of_the_estimate"])
+    assert validation["after"]["rms"] < 1.15 * expected, validation
+    assert _digest(nominal) == before  # the cell's own files untouched
+    # the overlay, listed last, makes every command use the calibrated robot: its tip where the
+    # truth robot's is, to the bound of the estimate (no instrument noise here)
+    calibrated = tmp_path / "calibrated"
+    shutil.copytree(nominal, calibrated)
+    shutil.copy(out, calibrated / "cal.yaml")
+    text = (calibrated / "cell.yaml").read_text()
+    (calibrated / "cell.yaml").write_text(
+        text.replace("pose_files:\n- poses.yaml", "pose_files:\n- poses.yaml\n- cal.yaml")
+    )
+    truth = load_cell(str(truth_dir)).cell
+    Q = _states(truth, 300, 9)
+    error = np.linalg.norm(_tip(load_cell(str(calibrated)).cell, Q) - _tip(truth, Q), axis=1)
+    rms = float(np.sqrt(np.mean(error**2))) * 1000
+    predicted = validation["predicted_rms_of_the_estimate"]
+    print(f"calibrated vs truth: rms {rms:.4f} mm, predicted {predicted:.4f} mm")  # pytest -s
+    assert rms < 1.3 * predicted and rms < 0.03, (rms, predicted)
+    # the CLI's forward kinematics too: the calibrated cell's answer is not the nominal one
+    answers = []
+    for folder in (nominal, calibrated):
+        fk = cli(["kinematics", "fk", str(folder), "--q", "0,-1,1,0,1,0", "--json"])
+        assert fk.exit_code == 0, fk.output
+        answers.append(fk.output)
+    assert answers[0] != answers[1]
+
+
+def test_a_joint_never_moved_is_reported_not_invented(cells, tmp_path):
+    """Wrist 3 held at 0 in every observation: its zero cannot be told from the tip's offset."""
+    from rworld_cli.api import calibrate_robot
+
+    nominal, truth_dir = cells
+    path = tmp_path / "held.yaml"
+    _observe(truth_dir, path, 40, 3, hold=5)
+    result = calibrate_robot(str(nominal), [str(path)], dry_run=True)
+    assert result.identified < 27 and not result.written
+    assert any("wrist_3_joint" in u for u in result.unidentifiable), result.unidentifiable
+
+
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (lambda t: t.replace("units: {length: mm, angle: deg}\n", ""), "units"),
+        (lambda t: t.replace("device: ur5", "device: ur6"), "unknown device 'ur6'"),
+        (lambda t: t.replace("target: ur5.tip", "target: ur5.tipp"), "unknown frame 'ur5.tipp'"),
+        (lambda t: t.replace("{joints: [", "{joints: [0, ", 1), "7 joint value(s) for the 6"),
+        (lambda t: t.replace("angle: deg", "angle: rad"), "outside its limits"),
+        (lambda t: t.replace("length: mm", "length: m"), "do not fit 'ur5'"),
+    ],
+)
+def test_bad_observations_are_located_and_nothing_is_written(cells, tmp_path, cli, edit, message):
+    nominal, truth_dir = cells
+    path = tmp_path / "bad.yaml"
+    _observe(truth_dir, path, 30, 4)
+    path.write_text(edit(path.read_text()))
+    out = tmp_path / "cal.yaml"
+    result = cli(["calibrate-robot", str(nominal), str(path), "-o", str(out)])
+    assert result.exit_code == 2, result.output
+    assert message in result.output, result.output
+    assert not out.exists()
+
+
+def test_csv_observations_read_as_the_yaml_ones(cells, tmp_path):
+    from rworld_cli.schema.robotobs import read_observations
+
+    nominal, truth_dir = cells
+    path = tmp_path / "t.yaml"
+    _observe(truth_dir, path, 10, 5)
+    cell = load_cell(str(nominal)).cell
+    obs, _ = read_observations(str(path), cell)
+    names = [j.name for j in cell.devices["ur5"].joints]
+    rows = [
+        "# device: ur5",
+        "# target: ur5.tip",
+        "# sigma: 0.02",
+        "# units: mm, deg",
+        ",".join(names + ["x", "y", "z"]),
+    ]
+    for q, p in zip(obs.q, obs.points):
+        rows.append(",".join(f"{v:.12g}" for v in [*np.degrees(q), *(p * 1000)]))
+    csv = tmp_path / "t.csv"
+    csv.write_text("\n".join(rows) + "\n")
+    again, _ = read_observations(str(csv), cell)
+    np.testing.assert_allclose(again.q, obs.q, atol=1e-12)
+    np.testing.assert_allclose(again.points, obs.points, atol=1e-12)
+    assert again.sigma == pytest.approx(2e-5)
+    csv.write_text("\n".join(rows[:3] + rows[4:]) + "\n")  # no units
+    from rworld_cli.errors import UserError
+
+    with pytest.raises(UserError) as info:
+        read_observations(str(csv), cell)
+    assert "rworld never guesses units" in str(info.value.lines()) and "t.csv:4" in str(
+        info.value.lines()
+    )
