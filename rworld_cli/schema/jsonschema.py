@@ -12,6 +12,7 @@ SCHEMA_FILES = {
     "run.schema.json": ("program", "RunFile"),
     "path.schema.json": ("program", "PathFile"),
     "measurements.schema.json": ("measurements", "MeasurementFile"),
+    "robot-observations.schema.json": ("robotobs", "ObservationFile"),
     "view.schema.json": ("results", "ViewFile"),
 }
 
