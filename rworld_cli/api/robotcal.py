@@ -147,12 +147,6 @@ def calibrate_robot(
     if device is not None and device != obs.device:
         raise UserError(f"--device {device}, but the observations are of '{obs.device}'")
     dev = cell.devices[obs.device]
-    if dev.convention != "frames":
-        raise UserError(
-            f"'{dev.name}' is given by a DH table; calibrate-robot identifies devices given by "
-            "joint frames (origin, axis: as 'rworld import urdf' writes them), whose frames take "
-            "the small tilts a DH row cannot hold"
-        )
     world = World(cell)
     link, T_link_target = world.mount_of(obs.device, obs.target)
     if obs.target not in cell.pose_sources:
@@ -254,10 +248,15 @@ def _write_overlay(out: Path, obs, model, result, digests, world, T_link_target)
         "# The robot's calibrated kinematics, written by 'rworld calibrate-robot'.  List this",
         "# file last in the cell's pose_files; the nominal values stay where they are.",
         "units: {length: mm, angle: deg}",
-        "joints:",
     ]
-    for j in result.device.joints:
-        lines.append(f"  {yaml_value(f'{obs.device}.{j.name}')}: {pose(j.origin)}")
+    if result.device.convention == "frames":  # each joint's frame
+        lines.append("joints:")
+        for j in result.device.joints:
+            lines.append(f"  {yaml_value(f'{obs.device}.{j.name}')}: {pose(j.origin)}")
+    else:  # a small pose before each DH row
+        lines.append("corrections:")
+        for j in result.device.joints:
+            lines.append(f"  {yaml_value(f'{obs.device}.{j.name}')}: {pose(j.correction)}")
     # the measured frame: its point on the link moved by the estimate, relative to its parent
     # (on the same link, so any joint state gives the same relative pose)
     T_link_new = T_link_target.copy()

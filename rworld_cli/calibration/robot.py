@@ -2,13 +2,14 @@
 instrument measured on a frame the robot carries (a laser tracker's reflector, a CMM arm's
 probe), at known joint values.
 
-**The error model** is the joint-frame form of the chain: every joint frame (its pose in the
-previous link's frame, the URDF's ``origin``) takes a small pose error ``E(d) = (Rot(d[3:]),
-d[:3])`` on its right, ``origin' = origin @ E(d)``, 6 numbers per joint - three lengths, two
-tilts of the axis (a tilt between nearly parallel axes is one of them: no DH singularity, as
-Hayati's beta avoids it) and the joint's zero (the rotation about its own axis).  The measured
-frame's offset on its link takes 3 (a point) more, and an instrument frame other than the
-world 6 more.  The base pose needs none: an error there is an error of joint 1's frame.
+**The error model**: every joint takes a small pose error ``E(d) = (Rot(d[3:]), d[:3])``, 6
+numbers per joint - three lengths, two tilts of the axis (a tilt between nearly parallel axes is
+one of them: no DH singularity, as Hayati's beta avoids it) and the joint's zero (the rotation
+about its own axis).  A joint frame (the URDF's ``origin``) takes it on its right,
+``origin' = origin @ E(d)``; a DH row before it, ``A' = E(d) @ A`` (the row's
+``correction``).  The measured frame's offset on its link takes 3 (a point) more, and an
+instrument frame other than the world 6 more.  The base pose needs none: an error there is an
+error of joint 1's frame.
 
 **Identifiability.**  The model is complete and so redundant: a length along two parallel
 axes, a rotation about an axis that only turns what is measured about itself.  The singular
@@ -83,10 +84,22 @@ class RobotModel:
     def apply(self, p: np.ndarray) -> tuple[DeviceModel, np.ndarray, np.ndarray]:
         """(the device with its joint frames corrected, the target point, T_frame_base)."""
         n = self.device.dof
-        joints = tuple(
-            dataclasses.replace(j, origin=np.asarray(j.origin) @ small_pose(p[6 * i : 6 * i + 6]))
-            for i, j in enumerate(self.device.joints)
-        )
+        if self.device.convention == "frames":  # the joint frame: origin' = origin E
+            joints = tuple(
+                dataclasses.replace(
+                    j, origin=np.asarray(j.origin) @ small_pose(p[6 * i : 6 * i + 6])
+                )
+                for i, j in enumerate(self.device.joints)
+            )
+        else:  # a DH row: A' = E A, after any correction it has
+            joints = tuple(
+                dataclasses.replace(
+                    j,
+                    correction=(np.eye(4) if j.correction is None else j.correction)
+                    @ small_pose(p[6 * i : 6 * i + 6]),
+                )
+                for i, j in enumerate(self.device.joints)
+            )
         device = dataclasses.replace(self.device, joints=joints)
         target = self.p_link_target + p[6 * n : 6 * n + 3]
         T = self.T_frame_base

@@ -81,6 +81,12 @@ def chain_steps(em: Emitter, device: DeviceModel, q: list[Num]) -> list[ChainSte
             )
             u, A = (0.0, 0.0, 1.0), (float(joint.a), 0.0, 0.0)
             e = (0.0, 0.0, d)
+        if joint.correction is not None:  # A_i' = E A_i: R' = R_E R, A' = p_E + R_E A
+            E = np.asarray(joint.correction, dtype=float)
+            R_E = tuple(tuple(snap(float(x)) for x in row) for row in E[:3, :3])
+            R = em.matmul(R_E, R)
+            moved = E[:3, 3] + E[:3, :3] @ np.asarray(A, dtype=float)
+            A = (snap(float(moved[0])), snap(float(moved[1])), snap(float(moved[2])))
         steps.append(ChainStep(R, u, A, e, prismatic))
     return steps
 
@@ -123,6 +129,7 @@ def device_key(device: DeviceModel) -> str:
                 j.theta,
                 None if j.origin is None else tuple(np.asarray(j.origin).ravel().tolist()),
                 None if j.axis is None else tuple(np.asarray(j.axis).tolist()),
+                None if j.correction is None else tuple(np.asarray(j.correction).ravel().tolist()),
             )
             for j in device.joints
         )

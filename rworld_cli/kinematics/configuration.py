@@ -50,9 +50,11 @@ def joint_axes(device: DeviceModel, q) -> tuple[np.ndarray, np.ndarray]:
     """
     q = np.asarray(q, dtype=float)
     T = link_poses(device, q)  # (..., n, 4, 4)
-    if device.convention == "standard":  # joint i turns about z of DH frame i-1
+    if device.convention == "standard":  # joint i turns about z of DH frame i-1 (corrected)
         base = np.broadcast_to(np.eye(4), T.shape[:-3] + (1, 4, 4))
         T = np.concatenate([base, T[..., :-1, :, :]], axis=-3)
+        E = np.stack([np.eye(4) if j.correction is None else j.correction for j in device.joints])
+        T = T @ E
         local = np.tile([0.0, 0.0, 1.0], (device.dof, 1))
     elif device.convention == "modified":
         local = np.tile([0.0, 0.0, 1.0], (device.dof, 1))

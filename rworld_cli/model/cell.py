@@ -147,6 +147,9 @@ class Joint:
     limits: JointLimits
     origin: np.ndarray | None = None  # (4, 4) T_{i-1}_joint, joint-frame devices only
     axis: np.ndarray | None = None  # (3,) unit, in the joint frame
+    # DH rows: a small pose before the row, A_i' = correction @ A_i (a calibrated robot's
+    # errors, which a DH row cannot hold: a tilt between parallel axes); None: none
+    correction: np.ndarray | None = None
     motor_inertia: float = 0.0  # Jm [kg m^2], motor side
     gear_ratio: float = 1.0  # G
     viscous: float = 0.0  # joint side [N m s/rad or N s/m]
@@ -286,7 +289,11 @@ class DeviceModel:
         a = np.broadcast_to(dh["a"], q.shape)
         alpha = np.broadcast_to(dh["alpha"], q.shape)
         step = spatial.dh_standard if self.convention == "standard" else spatial.dh_modified
-        return step(a, alpha, d, theta)
+        A = step(a, alpha, d, theta)
+        if any(j.correction is not None for j in self.joints):
+            E = np.stack([np.eye(4) if j.correction is None else j.correction for j in self.joints])
+            A = E @ A
+        return A
 
     def joint_frames(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
         """The chain as joint frames (the URDF form), whatever its convention.
@@ -309,15 +316,20 @@ class DeviceModel:
                 (np.asarray(j.origin, dtype=float), np.asarray(j.axis, dtype=float), np.eye(4))
                 for j in self.joints
             ]
+
+        def E(j) -> np.ndarray:
+            return np.eye(4) if j.correction is None else np.asarray(j.correction, dtype=float)
+
         if self.convention == "modified":
             return [
-                (spatial.dh_modified(j.a, j.alpha, j.d, j.theta), z, np.eye(4)) for j in self.joints
+                (E(j) @ spatial.dh_modified(j.a, j.alpha, j.d, j.theta), z, np.eye(4))
+                for j in self.joints
             ]
         out = []
         previous = np.eye(4)
         for j in self.joints:
             C = spatial.dh_standard(j.a, j.alpha, j.d, j.theta)
-            out.append((previous, z, C))
+            out.append((previous @ E(j), z, C))
             previous = C
         return out
 

@@ -367,10 +367,12 @@ class _Builder:
         affixments = self._affixments()
         conditions = self._conditions()
         poses, sources, files, origins = self._poses(devices)
-        for name, replaced in origins.items():
+        for name, replaced in origins.items():  # joint frames, or DH rows' corrections
             dev = devices[name]
+            key = "origin" if dev.convention == "frames" else "correction"
             joints = tuple(
-                dataclasses.replace(j, origin=replaced.get(j.name, j.origin)) for j in dev.joints
+                dataclasses.replace(j, **{key: replaced[j.name]}) if j.name in replaced else j
+                for j in dev.joints
             )
             devices[name] = dataclasses.replace(dev, joints=joints)
         self._check_cycles(affixments)
@@ -1323,8 +1325,10 @@ class _Builder:
                     self.warn(ppath, warning, doc=doc)
                 poses[name] = T
                 sources[name] = real
-            for name, pose in pf.joints.items():
-                jpath = ("joints", name)
+            entries = [("joints", n, p) for n, p in pf.joints.items()]
+            entries += [("corrections", n, p) for n, p in pf.corrections.items()]
+            for section, name, pose in entries:
+                jpath = (section, name)
                 device, _, joint = name.rpartition(".")
                 dev = devices.get(device)
                 names = [j.name for j in dev.joints] if dev is not None else []
@@ -1337,11 +1341,15 @@ class _Builder:
                         doc=doc,
                     )
                     continue
-                if dev.convention != "frames":
+                frames = dev.convention == "frames"
+                if frames != (section == "joints"):
                     self.err(
                         jpath,
-                        f"'{device}' is given by a DH table: a pose file sets the origins of "
-                        "joint-frame devices only",
+                        f"'{device}' is given by a DH table: its calibrated joints go under "
+                        "'corrections:' (a pose before each DH row)"
+                        if frames is False
+                        else f"'{device}' is given by joint frames: its calibrated joints go "
+                        "under 'joints:' (each joint's frame)",
                         prefer="key",
                         doc=doc,
                     )

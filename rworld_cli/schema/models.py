@@ -667,6 +667,12 @@ class PoseFile(Strict):
         "origin, the joint value's zero about its axis included), replacing the cell's: a "
         "joint-frame device's calibrated kinematics ('rworld calibrate-robot').",
     )
+    corrections: dict[str, Pose] = Field(
+        default_factory=dict,
+        description="'device.joint' -> a small pose before the joint's DH row (A' = E A), "
+        "replacing the cell's none: a DH device's calibrated kinematics ('rworld "
+        "calibrate-robot'), a tilt between parallel axes included.",
+    )
     provenance: dict[str, Any] | None = Field(
         None,
         description="Written by 'rworld calibrate': date, measurement files and their hashes, "

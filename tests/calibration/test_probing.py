@@ -502,3 +502,93 @@ def test_a_robot_off_its_model_puts_its_error_into_the_probe_points(planned, tmp
     print({k: {f: f"{v * 1000:.4f} mm" for f, v in c.items()} for k, c in corrections.items()})
     assert max(corrections["nominal"].values()) < 1e-6, corrections
     assert all(0.9e-3 < c < 1.1e-3 for c in corrections["a2 + 1 mm"].values()), corrections
+
+
+def _robot_truth(folder, seed: int = 11):
+    """The probing cell's truth: the parts moved (MOVES) and the Puma off its DH table - a small
+    pose before every row (0.3 mm, 0.03 deg) and its probe 0.3 mm off - as a pose overlay."""
+    make_truth(folder)
+    rng = np.random.default_rng(seed)
+    lines = ["units: {length: mm, angle: deg}", "corrections:"]
+    for name in ("j1", "j2", "j3", "j4", "j5", "j6"):
+        xyz = ", ".join(f"{v:.6f}" for v in rng.normal(0, 0.3, 3))
+        rpy = ", ".join(f"{v:.6f}" for v in rng.normal(0, 0.03, 3))
+        lines.append(f"  puma.{name}: {{xyz: [{xyz}], rpy: [{rpy}]}}")
+    probe = np.r_[0, 0, 160.0] + rng.normal(0, 0.3, 3)
+    lines += ["poses:", f"  puma.probe: {{xyz: [{', '.join(f'{v:.6f}' for v in probe)}]}}"]
+    (folder / "robot_truth.yaml").write_text("\n".join(lines) + "\n")
+    text = (folder / "cell.yaml").read_text()
+    assert "pose_files: [poses.yaml]" in text
+    (folder / "cell.yaml").write_text(
+        text.replace("pose_files: [poses.yaml]", "pose_files: [poses.yaml, robot_truth.yaml]")
+    )
+    return folder
+
+
+def _tracker_file(truth, path, count: int, seed: int, sigma_mm: float) -> None:
+    """A laser tracker's file: the truth Puma's probe centre at random joint states (mm, deg)."""
+    dev = truth.devices["puma"]
+    rng = np.random.default_rng(seed)
+    Q = rng.uniform(dev.limit_array("lower"), dev.limit_array("upper"), (count, dev.dof))
+    world = World(truth)
+    lines = [
+        "units: {length: mm, angle: deg}",
+        "device: puma",
+        f"sigma: {sigma_mm}",
+        "target: puma.probe",
+        "observations:",
+    ]
+    for q in Q:
+        world.set_joints("puma", q)
+        p = world.T_world("puma.probe")[:3, 3] * 1000 + rng.normal(0, sigma_mm, 3)
+        joints = ", ".join(f"{v:.9f}" for v in np.degrees(q))
+        lines.append(f"  - {{joints: [{joints}], point: [{', '.join(f'{v:.6f}' for v in p)}]}}")
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_the_loop_closed_with_the_robot_calibrated_first(planned, tmp_path, cli):
+    """Issue 34: a truth cell whose Puma is off its DH table (and whose parts moved). Tracker
+    data -> calibrate-robot -> the probe program run with the calibrated robot -> calibrate: the
+    parts within 3 predicted sigma of the truth.  Probing with the nominal robot instead leaves
+    them off by the robot's error, many sigma."""
+    from rworld_cli.api import calibrate_robot
+
+    cell_dir, program, _ = planned
+    truth_dir = _robot_truth(tmp_path / "truth")
+    truth = load_cell(str(truth_dir)).cell
+    tracker = tmp_path / "tracker.yaml"
+    _tracker_file(truth, tracker, 60, 1, 0.01)
+    calibrated_dir = tmp_path / "calibrated"
+    shutil.copytree(cell_dir, calibrated_dir)
+    robot = calibrate_robot(
+        str(calibrated_dir), [str(tracker)], output=str(calibrated_dir / "robot.yaml")
+    )
+    assert robot.written and robot.identified == 27, robot.identified
+    text = (calibrated_dir / "cell.yaml").read_text()
+    (calibrated_dir / "cell.yaml").write_text(
+        text.replace("pose_files: [poses.yaml]", "pose_files: [poses.yaml, robot.yaml]")
+    )
+    world = World(truth)
+    off = {}
+    for label, cell in (("nominal robot", cell_dir), ("calibrated robot", calibrated_dir)):
+        m = tmp_path / f"{label.replace(' ', '_')}.yaml"
+        simulate_probe_measurements(str(cell), str(truth_dir), str(program), str(m), SIGMA, 5)
+        result = calibrate(
+            load_cell(str(cell)).cell, load_measurements([str(m)], load_cell(str(cell)).cell)
+        )
+        off[label] = {
+            frame: (
+                float(np.linalg.norm(s.T_world[:3, 3] - world.T_world(frame)[:3, 3])),
+                float(np.linalg.norm(s.sigma_translation)),
+            )
+            for frame, s in result.solutions.items()
+        }
+    print(
+        {
+            k: {f: f"{e * 1000:.4f} mm ({e / s:.2f} sigma)" for f, (e, s) in v.items()}
+            for k, v in off.items()
+        }
+    )
+    for frame, (error, sigma) in off["calibrated robot"].items():
+        assert error < 3 * sigma, (frame, error, sigma)
+    assert max(e / s for e, s in off["nominal robot"].values()) > 10, off
