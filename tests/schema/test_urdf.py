@@ -518,3 +518,52 @@ def test_link_pairs_that_always_overlap_are_reported_and_allowed(tmp_path, cli):
     i, j = index["abb_irb2400.link_4"], index["abb_irb2400.link_6"]
     T = [world.T_world(model.bodies[k].frame)[None] for k in (i, j)]
     assert distances(model.bodies, np.array([i]), np.array([j]), *T).overlap[0]
+
+
+def test_a_calibrated_dh_robot_exports_its_corrections_and_pinocchio_agrees(tmp_path):
+    """A pose overlay's 'corrections:' (a small pose before each DH row, as calibrate-robot
+    writes for a DH device) moves the Puma: its generated kinematics and dynamics and its URDF
+    out agree with Pinocchio's of that URDF, and differ from the nominal ones by the
+    corrections' millimetres."""
+    import shutil
+
+    cell = tmp_path / "puma"
+    shutil.copytree(WORKCELLS / "puma560", cell)
+    text = (cell / "cell.yaml").read_text()
+    (cell / "cell.yaml").write_text(
+        text.replace("pose_files: [poses.yaml]", "pose_files: [poses.yaml, robot.yaml]")
+    )
+    rng = np.random.default_rng(4)
+    lines = ["units: {length: mm, angle: deg}", "corrections:"]
+    for k in range(1, 7):
+        xyz = ", ".join(f"{v:.5f}" for v in rng.normal(0, 0.5, 3))
+        rpy = ", ".join(f"{v:.5f}" for v in rng.normal(0, 0.05, 3))
+        lines.append(f"  puma.j{k}: {{xyz: [{xyz}], rpy: [{rpy}]}}")
+    (cell / "robot.yaml").write_text("\n".join(lines) + "\n")
+    urdf = tmp_path / "puma.urdf"
+    export_urdf(str(cell), str(urdf))
+    model, data = _pinocchio(urdf)
+    ctx = device_context(str(cell), "puma")
+    nominal = device_context(str(WORKCELLS / "puma560"), "puma")
+    dyn = device_dynamics(ctx, armature=False, friction=False)
+    moved = 0.0
+    for _ in range(20):
+        q, qd, qdd = rng.uniform(-2, 2, (3, 6))
+        pin.forwardKinematics(model, data, q)
+        pin.updateFramePlacements(model, data)
+        T = forward_kinematics(ctx, q)
+        np.testing.assert_allclose(data.oMf[model.getFrameId("tool")].homogeneous, T, atol=TOL)
+        np.testing.assert_allclose(
+            pin.rnea(model, data, q, qd, qdd), dyn.inverse(q, qd, qdd), atol=TOL
+        )
+        moved = max(moved, float(np.linalg.norm(T[:3, 3] - forward_kinematics(nominal, q)[:3, 3])))
+    assert 5e-4 < moved < 1e-2  # the corrections' millimetres
+    (cell / "robot.yaml").write_text(
+        "units: {length: mm, angle: deg}\njoints:\n  puma.j2: {xyz: [0, 0, 0]}\n"
+    )
+    from rworld_cli.errors import UserError
+
+    with pytest.raises(UserError) as info:
+        load_cell(str(cell))
+    assert "under 'corrections:'" in "\n".join(info.value.lines())
+    assert "robot.yaml:3" in "\n".join(info.value.lines())
