@@ -91,7 +91,10 @@ def _merge(observations):
                 f"{first.device}/{first.target} in {first.frame} against "
                 f"{o.device}/{o.target} in {o.frame}"
             )
+    if len({o.rotations is None for o in observations}) > 1:
+        raise UserError("the observation files mix points and poses: calibrate from one kind")
     sigma = float(np.sqrt(np.mean([o.sigma**2 for o in observations])))
+    poses = first.rotations is not None
     return RobotObservations(
         first.device,
         first.target,
@@ -101,6 +104,8 @@ def _merge(observations):
         sigma,
         [line for o in observations for line in o.lines],
         first.instrument,
+        np.concatenate([o.rotations for o in observations]) if poses else None,  # type: ignore[misc]
+        float(np.sqrt(np.mean([o.sigma_angle**2 for o in observations]))) if poses else 0.0,
     )
 
 
@@ -163,12 +168,16 @@ def calibrate_robot(
         link,
         T_link_target[:3, 3].copy(),
         estimated,
+        T_link_target[:3, :3].copy() if obs.rotations is not None else None,
     )
     if 3 * len(obs.q) < 12:
         raise UserError(f"{len(obs.q)} observation(s): too few to identify anything")
     result = identify(model, obs)
     rms = float(np.sqrt(np.mean(np.sum(result.residuals**2, axis=1)) / 3))
-    if rms > IMPLAUSIBLE * obs.sigma:
+    if rms > IMPLAUSIBLE * obs.sigma or (
+        obs.rotations is not None
+        and np.sqrt(np.mean(model.residuals(result.p, obs)[:, 3:] ** 2)) > IMPLAUSIBLE * obs.sigma
+    ):
         raise UserError(
             f"the observations do not fit '{obs.device}': residuals of {rms * 1000:.4g} mm rms "
             f"per coordinate after the fit, {rms / obs.sigma:.0f} times the instrument's sigma "
@@ -259,14 +268,18 @@ def _write_overlay(out: Path, obs, model, result, digests, world, T_link_target)
             lines.append(f"  {yaml_value(f'{obs.device}.{j.name}')}: {pose(j.correction)}")
     # the measured frame: its point on the link moved by the estimate, relative to its parent
     # (on the same link, so any joint state gives the same relative pose)
-    T_link_new = T_link_target.copy()
-    T_link_new[:3, 3] += result.p[6 * n : 6 * n + 3]
+    if model.R_link_target is None:
+        T_link_new = T_link_target.copy()
+        T_link_new[:3, 3] += result.p[6 * n : 6 * n + 3]
+    else:
+        T_link_new = T_link_target @ small_pose(result.p[6 * n : 6 * n + 6])
     T_world_link = world.T_world(obs.target) @ np.linalg.inv(T_link_target)
     poses = {
         obs.target: np.linalg.solve(T_world(world.parent(obs.target)), T_world_link @ T_link_new)
     }
     if model.frame_estimated:  # the instrument's frame F' = F E
-        E = small_pose(result.p[6 * n + 3 : 6 * n + 9])
+        m = model.target_count
+        E = small_pose(result.p[6 * n + m : 6 * n + m + 6])
         poses[obs.frame] = np.linalg.solve(
             T_world(world.parent(obs.frame)), world.T_world(obs.frame) @ E
         )

@@ -62,21 +62,27 @@ class RobotModel:
     link: int
     p_link_target: np.ndarray
     frame_estimated: bool  # the instrument's frame is a parameter (it is not the world)
+    R_link_target: np.ndarray | None = None  # set: full poses are measured (6-DoF)
+
+    @property
+    def target_count(self) -> int:
+        return 3 if self.R_link_target is None else 6
 
     @property
     def names(self) -> list[str]:
         out = []
+        six = ("x", "y", "z", "rx", "ry", "rz")
         for j in self.device.joints:
-            out += [f"{j.name}.{k}" for k in ("x", "y", "z", "rx", "ry", "rz")]
-        out += [f"target.{k}" for k in "xyz"]
+            out += [f"{j.name}.{k}" for k in six]
+        out += [f"target.{k}" for k in six[: self.target_count]]
         if self.frame_estimated:
-            out += [f"frame.{k}" for k in ("x", "y", "z", "rx", "ry", "rz")]
+            out += [f"frame.{k}" for k in six]
         return out
 
     @property
     def scales(self) -> np.ndarray:
         joint = [LENGTH_SCALE] * 3 + [ANGLE_SCALE] * 3
-        out = joint * self.device.dof + [LENGTH_SCALE] * 3
+        out = joint * self.device.dof + joint[: self.target_count]
         if self.frame_estimated:
             out += joint
         return np.array(out)
@@ -101,18 +107,50 @@ class RobotModel:
                 for i, j in enumerate(self.device.joints)
             )
         device = dataclasses.replace(self.device, joints=joints)
-        target = self.p_link_target + p[6 * n : 6 * n + 3]
+        m = self.target_count
+        target = np.eye(4)
+        if self.R_link_target is None:  # a point: its offset on the link
+            target[:3, 3] = self.p_link_target + p[6 * n : 6 * n + 3]
+        else:  # a frame: its pose on the link, moved in its own axes
+            target[:3, :3], target[:3, 3] = self.R_link_target, self.p_link_target
+            target = target @ small_pose(p[6 * n : 6 * n + 6])
         T = self.T_frame_base
         if self.frame_estimated:  # the instrument frame F' = F E: points in F' = E^-1 (F-based)
-            T = np.linalg.solve(small_pose(p[6 * n + 3 : 6 * n + 9]), T)
+            T = np.linalg.solve(small_pose(p[6 * n + m : 6 * n + m + 6]), T)
         return device, target, T
+
+    def poses(self, p: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """The target frame in the instrument's frame at joint values ``q`` (K, n): (K, 4, 4)."""
+        device, target, T = self.apply(p)
+        link = link_poses(device, q)[:, self.link - 1]
+        return T @ link @ target
 
     def points(self, p: np.ndarray, q: np.ndarray) -> np.ndarray:
         """The target in the instrument's frame at joint values ``q`` (K, n): (K, 3) [m]."""
-        device, target, T = self.apply(p)
-        link = link_poses(device, q)[:, self.link - 1]
-        world = np.einsum("kij,j->ki", link[:, :3, :3], target) + link[:, :3, 3]
-        return world @ T[:3, :3].T + T[:3, 3]
+        return self.poses(p, q)[:, :3, 3]
+
+    def residuals(self, p: np.ndarray, obs) -> np.ndarray:
+        """Model minus measurement per observation, (K, 3) [m], or (K, 6) for poses with the
+        rotation's error (rotation vector) weighted to the position's sigma."""
+        T = self.poses(p, obs.q)
+        position = T[:, :3, 3] - obs.points
+        if obs.rotations is None:
+            return position
+        turn = spatial.rotation_vector(np.swapaxes(obs.rotations, -1, -2) @ T[:, :3, :3])
+        return np.hstack([position, turn * (obs.sigma / obs.sigma_angle)])
+
+    def residual_jacobian(self, p: np.ndarray, obs) -> np.ndarray:
+        """d residuals / d p, (K m, P), by central differences."""
+        P = len(p)
+        h = 1e-6
+        columns = []
+        for k in range(P):  # one batched evaluation per parameter, over all observations
+            dp = np.zeros(P)
+            dp[k] = h
+            columns.append(
+                (self.residuals(p + dp, obs) - self.residuals(p - dp, obs)).ravel() / (2 * h)
+            )
+        return np.array(columns).T
 
     def jacobian(self, p: np.ndarray, q: np.ndarray) -> np.ndarray:
         """d points / d p, (3K, P), by central differences (each a batched forward kinematics)."""
@@ -183,11 +221,11 @@ def identify(model: RobotModel, obs: RobotObservations, iterations: int = 20) ->
     rank, U, s, Vt = 0, None, None, None
     done = 0
     for done in range(1, iterations + 1):
-        r = (obs.points - model.points(p, q)).ravel()
-        J = model.jacobian(p, q) * scales  # scaled columns
+        e = model.residuals(p, obs).ravel()
+        J = model.residual_jacobian(p, obs) * scales  # scaled columns
         U, s, Vt = np.linalg.svd(J, full_matrices=False)
         rank = int(np.sum(s > s[0] * 1e-6))
-        step = Vt[:rank].T @ ((U[:, :rank].T @ r) / s[:rank])
+        step = -Vt[:rank].T @ ((U[:, :rank].T @ e) / s[:rank])
         p = p + step * scales
         if np.abs(step).max() < 1e-9:  # in scaled units: 1e-12 m, 1e-12 rad
             break
@@ -202,7 +240,8 @@ def identify(model: RobotModel, obs: RobotObservations, iterations: int = 20) ->
         order = np.argsort(-np.abs(v))[:4]
         entries = [(names[k], float(v[k])) for k in order if abs(v[k]) > 0.05]
         unidentifiable.append(Unidentifiable(entries))
-    observability = float(np.prod(s[:rank]) ** (1.0 / rank) / np.sqrt(len(q))) if rank else 0.0
+    # Borm and Menq's O1: the geometric mean of the singular values over the root of the count
+    observability = float(np.exp(np.log(s[:rank]).mean()) / np.sqrt(len(q))) if rank else 0.0
     device, _, T = model.apply(p)
     out = RobotCalibration(
         model,

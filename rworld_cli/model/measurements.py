@@ -89,7 +89,7 @@ class RobotObservations:
     q : ndarray, shape (K, n)
         Joint values of each observation [rad or m].
     points : ndarray, shape (K, 3)
-        The measured points in ``frame`` [m].
+        The measured points in ``frame`` [m] (the frame's origin, for full poses).
     sigma : float
         1 sigma per coordinate [m].
     lines : list of str
@@ -104,3 +104,5 @@ class RobotObservations:
     sigma: float
     lines: list[str] = field(default_factory=list)
     instrument: str = ""
+    rotations: np.ndarray | None = None  # (K, 3, 3): full poses measured (6-DoF), else None
+    sigma_angle: float = 0.0  # [rad], 1 sigma per axis of the rotations

@@ -31,8 +31,8 @@ from ..errors import Issue, UserError, did_you_mean
 from ..model.cell import CellModel
 from ..model.measurements import RobotObservations
 from ..units import ANGLE, LENGTH
-from .loader import validate_document
-from .models import Name, Strict, Units, Vec3
+from .loader import pose_to_matrix, validate_document
+from .models import Name, Pose, Strict, Units, Vec3
 from .yamlio import read_yaml
 
 
@@ -40,7 +40,12 @@ class Observation(Strict):
     joints: Annotated[list[float], Len(1)] = Field(
         description="The device's joint values (angle unit, length unit for prismatic joints)."
     )
-    point: Vec3 = Field(description="The measured point in 'frame' [length unit].")
+    point: Vec3 | None = Field(None, description="The measured point in 'frame' [length unit].")
+    pose: Pose | None = Field(
+        None,
+        description="A 6-DoF instrument's measured pose of the target in 'frame' (xyz and rpy "
+        "or a quaternion), instead of a point.",
+    )
 
 
 class ObservationFile(Strict):
@@ -50,6 +55,9 @@ class ObservationFile(Strict):
     device: Name
     instrument: str = ""
     sigma: float = Field(gt=0, description="1 sigma per coordinate [length unit].")
+    sigma_angle: float | None = Field(
+        None, gt=0, description="Poses: 1 sigma per rotation axis [angle unit]."
+    )
     target: str = Field(description="The measured frame: a frame with a pose on a link.")
     frame: str = Field("world", description="The frame the points are in.")
     observations: Annotated[list[Observation], Len(1)]
@@ -107,9 +115,28 @@ def read_observations(path: str, cell: CellModel) -> tuple[RobotObservations, di
     dev = cell.devices[f.device]
     scale = np.array([A if j.kind == "revolute" else L for j in dev.joints])
     issues = []
-    q, points, lines = [], [], []
+    q, points, rotations, lines = [], [], [], []
+    with_poses = any(o.pose is not None for o in f.observations)
+    if with_poses and f.sigma_angle is None:
+        issues.append(doc.issue(("sigma",), "poses need 'sigma_angle' too (their rotations')"))
     for k, o in enumerate(f.observations):
         where = ("observations", k)
+        if (o.point is None) == (o.pose is None) or (o.pose is not None) != with_poses:
+            issues.append(
+                doc.issue(
+                    where,
+                    "give a 'point' or a 'pose', one kind for the whole file",
+                )
+            )
+            continue
+        if o.pose is not None:
+            T, error, _ = pose_to_matrix(o.pose, L, A)
+            if error:
+                issues.append(doc.issue(where + ("pose",), error))
+                continue
+            o_point, rotation = T[:3, 3] / L, T[:3, :3]
+        else:
+            o_point, rotation = np.array(o.point), None
         if len(o.joints) != dev.dof:
             issues.append(
                 doc.issue(
@@ -119,19 +146,29 @@ def read_observations(path: str, cell: CellModel) -> tuple[RobotObservations, di
             )
             continue
         values = np.array(o.joints) * scale
-        point = np.array(o.point) * L
+        point = np.asarray(o_point, dtype=float) * L
         if not (np.all(np.isfinite(values)) and np.all(np.isfinite(point))):
             issues.append(doc.issue(where, "a value is not a finite number"))
             continue
         issues += _limits(dev, values, lambda message, w=where: doc.issue(w + ("joints",), message))
         q.append(values)
         points.append(point)
+        rotations.append(rotation)
         lines.append(f"{path}:{doc.position(where)[0]}")
     if issues:
         raise _refuse(issues)
     target = f.target if f.target in cell.frames else f"{f.device}.{f.target}"
     obs = RobotObservations(
-        f.device, target, f.frame, np.array(q), np.array(points), f.sigma * L, lines, f.instrument
+        f.device,
+        target,
+        f.frame,
+        np.array(q),
+        np.array(points),
+        f.sigma * L,
+        lines,
+        f.instrument,
+        np.array(rotations) if with_poses else None,
+        (f.sigma_angle or 0.0) * A,
     )
     return obs, digest
 

@@ -230,3 +230,64 @@ def test_csv_observations_read_as_the_yaml_ones(cells, tmp_path):
     assert "rworld never guesses units" in str(info.value.lines()) and "t.csv:4" in str(
         info.value.lines()
     )
+
+
+def test_full_poses_identify_the_orientation_too(cells, tmp_path):
+    """A 6-DoF tracker probe (pose of the tip frame): 4 x 6 + 6 = 30 of 42 parameters, and the
+    calibrated tip's orientation is the truth's as well."""
+    from rworld_cli.api import calibrate_robot
+
+    nominal, truth_dir = cells
+    truth = load_cell(str(truth_dir)).cell
+    Q = _states(truth, 40, 6)
+    world = World(truth)
+    rng = np.random.default_rng(60)
+    lines = [
+        "units: {length: mm, angle: deg}",
+        "device: ur5",
+        "instrument: 6-DoF tracker probe (simulated)",
+        f"sigma: {SIGMA}",
+        "sigma_angle: 0.002",
+        "target: ur5.tip",
+        "observations:",
+    ]
+    for q in Q:
+        world.set_joints("ur5", q)
+        T = world.T_world("ur5.tip")
+        xyz = T[:3, 3] * 1000 + rng.normal(0, SIGMA, 3)
+        R = T[:3, :3] @ spatial.rpy_to_matrix(rng.normal(0, np.radians(0.002), 3))
+        rpy = np.degrees(spatial.matrix_to_rpy(R))
+        joints = ", ".join(f"{v:.9f}" for v in np.degrees(q))
+        lines.append(
+            f"  - {{joints: [{joints}], pose: {{xyz: [{', '.join(f'{v:.6f}' for v in xyz)}], "
+            f"rpy: [{', '.join(f'{v:.9f}' for v in rpy)}]}}}}"
+        )
+    path = tmp_path / "poses.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "cal.yaml"
+    result = calibrate_robot(str(nominal), [str(path)], output=str(out))
+    assert (result.identified, result.parameters) == (30, 42)
+    calibrated = tmp_path / "calibrated"
+    shutil.copytree(nominal, calibrated)
+    shutil.copy(out, calibrated / "cal.yaml")
+    text = (calibrated / "cell.yaml").read_text()
+    (calibrated / "cell.yaml").write_text(
+        text.replace("pose_files:\n- poses.yaml", "pose_files:\n- poses.yaml\n- cal.yaml")
+    )
+    mine = World(load_cell(str(calibrated)).cell)
+    worst = [0.0, 0.0]
+    for q in _states(truth, 50, 10):
+        world.set_joints("ur5", q)
+        mine.set_joints("ur5", q)
+        A, B = world.T_world("ur5.tip"), mine.T_world("ur5.tip")
+        worst[0] = max(worst[0], float(np.linalg.norm(A[:3, 3] - B[:3, 3])))
+        angle = np.linalg.norm(spatial.rotation_vector(A[:3, :3].T @ B[:3, :3]))
+        worst[1] = max(worst[1], float(np.degrees(angle)))
+    assert worst[0] < 0.05e-3 and worst[1] < 0.005, worst  # the nominal: mm and 0.1 deg off
+    bad = path.read_text().replace("sigma_angle: 0.002\n", "")
+    path.write_text(bad)
+    from rworld_cli.errors import UserError
+
+    with pytest.raises(UserError) as info:
+        calibrate_robot(str(nominal), [str(path)], dry_run=True)
+    assert "sigma_angle" in "\n".join(info.value.lines())
