@@ -4,15 +4,18 @@ reflector 0.5 mm), measured by a simulated laser tracker (0.02 mm per coordinate
 
 Run:  .venv/bin/python bench/robot_calibration.py [--trials 20]
 
-Printed, over ``--trials`` truths and noise draws, with 50 fitting poses and 200 validation
-poses each:
+Also the Puma 560 of workcells/puma560 (standard DH: the errors as a pose before each row).
+Printed per robot, over ``--trials`` truths and noise draws, with 50 fitting poses and 200
+validation poses each:
 
 1. the nominal model's position error on the validation poses (what the robot would be off
    without calibration);
 2. the calibrated model's error against the truth itself (no instrument noise) beside the
    error the estimate's covariance predicts - the Cramer-Rao bound of an efficient estimator,
    evaluated at the same poses: the ratio says how close to the bound the fit is;
-3. the identified parameter count and the observability index O1;
+3. the identified parameter count, the observability index O1, and the estimate's error in the
+   identified subspace against its covariance (chi-square per degree: 1 for an efficient
+   estimator);
 4. the wall time of the fit for 50 and for 1000 poses.
 """
 
@@ -26,6 +29,63 @@ from pathlib import Path
 import numpy as np
 
 
+def _trial(model, lo, hi, sigma, trials, label) -> None:
+    """``trials`` random truths (joint errors 0.5 mm and 0.05 deg, target 0.5 mm), fitted on 50
+    poses and compared with the truth on 200 others; the estimate's error in the identified
+    subspace against its covariance (a chi-square with as many degrees as identified)."""
+    from rworld_cli.calibration.robot import identify
+    from rworld_cli.model.measurements import RobotObservations
+
+    n = model.device.dof
+    nominal, calibrated, predicted, ranks, o1, chi2 = [], [], [], [], [], []
+    for trial in range(trials):
+        rng = np.random.default_rng(trial)
+        truth = np.concatenate(
+            [np.r_[rng.normal(0, 0.5e-3, 3), rng.normal(0, np.radians(0.05), 3)] for _ in range(n)]
+            + [rng.normal(0, 0.5e-3, 3)]
+        )
+        q_fit = rng.uniform(lo, hi, (50, n))
+        q_check = rng.uniform(lo, hi, (200, n))
+        points = model.points(truth, q_fit) + rng.normal(0, sigma, (50, 3))
+        result = identify(model, RobotObservations("r", "tip", "world", q_fit, points, sigma))
+        exact = model.points(truth, q_check)
+        d0 = np.linalg.norm(model.points(np.zeros_like(truth), q_check) - exact, axis=1)
+        d1 = np.linalg.norm(model.points(result.p, q_check) - exact, axis=1)
+        nominal.append(np.sqrt(np.mean(d0**2)))
+        calibrated.append(np.sqrt(np.mean(d1**2)))
+        predicted.append(result.predicted_rms(q_check))
+        ranks.append(result.rank)
+        o1.append(result.observability)
+        # the error of the identifiable combinations: project through the covariance's range
+        w, V = np.linalg.eigh(result.covariance)
+        keep = w > w.max() * 1e-9
+        z = V[:, keep].T @ (result.p - truth)
+        # truth's unidentifiable part is not estimated: its projection is what the data hold
+        chi2.append(float(np.sum(z**2 / w[keep])) / keep.sum())
+    ratio = np.sqrt(np.mean(np.square(calibrated))) / np.sqrt(np.mean(np.square(predicted)))
+    print(f"{label}: {trials} truths, 50 poses, tracker sigma {sigma * 1000} mm per coordinate")
+    print(f"  nominal model on 200 other poses: rms {np.mean(nominal) * 1000:.3f} mm")
+    print(
+        f"  calibrated against the truth:     rms {np.mean(calibrated) * 1000:.4f} mm "
+        f"(bound {np.mean(predicted) * 1000:.4f} mm, ratio {ratio:.3f})"
+    )
+    print(
+        f"  identified {sorted(set(ranks))} of {len(model.names)}, O1 {np.mean(o1):.4g}; "
+        f"chi-square / degrees of the identified error: {np.mean(chi2):.3f} (1 at the bound)"
+    )
+    for count in (50, 1000):
+        rng = np.random.default_rng(99)
+        q = rng.uniform(lo, hi, (count, n))
+        points = model.points(np.zeros(len(model.names)), q) + rng.normal(0, sigma, (count, 3))
+        obs = RobotObservations("r", "tip", "world", q, points, sigma)
+        started = time.perf_counter()
+        identify(model, obs)
+        print(
+            f"  fit of {count} poses, {len(model.names)} parameters: "
+            f"{time.perf_counter() - started:.3f} s"
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--trials", type=int, default=20)
@@ -35,8 +95,7 @@ def main() -> None:
     from lxml import etree
 
     from rworld_cli.api import import_urdf
-    from rworld_cli.calibration.robot import RobotModel, identify
-    from rworld_cli.model.measurements import RobotObservations
+    from rworld_cli.calibration.robot import RobotModel
     from rworld_cli.schema.loader import load_cell
     from rworld_cli.world.tree import World
 
@@ -48,54 +107,32 @@ def main() -> None:
         el.getparent().remove(el)
     tree.write(str(folder / "ur5.urdf"))
     import_urdf(str(folder / "ur5.urdf"), str(folder / "cell"), overlap_states=0)
-    cell = load_cell(str(folder / "cell")).cell
-    dev = cell.devices["ur5"]
-    world = World(cell)
-    link, T_link_tool0 = world.mount_of("ur5", "ur5.tool0")
-    tip = T_link_tool0 @ np.r_[0.02, 0.01, 0.1, 1.0]
-    model = RobotModel(dev, np.linalg.inv(world.T_world("ur5")), link, tip[:3], False)
-    lo = np.maximum(dev.limit_array("lower"), -np.pi)
-    hi = np.minimum(dev.limit_array("upper"), np.pi)
     sigma = 2e-5
-    n = dev.dof
-    nominal, calibrated, predicted, ranks, o1 = [], [], [], [], []
-    for trial in range(args.trials):
-        rng = np.random.default_rng(trial)
-        truth = np.concatenate(
-            [np.r_[rng.normal(0, 0.5e-3, 3), rng.normal(0, np.radians(0.05), 3)] for _ in range(n)]
-            + [rng.normal(0, 0.5e-3, 3)]
-        )
-        q_fit = rng.uniform(lo, hi, (50, n))
-        q_check = rng.uniform(lo, hi, (200, n))
-        points = model.points(truth, q_fit) + rng.normal(0, sigma, (50, 3))
-        result = identify(model, RobotObservations("ur5", "tip", "world", q_fit, points, sigma))
-        exact = model.points(truth, q_check)
-        d0 = np.linalg.norm(model.points(np.zeros_like(truth), q_check) - exact, axis=1)
-        d1 = np.linalg.norm(model.points(result.p, q_check) - exact, axis=1)
-        nominal.append(np.sqrt(np.mean(d0**2)))
-        calibrated.append(np.sqrt(np.mean(d1**2)))
-        predicted.append(result.predicted_rms(q_check))
-        ranks.append(result.rank)
-        o1.append(result.observability)
-    ratio = np.sqrt(np.mean(np.square(calibrated))) / np.sqrt(np.mean(np.square(predicted)))
-    print(f"UR5, {args.trials} truths, 50 poses, tracker sigma {sigma * 1000} mm per coordinate")
-    print(f"  nominal model on 200 other poses: rms {np.mean(nominal) * 1000:.3f} mm")
-    print(
-        f"  calibrated against the truth:     rms {np.mean(calibrated) * 1000:.4f} mm "
-        f"(bound {np.mean(predicted) * 1000:.4f} mm, ratio {ratio:.3f})"
-    )
-    print(f"  identified {set(ranks)} of {len(model.names)}, O1 {np.mean(o1):.4g}")
-    for count in (50, 1000):
-        rng = np.random.default_rng(99)
-        q = rng.uniform(lo, hi, (count, n))
-        points = model.points(np.zeros(len(model.names)), q) + rng.normal(0, sigma, (count, 3))
-        obs = RobotObservations("ur5", "tip", "world", q, points, sigma)
-        started = time.perf_counter()
-        identify(model, obs)
-        print(
-            f"  fit of {count} poses, {len(model.names)} parameters: "
-            f"{time.perf_counter() - started:.3f} s"
-        )
+    for label, cell_dir, device, tcp, offset in (
+        (
+            "UR5 (joint frames, ur_description)",
+            folder / "cell",
+            "ur5",
+            "ur5.tool0",
+            [0.02, 0.01, 0.1],
+        ),
+        (
+            "Puma 560 (standard DH, workcells/puma560)",
+            Path("workcells/puma560"),
+            "puma",
+            "puma.probe",
+            [0, 0, 0],
+        ),
+    ):
+        cell = load_cell(str(cell_dir)).cell
+        dev = cell.devices[device]
+        world = World(cell)
+        link, T_link_tcp = world.mount_of(device, tcp)
+        tip = T_link_tcp @ np.r_[offset, 1.0]
+        model = RobotModel(dev, np.linalg.inv(world.T_world(device)), link, tip[:3], False)
+        lo = np.maximum(dev.limit_array("lower"), -np.pi)
+        hi = np.minimum(dev.limit_array("upper"), np.pi)
+        _trial(model, lo, hi, sigma, args.trials, label)
 
 
 if __name__ == "__main__":
