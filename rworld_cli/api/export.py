@@ -58,6 +58,7 @@ class ProgramExport:
     moves: int
     changes: list[TargetChange] | None = None
     notes: list[str] = field(default_factory=list)
+    compensated: list[dict] | None = None  # --compensate: how far each Cartesian target moved
 
     def as_dict(self) -> dict:
         return {
@@ -67,6 +68,7 @@ class ProgramExport:
             "devices": self.devices,
             "moves": self.moves,
             "changes": None if self.changes is None else [c.as_dict() for c in self.changes],
+            "compensated": self.compensated,
             "notes": self.notes,
         }
 
@@ -93,6 +95,7 @@ def export_program(
     against: list[str] | None = None,
     signals: Signals = Signals(),
     frame: str | None = None,
+    compensate: bool = False,
 ) -> ProgramExport:
     """Write the programs of RUN (or one PROGRAM file) in a robot language.
 
@@ -117,6 +120,12 @@ def export_program(
         A cell frame to give Cartesian targets in (a user frame: KRL ``BASE_DATA``, RAPID
         ``wobjdata``, URScript ``pose_trans``), placed where it is at the run's start; default
         the robot's base.
+    compensate : bool
+        For a controller that keeps the nominal kinematics while the cell's pose files hold the
+        robot's calibration (``calibrate-robot``): joint targets stay the calibrated model's IK
+        solutions, and each Cartesian target is the nominal forward kinematics at them, so the
+        controller's own IK takes the robot to the true pose.  ``compensated`` lists how far
+        each target moved.
 
     Raises
     ------
@@ -163,6 +172,9 @@ def export_program(
     files: dict[str, str] = {}
     notes = []
     moves = 0
+    compensated: list[dict] = []
+    if compensate and fmt == "csv":
+        raise UserError("--compensate is for Cartesian targets: csv streams joint values")
     for name in devices:
         dev = loaded.cell.devices[name]
         stem = Path(programs[name].file).stem
@@ -209,6 +221,9 @@ def export_program(
             _flange_loads(World(loaded.cell), result, name, T_link_flange),
         )
         program.controller = profile
+        if compensate:
+            moved = _compensate(cell, loaded.cell, name, program)
+            compensated.extend(moved)
         if profile is not None and profile.base is not None:
             program.T_base_controller = world.T(name, profile.base)
         flange = [r.move for r in result.resolved[name] if r.move and r.move.link != dev.dof]
@@ -236,7 +251,57 @@ def export_program(
     if against is not None:
         changes = _changes(cell, run, dt, against, loaded, result, devices)
     _write_together(output, files)
-    return ProgramExport(output, fmt, sorted(files), devices, moves, changes, notes)
+    out = ProgramExport(output, fmt, sorted(files), devices, moves, changes, notes)
+    out.compensated = compensated if compensate else None
+    return out
+
+
+def _compensate(cell_path: str, cell, device: str, program) -> list[dict]:
+    """Replace the Cartesian targets of ``program`` by the nominal forward kinematics at their
+    joint targets (the tool as calibrated: the controller's tool data); the moves' shifts.
+
+    The nominal kinematics is the cell's device without the pose files that set its joints
+    (``joints:`` or ``corrections:``, what ``calibrate-robot`` writes)."""
+    import dataclasses
+
+    from .. import spatial
+    from ..kinematics.forward import link_poses
+    from ..schema.loader import load_cell, robot_pose_files
+
+    robot_files = robot_pose_files(cell, device)
+    if not robot_files:
+        raise UserError(
+            f"--compensate: no pose file of the cell sets '{device}''s joints (joints: or "
+            "corrections:, as 'rworld calibrate-robot' writes): there is nothing to compensate"
+        )
+    keep = [str(p) for p in cell.pose_files if p not in robot_files]
+    nominal = load_cell(cell_path, pose_files=keep).cell.devices[device]
+    out = []
+    for item in program.moves:
+        r = item.resolved
+        new = {}
+        for key, q in (("T_base_tcp", r.q_goal), ("T_base_planned", r.q_planned)):
+            if q is None or getattr(r, key) is None:
+                continue
+            T = link_poses(nominal, q)[r.link - 1] @ r.T_link_tcp
+            new[key] = T
+        shift = float(np.linalg.norm(new["T_base_tcp"][:3, 3] - r.T_base_tcp[:3, 3]))
+        turn = float(
+            np.linalg.norm(
+                spatial.rotation_vector(r.T_base_tcp[:3, :3].T @ new["T_base_tcp"][:3, :3])
+            )
+        )
+        item.resolved = dataclasses.replace(r, **new)
+        out.append(
+            {
+                "device": device,
+                "where": item.where,
+                "step": item.text,
+                "moved_mm": shift * 1000,
+                "turned_deg": float(np.degrees(turn)),
+            }
+        )
+    return out
 
 
 def _vendor_format(cell: str, run: str, device: str | None) -> str:

@@ -179,6 +179,13 @@ def export_group():
     "robot's base.",
 )
 @click.option(
+    "--compensate",
+    is_flag=True,
+    help="For a controller that keeps the nominal kinematics while the cell holds the robot's "
+    "calibration (calibrate-robot): Cartesian targets are the nominal kinematics at the "
+    "calibrated joint targets, so the robot reaches the true poses; lists how far each moved.",
+)
+@click.option(
     "--gripper-output", default=1, show_default=True, help="Digital output of the gripper."
 )
 @click.option(
@@ -204,6 +211,7 @@ def export_program(
     period,
     against,
     user_frame,
+    compensate,
     gripper_output,
     tool_changer_output,
     sensor_input,
@@ -242,6 +250,7 @@ def export_program(
         list(against) if against else None,
         Signals(gripper_output, tool_changer_output, sensor_input),
         user_frame,
+        compensate,
     )
     if json_output:
         emit_json(result.as_dict())
@@ -257,6 +266,12 @@ def export_program(
             click.echo(
                 f"  {c.where}: {c.step}: moved {c.translation * 1000:.3f} mm, "
                 f"{c.rotation / 4.84813681109536e-06:.1f} arcsec by {', '.join(c.frames) or '?'}"
+            )
+    if result.compensated is not None:
+        click.echo("compensated for the nominal controller (target moved by):")
+        for c in result.compensated:
+            click.echo(
+                f"  {c['where']}: {c['step']}: {c['moved_mm']:.3f} mm, {c['turned_deg']:.4f} deg"
             )
     for note in result.notes:
         click.echo(f"note: {note}", err=True)

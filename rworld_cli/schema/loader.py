@@ -220,6 +220,18 @@ def load_pose_file_doc(path: str | Path, display: str | None = None) -> tuple[Ma
     return doc, validate_document(doc, sm.PoseFile)
 
 
+def robot_pose_files(cell, device: str) -> list[Path]:
+    """The cell's pose files that set ``device``'s joints (``joints:`` or ``corrections:``:
+    a robot calibration), in order."""
+    out = []
+    for path in cell.pose_files:
+        _, pf = load_pose_file_doc(path)
+        names = list(pf.joints) + list(pf.corrections)
+        if any(name.startswith(f"{device}.") for name in names):
+            out.append(Path(path))
+    return out
+
+
 def pose_to_matrix(
     pose: sm.Pose, length: float, angle: float
 ) -> tuple[np.ndarray, str | None, str | None]:

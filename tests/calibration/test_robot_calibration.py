@@ -291,3 +291,69 @@ def test_full_poses_identify_the_orientation_too(cells, tmp_path):
     with pytest.raises(UserError) as info:
         calibrate_robot(str(nominal), [str(path)], dry_run=True)
     assert "sigma_angle" in "\n".join(info.value.lines())
+
+
+def test_compensated_targets_take_a_nominal_controller_to_the_true_pose(cells, tmp_path, cli):
+    """export program --compensate on the calibrated cell: joint targets are the calibrated
+    IK's, and every Cartesian target is Pinocchio's forward kinematics of the *original* URDF
+    (what the nominal controller computes) at those joints - so the controller's own IK puts
+    the real robot on the frame.  Without --compensate the targets are the frames themselves."""
+    import pinocchio as pin
+
+    from tests.export import readers
+
+    nominal, truth_dir = cells
+    calibrated = tmp_path / "calibrated"
+    shutil.copytree(truth_dir, calibrated)  # the truth's overlay stands for a calibration
+    cell = yaml.safe_load((calibrated / "cell.yaml").read_text())
+    for joint in cell["devices"][0]["joints"]:
+        joint["limits"]["acceleration"] = 10.0
+    cell["frames"] = [{"name": "target"}]
+    (calibrated / "cell.yaml").write_text(yaml.safe_dump(cell, sort_keys=False))
+    poses = yaml.safe_load((calibrated / "poses.yaml").read_text())
+    poses["poses"]["target"] = {"xyz": [0.35, 0.25, 0.3], "rpy": [3.1, 0.1, 0.4]}
+    (calibrated / "poses.yaml").write_text(yaml.safe_dump(poses, sort_keys=False))
+    (calibrated / "programs").mkdir()
+    program = calibrated / "programs" / "pick.yaml"
+    program.write_text(
+        "device: ur5\nunits: {length: mm, angle: deg}\nsteps:\n"
+        "  - move: {to: target, tcp: tip, offset: {xyz: [0, 0, -80]}}\n"
+        "  - move: {to: target, tcp: tip, motion: linear, speed: 0.3}\n"
+    )
+    out = tmp_path / "out"
+    result = cli(
+        ["export", "program", str(calibrated), str(program), "--format", "urscript"]
+        + ["-o", str(out), "--compensate", "--json"]
+    )
+    assert result.exit_code == 0, result.output
+    moved = json.loads(result.output)["compensated"]
+    assert len(moved) == 2 and all(0.3 < m["moved_mm"] < 20 for m in moved), moved
+    [(_, q), (_, target)] = readers.urscript((out / "pick.script").read_text())
+    model = pin.buildModelFromUrdf(str(UR5))
+    data = model.createData()
+    from rworld_cli.schema.programs import load_run
+    from rworld_cli.simulate.engine import simulate
+
+    run = simulate(load_run(str(calibrated), str(program)), collisions=False)
+    q_linear = [r.move.q_goal for r in run.resolved["ur5"] if r.move is not None][1]
+    pin.framesForwardKinematics(model, data, q_linear)
+    base = data.oMf[model.getFrameId("base")].homogeneous
+    flange = data.oMf[model.getFrameId("tool0")].homogeneous
+    tip = np.eye(4)
+    tip[:3, 3] = World(load_cell(str(calibrated)).cell).T("ur5.tool0", "ur5.tip")[:3, 3]
+    expected = np.linalg.solve(base, flange @ tip)  # the nominal controller's pose at q
+    assert np.abs(target[:3, 3] - expected[:3, 3]).max() < 1e-8
+    # and the calibrated robot at those joints is on the frame
+    world = World(load_cell(str(calibrated)).cell)
+    world.set_joints("ur5", q_linear)
+    frame = world.T_world("target")
+    assert np.linalg.norm(world.T_world("ur5.tip")[:3, 3] - frame[:3, 3]) < 1e-7
+    uncalibrated = tmp_path / "uncalibrated"  # the same cell without the robot's overlay
+    shutil.copytree(calibrated, uncalibrated)
+    text = (uncalibrated / "cell.yaml").read_text()
+    (uncalibrated / "cell.yaml").write_text(text.replace("- truth.yaml\n", ""))
+    plain = cli(
+        ["export", "program", str(uncalibrated), str(uncalibrated / "programs" / "pick.yaml")]
+        + ["--format", "urscript", "-o", str(tmp_path / "x"), "--compensate"]
+    )
+    assert plain.exit_code == 2 and "nothing to compensate" in plain.output
