@@ -47,12 +47,13 @@ class Step:
     touch: dict[str, float | None] = field(default_factory=dict)
     configuration: dict[str, str] = field(default_factory=dict)  # shoulder, elbow, wrist
     near: np.ndarray | None = None  # (n,) joint values to take the solution nearest to (SI)
+    joints: np.ndarray | None = None  # (n,) a move's joint goal (``joints:``), SI
 
     def describe(self) -> str:
         s = self.spec
         if self.kind == "move":
             return (
-                f"move to {s.to}"
+                f"move to {s.to if s.to is not None else 'joint values'}"
                 + (" (linear)" if s.motion == "linear" else "")
                 + (f" until {s.until}" if s.until else "")
             )

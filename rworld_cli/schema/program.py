@@ -44,8 +44,13 @@ class ConfigSpec(Strict):
 class MoveSpec(Strict):
     """Move the device: its TCP to a frame (joint or linear), or its joints to a named position."""
 
-    to: FrameRef = Field(
-        description="A frame of the cell, a named position of the device, or 'home'."
+    to: FrameRef | None = Field(
+        None, description="A frame of the cell, a named position of the device, or 'home'."
+    )
+    joints: list[float] | None = Field(
+        None,
+        description="Instead of 'to': joint values to move to (the file's units: angle for "
+        "revolute, length for prismatic joints), joint-interpolated.",
     )
     motion: Literal["joint", "linear"] = Field(
         "joint", description="Joint-interpolated, or a straight TCP line."
@@ -81,6 +86,16 @@ class MoveSpec(Strict):
         "the depth it may be touched to ({table: 2mm}, a bare number in the program's length "
         "unit). Deeper is a collision.",
     )
+
+    @model_validator(mode="after")
+    def _one_goal(self):
+        if (self.to is None) == (self.joints is None):
+            raise ValueError("give the move one goal: 'to' (a frame or position) or 'joints'")
+        if self.joints is not None and (
+            self.motion == "linear" or self.offset is not None or self.config is not None
+        ):
+            raise ValueError("'joints' is a joint move: no linear motion, offset or config")
+        return self
 
 
 class ObjectRef(Strict):

@@ -23,6 +23,50 @@ def _step_spec(step: sp.Step):
     return getattr(step, step.kind)
 
 
+def _check_joint_goal(doc, path, spec, step, device, L, A, issues) -> None:
+    """``move: {joints: [...]}``: one value per joint, the file's units, within the limits."""
+    if device is None:
+        return
+    if len(spec.joints) != device.dof:
+        issues.append(
+            doc.issue(
+                path,
+                f"{len(spec.joints)} value(s) for the {device.dof} joint(s) of '{device.name}'",
+            )
+        )
+        return
+    kinds = [j.kind for j in device.joints]
+    needs = {"revolute": A, "prismatic": L}
+    if any(needs[k] is None for k in kinds):
+        issues.append(
+            doc.issue(
+                path,
+                "joint values need the file's units, and rworld never guesses them: add "
+                "'units: {length: mm, angle: deg}' at the top of the program",
+            )
+        )
+        return
+    q = np.array([v * needs[k] for v, k in zip(spec.joints, kinds)])
+    lower, upper = device.limit_array("lower"), device.limit_array("upper")
+    outside = [
+        f"{j.name} {q[i]:.6g} outside [{lower[i]:.6g}, {upper[i]:.6g}] (SI)"
+        for i, j in enumerate(device.joints)
+        if not (lower[i] - 1e-9 <= q[i] <= upper[i] + 1e-9)
+    ]
+    if outside:
+        issues.append(doc.issue(path, "beyond the joint limits: " + "; ".join(outside)))
+        return
+    step.joints = q
+    if not np.isfinite(device.limit_array("acceleration")).any():
+        issues.append(
+            doc.issue(
+                path,
+                f"no joint of '{device.name}' has an acceleration limit, so nothing times its "
+                "moves; add them to the cell",
+            )
+        )
+
+
 def _check_config(doc, path, spec, step, device, named, L, A, issues) -> None:
     """A move's ``config:``: an arm's configuration, joint values to be near (SI)."""
     config = spec.config
@@ -112,7 +156,9 @@ def _check_program(
         path = ("steps", i, raw.kind)
         line = doc.position(("steps", i))[0]
         step = Step(i, raw.kind, spec, f"{doc.file}:{line}")
-        if raw.kind == "move":
+        if raw.kind == "move" and spec.joints is not None:
+            _check_joint_goal(doc, path + ("joints",), spec, step, device, L, A, issues)
+        elif raw.kind == "move":
             target = spec.to
             named = device is not None and (target == "home" or target in device.positions)
             if not named:

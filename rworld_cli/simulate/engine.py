@@ -296,7 +296,9 @@ class _Scheduler:
         spec = step.spec
         dev = self.run.cell.devices[device]
         q_now = self.world.joints(device)
-        if spec.to == "home" or spec.to in dev.positions:
+        if step.joints is not None:  # move: {joints: [...]}
+            seg = self._joint_move(device, tr, step, q_now, step.joints)
+        elif spec.to == "home" or spec.to in dev.positions:
             q_goal = dev.home if spec.to == "home" else dev.positions[spec.to]
             seg = self._joint_move(device, tr, step, q_now, q_goal)
         else:
@@ -396,7 +398,7 @@ class _Scheduler:
         T_base_tcp = tool_pose(dev, q_goal, mount)
         return MoveTarget(
             spec.motion,
-            spec.to,
+            spec.to if spec.to is not None else "joint values",
             tcp,
             link,
             np.asarray(T_link_tcp, dtype=float),
