@@ -79,7 +79,12 @@ from .planning import (  # noqa: F401
     unlimited_joints,
     write_path_with_knots,
 )
-from .robotcal import RobotCalibrationRun, calibrate_robot  # noqa: F401
+from .robotcal import (  # noqa: F401
+    RobotCalibrationRun,
+    RobotPosePlanRun,
+    calibrate_robot,
+    plan_robot_calibration,
+)
 from .robots import UrdfExport, UrdfImport, export_urdf, import_urdf  # noqa: F401
 from .sensing import (  # noqa: F401
     describe_reading,

@@ -299,3 +299,217 @@ def _write_overlay(out: Path, obs, model, result, digests, world, T_link_target)
     rms = float(np.sqrt(np.mean(np.sum(result.residuals**2, axis=1))))
     lines.append(f"  residual_rms_mm: {rms * 1000:.6g}")
     atomic_write_text(out, "\n".join(lines) + "\n")
+
+
+@dataclass
+class RobotPosePlanRun:
+    """What ``plan-robot-calibration`` chose and wrote."""
+
+    device: str
+    target: str
+    poses: int
+    candidates: int
+    rejected: int
+    identifiable: int
+    predicted: float  # [m] rms error of the calibrated model, the estimate's own
+    random_same: float
+    random_double: float
+    q: np.ndarray  # (N, n) SI, in visiting order
+    program: str | None
+    template: str | None
+    dropped: int = 0  # poses replaced because the program collided on the way to them
+    seconds: float = 0.0
+
+    def as_dict(self) -> dict:
+        return {
+            "device": self.device,
+            "target": self.target,
+            "poses": self.poses,
+            "candidates": self.candidates,
+            "rejected_for_collisions": self.rejected,
+            "identifiable": self.identifiable,
+            "predicted_rms_mm": self.predicted * 1000,
+            "random_same_count_rms_mm": self.random_same * 1000,
+            "random_double_count_rms_mm": self.random_double * 1000,
+            "joints": self.q.tolist(),
+            "program": self.program,
+            "template": self.template,
+            "dropped_on_the_way": self.dropped,
+            "seconds": self.seconds,
+        }
+
+
+def _collision_free(cell, device: str, Q: np.ndarray) -> np.ndarray:
+    """Which joint states (K, n) of ``device`` touch nothing it may not touch (K,) bool."""
+    from ..collision.allowed import allowed_pairs
+    from ..collision.bodies import collision_model, distances
+    from ..world.tree import World
+
+    world = World(cell)
+    model = collision_model(cell)
+    allowed = allowed_pairs(world, model)
+    bodies = model.bodies
+    mine = [i for i, b in enumerate(bodies) if b.owner == device]
+    pairs = [
+        (i, j)
+        for i in mine
+        for j in range(len(bodies))
+        if j != i and (j not in mine or j > i) and (min(i, j), max(i, j)) not in allowed
+    ]
+    ok = np.ones(len(Q), dtype=bool)
+    if not pairs:
+        return ok
+    frames = sorted({bodies[k].frame for pair in pairs for k in pair})
+    T = world.T_world_frames(frames, {device: Q})
+    I = np.repeat([i for i, _ in pairs], len(Q))
+    J = np.repeat([j for _, j in pairs], len(Q))
+    TI = np.concatenate([T[bodies[i].frame] for i, _ in pairs])
+    TJ = np.concatenate([T[bodies[j].frame] for _, j in pairs])
+    result = distances(bodies, I, J, TI, TJ)
+    hit = result.overlap.reshape(len(pairs), len(Q)).any(axis=0)
+    return ok & ~hit
+
+
+def plan_robot_calibration(
+    cell_path: str,
+    device: str,
+    count: int,
+    target: str | None = None,
+    sigma: float = 2e-5,
+    candidates: int = 2000,
+    seed: int = 0,
+    program: str | None = None,
+    template: str | None = None,
+) -> RobotPosePlanRun:
+    """Choose ``count`` joint states to measure for ``calibrate-robot``: collision-free random
+    candidates within the limits, then the choice that predicts the smallest error of the
+    calibrated model (:func:`rworld_cli.calibration.robotplan.select_poses`), visited in a
+    short order.  ``program``: a program of joint moves that visits them, a pause at each for the
+    instrument, checked in simulation (a pose the robot collides on the way to is replaced).
+    ``template``: an observation file with the nominal points, to fill in.
+
+    Raises
+    ------
+    UserError
+        Unknown device or target, too few candidates without collisions, bad numbers.
+    CheckFailed
+        The program still collides after the replacements.
+    """
+    import time
+
+    from ..calibration.robot import RobotModel
+    from ..calibration.robotplan import select_poses
+    from ..errors import CheckFailed, did_you_mean
+    from ..fileio import atomic_write_text, output_set
+    from ..schema.loader import load_cell
+    from ..schema.programs import load_run, program_text
+    from ..simulate.engine import simulate
+    from ..world.tree import World
+
+    started = time.perf_counter()
+    cell = load_cell(cell_path).cell
+    if device not in cell.devices:
+        raise UserError(f"unknown device '{device}'{did_you_mean(device, cell.devices)}")
+    dev = cell.devices[device]
+    target = target or dev.tcps[0]
+    if target not in cell.frames and f"{device}.{target}" in cell.frames:
+        target = f"{device}.{target}"
+    if target not in cell.frames:
+        raise UserError(f"unknown frame '{target}'{did_you_mean(target, cell.frames)}")
+    if not (count >= 1 and candidates >= count and sigma > 0 and np.isfinite(sigma)):
+        raise UserError("give --poses >= 1, --candidates >= --poses and a sigma above 0")
+    world = World(cell)
+    link, T_link_target = world.mount_of(device, target)
+    model = RobotModel(
+        dev, np.linalg.inv(world.T_world(device)), link, T_link_target[:3, 3].copy(), False
+    )
+    lower, upper = dev.limit_array("lower"), dev.limit_array("upper")
+    lo = np.where(np.isfinite(lower), lower, -np.pi)
+    hi = np.where(np.isfinite(upper), upper, np.pi)
+    rng = np.random.default_rng(seed)
+    pool = rng.uniform(lo, hi, (candidates, dev.dof))
+    # each pose is visited from home and back: the pose and the joint path to it must be free
+    fractions = np.linspace(0.125, 1.0, 8)
+    path = dev.home + fractions[:, None, None] * (pool - dev.home)[None]  # (8, M, n)
+    free = _collision_free(cell, device, path.reshape(-1, dev.dof)).reshape(8, -1).all(axis=0)
+    pool = pool[free]
+    if len(pool) < count:
+        raise UserError(
+            f"only {len(pool)} of {candidates} candidate states are free of collisions; ask for "
+            "fewer poses or more candidates"
+        )
+    banned: set[int] = set()
+    dropped = 0
+    for _ in range(6):  # a pose the robot collides on the way to is replaced
+        usable = np.array([k for k in range(len(pool)) if k not in banned])
+        chosen, figures = select_poses(model, pool[usable], count, sigma, seed)
+        picked = usable[chosen]
+        picked = picked[np.argsort(np.abs(pool[picked] - dev.home).max(axis=1))]
+        if program is None:
+            break
+        units = {"length": "mm", "angle": "deg"}
+        scale = np.array([np.degrees(1.0) if j.kind == "revolute" else 1000.0 for j in dev.joints])
+        steps: list[tuple[dict, str | None]] = []
+        for k, q in enumerate(pool[picked]):  # from home to each pose and back
+            values = [float(f"{v:.6f}") for v in q * scale]
+            steps.append(({"move": {"joints": values}}, f"pose {k + 1}"))
+            steps.append(({"wait": {"time": 1.0}}, "the instrument's reading"))
+            steps.append(({"move": {"to": "home"}}, None))
+        text = program_text(
+            {
+                "header": [
+                    f"Robot calibration poses for '{device}' (rworld plan-robot-calibration): "
+                    f"{count} of {len(pool)} collision-free candidates, measure {target} at each",
+                ],
+                "device": device,
+                "units": units,
+                "steps": steps,
+            }
+        )
+        trial = Path(program).with_name(f".{Path(program).name}.trial")
+        trial.write_text(text)  # checked before it is written: the real file appears whole
+        try:
+            result = simulate(load_run(cell_path, str(trial)))
+        finally:
+            trial.unlink(missing_ok=True)
+        bad = set()
+        if result.collisions is not None:
+            for contact in result.collisions.contacts:
+                if contact.contact.collision:
+                    bad |= {s.step // 3 for s in contact.steps if s.device == device}
+        if result.ok and not bad:
+            break
+        if not bad:  # a limit broken, not a collision: the program says which
+            raise CheckFailed(f"the calibration program breaks a limit: {result.violations[0]}")
+        dropped += len(bad)
+        banned |= {int(picked[k]) for k in bad if k < len(picked)}
+    else:
+        raise CheckFailed(
+            "the calibration program still collides on the way between poses after replacing "
+            f"{dropped}: check {program}"
+        )
+    if program is not None:
+        with output_set():
+            atomic_write_text(program, text)
+    if template is not None:
+        from ..fileio import atomic_write_text
+        from ..schema.robotobs import observation_template
+
+        nominal = model.points(np.zeros(len(model.names)), pool[picked])
+        atomic_write_text(template, observation_template(dev, target, pool[picked], nominal, sigma))
+    return RobotPosePlanRun(
+        device,
+        target,
+        count,
+        candidates,
+        int((~free).sum()),
+        int(figures["identifiable"]),
+        float(figures["predicted"]),
+        float(figures["random_same"]),
+        float(figures["random_double"]),
+        pool[picked],
+        program,
+        template,
+        dropped,
+        time.perf_counter() - started,
+    )

@@ -120,7 +120,9 @@ def select_poses(
             X = np.einsum("kai,ij,kbj->kab", G, inv @ S @ inv, G)
             score = np.einsum("kaa->k", np.linalg.solve(B, X))
             score[~free] = -np.inf
-            score[chosen[slot]] = np.einsum("aa->", np.linalg.solve(B[chosen[slot]], X[chosen[slot]]))
+            score[chosen[slot]] = np.einsum(
+                "aa->", np.linalg.solve(B[chosen[slot]], X[chosen[slot]])
+            )
             best = int(np.argmax(score))
             if best != chosen[slot] and score[best] > score[chosen[slot]] * (1 + 1e-9):
                 free[chosen[slot]], free[best] = True, False

@@ -74,6 +74,11 @@ COMMANDS = {
         "calibrate_robot",
         "The robot's own kinematic errors from tracker / CMM points; write an overlay pose file.",
     ),
+    "plan-robot-calibration": (
+        "robotcal",
+        "plan_robot_calibration",
+        "Which joint states to measure for calibrate-robot, and a program that visits them.",
+    ),
     "measure": (
         "calibrate",
         "measure",

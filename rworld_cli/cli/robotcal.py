@@ -1,4 +1,4 @@
-"""rworld calibrate-robot"""
+"""rworld calibrate-robot, rworld plan-robot-calibration"""
 
 from __future__ import annotations
 
@@ -100,3 +100,86 @@ def calibrate_robot(cell, observations, device, output, dry_run, validate, show_
             )
     else:
         click.echo("nothing written (--dry-run)")
+
+
+@click.command("plan-robot-calibration")
+@click.argument("cell", metavar="CELL")
+@click.option("--device", required=True, metavar="NAME", help="The robot to calibrate.")
+@click.option("--poses", "count", required=True, type=click.IntRange(min=1), help="How many.")
+@click.option(
+    "--target",
+    default=None,
+    metavar="FRAME",
+    help="The frame the instrument measures (default: the device's first TCP).",
+)
+@click.option(
+    "--instrument",
+    type=click.Choice(["tracker"]),
+    default="tracker",
+    show_default=True,
+    help="An instrument that measures the target's point (laser tracker, CMM arm).",
+)
+@click.option("--sigma", default="0.02mm", show_default=True, help="The instrument's 1 sigma.")
+@click.option("--candidates", default=2000, show_default=True, type=click.IntRange(min=1))
+@click.option("--seed", default=0, show_default=True, type=int)
+@click.option(
+    "--program",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Write a program that visits the poses (joint moves, a pause at each), checked.",
+)
+@click.option(
+    "-o",
+    "--output",
+    "template",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Write an observation file of the poses with the nominal points, to fill in.",
+)
+@json_option
+@handle_errors
+def plan_robot_calibration(
+    cell, device, count, target, instrument, sigma, candidates, seed, program, template, json_output
+):
+    """Choose the joint states to measure for 'rworld calibrate-robot'.
+
+    Random joint states within the limits where the robot touches nothing, there and on the
+    joint path from home, are the candidates;
+    of them, the poses that predict the smallest error of the calibrated model are chosen (the
+    identification Jacobian's information, D- then I-optimal, with exchanges), ordered into a
+    short tour.  The predicted error is printed beside that of as many and of twice as many
+    random poses.  --program writes a program that visits each from home and back, checked in
+    simulation (a pose the robot collides on the way to is replaced).
+
+    \b
+    Examples:
+      rworld plan-robot-calibration workcells/puma560 --device puma --poses 30 --target probe
+      rworld plan-robot-calibration cell --device ur5 --poses 40 --program cal.yaml -o obs.yaml
+
+    Exit codes: 0 planned, 1 the program still collides, 2 bad input.
+    """
+    from ..api import parse_length
+    from ..api import plan_robot_calibration as run
+
+    result = run(
+        cell, device, count, target, parse_length(sigma), candidates, seed, program, template
+    )
+    if json_output:
+        emit_json(result.as_dict())
+        return
+    click.echo(
+        f"{result.device}: {result.poses} poses of {result.target} chosen from "
+        f"{result.candidates - result.rejected} collision-free candidates "
+        f"({result.rejected} rejected); {result.identifiable} combinations identifiable"
+    )
+    click.echo(
+        f"  predicted error of the calibrated model (rms, the estimate's own): "
+        f"{result.predicted * 1000:.4f} mm; {result.poses} random poses: "
+        f"{result.random_same * 1000:.4f} mm; {2 * result.poses} random poses: "
+        f"{result.random_double * 1000:.4f} mm"
+    )
+    if result.program:
+        extra = f" ({result.dropped} replaced: collisions on the way)" if result.dropped else ""
+        click.echo(f"wrote {result.program}: each pose from home and back, checked{extra}")
+    if result.template:
+        click.echo(f"wrote {result.template}: fill in the measured points")

@@ -33,7 +33,7 @@ from ..model.measurements import RobotObservations
 from ..units import ANGLE, LENGTH
 from .loader import pose_to_matrix, validate_document
 from .models import Name, Pose, Strict, Units, Vec3
-from .yamlio import read_yaml
+from .yamlio import read_yaml, yaml_value
 
 
 class Observation(Strict):
@@ -299,3 +299,24 @@ def _read_csv(p: Path, cell: CellModel) -> RobotObservations:
         raise _refuse([Issue(shown, table.header_line, 1, "rows", "no observations")])
     target = target if target in cell.frames else f"{device}.{target}"
     return RobotObservations(device, target, frame, np.array(q), np.array(points), sigma, lines)
+
+
+def observation_template(dev, target: str, Q: np.ndarray, points: np.ndarray, sigma: float) -> str:
+    """An observation file (mm, deg) of joint states ``Q`` (N, n) with the nominal points
+    (N, 3) [m] to replace by the measured ones."""
+    scale = np.array([np.degrees(1.0) if j.kind == "revolute" else 1000.0 for j in dev.joints])
+    lines = [
+        "# Robot calibration observations to fill in: each point is where the nominal model",
+        "# puts the target; replace it by what the instrument measures.",
+        "units: {length: mm, angle: deg}",
+        f"device: {yaml_value(dev.name)}",
+        "instrument: laser tracker",
+        f"sigma: {sigma * 1000:g}",
+        f"target: {yaml_value(target)}",
+        "frame: world",
+        "observations:",
+    ]
+    for q, p in zip(Q, points * 1000):
+        joints = ", ".join(f"{v:.6f}" for v in q * scale)
+        lines.append(f"  - {{joints: [{joints}], point: [{', '.join(f'{v:.4f}' for v in p)}]}}")
+    return "\n".join(lines) + "\n"

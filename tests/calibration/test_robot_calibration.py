@@ -357,3 +357,33 @@ def test_compensated_targets_take_a_nominal_controller_to_the_true_pose(cells, t
         + ["--format", "urscript", "-o", str(tmp_path / "x"), "--compensate"]
     )
     assert plain.exit_code == 2 and "nothing to compensate" in plain.output
+
+
+def test_planned_poses_beat_random_ones_and_the_program_checks(tmp_path, cli):
+    """plan-robot-calibration on the Puma: collision-free poses whose predicted error is below
+    that of as many random ones; the program visits them and 'rworld check' passes it; the
+    template reads back as observations of those poses."""
+    from tests.conftest import WORKCELLS
+
+    cell = tmp_path / "puma"
+    shutil.copytree(WORKCELLS / "puma560", cell)
+    program, template = cell / "programs" / "calibration.yaml", tmp_path / "obs.yaml"
+    result = cli(
+        ["plan-robot-calibration", str(cell), "--device", "puma", "--poses", "15"]
+        + ["--target", "probe", "--program", str(program), "-o", str(template), "--json"]
+    )
+    assert result.exit_code == 0, result.output
+    plan = json.loads(result.output)
+    assert plan["poses"] == 15 and plan["rejected_for_collisions"] > 0
+    assert plan["predicted_rms_mm"] < plan["random_same_count_rms_mm"]
+    check = cli(["check", str(cell), str(program)])
+    assert check.exit_code == 0, check.output
+    from rworld_cli.schema.robotobs import read_observations
+
+    obs, _ = read_observations(str(template), load_cell(str(cell)).cell)
+    np.testing.assert_allclose(obs.q, np.array(plan["joints"]), atol=1e-7)
+    world = World(load_cell(str(cell)).cell)
+    world.set_joints("puma", obs.q[0])
+    np.testing.assert_allclose(obs.points[0], world.T_world("puma.probe")[:3, 3], atol=1e-6)
+    bad = cli(["plan-robot-calibration", str(cell), "--device", "pumaa", "--poses", "5"])
+    assert bad.exit_code == 2 and "did you mean 'puma'" in bad.output
