@@ -117,13 +117,13 @@ def calibrate_robot(
     dry_run: bool = False,
     validate: list[str] | None = None,
 ) -> RobotCalibrationRun:
-    """Identify a joint-frame device's kinematic errors from instrument observations and write
-    them as a pose-file overlay (unless ``dry_run``).
+    """Identify a device's kinematic errors (joint frames, or DH rows with a correction each)
+    from instrument observations and write them as a pose-file overlay (unless ``dry_run``).
 
     Raises
     ------
     UserError
-        Bad or mismatched observation files (located), a DH device, a target without a pose,
+        Bad or mismatched observation files (located), a target without a pose,
         data that do not fit the robot (residuals over 100 sigma: a unit read wrongly), an
         output that is one of the cell's own files.
     """
