@@ -3,6 +3,7 @@ written as a pose-file overlay (joint frames, the measured frame, the instrument
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as _dt
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -91,8 +92,40 @@ def _merge(observations):
                 f"{first.device}/{first.target} in {first.frame} against "
                 f"{o.device}/{o.target} in {o.frame}"
             )
-    if len({o.rotations is None for o in observations}) > 1:
-        raise UserError("the observation files mix points and poses: calibrate from one kind")
+    kinds = {
+        ("contacts" if o.surfaces else "poses" if o.rotations is not None else "points")
+        for o in observations
+    }
+    if len(kinds) > 1:
+        raise UserError(
+            f"the observation files mix {' and '.join(sorted(kinds))}: calibrate from one kind"
+        )
+    if first.surfaces is not None:
+        from ..model.measurements import Surfaces
+
+        if len({o.surfaces.ball for o in observations if o.surfaces}) > 1:
+            raise UserError("the contact files give different probe radii")
+        parts = [o.surfaces for o in observations if o.surfaces is not None]
+        surfaces = Surfaces(
+            [k for part in parts for k in part.kind],
+            np.vstack([part.point for part in parts]),
+            np.vstack([part.direction for part in parts]),
+            np.concatenate([part.radius for part in parts]),
+            parts[0].ball,
+            [n for part in parts for n in part.names],
+            [o for part in parts for o in part.owners],
+        )
+        return RobotObservations(
+            first.device,
+            first.target,
+            first.frame,
+            np.vstack([o.q for o in observations]),
+            np.zeros((sum(len(o.q) for o in observations), 3)),
+            float(np.sqrt(np.mean([o.sigma**2 for o in observations]))),
+            [line for o in observations for line in o.lines],
+            first.instrument,
+            surfaces=surfaces,
+        )
     sigma = float(np.sqrt(np.mean([o.sigma**2 for o in observations])))
     poses = first.rotations is not None
     return RobotObservations(
@@ -153,6 +186,8 @@ def calibrate_robot(
         raise UserError(f"--device {device}, but the observations are of '{obs.device}'")
     dev = cell.devices[obs.device]
     world = World(cell)
+    if obs.surfaces is not None:  # the touched features where the cell has them
+        obs = dataclasses.replace(obs, surfaces=obs.surfaces.placed(world.T_world))
     link, T_link_target = world.mount_of(obs.device, obs.target)
     if obs.target not in cell.pose_sources:
         raise UserError(
@@ -173,7 +208,7 @@ def calibrate_robot(
     if 3 * len(obs.q) < 12:
         raise UserError(f"{len(obs.q)} observation(s): too few to identify anything")
     result = identify(model, obs)
-    rms = float(np.sqrt(np.mean(np.sum(result.residuals**2, axis=1)) / 3))
+    rms = float(np.sqrt(np.mean(result.residuals[:, :3] ** 2)))  # per coordinate (or gap)
     if rms > IMPLAUSIBLE * obs.sigma or (
         obs.rotations is not None
         and np.sqrt(np.mean(model.residuals(result.p, obs)[:, 3:] ** 2)) > IMPLAUSIBLE * obs.sigma
@@ -191,6 +226,8 @@ def calibrate_robot(
     validation_before = validation_after = predicted = None
     if validate:
         checks = _merge([read_observations(p, cell)[0] for p in validate])
+        if checks.surfaces is not None:
+            checks = dataclasses.replace(checks, surfaces=checks.surfaces.placed(world.T_world))
         if (checks.device, checks.target, checks.frame) != (obs.device, obs.target, obs.frame):
             raise UserError("the validation files measure another device, target or frame")
         validation_before = position_errors(model, zeros, checks)

@@ -133,6 +133,8 @@ class RobotModel:
         """Model minus measurement per observation, (K, 3) [m], or (K, 6) for poses with the
         rotation's error (rotation vector) weighted to the position's sigma."""
         T = self.poses(p, obs.q)
+        if obs.surfaces is not None:  # the ball on a known surface: its gap, one per contact
+            return obs.surfaces.gaps(T[:, :3, 3])[:, None]
         position = T[:, :3, 3] - obs.points
         if obs.rotations is None:
             return position
@@ -185,8 +187,8 @@ class RobotCalibration:
     rank: int
     unidentifiable: list[Unidentifiable]
     observability: float  # Borm and Menq's O1 of the scaled Jacobian's identifiable part
-    residuals: np.ndarray  # (K, 3) [m] after
-    residuals_before: np.ndarray  # (K, 3) [m]
+    residuals: np.ndarray  # (K, m) [m] after: positions (3), poses (6), contacts' gaps (1)
+    residuals_before: np.ndarray  # (K, m) [m]
     iterations: int
     device: DeviceModel  # corrected
     T_frame_base: np.ndarray
@@ -217,7 +219,7 @@ def identify(model: RobotModel, obs: RobotObservations, iterations: int = 20) ->
     p = np.zeros(P)
     scales = model.scales
     q = obs.q
-    before = model.points(p, q) - obs.points
+    before = model.residuals(p, obs)
     rank, U, s, Vt = 0, None, None, None
     done = 0
     for done in range(1, iterations + 1):
@@ -230,7 +232,7 @@ def identify(model: RobotModel, obs: RobotObservations, iterations: int = 20) ->
         if np.abs(step).max() < 1e-9:  # in scaled units: 1e-12 m, 1e-12 rad
             break
     assert Vt is not None and s is not None
-    after = model.points(p, q) - obs.points
+    after = model.residuals(p, obs)
     V = Vt[:rank].T
     covariance_scaled = obs.sigma**2 * (V / s[:rank] ** 2) @ V.T
     covariance = covariance_scaled * np.outer(scales, scales)
@@ -262,8 +264,12 @@ def identify(model: RobotModel, obs: RobotObservations, iterations: int = 20) ->
 
 
 def position_errors(model: RobotModel, p: np.ndarray, obs: RobotObservations) -> dict:
-    """rms, 95th percentile and largest distance [m] between the model's points and ``obs``."""
-    d = np.linalg.norm(model.points(p, obs.q) - obs.points, axis=1)
+    """rms, 95th percentile and largest distance [m] between the model's points and ``obs``
+    (contacts: the ball's gap to its surface)."""
+    if obs.surfaces is not None:
+        d = np.abs(model.residuals(p, obs)[:, 0])
+    else:
+        d = np.linalg.norm(model.points(p, obs.q) - obs.points, axis=1)
     return {
         "rms": float(np.sqrt(np.mean(d**2))),
         "p95": float(np.percentile(d, 95)),

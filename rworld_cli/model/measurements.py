@@ -106,3 +106,54 @@ class RobotObservations:
     instrument: str = ""
     rotations: np.ndarray | None = None  # (K, 3, 3): full poses measured (6-DoF), else None
     sigma_angle: float = 0.0  # [rad], 1 sigma per axis of the rotations
+    # self-calibration: the robot's ball touched a known surface at each state (``points`` is
+    # then unused); see :class:`Surfaces`
+    surfaces: Surfaces | None = None
+
+
+@dataclass
+class Surfaces:
+    """The known surfaces a ball probe touched, one per observation (world frame, SI).
+
+    ``kind``: 'plane' (point on it, outward normal), 'sphere' (centre, radius), 'line' (point,
+    direction: an edge), 'circle' (centre, axis, radius: a hole's wall, touched from inside).
+    The ball's centre is then at ``ball`` from the surface.
+    """
+
+    kind: list[str]
+    point: np.ndarray  # (K, 3)
+    direction: np.ndarray  # (K, 3) (unused for spheres)
+    radius: np.ndarray  # (K,) sphere or hole radius (0 otherwise)
+    ball: float  # the probe ball's radius [m]
+    names: list[str] = field(default_factory=list)
+    owners: list[str] = field(default_factory=list)  # set: point, direction in their frames
+
+    def placed(self, T_world) -> Surfaces:
+        """The surfaces in world, ``T_world(owner)`` giving each owner's pose (4, 4)."""
+        if not self.owners:
+            return self
+        T = np.array([T_world(owner) for owner in self.owners])
+        return Surfaces(
+            self.kind,
+            np.einsum("kij,kj->ki", T[:, :3, :3], self.point) + T[:, :3, 3],
+            np.einsum("kij,kj->ki", T[:, :3, :3], self.direction),
+            self.radius,
+            self.ball,
+            self.names,
+        )
+
+    def gaps(self, centres: np.ndarray) -> np.ndarray:
+        """Distance from each ball centre to where touching puts it (K,) [m]: 0 on contact."""
+        v = centres - self.point
+        along = np.einsum("ki,ki->k", v, self.direction)
+        radial = np.linalg.norm(v - along[:, None] * self.direction, axis=1)
+        out = np.empty(len(v))
+        for kind, rows in (
+            ("plane", along - self.ball),
+            ("sphere", np.linalg.norm(v, axis=1) - self.radius - self.ball),
+            ("line", radial - self.ball),
+            ("circle", radial - (self.radius - self.ball)),
+        ):
+            mask = np.array([k == kind for k in self.kind])
+            out[mask] = rows[mask]
+        return out

@@ -48,8 +48,23 @@ class Observation(Strict):
     )
 
 
+class Contact(Strict):
+    joints: Annotated[list[float], Len(1)] = Field(
+        description="The device's joint values when its ball probe touched the feature."
+    )
+    feature: str = Field(
+        description="The feature touched ('owner.feature'): a plane from its outside, an edge "
+        "(line), a hole's wall (circle) from inside, or a sphere (a point feature with "
+        "'radius')."
+    )
+    radius: float | None = Field(
+        None, gt=0, description="A point feature: the radius of the sphere around it [length]."
+    )
+
+
 class ObservationFile(Strict):
-    """Points an instrument measured on a device frame, with the joint values at each."""
+    """Points an instrument measured on a device frame, with the joint values at each; or the
+    contacts of the robot's own ball probe with features of known geometry."""
 
     units: Units
     device: Name
@@ -60,7 +75,15 @@ class ObservationFile(Strict):
     )
     target: str = Field(description="The measured frame: a frame with a pose on a link.")
     frame: str = Field("world", description="The frame the points are in.")
-    observations: Annotated[list[Observation], Len(1)]
+    observations: list[Observation] = Field(default_factory=list)
+    contacts: list[Contact] = Field(
+        default_factory=list,
+        description="Self-calibration: the robot's ball probe ('target' is its centre) touching "
+        "features of the cell at these joint values.",
+    )
+    probe_radius: float | None = Field(
+        None, ge=0, description="Contacts: the probe ball's radius [length unit]."
+    )
 
 
 def _refuse(issues: list[Issue]) -> UserError:
@@ -113,6 +136,18 @@ def read_observations(path: str, cell: CellModel) -> tuple[RobotObservations, di
 
     _check(cell, str(path), f.device, f.target, f.frame, at)
     dev = cell.devices[f.device]
+    if bool(f.observations) == bool(f.contacts):
+        raise _refuse(
+            [
+                doc.issue(
+                    (),
+                    "give 'observations' (instrument points) or 'contacts' (the probe's "
+                    "touches), one of them",
+                )
+            ]
+        )
+    if f.contacts:
+        return _contacts(doc, f, cell, dev, str(path), L, A), digest
     scale = np.array([A if j.kind == "revolute" else L for j in dev.joints])
     issues = []
     q, points, rotations, lines = [], [], [], []
@@ -171,6 +206,91 @@ def read_observations(path: str, cell: CellModel) -> tuple[RobotObservations, di
         (f.sigma_angle or 0.0) * A,
     )
     return obs, digest
+
+
+def _contacts(doc, f: ObservationFile, cell: CellModel, dev, path: str, L: float, A: float):
+    """The contact form: each touch's feature geometry in world (the cell's current poses)."""
+    from ..model.measurements import Surfaces
+
+    issues = []
+    if f.probe_radius is None:
+        issues.append(doc.issue(("contacts",), "contacts need the 'probe_radius' of the ball"))
+    if f.frame != "world":
+        issues.append(doc.issue(("frame",), "contacts are with the cell's features: frame world"))
+    scale = np.array([A if j.kind == "revolute" else L for j in dev.joints])
+    q, kinds, points, directions, radii, names, lines = [], [], [], [], [], [], []
+    owners = []
+    for k, c in enumerate(f.contacts):
+        where = ("contacts", k)
+        feature = cell.features.get(c.feature)
+        if feature is None:
+            issues.append(
+                doc.issue(
+                    where + ("feature",),
+                    f"unknown feature '{c.feature}'{did_you_mean(c.feature, cell.features)}",
+                )
+            )
+            continue
+        if feature.owner == dev.name:
+            issues.append(doc.issue(where + ("feature",), "a feature the robot itself carries"))
+            continue
+        if len(c.joints) != dev.dof:
+            issues.append(
+                doc.issue(
+                    where + ("joints",),
+                    f"{len(c.joints)} joint value(s) for the {dev.dof} joints of '{dev.name}'",
+                )
+            )
+            continue
+        values = np.array(c.joints) * scale
+        if not np.all(np.isfinite(values)):
+            issues.append(doc.issue(where, "a value is not a finite number"))
+            continue
+        issues += _limits(dev, values, lambda m, w=where: doc.issue(w + ("joints",), m))
+        kind = {"point": "sphere"}.get(feature.kind, feature.kind)
+        if kind == "sphere" and c.radius is None:
+            issues.append(
+                doc.issue(where, "a point feature is touched as a sphere: give its 'radius'")
+            )
+            continue
+        point = np.asarray(feature.point, dtype=float)  # the owner's frame: placed by the api
+        direction = (
+            np.asarray(feature.direction, dtype=float)
+            if feature.direction is not None
+            else np.zeros(3)
+        )
+        owners.append(feature.owner)
+        radius = (c.radius * L) if kind == "sphere" else (feature.radius or 0.0)
+        q.append(values)
+        kinds.append(kind)
+        points.append(point)
+        directions.append(direction)
+        radii.append(radius)
+        names.append(c.feature)
+        lines.append(f"{path}:{doc.position(where)[0]}")
+    if issues:
+        raise _refuse(issues)
+    target = f.target if f.target in cell.frames else f"{f.device}.{f.target}"
+    surfaces = Surfaces(
+        kinds,
+        np.array(points),
+        np.array(directions),
+        np.array(radii),
+        float(f.probe_radius or 0.0) * L,
+        names,
+        owners,
+    )
+    return RobotObservations(
+        f.device,
+        target,
+        "world",
+        np.array(q),
+        np.zeros((len(q), 3)),
+        f.sigma * L,
+        lines,
+        f.instrument,
+        surfaces=surfaces,
+    )
 
 
 def _limits(dev, values, issue) -> list[Issue]:

@@ -387,3 +387,125 @@ def test_planned_poses_beat_random_ones_and_the_program_checks(tmp_path, cli):
     np.testing.assert_allclose(obs.points[0], world.T_world("puma.probe")[:3, 3], atol=1e-6)
     bad = cli(["plan-robot-calibration", str(cell), "--device", "pumaa", "--poses", "5"])
     assert bad.exit_code == 2 and "did you mean 'puma'" in bad.output
+
+
+def _with_artefact(folder: Path) -> None:
+    """A calibration artefact on the table: a 25 mm sphere on a post and a block's three faces."""
+    cell = yaml.safe_load((folder / "cell.yaml").read_text())
+    cell["objects"] = [
+        {
+            "name": "artefact",
+            "features": [
+                {"name": "ball", "point": [0.0, 0.0, 0.15]},
+                {"name": "top", "plane": {"point": [0.1, 0, 0.05], "normal": [0, 0, 1]}},
+                {"name": "front", "plane": {"point": [0.15, 0, 0], "normal": [1, 0, 0]}},
+                {"name": "side", "plane": {"point": [0.1, 0.05, 0], "normal": [0, 1, 0]}},
+            ],
+        }
+    ]
+    (folder / "cell.yaml").write_text(yaml.safe_dump(cell, sort_keys=False))
+    poses = yaml.safe_load((folder / "poses.yaml").read_text())
+    poses["poses"]["artefact"] = {"xyz": [0.35, 0.15, 0.0]}
+    (folder / "poses.yaml").write_text(yaml.safe_dump(poses, sort_keys=False))
+
+
+def _touches(truth, count: int, seed: int, ball: float, sigma: float) -> list[dict]:
+    """Where the truth robot's ball (radius ``ball``) touches the artefact: the ball centre put
+    at its contact distance (plus the trigger's noise) by the truth robot's IK."""
+    from rworld_cli.kinematics.inverse import solve_ik
+    from rworld_cli.kinematics.jacobian import ToolMount
+
+    world = World(truth)
+    dev = truth.devices["ur5"]
+    mount = ToolMount(*world.mount_of("ur5", "ur5.tip"))
+    T_base = world.T_world("ur5")
+    rng = np.random.default_rng(seed)
+    out = []
+    while len(out) < count:
+        name = ["ball", "top", "front", "side"][len(out) % 4]
+        f = truth.features[f"artefact.{name}"]
+        T = world.T_world("artefact")
+        gap = ball + rng.normal(0, sigma)
+        if name == "ball":
+            u = rng.normal(size=3)
+            u[2] = abs(u[2]) + 0.3
+            u /= np.linalg.norm(u)
+            centre = T[:3, :3] @ f.point + T[:3, 3] + (0.025 + gap) * u
+        else:
+            n = T[:3, :3] @ f.direction
+            spread = rng.uniform(-0.04, 0.04, 3)
+            spread -= (spread @ n) * n
+            centre = T[:3, :3] @ f.point + T[:3, 3] + spread + gap * n
+        target = np.eye(4)
+        target[:3, 3] = np.linalg.solve(T_base, np.r_[centre, 1.0])[:3]
+        seed_q = rng.uniform(-1.5, 1.5, dev.dof)
+        result = solve_ik(dev, target, mount, seed_q, position_only=True)
+        if result.success:
+            out.append({"joints": np.degrees(result.q), "feature": f"artefact.{name}"})
+    return out
+
+
+def test_self_calibration_by_touching_an_artefact(cells, tmp_path):
+    """Input (c): the robot's own 5 mm ball touching a sphere and three faces of a known
+    artefact, the residual the gap to the surface.  The calibrated robot's ball is where the
+    truth's is, near the artefact, far better than the nominal one."""
+    from rworld_cli.api import calibrate_robot
+
+    nominal_dir, truth_dir = cells
+    nominal, truth = tmp_path / "nominal", tmp_path / "truth"
+    shutil.copytree(nominal_dir, nominal)
+    shutil.copytree(truth_dir, truth)
+    for folder in (nominal, truth):
+        _with_artefact(folder)
+    truth_cell = load_cell(str(truth)).cell
+    lines = [
+        "units: {length: mm, angle: deg}",
+        "device: ur5",
+        "instrument: touch-trigger ball probe",
+        "sigma: 0.01",
+        "target: ur5.tip",
+        "probe_radius: 2.5",
+        "contacts:",
+    ]
+    for t in _touches(truth_cell, 160, 3, 0.0025, 1e-5):
+        joints = ", ".join(f"{v:.9f}" for v in t["joints"])
+        radius = ", radius: 25" if t["feature"] == "artefact.ball" else ""
+        lines.append(f"  - {{joints: [{joints}], feature: {t['feature']}{radius}}}")
+    path = tmp_path / "touches.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    out = tmp_path / "cal.yaml"
+    check_path = tmp_path / "check.yaml"
+    lines = lines[:7]
+    for t in _touches(truth_cell, 40, 4, 0.0025, 1e-5):
+        joints = ", ".join(f"{v:.9f}" for v in t["joints"])
+        radius = ", radius: 25" if t["feature"] == "artefact.ball" else ""
+        lines.append(f"  - {{joints: [{joints}], feature: {t['feature']}{radius}}}")
+    check_path.write_text("\n".join(lines) + "\n")
+    result = calibrate_robot(str(nominal), [str(path)], output=str(out), validate=[str(check_path)])
+    assert result.after["rms"] < 2e-5 < result.before["rms"], (result.before, result.after)
+    # the gaps on contacts not used in the fit: at the trigger's noise (0.01 mm)
+    assert result.validation_after["rms"] < 1.5e-5 < result.validation_before["rms"]
+    text = (nominal / "cell.yaml").read_text()
+    (nominal / "cell.yaml").write_text(
+        text.replace("pose_files:\n- poses.yaml", "pose_files:\n- poses.yaml\n- cal.yaml")
+    )
+    shutil.copy(out, nominal / "cal.yaml")
+    check = [np.radians(t["joints"]) for t in _touches(truth_cell, 40, 9, 0.0025, 0.0)]
+    mine, theirs = World(load_cell(str(nominal)).cell), World(truth_cell)
+    plain = World(load_cell(str(nominal_dir)).cell)
+    errors, before = [], []
+    for q in check:
+        for w in (mine, theirs, plain):
+            w.set_joints("ur5", q)
+        errors.append(
+            np.linalg.norm(mine.T_world("ur5.tip")[:3, 3] - theirs.T_world("ur5.tip")[:3, 3])
+        )
+        before.append(
+            np.linalg.norm(plain.T_world("ur5.tip")[:3, 3] - theirs.T_world("ur5.tip")[:3, 3])
+        )
+    rms, rms_before = np.sqrt(np.mean(np.square(errors))), np.sqrt(np.mean(np.square(before)))
+    print(
+        f"ball near the artefact: nominal {rms_before * 1000:.3f} mm, calibrated "
+        f"{rms * 1000:.4f} mm, identified {result.identified} of {result.parameters}"
+    )
+    assert rms < 0.1 * rms_before and rms < 0.05e-3, (rms, rms_before)
