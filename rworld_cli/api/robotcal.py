@@ -40,6 +40,7 @@ class RobotCalibrationRun:
     listed: bool
     seconds: float = 0.0
     notes: list[str] = field(default_factory=list)
+    cross_validation: dict | None = None  # --folds: pooled held-out errors [m]
 
     def as_dict(self) -> dict:
         mm = lambda d: None if d is None else {k: v * 1000 for k, v in d.items()}  # noqa: E731
@@ -73,6 +74,13 @@ class RobotCalibrationRun:
                 for r in self.parameter_rows
             ],
             "flagged": self.flagged,
+            "cross_validation_mm": None
+            if self.cross_validation is None
+            else {
+                "folds": self.cross_validation["folds"],
+                "before": mm(self.cross_validation["before"]),
+                "after": mm(self.cross_validation["after"]),
+            },
             "output": self.output,
             "written": self.written,
             "listed": self.listed,
@@ -149,6 +157,7 @@ def calibrate_robot(
     output: str | None = None,
     dry_run: bool = False,
     validate: list[str] | None = None,
+    folds: int = 0,
 ) -> RobotCalibrationRun:
     """Identify a device's kinematic errors (joint frames, or DH rows with a correction each)
     from instrument observations and write them as a pose-file overlay (unless ``dry_run``).
@@ -233,6 +242,9 @@ def calibrate_robot(
         validation_before = position_errors(model, zeros, checks)
         validation_after = position_errors(model, result.p, checks)
         predicted = result.predicted_rms(checks.q)
+    cross = None
+    if folds:
+        cross = _cross_validation(model, obs, folds)
     rows = []
     for name, value, sigma in zip(model.names, result.p, result.sigma):
         angular = name.rsplit(".", 1)[-1] in ("rx", "ry", "rz")
@@ -270,6 +282,65 @@ def calibrate_robot(
         written,
         listed,
         time.perf_counter() - started,
+        cross_validation=cross,
+    )
+
+
+def _cross_validation(model, obs, folds: int) -> dict:
+    """k-fold: each fold's observations predicted by a fit on the others; the errors pooled
+    (rms, p95, max [m]) for the nominal and the fitted models."""
+    from ..calibration.robot import identify
+
+    K = len(obs.q)
+    if not 2 <= folds <= K // 4:
+        raise UserError(f"--folds {folds}: give 2 to {K // 4} folds for {K} observations")
+    order = np.random.default_rng(0).permutation(K)
+    before: list[float] = []
+    after: list[float] = []
+    for k in range(folds):
+        test = order[k::folds]
+        train = np.setdiff1d(order, test)
+
+        def part(rows):
+            return dataclasses.replace(
+                obs,
+                q=obs.q[rows],
+                points=obs.points[rows],
+                rotations=None if obs.rotations is None else obs.rotations[rows],
+                surfaces=None if obs.surfaces is None else _take(obs.surfaces, rows),
+                lines=[obs.lines[r] for r in rows if r < len(obs.lines)],
+            )
+
+        fit = identify(model, part(train))
+        held = part(test)
+        for p, into in ((np.zeros_like(fit.p), before), (fit.p, after)):
+            residual = model.residuals(p, held)
+            if held.surfaces is not None:
+                into.extend(np.abs(residual[:, 0]))
+            else:
+                into.extend(np.linalg.norm(residual[:, :3], axis=1))
+
+    def stats(d) -> dict:
+        d = np.asarray(d)
+        return {
+            "rms": float(np.sqrt(np.mean(d**2))),
+            "p95": float(np.percentile(d, 95)),
+            "max": float(d.max()),
+        }
+
+    return {"folds": folds, "before": stats(before), "after": stats(after)}
+
+
+def _take(surfaces, rows):
+    from ..model.measurements import Surfaces
+
+    return Surfaces(
+        [surfaces.kind[r] for r in rows],
+        surfaces.point[rows],
+        surfaces.direction[rows],
+        surfaces.radius[rows],
+        surfaces.ball,
+        [surfaces.names[r] for r in rows] if surfaces.names else [],
     )
 
 

@@ -28,10 +28,19 @@ from .common import emit_json, handle_errors, json_option
     metavar="FILE",
     help="Observations not used in the fit: their position errors before and after; repeatable.",
 )
+@click.option(
+    "--folds",
+    default=0,
+    type=click.IntRange(min=0),
+    metavar="K",
+    help="k-fold cross-validation: each fold predicted by a fit on the others (0: none).",
+)
 @click.option("--all", "show_all", is_flag=True, help="List every identified parameter.")
 @json_option
 @handle_errors
-def calibrate_robot(cell, observations, device, output, dry_run, validate, show_all, json_output):
+def calibrate_robot(
+    cell, observations, device, output, dry_run, validate, folds, show_all, json_output
+):
     """Identify the robot's own kinematic errors from points an instrument measured on a frame
     it carries (laser tracker, CMM arm), and write them as a pose-file overlay.
 
@@ -51,7 +60,7 @@ def calibrate_robot(cell, observations, device, output, dry_run, validate, show_
     """
     from ..api import calibrate_robot as run
 
-    result = run(cell, list(observations), device, output, dry_run, list(validate) or None)
+    result = run(cell, list(observations), device, output, dry_run, list(validate) or None, folds)
     if json_output:
         emit_json(result.as_dict())
         return
@@ -73,6 +82,10 @@ def calibrate_robot(cell, observations, device, output, dry_run, validate, show_
                 f"              the estimate's own error predicted: rms "
                 f"{result.predicted_validation * 1000:.4f} mm (besides the instrument's noise)"
             )
+    if result.cross_validation is not None:
+        cv = result.cross_validation
+        click.echo(f"  {cv['folds']}-fold:     before {mm(cv['before'])}")
+        click.echo(f"              after  {mm(cv['after'])}")
     rows = sorted(
         result.parameter_rows, key=lambda r: -abs(r["correction"]) / max(r["sigma"], 1e-12)
     )

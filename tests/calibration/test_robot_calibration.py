@@ -124,7 +124,7 @@ def test_the_calibrated_robot_is_the_true_one_at_the_bound(cells, tmp_path, cli)
     out = tmp_path / "cal.yaml"
     result = cli(
         ["calibrate-robot", str(nominal), str(fit), "--validate", str(check), "-o", str(out)]
-        + ["--json"]
+        + ["--folds", "5", "--json"]
     )
     assert result.exit_code == 0, result.output
     report = json.loads(result.output)
@@ -137,6 +137,10 @@ def test_the_calibrated_robot_is_the_true_one_at_the_bound(cells, tmp_path, cli)
     noise = np.sqrt(3) * SIGMA
     expected = np.hypot(noise, validation["predicted_rms_of_the_estimate"])
     assert validation["after"]["rms"] < 1.15 * expected, validation
+    # 5-fold cross-validation on the fit's own 50 points: held-out errors near the validation's
+    cross = report["cross_validation_mm"]
+    assert cross["folds"] == 5 and cross["before"]["rms"] > 1.0
+    assert cross["after"]["rms"] < 1.6 * validation["after"]["rms"], (cross, validation)
     assert _digest(nominal) == before  # the cell's own files untouched
     # the overlay, listed last, makes every command use the calibrated robot: its tip where the
     # truth robot's is, to the bound of the estimate (no instrument noise here)
