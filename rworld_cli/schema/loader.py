@@ -220,6 +220,36 @@ def load_pose_file_doc(path: str | Path, display: str | None = None) -> tuple[Ma
     return doc, validate_document(doc, sm.PoseFile)
 
 
+def joint_values(
+    device, values, length: float | None, angle: float | None, limits: bool = True
+) -> tuple[np.ndarray | None, str | None]:
+    """A file's joint values of ``device`` in SI: (q, None), or (None, why not) - the count,
+    the file's units (never guessed), finite numbers, within the limits (``limits``)."""
+    if len(values) != device.dof:
+        return None, f"{len(values)} value(s) for the {device.dof} joint(s) of '{device.name}'"
+    scale = [angle if j.kind == "revolute" else length for j in device.joints]
+    if any(x is None for x in scale):
+        return None, (
+            "joint values need the file's units, and rworld never guesses them: add "
+            "'units: {length: mm, angle: deg}'"
+        )
+    q = np.array([float(v) * float(x) for v, x in zip(values, scale)])  # type: ignore[arg-type]
+    if not np.all(np.isfinite(q)):
+        return None, "a value is not a finite number"
+    if limits:
+        lower, upper = device.limit_array("lower"), device.limit_array("upper")
+        outside = [
+            f"{j.name} {q[i]:.6g} outside [{lower[i]:.6g}, {upper[i]:.6g}] (SI)"
+            for i, j in enumerate(device.joints)
+            if not (lower[i] - 1e-9 <= q[i] <= upper[i] + 1e-9)
+        ]
+        if outside:
+            return None, "beyond the joint limits (a value in the wrong unit?): " + "; ".join(
+                outside
+            )
+    return q, None
+
+
 def robot_pose_files(cell, device: str) -> list[Path]:
     """The cell's pose files that set ``device``'s joints (``joints:`` or ``corrections:``:
     a robot calibration), in order."""

@@ -15,7 +15,7 @@ from ..model.cell import CellModel
 from ..model.program import Program, Run, Step
 from ..units import ANGLE, COLLISION_TOLERANCE, LENGTH, parse_length
 from . import program as sp
-from .loader import body_names, load_cell, pose_to_matrix, validate_document
+from .loader import body_names, joint_values, load_cell, pose_to_matrix, validate_document
 from .yamlio import Marked, comment_text, parse_yaml_text, read_yaml, yaml_value
 
 
@@ -27,34 +27,9 @@ def _check_joint_goal(doc, path, spec, step, device, L, A, issues) -> None:
     """``move: {joints: [...]}``: one value per joint, the file's units, within the limits."""
     if device is None:
         return
-    if len(spec.joints) != device.dof:
-        issues.append(
-            doc.issue(
-                path,
-                f"{len(spec.joints)} value(s) for the {device.dof} joint(s) of '{device.name}'",
-            )
-        )
-        return
-    kinds = [j.kind for j in device.joints]
-    needs = {"revolute": A, "prismatic": L}
-    if any(needs[k] is None for k in kinds):
-        issues.append(
-            doc.issue(
-                path,
-                "joint values need the file's units, and rworld never guesses them: add "
-                "'units: {length: mm, angle: deg}' at the top of the program",
-            )
-        )
-        return
-    q = np.array([v * needs[k] for v, k in zip(spec.joints, kinds)])
-    lower, upper = device.limit_array("lower"), device.limit_array("upper")
-    outside = [
-        f"{j.name} {q[i]:.6g} outside [{lower[i]:.6g}, {upper[i]:.6g}] (SI)"
-        for i, j in enumerate(device.joints)
-        if not (lower[i] - 1e-9 <= q[i] <= upper[i] + 1e-9)
-    ]
-    if outside:
-        issues.append(doc.issue(path, "beyond the joint limits: " + "; ".join(outside)))
+    q, why = joint_values(device, spec.joints, L, A)
+    if why is not None:
+        issues.append(doc.issue(path, why))
         return
     step.joints = q
     if not np.isfinite(device.limit_array("acceleration")).any():
@@ -99,27 +74,11 @@ def _check_config(doc, path, spec, step, device, named, L, A, issues) -> None:
             )
         )
         return
-    if len(config.near) != device.dof:
-        issues.append(
-            doc.issue(
-                path + ("near",),
-                f"{len(config.near)} value(s) for the {device.dof} joint(s) of '{device.name}'",
-            )
-        )
+    near, why = joint_values(device, config.near, L, A, limits=False)
+    if why is not None:
+        issues.append(doc.issue(path + ("near",), why))
         return
-    kinds = [j.kind for j in device.joints]
-    needs = {"revolute": A, "prismatic": L}
-    missing = sorted({k for k in kinds if needs[k] is None})
-    if missing:
-        issues.append(
-            doc.issue(
-                path + ("near",),
-                "joint values need the file's units, and rworld never guesses them: add "
-                "'units: {length: mm, angle: deg}' at the top of the program",
-            )
-        )
-        return
-    step.near = np.array([v * needs[k] for v, k in zip(config.near, kinds)])
+    step.near = near
 
 
 def _check_program(

@@ -31,7 +31,7 @@ from ..errors import Issue, UserError, did_you_mean
 from ..model.cell import CellModel
 from ..model.measurements import RobotObservations
 from ..units import ANGLE, LENGTH
-from .loader import pose_to_matrix, validate_document
+from .loader import joint_values, pose_to_matrix, validate_document
 from .models import Name, Pose, Strict, Units, Vec3
 from .yamlio import read_yaml, yaml_value
 
@@ -148,7 +148,6 @@ def read_observations(path: str, cell: CellModel) -> tuple[RobotObservations, di
         )
     if f.contacts:
         return _contacts(doc, f, cell, dev, str(path), L, A), digest
-    scale = np.array([A if j.kind == "revolute" else L for j in dev.joints])
     issues = []
     q, points, rotations, lines = [], [], [], []
     with_poses = any(o.pose is not None for o in f.observations)
@@ -172,20 +171,13 @@ def read_observations(path: str, cell: CellModel) -> tuple[RobotObservations, di
             o_point, rotation = T[:3, 3] / L, T[:3, :3]
         else:
             o_point, rotation = np.array(o.point), None
-        if len(o.joints) != dev.dof:
-            issues.append(
-                doc.issue(
-                    where + ("joints",),
-                    f"{len(o.joints)} joint value(s) for the {dev.dof} joints of '{dev.name}'",
-                )
-            )
-            continue
-        values = np.array(o.joints) * scale
+        values, why = joint_values(dev, o.joints, L, A)
         point = np.asarray(o_point, dtype=float) * L
-        if not (np.all(np.isfinite(values)) and np.all(np.isfinite(point))):
-            issues.append(doc.issue(where, "a value is not a finite number"))
+        if why is None and not np.all(np.isfinite(point)):
+            why = "a value is not a finite number"
+        if why is not None:
+            issues.append(doc.issue(where + ("joints",), why))
             continue
-        issues += _limits(dev, values, lambda message, w=where: doc.issue(w + ("joints",), message))
         q.append(values)
         points.append(point)
         rotations.append(rotation)
@@ -217,7 +209,6 @@ def _contacts(doc, f: ObservationFile, cell: CellModel, dev, path: str, L: float
         issues.append(doc.issue(("contacts",), "contacts need the 'probe_radius' of the ball"))
     if f.frame != "world":
         issues.append(doc.issue(("frame",), "contacts are with the cell's features: frame world"))
-    scale = np.array([A if j.kind == "revolute" else L for j in dev.joints])
     q, kinds, points, directions, radii, names, lines = [], [], [], [], [], [], []
     owners = []
     for k, c in enumerate(f.contacts):
@@ -234,19 +225,10 @@ def _contacts(doc, f: ObservationFile, cell: CellModel, dev, path: str, L: float
         if feature.owner == dev.name:
             issues.append(doc.issue(where + ("feature",), "a feature the robot itself carries"))
             continue
-        if len(c.joints) != dev.dof:
-            issues.append(
-                doc.issue(
-                    where + ("joints",),
-                    f"{len(c.joints)} joint value(s) for the {dev.dof} joints of '{dev.name}'",
-                )
-            )
+        values, why = joint_values(dev, c.joints, L, A)
+        if why is not None:
+            issues.append(doc.issue(where + ("joints",), why))
             continue
-        values = np.array(c.joints) * scale
-        if not np.all(np.isfinite(values)):
-            issues.append(doc.issue(where, "a value is not a finite number"))
-            continue
-        issues += _limits(dev, values, lambda m, w=where: doc.issue(w + ("joints",), m))
         kind = {"point": "sphere"}.get(feature.kind, feature.kind)
         if kind == "sphere" and c.radius is None:
             issues.append(

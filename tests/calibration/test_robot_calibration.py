@@ -185,8 +185,8 @@ def test_a_joint_never_moved_is_reported_not_invented(cells, tmp_path):
         (lambda t: t.replace("units: {length: mm, angle: deg}\n", ""), "units"),
         (lambda t: t.replace("device: ur5", "device: ur6"), "unknown device 'ur6'"),
         (lambda t: t.replace("target: ur5.tip", "target: ur5.tipp"), "unknown frame 'ur5.tipp'"),
-        (lambda t: t.replace("{joints: [", "{joints: [0, ", 1), "7 joint value(s) for the 6"),
-        (lambda t: t.replace("angle: deg", "angle: rad"), "outside its limits"),
+        (lambda t: t.replace("{joints: [", "{joints: [0, ", 1), "7 value(s) for the 6 joint(s)"),
+        (lambda t: t.replace("angle: deg", "angle: rad"), "beyond the joint limits"),
         (lambda t: t.replace("length: mm", "length: m"), "do not fit 'ur5'"),
     ],
 )
