@@ -13,45 +13,9 @@ predicted error of the calibrated model at a pose is ``sigma^2 G_v M^-1 G_v^T``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from .robot import RobotModel
-
-
-@dataclass
-class PosePlan:
-    """The chosen joint states and what they predict.
-
-    Attributes
-    ----------
-    q : ndarray, shape (N, n)
-        The chosen joint states, in visiting order.
-    predicted : float
-        rms position error of the calibrated model at validation poses [m] (the estimate's own
-        error: the instrument's noise is not in it).
-    random_same, random_double : float
-        The same for N and 2N random collision-free states (median of draws).
-    identifiable : int
-        Combinations the candidates can identify at all.
-    candidates, rejected : int
-        Candidates drawn and those dropped for a collision.
-    """
-
-    q: np.ndarray
-    predicted: float
-    random_same: float
-    random_double: float
-    identifiable: int
-    candidates: int
-    rejected: int
-
-
-def _information(model: RobotModel, Q: np.ndarray, basis: np.ndarray) -> np.ndarray:
-    """Each state's 3 rows of the scaled Jacobian on the identifiable basis: (K, 3, r)."""
-    J = model.jacobian(np.zeros(len(model.names)), Q) * model.scales
-    return (J @ basis).reshape(len(Q), 3, -1)
 
 
 def _predicted(G_set: np.ndarray, G_check: np.ndarray, sigma: float) -> float:

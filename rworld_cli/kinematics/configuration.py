@@ -26,10 +26,6 @@ import numpy as np
 from ..model.cell import DeviceModel
 from .forward import link_poses
 
-SHOULDERS = ("front", "back")
-ELBOWS = ("up", "down")
-WRISTS = ("noflip", "flip")
-
 
 def is_arm(device: DeviceModel) -> bool:
     """Six revolute joints: an arm with a shoulder, an elbow and a wrist."""
@@ -73,14 +69,6 @@ def _nearest_on(p1, d1, p2, d2) -> np.ndarray:
     denominator = 1.0 - b**2
     t = np.where(denominator > 1e-9, (e - b * d) / np.where(denominator > 1e-9, denominator, 1), 0)
     return p2 + t[..., None] * d2
-
-
-def wrist_centre(device: DeviceModel, q) -> np.ndarray:
-    """The wrist centre (..., 3) [m], natural frame: on axis 5, nearest axis 4."""
-    points, directions = joint_axes(device, q)
-    return _nearest_on(
-        points[..., 3, :], directions[..., 3, :], points[..., 4, :], directions[..., 4, :]
-    )
 
 
 @dataclass(frozen=True)

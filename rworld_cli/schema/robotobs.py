@@ -91,7 +91,7 @@ def _refuse(issues: list[Issue]) -> UserError:
     return UserError(issues[0].message, issues)
 
 
-def _check(cell: CellModel, shown: str, device: str, target: str, frame: str, at) -> None:
+def _check(cell: CellModel, device: str, target: str, frame: str, at) -> None:
     """Device, target and frame exist and fit together; errors located by ``at(key)``."""
     issues = []
     dev = cell.devices.get(device)
@@ -134,7 +134,7 @@ def read_observations(path: str, cell: CellModel) -> tuple[RobotObservations, di
     def at(key, message):
         return doc.issue((key,), message)
 
-    _check(cell, str(path), f.device, f.target, f.frame, at)
+    _check(cell, f.device, f.target, f.frame, at)
     dev = cell.devices[f.device]
     if bool(f.observations) == bool(f.contacts):
         raise _refuse(
@@ -315,7 +315,7 @@ def _read_csv(p: Path, cell: CellModel) -> RobotObservations:
     target, _ = need("target")
     frame = meta.get("frame", ("world", 0))[0]
     sigma_text, sigma_line = need("sigma")
-    _check(cell, shown, device, target, frame, at)
+    _check(cell, device, target, frame, at)
     dev = cell.devices[device]
     words = [w.strip() for w in meta.get("units", ("", 0))[0].split(",") if w.strip()]
     length_word = next((w for w in words if w in LENGTH), None)
