@@ -143,27 +143,22 @@ class RobotModel:
 
     def residual_jacobian(self, p: np.ndarray, obs) -> np.ndarray:
         """d residuals / d p, (K m, P), by central differences."""
-        P = len(p)
-        h = 1e-6
-        columns = []
-        for k in range(P):  # one batched evaluation per parameter, over all observations
-            dp = np.zeros(P)
-            dp[k] = h
-            columns.append(
-                (self.residuals(p + dp, obs) - self.residuals(p - dp, obs)).ravel() / (2 * h)
-            )
-        return np.array(columns).T
+        return _differences(lambda x: self.residuals(x, obs), p)
 
     def jacobian(self, p: np.ndarray, q: np.ndarray) -> np.ndarray:
-        """d points / d p, (3K, P), by central differences (each a batched forward kinematics)."""
-        P = len(p)
-        out = np.empty((3 * len(q), P))
-        h = 1e-6  # [m or rad]: central differences, error of order h^2
-        for k in range(P):  # one batched evaluation per parameter, over all observations
-            dp = np.zeros(P)
-            dp[k] = h
-            out[:, k] = (self.points(p + dp, q) - self.points(p - dp, q)).ravel() / (2 * h)
-        return out
+        """d points / d p, (3K, P), by central differences."""
+        return _differences(lambda x: self.points(x, q), p)
+
+
+def _differences(f, p: np.ndarray, h: float = 1e-6) -> np.ndarray:
+    """Central differences of ``f`` (P,) -> array, flattened: (len(f(p).ravel()), P); one
+    batched evaluation pair per parameter, over all observations (error of order h^2)."""
+    columns = []
+    for k in range(len(p)):
+        dp = np.zeros(len(p))
+        dp[k] = h
+        columns.append((f(p + dp) - f(p - dp)).ravel() / (2 * h))
+    return np.array(columns).T
 
 
 @dataclass
