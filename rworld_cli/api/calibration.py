@@ -40,6 +40,22 @@ def parse_angle(text: str, what: str = "angle") -> float:
     return value
 
 
+def overlay_output(cell_path: str, cell, output: str | None, default: str, what: str) -> Path:
+    """Where an overlay goes: ``output``, or ``default`` beside cell.yaml; never one of the
+    cell's own files (UserError naming which)."""
+    from ..schema.loader import resolve_cell_path
+
+    real, _ = resolve_cell_path(cell_path)
+    out = Path(output) if output else real.parent / default
+    mine = _protected_files(real, cell).get(out.resolve())
+    if mine is not None:
+        raise UserError(
+            f"refusing to write {what} to {out}: it is {mine}; write an overlay (default: "
+            f"{default} beside cell.yaml)"
+        )
+    return out
+
+
 @dataclass
 class CalibrationRun:
     result: CalibrationResult
@@ -89,21 +105,14 @@ def calibrate_cell(
     as '50mm'); implausible measurements or corrections raise :class:`UserError`.
     """
     from ..calibration.pipeline import calibrate
-    from ..schema.loader import load_cell, resolve_cell_path
+    from ..schema.loader import load_cell
     from ..schema.measurements import load_measurements
     from ..schema.poses import write_overlay
     from ..units import LENGTH_WORDS, parse_quantity
 
     loaded = load_cell(cell_path)
     cell = loaded.cell
-    real, _ = resolve_cell_path(cell_path)
-    out = Path(output) if output else real.parent / "calibrated.yaml"
-    what = _protected_files(real, cell).get(out.resolve())
-    if what is not None:
-        raise UserError(
-            f"refusing to write calibrated poses to {out}: it is {what}; write an overlay "
-            "(default: calibrated.yaml beside cell.yaml)"
-        )
+    out = overlay_output(cell_path, cell, output, "calibrated.yaml", "calibrated poses")
     measured = load_measurements(measurement_paths, cell, csv_units)
     limit = (
         float(max_correction)

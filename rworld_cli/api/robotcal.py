@@ -172,21 +172,14 @@ def calibrate_robot(
     import time
 
     from ..calibration.robot import RobotModel, identify, position_errors
-    from ..schema.loader import load_cell, resolve_cell_path
+    from ..schema.loader import load_cell
     from ..schema.robotobs import read_observations
     from ..world.tree import World
-    from .calibration import _protected_files
+    from .calibration import overlay_output
 
     started = time.perf_counter()
     cell = load_cell(cell_path).cell
-    real, _ = resolve_cell_path(cell_path)
-    out = Path(output) if output else real.parent / "robot_calibrated.yaml"
-    what = _protected_files(real, cell).get(out.resolve())
-    if what is not None:
-        raise UserError(
-            f"refusing to write the calibrated robot to {out}: it is {what}; write an overlay "
-            "(default: robot_calibrated.yaml beside cell.yaml)"
-        )
+    out = overlay_output(cell_path, cell, output, "robot_calibrated.yaml", "the calibrated robot")
     if not observation_paths:
         raise UserError("give at least one observation file")
     read = [read_observations(p, cell) for p in observation_paths]
