@@ -251,9 +251,16 @@ def export_program(
     if against is not None:
         changes = _changes(cell, run, dt, against, loaded, result, devices)
     _write_together(output, files)
-    out = ProgramExport(output, fmt, sorted(files), devices, moves, changes, notes)
-    out.compensated = compensated if compensate else None
-    return out
+    return ProgramExport(
+        output,
+        fmt,
+        sorted(files),
+        devices,
+        moves,
+        changes,
+        notes,
+        compensated if compensate else None,
+    )
 
 
 def _compensate(cell_path: str, cell, device: str, program) -> list[dict]:

@@ -68,6 +68,17 @@ def cells(tmp_path_factory):
     return nominal, truth
 
 
+def _with_overlay(cell: Path, overlay: Path, folder: Path) -> Path:
+    """A copy of ``cell`` with ``overlay`` listed last in its pose files."""
+    shutil.copytree(cell, folder)
+    shutil.copy(overlay, folder / "cal.yaml")
+    text = (folder / "cell.yaml").read_text()
+    (folder / "cell.yaml").write_text(
+        text.replace("pose_files:\n- poses.yaml", "pose_files:\n- poses.yaml\n- cal.yaml")
+    )
+    return folder
+
+
 def _states(cell, count: int, seed: int) -> np.ndarray:
     dev = cell.devices["ur5"]
     lo, hi = dev.limit_array("lower"), dev.limit_array("upper")
@@ -144,13 +155,7 @@ def test_the_calibrated_robot_is_the_true_one_at_the_bound(cells, tmp_path, cli)
     assert _digest(nominal) == before  # the cell's own files untouched
     # the overlay, listed last, makes every command use the calibrated robot: its tip where the
     # truth robot's is, to the bound of the estimate (no instrument noise here)
-    calibrated = tmp_path / "calibrated"
-    shutil.copytree(nominal, calibrated)
-    shutil.copy(out, calibrated / "cal.yaml")
-    text = (calibrated / "cell.yaml").read_text()
-    (calibrated / "cell.yaml").write_text(
-        text.replace("pose_files:\n- poses.yaml", "pose_files:\n- poses.yaml\n- cal.yaml")
-    )
+    calibrated = _with_overlay(nominal, out, tmp_path / "calibrated")
     truth = load_cell(str(truth_dir)).cell
     Q = _states(truth, 300, 9)
     error = np.linalg.norm(_tip(load_cell(str(calibrated)).cell, Q) - _tip(truth, Q), axis=1)
@@ -271,13 +276,7 @@ def test_full_poses_identify_the_orientation_too(cells, tmp_path):
     out = tmp_path / "cal.yaml"
     result = calibrate_robot(str(nominal), [str(path)], output=str(out))
     assert (result.identified, result.parameters) == (30, 42)
-    calibrated = tmp_path / "calibrated"
-    shutil.copytree(nominal, calibrated)
-    shutil.copy(out, calibrated / "cal.yaml")
-    text = (calibrated / "cell.yaml").read_text()
-    (calibrated / "cell.yaml").write_text(
-        text.replace("pose_files:\n- poses.yaml", "pose_files:\n- poses.yaml\n- cal.yaml")
-    )
+    calibrated = _with_overlay(nominal, out, tmp_path / "calibrated")
     mine = World(load_cell(str(calibrated)).cell)
     worst = [0.0, 0.0]
     for q in _states(truth, 50, 10):
