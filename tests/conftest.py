@@ -52,3 +52,15 @@ def example_run():
         return done[cell, run]
 
     return get
+
+
+def urdf_without_meshes(source: Path, target: Path) -> Path:
+    """A copy of a vendor's URDF without its visual and collision elements (their meshes are
+    not vendored): the kinematics and inertials stay as they are."""
+    from lxml import etree
+
+    tree = etree.parse(str(source))
+    for el in tree.xpath("//visual | //collision"):
+        el.getparent().remove(el)
+    tree.write(str(target))
+    return target

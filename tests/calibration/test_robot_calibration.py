@@ -18,6 +18,7 @@ from rworld_cli import spatial
 from rworld_cli.api import import_urdf
 from rworld_cli.schema.loader import load_cell
 from rworld_cli.world.tree import World
+from tests.conftest import urdf_without_meshes
 
 SHARE = Path(str(distribution("example-robot-data").locate_file("cmeel.prefix/share")))
 UR5 = SHARE / "example-robot-data" / "robots" / "ur_description" / "urdf" / "ur5_robot.urdf"
@@ -28,14 +29,8 @@ SIGMA = 0.02  # mm
 def cells(tmp_path_factory):
     """The nominal UR5 cell with a tracker reflector 'tip' on tool0, and a truth cell: the same
     with an overlay of perturbed joint frames and tip."""
-    from lxml import etree
-
     folder = tmp_path_factory.mktemp("robotcal")
-    tree = etree.parse(str(UR5))
-    for el in tree.xpath("//visual | //collision"):
-        el.getparent().remove(el)
-    urdf = folder / "ur5.urdf"
-    tree.write(str(urdf))
+    urdf = urdf_without_meshes(UR5, folder / "ur5.urdf")
     nominal = folder / "ur5"
     import_urdf(str(urdf), str(nominal), overlap_states=0)
     cell = yaml.safe_load((nominal / "cell.yaml").read_text())

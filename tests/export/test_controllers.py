@@ -20,6 +20,7 @@ import yaml
 from rworld_cli.api import export_program, import_urdf
 from rworld_cli.schema.programs import load_run
 from rworld_cli.simulate.engine import simulate
+from tests.conftest import urdf_without_meshes
 from tests.export import readers
 
 SHARE = Path(str(distribution("example-robot-data").locate_file("cmeel.prefix/share")))
@@ -152,14 +153,8 @@ KR16 = Path(__file__).parents[1] / "data" / "kuka_kr16" / "kr16_2.urdf"
 @pytest.fixture(scope="module")
 def kr16_cell(tmp_path_factory):
     """The KR 16-2 of ROS-Industrial (meshes stripped: not vendored), a 120 mm tool on tool0."""
-    from lxml import etree
-
     root_dir = tmp_path_factory.mktemp("kr16")
-    tree = etree.parse(str(KR16))
-    for el in tree.xpath("//visual | //collision"):
-        el.getparent().remove(el)
-    urdf = root_dir / "kr16_2.urdf"
-    tree.write(str(urdf))
+    urdf = urdf_without_meshes(KR16, root_dir / "kr16_2.urdf")
     root = root_dir / "cell"
     import_urdf(str(urdf), str(root))
     name = _prepare(root, 0.12, {"xyz": [1.2, 0.3, 0.6], "rpy": [3.0, 0.2, 0.5]})

@@ -20,6 +20,7 @@ import yaml
 from rworld_cli.api import export_program, import_urdf
 from rworld_cli.schema.programs import load_run
 from rworld_cli.simulate.engine import simulate
+from tests.conftest import urdf_without_meshes
 from tests.export import readers
 
 DATA = Path(__file__).parents[1] / "data"
@@ -88,16 +89,10 @@ def _T(pose: dict) -> np.ndarray:
 def vendor_cell(request, tmp_path_factory):
     """The vendor's robot (meshes stripped: not vendored) with a tool, a target, a user frame
     and the program, as import left it plus what a user adds."""
-    from lxml import etree
-
     key = request.param
     urdf_path, fmt, vendor, target = VENDORS[key]
     folder = tmp_path_factory.mktemp(key)
-    tree = etree.parse(str(urdf_path))
-    for el in tree.xpath("//visual | //collision"):
-        el.getparent().remove(el)
-    urdf = folder / urdf_path.name
-    tree.write(str(urdf))
+    urdf = urdf_without_meshes(urdf_path, folder / urdf_path.name)
     root = folder / "cell"
     imported = import_urdf(str(urdf), str(root))
     cell = yaml.safe_load((root / "cell.yaml").read_text())
