@@ -16,7 +16,10 @@ validation poses each:
 3. the identified parameter count, the observability index O1, and the estimate's error in the
    identified subspace against its covariance (chi-square per degree: 1 for an efficient
    estimator);
-4. the wall time of the fit for 50 and for 1000 poses.
+4. the wall time of the fit for 50 and for 1000 poses;
+5. pose selection (``calibration.robotplan``) on 2000 random candidates: N = 10, 20, 30 chosen
+   poses against N and 2N random ones and the optimal design's bound, and that bound's
+   criterion per identified combination against the random spread's (1: random is optimal).
 """
 
 from __future__ import annotations
@@ -86,6 +89,28 @@ def _trial(model, lo, hi, sigma, trials, label) -> None:
         )
 
 
+def _plan(model, lo, hi, sigma, label) -> None:
+    """Pose selection against random poses and against the best any N poses can do."""
+    from rworld_cli.calibration.robotplan import best_possible, information, select_poses
+
+    rng = np.random.default_rng(0)
+    n = model.device.dof
+    pool = rng.uniform(lo, hi, (2000, n))
+    print(f"{label}: pose selection among 2000 random candidates (sigma {sigma * 1000} mm)")
+    for count in (10, 20, 30):
+        _, f = select_poses(model, pool, count, sigma)
+        print(
+            f"  N = {count}: chosen {f['predicted'] * 1000:.4f} mm, N random "
+            f"{f['random_same'] * 1000:.4f}, 2N random {f['random_double'] * 1000:.4f}, "
+            f"best possible {f['best_possible'] * 1000:.4f} mm"
+        )
+    info = information(model, pool, rng.uniform(lo, hi, (1000, n)))
+    print(
+        f"  optimal design's criterion per identified combination: "
+        f"{best_possible(info) / info.rank:.3f} (random spread: 1)"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--trials", type=int, default=20)
@@ -133,6 +158,7 @@ def main() -> None:
         lo = np.maximum(dev.limit_array("lower"), -np.pi)
         hi = np.minimum(dev.limit_array("upper"), np.pi)
         _trial(model, lo, hi, sigma, args.trials, label)
+        _plan(model, lo, hi, sigma, label)
 
 
 if __name__ == "__main__":

@@ -127,10 +127,18 @@ def calibrate_robot(
 )
 @click.option(
     "--instrument",
-    type=click.Choice(["tracker"]),
+    type=click.Choice(["tracker", "probe"]),
     default="tracker",
     show_default=True,
-    help="An instrument that measures the target's point (laser tracker, CMM arm).",
+    help="tracker: an instrument measures the target's point (laser tracker, CMM arm); probe: "
+    "the robot's own ball-tip touch probe touches --feature faces and edges (self-calibration).",
+)
+@click.option(
+    "--feature",
+    "features",
+    multiple=True,
+    metavar="OWNER.FEATURE",
+    help="--instrument probe: a plane or edge of known geometry to touch (repeat the option).",
 )
 @click.option("--sigma", default="0.02mm", show_default=True, help="The instrument's 1 sigma.")
 @click.option("--candidates", default=2000, show_default=True, type=click.IntRange(min=1))
@@ -147,27 +155,46 @@ def calibrate_robot(
     "template",
     default=None,
     type=click.Path(dir_okay=False),
-    help="Write an observation file of the poses with the nominal points, to fill in.",
+    help="Write an observation file of the poses with the nominal points (a probe: the "
+    "contacts with the nominal joints), to fill in.",
 )
 @json_option
 @handle_errors
 def plan_robot_calibration(
-    cell, device, count, target, instrument, sigma, candidates, seed, program, template, json_output
+    cell,
+    device,
+    count,
+    target,
+    instrument,
+    features,
+    sigma,
+    candidates,
+    seed,
+    program,
+    template,
+    json_output,
 ):
     """Choose the joint states to measure for 'rworld calibrate-robot'.
 
-    Random joint states within the limits where the robot touches nothing, there and on the
-    joint path from home, are the candidates;
-    of them, the poses that predict the smallest error of the calibrated model are chosen (the
-    identification Jacobian's information, D- then I-optimal, with exchanges), ordered into a
-    short tour.  The predicted error is printed beside that of as many and of twice as many
-    random poses.  --program writes a program that visits each from home and back, checked in
-    simulation (a pose the robot collides on the way to is replaced).
+    Candidates are random joint states within the limits (a tracker), or touches of the
+    robot's own ball probe on the --feature planes and edges with the stylus within 40 deg of
+    the normal (--instrument probe); kept where the robot touches nothing, there (a touch: at
+    its approach) and on the joint path from home.  Of them, the poses that predict the
+    smallest error of the calibrated model are chosen (the identification Jacobian's
+    information, D- then I-optimal, with exchanges), ordered into a short tour.  The predicted
+    error is printed beside that of as many and of twice as many random candidates, and the
+    least any choice of as many can predict (the optimal design's bound).  --program writes a
+    program that visits each from home and back - a pause for the instrument, or a guarded
+    move until the probe triggers - checked in simulation (a pose the robot collides on the
+    way to is replaced).
 
     \b
     Examples:
       rworld plan-robot-calibration workcells/puma560 --device puma --poses 30 --target probe
       rworld plan-robot-calibration cell --device ur5 --poses 40 --program cal.yaml -o obs.yaml
+      rworld plan-robot-calibration workcells/probing --device puma --poses 40 \\
+          --instrument probe --feature plate.top --feature plate.front \\
+          --feature bracket.upright_face --program touches.yaml -o contacts.yaml
 
     Exit codes: 0 planned, 1 the program still collides, 2 bad input.
     """
@@ -175,24 +202,43 @@ def plan_robot_calibration(
     from ..api import plan_robot_calibration as run
 
     result = run(
-        cell, device, count, target, parse_length(sigma), candidates, seed, program, template
+        cell,
+        device,
+        count,
+        target,
+        parse_length(sigma),
+        candidates,
+        seed,
+        program,
+        template,
+        instrument,
+        list(features),
     )
     if json_output:
         emit_json(result.as_dict())
         return
+    what = "touches" if result.instrument == "probe" else "poses"
     click.echo(
-        f"{result.device}: {result.poses} poses of {result.target} chosen from "
-        f"{result.candidates - result.rejected} collision-free candidates "
-        f"({result.rejected} rejected); {result.identifiable} combinations identifiable"
+        f"{result.device}: {result.poses} {what} of {result.target} chosen from "
+        f"{result.candidates - result.rejected} usable candidates "
+        f"({result.rejected} unreachable or colliding); {result.identifiable} combinations "
+        "identifiable"
+    )
+    if result.features:
+        counts = {f: result.features.count(f) for f in dict.fromkeys(result.features)}
+        click.echo("  " + ", ".join(f"{f}: {k}" for f, k in counts.items()))
+    click.echo(
+        "  predicted error of the calibrated model (rms, the estimate's own): "
+        f"{result.predicted * 1000:.4f} mm"
     )
     click.echo(
-        f"  predicted error of the calibrated model (rms, the estimate's own): "
-        f"{result.predicted * 1000:.4f} mm; {result.poses} random poses: "
-        f"{result.random_same * 1000:.4f} mm; {2 * result.poses} random poses: "
-        f"{result.random_double * 1000:.4f} mm"
+        f"  {result.poses} random {what}: {result.random_same * 1000:.4f} mm; "
+        f"{2 * result.poses} random: {result.random_double * 1000:.4f} mm; the best any "
+        f"{result.poses} of these candidates can do: {result.best_possible * 1000:.4f} mm"
     )
     if result.program:
         extra = f" ({result.dropped} replaced: collisions on the way)" if result.dropped else ""
-        click.echo(f"wrote {result.program}: each pose from home and back, checked{extra}")
+        click.echo(f"wrote {result.program}: each from home and back, checked{extra}")
     if result.template:
-        click.echo(f"wrote {result.template}: fill in the measured points")
+        fill = "the recorded joint values" if result.features else "the measured points"
+        click.echo(f"wrote {result.template}: fill in {fill}")

@@ -60,14 +60,15 @@ class IKResult:
 
 
 def _errors(T: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """(K, 6): position error, then rotation vector from tool to target, base frame."""
+    """(K, 6): position error, then rotation vector from tool to target, base frame; one target
+    (4, 4) for every pose, or one each (K, 4, 4)."""
     if T.ndim == 2:  # one pose (the tracking loop's every step)
         return np.concatenate(
             [target[:3, 3] - T[:3, 3], spatial.rotation_vector(target[:3, :3] @ T[:3, :3].T)]
         )
     e = np.empty(T.shape[:-2] + (6,))
-    e[..., :3] = target[:3, 3] - T[..., :3, 3]
-    e[..., 3:] = spatial.rotation_vector(target[:3, :3] @ np.swapaxes(T[..., :3, :3], -1, -2))
+    e[..., :3] = target[..., :3, 3] - T[..., :3, 3]
+    e[..., 3:] = spatial.rotation_vector(target[..., :3, :3] @ np.swapaxes(T[..., :3, :3], -1, -2))
     return e
 
 
@@ -94,6 +95,52 @@ def nearest_turns(q, seed, revolute, lower, upper) -> np.ndarray:
         best = np.where(better, shifted, best)
         gap = np.where(better, np.abs(shifted - seed), gap)
     return best
+
+
+def _tolerances(position_only: bool, position: float, rotation: float) -> np.ndarray:
+    return np.array([position] * 3 + ([] if position_only else [rotation] * 3))
+
+
+def _levenberg_marquardt(device, mount, target, Q, tol, max_iterations, stop=None):
+    """Damped least squares on a batch of starts ``Q`` (K, n), each with its own damping, steps
+    projected on the limits; ``target`` (4, 4) for all or (K, 4, 4) each; ``tol`` (3,) or (6,)
+    (position only or full pose).  Stops when every start is within ``tol`` or
+    ``stop(done, Q, iterations)`` says so.
+
+    Returns
+    -------
+    Q, T, err, cost, iterations
+        The best state of each start, its tool pose, errors (K, 3 or 6) and squared error.
+    """
+    lower, upper = device.limit_array("lower"), device.limit_array("upper")
+    rows = slice(0, len(tol))
+    lam = np.full(len(Q), 1e-2)
+    T, J = tool_pose_and_jacobian(device, Q, mount)
+    err = _errors(T, target)[:, rows]
+    cost = np.einsum("ki,ki->k", err, err)
+    eye = np.eye(len(tol))
+    iterations = 0
+    for iterations in range(1, max_iterations + 1):  # iterations of the batch, not samples
+        done = np.all(np.abs(err) <= tol, axis=1)
+        if done.all() or (stop is not None and stop(done, Q, iterations)):
+            break
+        Jr = J[:, rows, :]
+        A = Jr @ np.swapaxes(Jr, 1, 2) + (lam**2)[:, None, None] * eye
+        step = np.einsum("kji,kj->ki", Jr, np.linalg.solve(A, err[..., None])[..., 0])
+        Q_new = np.clip(Q + step, lower, upper)
+        T_new, J_new = tool_pose_and_jacobian(device, Q_new, mount)
+        err_new = _errors(T_new, target)[:, rows]
+        cost_new = np.einsum("ki,ki->k", err_new, err_new)
+        better = (cost_new < cost) & ~done
+        Q[better], T[better], J[better], err[better], cost[better] = (
+            Q_new[better],
+            T_new[better],
+            J_new[better],
+            err_new[better],
+            cost_new[better],
+        )
+        lam = np.where(better, np.maximum(lam / 3, 1e-9), np.minimum(lam * 4, 1e6))
+    return Q, T, err, cost, iterations
 
 
 def solve_ik(
@@ -146,45 +193,22 @@ def solve_ik(
     seed = device.home if seed is None else np.asarray(seed, dtype=float)
     rng = np.random.default_rng(random_seed)
     Q = np.vstack([np.clip(seed, lower, upper), rng.uniform(lo, hi, (restarts, n))])
-    rows = slice(0, 3) if position_only else slice(0, 6)
-    K = Q.shape[0]
-    lam = np.full(K, 1e-2)
-    T, J = tool_pose_and_jacobian(device, Q, mount)
-    err = _errors(T, target)[:, rows]
-    cost = np.einsum("ki,ki->k", err, err)
-    tol = np.array([position_tolerance] * 3 + ([] if position_only else [rotation_tolerance] * 3))
-    eye = np.eye(err.shape[1])
+    tol = _tolerances(position_only, position_tolerance, rotation_tolerance)
     revolute = _revolute(device)
     settled = 0
-    iterations = 0
-    for iterations in range(
-        1, max_iterations + 1
-    ):  # iterations of the batch, not a loop over samples
-        done = np.all(np.abs(err) <= tol, axis=1)
-        if done.all():
-            break
-        if accept is None and done[0] and iterations > 1:
-            break
-        if accept is not None and done.sum() > settled:  # a start has landed: which?
+
+    def stop(done: np.ndarray, Q: np.ndarray, iterations: int) -> bool:
+        nonlocal settled
+        if accept is None:
+            return bool(done[0]) and iterations > 1  # the seed itself landed
+        if done.sum() > settled:  # a start has landed: which?
             settled = int(done.sum())
-            if (done & accept(nearest_turns(Q, seed, revolute, lower, upper))).any():
-                break
-        Jr = J[:, rows, :]
-        A = Jr @ np.swapaxes(Jr, 1, 2) + (lam**2)[:, None, None] * eye
-        step = np.einsum("kji,kj->ki", Jr, np.linalg.solve(A, err[..., None])[..., 0])
-        Q_new = np.clip(Q + step, lower, upper)
-        T_new, J_new = tool_pose_and_jacobian(device, Q_new, mount)
-        err_new = _errors(T_new, target)[:, rows]
-        cost_new = np.einsum("ki,ki->k", err_new, err_new)
-        better = (cost_new < cost) & ~done
-        Q[better], T[better], J[better], err[better], cost[better] = (
-            Q_new[better],
-            T_new[better],
-            J_new[better],
-            err_new[better],
-            cost_new[better],
-        )
-        lam = np.where(better, np.maximum(lam / 3, 1e-9), np.minimum(lam * 4, 1e6))
+            return bool((done & accept(nearest_turns(Q, seed, revolute, lower, upper))).any())
+        return False
+
+    Q, T, err, cost, iterations = _levenberg_marquardt(
+        device, mount, target, Q, tol, max_iterations, stop
+    )
     done = np.all(np.abs(err) <= tol, axis=1)
     # a revolute joint reaches the same pose a whole turn away: of each solution, the turns
     # nearest the seed within the limits (a wrist with a +-400 deg range turns 360 deg for nothing
@@ -223,6 +247,42 @@ def solve_ik(
         iterations=iterations,
         at_limits=sorted(at_limits),
     )
+
+
+def solve_ik_many(
+    device: DeviceModel,
+    T_base_targets: np.ndarray,
+    seeds: np.ndarray,
+    mount: ToolMount | None = None,
+    position_only: bool = False,
+    position_tolerance: float = 1e-7,
+    rotation_tolerance: float = 1e-7,
+    max_iterations: int = 300,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Many targets at once, each from its own start: the same damped least squares as
+    :func:`solve_ik`, one batch for all (no restarts; give several rows per target for more).
+
+    Parameters
+    ----------
+    T_base_targets : ndarray, shape (K, 4, 4)
+        Tool frame targets in the device's base frame.
+    seeds : ndarray, shape (K, n)
+        Starts [rad or m], clipped to the limits.
+
+    Returns
+    -------
+    q : ndarray, shape (K, n)
+        The joint values reached, within the limits.
+    success : ndarray of bool, shape (K,)
+        Both residuals within tolerance.
+    """
+    lower, upper = device.limit_array("lower"), device.limit_array("upper")
+    Q = np.clip(np.asarray(seeds, dtype=float), lower, upper)
+    tol = _tolerances(position_only, position_tolerance, rotation_tolerance)
+    Q, _, err, _, _ = _levenberg_marquardt(
+        device, mount, np.asarray(T_base_targets, dtype=float), Q, tol, max_iterations
+    )
+    return Q, np.all(np.abs(err) <= tol, axis=1)
 
 
 @dataclass

@@ -422,3 +422,27 @@ def observation_template(dev, target: str, Q: np.ndarray, points: np.ndarray, si
         joints = ", ".join(f"{v:.6f}" for v in q * scale)
         lines.append(f"  - {{joints: [{joints}], point: [{', '.join(f'{v:.4f}' for v in p)}]}}")
     return "\n".join(lines) + "\n"
+
+
+def contacts_template(
+    dev, target: str, Q: np.ndarray, features: list[str], sigma: float, radius: float
+) -> str:
+    """A self-calibration contacts file (mm, deg) of the planned touches: joint states ``Q``
+    (N, n) at the nominal contact on ``features``, to replace by the joint values the
+    controller records at each trigger."""
+    scale = np.array([np.degrees(1.0) if j.kind == "revolute" else 1000.0 for j in dev.joints])
+    lines = [
+        "# Robot self-calibration contacts to fill in: the joints are where the nominal model",
+        "# touches; replace them by the joint values the controller records at each trigger.",
+        "units: {length: mm, angle: deg}",
+        f"device: {yaml_value(dev.name)}",
+        "instrument: touch-trigger ball probe",
+        f"sigma: {sigma * 1000:g}",
+        f"target: {yaml_value(target)}",
+        f"probe_radius: {radius * 1000:g}",
+        "contacts:",
+    ]
+    for q, name in zip(Q, features, strict=True):
+        joints = ", ".join(f"{v:.6f}" for v in q * scale)
+        lines.append(f"  - {{joints: [{joints}], feature: {yaml_value(name)}}}")
+    return "\n".join(lines) + "\n"

@@ -504,10 +504,14 @@ def test_a_robot_off_its_model_puts_its_error_into_the_probe_points(planned, tmp
     assert all(0.9e-3 < c < 1.1e-3 for c in corrections["a2 + 1 mm"].values()), corrections
 
 
-def _robot_truth(folder, seed: int = 11):
-    """The probing cell's truth: the parts moved (MOVES) and the Puma off its DH table - a small
-    pose before every row (0.3 mm, 0.03 deg) and its probe 0.3 mm off - as a pose overlay."""
-    make_truth(folder)
+def robot_truth(folder, seed: int = 11, parts_moved: bool = True):
+    """The probing cell's truth: the parts moved (MOVES, unless not ``parts_moved``) and the
+    Puma off its DH table - a small pose before every row (0.3 mm, 0.03 deg) and its probe
+    0.3 mm off - as a pose overlay."""
+    if parts_moved:
+        make_truth(folder)
+    else:
+        shutil.copytree(CELL, folder)
     rng = np.random.default_rng(seed)
     lines = ["units: {length: mm, angle: deg}", "corrections:"]
     for name in ("j1", "j2", "j3", "j4", "j5", "j6"):
@@ -554,7 +558,7 @@ def test_the_loop_closed_with_the_robot_calibrated_first(planned, tmp_path, cli)
     from rworld_cli.api import calibrate_robot
 
     cell_dir, program, _ = planned
-    truth_dir = _robot_truth(tmp_path / "truth")
+    truth_dir = robot_truth(tmp_path / "truth")
     truth = load_cell(str(truth_dir)).cell
     tracker = tmp_path / "tracker.yaml"
     _tracker_file(truth, tracker, 60, 1, 0.01)

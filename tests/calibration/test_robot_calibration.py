@@ -372,7 +372,7 @@ def test_planned_poses_beat_random_ones_and_the_program_checks(tmp_path, cli):
     )
     assert result.exit_code == 0, result.output
     plan = json.loads(result.output)
-    assert plan["poses"] == 15 and plan["rejected_for_collisions"] > 0
+    assert plan["poses"] == 15 and plan["rejected"] > 0
     assert plan["predicted_rms_mm"] < plan["random_same_count_rms_mm"]
     check = cli(["check", str(cell), str(program)])
     assert check.exit_code == 0, check.output
@@ -507,3 +507,120 @@ def test_self_calibration_by_touching_an_artefact(cells, tmp_path):
         f"{rms * 1000:.4f} mm, identified {result.identified} of {result.parameters}"
     )
     assert rms < 0.1 * rms_before and rms < 0.05e-3, (rms, rms_before)
+
+
+PLANES = ["plate.top", "plate.front", "bracket.base_top", "bracket.upright_face", "bracket.side"]
+
+
+def _recorded_touches(truth, contacts: Path, sigma: float, seed: int) -> None:
+    """Fill a planned contacts file as the truth robot would: each touch's guarded move runs
+    along the nominal approach line (joint direction ``J+ (-n)`` at the planned contact) until
+    the truth ball meets the plane (plus the trigger's noise); its joint values go in."""
+    from rworld_cli.kinematics.jacobian import ToolMount, jacobian
+
+    doc = yaml.safe_load(contacts.read_text())
+    world = World(truth)
+    dev = truth.devices["puma"]
+    mount = ToolMount(*world.mount_of("puma", "puma.probe"))
+    R_base = np.linalg.inv(world.T_world("puma"))[:3, :3]
+    q = np.radians([c["joints"] for c in doc["contacts"]])
+    planes = []
+    for c in doc["contacts"]:
+        f = truth.features[c["feature"]]
+        T = world.T_world(f.owner)
+        planes.append((T[:3, :3] @ f.direction, T[:3, :3] @ f.point + T[:3, 3]))
+    n = np.array([p[0] for p in planes])
+    x0 = np.array([p[1] for p in planes])
+    Jv = jacobian(dev, q, mount)[:, :3, :]
+    dq = np.einsum("kij,kj->ki", np.linalg.pinv(Jv), -n @ R_base.T)  # 1 m of ball travel
+    rng = np.random.default_rng(seed)
+    want = doc["probe_radius"] / 1000 + rng.normal(0, sigma, len(q))
+
+    def gap(t):
+        Q = q + t[:, None] * dq
+        p = world.T_world_frames(["puma.probe"], {"puma": Q})["puma.probe"][:, :3, 3]
+        return np.einsum("ki,ki->k", n, p - x0) - want
+
+    lo, hi = np.full(len(q), -0.01), np.full(len(q), 0.01)  # the ball 10 mm either side
+    assert np.all(gap(lo) > 0) and np.all(gap(hi) < 0)
+    for _ in range(60):
+        mid = (lo + hi) / 2
+        above = gap(mid) > 0
+        lo, hi = np.where(above, mid, lo), np.where(above, hi, mid)
+    recorded = np.degrees(q + ((lo + hi) / 2)[:, None] * dq)
+    for c, joints in zip(doc["contacts"], recorded, strict=True):
+        c["joints"] = [round(float(v), 9) for v in joints]
+    contacts.write_text(yaml.safe_dump(doc, sort_keys=False))
+
+
+def test_planned_touches_self_calibrate_the_robot(tmp_path, cli):
+    """plan-robot-calibration --instrument probe on the probing cell: touches of the Puma's ball
+    on five known faces.  The chosen touches predict less than twice as many random ones and
+    no less than the optimal design's bound; the program checks; the contacts template, filled
+    by a truth Puma off its DH table, calibrates the robot so that its ball is where the
+    truth's is near the parts."""
+    from rworld_cli.api import calibrate_robot
+    from tests.calibration.test_probing import CELL, robot_truth
+
+    cell = tmp_path / "probing"
+    shutil.copytree(CELL, cell)
+    program, contacts, check = cell / "touches.yaml", tmp_path / "touches.yaml", tmp_path / "v.yaml"
+    options = ["--device", "puma", "--instrument", "probe", "--sigma", "0.005mm"]
+    options += [x for f in PLANES for x in ("--feature", f)]
+    result = cli(
+        ["plan-robot-calibration", str(cell), "--poses", "30", "--candidates", "500"]
+        + options
+        + ["--program", str(program), "-o", str(contacts), "--json"]
+    )
+    assert result.exit_code == 0, result.output
+    plan = json.loads(result.output)
+    print(
+        f"30 touches predict {plan['predicted_rms_mm']:.4f} mm; 30 random "
+        f"{plan['random_same_count_rms_mm']:.4f}, 60 random "
+        f"{plan['random_double_count_rms_mm']:.4f}, bound {plan['best_possible_rms_mm']:.4f} mm"
+    )
+    assert plan["instrument"] == "probe" and set(plan["features"]) <= set(PLANES)
+    assert plan["best_possible_rms_mm"] <= plan["predicted_rms_mm"]
+    assert plan["predicted_rms_mm"] < plan["random_double_count_rms_mm"]
+    checked = cli(["check", str(cell), str(program)])
+    assert checked.exit_code == 0, checked.output
+    validation = cli(
+        ["plan-robot-calibration", str(cell), "--poses", "30", "--candidates", "500"]
+        + options
+        + ["--seed", "7", "-o", str(check)]
+    )
+    assert validation.exit_code == 0, validation.output
+    truth = load_cell(str(robot_truth(tmp_path / "truth", parts_moved=False))).cell
+    _recorded_touches(truth, contacts, 5e-6, 1)
+    _recorded_touches(truth, check, 5e-6, 2)
+    out = tmp_path / "cal.yaml"
+    fit = calibrate_robot(str(cell), [str(contacts)], output=str(out), validate=[str(check)])
+    print(
+        f"gaps on 30 other touches: {fit.validation_before['rms'] * 1000:.4f} mm before, "
+        f"{fit.validation_after['rms'] * 1000:.4f} mm after; identified {fit.identified}"
+    )
+    assert fit.validation_before["rms"] > 0.1e-3  # the robot's error shows in the gaps
+    assert fit.validation_after["rms"] < 3 * 5e-6  # and falls to the trigger's noise
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        ([], "name them with --feature"),
+        (["--feature", "plate.hole1"], "'plate.hole1' is a circle"),
+        (["--feature", "plate.tpo"], "did you mean 'plate.top'"),
+        (["--feature", "puma.probe"], "unknown feature 'puma.probe'"),
+    ],
+)
+def test_touch_planning_refuses_what_it_cannot_touch(tmp_path, cli, extra, message):
+    from tests.calibration.test_probing import CELL
+
+    program = tmp_path / "touches.yaml"
+    result = cli(
+        ["plan-robot-calibration", str(CELL), "--device", "puma", "--poses", "5"]
+        + ["--instrument", "probe", "--program", str(program)]
+        + extra
+    )
+    assert result.exit_code == 2, result.output
+    assert message in result.output
+    assert not program.exists()
