@@ -197,6 +197,7 @@ def convex_parts(shape: Shape) -> tuple[tuple[np.ndarray, np.ndarray], ...] | No
 
 
 HULL_DEVIATION = COLLISION_TOLERANCE / 2  # [m] how far a part's hull may stand off its surface
+BLOCK = 16384  # primitive queries per batched GJK call: bounds the memory of a large batch
 
 
 @functools.lru_cache(maxsize=256)
@@ -469,8 +470,9 @@ def distances(
         return out
     single = np.array([b.single_piece for b in bodies])
     primitive = single[I] & single[J]
-    rows = np.flatnonzero(primitive)
-    if len(rows):
+    everything = np.flatnonzero(primitive)
+    for start in range(0, len(everything), BLOCK):  # blocks: memory bounded, whatever Q
+        rows = everything[start : start + BLOCK]
         pa = _gather(bodies, I[rows], TI[rows])
         pb = _gather(bodies, J[rows], TJ[rows])
         res = convex.distance(pa, pb, max_iterations)
@@ -489,10 +491,28 @@ def distances(
 
 
 def _gather(bodies: list[Body], index: np.ndarray, T: np.ndarray) -> convex.Pieces:
-    """Primitive pieces of ``bodies[index[q]]`` at ``T[q]``, in query order."""
+    """Primitive pieces of ``bodies[index[q]]`` at ``T[q]``, in query order: boxes, spheres
+    and cylinders built in one batch each, whatever the number of bodies (a line of robots);
+    single hulls body by body."""
+    kind = np.array([b.shape.kind if b.parts is None else "hull" for b in bodies])[index]
     parts, order = [], []
-    for b in np.unique(index):
-        sel = np.flatnonzero(index == b)
+    for name in ("box", "sphere", "cylinder"):
+        sel = np.flatnonzero(kind == name)
+        if not len(sel):
+            continue
+        owners = index[sel]
+        Ts = T[sel] @ np.stack([bodies[b].shape.T_owner_shape for b in owners])
+        size = np.array([bodies[b].shape.size for b in owners], dtype=float)
+        if name == "box":
+            parts.append(convex.boxes(Ts, size / 2))
+        elif name == "sphere":
+            parts.append(convex.spheres(Ts[:, :3, 3], size[:, 0] / 2))
+        else:
+            parts.append(convex.cylinders(Ts, size[:, 0] / 2, size[:, 2] / 2))
+        order.append(sel)
+    rest = np.flatnonzero(~np.isin(kind, ("box", "sphere", "cylinder")))
+    for b in np.unique(index[rest]):
+        sel = rest[index[rest] == b]
         parts.append(bodies[b].pieces(T[sel]))
         order.append(sel)
     pieces = convex.concatenate(parts)

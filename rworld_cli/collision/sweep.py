@@ -40,7 +40,10 @@ from ..model.cell import WORLD
 from .allowed import allowed_pairs, touch_bodies
 from .bodies import Body, CollisionModel, distances
 
+CHUNK = 64  # clock samples per chunk of the broad phase: memory is pairs kept x CHUNK
+BROAD_PHASE = True  # False: every pair at every sample in one chunk (the reference for tests)
 MAX_SPLITS = 40  # bisections of one sample interval; 2^-40 of 10 ms is 1e-14 s
+REFINE_BATCH = 1024  # intervals refined per batch: memory ~ batch x the bodies it involves
 MAX_ITEMS = 200_000  # intervals refined at once; beyond, the rest count as possible contacts
 # GJK iterations per query: a pair short of convergence then (curved pieces nearly tangent)
 # counts with GJK's lower bound on its distance, which keeps the guarantee
@@ -144,7 +147,8 @@ def sweep(
     model : CollisionModel
     intervals : list of Interval
     states : callable
-        ``states(times) -> {device: (q, qd, qdd)}`` each (N, n), SI, for every device.
+        ``states(times, devices=None) -> {device: (q, qd, qdd)}`` each (N, n), SI, for every
+        device or those named.
     clock : ndarray, shape (K,)
         The run's sample instants [s].
     tolerance : float
@@ -196,7 +200,7 @@ class _Sweep:
 
     world: object
     model: CollisionModel
-    states: Callable[[np.ndarray], dict]
+    states: Callable[..., dict]  # (times, devices=None) -> {device: (q, qd, qdd)}
     clock: np.ndarray
     tolerance: float
     clearance: float
@@ -214,29 +218,98 @@ class _Sweep:
 
 
 def _sweep_interval(run: _Sweep, iv: Interval) -> None:
-    """Check one stretch of one affixment tree (module docstring), adding to ``run``."""
+    """Check one stretch of one affixment tree (module docstring), adding to ``run``: its
+    samples in chunks of ``CHUNK``, each with the pairs the broad phase keeps."""
     world, model, states, clock = run.world, run.model, run.states, run.clock
-    tolerance, clearance, report_within = run.tolerance, run.clearance, run.report_within
-    found, close, touch_windows, stats = run.found, run.close, run.touch_windows, run.stats
     bodies = model.bodies
     B = len(bodies)
     inside = clock[(clock > iv.t0) & (clock < iv.t1)]
     times = np.unique(np.concatenate([[iv.t0], inside, [iv.t1]]))
     K = len(times)
     joints = states(times)
-    poses = _poses(world, bodies, {d: v[0] for d, v in joints.items()})  # (B, K, 4, 4)
     levers = _Levers.of(world, bodies, joints)
-    allowed = allowed_pairs(world, model)
-    pairs = np.array(
-        [(i, j) for i in range(B) for j in range(i + 1, B) if (i, j) not in allowed],
-        dtype=int,
-    ).reshape(-1, 2)
-    if not len(pairs):
+    may = np.triu(np.ones((B, B), dtype=bool), 1)  # pairs that may not touch
+    for i, j in allowed_pairs(world, model):
+        may[i, j] = False
+    if not may.any():
         return
+    before = {d: tuple(x[:-1] for x in v) for d, v in joints.items()}
+    after = {d: tuple(x[1:] for x in v) for d, v in joints.items()}
+    travel = levers.travel(before, after, np.diff(times))  # (K-1, L) joint travel bounds
+    moving = np.any(travel > 0, axis=0)  # (L,) joints that move at all in the stretch
+    reach = levers.arm @ travel.T  # (B, K-1): how far any point of each body moves
+    queried: set[tuple[int, int]] = set()
+    mark = len(run.close)
+    chunk = CHUNK if BROAD_PHASE else max(K - 1, 1)
+    for start in range(0, max(K - 1, 1), chunk):
+        stop = min(start + chunk, K - 1)
+        queried = _sweep_chunk(
+            run, iv, times, joints, levers, may, travel, moving, reach, start, stop, queried
+        )
+    if len(run.close) > mark + 1:  # one record for the interval, by pair, then sample
+        parts = [np.concatenate(x) for x in zip(*run.close[mark:])]
+        order = np.lexsort((parts[2], parts[1], parts[0]))
+        run.close[mark:] = [tuple(x[order] for x in parts)]
+
+
+def _candidates(centres, radius, reach, may, margin: float) -> np.ndarray:
+    """Broad phase: the pairs (P, 2) whose swept bounding boxes over a chunk come within
+    ``margin`` [m] of each other.  Each body's box holds its bounding sphere at every sample,
+    grown by the most any point of it moves to the neighbouring samples (``reach``), so it
+    holds the body at every instant in between; boxes farther apart than ``margin`` prove the
+    bodies are, for the whole chunk."""
+    grow = radius[:, None] + reach  # (B, Kc)
+    lo = (centres - grow[..., None]).min(axis=1) - margin / 2
+    hi = (centres + grow[..., None]).max(axis=1) + margin / 2
+    # sweep and prune on x, then the other axes on the few pairs that overlap in x
+    order = np.argsort(lo[:, 0], kind="stable")
+    ends = np.searchsorted(lo[order, 0], hi[order, 0], side="right")
+    counts = np.maximum(ends - np.arange(len(order)) - 1, 0)  # partners later in the order
+    a = np.repeat(np.arange(len(order)), counts)
+    b = a + 1 + np.arange(len(a)) - np.repeat(np.cumsum(counts) - counts, counts)
+    I, J = order[a], order[b]
+    I, J = np.minimum(I, J), np.maximum(I, J)
+    keep = np.all((lo[I] <= hi[J]) & (lo[J] <= hi[I]), axis=1) & may[I, J]
+    pairs = np.stack([I[keep], J[keep]], axis=1)
+    return pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))] if len(pairs) else pairs.reshape(0, 2)
+
+
+def _sweep_chunk(
+    run: _Sweep, iv, times, joints, levers, may, travel, moving, reach, start, stop, queried
+) -> set[tuple[int, int]]:
+    """Samples ``start..stop`` of an interval and the clock intervals between them: the pairs
+    the broad phase keeps, bounded, queried and refined.  ``queried``: the pairs whose distance
+    at ``start`` the previous chunk already reported on.  Returns the pairs queried at
+    ``stop``."""
+    world, model = run.world, run.model
+    tolerance, clearance, report_within = run.tolerance, run.clearance, run.report_within
+    found, close, touch_windows, stats = run.found, run.close, run.touch_windows, run.stats
+    bodies = model.bodies
+    times = times[start : stop + 1]
+    K = len(times)
+    q = {d: v[0][start : stop + 1] for d, v in joints.items()}
+    poses = _poses(world, bodies, q)  # (B, K, 4, 4)
     centres = np.einsum("bkij,bj->bki", poses[:, :, :3, :3], np.stack([b.center for b in bodies]))
     centres += poses[:, :, :3, 3]
     radius = np.array([b.radius for b in bodies])
+    moves = reach[:, start:stop]  # (B, K-1)
+    around = np.zeros((len(bodies), K))  # each sample: the most a body moves to a neighbour
+    if K > 1:
+        around[:, :-1] = moves
+        around[:, 1:] = np.maximum(around[:, 1:], moves)
+    watch = max(clearance, report_within)
+    if BROAD_PHASE:
+        pairs = _candidates(centres, radius, around, may, max(watch, 0.0))
+    else:
+        pairs = np.argwhere(may)
     I, J = pairs[:, 0], pairs[:, 1]
+    weights = levers.pair_weights(I, J)
+    static = weights.static(moving)  # the pair moves, if at all, as one rigid body
+    if start > 0:  # a pair that does not move was settled at the interval's first sample
+        pairs, weights, static = pairs[~static], weights.take(~static), static[~static]
+        I, J = pairs[:, 0], pairs[:, 1]
+    if not len(pairs):
+        return set()
     # lower bounds on every pair's distance: bounding spheres, and each bounding sphere
     # against the other body's bounding box (a long rail's sphere alone tells little)
     lower = (
@@ -249,17 +322,12 @@ def _sweep_interval(run: _Sweep, iv: Interval) -> None:
         outside = np.linalg.norm(np.maximum(np.abs(local) - half[a, None, :], 0.0), axis=2)
         lower = np.maximum(lower, outside - radius[c, None])
     slack = 2.0 * (clearance - tolerance)
-    weights = levers.pair_weights(I, J)  # (P, L)
-    before = {d: tuple(x[:-1] for x in v) for d, v in joints.items()}
-    after = {d: tuple(x[1:] for x in v) for d, v in joints.items()}
-    M = weights @ levers.travel(before, after, np.diff(times)).T  # (P, K-1) motion bounds
-    static = ~np.any(M > 0, axis=1)  # the pair moves, if at all, as one rigid body
+    M = weights.bound(travel[start:stop])  # (P, K-1) motion bounds
     if K > 1:
         need_interval = lower[:, :-1] + lower[:, 1:] - M < slack
         need_interval[static] = False
     else:
         need_interval = np.zeros((len(pairs), 0), dtype=bool)
-    watch = max(clearance, report_within)
     need_sample = lower < watch if watch > 0 else lower <= 0
     need_sample[:, 1:] |= need_interval
     need_sample[:, :-1] |= need_interval
@@ -269,14 +337,20 @@ def _sweep_interval(run: _Sweep, iv: Interval) -> None:
     res = distances(bodies, I[qp], J[qp], poses[I[qp], qk], poses[J[qp], qk], SWEEP_ITERATIONS)
     stats["queries"] += len(qp)
     exact[qp, qk] = _signed(res)
+    # the first sample is the previous chunk's last: reported there when queried there
+    fresh = np.array(
+        [k > 0 or (int(I[p]), int(J[p])) not in queried for p, k in zip(qp, qk)], dtype=bool
+    )
     sample = run.sample_index(times[qk])
     for n in _reportable(res, tolerance, clearance):
+        if not fresh[n]:
+            continue
         p, t = qp[n], float(times[qk[n]])
         found.append(_finding(I[p], J[p], t, res, n, sample[n] < 0, tolerance))
         if static[p]:  # a pair that does not move: the same for the whole interval
             found.append(found[-1][:2] + (float(iv.t1),) + found[-1][3:])
     if report_within > 0:
-        keep = (sample >= 0) & (res.distance < report_within)
+        keep = fresh & (sample >= 0) & (res.distance < report_within)
         for t0, t1, tp in touch_windows:  # touching is the point of those steps
             allowed_now = np.array([(int(i), int(j)) in tp for i, j in pairs], dtype=bool)
             keep &= ~(allowed_now[qp] & (times[qk] >= t0) & (times[qk] <= t1))
@@ -290,8 +364,9 @@ def _sweep_interval(run: _Sweep, iv: Interval) -> None:
                 res.point_b[keep],
             )
         )
+    last = {(int(I[p]), int(J[p])) for p in qp[qk == K - 1]}
     if K == 1:
-        return
+        return last
     # intervals whose exact end distances still do not pass: bisect them
     da, db = exact[:, :-1], exact[:, 1:]
     fail = need_interval & ~np.isnan(da) & ~np.isnan(db)
@@ -300,6 +375,7 @@ def _sweep_interval(run: _Sweep, iv: Interval) -> None:
     fail &= (da >= floor) & (db >= floor)
     fail &= da + db - M < slack
     p_idx, k_idx = np.nonzero(fail)
+    first_joint = np.argmax(levers.arm > 0, axis=1)  # (B,)
     items = {
         "p": p_idx,
         "ta": times[k_idx],
@@ -312,31 +388,17 @@ def _sweep_interval(run: _Sweep, iv: Interval) -> None:
             break
         if len(items["p"]) > MAX_ITEMS:
             break  # reported below as unresolved, so that the check fails safe
+        # batches of few devices each: by the first joint that moves the pair's first body
+        order = np.lexsort((items["p"], first_joint[pairs[items["p"], 0]]))
+        items = {k: v[order] for k, v in items.items()}
         tm = 0.5 * (items["ta"] + items["tb"])
-        n = len(tm)
-        stats["refinements"] += n
-        all_t = np.concatenate([items["ta"], tm, items["tb"]])
-        st = states(all_t)
-        q_mid = {d: v[0][n : 2 * n] for d, v in st.items()}
-        involved = np.unique(pairs[items["p"]])
-        mid_poses = _poses(world, [bodies[b] for b in involved], q_mid)
-        slot = {int(b): s for s, b in enumerate(involved)}
-        I2, J2 = pairs[items["p"], 0], pairs[items["p"], 1]
-        sI = np.array([slot[int(b)] for b in I2], dtype=int)
-        sJ = np.array([slot[int(b)] for b in J2], dtype=int)
-        rows = np.arange(n)
-        res = distances(bodies, I2, J2, mid_poses[sI, rows], mid_poses[sJ, rows], SWEEP_ITERATIONS)
-        stats["queries"] += n
-        dm = _signed(res)
-        for r in _reportable(res, tolerance, clearance):
-            found.append(_finding(I2[r], J2[r], float(tm[r]), res, r, True, tolerance))
-        # the two halves, with motion bounds from the states at their ends
-        lo = {d: (v[0][:n], v[1][:n], v[2][:n]) for d, v in st.items()}
-        mi = {d: (v[0][n : 2 * n], v[1][n : 2 * n], v[2][n : 2 * n]) for d, v in st.items()}
-        hi = {d: (v[0][2 * n :], v[1][2 * n :], v[2][2 * n :]) for d, v in st.items()}
-        W = weights[items["p"]]
-        M1 = np.einsum("nl,nl->n", W, levers.travel(lo, mi, tm - items["ta"]))
-        M2 = np.einsum("nl,nl->n", W, levers.travel(mi, hi, items["tb"] - tm))
+        stats["refinements"] += len(tm)
+        stats["queries"] += len(tm)
+        parts = [
+            _midpoints(run, levers, weights, pairs, items, tm, slice(k, k + REFINE_BATCH))
+            for k in range(0, len(tm), REFINE_BATCH)
+        ]
+        dm, M1, M2 = (np.concatenate(x) for x in zip(*parts, strict=True))
         ok = dm >= floor  # a contact found at the midpoint ends the search there
         left = ok & (items["da"] + dm - M1 < slack)
         right = ok & (dm + items["db"] - M2 < slack)
@@ -349,6 +411,45 @@ def _sweep_interval(run: _Sweep, iv: Interval) -> None:
         }
     if len(items["p"]):
         _unresolved(items, pairs, found)
+    return last
+
+
+def _midpoints(run: _Sweep, levers, weights, pairs, items, tm, rows: slice):
+    """One batch of the refinement: the exact distance at each interval's midpoint (findings
+    added to ``run``) and the motion bounds of its two halves.  States and poses are computed
+    for the batch's devices and bodies only, so memory stays bounded on a line of robots.
+
+    Returns
+    -------
+    dm, M1, M2 : ndarray, shape (n,)
+        Signed midpoint distance [m] and the halves' motion bounds [m].
+    """
+    world, bodies = run.world, run.model.bodies
+    ta, tb, tm = items["ta"][rows], items["tb"][rows], tm[rows]
+    p = items["p"][rows]
+    n = len(tm)
+    involved = np.unique(pairs[p])
+    # only the devices that move these bodies
+    columns = np.flatnonzero(levers.arm[involved].any(axis=0))
+    st = run.states(np.concatenate([ta, tm, tb]), sorted({levers.joints[c][0] for c in columns}))
+    q_mid = {d: v[0][n : 2 * n] for d, v in st.items()}
+    mid_poses = _poses(world, [bodies[b] for b in involved], q_mid)
+    slot = np.searchsorted(involved, pairs[p])  # (n, 2): each pair's bodies among involved
+    every = np.arange(n)
+    I2, J2 = pairs[p, 0], pairs[p, 1]
+    res = distances(
+        bodies, I2, J2, mid_poses[slot[:, 0], every], mid_poses[slot[:, 1], every], SWEEP_ITERATIONS
+    )
+    dm = _signed(res)
+    for r in _reportable(res, run.tolerance, run.clearance):
+        run.found.append(_finding(I2[r], J2[r], float(tm[r]), res, r, True, run.tolerance))
+    lo = {d: (v[0][:n], v[1][:n], v[2][:n]) for d, v in st.items()}
+    mi = {d: (v[0][n : 2 * n], v[1][n : 2 * n], v[2][n : 2 * n]) for d, v in st.items()}
+    hi = {d: (v[0][2 * n :], v[1][2 * n :], v[2][2 * n :]) for d, v in st.items()}
+    W = weights.take(p).dense(columns)
+    M1 = np.einsum("nl,nl->n", W, levers.travel(lo, mi, tm - ta, columns))
+    M2 = np.einsum("nl,nl->n", W, levers.travel(mi, hi, tb - tm, columns))
+    return dm, M1, M2
 
 
 def _unresolved(items, pairs, found) -> None:
@@ -481,29 +582,70 @@ class _Levers:
         limits = np.array([cell.devices[d].joints[i].limits.acceleration for d, i in keys])
         return cls(keys, limits, table)
 
-    def travel(self, lo: dict, hi: dict, h: np.ndarray) -> np.ndarray:
+    def travel(self, lo: dict, hi: dict, h: np.ndarray, columns=None) -> np.ndarray:
         """Bound on each joint's travel over N intervals of length ``h`` (N,), from the states
-        at their ends (device -> (q, qd, qdd), each (N, n)): shape (N, L) [rad or m].
+        at their ends (device -> (q, qd, qdd), each (N, n)): shape (N, L) [rad or m], or
+        (N, len(columns)) for those joints only.
 
         ``h (|qd_a| + |qd_b|) / 2 + A h^2 / 4``, A the acceleration limit or, when larger, the
         acceleration at either end.
         """
         h = np.asarray(h, dtype=float)
-        out = np.zeros((len(h), len(self.joints)))
-        for column, (d, j) in enumerate(self.joints):
+        columns = range(len(self.joints)) if columns is None else columns
+        out = np.zeros((len(h), len(columns)))
+        for k, column in enumerate(columns):
+            d, j = self.joints[column]
             qd_a, qd_b = lo[d][1][:, j], hi[d][1][:, j]
             A = np.maximum(np.abs(lo[d][2][:, j]), np.abs(hi[d][2][:, j]))
             if np.isfinite(self.limits[column]):
                 A = np.maximum(A, self.limits[column])
-            out[:, column] = h * (np.abs(qd_a) + np.abs(qd_b)) / 2 + A * h * h / 4
+            out[:, k] = h * (np.abs(qd_a) + np.abs(qd_b)) / 2 + A * h * h / 4
         return out
 
-    def pair_weights(self, I: np.ndarray, J: np.ndarray) -> np.ndarray:
+    def pair_weights(self, I: np.ndarray, J: np.ndarray) -> PairWeights:
         """Per pair (I[p], J[p]) and joint, the lever that counts for their distance: a joint
         that moves both bodies moves them as one rigid body and leaves their distance alone.
-        Shape (P, L); the pairs' motion bound is this times the joints' travel."""
-        a, b = self.arm[I], self.arm[J]
-        return np.where(b > 0, 0.0, a) + np.where(a > 0, 0.0, b)
+        The pairs' motion bound is this times the joints' travel."""
+        moved = self.arm > 0
+        C = max(int(moved.sum(axis=1).max(initial=0)), 1)
+        # each body's joints, padded with column 0 at weight 0
+        order = np.argsort(~moved, axis=1, kind="stable")[:, :C]
+        cols_of = np.where(np.take_along_axis(moved, order, axis=1), order, 0)
+        arm_of = np.take_along_axis(self.arm, cols_of, axis=1) * np.take_along_axis(
+            moved, order, axis=1
+        )
+        ci, cj = cols_of[I], cols_of[J]
+        wi = np.where(self.arm[J[:, None], ci] > 0, 0.0, arm_of[I])
+        wj = np.where(self.arm[I[:, None], cj] > 0, 0.0, arm_of[J])
+        return PairWeights(np.hstack([ci, cj]), np.hstack([wi, wj]))
+
+
+@dataclass
+class PairWeights:
+    """Sparse per-pair joint weights: ``vals[p, c]`` on joint column ``cols[p, c]`` (P, 2C),
+    zero-padded; at most the joints above the pair's two bodies, however many devices."""
+
+    cols: np.ndarray
+    vals: np.ndarray
+
+    def take(self, rows) -> PairWeights:
+        return PairWeights(self.cols[rows], self.vals[rows])
+
+    def static(self, moving: np.ndarray) -> np.ndarray:
+        """(P,) pairs no moving joint (``moving``, (L,) bool) changes the distance of."""
+        return ~np.any((self.vals > 0) & moving[self.cols], axis=1)
+
+    def bound(self, travel: np.ndarray) -> np.ndarray:
+        """(P, K) motion bounds from joint travel bounds ``travel`` (K, L)."""
+        return np.einsum("pc,kpc->pk", self.vals, travel[:, self.cols])
+
+    def dense(self, columns: np.ndarray) -> np.ndarray:
+        """(P, len(columns)) weights on the sorted joint ``columns`` (every pair's joints)."""
+        out = np.zeros((len(self.cols), len(columns)))
+        where = np.minimum(np.searchsorted(columns, self.cols), len(columns) - 1)  # pads: 0
+        rows = np.repeat(np.arange(len(self.cols)), self.cols.shape[1])
+        np.add.at(out, (rows, where.ravel()), self.vals.ravel())
+        return out
 
 
 def _spans(model: CollisionModel, found: list[tuple], dt: float) -> list[Contact]:

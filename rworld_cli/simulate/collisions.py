@@ -189,10 +189,11 @@ def check_run(run, sched, times: np.ndarray, report_within: float = REPORT_WITHI
     model = collision_model(cell)
     end = float(times[-1])
 
-    def states(t):
+    def states(t, devices=None):
         t = np.asarray(t, dtype=float)
         out = {}
-        for d, dev in cell.devices.items():
+        for d in cell.devices if devices is None else devices:
+            dev = cell.devices[d]
             if d in sched.tracks:
                 tr = sched.tracks[d]
                 out[d] = sample_track(tr.segments, tr.q_init, t)
@@ -350,20 +351,21 @@ def _clearance_columns(sched, model, result, times, spans):
     K = len(times)
     snaps = sched.snapshots
     starts = [int(np.searchsorted(times, t, side="left")) for t, _ in snaps] + [K]
-    # which bodies each device carries, per sample (the tree changes at snapshots)
-    carried = {d: np.zeros((K, len(bodies)), dtype=bool) for d in sched.tracks}
-    for (_, snap), a, b in zip(snaps, starts[:-1], starts[1:]):
+    # which bodies each device carries, per stretch between snapshots (the tree changes there)
+    carried = {d: np.zeros((len(snaps), len(bodies)), dtype=bool) for d in sched.tracks}
+    for k, ((_, snap), a, b) in enumerate(zip(snaps, starts[:-1], starts[1:])):
         if b <= a:
             continue
         world.restore(snap)
         for d in sched.tracks:
             frames = set(world.subtree(d))
-            carried[d][a:b] = [body.frame in frames for body in bodies]
+            carried[d][k] = [body.frame in frames for body in bodies]
     world.restore(snaps[-1][1])
+    stretch = np.searchsorted(np.array(starts[1:]), close["sample"], side="right")
     columns = {}
     mine_of = {}
     for d in sched.tracks:
-        mine = carried[d][close["sample"], close["a"]] | carried[d][close["sample"], close["b"]]
+        mine = carried[d][stretch, close["a"]] | carried[d][stretch, close["b"]]
         mine_of[d] = mine
         column = np.full(K, np.inf)
         np.minimum.at(column, close["sample"][mine], close["distance"][mine])

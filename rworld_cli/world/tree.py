@@ -70,8 +70,11 @@ class World:
         self._active_tcp: dict[str, str] = {
             name: dev.tcps[0] for name, dev in cell.devices.items() if dev.tcps
         }
-        self._cache: dict[str, np.ndarray] | None = None
+        self._cache: dict[str, np.ndarray] | None = None  # every frame (parents first)
+        self._poses: dict[str, np.ndarray] = {}  # frames computed on demand since the last change
+        self._links: dict[str, np.ndarray] = {}  # device -> its link transforms at its joints
         self._children_cache: dict[str, list[str]] | None = None
+        self._link_index: dict[str, tuple[str, int]] | None = None
         for name, decl in cell.frames.items():
             if decl.kind == "world":
                 self._parent[name] = None
@@ -88,8 +91,14 @@ class World:
     # ------------------------------------------------------------------ queries
     @property
     def frames(self) -> list[str]:
-        """All frame names, parents before children."""
-        return list(self._world_poses())
+        """All frame names, parents before children (depth first)."""
+        kids = self._children()
+        out, stack = [WORLD], list(reversed(kids.get(WORLD, [])))
+        while stack:
+            node = stack.pop()
+            out.append(node)
+            stack.extend(reversed(kids.get(node, [])))
+        return out
 
     def parent(self, frame: str) -> str | None:
         self._check_frame(frame)
@@ -131,14 +140,13 @@ class World:
     def T_world(self, frame: str) -> np.ndarray:
         """``T_world_frame``, shape (4, 4) (a copy)."""
         self._check_frame(frame)
-        return self._world_poses()[frame].copy()
+        return self._pose(frame).copy()
 
     def T(self, a: str, b: str) -> np.ndarray:
         """``T_a_b``: pose of frame ``b`` expressed in frame ``a``, shape (4, 4)."""
-        poses = self._world_poses()
         self._check_frame(a)
         self._check_frame(b)
-        return spatial.invert_transform(poses[a]) @ poses[b]
+        return spatial.invert_transform(self._pose(a)) @ self._pose(b)
 
     def T_parent(self, frame: str) -> np.ndarray:
         """Pose of ``frame`` relative to its current parent, shape (4, 4)."""
@@ -170,6 +178,8 @@ class World:
             raise UserError(f"joint values of '{device}' must be finite, got {q.tolist()}")
         self._q[device] = q.copy()
         self._cache = None
+        self._poses.clear()  # only what hangs below the device moved; recomputed on demand
+        self._links.pop(device, None)
 
     def joint_limit_violations(self, device: str) -> list[tuple[int, float, float, float]]:
         """(joint index, value, lower, upper) for each joint of ``device`` outside its limits."""
@@ -286,6 +296,7 @@ class World:
             spatial.invert_transform(self._world_poses()[self._parent[frame]]) @ T
         )
         self._cache = None
+        self._poses.clear()
 
     def place(self, frame: str, T_world_frame) -> None:
         """Correct the numbers of ``frame``: store the relative pose that puts it at
@@ -303,6 +314,7 @@ class World:
             self._world_poses()[self._parent[frame]]
         ) @ np.asarray(T_world_frame, dtype=float)
         self._cache = None
+        self._poses.clear()
 
     def set_active_tcp(self, device: str, tcp: str) -> None:
         """Make ``tcp`` (a TCP of ``device`` or of a device it carries) the active TCP."""
@@ -349,7 +361,7 @@ class World:
         dev = self.cell.devices[device]
         links = list(dev.link_frames)
         out = []
-        for name in self.frames:
+        for name in self.subtree(device):  # what rides on it hangs below it
             kind = self.cell.primitive_kind(name)
             if kind is None or name == device or kind == "sensor" or name in exclude:
                 continue
@@ -463,12 +475,52 @@ class World:
         for frame in frames:
             self._check_frame(frame)
             out[frame] = pose(frame)
+        # pose() refers to itself: a cycle that would keep every array of the batch alive
+        # until the garbage collector runs (hundreds of MB on a line of robots)
+        links.clear()
+        memo.clear()
         return out
 
     # ------------------------------------------------------------------ internals
     def _invalidate(self):
         self._cache = None
         self._children_cache = None
+        self._poses.clear()
+        self._links.clear()
+
+    def _pose(self, frame: str) -> np.ndarray:
+        """``T_world_frame`` of one frame, computed along its path only: a line of many robots
+        asks for one device's frames after every change of another's joints."""
+        if self._cache is not None:
+            return self._cache[frame]
+        path = []
+        node: str | None = frame
+        while node is not None and node != WORLD and node not in self._poses:
+            path.append(node)
+            node = self._parent[node]
+        T = np.eye(4) if node is None or node == WORLD else self._poses[node]
+        for node in reversed(path):
+            link = self._link_frames().get(node)
+            if link is not None:
+                device, i = link
+                if device not in self._links:
+                    self._links[device] = self.cell.devices[device].joint_transforms(
+                        self._q[device]
+                    )
+                T = T @ self._links[device][i]
+            else:
+                T = T @ self._T_parent[node]
+            self._poses[node] = T
+        return T
+
+    def _link_frames(self) -> dict[str, tuple[str, int]]:
+        if self._link_index is None:
+            self._link_index = {
+                f: (d, i)
+                for d, dev in self.cell.devices.items()
+                for i, f in enumerate(dev.link_frames)
+            }
+        return self._link_index
 
     def _check_frame(self, frame: str):
         if frame not in self._parent:
