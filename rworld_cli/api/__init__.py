@@ -33,6 +33,14 @@ from .cells import (  # noqa: F401
     write_schemas,
 )
 from .export import ProgramExport, Signals, TargetChange, export_program  # noqa: F401
+from .fleet import (  # noqa: F401
+    FleetCheck,
+    RunCheck,
+    check_fleet,
+    github_annotations,
+    junit_xml,
+    write_junit,
+)
 from .physics import (  # noqa: F401
     DeviceContext,
     JacobianResult,

@@ -42,6 +42,11 @@ class _StderrLines(logging.Handler):
         click.echo(f"rworld: {record.getMessage()}", err=True)
 
 
+class ReportedExit(SystemExit):
+    """An exit whose code reports what was found (a fleet with bad cells: 2) but whose files
+    are the report of it: kept, as a failed check's are."""
+
+
 def _in_one_output_set(fn: Callable, args, kwargs):
     """Run a command with every file it writes in one output set (``fileio.output_set``): the
     files appear together when it ends, or - on bad input, an interrupt or a bug - none do.
@@ -60,7 +65,7 @@ def _in_one_output_set(fn: Callable, args, kwargs):
         except CheckFailed as exc:
             failed = exc
         except SystemExit as exc:
-            if exc.code not in (None, 0, EXIT_CHECK_FAILED):
+            if exc.code not in (None, 0, EXIT_CHECK_FAILED) and not isinstance(exc, ReportedExit):
                 raise
             failed = exc
     if failed is not None:

@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from .common import EXIT_CHECK_FAILED, emit_json, handle_errors, json_option
+from .common import EXIT_CHECK_FAILED, ReportedExit, emit_json, handle_errors, json_option
 
 
 def _with_progress(show: bool, label: str, work):
@@ -215,8 +215,7 @@ def view(directory, output, json_output):
 
 
 @click.command()
-@click.argument("cell", metavar="CELL")
-@click.argument("run", metavar="RUN")
+@click.argument("targets", nargs=-1, metavar="CELL [RUN] | CELL... --all-runs")
 @click.option(
     "--dt",
     type=click.FloatRange(1e-4, 1.0),
@@ -224,9 +223,53 @@ def view(directory, output, json_output):
     help="Clock step [s] (default: the run file's).",
 )
 @collision_options
+@click.option(
+    "--all-runs",
+    is_flag=True,
+    help="Check every run (runs/*.yaml) of every CELL given: a fleet of cells in one command.",
+)
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Local processes for a fleet (default: the cores; 1: one after the other here).",
+)
+@click.option(
+    "--scheduler",
+    default=None,
+    metavar="tcp://HOST:PORT",
+    help="Check on a Dask distributed cluster instead (needs 'pip install rworld[cluster]').",
+)
+@click.option(
+    "--junit",
+    "junit_path",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="Also write JUnit XML: a testcase per run, failures with file:line.",
+)
+@click.option(
+    "--format",
+    "output_format",
+    type=click.Choice(["text", "github"]),
+    default="text",
+    show_default=True,
+    help="github: GitHub Actions annotations (::error file=...,line=...::), one per problem.",
+)
 @json_option
 @handle_errors
-def check(cell, run, dt, clearance, collision_tolerance, no_collisions, json_output):
+def check(
+    targets,
+    dt,
+    clearance,
+    collision_tolerance,
+    no_collisions,
+    all_runs,
+    workers,
+    scheduler,
+    junit_path,
+    output_format,
+    json_output,
+):
     """For CI: exit 0 when every program of RUN runs within all limits and without collisions
     (or clearance violations), 1 with them otherwise.
 
@@ -235,17 +278,46 @@ def check(cell, run, dt, clearance, collision_tolerance, no_collisions, json_out
     is missed between clock samples (docs/collision.md).  Bad input (files, names, unreachable
     targets) exits 2 as everywhere.
 
+    A fleet: --all-runs checks every run of every CELL given, on local processes (--workers)
+    or a Dask cluster (--scheduler), in the order given whatever finishes first.  A bad cell is
+    named and the others are still checked; exit 2 if any input is bad, else 1 if any run
+    failed.  --json prints {"results": [...], "failed": N}; --junit FILE and --format github
+    report to CI systems (also for one CELL RUN).
+
     \b
     Examples:
       rworld check workcells/paper_fig9 transfer
       rworld check workcells/puma560 pick_place --clearance 5mm --json
       rworld check workcells/puma560 through_table   # a deliberately wrong program: exit 1
+      rworld check workcells/*/ --all-runs --junit report.xml
+      rworld check workcells/*/ --all-runs --format github --workers 4
+      rworld check cells/*/ --all-runs --scheduler tcp://10.0.0.5:8786 --json
     """
+    fleet = all_runs or workers or scheduler or junit_path or output_format != "text"
+    if all_runs and not targets:
+        raise click.UsageError("--all-runs checks the runs of the CELLs given: name at least one")
+    if not all_runs and len(targets) != 2:
+        raise click.UsageError(
+            "give CELL RUN (one run), or CELL... --all-runs (every run of each cell)"
+        )
+    checks = _checks(clearance, collision_tolerance, no_collisions)
+    if fleet:
+        _check_fleet(
+            list(targets) if all_runs else [targets[0]],
+            None if all_runs else targets[1],
+            dt,
+            checks,
+            workers,
+            scheduler,
+            junit_path,
+            output_format,
+            json_output,
+        )
+        return
+    cell, run = targets
     from ..api import run_summary, unlimited_notes
 
-    _, result = _simulate(
-        cell, run, dt, False, _checks(clearance, collision_tolerance, no_collisions)
-    )
+    _, result = _simulate(cell, run, dt, False, checks)
     if json_output:
         summary = run_summary(result)
         emit_json(
@@ -304,6 +376,52 @@ def check(cell, run, dt, clearance, collision_tolerance, no_collisions, json_out
         click.echo(f"failed: {result.run}: {', '.join(parts)}", err=True)
     if not result.ok:
         sys.exit(EXIT_CHECK_FAILED)
+
+
+def _check_fleet(
+    cells, run, dt, checks, workers, scheduler, junit_path, output_format, json_output
+) -> None:
+    """The fleet form of ``check``: every run on the executor, then the reports."""
+    from ..api import check_fleet, github_annotations, write_junit
+
+    if dt is not None:
+        raise click.UsageError("--dt applies to one run; a fleet uses each run file's clock")
+    fleet = _with_progress(
+        not json_output and output_format == "text" and sys.stderr.isatty(),
+        "checking",
+        lambda progress: check_fleet(cells, run, workers, scheduler, progress=progress, **checks),
+    )
+    if junit_path:
+        write_junit(fleet, junit_path)
+    if json_output:
+        emit_json(fleet.as_dict())
+    elif output_format == "github":
+        for line in github_annotations(fleet):
+            click.echo(line)
+    else:
+        for r in fleet.results:
+            name = f"{r.cell} {r.run}".strip()
+            if r.status == "ok":
+                click.echo(f"ok      {name}: cycle time {r.cycle_time:.3f} s")
+                continue
+            if r.status == "skipped":
+                click.echo(f"skipped {name}: no runs/*.yaml in the cell")
+                continue
+            click.echo(f"{'FAILED' if r.status == 'failed' else 'ERROR '}  {name}")
+            for p in r.problems[:5]:
+                where = f"{p.file}:{p.line}: " if p.file and p.line else ""
+                click.echo(f"        {where}{p.message}")
+            if len(r.problems) > 5:
+                click.echo(f"        ... {len(r.problems) - 5} more (--json lists them)")
+        ok = sum(r.status == "ok" for r in fleet.results)
+        click.echo(
+            f"{len(fleet.results)} run(s) on {fleet.executor}: {ok} ok, {fleet.failed} failed, "
+            f"{fleet.bad_input} with bad input"
+        )
+    if junit_path and not json_output and output_format == "text":
+        click.echo(f"wrote {junit_path}")
+    if fleet.exit_code:  # the reports stay: they name each failed run and bad cell
+        raise ReportedExit(fleet.exit_code)
 
 
 def _render(result) -> None:

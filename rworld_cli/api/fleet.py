@@ -1,0 +1,363 @@
+"""Fleets: ``rworld check CELL... --all-runs`` - every run of every cell, on local processes or a
+Dask cluster, with reports CI systems read (JSON, JUnit XML, GitHub annotations).
+
+One code path for both executors: a ``concurrent.futures`` executor - a
+``ProcessPoolExecutor`` here, or ``distributed.Client.get_executor()`` on a cluster - runs
+:func:`check_one` on each (cell, run); results come back in the order the runs were listed,
+whatever order they finish in.  A run is checked as ``rworld check CELL RUN`` would check it;
+its result is plain data (picklable, JSON-ready).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import UserError
+
+
+@dataclass
+class Problem:
+    """One reason a run failed, located where a reviewer would fix it."""
+
+    kind: str  # collision | clearance | limit | handling | input
+    message: str
+    file: str | None = None
+    line: int | None = None
+
+    def as_dict(self) -> dict:
+        return {"kind": self.kind, "message": self.message, "file": self.file, "line": self.line}
+
+
+@dataclass
+class RunCheck:
+    """The outcome of one run: ``ok``, failed (``problems``), or bad input (``error``)."""
+
+    cell: str
+    run: str
+    ok: bool
+    error: str | None = None
+    cycle_time: float | None = None
+    counts: dict = field(default_factory=dict)
+    problems: list[Problem] = field(default_factory=list)
+    seconds: float = 0.0
+    skipped: bool = False  # a cell with no runs: nothing to check
+
+    @property
+    def status(self) -> str:
+        if self.skipped:
+            return "skipped"
+        return "error" if self.error is not None else ("ok" if self.ok else "failed")
+
+    def as_dict(self) -> dict:
+        return {
+            "cell": self.cell,
+            "run": self.run,
+            "ok": self.ok,
+            "status": self.status,
+            "error": self.error,
+            "cycle_time": self.cycle_time,
+            **self.counts,
+            "problems": [p.as_dict() for p in self.problems],
+            "seconds": self.seconds,
+        }
+
+
+@dataclass
+class FleetCheck:
+    """Every run's outcome, in the order the runs were listed."""
+
+    results: list[RunCheck]
+    executor: str
+
+    @property
+    def failed(self) -> int:
+        return sum(r.status == "failed" for r in self.results)
+
+    @property
+    def bad_input(self) -> int:
+        return sum(r.status == "error" for r in self.results)
+
+    @property
+    def exit_code(self) -> int:
+        """2 when any input is bad, else 1 when any run failed, else 0."""
+        return 2 if self.bad_input else (1 if self.failed else 0)
+
+    def as_dict(self) -> dict:
+        return {
+            "results": [r.as_dict() for r in self.results],
+            "failed": self.failed,
+            "bad_input": self.bad_input,
+            "executor": self.executor,
+        }
+
+
+def fleet_runs(cells: list[str], run: str | None = None) -> list[tuple[str, str]]:
+    """(cell, run) pairs: ``run`` on each cell, or every ``runs/*.yaml`` of each cell (sorted).
+    A folder that is no cell (reported bad), or a cell with no runs (skipped), is kept as
+    (cell, "")."""
+    out = []
+    for cell in cells:
+        if run is not None:
+            out.append((cell, run))
+            continue
+        folder = Path(cell)
+        runs = sorted((folder / "runs").glob("*.yaml")) if (folder / "cell.yaml").is_file() else []
+        out += [(cell, r.stem) for r in runs] or [(cell, "")]
+    return out
+
+
+_WHERE = re.compile(r"^(?P<file>[^:\n]+):(?P<line>\d+)(?::\d+)?: ")
+
+
+def _located(message: str) -> tuple[str | None, int | None]:
+    match = _WHERE.match(message)
+    return (match["file"], int(match["line"])) if match else (None, None)
+
+
+def _split(where: str | None) -> tuple[str | None, int | None]:
+    if not where or ":" not in where:
+        return where, None
+    file, line = where.rsplit(":", 1)
+    return (file, int(line)) if line.isdigit() else (where, None)
+
+
+def check_one(cell: str, run: str, options: dict) -> RunCheck:
+    """Check one run as ``rworld check CELL RUN`` does; bad input becomes ``error`` (with the
+    file and line when the message has them), never an exception."""
+    from .simulation import simulate_run
+
+    started = time.perf_counter()
+    if not run:
+        if (Path(cell) / "cell.yaml").is_file():
+            return RunCheck(cell, run, True, skipped=True)  # a cell with nothing to run
+        why = f"{cell}: not a cell (no cell.yaml)"
+        return RunCheck(cell, run, False, why, problems=[Problem("input", why, cell)])
+    try:
+        loaded, result = simulate_run(cell, run, **options)
+    except UserError as exc:
+        lines = exc.lines()
+        problems = []
+        for issue in exc.issues or []:
+            problems.append(Problem("input", issue.message, issue.file, issue.line or None))
+        if not problems:
+            file, line = _located(str(exc))
+            problems.append(Problem("input", str(exc), file or cell, line))
+        return RunCheck(
+            cell,
+            run,
+            False,
+            "\n".join(lines),
+            problems=problems,
+            seconds=time.perf_counter() - started,
+        )
+    where_of = {p.device: [s.where for s in p.steps] for p in loaded.programs}
+    problems = []
+    for v in result.violations:
+        file, line = _split(where_of[v.device][v.step] if v.step is not None else None)
+        problems.append(Problem("limit", v.describe(), file, line))
+    report = result.collisions
+    counts = {"limit_violations": len(result.violations)}
+    if report is not None:
+        for c in report.contacts:
+            file, line = _split(c.steps[0].where if c.steps else None)
+            kind = "collision" if c.contact.collision else "clearance"
+            problems.append(Problem(kind, c.describe().replace("\n", " "), file, line))
+        for h in report.handling:
+            file, line = _split(h.step.where if h.step else None)
+            problems.append(Problem("handling", h.describe(), file, line))
+        counts |= {
+            "collisions": len(report.collisions),
+            "clearance_violations": len(report.clearance_violations),
+            "handling": len(report.handling),
+        }
+    return RunCheck(
+        cell,
+        run,
+        bool(result.ok),
+        None,
+        # to the nanosecond: BLAS threading differs between executors (Dask workers run one
+        # thread) and moves the last digits; the report is the same on every executor
+        round(float(result.cycle_time), 9),
+        counts,
+        problems,
+        time.perf_counter() - started,
+    )
+
+
+class _Inline:
+    """One worker: the runs in this process, one after the other (the same interface)."""
+
+    def submit(self, fn, *args):
+        from concurrent.futures import Future
+
+        future: Future = Future()
+        try:
+            future.set_result(fn(*args))
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller as a pool would
+            future.set_exception(exc)
+        return future
+
+    def shutdown(self, wait: bool = True) -> None:
+        pass
+
+
+def _executor(workers: int | None, scheduler: str | None):
+    """(executor, description, close): a Dask cluster's executor, a process pool, or inline."""
+    if scheduler is not None:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise UserError(
+                "--scheduler needs Dask's distributed scheduler client: pip install "
+                "'rworld[cluster]' (or distributed)"
+            ) from None
+        try:
+            client = Client(scheduler, timeout="10s")
+        except (OSError, TimeoutError) as exc:
+            raise UserError(f"no Dask scheduler answers at {scheduler}: {exc}") from None
+        workers_there = len(client.scheduler_info().get("workers", {}))
+        return client.get_executor(), f"dask {scheduler} ({workers_there} workers)", client.close
+    count = workers or os.cpu_count() or 1
+    if count == 1:
+        return _Inline(), "1 process", lambda: None
+    from concurrent.futures import ProcessPoolExecutor
+
+    pool = ProcessPoolExecutor(max_workers=count)
+    return pool, f"{count} local processes", lambda: pool.shutdown(wait=True)
+
+
+def check_fleet(
+    cells: list[str],
+    run: str | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    clearance: float | str | None = None,
+    collision_tolerance: float | str | None = None,
+    collisions: bool = True,
+    progress=None,
+) -> FleetCheck:
+    """Check ``run`` on each cell, or every run of every cell, on ``workers`` local processes
+    (default: the cores; 1: this process) or the Dask cluster at ``scheduler``
+    (``tcp://host:port``).  Results are in the order of :func:`fleet_runs`, identical on
+    every executor.  ``progress(done, total, what)`` as runs finish.
+
+    Raises
+    ------
+    UserError
+        No cells, a bad --workers, no scheduler at the address.
+    """
+    from concurrent.futures import as_completed
+
+    if not cells:
+        raise UserError("give at least one cell")
+    if workers is not None and workers < 1:
+        raise UserError("--workers must be at least 1")
+    tasks = fleet_runs(cells, run)
+    options = {
+        "clearance": clearance,
+        "collision_tolerance": collision_tolerance,
+        "collisions": collisions,
+    }
+    executor, description, close = _executor(workers, scheduler)
+    try:
+        futures = [executor.submit(check_one, cell, name, options) for cell, name in tasks]
+        done = 0
+        for _ in as_completed(futures):
+            done += 1
+            if progress:
+                progress(done, len(futures), "runs")
+        results = [f.result() for f in futures]
+    finally:
+        close()
+    return FleetCheck(results, description)
+
+
+def junit_xml(fleet: FleetCheck) -> str:
+    """JUnit XML of a fleet check: a testsuite per cell, a testcase per run; a failed run is a
+    ``failure`` listing its problems as ``file:line: message``, bad input an ``error``."""
+    import xml.etree.ElementTree as ET
+
+    suites = ET.Element("testsuites", name="rworld check")
+    by_cell: dict[str, list[RunCheck]] = {}
+    for r in fleet.results:
+        by_cell.setdefault(r.cell, []).append(r)
+    totals = {"tests": 0, "failures": 0, "errors": 0}
+    totals["skipped"] = 0
+    for cell, runs in by_cell.items():
+        failures = sum(r.status == "failed" for r in runs)
+        errors = sum(r.status == "error" for r in runs)
+        skipped = sum(r.status == "skipped" for r in runs)
+        suite = ET.SubElement(
+            suites,
+            "testsuite",
+            name=cell,
+            tests=str(len(runs)),
+            failures=str(failures),
+            errors=str(errors),
+            skipped=str(skipped),
+            time=f"{sum(r.seconds for r in runs):.3f}",
+        )
+        for r in runs:
+            case = ET.SubElement(
+                suite, "testcase", classname=cell, name=r.run or "(cell)", time=f"{r.seconds:.3f}"
+            )
+            text = "\n".join(
+                (f"{p.file}:{p.line}: " if p.file and p.line else f"{p.file}: " if p.file else "")
+                + p.message
+                for p in r.problems
+            )
+            if r.status == "failed":
+                first = r.problems[0].message if r.problems else "failed"
+                ET.SubElement(case, "failure", message=first, type="check").text = text
+            elif r.status == "error":
+                ET.SubElement(case, "error", message=(r.error or "").splitlines()[0]).text = text
+            elif r.status == "skipped":
+                ET.SubElement(case, "skipped", message="no runs/*.yaml in the cell")
+        totals["tests"] += len(runs)
+        totals["failures"] += failures
+        totals["errors"] += errors
+        totals["skipped"] += skipped
+    for key, value in totals.items():
+        suites.set(key, str(value))
+    ET.indent(suites)
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(suites, "unicode") + "\n"
+
+
+def write_junit(fleet: FleetCheck, path: str) -> None:
+    """Write :func:`junit_xml` to ``path`` atomically."""
+    from ..fileio import atomic_write_text
+
+    atomic_write_text(path, junit_xml(fleet))
+
+
+def _escape_data(text: str) -> str:
+    return text.replace("%", "%25").replace("\r", "%0D").replace("\n", "%0A")
+
+
+def _escape_property(text: str) -> str:
+    return _escape_data(text).replace(":", "%3A").replace(",", "%2C")
+
+
+def github_annotations(fleet: FleetCheck) -> list[str]:
+    """GitHub Actions workflow commands: an ``::error`` per problem on its file and line (a
+    collision shows on the program line that was running), a ``::notice`` per run that
+    passed."""
+    out = []
+    for r in fleet.results:
+        title = f"rworld check {r.cell} {r.run}".strip()
+        if r.status in ("ok", "skipped"):
+            what = "ok" if r.status == "ok" else "no runs to check"
+            out.append(f"::notice title={_escape_property(title)}::{what}")
+            continue
+        for p in r.problems or [Problem("input", r.error or "failed", r.cell)]:
+            where = ""
+            if p.file:
+                where = f"file={_escape_property(p.file)},"
+                if p.line:
+                    where += f"line={p.line},"
+            out.append(f"::error {where}title={_escape_property(title)}::{_escape_data(p.message)}")
+    return out
