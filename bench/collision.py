@@ -42,7 +42,7 @@ from rworld_cli.collision.oracle import (
     point_box,
     point_cylinder,
 )
-from rworld_cli.sensing.geometry import obb_overlap
+from rworld_cli.geometry import obb_overlap
 
 REPO = Path(__file__).resolve().parents[1]
 TOL = 1e-9

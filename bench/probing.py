@@ -46,10 +46,10 @@ from rworld_cli.calibration.probing import (  # noqa: E402
 )
 from rworld_cli.calibration.solve import _jacobian  # noqa: E402
 from rworld_cli.collision.bodies import point_triangle_distance  # noqa: E402
+from rworld_cli.geometry import shape_mesh, winding_number  # noqa: E402
 from rworld_cli.model.measurements import Measurement, MeasurementSet  # noqa: E402
 from rworld_cli.schema.loader import load_cell  # noqa: E402
 from rworld_cli.schema.programs import load_run  # noqa: E402
-from rworld_cli.sensing.geometry import shape_mesh, winding_number  # noqa: E402
 from rworld_cli.simulate.engine import simulate  # noqa: E402
 from rworld_cli.world.tree import World  # noqa: E402
 

@@ -24,8 +24,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from rworld_cli import spatial  # noqa: E402
+from rworld_cli.geometry import grid_interference  # noqa: E402
 from rworld_cli.sensing.exact import holed_box, icosphere, truth_grid  # noqa: E402
-from rworld_cli.sensing.geometry import grid_interference  # noqa: E402
 
 PAD = np.array([0.08, 0.08, 0.006])
 POSES = {  # T_solid_pad: the pad tilted and cutting into the solid

@@ -4,7 +4,10 @@ Run:  .venv/bin/python bench/startup.py [--repeat 20]
 
 Each command runs REPEAT times in a fresh process; the table gives the
 median and the ratio to a bare `python -c pass` measured in the same run
-(the machines are shared: compare ratios, not absolute times).
+(the machines are shared: compare ratios, not absolute times).  The per-cell
+commands (validate, show, kinematics fk of one state) are issue 35's start-up
+figures: the meshed Panda cell reads its meshes' facts from the disk cache
+after the first run (``schema.loader._mesh_facts``).
 """
 
 from __future__ import annotations
@@ -45,6 +48,14 @@ def main() -> None:
         (
             "rworld --json show workcells/paper_fig9",
             [rworld, "--json", "show", "workcells/paper_fig9"],
+        ),
+        *(
+            (
+                f"rworld {what} workcells/{cell}",
+                [rworld, *what.split(), f"workcells/{cell}", *extra],
+            )
+            for cell, q in (("puma560", "0,0.5,-1,0,0.3,0"), ("panda", "0,0,0,-1.5,0,1.5,0"))
+            for what, extra in (("validate", []), ("show", []), ("kinematics fk", ["--q", q]))
         ),
         (
             "rworld check workcells/puma560 pick_place",

@@ -71,14 +71,16 @@ def imports() -> dict[str, set[str]]:
 
 ALLOWED = {
     "model": {"model"} | COMMON,
+    # meshes, bounding boxes, winding numbers, distances: below collision and sensing both
+    "geometry": {"geometry", "model"} | COMMON,
     "schema": {"schema", "model"} | COMMON,
     "world": {"world", "model"} | COMMON,
-    **{room: CALCULATION | {"model"} | COMMON for room in CALCULATION - {"world"}},
+    **{room: CALCULATION | {"model", "geometry"} | COMMON for room in CALCULATION - {"world"}},
     # robot-language writers over resolved programs: text from plain data, no files
     "export": {"export", "model", "kinematics"} | COMMON,
     # the viewer page: text from the scene's bytes and panel data, its vendored assets
     "viewer": {"viewer"} | COMMON,
-    "api": {"api", "schema", "model", "export", "viewer"} | CALCULATION | COMMON,
+    "api": {"api", "schema", "model", "export", "viewer", "geometry"} | CALCULATION | COMMON,
     "cli": {"cli", "api", "errors", "units", ""},  # units: for showing arcsec
 }
 
@@ -93,6 +95,59 @@ def test_rooms_import_in_one_direction():
             if room_of(target) not in ALLOWED[room] and target != "rworld_cli":
                 wrong.append(f"{module} imports {target}")
     assert not wrong, "\n".join(sorted(wrong))
+
+
+def test_collision_does_not_import_sensing():
+    """Collision and sensing are siblings: what both need is in ``geometry``."""
+    for module, targets in imports().items():
+        if room_of(module) == "collision":
+            assert not {t for t in targets if room_of(t) == "sensing"}, module
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The import cycles among modules (strongly connected components of two or more)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    out: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in graph.get(v, ()):
+            if w not in graph:
+                continue
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                out.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_no_import_cycles_between_modules():
+    """No module imports one that (in any number of steps) imports it back, counting the
+    imports inside functions too: a cycle makes the order of imports matter and hides which
+    module is the lower one."""
+    graph = {m: {t for t in ts if t != m} for m, ts in imports().items()}
+    cycles = _cycles(graph)
+    assert not cycles, cycles
 
 
 def test_calculation_rooms_never_read_files():

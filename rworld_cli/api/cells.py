@@ -114,7 +114,7 @@ def _validate_path_file(raw: str, doc, cell: str | None) -> str:
                 )
             ],
         )
-    from .planning import path_file_issues
+    from .paths import path_file_issues
 
     issues = path_file_issues(raw, devices[name])
     if issues:

@@ -25,7 +25,7 @@ def sense(
     (World, list of SensorReading)
     """
     from ..errors import did_you_mean
-    from ..sensing.geometry import DEFAULT_TOLERANCE
+    from ..geometry import DEFAULT_TOLERANCE
     from ..sensing.sensors import read_sensors
 
     world, _ = load_world(cell_path, joints)

@@ -168,7 +168,7 @@ class ProbeRig:
     def collision(self, q: np.ndarray) -> str | None:
         """The first pair closer than the clearance at joint values ``q``, described; None."""
         from ..collision.bodies import distances
-        from ..sensing.geometry import obb_overlap
+        from ..geometry import obb_overlap
 
         if not len(self.pairs):
             return None
@@ -212,7 +212,7 @@ class ProbeRig:
         """False when a mesh body (triangles) is farther than the clearance from the other
         body's bounding sphere and does not enclose its centre: no exact check needed."""
         from ..collision.bodies import point_triangle_distance
-        from ..sensing.geometry import winding_number
+        from ..geometry import winding_number
 
         a, b = self.bodies[i], self.bodies[j]
         for mesh, other, Tm, To in ((a, b, Ti, Tj), (b, a, Tj, Ti)):

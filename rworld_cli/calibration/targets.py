@@ -33,8 +33,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import UserError
+from ..geometry import MeshData, shape_mesh, winding_number
 from ..model.cell import CellModel, Feature
-from ..sensing.geometry import MeshData, shape_mesh, winding_number
 
 PLANE_TOLERANCE = 1e-6  # [m]: a triangle within this of the feature's plane is on the face
 WALL_CLEARANCE = 5e-4  # [m]: the ball keeps this from a hole's rim and bottom, and the axis

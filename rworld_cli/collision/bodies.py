@@ -26,8 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..geometry import MeshData, shape_mesh, winding_number
 from ..model.cell import CellModel, Shape
-from ..sensing.geometry import MeshData, shape_mesh, winding_number
 from ..units import COLLISION_TOLERANCE
 from . import convex
 

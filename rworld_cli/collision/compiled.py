@@ -31,7 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import kernels
-from .convex import _FACES, ABSOLUTE_TOLERANCE, RELATIVE_TOLERANCE
+from .simplex import ABSOLUTE_TOLERANCE, RELATIVE_TOLERANCE
+from .simplex import FACES as _FACES
 
 SHAPE_COLUMNS = 9
 OUT_COLUMNS = 11

@@ -39,13 +39,13 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from itertools import combinations
 
 import numpy as np
 
+from .simplex import ABSOLUTE_TOLERANCE, RELATIVE_TOLERANCE
+from .simplex import FACES as _FACES
+
 MAX_ITERATIONS = 96
-RELATIVE_TOLERANCE = 1e-10
-ABSOLUTE_TOLERANCE = 1e-11  # [m]
 
 
 @dataclass
@@ -299,14 +299,6 @@ def _distances(a, b, pa, pb, overlap, iterations, lower, unfinished) -> Distance
     point_a = np.where(overlap[:, None], mid, point_a)
     point_b = np.where(overlap[:, None], mid, point_b)
     return Distances(dist, point_a, point_b, overlap, iterations, error)
-
-
-# faces of a simplex that contain its newest point (the nearest point always involves it),
-# by simplex size; the newest point is the last
-_FACES = {
-    n: [s for k in range(1, n + 1) for s in combinations(range(n), k) if n - 1 in s]
-    for n in (1, 2, 3, 4)
-}
 
 
 def _nearest_in_simplex(Y: np.ndarray, count: np.ndarray):

@@ -35,7 +35,7 @@ def _solid(shape):
     """The shape as a manifold3d solid in its owner's frame, or None if it is not one."""
     import manifold3d as m3
 
-    from ..sensing.geometry import shape_mesh
+    from ..geometry import shape_mesh
 
     mesh = shape_mesh(shape)
     m = m3.Mesh(

@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -306,25 +307,67 @@ def pose_to_matrix(
     return spatial.make_transform(R, p), None, warning
 
 
+MESH_FACTS_FORMAT = 1  # bump when the facts change: old cache files are then never looked up
+
+
 @functools.lru_cache(maxsize=64)
 def _mesh_facts(file: str, mtime_ns: int, size: int):
     """(T_mesh_obb, obb extents, extents, watertight) of a mesh file in its own units, or an error
     text.
 
-    Cached on (path, mtime, size): cells are reloaded often (validate, simulate).
+    Cached in the process on (path, mtime, size): cells are reloaded often (validate,
+    simulate).  Cached on disk, beside the compiled kernels, on the file's content: a command
+    on a meshed cell then neither imports trimesh nor parses a mesh (the Panda's seven meshes
+    cost a second of every command's start otherwise).
     """
+    import hashlib
+    import json
+
+    content = Path(file).read_bytes()
+    key = hashlib.sha256(f"{MESH_FACTS_FORMAT}|".encode() + content).hexdigest()[:40]
+    from ..kernels import cache_dir
+
+    stored = cache_dir().parent / "meshes" / f"{key}.json"
+    try:
+        data = json.loads(stored.read_text())
+        if isinstance(data, str):
+            return data
+        return (
+            np.array(data["T_mesh_obb"], dtype=float).reshape(4, 4),
+            np.array(data["obb_extents"], dtype=float).reshape(3),
+            np.array(data["extents"], dtype=float).reshape(3),
+            bool(data["watertight"]),
+        )
+    except (OSError, ValueError, KeyError, TypeError):
+        pass  # not cached yet, or a damaged entry: computed again
     from .meshfile import read_mesh
 
     tm, problem = read_mesh(file)
     if tm is None:
-        return problem
-    obb = tm.bounding_box_oriented.primitive
-    return (
-        np.array(obb.transform, dtype=float),
-        np.array(obb.extents, dtype=float),
-        np.array(tm.extents, dtype=float),
-        bool(tm.is_watertight),
-    )
+        facts: object = problem
+        data = problem
+    else:
+        obb = tm.bounding_box_oriented.primitive
+        facts = (
+            np.array(obb.transform, dtype=float),
+            np.array(obb.extents, dtype=float),
+            np.array(tm.extents, dtype=float),
+            bool(tm.is_watertight),
+        )
+        data = {
+            "T_mesh_obb": facts[0].tolist(),
+            "obb_extents": facts[1].tolist(),
+            "extents": facts[2].tolist(),
+            "watertight": facts[3],
+        }
+    try:  # a cache, not an output: written directly (a torn file fails to parse, and is redone)
+        stored.parent.mkdir(parents=True, exist_ok=True)
+        temporary = stored.with_name(f".{stored.name}.{os.getpid()}")
+        temporary.write_text(json.dumps(data))
+        os.replace(temporary, stored)
+    except OSError:
+        pass  # a read-only cache: the facts are still right
+    return facts
 
 
 class _Builder:

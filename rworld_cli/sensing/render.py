@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .geometry import shape_mesh
+from ..geometry import shape_mesh
 from .sensors import read_sensors, sensable_bodies
 from .types import sensor_type
 

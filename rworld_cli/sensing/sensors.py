@@ -17,8 +17,8 @@ import numpy as np
 
 from .. import spatial
 from ..collision.bodies import pair_distance
+from ..geometry import DEFAULT_TOLERANCE, grid_interference, obb_overlap, shape_mesh
 from ..model.cell import WORLD
-from .geometry import DEFAULT_TOLERANCE, grid_interference, obb_overlap, shape_mesh
 from .readings import SensorReading
 from .types import sensor_type
 
@@ -115,7 +115,7 @@ def ball_gaps(centre: np.ndarray, radius: float, bodies: list[Body]) -> np.ndarr
     (the collision room's sphere distances; a mesh's by point-to-triangle distance and, for a
     closed mesh, the inside test), 0 where the ball touches or overlaps it."""
     from ..collision.bodies import ball_body, make_body, point_triangle_distance
-    from .geometry import winding_number
+    from ..geometry import winding_number
 
     ball = ball_body("probe ball", radius)
     T_ball = spatial.make_transform(np.eye(3), centre)[None]

@@ -115,7 +115,7 @@ def _nodes(cell, poses, highlight=()) -> list[SceneNode]:
     """The scene's nodes: each frame of :func:`_frame_nodes` with its mesh; ``poses(name)``
     gives its (K, 4, 4) world poses; bodies named in ``highlight`` are red for the whole scene
     (one state)."""
-    from ..sensing.geometry import shape_mesh
+    from ..geometry import shape_mesh
     from ..sensing.render import COLORS
 
     nodes = []

@@ -50,7 +50,7 @@ def test_tighter_tolerance_asks_for_more_points(cli):
 def test_planned_points_lie_on_their_features():
     from rworld_cli.calibration.plan import plan_measurements
     from rworld_cli.collision.bodies import point_triangle_distance
-    from rworld_cli.sensing.geometry import shape_mesh
+    from rworld_cli.geometry import shape_mesh
     from rworld_cli.world.tree import World
 
     cell = load_cell(WORKCELLS / "calibration_example").cell

@@ -17,11 +17,11 @@ from rworld_cli.calibration.solve import _jacobian
 from rworld_cli.calibration.targets import d_optimal, feature_candidates
 from rworld_cli.collision.bodies import point_triangle_distance
 from rworld_cli.errors import UserError
+from rworld_cli.geometry import shape_mesh, winding_number
 from rworld_cli.model.measurements import Measurement, MeasurementSet
 from rworld_cli.schema.loader import load_cell
 from rworld_cli.schema.measurements import load_measurements
 from rworld_cli.schema.programs import load_run
-from rworld_cli.sensing.geometry import shape_mesh, winding_number
 from rworld_cli.simulate.engine import simulate
 from rworld_cli.world.tree import World
 from tests.conftest import WORKCELLS

@@ -6,7 +6,7 @@ Each test runs twice: on the compiled GJK (``collision/compiled.py``) and on the
 * sphere-sphere, sphere-box, sphere-cylinder: closed forms (point to solid, minus the radius);
 * box-box: the least of the 16 vertex-to-box distances and the 144 edge-to-edge distances
   (exact for two disjoint boxes), and for overlap the 15-axis separating-axis test of
-  ``sensing.geometry.obb_overlap``;
+  ``geometry.obb_overlap``;
 * cylinder pairs: the convex problem min |x - y| solved by scipy (SLSQP) from the point-to-
   cylinder closed form, and for overlap a witness point found inside both.
 """
@@ -25,7 +25,7 @@ from rworld_cli.collision.oracle import (
     point_box,
     point_cylinder,
 )
-from rworld_cli.sensing.geometry import obb_overlap
+from rworld_cli.geometry import obb_overlap
 
 TOL = 1e-9  # m, the required distance accuracy on primitives
 

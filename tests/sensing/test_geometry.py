@@ -11,13 +11,13 @@ import pytest
 import trimesh
 
 from rworld_cli import spatial
-from rworld_cli.sensing.exact import holed_box, icosphere, truth_grid
-from rworld_cli.sensing.geometry import (
+from rworld_cli.geometry import (
     box_triangle_overlap,
     grid_interference,
     obb_overlap,
     winding_number,
 )
+from rworld_cli.sensing.exact import holed_box, icosphere, truth_grid
 
 SOLIDS = {"icosphere": icosphere, "holed_box": holed_box}
 

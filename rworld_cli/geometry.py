@@ -28,7 +28,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..units import SENSING_TOLERANCE as DEFAULT_TOLERANCE
+from .units import SENSING_TOLERANCE as DEFAULT_TOLERANCE
 
 
 @dataclass(frozen=True)
