@@ -494,15 +494,19 @@ def _gather(bodies: list[Body], index: np.ndarray, T: np.ndarray) -> convex.Piec
     """Primitive pieces of ``bodies[index[q]]`` at ``T[q]``, in query order: boxes, spheres
     and cylinders built in one batch each, whatever the number of bodies (a line of robots);
     single hulls body by body."""
-    kind = np.array([b.shape.kind if b.parts is None else "hull" for b in bodies])[index]
+    used = np.unique(index)  # per body once, then indexed per query
+    slot = np.searchsorted(used, index)
+    kind = np.array([bodies[b].shape.kind if bodies[b].parts is None else "hull" for b in used])
+    T_shape = np.stack([bodies[b].shape.T_owner_shape for b in used])
+    sizes = np.array([bodies[b].shape.size for b in used], dtype=float)
+    kind = kind[slot]
     parts, order = [], []
     for name in ("box", "sphere", "cylinder"):
         sel = np.flatnonzero(kind == name)
         if not len(sel):
             continue
-        owners = index[sel]
-        Ts = T[sel] @ np.stack([bodies[b].shape.T_owner_shape for b in owners])
-        size = np.array([bodies[b].shape.size for b in owners], dtype=float)
+        Ts = T[sel] @ T_shape[slot[sel]]
+        size = sizes[slot[sel]]
         if name == "box":
             parts.append(convex.boxes(Ts, size / 2))
         elif name == "sphere":

@@ -224,8 +224,9 @@ class _Scheduler:
         return track.q_init
 
     def set_time(self, t: float) -> None:
-        for device in self.tracks:
-            self.world.set_joints(device, self.q_at(device, t))
+        """Every device at instant ``t``: each device's joints are sampled when first needed
+        (a step of one robot in a line of many reads one or two devices, not all)."""
+        self.world.defer_joints(list(self.tracks), lambda device: self.q_at(device, t))
 
     def fail(self, device: str, step: Step, message: str):
         raise SimulationError(

@@ -72,6 +72,8 @@ class World:
         }
         self._cache: dict[str, np.ndarray] | None = None  # every frame (parents first)
         self._poses: dict[str, np.ndarray] = {}  # frames computed on demand since the last change
+        self._stale: set[str] = set()  # devices whose joints come from _source when first needed
+        self._source = None
         self._links: dict[str, np.ndarray] = {}  # device -> its link transforms at its joints
         self._children_cache: dict[str, list[str]] | None = None
         self._link_index: dict[str, tuple[str, int]] | None = None
@@ -130,7 +132,7 @@ class World:
     def joints(self, device: str) -> np.ndarray:
         """Current joint values of ``device`` (copy), shape (n,)."""
         self._check_device(device)
-        return self._q[device].copy()
+        return self._joints_of(device).copy()
 
     def active_tcp(self, device: str) -> str:
         """The TCP frame the device's motions refer to (a tool's TCP after a tool change)."""
@@ -177,14 +179,33 @@ class World:
         if not np.all(np.isfinite(q)):
             raise UserError(f"joint values of '{device}' must be finite, got {q.tolist()}")
         self._q[device] = q.copy()
+        self._stale.discard(device)
         self._cache = None
         self._poses.clear()  # only what hangs below the device moved; recomputed on demand
         self._links.pop(device, None)
 
+    def defer_joints(self, devices, source) -> None:
+        """Set the joints of ``devices`` to ``source(device)`` (shape (n,), SI) when each is
+        first needed, not now: a simulation moves every device to each step's instant, and a
+        line of many robots needs one device's joints there, not all of them."""
+        self._stale = set(devices)
+        self._source = source
+        self._cache = None
+        self._poses.clear()
+        self._links.clear()
+
+    def _joints_of(self, device: str) -> np.ndarray:
+        """The device's joint values, taken from the deferred source first if it is stale (no
+        cached pose can depend on a stale device: :meth:`defer_joints` cleared them)."""
+        if device in self._stale:
+            self._stale.discard(device)
+            self._q[device] = np.array(self._source(device), dtype=float)
+        return self._q[device]
+
     def joint_limit_violations(self, device: str) -> list[tuple[int, float, float, float]]:
         """(joint index, value, lower, upper) for each joint of ``device`` outside its limits."""
         dev = self.cell.devices[device]
-        q = self._q[device]
+        q = self._joints_of(device)
         lo, hi = dev.limit_array("lower"), dev.limit_array("upper")
         return [
             (int(i), float(q[i]), float(lo[i]), float(hi[i]))
@@ -402,7 +423,7 @@ class World:
             "parent": dict(self._parent),
             "T_parent": {k: v.copy() for k, v in self._T_parent.items()},
             "affix": dict(self._affix),
-            "q": {k: v.copy() for k, v in self._q.items()},
+            "q": {k: self._joints_of(k).copy() for k in self._q},
             "active_tcp": dict(self._active_tcp),
         }
 
@@ -411,6 +432,7 @@ class World:
         self._T_parent = {k: v.copy() for k, v in snap["T_parent"].items()}
         self._affix = dict(snap["affix"])
         self._q = {k: v.copy() for k, v in snap["q"].items()}
+        self._stale.clear()
         self._active_tcp = dict(snap["active_tcp"])
         self._invalidate()
 
@@ -460,7 +482,7 @@ class World:
                 if dev not in links:
                     q = joints.get(dev)
                     q = (
-                        np.broadcast_to(self._q[dev], (N, self.cell.devices[dev].dof))
+                        np.broadcast_to(self._joints_of(dev), (N, self.cell.devices[dev].dof))
                         if q is None
                         else np.asarray(q, dtype=float)
                     )
@@ -505,7 +527,7 @@ class World:
                 device, i = link
                 if device not in self._links:
                     self._links[device] = self.cell.devices[device].joint_transforms(
-                        self._q[device]
+                        self._joints_of(device)
                     )
                 T = T @ self._links[device][i]
             else:
@@ -563,7 +585,7 @@ class World:
             return self._cache
         link_T = {}
         for name, dev in self.cell.devices.items():
-            A = dev.joint_transforms(self._q[name])
+            A = dev.joint_transforms(self._joints_of(name))
             for frame, Ai in zip(dev.link_frames, A):
                 link_T[frame] = Ai
         kids = self._children()
