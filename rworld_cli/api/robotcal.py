@@ -502,10 +502,9 @@ def _tracker_pool(dev, rng, candidates: int) -> _Pool:
 def _visit_steps(pool: _Pool, k: int, label: int, cell, device: str, target: str, sensor):
     """The steps that visit candidate ``k`` from home and back (mm, deg)."""
     from ..calibration.probing import _offset
+    from ..schema.robotobs import file_scale
 
-    dev = cell.devices[device]
-    scale = np.array([np.degrees(1.0) if j.kind == "revolute" else 1000.0 for j in dev.joints])
-    values = [float(f"{v:.6f}") for v in pool.q_path[k] * scale]
+    values = [float(f"{v:.6f}") for v in pool.q_path[k] * file_scale(cell.devices[device])]
     if pool.touches is None:
         return [
             ({"move": {"joints": values}}, f"pose {label}"),

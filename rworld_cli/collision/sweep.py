@@ -338,9 +338,10 @@ def _sweep_chunk(
     stats["queries"] += len(qp)
     exact[qp, qk] = _signed(res)
     # the first sample is the previous chunk's last: reported there when queried there
-    fresh = np.array(
-        [k > 0 or (int(I[p]), int(J[p])) not in queried for p, k in zip(qp, qk)], dtype=bool
-    )
+    fresh = np.ones(len(qp), dtype=bool)
+    if queried:
+        for r in np.flatnonzero(qk == 0):
+            fresh[r] = (int(I[qp[r]]), int(J[qp[r]])) not in queried
     sample = run.sample_index(times[qk])
     for n in _reportable(res, tolerance, clearance):
         if not fresh[n]:

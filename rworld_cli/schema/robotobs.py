@@ -403,23 +403,32 @@ def _read_csv(p: Path, cell: CellModel) -> RobotObservations:
     return RobotObservations(device, target, frame, np.array(q), np.array(points), sigma, lines)
 
 
+def file_scale(dev) -> np.ndarray:
+    """(n,) factors from SI joint values to the files' units: degrees and millimetres."""
+    return np.array([np.degrees(1.0) if j.kind == "revolute" else 1000.0 for j in dev.joints])
+
+
+def _head(dev, target: str, sigma: float, comment: list[str], instrument: str) -> list[str]:
+    return [
+        *comment,
+        "units: {length: mm, angle: deg}",
+        f"device: {yaml_value(dev.name)}",
+        f"instrument: {instrument}",
+        f"sigma: {sigma * 1000:g}",
+        f"target: {yaml_value(target)}",
+    ]
+
+
 def observation_template(dev, target: str, Q: np.ndarray, points: np.ndarray, sigma: float) -> str:
     """An observation file (mm, deg) of joint states ``Q`` (N, n) with the nominal points
     (N, 3) [m] to replace by the measured ones."""
-    scale = np.array([np.degrees(1.0) if j.kind == "revolute" else 1000.0 for j in dev.joints])
-    lines = [
+    comment = [
         "# Robot calibration observations to fill in: each point is where the nominal model",
         "# puts the target; replace it by what the instrument measures.",
-        "units: {length: mm, angle: deg}",
-        f"device: {yaml_value(dev.name)}",
-        "instrument: laser tracker",
-        f"sigma: {sigma * 1000:g}",
-        f"target: {yaml_value(target)}",
-        "frame: world",
-        "observations:",
     ]
+    lines = _head(dev, target, sigma, comment, "laser tracker") + ["frame: world", "observations:"]
     for q, p in zip(Q, points * 1000):
-        joints = ", ".join(f"{v:.6f}" for v in q * scale)
+        joints = ", ".join(f"{v:.6f}" for v in q * file_scale(dev))
         lines.append(f"  - {{joints: [{joints}], point: [{', '.join(f'{v:.4f}' for v in p)}]}}")
     return "\n".join(lines) + "\n"
 
@@ -430,18 +439,13 @@ def contacts_template(
     """A self-calibration contacts file (mm, deg) of the planned touches: joint states ``Q``
     (N, n) at the nominal contact on ``features``, to replace by the joint values the
     controller records at each trigger."""
-    scale = np.array([np.degrees(1.0) if j.kind == "revolute" else 1000.0 for j in dev.joints])
-    lines = [
+    scale = file_scale(dev)
+    comment = [
         "# Robot self-calibration contacts to fill in: the joints are where the nominal model",
         "# touches; replace them by the joint values the controller records at each trigger.",
-        "units: {length: mm, angle: deg}",
-        f"device: {yaml_value(dev.name)}",
-        "instrument: touch-trigger ball probe",
-        f"sigma: {sigma * 1000:g}",
-        f"target: {yaml_value(target)}",
-        f"probe_radius: {radius * 1000:g}",
-        "contacts:",
     ]
+    lines = _head(dev, target, sigma, comment, "touch-trigger ball probe")
+    lines += [f"probe_radius: {radius * 1000:g}", "contacts:"]
     for q, name in zip(Q, features, strict=True):
         joints = ", ".join(f"{v:.6f}" for v in q * scale)
         lines.append(f"  - {{joints: [{joints}], feature: {yaml_value(name)}}}")
