@@ -113,3 +113,4 @@ from .simulation import (  # noqa: F401
     write_run_outputs,
     write_run_view,
 )
+from .sweep import SweepResult, sweep_rows, sweep_run, write_sweep  # noqa: F401

@@ -48,6 +48,11 @@ COMMANDS = {
         "check",
         "For CI: exit 1 when a run's programs break a joint limit, collide or come too close.",
     ),
+    "sweep": (
+        "sweep",
+        "sweep",
+        "Check a run over a grid of payload mass x speed override x pose files; table, CSV, plot.",
+    ),
     "clearance": (
         "clearance",
         "clearance",

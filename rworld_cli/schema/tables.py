@@ -183,3 +183,16 @@ def format_csv(columns: list[str], data: np.ndarray) -> str:
 
 def write_csv(path: str, columns: list[str], data: np.ndarray) -> None:
     atomic_write_text(path, format_csv(columns, data))
+
+
+def write_records_csv(path: str, columns: list[str], rows: list[list]) -> None:
+    """A CSV table of mixed cells - text, integers, numbers (repr: round-trip exact), empty -
+    written atomically; text is quoted where CSV needs it."""
+    import csv
+
+    buf = io.StringIO()
+    out = csv.writer(buf, lineterminator="\n")
+    out.writerow(columns)
+    for row in rows:
+        out.writerow([repr(float(v)) if isinstance(v, float) else v for v in row])
+    atomic_write_text(path, buf.getvalue())

@@ -207,6 +207,50 @@ def write_plots(result: SimulationResult, directory: Path) -> list[Path]:
     return written
 
 
+def sweep_picture(result, path: str) -> Path:
+    """A sweep's picture (``api.sweep.SweepResult``): cycle time and peak torque ratio against
+    the swept mass (or the speed override when no mass is swept), one line per speed or pose
+    file; a failed point is a red cross, the torque limit a dashed line."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    points = [p for p in result.points if p.error is None]
+    by_mass = any(p.mass is not None for p in points)
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
+    lines: dict[tuple, list] = {}
+    for p in points:
+        key = (p.speed, p.variant) if by_mass else (None, p.variant)
+        lines.setdefault(key, []).append(p)
+    for (speed, variant), members in lines.items():
+        x = [p.mass if by_mass else 100 * p.speed for p in members]
+        label = ", ".join(
+            part
+            for part in (
+                f"{100 * speed:g} %" if speed is not None else "",
+                Path(variant).name if variant else "",
+            )
+            if part
+        )
+        for ax, what in ((axes[0], "cycle_time"), (axes[1], "peak_torque_ratio")):
+            y = [np.nan if getattr(p, what) is None else getattr(p, what) for p in members]
+            ax.plot(x, y, marker="o", label=label or None)
+            bad = [(xi, yi) for xi, yi, p in zip(x, y, members) if not p.ok]
+            if bad:
+                ax.plot(*zip(*bad), "x", color="red", markersize=10, mew=2)
+    axes[1].axhline(1.0, color="red", linewidth=1, linestyle="--")
+    for ax in axes:
+        ax.set_xlabel(f"mass of {result.object} [kg]" if by_mass else "speed override [%]")
+        ax.grid(alpha=0.3)
+        if any(label for label in ax.get_legend_handles_labels()[1]):
+            ax.legend(fontsize=8)
+    axes[0].set_ylabel("cycle time [s]")
+    axes[1].set_ylabel("peak |torque| / limit")
+    fig.suptitle(f"{result.cell}: {result.run} (red x: the check failed)")
+    return save_figure(fig, path)
+
+
 def _mark(ax, t: float, text: str, color: str, top: bool) -> None:
     """A vertical label at time ``t``, hanging from the top of the axes or standing on its
     bottom."""
