@@ -104,10 +104,16 @@ def fleet_runs(cells: list[str], run: str | None = None) -> list[tuple[str, str]
         if run is not None:
             out.append((cell, run))
             continue
-        folder = Path(cell)
+        folder = _folder(cell)
         runs = sorted((folder / "runs").glob("*.yaml")) if (folder / "cell.yaml").is_file() else []
         out += [(cell, r.stem) for r in runs] or [(cell, "")]
     return out
+
+
+def _folder(cell: str) -> Path:
+    """The cell's folder, whether given as the folder or as its cell.yaml."""
+    path = Path(cell)
+    return path.parent if path.is_file() else path
 
 
 _WHERE = re.compile(r"^(?P<file>[^:\n]+):(?P<line>\d+)(?::\d+)?: ")
@@ -132,7 +138,7 @@ def check_one(cell: str, run: str, options: dict) -> RunCheck:
 
     started = time.perf_counter()
     if not run:
-        if (Path(cell) / "cell.yaml").is_file():
+        if (_folder(cell) / "cell.yaml").is_file():
             return RunCheck(cell, run, True, skipped=True)  # a cell with nothing to run
         why = f"{cell}: not a cell (no cell.yaml)"
         return RunCheck(cell, run, False, why, problems=[Problem("input", why, cell)])

@@ -196,6 +196,12 @@ def test_fleet_usage_errors_exit_2(cli, args, message):
     assert result.exit_code == 2 and message in result.output, result.output
 
 
+def test_a_cell_given_as_its_cell_yaml_is_the_same_cell(cli):
+    folder = check_fleet([str(WORKCELLS / "puma560")], workers=1)
+    file = check_fleet([str(WORKCELLS / "puma560" / "cell.yaml")], workers=1)
+    assert [(r.run, r.status) for r in file.results] == [(r.run, r.status) for r in folder.results]
+
+
 def test_a_scheduler_nobody_runs_is_a_clear_error(cli):
     result = cli(
         ["check", str(WORKCELLS / "puma560"), "--all-runs", "--scheduler", "tcp://127.0.0.1:9"]
