@@ -256,8 +256,6 @@ def check_fleet(
     UserError
         No cells, a bad --workers, no scheduler at the address.
     """
-    from concurrent.futures import as_completed
-
     if not cells:
         raise UserError("give at least one cell")
     if workers is not None and workers < 1:
@@ -268,18 +266,34 @@ def check_fleet(
         "collision_tolerance": collision_tolerance,
         "collisions": collisions,
     }
+    results, description = run_tasks(
+        check_one, [(cell, name, options) for cell, name in tasks], workers, scheduler, progress
+    )
+    return FleetCheck(results, description)
+
+
+def run_tasks(fn, tasks: list[tuple], workers, scheduler, progress=None, what: str = "runs"):
+    """``fn(*task)`` for every task on the executor (:func:`_executor`), the results in the
+    order of ``tasks`` whatever order they finish in; ``progress(done, total, what)``.
+
+    Returns
+    -------
+    (list, str)
+        The results, and the executor's description.
+    """
+    from concurrent.futures import as_completed
+
     executor, description, close = _executor(workers, scheduler)
     try:
-        futures = [executor.submit(check_one, cell, name, options) for cell, name in tasks]
+        futures = [executor.submit(fn, *task) for task in tasks]
         done = 0
         for _ in as_completed(futures):
             done += 1
             if progress:
-                progress(done, len(futures), "runs")
-        results = [f.result() for f in futures]
+                progress(done, len(futures), what)
+        return [f.result() for f in futures], description
     finally:
         close()
-    return FleetCheck(results, description)
 
 
 def junit_xml(fleet: FleetCheck) -> str:

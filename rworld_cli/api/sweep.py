@@ -171,10 +171,9 @@ def sweep_run(
     UserError
         A mass without an object (or the reverse), values out of range, a missing pose file.
     """
-    from concurrent.futures import as_completed
     from pathlib import Path
 
-    from .fleet import _executor
+    from .fleet import run_tasks
 
     if (obj is None) != (masses is None):
         raise UserError("--mass takes OBJECT=KG,KG,...: name the object and its masses")
@@ -189,19 +188,14 @@ def sweep_run(
         if not Path(str(v)).is_file():
             raise UserError(f"{v}: no such pose file")
     grid = [(m, s, v) for m in masses_grid for s in speeds for v in variants_grid]
-    executor, description, close = _executor(workers, scheduler)
-    try:
-        futures = [
-            executor.submit(sweep_point, cell, run, obj, m, s, v, collisions) for m, s, v in grid
-        ]
-        done = 0
-        for _ in as_completed(futures):
-            done += 1
-            if progress:
-                progress(done, len(futures), "points")
-        points = [f.result() for f in futures]
-    finally:
-        close()
+    points, description = run_tasks(
+        sweep_point,
+        [(cell, run, obj, m, s, v, collisions) for m, s, v in grid],
+        workers,
+        scheduler,
+        progress,
+        "points",
+    )
     return SweepResult(cell, run, obj, points, description)
 
 
