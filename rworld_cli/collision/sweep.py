@@ -40,7 +40,7 @@ from ..model.cell import WORLD
 from .allowed import allowed_pairs, touch_bodies
 from .bodies import Body, CollisionModel, distances
 
-CHUNK = 64  # clock samples per chunk of the broad phase: memory is pairs kept x CHUNK
+CHUNK = 128  # clock samples per chunk of the broad phase: memory is pairs kept x CHUNK
 BROAD_PHASE = True  # False: every pair at every sample in one chunk (the reference for tests)
 MAX_SPLITS = 40  # bisections of one sample interval; 2^-40 of 10 ms is 1e-14 s
 REFINE_BATCH = 1024  # intervals refined per batch: memory ~ batch x the bodies it involves
