@@ -115,11 +115,11 @@ def sweep(
 
         table = Table(title=f"{cell}: {run} on {result.executor}", title_justify="left", box=None)
         for column in (
-            "mass [kg]",
+            "mass (kg)",
             "speed",
             "pose file",
             "check",
-            "cycle [s]",
+            "cycle (s)",
             "torque/limit",
             "collisions",
             "violations",
