@@ -374,8 +374,10 @@ def _clearance_columns(sched, model, result, times, spans):
     t = times[close["sample"]]
     # records nearest first: the first of each pair is its least distance
     order = np.argsort(close["distance"], kind="stable")
+    ranked = {d: order[mine[order]] for d, mine in mine_of.items()}  # each device's, nearest first
     for d, t0, t1, step in spans:
-        sel = order[(mine_of[d] & (t >= t0 - 1e-12) & (t <= t1 + 1e-12))[order]]
+        mine = ranked[d]
+        sel = mine[(t[mine] >= t0 - 1e-12) & (t[mine] <= t1 + 1e-12)]
         if not len(sel):
             continue
         _, first = np.unique(
