@@ -531,15 +531,41 @@ def write_measurement_template(output: str, cell_name: str, plans, radius: float
     )
 
 
-def analyze_calibration(kind: str, trials: int, planes: int, seed: int, plot: str | None = None):
-    """The report's accuracy or sensitivity comparison (calibration/analysis.py); rows per
-    method, and a PNG with ``plot``.
-    """
-    from ..calibration.analysis import run_analysis
+def analyze_calibration(
+    kind: str,
+    trials: int,
+    planes: int,
+    seed: int,
+    plot: str | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress=None,
+):
+    """The report's accuracy or sensitivity comparison (calibration/analysis.py): (rows per
+    method, the executor's description), and a PNG with ``plot``.
 
-    rows, samples = run_analysis(kind, trials, planes, seed)
+    The trials run in blocks (``analysis.BLOCK``) on ``workers`` local processes (default:
+    the cores when there is more than one block, else this process) or the Dask cluster at
+    ``scheduler``, the executors of fleet checks; every block has its own seed, so the
+    result is the same on each.  ``progress(done, total, what)`` as blocks finish.
+    """
+    from ..calibration.analysis import analysis_block, blocks, summarize
+    from .fleet import run_tasks
+
+    sizes = blocks(trials)
+    if workers is None and scheduler is None and len(sizes) == 1:
+        workers = 1
+    parts, executor = run_tasks(
+        analysis_block,
+        [(kind, n, planes, seed, i) for i, n in enumerate(sizes)],
+        workers,
+        scheduler,
+        progress,
+        what="trial blocks",
+    )
+    rows, samples = summarize(parts)
     if plot:
         from ..calibration.pictures import write_error_histogram
 
         write_error_histogram(kind, samples, plot)
-    return rows
+    return rows, executor

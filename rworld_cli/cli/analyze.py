@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import sys
+
 import click
 
-from .common import emit_json, handle_errors, json_option
+from .common import emit_json, handle_errors, json_option, with_progress
 
 
 @click.command()
@@ -19,6 +21,13 @@ from .common import emit_json, handle_errors, json_option
 )
 @click.option("--seed", default=0, show_default=True, type=int)
 @click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Local processes (default: the cores, or 1 for a single block of 500 trials).",
+)
+@click.option("--scheduler", default=None, metavar="tcp://HOST:PORT", help="A Dask cluster.")
+@click.option(
     "--plot",
     default=None,
     type=click.Path(dir_okay=False),
@@ -26,7 +35,7 @@ from .common import emit_json, handle_errors, json_option
 )
 @json_option
 @handle_errors
-def analyze(kind, trials, planes, seed, plot, json_output):
+def analyze(kind, trials, planes, seed, workers, scheduler, plot, json_output):
     """The report's proposed comparison of computing T with and without orthogonality assured.
 
     accuracy: random T, random planes, exact data.  sensitivity: every plane
@@ -38,10 +47,20 @@ def analyze(kind, trials, planes, seed, plot, json_output):
     Examples:
       rworld analyze accuracy
       rworld analyze sensitivity --trials 5000 --seed 1 --plot sensitivity.png
+      rworld analyze sensitivity --trials 1000000 --scheduler tcp://10.0.0.5:8786
+
+    The trials run in blocks of 500, each with its own seed drawn from --seed, so the
+    figures are the same on one process, --workers N or a Dask cluster (--scheduler).
     """
     from ..api import analyze_calibration
 
-    rows = analyze_calibration(kind, trials, planes, seed, plot)
+    rows, executor = with_progress(
+        not json_output and sys.stderr.isatty(),
+        lambda progress: analyze_calibration(
+            kind, trials, planes, seed, plot, workers, scheduler, progress
+        ),
+        "analysing",
+    )
     if json_output:
         emit_json(
             {
@@ -49,6 +68,7 @@ def analyze(kind, trials, planes, seed, plot, json_output):
                 "trials": trials,
                 "planes": planes,
                 "seed": seed,
+                "executor": executor,
                 "methods": [r.__dict__ for r in rows],
                 "plot": plot,
             }
@@ -58,7 +78,7 @@ def analyze(kind, trials, planes, seed, plot, json_output):
     from rich.table import Table
 
     table = Table(
-        title=f"{kind}: {trials} trials, {planes} planes each, seed {seed}",
+        title=f"{kind}: {trials} trials, {planes} planes each, seed {seed}, on {executor}",
         title_justify="left",
         box=None,
         header_style="bold",

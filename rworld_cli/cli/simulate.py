@@ -6,31 +6,23 @@ import sys
 
 import click
 
-from .common import EXIT_CHECK_FAILED, ReportedExit, emit_json, handle_errors, json_option
-
-
-def _with_progress(show: bool, label: str, work):
-    """``work(progress)``, with a transient progress bar when ``show`` (else progress None)."""
-    if not show:
-        return work(None)
-    from rich.progress import Progress
-
-    with Progress(transient=True) as bar:
-        task = bar.add_task(label, total=None)
-
-        def progress(done, total, what):
-            bar.update(task, completed=done, total=total, description=what)
-
-        return work(progress)
+from .common import (
+    EXIT_CHECK_FAILED,
+    ReportedExit,
+    emit_json,
+    handle_errors,
+    json_option,
+    with_progress,
+)
 
 
 def _simulate(cell: str, run: str, dt: float | None, show_progress: bool, checks: dict):
     from ..api import simulate_run
 
-    return _with_progress(
+    return with_progress(
         show_progress,
-        "simulating",
         lambda progress: simulate_run(cell, run, dt, progress, **checks),
+        "simulating",
     )
 
 
@@ -172,10 +164,10 @@ def simulate(
 def _write_view(loaded, result, directory, glb_path, view_path, show_progress) -> list:
     from ..api import run_view, write_run_view
 
-    glb, info = _with_progress(
+    glb, info = with_progress(
         show_progress and sys.stderr.isatty(),
-        "scene",
         lambda progress: run_view(loaded, result, progress),
+        "scene",
     )
     return write_run_view(glb, info, glb_path, view_path, directory)
 
@@ -386,10 +378,10 @@ def _check_fleet(
 
     if dt is not None:
         raise click.UsageError("--dt applies to one run; a fleet uses each run file's clock")
-    fleet = _with_progress(
+    fleet = with_progress(
         not json_output and output_format == "text" and sys.stderr.isatty(),
-        "checking",
         lambda progress: check_fleet(cells, run, workers, scheduler, progress=progress, **checks),
+        "checking",
     )
     if junit_path:
         write_junit(fleet, junit_path)

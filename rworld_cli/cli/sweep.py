@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from .common import ReportedExit, emit_json, handle_errors, json_option
+from .common import ReportedExit, emit_json, handle_errors, json_option, with_progress
 
 
 def _numbers(text: str, what: str) -> list[float]:
@@ -88,11 +88,8 @@ def sweep(
         masses = _numbers(values, "--mass")
     speeds = [p / 100 for p in _numbers(speed, "--speed")]
     files = [v for v in (variants or "").split(",") if v.strip()] or None
-    from .simulate import _with_progress
-
-    result = _with_progress(
+    result = with_progress(
         not json_output and sys.stderr.isatty(),
-        "sweeping",
         lambda progress: sweep_run(
             cell,
             run,
@@ -105,6 +102,7 @@ def sweep(
             scheduler,
             progress,
         ),
+        "sweeping",
     )
     written = write_sweep(result, output, plot)
     if json_output:

@@ -141,3 +141,32 @@ def test_analyze_command(cli, tmp_path):
     )
     assert [m["method"] for m in data["methods"]] == ["constrained", "unconstrained"]
     assert (tmp_path / "s.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_analysis_blocks_give_the_same_figures_on_every_executor():
+    """Blocks with their own seeds: one process, a pool and a Dask cluster agree exactly, and
+    the in-process run_analysis is the same computation."""
+    from distributed import LocalCluster
+
+    from rworld_cli.api import analyze_calibration
+
+    inline, where = analyze_calibration("sensitivity", 1200, 5, 7, workers=1)
+    assert where == "1 process"
+    pooled, where = analyze_calibration("sensitivity", 1200, 5, 7, workers=2)
+    assert where == "2 local processes"
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True) as cluster:
+        clustered, where = analyze_calibration(
+            "sensitivity", 1200, 5, 7, scheduler=cluster.scheduler_address
+        )
+    assert where.startswith("dask ")
+    assert inline == pooled == clustered == run_analysis("sensitivity", 1200, 5, 7)[0]
+    # 1200 trials are blocks of 500, 500, 200: a different seed draws other trials
+    assert run_analysis("sensitivity", 1200, 5, 8)[0] != inline
+
+
+def test_analysis_progress_counts_blocks():
+    from rworld_cli.api import analyze_calibration
+
+    seen = []
+    analyze_calibration("accuracy", 1001, 5, 0, workers=1, progress=lambda *a: seen.append(a))
+    assert seen == [(1, 3, "trial blocks"), (2, 3, "trial blocks"), (3, 3, "trial blocks")]
