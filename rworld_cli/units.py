@@ -64,6 +64,29 @@ def parse_length(text, what: str = "length", default_unit: str = "m") -> float:
     return value
 
 
+def parse_speed(text, what: str = "speed", default_unit: str = "m") -> float:
+    """'20mm/s', '0.02 m/s' or a bare number in ``default_unit`` per second -> m/s (above 0);
+    ``ValueError`` naming ``what`` otherwise."""
+    body = str(text).strip()
+    body = body[:-2] if body.endswith("/s") else body
+    value = parse_quantity(body, LENGTH_WORDS, default_unit)
+    if not (value > 0 and math.isfinite(value)):
+        raise ValueError(
+            f"{what} '{text}' is not a positive speed: write e.g. 20mm/s, 0.02m/s or a bare "
+            f"number ({_UNIT_NAMES.get(default_unit, default_unit)} per second)"
+        )
+    return value
+
+
+def parse_angle_value(text, what: str = "angle", default_unit: str = "rad") -> float:
+    """'90deg', '1.57 rad' or a bare number in ``default_unit`` -> radians (finite);
+    ``ValueError`` naming ``what`` otherwise."""
+    value = parse_quantity(text, ANGLE_WORDS, default_unit)
+    if not math.isfinite(value):
+        raise ValueError(f"{what} '{text}' is not an angle: write e.g. 90deg, 1.57rad")
+    return value
+
+
 def parse_duration(text, what: str = "duration") -> float:
     """'8ms', '0.004s' or a bare number of seconds -> seconds (above 0); ``ValueError`` naming
     ``what`` otherwise."""

@@ -35,17 +35,29 @@ class ToolMount:
             np.eye(4) if T_link_tool is None else np.asarray(T_link_tool, dtype=float)
         )
 
+    def generated_values(self) -> tuple[tuple, tuple]:
+        """(rotation rows, translation) as the generated code embeds them: rotation elements
+        within 1e-14 of 0 or +-1 snapped to them, the translation rounded to 1e-13 m (a tenth
+        of a picometre), with no negative zeros.  Mounts computed along different frame paths
+        differ by rounding only (-0.0, 2e-15 m); so they share one kernel, and the kernel's
+        results depend on these values alone."""
+        T = self.T_link_tool
+        R = tuple(tuple(snap(float(v)) + 0.0 for v in row) for row in T[:3, :3])
+        t = tuple(float(v) + 0.0 for v in np.round(T[:3, 3], 13) + 0.0)
+        return R, t
+
     def key(self) -> str:
         """A short key of the mount, computed once (kernels are looked up by it)."""
         key = self.__dict__.get("_key")
         if key is None:
-            key = self._key = repr((self.link, np.round(self.T_link_tool, 15).ravel().tolist()))
+            key = self._key = repr((self.link, self.generated_values()))
         return key
 
 
 def _generate(device: DeviceModel, mount: ToolMount, with_jacobian: bool) -> Generated:
     n = device.dof
-    link, T = mount.link, mount.T_link_tool
+    link = mount.link
+    R_link_tool, p_link_tool = mount.generated_values()
     em = Emitter()
     names = [f"q{i}" for i in range(n)]
     q: list[Num] = list(names)
@@ -60,8 +72,8 @@ def _generate(device: DeviceModel, mount: ToolMount, with_jacobian: bool) -> Gen
         point = em.vsub(p1, em.matvec(R1, step.e))
         axes.append((axis, point, step.prismatic))
         R0, p0 = R1, p1
-    Rt = em.matmul(R0, tuple(tuple(snap(float(v)) for v in row) for row in T[:3, :3]))
-    pt = em.vadd(p0, em.matvec(R0, tuple(float(v) for v in T[:3, 3])))
+    Rt = em.matmul(R0, R_link_tool)
+    pt = em.vadd(p0, em.matvec(R0, p_link_tool))
     outputs: list[Num] = []
     for i in range(3):  # the 4 x 4 pose, row by row
         outputs += [Rt[i][0], Rt[i][1], Rt[i][2], pt[i]]
