@@ -400,7 +400,11 @@ def _changes(cell, run, dt, against, loaded, result, devices) -> list[TargetChan
             dr = float(np.linalg.norm(spatial.rotation_vector(b[:3, :3].T @ a[:3, :3])))
             if dp <= 1e-9 and dr <= 1e-9:
                 continue
-            path = ancestors(now.move.target) if now.move.target in loaded.cell.frames else []
+            target = now.move.target
+            feature = loaded.cell.features.get(target)
+            if feature is not None:  # a target on a feature moves with the feature's owner
+                target = feature.owner
+            path = ancestors(target) if target in loaded.cell.frames else []
             path += ancestors(now.move.tcp) + ancestors(name)
             frames = [f for f in dict.fromkeys(path) if f in moved]
             changes.append(

@@ -23,7 +23,7 @@ from ..errors import UserError
 class Problem:
     """One reason a run failed, located where a reviewer would fix it."""
 
-    kind: str  # collision | clearance | limit | handling | input
+    kind: str  # collision | clearance | limit | handling | unreachable | input
     message: str
     file: str | None = None
     line: int | None = None
@@ -145,6 +145,15 @@ def check_one(cell: str, run: str, options: dict) -> RunCheck:
     try:
         loaded, result = simulate_run(cell, run, **options)
     except UserError as exc:
+        if exc.exit_code == 1:  # well formed, but the check fails (an unreachable target)
+            file, line = _located(str(exc))
+            return RunCheck(
+                cell,
+                run,
+                False,
+                problems=[Problem("unreachable", str(exc), file or cell, line)],
+                seconds=time.perf_counter() - started,
+            )
         lines = exc.lines()
         problems = []
         for issue in exc.issues or []:

@@ -37,7 +37,7 @@ import numpy as np
 from .. import spatial
 from ..errors import UserError
 from ..kinematics.inverse import solve_ik
-from ..kinematics.jacobian import ToolMount
+from ..kinematics.jacobian import ToolMount, reach_bound
 from ..model.cell import CellModel
 from ..world.tree import World
 from .targets import Candidates
@@ -374,17 +374,9 @@ class ProbeRig:
 
 def _reach_bound(dev, mount: ToolMount, T_tcp_sensor: np.ndarray) -> float:
     """An upper bound on the distance from the device's base origin to the probe ball's centre
-    [m]: every offset of the chain, prismatic travel, the tool and the sensor, added up (the
-    triangle inequality; turns keep lengths)."""
-    frames = dev.joint_frames()
-    total = float(np.linalg.norm(frames[-1][2][:3, 3]))  # the last link frame from its joint's
-    for (origin, _, _), joint in zip(frames, dev.joints):
-        total += float(np.linalg.norm(origin[:3, 3]))
-        if joint.kind == "prismatic":
-            total += max(abs(joint.limits.lower), abs(joint.limits.upper))
-    return total + float(
-        np.linalg.norm(mount.T_link_tool[:3, 3]) + np.linalg.norm(T_tcp_sensor[:3, 3])
-    )
+    [m]: the TCP's bound (:func:`~rworld_cli.kinematics.jacobian.reach_bound`) plus the
+    sensor's offset from the TCP."""
+    return reach_bound(dev, mount) + float(np.linalg.norm(T_tcp_sensor[:3, 3]))
 
 
 def tour(costs: np.ndarray, start: np.ndarray) -> list[int]:
@@ -616,12 +608,13 @@ def probe_run(
     rng = np.random.default_rng(seed)
     out = []
     for device, resolved in result.resolved.items():
-        moves = {item.step.index: item for item in resolved}
+        moves = {item.step.index: item for item in resolved}  # programs of older runs
         probes = [
             e for e in result.events if e.device == device and e.kind == "probe" and e.reading
         ]
         for event in probes:
-            item = moves[event.reading["guard_step"] - 1]
+            at = event.reading.get("guard_move")
+            item = resolved[at] if at is not None else moves[event.reading["guard_step"] - 1]
             move, sensor = item.move, item.move.guard
             radius = float(truth.sensors[sensor].ball or 0.0)
             points, nominal_line = [], []

@@ -225,12 +225,44 @@ def _convex_parts(mesh_file: str, scale: float, T_bytes: bytes, mtime_ns: int = 
     return tuple(out) if out else None
 
 
+def _planes(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Unit normals (F, 3), offsets (F,) [m] and areas (F,) [m^2] of triangles."""
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    double = np.linalg.norm(cross, axis=1)
+    normal = cross / np.maximum(double, 1e-300)[:, None]
+    return normal, np.einsum("fi,fi->f", normal, tri[:, 0]), 0.5 * double
+
+
+def _uncovered(hull: np.ndarray, bridging: np.ndarray, part: np.ndarray) -> float:
+    """The radius [m] of a disc with the largest area a flat hull face leaves uncovered by the
+    part's faces in its plane: a hole through a plate opens its top face, which the points of
+    :func:`hull_deviation` may all miss.  A slit counts as the disc of its area (the safe side:
+    the part is then taken as not convex, and checked by its triangles)."""
+    nh, dh, ah = _planes(hull)
+    npart, dpart, apart = _planes(part)
+    worst = 0.0
+    done: list[tuple[np.ndarray, float]] = []
+    for k in np.flatnonzero(bridging):
+        if any(abs(n @ nh[k] - 1) < 1e-9 and abs(d - dh[k]) < 1e-9 for n, d in done):
+            continue
+        done.append((nh[k], dh[k]))
+        in_hull = (np.abs(nh @ nh[k] - 1) < 1e-9) & (np.abs(dh - dh[k]) < 1e-9)
+        in_part = (np.abs(npart @ nh[k] - 1) < 1e-9) & (np.abs(dpart - dh[k]) < 1e-9)
+        if not in_part.any():  # the face bridges a dent: the points measure it
+            continue
+        gap = ah[in_hull].sum() - apart[in_part].sum()
+        worst = max(worst, float(np.sqrt(max(gap, 0.0) / np.pi)))
+    return worst
+
+
 def hull_deviation(
     hull: np.ndarray, part: np.ndarray, per_edge: int = 3, stop_above: float = np.inf
 ) -> float:
     """How far a hull stands off the solid it wraps: the largest distance from points on the
     hull's faces to the part's surface [m], over a barycentric grid of ``per_edge`` + 1 points a
-    side on each hull face that is not a face of the part itself.
+    side on each hull face that is not a face of the part itself; and, for a flat face the part
+    covers only in part (a plate's top with holes through it), the radius of the disc of the
+    area left open (:func:`_uncovered`).
 
     Parameters
     ----------
@@ -251,6 +283,9 @@ def hull_deviation(
     )
     if not bridging.any():
         return 0.0
+    opening = _uncovered(hull, bridging, part)
+    if opening > stop_above:
+        return opening
     n = per_edge
     weights = np.array(
         [(i / n, j / n, 1 - (i + j) / n) for i in range(n + 1) for j in range(n + 1 - i)]
@@ -262,7 +297,7 @@ def hull_deviation(
         best[start : start + 256] = point_triangle_distance(chunk[:, None, :], part[None]).min(1)
         if best[start : start + 256].max() > stop_above:
             break
-    return float(best[np.isfinite(best)].max(initial=0.0))
+    return max(opening, float(best[np.isfinite(best)].max(initial=0.0)))
 
 
 def point_triangle_distance(p: np.ndarray, tri: np.ndarray) -> np.ndarray:

@@ -17,6 +17,7 @@ from .chain import chain_steps, device_key
 
 __all__ = [
     "ToolMount",
+    "reach_bound",
     "tool_pose",
     "tool_pose_and_jacobian",
     "jacobian",
@@ -52,6 +53,21 @@ class ToolMount:
         if key is None:
             key = self._key = repr((self.link, self.generated_values()))
         return key
+
+
+def reach_bound(device: DeviceModel, mount: ToolMount | None = None) -> float:
+    """An upper bound on the distance from the device's base origin to the tool frame [m]:
+    every offset of the chain, prismatic travel and the tool, added up (the triangle
+    inequality; turns keep lengths).  A target farther than this is out of reach whatever
+    the joints."""
+    frames = device.joint_frames()
+    total = float(np.linalg.norm(frames[-1][2][:3, 3]))  # the last link frame from its joint's
+    for (origin, _, _), joint in zip(frames, device.joints):
+        total += float(np.linalg.norm(origin[:3, 3]))
+        if joint.kind == "prismatic":
+            total += max(abs(joint.limits.lower), abs(joint.limits.upper))
+    tool = np.eye(4) if mount is None else mount.T_link_tool
+    return total + float(np.linalg.norm(tool[:3, 3]))
 
 
 def _generate(device: DeviceModel, mount: ToolMount, with_jacobian: bool) -> Generated:

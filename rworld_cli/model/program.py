@@ -14,6 +14,49 @@ from .cell import CellModel
 
 
 @dataclass
+class FeatureGoal:
+    """A feature step's geometry, checked and in SI (``docs/programs.md``); resolved against
+    the features' current poses when the program runs.
+
+    Attributes
+    ----------
+    feature : str
+        The target feature (qualified): a move's, the hole, the surface set down on, the edge
+        followed, the feature probed.
+    at : float or ndarray (2,) or None
+        A line: the distance along it [m]; a plane: [u, v] from its point [m].
+    standoff : float
+        [m] out of the material.
+    spin : float or None
+        [rad] about the free axis; None: chosen for reach.
+    held : str or None
+        insert / place: the held object's feature brought onto the target.
+    depth : float
+        insert: [m] past the rim.
+    approach : float
+        insert / place / follow: the straight approach [m].
+    extent : (float or None, float or None)
+        follow: start and end along the line [m] (None: the material's ends).
+    speed : float or None
+        follow: the tool's speed along the line [m/s].
+    points : int or None
+        probe: how many points the probing moves take.
+    """
+
+    feature: str
+    at: float | np.ndarray | None = None
+    standoff: float = 0.0
+    spin: float | None = None
+    held: str | None = None
+    depth: float = 0.0
+    approach: float = 0.0
+    extent: tuple[float | None, float | None] = (None, None)
+    speed: float | None = None
+    points: int | None = None
+    where: str = ""  # file:line:col of the feature in the program, for messages
+
+
+@dataclass
 class Step:
     """One resolved program step.
 
@@ -48,9 +91,17 @@ class Step:
     configuration: dict[str, str] = field(default_factory=dict)  # shoulder, elbow, wrist
     near: np.ndarray | None = None  # (n,) joint values to take the solution nearest to (SI)
     joints: np.ndarray | None = None  # (n,) a move's joint goal (``joints:``), SI
+    goal: FeatureGoal | None = None  # a step on features (docs/programs.md)
 
     def describe(self) -> str:
         s = self.spec
+        if self.kind == "move" and self.goal is not None:
+            return (
+                f"move to {self.goal.feature}"
+                + (f" ({self.goal.standoff * 1000:g} mm out)" if self.goal.standoff else "")
+                + (" (linear)" if s.motion == "linear" else "")
+                + (f" until {s.until}" if s.until else "")
+            )
         if self.kind == "move":
             return (
                 f"move to {s.to if s.to is not None else 'joint values'}"
@@ -61,6 +112,10 @@ class Step:
             return f"{self.kind} {s.object}"
         if self.kind == "place":
             return f"place {s.object} on {s.on}"
+        if self.kind == "insert":
+            return f"insert {s.object} into {s.into}"
+        if self.kind == "follow":
+            return f"follow {s.edge}"
         if self.kind in ("attach_tool", "detach_tool"):
             return f"{self.kind} {s.tool}"
         if self.kind == "wait":
@@ -68,7 +123,9 @@ class Step:
         if self.kind == "sense":
             return f"sense {s}"
         if self.kind == "probe":
-            return f"probe {s.feature}"
+            return f"probe {s.feature}" + (
+                f" ({self.goal.points} points)" if self.goal is not None else ""
+            )
         return f"sync {s}"
 
 

@@ -41,11 +41,39 @@ class ConfigSpec(Strict):
     )
 
 
+Length = float | str  # a bare number in the file's length unit, or '20mm'
+Angle = float | str  # a bare number in the file's angle unit, or '90deg'
+
+
+class FeatureTarget(Strict):
+    """A target on a feature (docs/programs.md): its geometry, resolved when the program runs."""
+
+    feature: FrameRef = Field(description="The feature, 'object.feature'.")
+    standoff: Length = Field(
+        0.0,
+        description="How far out of the material: along a plane's or circle's normal, back "
+        "from a line.",
+    )
+    at: list[Length] | Length | FrameRef | None = Field(
+        None,
+        description="Where on the feature: [u, v] in a plane from its point, a distance along "
+        "a line, or another feature of the same object (a point or a circle's centre) "
+        "projected onto the plane. Default: the feature's point (a circle's centre).",
+    )
+    spin: Angle | None = Field(
+        None,
+        description="The turn of the tool about the feature's free axis (z; a line's own "
+        "direction). Default: chosen for reach and the configuration.",
+    )
+
+
 class MoveSpec(Strict):
     """Move the device: its TCP to a frame (joint or linear), or its joints to a named position."""
 
-    to: FrameRef | None = Field(
-        None, description="A frame of the cell, a named position of the device, or 'home'."
+    to: FeatureTarget | FrameRef | None = Field(
+        None,
+        description="A frame of the cell, a named position of the device, 'home', or a target "
+        "on a feature ({feature: plate.top, standoff: 20}).",
     )
     joints: list[float] | None = Field(
         None,
@@ -106,8 +134,67 @@ class ObjectRef(Strict):
 
 
 class PlaceSpec(Strict):
-    object: Name
-    on: FrameRef = Field(description="The frame the object now rests on (non-rigid).")
+    object: FrameRef = Field(
+        description="The held object; or its face ('part.bottom') to set down on a feature."
+    )
+    on: FrameRef = Field(
+        description="The frame the object now rests on (non-rigid); or a plane feature "
+        "('table.top') to set the object's face down on, moving there first."
+    )
+    at: list[Length] | FrameRef | None = Field(
+        None, description="Face on a feature: [u, v] in the plane, or a feature projected on it."
+    )
+    spin: Angle | None = Field(None, description="Face on a feature: the turn about the normal.")
+    approach: Length = Field(
+        "50mm", description="Face on a feature: the approach, straight down the normal."
+    )
+    speed: Fraction = Field(0.1, description="Face on a feature: the last straight move's speed.")
+
+
+class InsertSpec(Strict):
+    """Insert a held object's axis feature into a hole: aligned, approached along the axis and
+    pushed in to the depth (docs/programs.md)."""
+
+    object: FrameRef = Field(
+        description="The held object's tip: a circle (its normal out of the tip) or a line "
+        "(its point at the tip, its direction out of it), 'peg.tip'."
+    )
+    into: FrameRef = Field(description="The hole: a circle feature, 'plate.hole1'.")
+    depth: Length = Field(description="How far past the rim the tip goes.")
+    approach: Length = Field("50mm", description="The approach along the axis, above the rim.")
+    speed: Fraction = Field(0.1, description="The insertion's fraction of the linear speed.")
+    until: Name | None = Field(
+        None, description="Guarded insertion: stop where this sensor first senses something."
+    )
+    spin: Angle | None = Field(
+        None, description="The turn about the axis; default chosen for reach."
+    )
+
+
+class FollowSpec(Strict):
+    """A straight path along a line feature at a held speed (dispensing, deburring)."""
+
+    edge: FrameRef = Field(description="The line feature, 'bracket.top_edge'.")
+    speed: Length = Field(
+        description="The tool's speed along the line, held: '20mm/s' (a bare number is the "
+        "file's length unit per second)."
+    )
+    offset: Pose | None = Field(
+        None,
+        description="The tool frame relative to the edge's frame (x along the line, z towards "
+        "the material), in the file's units.",
+    )
+    from_: Length | None = Field(
+        None,
+        alias="from",
+        description="Start, along the line from its point; default the material's end.",
+    )
+    to: Length | None = Field(
+        None, description="End, along the line from its point; default the material's other end."
+    )
+    approach: Length = Field("30mm", description="Into and out of the path, away from the edge.")
+    spin: Angle | None = Field(None, description="The turn about the line; default chosen.")
+    tcp: FrameRef | None = Field(None, description="The tool frame; default the active TCP.")
 
 
 class ToolSpec(Strict):
@@ -122,9 +209,17 @@ class ToolSpec(Strict):
 
 class ProbeSpec(Strict):
     feature: FrameRef = Field(
-        description="The feature ('object.feature') the last guarded move's contact is a probe "
-        "point of."
+        description="The feature ('object.feature'). Right after a guarded move: its contact "
+        "is a probe point of the feature. Anywhere else: the probing moves for the feature, as "
+        "plan-measurements plans them."
     )
+    points: Annotated[int, Field(ge=1, le=100)] | None = Field(
+        None,
+        description="The probing moves: how many points (default: the fewest the feature's "
+        "kind needs).",
+    )
+    tcp: FrameRef | None = Field(None, description="The probing moves: the probe's TCP.")
+    sensor: Name | None = Field(None, description="The probing moves: the touch sensor.")
 
 
 class WaitSpec(Strict):
@@ -151,8 +246,14 @@ class Step(Strict):
         None, description="Remove the object's affixment; it stays where it is."
     )
     place: PlaceSpec | None = Field(
-        None, description="The object now rests on a frame (non-rigid affixment)."
+        None,
+        description="The object now rests on a frame (non-rigid affixment); or its face set "
+        "down on a plane feature.",
     )
+    insert: InsertSpec | None = Field(
+        None, description="Insert a held object's tip into a hole feature."
+    )
+    follow: FollowSpec | None = Field(None, description="Follow a line feature at a held speed.")
     attach_tool: ToolSpec | None = Field(
         None, description="Tool change: affix a tool; its TCP becomes the active one."
     )
@@ -205,6 +306,8 @@ STEP_KINDS = (
     "grasp",
     "release",
     "place",
+    "insert",
+    "follow",
     "attach_tool",
     "detach_tool",
     "wait",

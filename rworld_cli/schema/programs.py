@@ -12,8 +12,16 @@ import numpy as np
 
 from ..errors import Issue, UserError, did_you_mean
 from ..model.cell import CellModel
-from ..model.program import Program, Run, Step
-from ..units import ANGLE, COLLISION_TOLERANCE, LENGTH, parse_length
+from ..model.program import FeatureGoal, Program, Run, Step
+from ..units import (
+    ANGLE,
+    COLLISION_TOLERANCE,
+    LENGTH,
+    parse_angle_value,
+    parse_length,
+    parse_quantity,
+    parse_speed,
+)
 from . import program as sp
 from .loader import body_names, joint_values, load_cell, pose_to_matrix, validate_document
 from .yamlio import Marked, comment_text, parse_yaml_text, read_yaml, yaml_value
@@ -81,6 +89,343 @@ def _check_config(doc, path, spec, step, device, named, L, A, issues) -> None:
     step.near = near
 
 
+def _check_move_details(
+    doc, path, spec, step, device, named, cell, units, L, A, issues, device_name
+) -> None:
+    """A move's TCP, guard, touch depths, configuration and offset (any target)."""
+
+    def frame(path, name, what="frame"):
+        if name not in cell.frames and f"{device_name}.{name}" not in cell.frames:
+            issues.append(
+                doc.issue(path, f"unknown {what} '{name}'{did_you_mean(name, cell.frames)}")
+            )
+
+    if spec.tcp is not None:
+        frame(path + ("tcp",), spec.tcp)
+    if spec.until is not None and spec.until not in cell.sensors:
+        issues.append(
+            doc.issue(
+                path + ("until",),
+                f"unknown sensor '{spec.until}'{did_you_mean(spec.until, cell.sensors)}",
+            )
+        )
+    if spec.touch:
+        bodies = body_names(cell.objects, cell.devices)
+        depths = spec.touch if isinstance(spec.touch, dict) else dict.fromkeys(spec.touch)
+        for k, (name, depth) in enumerate(depths.items()):
+            at = path + ("touch", name if isinstance(spec.touch, dict) else k)
+            if name not in bodies:
+                issues.append(
+                    doc.issue(
+                        at,
+                        f"unknown object, device or link '{name}'{did_you_mean(name, bodies)}",
+                    )
+                )
+            if depth is None:
+                continue
+            if not isinstance(depth, str) and L is None:
+                issues.append(
+                    doc.issue(
+                        at,
+                        f"a bare depth ({depth}) needs the file's units.length, and "
+                        "rworld never guesses it: write it with its unit (2mm) or add "
+                        "'units: {length: mm, angle: deg}'",
+                    )
+                )
+                continue
+            try:
+                step.touch[name] = parse_length(
+                    depth,
+                    f"the depth '{name}' may be touched to",
+                    units.length if units and units.length else "",
+                )
+            except ValueError as exc:
+                issues.append(doc.issue(at, str(exc)))
+        for name in depths:
+            step.touch.setdefault(name, None)
+    if spec.config is not None:
+        _check_config(doc, path + ("config",), spec, step, device, named, L, A, issues)
+    if spec.offset is not None and (L is None or A is None):
+        issues.append(
+            doc.issue(
+                path + ("offset",),
+                "an offset needs the file's units, and rworld never guesses them: add "
+                "'units: {length: mm, angle: deg}' at the top of the program",
+            )
+        )
+    elif spec.offset is not None:
+        T, error, warning = pose_to_matrix(spec.offset, L, A)
+        if error:
+            issues.append(doc.issue(path + ("offset",), error))
+        step.T_offset = T
+    if device is not None:
+        _timed(doc, path, device, issues)
+
+
+def _timed(doc, path, device, issues) -> None:
+    if not np.isfinite(device.limit_array("acceleration")).any():
+        issues.append(
+            doc.issue(
+                path,
+                f"no joint of '{device.name}' has an acceleration limit, so nothing times its "
+                "moves; add them to the cell",
+            )
+        )
+
+
+_KINDS_SERVING = {  # what each feature step can take
+    "move": ("plane", "circle", "line", "point"),
+    "insert": ("circle",),
+    "insert object": ("circle", "line"),
+    "place": ("plane",),
+    "place object": ("plane",),
+    "follow": ("line",),
+    "probe": ("plane", "circle", "line"),
+}
+_SERVES = {
+    "move": "a move",
+    "insert": "'into' (a hole: a circle)",
+    "insert object": "'object' (the held tip: a circle or an axis line)",
+    "place": "'on' (a plane)",
+    "place object": "'object' (the held face: a plane)",
+    "follow": "'edge' (a line)",
+    "probe": "probing moves",
+}
+
+
+class _FeatureChecks:
+    """A program's feature steps checked against the cell: names, kinds, owners and the
+    numbers (the file's units), into :class:`FeatureGoal` (SI)."""
+
+    def __init__(self, doc, cell: CellModel, device: str, units, issues: list[Issue]):
+        self.doc, self.cell, self.device, self.issues = doc, cell, device, issues
+        self.length_unit = units.length if units and units.length else None
+        self.angle_unit = units.angle if units and units.angle else None
+
+    def feature(self, path, name: str, role: str, held: bool = False):
+        """The feature ``name`` fit for ``role``, or None (an issue said why)."""
+        f = self.cell.features.get(name)
+        if f is None:
+            self.issues.append(
+                self.doc.issue(
+                    path, f"unknown feature '{name}'{did_you_mean(name, self.cell.features)}"
+                )
+            )
+            return None
+        if f.kind not in _KINDS_SERVING[role]:
+            wanted = " or ".join(_KINDS_SERVING[role])
+            self.issues.append(
+                self.doc.issue(
+                    path,
+                    f"'{name}' is a {f.kind}: {_SERVES[role]} needs a {wanted} feature",
+                )
+            )
+            return None
+        if held and f.owner not in self.cell.objects:
+            self.issues.append(
+                self.doc.issue(path, f"'{name}' is on '{f.owner}', not on an object to hold")
+            )
+            return None
+        if not held and (
+            f.owner == self.device or f.owner not in self.cell.objects | self.cell.devices
+        ):
+            self.issues.append(
+                self.doc.issue(
+                    path,
+                    f"'{name}' is on '{f.owner}' itself: {self.device} cannot move to its own "
+                    "features",
+                )
+            )
+            return None
+        return f
+
+    def length(self, path, value, what: str, signed: bool = False) -> float | None:
+        if isinstance(value, (int, float)) and self.length_unit is None:
+            self.issues.append(
+                self.doc.issue(
+                    path,
+                    f"a bare {what} ({value}) needs the file's units.length, and rworld never "
+                    "guesses it: write it with its unit (20mm) or add 'units: {length: mm, "
+                    "angle: deg}'",
+                )
+            )
+            return None
+        try:
+            if signed:
+                out = parse_quantity(
+                    value, {"m": 1.0, "mm": 1e-3, "cm": 1e-2}, self.length_unit or ""
+                )
+                if not np.isfinite(out):
+                    raise ValueError(f"{what} '{value}' is not a length: write e.g. 20mm")
+                return float(out)
+            return parse_length(value, what, self.length_unit or "")
+        except ValueError as exc:
+            self.issues.append(self.doc.issue(path, str(exc)))
+            return None
+
+    def angle(self, path, value, what: str) -> float | None:
+        if value is None:
+            return None
+        if isinstance(value, (int, float)) and self.angle_unit is None:
+            self.issues.append(
+                self.doc.issue(
+                    path,
+                    f"a bare {what} ({value}) needs the file's units.angle: write it with its "
+                    "unit (90deg) or add 'units: {length: mm, angle: deg}'",
+                )
+            )
+            return None
+        try:
+            return parse_angle_value(value, what, self.angle_unit or "")
+        except ValueError as exc:
+            self.issues.append(self.doc.issue(path, str(exc)))
+            return None
+
+    def at(self, path, f, value):
+        """``at:`` on ``f``: [u, v] on a plane, a distance along a line, or another feature of
+        the same object projected onto the plane."""
+        from ..world.feature_targets import plane_coordinates
+
+        if value is None or f is None:
+            return None
+        if f.kind == "line":
+            if isinstance(value, list):
+                self.issues.append(self.doc.issue(path, "on a line, 'at' is one distance"))
+                return None
+            return self.length(path, value, "distance along the line", signed=True)
+        if f.kind != "plane":
+            self.issues.append(
+                self.doc.issue(path, f"'at' places a target on a plane or a line, not a {f.kind}")
+            )
+            return None
+        if isinstance(value, list):
+            if len(value) != 2:
+                self.issues.append(self.doc.issue(path, "on a plane, 'at' is [u, v]"))
+                return None
+            uv = [
+                self.length(path + (k,), v, "in-plane coordinate", True)
+                for k, v in enumerate(value)
+            ]
+            return None if None in uv else np.array(uv, dtype=float)
+        other = self.cell.features.get(str(value))
+        if other is None or other.owner != f.owner:
+            mine = [n for n, g in self.cell.features.items() if g.owner == f.owner]
+            self.issues.append(
+                self.doc.issue(
+                    path,
+                    f"'{value}' is not a feature of '{f.owner}'{did_you_mean(str(value), mine)}: "
+                    "'at' takes [u, v] or another feature of the same object",
+                )
+            )
+            return None
+        return plane_coordinates(f, other.point)
+
+    def step(self, path, kind: str, spec, step: Step, after_guard: bool) -> None:
+        """Check one step that may name features; set ``step.goal`` when it does."""
+        where = self.doc
+        if kind == "move":
+            t = spec.to
+            f = self.feature(path + ("to", "feature"), t.feature, "move")
+            standoff = self.length(path + ("to", "standoff"), t.standoff, "standoff")
+            at = self.at(path + ("to", "at"), f, t.at)
+            spin = self.angle(path + ("to", "spin"), t.spin, "spin")
+            if f is not None and standoff is not None:
+                step.goal = FeatureGoal(f.name, at, standoff, spin)
+                step.goal.where = _where(where, path + ("to",))
+        elif kind == "insert":
+            held = self.feature(path + ("object",), spec.object, "insert object", held=True)
+            f = self.feature(path + ("into",), spec.into, "insert")
+            depth = self.length(path + ("depth",), spec.depth, "depth")
+            approach = self.length(path + ("approach",), spec.approach, "approach")
+            spin = self.angle(path + ("spin",), spec.spin, "spin")
+            if spec.until is not None and spec.until not in self.cell.sensors:
+                self.issues.append(
+                    where.issue(
+                        path + ("until",),
+                        f"unknown sensor '{spec.until}'"
+                        f"{did_you_mean(spec.until, self.cell.sensors)}",
+                    )
+                )
+            if None not in (held, f, depth, approach):
+                step.goal = FeatureGoal(
+                    f.name, None, 0.0, spin, held=held.name, depth=depth, approach=approach
+                )
+                step.goal.where = _where(where, path + ("into",))
+        elif kind == "place":
+            held = self.feature(path + ("object",), spec.object, "place object", held=True)
+            f = self.feature(path + ("on",), spec.on, "place")
+            at = self.at(path + ("at",), f, spec.at)
+            approach = self.length(path + ("approach",), spec.approach, "approach")
+            spin = self.angle(path + ("spin",), spec.spin, "spin")
+            if None not in (held, f, approach):
+                step.goal = FeatureGoal(f.name, at, 0.0, spin, held=held.name, approach=approach)
+                step.goal.where = _where(where, path + ("on",))
+        elif kind == "follow":
+            f = self.feature(path + ("edge",), spec.edge, "follow")
+            speed = None
+            if isinstance(spec.speed, (int, float)) and self.length_unit is None:
+                self.length(path + ("speed",), spec.speed, "speed")  # says why
+            else:
+                try:
+                    speed = parse_speed(spec.speed, "speed", self.length_unit or "")
+                except ValueError as exc:
+                    self.issues.append(where.issue(path + ("speed",), str(exc)))
+            ends = [
+                None if v is None else self.length(path + (key,), v, "distance", signed=True)
+                for key, v in (("from", spec.from_), ("to", spec.to))
+            ]
+            approach = self.length(path + ("approach",), spec.approach, "approach")
+            spin = self.angle(path + ("spin",), spec.spin, "spin")
+            if spec.offset is not None and (self.length_unit is None or self.angle_unit is None):
+                self.issues.append(
+                    where.issue(
+                        path + ("offset",),
+                        "an offset needs the file's units: add 'units: {length: mm, angle: deg}'",
+                    )
+                )
+            elif spec.offset is not None:
+                T, error, _ = pose_to_matrix(
+                    spec.offset, LENGTH[self.length_unit], ANGLE[self.angle_unit]
+                )
+                if error:
+                    self.issues.append(where.issue(path + ("offset",), error))
+                step.T_offset = T
+            if None not in (f, speed, approach):
+                step.goal = FeatureGoal(
+                    f.name,
+                    None,
+                    0.0,
+                    spin,
+                    approach=approach,
+                    extent=(ends[0], ends[1]),
+                    speed=speed,
+                )
+                step.goal.where = _where(where, path + ("edge",))
+        elif kind == "probe":
+            moves = spec.points is not None or spec.tcp is not None or spec.sensor is not None
+            if after_guard and not moves:
+                return  # records the guarded move's contact
+            f = self.feature(path + ("feature",), spec.feature, "probe")
+            if spec.sensor is not None and spec.sensor not in self.cell.sensors:
+                self.issues.append(
+                    where.issue(
+                        path + ("sensor",),
+                        f"unknown sensor '{spec.sensor}'"
+                        f"{did_you_mean(spec.sensor, self.cell.sensors)}",
+                    )
+                )
+            if f is not None:
+                from ..units import MIN_POINTS
+
+                step.goal = FeatureGoal(f.name, points=spec.points or MIN_POINTS[f.kind])
+                step.goal.where = _where(where, path + ("feature",))
+
+
+def _where(doc, path) -> str:
+    line, col = doc.position(path)
+    return f"{doc.file}:{line}:{col}"
+
+
 def _check_program(
     doc: Marked, pf: sp.ProgramFile, cell: CellModel, run_devices: set[str], issues: list[Issue]
 ) -> Program:
@@ -109,14 +454,33 @@ def _check_program(
                 doc.issue(path, f"unknown {' or '.join(kinds)} '{name}'{did_you_mean(name, pool)}")
             )
 
+    features = _FeatureChecks(doc, cell, pf.device, units, issues)
     steps = []
     for i, raw in enumerate(pf.steps):
         spec = _step_spec(raw)
         path = ("steps", i, raw.kind)
         line = doc.position(("steps", i))[0]
         step = Step(i, raw.kind, spec, f"{doc.file}:{line}")
+        after_guard = i > 0 and pf.steps[i - 1].kind == "move" and pf.steps[i - 1].move.until
         if raw.kind == "move" and spec.joints is not None:
             _check_joint_goal(doc, path + ("joints",), spec, step, device, L, A, issues)
+        elif raw.kind == "move" and isinstance(spec.to, sp.FeatureTarget):
+            features.step(path, "move", spec, step, False)
+            _check_move_details(
+                doc, path, spec, step, device, False, cell, units, L, A, issues, pf.device
+            )
+        elif raw.kind in ("insert", "follow") or (raw.kind == "place" and spec.on in cell.features):
+            features.step(path, raw.kind, spec, step, False)
+            if raw.kind == "follow" and spec.tcp is not None:
+                frame(path + ("tcp",), spec.tcp)
+            if raw.kind == "insert" and device is not None:
+                _timed(doc, path, device, issues)
+        elif raw.kind == "probe" and not (
+            after_guard and spec.points is None and spec.tcp is None and spec.sensor is None
+        ):
+            features.step(path, "probe", spec, step, after_guard)
+            if spec.tcp is not None:
+                frame(path + ("tcp",), spec.tcp)
         elif raw.kind == "move":
             target = spec.to
             named = device is not None and (target == "home" or target in device.positions)
@@ -140,74 +504,9 @@ def _check_program(
                         "move without offset",
                     )
                 )
-            if spec.tcp is not None:
-                frame(path + ("tcp",), spec.tcp)
-            if spec.until is not None and spec.until not in cell.sensors:
-                issues.append(
-                    doc.issue(
-                        path + ("until",),
-                        f"unknown sensor '{spec.until}'{did_you_mean(spec.until, cell.sensors)}",
-                    )
-                )
-            if spec.touch:
-                bodies = body_names(cell.objects, cell.devices)
-                depths = spec.touch if isinstance(spec.touch, dict) else dict.fromkeys(spec.touch)
-                for k, (name, depth) in enumerate(depths.items()):
-                    at = path + ("touch", name if isinstance(spec.touch, dict) else k)
-                    if name not in bodies:
-                        issues.append(
-                            doc.issue(
-                                at,
-                                f"unknown object, device or link '{name}'"
-                                f"{did_you_mean(name, bodies)}",
-                            )
-                        )
-                    if depth is None:
-                        continue
-                    if not isinstance(depth, str) and L is None:
-                        issues.append(
-                            doc.issue(
-                                at,
-                                f"a bare depth ({depth}) needs the file's units.length, and "
-                                "rworld never guesses it: write it with its unit (2mm) or add "
-                                "'units: {length: mm, angle: deg}'",
-                            )
-                        )
-                        continue
-                    try:
-                        step.touch[name] = parse_length(
-                            depth,
-                            f"the depth '{name}' may be touched to",
-                            units.length if units and units.length else "",
-                        )
-                    except ValueError as exc:
-                        issues.append(doc.issue(at, str(exc)))
-                for name in depths:
-                    step.touch.setdefault(name, None)
-            if spec.config is not None:
-                _check_config(doc, path + ("config",), spec, step, device, named, L, A, issues)
-            if spec.offset is not None and (L is None or A is None):
-                issues.append(
-                    doc.issue(
-                        path + ("offset",),
-                        "an offset needs the file's units, and rworld never guesses them: add "
-                        "'units: {length: mm, angle: deg}' at the top of the program",
-                    )
-                )
-            elif spec.offset is not None:
-                T, error, warning = pose_to_matrix(spec.offset, L, A)
-                if error:
-                    issues.append(doc.issue(path + ("offset",), error))
-                step.T_offset = T
-            if device is not None and not np.isfinite(device.limit_array("acceleration")).any():
-                issues.append(
-                    doc.issue(
-                        path,
-                        f"no joint of '{device.name}' has an acceleration limit, so nothing times "
-                        "its moves; "
-                        "add them to the cell",
-                    )
-                )
+            _check_move_details(
+                doc, path, spec, step, device, named, cell, units, L, A, issues, pf.device
+            )
         elif raw.kind in ("grasp", "release"):
             obj(path + ("object",), spec.object, ("object", "sensor"))
             if raw.kind == "grasp" and spec.tcp is not None:

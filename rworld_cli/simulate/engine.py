@@ -29,18 +29,26 @@ import numpy as np
 from ..dynamics import DeviceDynamics
 from ..errors import UserError
 from ..kinematics.configuration import arm_configurations
-from ..kinematics.inverse import solve_ik
+from ..kinematics.inverse import solve_ik, solve_ik_many
 from ..kinematics.jacobian import ToolMount, tool_pose
 from ..model.program import MoveTarget, Program, ResolvedStep, Run, Step
 from ..motion.linear import PathError, linear_move
 from ..motion.trajectory import StoppedMove, UntimedMove, joint_move, sample_track
 from ..world.tree import AffixmentError, World
+from .feature_steps import FeatureSteps
 
 LATCH_TIME = 1e-9  # [s]: a guarded move's contact instant is found to this (a probe's latch)
 
 
 class SimulationError(UserError):
     """A program cannot run: the message names the device, the step and the cause."""
+
+
+class UnreachableTarget(SimulationError):
+    """A move's target is out of the device's reach (IK, or a line leaving the workspace):
+    the program is well formed but fails the check - exit 1, with the step."""
+
+    exit_code = 1
 
 
 @dataclass
@@ -191,7 +199,7 @@ class _Track:
     end: float | None = None
 
 
-class _Scheduler:
+class _Scheduler(FeatureSteps):
     def __init__(self, run: Run):
         self.run = run
         self.world = World(run.cell)
@@ -201,7 +209,7 @@ class _Scheduler:
         }
         self.events: list[Event] = []
         self.resolved: dict[str, list[ResolvedStep]] = {d: [] for d in self.order}
-        self._move_target: MoveTarget | None = None
+        self._move_targets: list[MoveTarget] = []
         self._latched: dict[str, dict | None] = {}  # per device: the last guarded contact
         self.snapshots: list[tuple[float, dict]] = [(0.0, self.world.snapshot())]
         self.barriers: dict[tuple[str, int], dict[str, float]] = {}
@@ -230,6 +238,12 @@ class _Scheduler:
 
     def fail(self, device: str, step: Step, message: str):
         raise SimulationError(
+            f"{step.where}: {device} step {step.index + 1} ({step.describe()}): {message}"
+        )
+
+    def unreachable(self, device: str, step: Step, message: str):
+        """A target the device cannot reach: the check fails (exit 1), with the step."""
+        raise UnreachableTarget(
             f"{step.where}: {device} step {step.index + 1} ({step.describe()}): {message}"
         )
 
@@ -264,9 +278,12 @@ class _Scheduler:
         self.set_time(tr.t)
         tr.step_starts.append((tr.t, step.index))
         handler = getattr(self, f"_{step.kind}")
-        t0, self._move_target = tr.t, None
+        t0, self._move_targets = tr.t, []
         done = handler(device, tr, step)
-        self.resolved[device].append(ResolvedStep(step, t0, self._move_target))
+        if not self._move_targets:
+            self.resolved[device].append(ResolvedStep(step, t0, None))
+        for target in self._move_targets:  # a feature step may make several moves
+            self.resolved[device].append(ResolvedStep(step, target.t0, target))
         if done:  # the step completed, go on
             tr.pc += 1
             if tr.pc >= len(tr.program.steps):
@@ -299,107 +316,236 @@ class _Scheduler:
         q_now = self.world.joints(device)
         if step.joints is not None:  # move: {joints: [...]}
             seg = self._joint_move(device, tr, step, q_now, step.joints)
-        elif spec.to == "home" or spec.to in dev.positions:
+            self._record_move(device, tr, step, q_now, seg, seg, "joint values", until=spec.until)
+            return True
+        if step.goal is None and (spec.to == "home" or spec.to in dev.positions):
             q_goal = dev.home if spec.to == "home" else dev.positions[spec.to]
             seg = self._joint_move(device, tr, step, q_now, q_goal)
+            self._record_move(device, tr, step, q_now, seg, seg, spec.to, until=spec.until)
+            return True
+        tcp = self._resolve_tcp(device, spec.tcp)
+        if step.goal is not None:  # a target on a feature: each free spin a candidate
+            targets = self._feature_targets(device, step) @ step.T_offset
+            name = step.goal.feature
         else:
-            tcp = self._resolve_tcp(device, spec.tcp)
-            try:
-                mount = ToolMount(*self.world.mount_of(device, tcp))
-            except UserError as exc:
-                self.fail(device, step, exc.message)
-            T_base_target = (
-                np.linalg.inv(self.world.T_world(device))
-                @ self.world.T_world(spec.to)
-                @ step.T_offset
+            targets = (self.world.T_world(spec.to) @ step.T_offset)[None]
+            name = spec.to
+        self._go(
+            device,
+            tr,
+            step,
+            tcp,
+            targets,
+            spec.motion,
+            spec.speed,
+            spec.acceleration,
+            spec.until,
+            name,
+        )
+        return True
+
+    def _go(
+        self,
+        device: str,
+        tr: _Track,
+        step: Step,
+        tcp: str,
+        T_world_targets: np.ndarray,
+        motion: str,
+        speed: float,
+        acceleration: float,
+        until: str | None,
+        name: str,
+    ):
+        """Move ``tcp`` to one of the candidate poses ``T_world_targets`` (S, 4, 4) - the
+        first that a joint move reaches nearest in time (or, for a line, the one nearest the
+        tool's orientation) - and record it; the segment (None: already there)."""
+        dev = self.run.cell.devices[device]
+        q_now = self.world.joints(device)
+        try:
+            mount = ToolMount(*self.world.mount_of(device, tcp))
+        except UserError as exc:
+            self.fail(device, step, exc.message)
+        T_base = np.linalg.inv(self.world.T_world(device)) @ T_world_targets
+        position_only = step.spec.position_only if step.kind == "move" else False
+        position_only = position_only or dev.dof < 6
+        if motion == "joint":
+            seg = self._joint_to(
+                device,
+                tr,
+                step,
+                dev,
+                mount,
+                q_now,
+                T_base,
+                position_only,
+                name,
+                tcp,
+                speed,
+                acceleration,
             )
-            position_only = spec.position_only or dev.dof < 6
-            if spec.motion == "joint":
-                wanted = step.configuration
-                accept = None
-                if wanted:
-
-                    def accept(Q, dev=dev, wanted=wanted):
-                        return arm_configurations(dev, Q).matches(wanted)
-
-                seed = q_now if step.near is None else step.near
-                result = solve_ik(dev, T_base_target, mount, seed, position_only, accept=accept)
-                if not result.success and wanted:
-                    anyhow = solve_ik(dev, T_base_target, mount, seed, position_only)
-                    if anyhow.success:
-                        have = arm_configurations(dev, anyhow.q).names()
-                        self.fail(
-                            device,
-                            step,
-                            f"no joint solution within the limits reaches '{spec.to}' with "
-                            f"{_said(wanted)} (one with {_said(have)} does)",
-                        )
-                if not result.success:
+        else:
+            if len(T_base) > 1:  # the candidate nearest the tool's orientation now
+                R_now = tool_pose(dev, q_now, mount)[:3, :3]
+                turn = np.einsum("ij,sij->s", R_now, T_base[:, :3, :3])  # trace(R_now^T R_s)
+                T_base = T_base[[int(np.argmax(turn))]]
+            try:
+                seg = linear_move(
+                    dev,
+                    mount,
+                    tr.t,
+                    q_now,
+                    T_base[0],
+                    self.run.dt,
+                    speed,
+                    acceleration,
+                    position_only,
+                )
+            except PathError as exc:
+                self.unreachable(device, step, exc.detail)
+            wanted = step.configuration
+            if wanted:
+                end = seg.q_end if seg is not None else q_now
+                have = arm_configurations(dev, end).names()
+                if any(have[k] != v for k, v in wanted.items()):
                     self.fail(
                         device,
                         step,
-                        result.unreachable(
-                            spec.to, tcp, [j.name for j in dev.joints], position_only
-                        ),
+                        f"the line ends with {_said(have)}, not {_said(wanted)}: a straight "
+                        "line keeps the configuration it starts in; reach the start with a "
+                        "joint move in the configuration wanted",
                     )
-                seg = self._joint_move(device, tr, step, q_now, result.q)
-            else:
-                try:
-                    seg = linear_move(
-                        dev,
-                        mount,
-                        tr.t,
-                        q_now,
-                        T_base_target,
-                        self.run.dt,
-                        spec.speed,
-                        spec.acceleration,
-                        position_only,
+        return self._record_move(
+            device, tr, step, q_now, seg, seg, name, tcp, until, motion, speed, acceleration
+        )
+
+    def _joint_to(
+        self,
+        device,
+        tr,
+        step,
+        dev,
+        mount,
+        q_now,
+        T_base,
+        position_only,
+        name,
+        tcp,
+        speed,
+        acceleration,
+    ):
+        """A joint move to the candidate pose reached soonest (one IK per candidate, the
+        step's configuration asked for)."""
+        wanted = step.configuration
+        accept = None
+        if wanted:
+
+            def accept(Q, dev=dev, wanted=wanted):
+                return arm_configurations(dev, Q).matches(wanted)
+
+        seed = q_now if step.near is None else step.near
+        if len(T_base) == 1:
+            result = solve_ik(dev, T_base[0], mount, seed, position_only, accept=accept)
+            best = result.q if result.success else None
+        else:
+            best, result = None, None
+            vmax = dev.limit_array("velocity")
+            vmax = np.where(np.isfinite(vmax), vmax, 1.0)
+            Q, ok = solve_ik_many(
+                dev, T_base, np.repeat(seed[None], len(T_base), 0), mount, position_only
+            )
+            if wanted and ok.any():
+                ok &= np.asarray(accept(Q), dtype=bool)
+            if ok.any():
+                travel = np.max(np.abs(Q - q_now) / vmax, axis=1)
+                best = Q[np.flatnonzero(ok)[int(np.argmin(travel[ok]))]]
+            else:  # from the joints now no candidate converged: restarts, nearest turn first
+                for T in T_base:
+                    result = solve_ik(dev, T, mount, seed, position_only, accept=accept)
+                    if result.success:
+                        best = result.q
+                        break
+        if best is None:
+            if wanted:
+                anyhow = solve_ik(dev, T_base[0], mount, seed, position_only)
+                if anyhow.success:
+                    have = arm_configurations(dev, anyhow.q).names()
+                    self.unreachable(
+                        device,
+                        step,
+                        f"no joint solution within the limits reaches '{name}' with "
+                        f"{_said(wanted)} (one with {_said(have)} does)",
                     )
-                except PathError as exc:
-                    self.fail(device, step, exc.detail)
-                wanted = step.configuration
-                if wanted:
-                    end = seg.q_end if seg is not None else q_now
-                    have = arm_configurations(dev, end).names()
-                    if any(have[k] != v for k, v in wanted.items()):
-                        self.fail(
-                            device,
-                            step,
-                            f"the line ends with {_said(have)}, not {_said(wanted)}: a straight "
-                            "line keeps the configuration it starts in; reach the start with a "
-                            "joint move in the configuration wanted",
-                        )
-        planned = seg
-        if seg is not None and spec.until is not None:
-            seg = self._guard(device, tr, step, seg)
-        self._move_target = self._target(device, tr, step, q_now, seg, planned)
+            if result is None:
+                result = solve_ik(dev, T_base[0], mount, seed, position_only)
+            self.unreachable(
+                device,
+                step,
+                result.unreachable(name, tcp, [j.name for j in dev.joints], position_only),
+            )
+        return self._joint_move(device, tr, step, q_now, best, speed, acceleration)
+
+    def _record_move(
+        self,
+        device,
+        tr,
+        step,
+        q_now,
+        seg,
+        planned,
+        name,
+        tcp=None,
+        until=None,
+        motion="joint",
+        speed=None,
+        acceleration=None,
+    ):
+        """Guard, resolve and time a move's segment (None: already there); returns it."""
+        if seg is not None and until is not None:
+            seg = self._guard(device, tr, step, seg, until)
+        spec = step.spec
+        self._move_targets.append(
+            self._target(
+                device,
+                tr,
+                step,
+                q_now,
+                seg,
+                planned,
+                name,
+                tcp or self._resolve_tcp(device, getattr(spec, "tcp", None)),
+                motion,
+                spec.speed if speed is None else speed,
+                spec.acceleration if acceleration is None else acceleration,
+                until,
+            )
+        )
         if seg is None:
             self.events.append(
                 Event(tr.t, device, step.index, "move", f"{step.describe()}: already there")
             )
-            return True
+            return None
         tr.segments.append(seg)
         self.events.append(
             Event(tr.t, device, step.index, "move", f"{step.describe()} ({seg.t1 - seg.t0:.3f} s)")
         )
         tr.t = seg.t1
-        return True
+        return seg
 
-    def _target(self, device: str, tr: _Track, step: Step, q_now, seg, planned) -> MoveTarget:
+    def _target(
+        self, device, tr, step, q_now, seg, planned, name, tcp, motion, speed, acceleration, until
+    ) -> MoveTarget:
         """The resolved move, for exporters: the TCP steered, where the joints ended, the TCP
         pose there in the base frame."""
-        spec = step.spec
         dev = self.run.cell.devices[device]
-        tcp = self._resolve_tcp(device, spec.tcp)
         link, T_link_tcp = self.world.mount_of(device, tcp)
         q_goal = np.array(q_now if seg is None else seg.q_end, dtype=float)
         q_planned = np.array(q_now if planned is None else planned.q_end, dtype=float)
         mount = ToolMount(link, T_link_tcp)
         T_base_tcp = tool_pose(dev, q_goal, mount)
         return MoveTarget(
-            spec.motion,
-            spec.to if spec.to is not None else "joint values",
+            motion,
+            name,
             tcp,
             link,
             np.asarray(T_link_tcp, dtype=float),
@@ -408,14 +554,16 @@ class _Scheduler:
             T_base_tcp,
             tr.t,
             tr.t if seg is None else seg.t1,
-            spec.speed,
-            spec.acceleration,
-            spec.until,
+            speed,
+            acceleration,
+            until,
             q_planned,
             tool_pose(dev, q_planned, mount),
         )
 
-    def _joint_move(self, device: str, tr: _Track, step: Step, q_now, q_goal):
+    def _joint_move(
+        self, device: str, tr: _Track, step: Step, q_now, q_goal, speed=None, acceleration=None
+    ):
         """A synchronised joint move; a joint with no velocity or acceleration limit is
         unlimited in it, alone.
         """
@@ -427,8 +575,8 @@ class _Scheduler:
                 q_goal,
                 dev.limit_array("velocity"),
                 dev.limit_array("acceleration"),
-                step.spec.speed,
-                step.spec.acceleration,
+                step.spec.speed if speed is None else speed,
+                step.spec.acceleration if acceleration is None else acceleration,
             )
         except UntimedMove as exc:
             names = ", ".join(dev.joints[j].name for j in exc.joints)
@@ -440,13 +588,12 @@ class _Scheduler:
                 "add one to the cell",
             )
 
-    def _guard(self, device: str, tr: _Track, step: Step, seg):
+    def _guard(self, device: str, tr: _Track, step: Step, seg, sensor: str):
         """Cut a guarded move where its sensor first senses something: the first clock sample
         that senses, then bisection between it and the sample before down to ``LATCH_TIME``, as
         a touch-trigger probe latches the position at contact."""
         from ..sensing.sensors import read_sensors
 
-        sensor = step.spec.until
         times = np.append(np.arange(seg.t0, seg.t1, self.run.dt), seg.t1)
         q_move = seg.sample(times)[0]
 
@@ -476,6 +623,9 @@ class _Scheduler:
                 "point": contact.tolist(),  # the sensor origin (a ball tip's centre) at contact
             }
             self._latched[device] = {
+                # the guarded move's place among the device's resolved moves (a feature step
+                # makes several moves on one program line)
+                "move": len(self.resolved[device]) + len(self._move_targets),
                 "sensor": sensor,
                 "point": contact,
                 "objects": list(reading.objects),
@@ -500,13 +650,19 @@ class _Scheduler:
         return seg
 
     def _probe(self, device, tr, step):
-        """Record where the last guarded move's sensor touched, as a probe point of a feature."""
+        """Record where the last guarded move's sensor touched, as a probe point of a feature;
+        or, for a probe step on its own, the probing moves of the feature."""
+        if step.goal is not None:
+            return self._probe_moves(device, tr, step)
+        return self._record_probe(device, tr, step, step.spec.feature)
+
+    def _record_probe(self, device, tr, step, feature: str) -> bool:
         latched = self._latched.get(device)
         if latched is None:
             self.fail(
                 device,
                 step,
-                f"nothing to record for {step.spec.feature}: the guarded move before this step "
+                f"nothing to record for {feature}: the guarded move before this step "
                 "ended without contact (or there was none)",
             )
         self._latched[device] = None  # one point per contact
@@ -516,14 +672,14 @@ class _Scheduler:
                 device,
                 step.index,
                 "probe",
-                f"probe {step.spec.feature}: {latched['sensor']} touched "
-                f"{', '.join(latched['objects'])}",
+                f"probe {feature}: {latched['sensor']} touched {', '.join(latched['objects'])}",
                 reading={
-                    "feature": step.spec.feature,
+                    "feature": feature,
                     "point": latched["point"].tolist(),
                     "sensor": latched["sensor"],
                     "objects": latched["objects"],
                     "guard_step": latched["step"] + 1,
+                    "guard_move": latched["move"],
                 },
             )
         )
@@ -602,6 +758,8 @@ class _Scheduler:
 
     def _place(self, device, tr, step):
         spec = step.spec
+        if step.goal is not None:  # a face set down on a plane feature
+            return self._place_face(device, tr, step)
         if not self._held_by(device, spec.object):
             self.fail(device, step, f"{device} does not hold '{spec.object}'")
         return self._tree_change(

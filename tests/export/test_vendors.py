@@ -259,15 +259,15 @@ def test_import_states_the_vendors_linkage():
         ),
         (
             "{to: workpiece.grasp, tcp: probe, offset: {xyz: [0, 0, -100]}, config: {wrist: flip}}",
-            2,
+            1,
             "with wrist flip (one with shoulder front, elbow up, wrist noflip does)",
         ),
     ],
 )
 def test_a_configuration_that_cannot_be_is_located(tmp_path, cli, step, code, message):
-    """Bad config: exit 2 at its line; so is one no solution within the limits has (the Puma's
-    joint 4 spans 280 deg: no flip here), naming the step and the configuration that reaches,
-    as 'check' does for every unreachable target."""
+    """Bad config: exit 2 at its line; one no solution within the limits has (the Puma's
+    joint 4 spans 280 deg: no flip here) fails the check, exit 1, naming the step and the
+    configuration that reaches, as 'check' does for every unreachable target."""
     import shutil
 
     from tests.conftest import WORKCELLS

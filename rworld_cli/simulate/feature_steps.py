@@ -1,0 +1,302 @@
+"""Program steps on features, resolved when they run (``docs/programs.md``).
+
+Every target here is a frame on a feature (``world.feature_targets``) placed by the feature
+owner's pose *now*: the pose files, a calibration overlay included, and the affixments of the
+moment.  A calibration that moves the owner moves every target on its features by exactly its
+correction; no frame is placed by hand beside a feature.
+
+The steps are methods of the scheduler (``engine._Scheduler``), which owns the world, the
+tracks and the move machinery (``_go``, ``_record_move``, the guard).  A step that makes
+several moves records each as a resolved move of the same program line: the exporters write
+them all.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import UserError
+from ..kinematics.jacobian import reach_bound
+from ..units import LINEAR_ACCELERATION, LINEAR_SPEED
+from ..world.feature_targets import SPINS, along, feature_frame, outward_frame, spun
+
+
+class FeatureSteps:
+    """The feature steps of the scheduler (a mixin: ``self`` is an ``engine._Scheduler``)."""
+
+    # ------------------------------------------------------------------ targets
+    def _toward(self, owner: str) -> np.ndarray:
+        """A line's material side: the owner's centre of mass (owner frame)."""
+        obj = self.run.cell.objects.get(owner)
+        return np.zeros(3) if obj is None else np.asarray(obj.inertial.com, dtype=float)
+
+    def _spins(self, goal) -> np.ndarray:
+        return SPINS if goal.spin is None else np.array([goal.spin])
+
+    def _owner_targets(self, goal, at=None, standoff=None) -> np.ndarray:
+        """``T_world_target`` of every spin candidate on the goal's feature (S, 4, 4)."""
+        f = self.run.cell.features[goal.feature]
+        T_owner = feature_frame(
+            f,
+            goal.at if at is None else at,
+            goal.standoff if standoff is None else standoff,
+            self._toward(f.owner),
+        )
+        return self.world.T_world(f.owner) @ spun(T_owner, f.kind, self._spins(goal))
+
+    def _within_reach(self, device: str, step, tcp: str, T_world_targets: np.ndarray) -> None:
+        """A target beyond any reach of the device (its standoff or ``at`` put it there) is
+        bad input: exit 2 at the feature's place in the program."""
+        from ..kinematics.jacobian import ToolMount
+
+        dev = self.run.cell.devices[device]
+        bound = reach_bound(dev, ToolMount(*self.world.mount_of(device, tcp)))
+        base = self.world.T_world(device)[:3, 3]
+        far = float(np.linalg.norm(T_world_targets[0, :3, 3] - base))
+        if far > bound:
+            raise UserError(
+                f"{step.goal.where}: {device} step {step.index + 1} ({step.describe()}): the "
+                f"target is {far * 1000:.0f} mm from {device}'s base, beyond its reach "
+                f"({bound * 1000:.0f} mm at most): the standoff or position leaves the workspace"
+            )
+
+    def _feature_targets(self, device: str, step) -> np.ndarray:
+        """A move's candidate targets on its feature, checked for reach."""
+        targets = self._owner_targets(step.goal)
+        self._within_reach(device, step, self._resolve_tcp(device, step.spec.tcp), targets)
+        return targets
+
+    def _held(self, device: str, step, feature: str) -> tuple[str, np.ndarray]:
+        """(the TCP holding the feature's object, ``T_tcp_feature`` of its outward frame)."""
+        f = self.run.cell.features[feature]
+        if not self._held_by(device, f.owner):
+            self.fail(device, step, f"{device} does not hold '{f.owner}' ({feature} is on it)")
+        holder = self.world.affixment(f.owner).parent
+        tcp = holder if holder in self.world.subtree(device) else self.world.active_tcp(device)
+        T_tcp_feature = self.world.T(tcp, f.owner) @ outward_frame(f)
+        return tcp, T_tcp_feature
+
+    def _through(self, device, tr, step, tcp, routes, speeds, until=None):
+        """Run the first route whose moves all work: each route a list of (motion,
+        ``T_world_tcp``); the first move a joint move, the others straight lines at
+        ``speeds[k]``.  A route that fails (no solution, a line out of the workspace) gives
+        way to the next; when all fail, the first's failure is reported."""
+        from .engine import UnreachableTarget
+
+        first_error = None
+        for route in routes:
+            mark = (tr.t, len(tr.segments), len(self._move_targets), len(self.events))
+            q_mark = self.world.joints(device).copy()
+            try:
+                for (motion, T), speed in zip(route, speeds):
+                    self.set_time(tr.t)
+                    last = T is route[-1][1]
+                    self._go(
+                        device,
+                        tr,
+                        step,
+                        tcp,
+                        T[None],
+                        motion,
+                        speed,
+                        1.0,
+                        until if last else None,
+                        step.goal.feature,
+                    )
+                return
+            except UnreachableTarget as exc:
+                first_error = first_error or exc
+                tr.t = mark[0]
+                del tr.segments[mark[1] :], self._move_targets[mark[2] :], self.events[mark[3] :]
+                self.set_time(tr.t)
+                self.world.set_joints(device, q_mark)
+        raise first_error
+
+    def _ranked(self, device, step, tcp, T_world_first: np.ndarray) -> list[int]:
+        """Spin candidates in the order a joint move reaches their first pose soonest; those
+        the device cannot reach last (they fail with the reason)."""
+        from ..kinematics.inverse import solve_ik_many
+        from ..kinematics.jacobian import ToolMount
+
+        dev = self.run.cell.devices[device]
+        if len(T_world_first) == 1:
+            return [0]
+        mount = ToolMount(*self.world.mount_of(device, tcp))
+        q_now = self.world.joints(device)
+        T_base = np.linalg.inv(self.world.T_world(device)) @ T_world_first
+        Q, ok = solve_ik_many(dev, T_base, np.repeat(q_now[None], len(T_base), 0), mount)
+        vmax = dev.limit_array("velocity")
+        travel = np.max(np.abs(Q - q_now) / np.where(np.isfinite(vmax), vmax, 1.0), axis=1)
+        return [int(k) for k in np.lexsort((travel, ~ok))]
+
+    # ------------------------------------------------------------------ insert, place
+    def _bring(self, device, tr, step, T_world_goal_frames, approach, speed, until):
+        """Bring the held feature (``step.goal.held``) onto one of the goal frames (S, 4, 4):
+        a joint move to ``approach`` back along the frame's z, then a straight move in."""
+        tcp, T_tcp_feature = self._held(device, step, step.goal.held)
+        T_feature_tcp = np.linalg.inv(T_tcp_feature)
+        ends = T_world_goal_frames @ T_feature_tcp
+        starts = along(T_world_goal_frames, -approach) @ T_feature_tcp
+        self._within_reach(device, step, tcp, starts)
+        order = self._ranked(device, step, tcp, starts)
+        routes = [[("joint", starts[k]), ("linear", ends[k])] for k in order]
+        self._through(device, tr, step, tcp, routes, [step.spec.speed, speed], until)
+
+    def _insert(self, device, tr, step) -> bool:
+        goal = step.goal
+        holes = along(self._owner_targets(goal), goal.depth)  # z into the hole, to the depth
+        self._bring(device, tr, step, holes, goal.approach, step.spec.speed, step.spec.until)
+        return True
+
+    def _place_face(self, device, tr, step) -> bool:
+        """Set the held object's face down on a plane feature, then let it rest there."""
+        goal = step.goal
+        self._bring(
+            device, tr, step, self._owner_targets(goal), goal.approach, step.spec.speed, None
+        )
+        held = self.run.cell.features[goal.held].owner
+        owner = self.run.cell.features[goal.feature].owner
+        return self._tree_change(
+            device,
+            tr,
+            step,
+            "place",
+            held,
+            lambda: self.world.attach(held, owner, "non_rigid", "rests_on"),
+        )
+
+    # ------------------------------------------------------------------ follow
+    def _edge_extent(self, step) -> tuple[float, float]:
+        """The followed stretch along the line [m]: the step's from/to, else where the line
+        runs on its owner's material (the owner's mesh vertices within 0.5 mm of it)."""
+        from ..geometry import shape_mesh
+
+        goal = step.goal
+        f = self.run.cell.features[goal.feature]
+        start, end = goal.extent
+        if start is None or end is None:
+            owner = self.run.cell.objects.get(f.owner) or self.run.cell.devices.get(f.owner)
+            shape = getattr(owner, "shape", None)
+            if shape is None:
+                raise UserError(
+                    f"{goal.where}: '{f.owner}' has no geometry to find the ends of "
+                    f"{goal.feature} on: give 'from' and 'to'"
+                )
+            w = shape_mesh(shape).vertices - f.point
+            s = w @ f.direction
+            near = np.linalg.norm(w - s[:, None] * f.direction, axis=1) < 5e-4
+            if not near.any():
+                raise UserError(
+                    f"{goal.where}: {goal.feature} does not run along '{f.owner}''s material: "
+                    "give 'from' and 'to'"
+                )
+            start = float(s[near].min()) if start is None else start
+            end = float(s[near].max()) if end is None else end
+        return start, end
+
+    def _follow(self, device, tr, step) -> bool:
+        goal = step.goal
+        tcp = self._resolve_tcp(device, step.spec.tcp)
+        if goal.speed > LINEAR_SPEED:
+            raise UserError(
+                f"{goal.where}: {goal.speed * 1000:g} mm/s is above the linear speed limit "
+                f"({LINEAR_SPEED * 1000:g} mm/s)"
+            )
+        s0, s1 = self._edge_extent(step)
+        a = self._owner_targets(goal, at=s0) @ step.T_offset
+        b = self._owner_targets(goal, at=s1) @ step.T_offset
+        start, end = along(a, -goal.approach), along(b, -goal.approach)
+        self._within_reach(device, step, tcp, a)
+        self._within_reach(device, step, tcp, b)
+        order = self._ranked(device, step, tcp, start)
+        fraction = goal.speed / LINEAR_SPEED
+        routes = [
+            [("joint", start[k]), ("linear", a[k]), ("linear", b[k]), ("linear", end[k])]
+            for k in order
+        ]
+        self._through(device, tr, step, tcp, routes, [1.0, 0.25, fraction, 0.25])
+        # the speed held: the line along the edge took its trapezoid's time, no longer
+        along_edge = self._move_targets[-2]
+        length = abs(s1 - s0)
+        ramp = goal.speed / LINEAR_ACCELERATION
+        ideal = (
+            length / goal.speed + ramp
+            if length > goal.speed * ramp
+            else 2 * np.sqrt(length / LINEAR_ACCELERATION)
+        )
+        took = along_edge.t1 - along_edge.t0
+        if took > ideal + 2 * self.run.dt + 1e-9:
+            from .engine import UnreachableTarget
+
+            raise UnreachableTarget(
+                f"{step.where}: {device} step {step.index + 1} ({step.describe()}): "
+                f"{goal.speed * 1000:g} mm/s cannot be held along {goal.feature}: the joints' "
+                f"limits stretch the {length * 1000:.1f} mm from {ideal:.3f} s to {took:.3f} s"
+            )
+        return True
+
+    # ------------------------------------------------------------------ probe
+    def _probe_moves(self, device, tr, step) -> bool:
+        """The probing moves of a feature, as ``plan-measurements --program`` plans them: the
+        points spread over the feature's material, each approached along its normal, touched
+        by a guarded move and recorded; holes entered along their axis."""
+        from ..calibration.plan import ProbeGeometry
+        from ..calibration.probing import ProbeRig, find_probe
+        from ..calibration.targets import farthest_points, feature_candidates
+
+        goal, spec = step.goal, step.spec
+        f = self.run.cell.features[goal.feature]
+        try:
+            tcp, sensor = find_probe(self.run.cell, device, spec.tcp, spec.sensor)
+        except UserError as exc:
+            self.fail(device, step, exc.message)
+        rigs = self.__dict__.setdefault("_rigs", {})
+        if (tcp, sensor) not in rigs:
+            rigs[tcp, sensor] = ProbeRig(self.run.cell, device, tcp, sensor)
+        rig = rigs[tcp, sensor]
+        geometry = ProbeGeometry(radius=rig.radius)
+        try:
+            cand = feature_candidates(self.run.cell, f, rig.radius, geometry.edge_margin)
+        except UserError as exc:
+            raise UserError(f"{goal.where}: {exc.message}") from None
+        T_world_owner = rig.world.T_world(f.owner)
+        solved, why = [], None
+        for k in farthest_points(cand.points, len(cand)):
+            why = rig.solve(cand, int(k), T_world_owner)
+            if why is None:
+                solved.append(rig.solved[f.name, int(k)])
+                if len(solved) == goal.points:
+                    break
+        if len(solved) < goal.points:
+            from .engine import UnreachableTarget
+
+            raise UnreachableTarget(
+                f"{step.where}: {device} step {step.index + 1} ({step.describe()}): "
+                f"{len(solved)} of {goal.points} points on {f.name} can be probed ({why})"
+            )
+        T_world = self.world.T_world(f.owner)  # the owner now: its targets move with it
+        first = solved[0]
+
+        def go(T_owner, motion="linear", until=None, speed=1.0):
+            self.set_time(tr.t)
+            self._go(
+                device, tr, step, tcp, (T_world @ T_owner)[None], motion, speed, 1.0, until, f.name
+            )
+
+        go(first.T_owner_lift, "joint")
+        way_in = first.T_owner_entry if first.T_owner_entry is not None else first.T_owner_approach
+        if not np.allclose(first.T_owner_lift, way_in):
+            go(way_in)
+        if first.T_owner_entry is not None:
+            go(first.T_owner_approach)
+        for s in solved:
+            if s is not first:
+                go(s.T_owner_approach)
+            go(s.T_owner_end, until=sensor, speed=rig.speed)
+            self._record_probe(device, tr, step, f.name)
+            go(s.T_owner_approach)
+        if first.T_owner_entry is not None:
+            go(first.T_owner_entry)
+        if not np.allclose(first.T_owner_lift, way_in):
+            go(first.T_owner_lift)
+        return True
