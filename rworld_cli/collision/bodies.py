@@ -84,6 +84,15 @@ class Body:
         """The polyhedral model in the body's frame."""
         return shape_mesh(self.shape)
 
+    @functools.cached_property
+    def _triangle_bounds(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """A triangle mesh in its body's frame: triangles (T, 3, 3), the centres (T, 3) and half
+        extents (T, 3) of their axis-aligned boxes [m], and the distinct vertices (V, 3): built
+        once per body."""
+        tri = self.mesh().triangles()
+        low, high = tri.min(axis=1), tri.max(axis=1)
+        return tri, (low + high) / 2, (high - low) / 2, np.unique(tri.reshape(-1, 3), axis=0)
+
     def pieces(self, T_world_frame: np.ndarray) -> convex.Pieces:
         """The body's convex pieces in world for K poses (K, 4, 4).
 
@@ -410,6 +419,16 @@ def pair_distance(
     Ta = np.asarray(Ta, dtype=float).reshape(-1, 4, 4)
     Tb = np.asarray(Tb, dtype=float).reshape(-1, 4, 4)
     K = len(Ta)
+    if a.is_mesh != b.is_mesh:  # a triangle mesh and convex pieces: cull in the mesh's frame
+        mesh_body, T_mesh, other, T_other = (a, Ta, b, Tb) if a.is_mesh else (b, Tb, a, Ta)
+        po = other.pieces(T_other)
+        k, io, it = _near_triangles(mesh_body, T_mesh, po, len(po) // K)
+        tri = mesh_body._triangle_bounds[0][it]
+        world = np.einsum("qij,qtj->qti", T_mesh[k, :3, :3], tri) + T_mesh[k, None, :3, 3]
+        pieces_mesh, pieces_other = convex.triangles(world), po.take(k * (len(po) // K) + io)
+        if a.is_mesh:
+            return _closest(a, b, Ta, Tb, K, k, pieces_mesh, pieces_other, max_iterations)
+        return _closest(a, b, Ta, Tb, K, k, pieces_other, pieces_mesh, max_iterations)
     pa, pb = a.pieces(Ta), b.pieces(Tb)
     Fa, Fb = len(pa) // K, len(pb) // K
     if Fa == 1 and Fb == 1:
@@ -421,8 +440,8 @@ def pair_distance(
             d, n = convex.penetration(pa.take(rows), pb.take(rows))
             depth[rows] = np.maximum(d, 0.0)
         return PairDistance(dist, depth, pta, ptb, np.zeros(K, dtype=bool))
-    # a mesh on either side: every (state, piece, piece) combination, culled by the pieces'
-    # bounding spheres against the best centre distance found
+    # several pieces on both sides (convex parts, two meshes): every (state, piece, piece)
+    # combination, culled by the pieces' bounding spheres against the best centre distance found
     grid_a, grid_b = np.meshgrid(np.arange(Fa), np.arange(Fb), indexing="ij")
     ia, ib = grid_a.ravel(), grid_b.ravel()
     k = np.repeat(np.arange(K), len(ia))
@@ -435,7 +454,83 @@ def pair_distance(
     np.minimum.at(upper, k, centre + ra[ga] + rb[gb])
     keep = lower <= upper[k]
     k, ga, gb = k[keep], ga[keep], gb[keep]
-    res = convex.distance(pa.take(ga), pb.take(gb), max_iterations)
+    return _closest(a, b, Ta, Tb, K, k, pa.take(ga), pb.take(gb), max_iterations)
+
+
+def _piece_boxes(p: convex.Pieces) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A box holding each piece: (centre (P, 3), axes as rows (P, 3, 3), half extents (P, 3))
+    [m], along the piece's own axes (exact for boxes)."""
+    offset = p.vertices - p.center[:, None, :]
+    half = np.abs(np.einsum("pij,pvj->pvi", p.axes, offset)).max(axis=1)
+    half = half + np.where(
+        p.cylinder[:, None], np.stack([p.radius, p.radius, p.half_length], axis=1), 0.0
+    )
+    return p.center, p.axes, half + p.margin[:, None]
+
+
+def _near_triangles(
+    mesh_body: Body, T_mesh: np.ndarray, other: convex.Pieces, per_state: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The (state, other piece, triangle) combinations that may hold a state's closest pair,
+    as index arrays, computed in the mesh's frame from bounds built once:
+
+    1. a lower bound per combination: the widest gap between the piece's box
+       (:func:`_piece_boxes`) and the triangle along the mesh's axes and the box's own axes
+       (separating axes: no pair of points is closer);
+    2. an upper bound per state: the distance from a piece's centre (inside the piece) to the
+       nearest mesh vertex, then the exact distance of the piece to the triangle of lowest
+       bound (one GJK call per state, the best first);
+    3. the combinations whose lower bound is above their state's upper bound are dropped.
+    """
+    triangles, centre, extent, vertices = mesh_body._triangle_bounds
+    K = len(T_mesh)
+    R, t = T_mesh[:, :3, :3], T_mesh[:, :3, 3]
+    c, axes, half = _piece_boxes(other)
+    c_local = np.einsum("kji,koj->koi", R, c.reshape(K, per_state, 3) - t[:, None])
+    axes_local = np.einsum("koij,kjl->koil", axes.reshape(K, per_state, 3, 3), R)
+    half = half.reshape(K, per_state, 3)
+    reach = np.einsum("koij,koi->koj", np.abs(axes_local), half)  # the box along mesh axes
+    out_k, out_o, out_t, out_low = [], [], [], []
+    upper = np.empty(K)
+    step = max(1, 400_000 // max(len(vertices), len(centre), 1) // per_state)
+    for start in range(0, K, step):  # states in chunks: memory bounded for large meshes
+        sl = slice(start, min(K, start + step))
+        pts = c_local[sl]  # (k, o, 3)
+        upper[sl] = np.sqrt(
+            ((pts[:, :, None, :] - vertices[None, None]) ** 2).sum(-1).min(axis=(1, 2))
+        )
+        # along the mesh's axes: the boxes' gap
+        gap = np.abs(centre[None, None] - pts[:, :, None]) - extent - reach[sl][:, :, None]
+        lower = gap.max(axis=-1)
+        # along the piece box's axes: the triangle's vertices projected
+        proj = np.einsum("koij,tvj->kotvi", axes_local[sl], triangles)
+        along = np.einsum("koij,koj->koi", axes_local[sl], pts)[:, :, None, None, :]
+        near = np.min(proj - along, axis=3)
+        far = np.max(proj - along, axis=3)
+        box = half[sl][:, :, None, :]
+        lower = np.maximum(lower, np.maximum(near - box, -far - box).max(axis=-1))
+        kk, oo, tt = np.nonzero(lower <= upper[sl][:, None, None] + 1e-9)
+        out_k.append(kk + start)
+        out_o.append(oo)
+        out_t.append(tt)
+        out_low.append(lower[kk, oo, tt])
+    k, o, tri_index, low = (np.concatenate(x) for x in (out_k, out_o, out_t, out_low))
+    # the most promising combination of each state, measured exactly: a tight upper bound
+    first = np.lexsort((low, k))
+    first = first[np.r_[True, k[first][1:] != k[first][:-1]]]
+    world = np.einsum("qij,qtj->qti", R[k[first]], triangles[tri_index[first]]) + t[k[first], None]
+    exact = convex.distance(
+        convex.triangles(world), other.take(k[first] * per_state + o[first])
+    ).distance
+    upper[k[first]] = np.minimum(upper[k[first]], np.maximum(exact, 0.0))
+    keep = low <= upper[k] + 1e-9  # a bound equal to the distance may round above it
+    return k[keep], o[keep], tri_index[keep]
+
+
+def _closest(a, b, Ta, Tb, K, k, pa, pb, max_iterations) -> PairDistance:
+    """Each state's closest pair among the piece pairs ``pa[q]``, ``pb[q]`` of state ``k[q]``,
+    its depth where they overlap, and whether one body is buried in the other's closed mesh."""
+    res = convex.distance(pa, pb, max_iterations)
     dist = np.full(K, np.inf)
     np.minimum.at(dist, k, res.distance)
     best = np.flatnonzero(res.distance <= dist[k])
@@ -444,7 +539,7 @@ def pair_distance(
     depth = np.zeros(K)
     if res.overlap.any():  # the deepest overlapping piece pair of each state
         rows = np.flatnonzero(res.overlap)
-        d, _ = convex.penetration(pa.take(ga[rows]), pb.take(gb[rows]))
+        d, _ = convex.penetration(pa.take(rows), pb.take(rows))
         np.maximum.at(depth, k[rows], np.maximum(d, 0.0))
     buried = np.zeros(K, dtype=bool)
     # solids: the other body inside a closed mesh touches no triangle, yet collides

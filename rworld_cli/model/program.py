@@ -23,8 +23,9 @@ class FeatureGoal:
     feature : str
         The target feature (qualified): a move's, the hole, the surface set down on, the edge
         followed, the feature probed.
-    at : float or ndarray (2,) or None
-        A line: the distance along it [m]; a plane: [u, v] from its point [m].
+    at : float or ndarray (2,) or str or None
+        A line: the distance along it [m]; a plane: [u, v] from its point [m], or another
+        feature of the same object whose point is projected onto the plane.
     standoff : float
         [m] out of the material.
     spin : float or None
@@ -44,7 +45,7 @@ class FeatureGoal:
     """
 
     feature: str
-    at: float | np.ndarray | None = None
+    at: float | np.ndarray | str | None = None
     standoff: float = 0.0
     spin: float | None = None
     held: str | None = None

@@ -284,8 +284,6 @@ class _FeatureChecks:
     def at(self, path, f, value):
         """``at:`` on ``f``: [u, v] on a plane, a distance along a line, or another feature of
         the same object projected onto the plane."""
-        from ..world.feature_targets import plane_coordinates
-
         if value is None or f is None:
             return None
         if f.kind == "line":
@@ -318,7 +316,7 @@ class _FeatureChecks:
                 )
             )
             return None
-        return plane_coordinates(f, other.point)
+        return other.name  # its point, projected onto the plane when the step runs
 
     def step(self, path, kind: str, spec, step: Step, after_guard: bool) -> None:
         """Check one step that may name features; set ``step.goal`` when it does."""

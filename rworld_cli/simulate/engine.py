@@ -35,20 +35,10 @@ from ..model.program import MoveTarget, Program, ResolvedStep, Run, Step
 from ..motion.linear import PathError, linear_move
 from ..motion.trajectory import StoppedMove, UntimedMove, joint_move, sample_track
 from ..world.tree import AffixmentError, World
+from .errors import SimulationError, UnreachableTarget
 from .feature_steps import FeatureSteps
 
 LATCH_TIME = 1e-9  # [s]: a guarded move's contact instant is found to this (a probe's latch)
-
-
-class SimulationError(UserError):
-    """A program cannot run: the message names the device, the step and the cause."""
-
-
-class UnreachableTarget(SimulationError):
-    """A move's target is out of the device's reach (IK, or a line leaving the workspace):
-    the program is well formed but fails the check - exit 1, with the step."""
-
-    exit_code = 1
 
 
 @dataclass

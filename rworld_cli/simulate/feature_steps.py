@@ -18,7 +18,15 @@ import numpy as np
 from ..errors import UserError
 from ..kinematics.jacobian import reach_bound
 from ..units import LINEAR_ACCELERATION, LINEAR_SPEED
-from ..world.feature_targets import SPINS, along, feature_frame, outward_frame, spun
+from ..world.feature_targets import (
+    SPINS,
+    along,
+    feature_frame,
+    outward_frame,
+    plane_coordinates,
+    spun,
+)
+from .errors import UnreachableTarget
 
 
 class FeatureSteps:
@@ -36,9 +44,12 @@ class FeatureSteps:
     def _owner_targets(self, goal, at=None, standoff=None) -> np.ndarray:
         """``T_world_target`` of every spin candidate on the goal's feature (S, 4, 4)."""
         f = self.run.cell.features[goal.feature]
+        at = goal.at if at is None else at
+        if isinstance(at, str):  # another feature of the owner: its point on the plane
+            at = plane_coordinates(f, self.run.cell.features[at].point)
         T_owner = feature_frame(
             f,
-            goal.at if at is None else at,
+            at,
             goal.standoff if standoff is None else standoff,
             self._toward(f.owner),
         )
@@ -81,8 +92,6 @@ class FeatureSteps:
         ``T_world_tcp``); the first move a joint move, the others straight lines at
         ``speeds[k]``.  A route that fails (no solution, a line out of the workspace) gives
         way to the next; when all fail, the first's failure is reported."""
-        from .engine import UnreachableTarget
-
         first_error = None
         for route in routes:
             mark = (tr.t, len(tr.segments), len(self._move_targets), len(self.events))
@@ -226,8 +235,6 @@ class FeatureSteps:
         )
         took = along_edge.t1 - along_edge.t0
         if took > ideal + 2 * self.run.dt + 1e-9:
-            from .engine import UnreachableTarget
-
             raise UnreachableTarget(
                 f"{step.where}: {device} step {step.index + 1} ({step.describe()}): "
                 f"{goal.speed * 1000:g} mm/s cannot be held along {goal.feature}: the joints' "
@@ -268,8 +275,6 @@ class FeatureSteps:
                 if len(solved) == goal.points:
                     break
         if len(solved) < goal.points:
-            from .engine import UnreachableTarget
-
             raise UnreachableTarget(
                 f"{step.where}: {device} step {step.index + 1} ({step.describe()}): "
                 f"{len(solved)} of {goal.points} points on {f.name} can be probed ({why})"

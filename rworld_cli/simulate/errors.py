@@ -1,0 +1,16 @@
+"""Why a simulated program cannot run, or fails its check."""
+
+from __future__ import annotations
+
+from ..errors import UserError
+
+
+class SimulationError(UserError):
+    """A program cannot run: the message names the device, the step and the cause."""
+
+
+class UnreachableTarget(SimulationError):
+    """A move's target is out of the device's reach (IK, or a line leaving the workspace):
+    the program is well formed but fails the check - exit 1, with the step."""
+
+    exit_code = 1
