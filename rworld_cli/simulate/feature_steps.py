@@ -165,6 +165,7 @@ class FeatureSteps:
         )
         held = self.run.cell.features[goal.held].owner
         owner = self.run.cell.features[goal.feature].owner
+        self.set_time(tr.t)  # the world where the moves ended: the object rests from there
         return self._tree_change(
             device,
             tr,

@@ -248,3 +248,31 @@ def test_follow_holds_its_speed_along_the_edge(tmp_path):
     assert length == pytest.approx(0.080, abs=1e-6)  # the bracket is 80 mm deep
     # 80 mm at 20 mm/s with 1 m/s^2 ramps: 4.02 s (+ the clock's rounding)
     assert edge.t1 - edge.t0 == pytest.approx(0.08 / 0.02 + 0.02 / 1.0, abs=0.011)
+
+
+def test_place_sets_the_face_down_on_the_plane_where_asked(tmp_path):
+    """The peg's foot set down on the plate's top at [u, v] = [-20, 30] mm (in the plane's
+    axes from its point): it stands there, upright, and rests on the plate (the gripper lets
+    go: a placement is the release)."""
+    cell, program = _program(
+        tmp_path,
+        "  - move: {to: {feature: peg.head, standoff: 40}, tcp: gripper}\n"
+        "  - move: {to: {feature: peg.head}, tcp: gripper, motion: linear, speed: 0.2}\n"
+        "  - grasp: {object: peg, tcp: gripper}\n"
+        "  - place: {object: peg.foot, on: plate.top, at: [-20, 30]}\n"
+        "  - move: {to: ready}\n",
+    )
+    loaded, result = simulate_run(str(cell), str(program))
+    assert result.ok, [c.describe() for c in result.collisions.contacts]
+    placed = next(e for e in result.events if e.kind == "place")
+    assert placed.tree["parent"] == "plate" and placed.tree["kind"] == "rests_on"
+    T_peg = np.array(placed.tree["T_world_child"])
+    from rworld_cli.world.tree import World
+
+    T_plate = World(loaded.cell).T_world("plate")
+    top = loaded.cell.features["plate.top"]
+    expected = T_plate[:3, :3] @ (top.point + [-0.020, 0.030, 0.0]) + T_plate[:3, 3]
+    assert np.allclose(T_peg[:3, 3], expected, atol=1e-6)  # the foot's centre, on the top
+    assert np.allclose(T_peg[:3, 2], T_plate[:3, 2], atol=1e-6)  # upright
+    moves = [r.move.motion for r in result.resolved["puma"] if r.step.kind == "place"]
+    assert moves == ["joint", "linear"]
