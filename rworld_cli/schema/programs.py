@@ -40,14 +40,7 @@ def _check_joint_goal(doc, path, spec, step, device, L, A, issues) -> None:
         issues.append(doc.issue(path, why))
         return
     step.joints = q
-    if not np.isfinite(device.limit_array("acceleration")).any():
-        issues.append(
-            doc.issue(
-                path,
-                f"no joint of '{device.name}' has an acceleration limit, so nothing times its "
-                "moves; add them to the cell",
-            )
-        )
+    _timed(doc, path, device, issues)
 
 
 def _check_config(doc, path, spec, step, device, named, L, A, issues) -> None:
@@ -163,6 +156,7 @@ def _check_move_details(
 
 
 def _timed(doc, path, device, issues) -> None:
+    """A device with no acceleration limit at all: nothing times its moves."""
     if not np.isfinite(device.limit_array("acceleration")).any():
         issues.append(
             doc.issue(
