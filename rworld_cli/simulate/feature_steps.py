@@ -139,22 +139,25 @@ class FeatureSteps:
         return [int(k) for k in np.lexsort((travel, ~ok))]
 
     # ------------------------------------------------------------------ insert, place
-    def _bring(self, device, tr, step, T_world_goal_frames, approach, speed, until):
+    def _bring(self, device, tr, step, T_world_goal_frames, approach, speed, until, depth=0.0):
         """Bring the held feature (``step.goal.held``) onto one of the goal frames (S, 4, 4):
-        a joint move to ``approach`` back along the frame's z, then a straight move in."""
+        a joint move to ``approach`` back along the frame's z, then a straight move in, to
+        ``depth`` past the frame."""
         tcp, T_tcp_feature = self._held(device, step, step.goal.held)
         T_feature_tcp = np.linalg.inv(T_tcp_feature)
-        ends = T_world_goal_frames @ T_feature_tcp
+        ends = along(T_world_goal_frames, depth) @ T_feature_tcp
         starts = along(T_world_goal_frames, -approach) @ T_feature_tcp
         self._within_reach(device, step, tcp, starts)
         order = self._ranked(device, step, tcp, starts)
         routes = [[("joint", starts[k]), ("linear", ends[k])] for k in order]
-        self._through(device, tr, step, tcp, routes, [step.spec.speed, speed], until)
+        self._through(device, tr, step, tcp, routes, [1.0, speed], until)  # in at speed
 
     def _insert(self, device, tr, step) -> bool:
         goal = step.goal
-        holes = along(self._owner_targets(goal), goal.depth)  # z into the hole, to the depth
-        self._bring(device, tr, step, holes, goal.approach, step.spec.speed, step.spec.until)
+        rims = self._owner_targets(goal)  # on the hole's axis at the rim, z into the hole
+        self._bring(
+            device, tr, step, rims, goal.approach, step.spec.speed, step.spec.until, goal.depth
+        )
         return True
 
     def _place_face(self, device, tr, step) -> bool:

@@ -82,6 +82,12 @@ def test_peg_in_hole_on_features_puts_the_tip_at_the_depth_on_the_axis():
     inserted = [r for r in result.resolved["puma"] if r.step.kind == "insert"]
     assert [r.move.motion for r in inserted] == ["joint", "linear"]
     assert {r.move.target for r in inserted} == {"plate.hole1"}
+    grasp = next(e for e in result.events if e.kind == "grasp")
+    T_tcp_peg = np.linalg.solve(grasp.tree["T_world_parent"], grasp.tree["T_world_child"])
+    T_world_base = World(cell).T_world("puma")
+    T_peg_there = T_world_base @ inserted[0].move.T_base_tcp @ T_tcp_peg
+    above = T_peg_there[:3, :3] @ tip.point + T_peg_there[:3, 3]
+    assert np.allclose(above, rim + 0.050 * axis, atol=1e-6)  # the approach: 50 mm above the rim
 
 
 def _digest(folder):
