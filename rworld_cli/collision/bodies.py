@@ -522,8 +522,17 @@ def _near_triangles(
     exact = convex.distance(
         convex.triangles(world), other.take(k[first] * per_state + o[first])
     ).distance
-    upper[k[first]] = np.minimum(upper[k[first]], np.maximum(exact, 0.0))
+    exact = np.maximum(exact, 0.0)
+    measured = np.zeros(K, dtype=bool)  # the state's upper bound is a distance measured
+    measured[k[first]] = exact <= upper[k[first]]
+    upper[k[first]] = np.minimum(upper[k[first]], exact)
     keep = low <= upper[k] + 1e-9  # a bound equal to the distance may round above it
+    # Where the bound is the distance of a pair measured, a combination whose lower bound
+    # ties with it cannot be nearer (a hole's rim, level with the face around it): it is left
+    # out, unless the bodies overlap (every overlapping pair counts for the depth).
+    tie = measured[k] & (upper[k] > 1e-9) & (low >= upper[k] - 1e-9)
+    tie[first] = False
+    keep &= ~tie
     return k[keep], o[keep], tri_index[keep]
 
 
