@@ -608,13 +608,11 @@ def probe_run(
     rng = np.random.default_rng(seed)
     out = []
     for device, resolved in result.resolved.items():
-        moves = {item.step.index: item for item in resolved}  # programs of older runs
         probes = [
             e for e in result.events if e.device == device and e.kind == "probe" and e.reading
         ]
         for event in probes:
-            at = event.reading.get("guard_move")
-            item = resolved[at] if at is not None else moves[event.reading["guard_step"] - 1]
+            item = resolved[event.reading["guard_move"]]  # the guarded move it recorded
             move, sensor = item.move, item.move.guard
             radius = float(truth.sensors[sensor].ball or 0.0)
             points, nominal_line = [], []

@@ -563,8 +563,7 @@ def _closest(a, b, Ta, Tb, K, k, pa, pb, max_iterations) -> PairDistance:
         local = np.einsum(
             "kji,kj->ki", T_mesh[free, :3, :3], point - T_mesh[free, :3, 3]
         )  # in the mesh's frame
-        tri = mesh_body.mesh().triangles()
-        inside = winding_number(local, tri) > 0.5
+        inside = winding_number(local, mesh_body._triangle_bounds[0]) > 0.5
         rows = free[inside]
         buried[rows] = True
         depth[rows] = dist[rows]  # at least as deep as its distance to the surface

@@ -285,6 +285,43 @@ def solve_ik_many(
     return Q, np.all(np.abs(err) <= tol, axis=1)
 
 
+def solve_ik_soonest(
+    device: DeviceModel,
+    T_base_targets: np.ndarray,
+    q_now: np.ndarray,
+    mount: ToolMount | None = None,
+    position_only: bool = False,
+    seed: np.ndarray | None = None,
+    accept=None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Candidate targets (the free turns of one target) solved in one batch from ``seed``
+    (default ``q_now``) and ranked by how soon a joint move from ``q_now`` reaches them: the
+    largest joint travel over its velocity limit (1 where none is given).
+
+    Returns
+    -------
+    Q : ndarray, shape (K, n)
+    ok : ndarray of bool, shape (K,)
+        Reached, and accepted by ``accept(Q) -> (K,) bool`` when given (a configuration).
+    order : ndarray of int, shape (K,)
+        The candidates that are ``ok`` soonest first, then the others.
+    """
+    q_now = np.asarray(q_now, dtype=float)
+    start = q_now if seed is None else np.asarray(seed, dtype=float)
+    Q, ok = solve_ik_many(
+        device,
+        T_base_targets,
+        np.repeat(start[None], len(T_base_targets), 0),
+        mount,
+        position_only,
+    )
+    if accept is not None and ok.any():
+        ok &= np.asarray(accept(Q), dtype=bool)
+    vmax = device.limit_array("velocity")
+    travel = np.max(np.abs(Q - q_now) / np.where(np.isfinite(vmax), vmax, 1.0), axis=1)
+    return Q, ok, np.lexsort((travel, ~ok))
+
+
 @dataclass
 class TrackResult:
     """Outcome of :func:`track`: joint values for the poses reached, and where it stopped if it

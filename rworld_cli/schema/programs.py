@@ -17,6 +17,7 @@ from ..units import (
     ANGLE,
     COLLISION_TOLERANCE,
     LENGTH,
+    LENGTH_WORDS,
     parse_angle_value,
     parse_length,
     parse_quantity,
@@ -246,9 +247,7 @@ class _FeatureChecks:
             return None
         try:
             if signed:
-                out = parse_quantity(
-                    value, {"m": 1.0, "mm": 1e-3, "cm": 1e-2}, self.length_unit or ""
-                )
+                out = parse_quantity(value, LENGTH_WORDS, self.length_unit or "")
                 if not np.isfinite(out):
                     raise ValueError(f"{what} '{value}' is not a length: write e.g. 20mm")
                 return float(out)
@@ -314,7 +313,7 @@ class _FeatureChecks:
 
     def step(self, path, kind: str, spec, step: Step, after_guard: bool) -> None:
         """Check one step that may name features; set ``step.goal`` when it does."""
-        where = self.doc
+        doc = self.doc
         if kind == "move":
             t = spec.to
             f = self.feature(path + ("to", "feature"), t.feature, "move")
@@ -323,7 +322,7 @@ class _FeatureChecks:
             spin = self.angle(path + ("to", "spin"), t.spin, "spin")
             if f is not None and standoff is not None:
                 step.goal = FeatureGoal(f.name, at, standoff, spin)
-                step.goal.where = _where(where, path + ("to",))
+                step.goal.where = _where(doc, path + ("to",))
         elif kind == "insert":
             held = self.feature(path + ("object",), spec.object, "insert object", held=True)
             f = self.feature(path + ("into",), spec.into, "insert")
@@ -332,7 +331,7 @@ class _FeatureChecks:
             spin = self.angle(path + ("spin",), spec.spin, "spin")
             if spec.until is not None and spec.until not in self.cell.sensors:
                 self.issues.append(
-                    where.issue(
+                    doc.issue(
                         path + ("until",),
                         f"unknown sensor '{spec.until}'"
                         f"{did_you_mean(spec.until, self.cell.sensors)}",
@@ -342,7 +341,7 @@ class _FeatureChecks:
                 step.goal = FeatureGoal(
                     f.name, None, 0.0, spin, held=held.name, depth=depth, approach=approach
                 )
-                step.goal.where = _where(where, path + ("into",))
+                step.goal.where = _where(doc, path + ("into",))
         elif kind == "place":
             held = self.feature(path + ("object",), spec.object, "place object", held=True)
             f = self.feature(path + ("on",), spec.on, "place")
@@ -351,7 +350,7 @@ class _FeatureChecks:
             spin = self.angle(path + ("spin",), spec.spin, "spin")
             if None not in (held, f, approach):
                 step.goal = FeatureGoal(f.name, at, 0.0, spin, held=held.name, approach=approach)
-                step.goal.where = _where(where, path + ("on",))
+                step.goal.where = _where(doc, path + ("on",))
         elif kind == "follow":
             f = self.feature(path + ("edge",), spec.edge, "follow")
             speed = None
@@ -361,7 +360,7 @@ class _FeatureChecks:
                 try:
                     speed = parse_speed(spec.speed, "speed", self.length_unit or "")
                 except ValueError as exc:
-                    self.issues.append(where.issue(path + ("speed",), str(exc)))
+                    self.issues.append(doc.issue(path + ("speed",), str(exc)))
             ends = [
                 None if v is None else self.length(path + (key,), v, "distance", signed=True)
                 for key, v in (("from", spec.from_), ("to", spec.to))
@@ -370,7 +369,7 @@ class _FeatureChecks:
             spin = self.angle(path + ("spin",), spec.spin, "spin")
             if spec.offset is not None and (self.length_unit is None or self.angle_unit is None):
                 self.issues.append(
-                    where.issue(
+                    doc.issue(
                         path + ("offset",),
                         "an offset needs the file's units: add 'units: {length: mm, angle: deg}'",
                     )
@@ -380,7 +379,7 @@ class _FeatureChecks:
                     spec.offset, LENGTH[self.length_unit], ANGLE[self.angle_unit]
                 )
                 if error:
-                    self.issues.append(where.issue(path + ("offset",), error))
+                    self.issues.append(doc.issue(path + ("offset",), error))
                 step.T_offset = T
             if None not in (f, speed, approach):
                 step.goal = FeatureGoal(
@@ -392,7 +391,7 @@ class _FeatureChecks:
                     extent=(ends[0], ends[1]),
                     speed=speed,
                 )
-                step.goal.where = _where(where, path + ("edge",))
+                step.goal.where = _where(doc, path + ("edge",))
         elif kind == "probe":
             moves = spec.points is not None or spec.tcp is not None or spec.sensor is not None
             if after_guard and not moves:
@@ -400,7 +399,7 @@ class _FeatureChecks:
             f = self.feature(path + ("feature",), spec.feature, "probe")
             if spec.sensor is not None and spec.sensor not in self.cell.sensors:
                 self.issues.append(
-                    where.issue(
+                    doc.issue(
                         path + ("sensor",),
                         f"unknown sensor '{spec.sensor}'"
                         f"{did_you_mean(spec.sensor, self.cell.sensors)}",
@@ -410,7 +409,7 @@ class _FeatureChecks:
                 from ..units import MIN_POINTS
 
                 step.goal = FeatureGoal(f.name, points=spec.points or MIN_POINTS[f.kind])
-                step.goal.where = _where(where, path + ("feature",))
+                step.goal.where = _where(doc, path + ("feature",))
 
 
 def _where(doc, path) -> str:

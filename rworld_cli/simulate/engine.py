@@ -29,7 +29,7 @@ import numpy as np
 from ..dynamics import DeviceDynamics
 from ..errors import UserError
 from ..kinematics.configuration import arm_configurations
-from ..kinematics.inverse import solve_ik, solve_ik_many
+from ..kinematics.inverse import solve_ik, solve_ik_soonest
 from ..kinematics.jacobian import ToolMount, tool_pose
 from ..model.program import MoveTarget, Program, ResolvedStep, Run, Step
 from ..motion.linear import PathError, linear_move
@@ -439,16 +439,9 @@ class _Scheduler(FeatureSteps):
             best = result.q if result.success else None
         else:
             best, result = None, None
-            vmax = dev.limit_array("velocity")
-            vmax = np.where(np.isfinite(vmax), vmax, 1.0)
-            Q, ok = solve_ik_many(
-                dev, T_base, np.repeat(seed[None], len(T_base), 0), mount, position_only
-            )
-            if wanted and ok.any():
-                ok &= np.asarray(accept(Q), dtype=bool)
+            Q, ok, order = solve_ik_soonest(dev, T_base, q_now, mount, position_only, seed, accept)
             if ok.any():
-                travel = np.max(np.abs(Q - q_now) / vmax, axis=1)
-                best = Q[np.flatnonzero(ok)[int(np.argmin(travel[ok]))]]
+                best = Q[order[0]]
             else:  # from the joints now no candidate converged: restarts, nearest turn first
                 for T in T_base:
                     result = solve_ik(dev, T, mount, seed, position_only, accept=accept)

@@ -16,7 +16,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import UserError
-from ..kinematics.jacobian import reach_bound
+from ..kinematics.inverse import solve_ik_soonest
+from ..kinematics.jacobian import ToolMount, reach_bound
 from ..units import LINEAR_ACCELERATION, LINEAR_SPEED
 from ..world.feature_targets import (
     SPINS,
@@ -58,8 +59,6 @@ class FeatureSteps:
     def _within_reach(self, device: str, step, tcp: str, T_world_targets: np.ndarray) -> None:
         """A target beyond any reach of the device (its standoff or ``at`` put it there) is
         bad input: exit 2 at the feature's place in the program."""
-        from ..kinematics.jacobian import ToolMount
-
         dev = self.run.cell.devices[device]
         bound = reach_bound(dev, ToolMount(*self.world.mount_of(device, tcp)))
         base = self.world.T_world(device)[:3, 3]
@@ -82,10 +81,8 @@ class FeatureSteps:
         f = self.run.cell.features[feature]
         if not self._held_by(device, f.owner):
             self.fail(device, step, f"{device} does not hold '{f.owner}' ({feature} is on it)")
-        holder = self.world.affixment(f.owner).parent
-        tcp = holder if holder in self.world.subtree(device) else self.world.active_tcp(device)
-        T_tcp_feature = self.world.T(tcp, f.owner) @ outward_frame(f)
-        return tcp, T_tcp_feature
+        tcp = self.world.affixment(f.owner).parent  # held: the frame it is affixed to
+        return tcp, self.world.T(tcp, f.owner) @ outward_frame(f)
 
     def _through(self, device, tr, step, tcp, routes, speeds, until=None):
         """Run the first route whose moves all work: each route a list of (motion,
@@ -97,9 +94,9 @@ class FeatureSteps:
             mark = (tr.t, len(tr.segments), len(self._move_targets), len(self.events))
             q_mark = self.world.joints(device).copy()
             try:
-                for (motion, T), speed in zip(route, speeds):
+                for n, ((motion, T), speed) in enumerate(zip(route, speeds)):
                     self.set_time(tr.t)
-                    last = T is route[-1][1]
+                    last = n == len(route) - 1
                     self._go(
                         device,
                         tr,
@@ -124,19 +121,14 @@ class FeatureSteps:
     def _ranked(self, device, step, tcp, T_world_first: np.ndarray) -> list[int]:
         """Spin candidates in the order a joint move reaches their first pose soonest; those
         the device cannot reach last (they fail with the reason)."""
-        from ..kinematics.inverse import solve_ik_many
-        from ..kinematics.jacobian import ToolMount
-
-        dev = self.run.cell.devices[device]
         if len(T_world_first) == 1:
             return [0]
         mount = ToolMount(*self.world.mount_of(device, tcp))
-        q_now = self.world.joints(device)
         T_base = np.linalg.inv(self.world.T_world(device)) @ T_world_first
-        Q, ok = solve_ik_many(dev, T_base, np.repeat(q_now[None], len(T_base), 0), mount)
-        vmax = dev.limit_array("velocity")
-        travel = np.max(np.abs(Q - q_now) / np.where(np.isfinite(vmax), vmax, 1.0), axis=1)
-        return [int(k) for k in np.lexsort((travel, ~ok))]
+        _, _, order = solve_ik_soonest(
+            self.run.cell.devices[device], T_base, self.world.joints(device), mount
+        )
+        return [int(k) for k in order]
 
     # ------------------------------------------------------------------ insert, place
     def _bring(self, device, tr, step, T_world_goal_frames, approach, speed, until, depth=0.0):
