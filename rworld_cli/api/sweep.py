@@ -9,6 +9,12 @@ A point of the grid is the run as ``rworld check`` would check it, with
   the override (joint moves exactly: their trapezoids scale; linear moves as long as the
   joints' own limits do not slow the line);
 - a pose file listed after the cell's own (a calibration overlay, a fixture moved).
+
+Each point reports the check (pass, collisions, limit violations), the cycle time, the peak
+torque ratio and the payload capacity: ``plan payload`` on the run's own motion at that point -
+the largest point mass each device could carry more at its active TCP through the whole run
+with every torque within its limit (exact: torque is affine in the mass; the least over the
+devices, and which joint binds when).
 """
 
 from __future__ import annotations
@@ -31,6 +37,10 @@ class SweepPoint:
     error: str | None = None
     cycle_time: float | None = None
     peak_torque_ratio: float | None = None  # the largest |torque| / limit over devices, joints
+    # [kg] more at the active TCP, least over the devices (None: no torque limit feels it);
+    # negative when the point already overloads a joint
+    payload: float | None = None
+    payload_binding: str | None = None  # "DEVICE JOINT at T s (upper|lower)"
     collisions: int = 0
     limit_violations: int = 0
     seconds: float = 0.0
@@ -70,6 +80,8 @@ COLUMNS = [
     "ok",
     "cycle_time_s",
     "peak_torque_ratio",
+    "payload_kg",
+    "payload_binding",
     "collisions",
     "limit_violations",
 ]
@@ -130,7 +142,7 @@ def sweep_point(
                     else step
                     for step in program.steps
                 ]
-        result = simulate(loaded, None, collisions)
+        result = simulate(loaded, None, collisions, payload=True)
     except UserError as exc:
         point.error = "\n".join(exc.lines())
         point.seconds = time.perf_counter() - started
@@ -144,6 +156,14 @@ def sweep_point(
     point.ok = bool(result.ok)
     point.cycle_time = round(float(result.cycle_time), 9)
     point.peak_torque_ratio = round(float(max(ratios)), 9) if ratios else None
+    capacities = [
+        (c["mass"], f"{d} {c['joint']} at {c['t']:.3f} s ({c['side']})")
+        for d in result.devices
+        if (c := result.payload_capacity(d)) is not None
+    ]
+    if capacities:
+        least = min(capacities, key=lambda c: c[0])
+        point.payload, point.payload_binding = round(float(least[0]), 9), least[1]
     point.limit_violations = len(result.violations)
     point.collisions = len(result.collisions.collisions) if result.collisions is not None else 0
     point.seconds = time.perf_counter() - started
@@ -209,6 +229,8 @@ def sweep_rows(result: SweepResult) -> list[list]:
             "error" if p.error else ("ok" if p.ok else "failed"),
             "" if p.cycle_time is None else p.cycle_time,
             "" if p.peak_torque_ratio is None else p.peak_torque_ratio,
+            "" if p.payload is None else p.payload,
+            p.payload_binding or "",
             p.collisions,
             p.limit_violations,
         ]
@@ -217,8 +239,9 @@ def sweep_rows(result: SweepResult) -> list[list]:
 
 
 def write_sweep(result: SweepResult, csv: str | None = None, plot: str | None = None) -> list:
-    """Write the table as CSV and the picture (cycle time and peak torque ratio against the
-    mass, or the speed, one line per speed or variant; failed points marked), atomically."""
+    """Write the table as CSV and the picture (cycle time, peak torque ratio and payload
+    capacity against the mass, or the speed, one line per speed or variant; failed points
+    marked), atomically."""
     written = []
     if csv:
         from ..schema.tables import write_records_csv

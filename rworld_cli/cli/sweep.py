@@ -66,8 +66,10 @@ def sweep(
 ):
     """Check RUN on CELL at every point of a grid: an object's mass x a controller speed
     override x pose-file variants.  Each point is 'rworld check' of the run so changed; the
-    table gives whether it passed, its cycle time, its peak torque ratio and its collisions,
-    in grid order, the same on local processes (--workers) or a Dask cluster (--scheduler).
+    table gives whether it passed, its cycle time, its peak torque ratio, its payload capacity
+    (the point mass the TCP could carry more through the run, as 'rworld plan payload' finds it
+    on the run's motion) and its collisions, in grid order, the same on local processes
+    (--workers) or a Dask cluster (--scheduler).
 
     \b
     Examples:
@@ -119,12 +121,13 @@ def sweep(
             "check",
             "cycle (s)",
             "torque/limit",
+            "payload (kg)",
             "collisions",
             "violations",
         ):
             table.add_column(column, justify="right")
         for row in sweep_rows(result):
-            m, s, v, status, cycle, torque, collisions, violations = row
+            m, s, v, status, cycle, torque, payload, _, collisions, violations = row
             table.add_row(
                 "" if m == "" else f"{m:g}",
                 f"{100 * s:g} %",
@@ -132,6 +135,7 @@ def sweep(
                 status,
                 "" if cycle == "" else f"{cycle:.3f}",
                 "" if torque == "" else f"{torque:.3f}",
+                "" if payload == "" else f"{payload:.3f}",
                 str(collisions),
                 str(violations),
             )

@@ -52,10 +52,30 @@ def payload_capacity(
     loaded = DeviceDynamics(device, one, mount, armature, friction, link_loads=link_loads)
     tau0 = bare.inverse(q, qd, qdd, gravity)
     tau1 = loaded.inverse(q, qd, qdd, gravity) - tau0
-    tmax = device.limit_array("effort")
+    return affine_capacity(tau0, tau1, device.limit_array("effort"))
+
+
+def affine_capacity(tau0: np.ndarray, tau_per_kg: np.ndarray, limits: np.ndarray) -> Capacity:
+    """The largest m with ``|tau0 + m tau_per_kg| <= limits`` at every sample and joint.
+
+    Parameters
+    ----------
+    tau0 : ndarray, shape (K, n)
+        Joint torques without the payload [N m or N].
+    tau_per_kg : ndarray, shape (K, n)
+        What 1 kg of payload adds [N m / kg].
+    limits : ndarray, shape (n,)
+        Effort limits (inf: the joint is unlimited).
+
+    Returns
+    -------
+    Capacity
+        ``mass`` is inf when no limited joint feels the payload, negative when ``tau0`` already
+        exceeds a limit the payload loads.
+    """
     with np.errstate(divide="ignore", invalid="ignore"):
-        up = np.where(tau1 > 1e-12, (tmax - tau0) / tau1, np.inf)
-        low = np.where(tau1 < -1e-12, (tmax + tau0) / -tau1, np.inf)
+        up = np.where(tau_per_kg > 1e-12, (limits - tau0) / tau_per_kg, np.inf)
+        low = np.where(tau_per_kg < -1e-12, (limits + tau0) / -tau_per_kg, np.inf)
     ratios = np.minimum(up, low)
     k, j = np.unravel_index(int(np.argmin(ratios)), ratios.shape)
     return Capacity(

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from ..dynamics import DeviceDynamics
+from ..dynamics import DeviceDynamics, Payload
 from ..errors import UserError
 from ..kinematics.configuration import arm_configurations
 from ..kinematics.inverse import solve_ik, solve_ik_soonest
@@ -119,6 +119,9 @@ class DeviceTimeline:
         a joint without that limit).
     cycle_time : float
         When the device's program ended [s].
+    torque_per_kg : ndarray, shape (K, n), optional
+        What 1 kg more at the active TCP's origin adds to ``tau`` [N m / kg] (torque is affine
+        in a point mass); computed when :func:`simulate` is asked for payload capacity.
     """
 
     device: str
@@ -131,6 +134,8 @@ class DeviceTimeline:
     ratios: dict
     cycle_time: float
     tcp_names: list = field(default_factory=list)
+    torque_per_kg: np.ndarray | None = None
+    payload: dict | None = None  # SimulationResult.payload_capacity
 
 
 @dataclass
@@ -173,6 +178,17 @@ class SimulationResult:
             peak = np.max(np.where(np.isnan(v), -np.inf, v), axis=0)
             out[k] = np.where(np.isfinite(peak), peak, np.nan).tolist()
         return out
+
+    def payload_capacity(self, device: str) -> dict | None:
+        """The largest point mass [kg] the device could carry more at its active TCP's origin
+        through the whole run with every torque within its limit: ``plan payload`` on the run's
+        motion, exact (torque is affine in the mass); what the run carries it carries in any case.
+
+        Returns ``{"mass": kg, "joint": name, "t": s, "side": "upper" | "lower"}`` (the mass is
+        negative when the run already overloads a joint a payload loads), or None: simulated
+        without ``payload=True``, or no joint with a torque limit feels a payload.
+        """
+        return self.devices[device].payload
 
 
 @dataclass
@@ -830,7 +846,9 @@ class _Scheduler(FeatureSteps):
         return True
 
 
-def simulate(run: Run, progress=None, collisions: bool = True) -> SimulationResult:
+def simulate(
+    run: Run, progress=None, collisions: bool = True, payload: bool = False
+) -> SimulationResult:
     """Schedule and sample a run; see the module docstring.
 
     Parameters
@@ -842,6 +860,9 @@ def simulate(run: Run, progress=None, collisions: bool = True) -> SimulationResu
     collisions : bool
         Check collisions and clearance along the run (``run.clearance``,
         ``run.collision_tolerance``; docs/collision.md).
+    payload : bool
+        Also find each device's payload capacity along the run
+        (:meth:`SimulationResult.payload_capacity`): one more Newton-Euler pass.
 
     Raises
     ------
@@ -851,7 +872,7 @@ def simulate(run: Run, progress=None, collisions: bool = True) -> SimulationResu
     """
     sched = _Scheduler(run)
     sched.run_all()
-    result = _sample(run, sched, progress)
+    result = _sample(run, sched, progress, payload)
     if collisions:
         from .collisions import check_run
 
@@ -868,7 +889,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(edges[::2], edges[1::2]))
 
 
-def _sample(run: Run, sched: _Scheduler, progress) -> SimulationResult:
+def _sample(run: Run, sched: _Scheduler, progress, payload: bool = False) -> SimulationResult:
     cell = run.cell
     end = max((tr.end for tr in sched.tracks.values()), default=0.0)
     times = np.arange(0.0, end, run.dt)
@@ -925,14 +946,23 @@ def _sample(run: Run, sched: _Scheduler, progress) -> SimulationResult:
         g_world = gravity - a_base
         g_base = np.einsum("kji,kj->ki", T_base[d][:, :3, :3], g_world)  # R^T (g - a)
         tau = np.empty_like(q[d])
+        per_kg = np.zeros_like(q[d]) if payload else None
         for (t_snap, snap), a, b in zip(snaps, starts, bounds):
             if b <= a:
                 continue
             world.restore(snap)
             for other in devices:  # the state at the interval's start fixes the loads' poses
                 world.set_joints(other, q[other][a])
-            dyn = DeviceDynamics(dev, link_loads=world.carried_loads(d))
+            loads = world.carried_loads(d)
+            dyn = DeviceDynamics(dev, link_loads=loads)
             tau[a:b] = dyn.inverse(q[d][a:b], qd[d][a:b], qdd[d][a:b], g_base[a:b])
+            if per_kg is not None:
+                mount = ToolMount(*world.mount_of(d, world.active_tcp(d)))
+                if mount.link > 0:  # a TCP on the base loads no joint
+                    one = DeviceDynamics(dev, Payload.point_mass(1.0), mount, link_loads=loads)
+                    per_kg[a:b] = (
+                        one.inverse(q[d][a:b], qd[d][a:b], qdd[d][a:b], g_base[a:b]) - tau[a:b]
+                    )
             done += 1
             if progress:
                 progress(done, total, "dynamics")
@@ -947,6 +977,18 @@ def _sample(run: Run, sched: _Scheduler, progress) -> SimulationResult:
                 ("torque", tau, dev.limit_array("effort")),
             )
         }
+        capacity = None
+        if per_kg is not None and K:
+            from ..planning.payload import affine_capacity
+
+            cap = affine_capacity(tau, per_kg, dev.limit_array("effort"))
+            if np.isfinite(cap.mass):
+                capacity = {
+                    "mass": cap.mass,
+                    "joint": dev.joints[cap.joint].name,
+                    "t": float(times[cap.sample]),
+                    "side": cap.side,
+                }
         timelines[d] = DeviceTimeline(
             d,
             q[d],
@@ -958,6 +1000,8 @@ def _sample(run: Run, sched: _Scheduler, progress) -> SimulationResult:
             ratios,
             float(sched.tracks[d].end),
             tcp_names[d],
+            per_kg,
+            capacity,
         )
         violations += _violations(
             d, dev, times, q[d], ratios, qd[d], qdd[d], tau, step_index, step_texts[d]

@@ -208,9 +208,10 @@ def write_plots(result: SimulationResult, directory: Path) -> list[Path]:
 
 
 def sweep_picture(result, path: str) -> Path:
-    """A sweep's picture (``api.sweep.SweepResult``): cycle time and peak torque ratio against
-    the swept mass (or the speed override when no mass is swept), one line per speed or pose
-    file; a failed point is a red cross, the torque limit a dashed line."""
+    """A sweep's picture (``api.sweep.SweepResult``): cycle time, peak torque ratio and payload
+    capacity against the swept mass (or the speed override when no mass is swept), one line per
+    speed or pose file; a failed point is a red cross, the torque limit and zero payload dashed
+    lines."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -218,7 +219,7 @@ def sweep_picture(result, path: str) -> Path:
 
     points = [p for p in result.points if p.error is None]
     by_mass = any(p.mass is not None for p in points)
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.2), constrained_layout=True)
     lines: dict[tuple, list] = {}
     for p in points:
         key = (p.speed, p.variant) if by_mass else (None, p.variant)
@@ -233,13 +234,18 @@ def sweep_picture(result, path: str) -> Path:
             )
             if part
         )
-        for ax, what in ((axes[0], "cycle_time"), (axes[1], "peak_torque_ratio")):
+        for ax, what in (
+            (axes[0], "cycle_time"),
+            (axes[1], "peak_torque_ratio"),
+            (axes[2], "payload"),
+        ):
             y = [np.nan if getattr(p, what) is None else getattr(p, what) for p in members]
             ax.plot(x, y, marker="o", label=label or None)
             bad = [(xi, yi) for xi, yi, p in zip(x, y, members) if not p.ok]
             if bad:
                 ax.plot(*zip(*bad), "x", color="red", markersize=10, mew=2)
     axes[1].axhline(1.0, color="red", linewidth=1, linestyle="--")
+    axes[2].axhline(0.0, color="red", linewidth=1, linestyle="--")
     for ax in axes:
         ax.set_xlabel(f"mass of {result.object} [kg]" if by_mass else "speed override [%]")
         ax.grid(alpha=0.3)
@@ -247,6 +253,7 @@ def sweep_picture(result, path: str) -> Path:
             ax.legend(fontsize=8)
     axes[0].set_ylabel("cycle time [s]")
     axes[1].set_ylabel("peak |torque| / limit")
+    axes[2].set_ylabel("payload capacity at the TCP [kg]")
     fig.suptitle(f"{result.cell}: {result.run} (red x: the check failed)")
     return save_figure(fig, path)
 

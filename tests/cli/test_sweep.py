@@ -137,3 +137,44 @@ def test_bad_sweeps_exit_2_with_the_reason(cli, tmp_path, args, message):
     result = cli(["sweep", str(PUMA), "pick_place", "--workers", "1", "-o", str(table), *args])
     assert result.exit_code == 2, result.output
     assert message in result.output
+
+
+def _with_ballast(tmp_path, mass: float):
+    """The Puma cell with a point mass of ``mass`` kg fixed at the probe TCP's origin."""
+    cell = tmp_path / f"ballast_{mass!r}"
+    shutil.copytree(PUMA, cell)
+    text = (cell / "cell.yaml").read_text()
+    text = text.replace(
+        "\nsensors:\n", f"\n  - name: ballast\n    mass: {mass!r}\n    com: [0, 0, 0]\n\nsensors:\n"
+    ).replace(
+        "  - {parent: puma.probe, child: probe_tip, type: rigid, kind: fixture}\n",
+        "  - {parent: puma.probe, child: probe_tip, type: rigid, kind: fixture}\n"
+        "  - {parent: puma.probe, child: ballast, type: rigid, kind: fixture}\n",
+    )
+    (cell / "cell.yaml").write_text(text)
+    poses = (cell / "poses.yaml").read_text()
+    (cell / "poses.yaml").write_text(poses + "  ballast: {xyz: [0, 0, 0]}\n")
+    return str(cell)
+
+
+def test_the_payload_capacity_is_exact_a_ballast_of_it_reaches_the_limit(tmp_path, grid):
+    """The payload column is 'plan payload' on the run's motion: that much more at the TCP puts
+    the binding joint exactly on its torque limit; 0.1 % more fails the check there."""
+    (point,) = sweep_run(str(PUMA), "pick_place", workers=1).points
+    assert point.ok and point.payload is not None and point.payload > 0.5
+    device, joint, _, t, _, side = point.payload_binding.split()
+    assert (device, joint, side) == ("puma", "j1", "(lower)")
+    _, at_capacity = simulate_run(_with_ballast(tmp_path, point.payload), "pick_place")
+    assert at_capacity.ok
+    j = int(joint[1:]) - 1
+    assert math.isclose(at_capacity.peak_ratios("puma")["torque"][j], 1.0, abs_tol=1e-9)
+    _, beyond = simulate_run(_with_ballast(tmp_path, point.payload * 1.001), "pick_place")
+    (violation,) = beyond.violations
+    assert (violation.kind, violation.joint) == ("torque", joint)
+    assert math.isclose(violation.t_start, float(t), abs_tol=0.0051)
+    # the grid: a heavier workpiece leaves less; a slower run leaves more
+    for s in (0.25, 0.5, 1.0):
+        line = [p.payload for p in grid.points if p.speed == s]
+        assert line == sorted(line, reverse=True)
+    heavy = next(p for p in grid.points if p.mass == 8.0 and p.speed == 1.0)
+    assert heavy.payload < 0  # already overloaded: no room at all
