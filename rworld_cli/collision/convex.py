@@ -431,6 +431,11 @@ def penetration(a: Pieces, b: Pieces) -> tuple[np.ndarray, np.ndarray]:
 _CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
 
 
+def box_corners(half: np.ndarray) -> np.ndarray:
+    """The 8 corners (8, 3) of a box with half extents ``half`` (3,) in its own frame [m]."""
+    return _CORNERS * np.asarray(half, dtype=float)
+
+
 def boxes(T: np.ndarray, half: np.ndarray) -> Pieces:
     """Boxes centred at ``T[:, :3, 3]`` with axes ``T[:, :3, :3]`` and half extents (P, 3) [m]."""
     T = np.asarray(T, dtype=float).reshape(-1, 4, 4)

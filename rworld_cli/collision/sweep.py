@@ -289,8 +289,8 @@ def _sweep_chunk(
     K = len(times)
     q = {d: v[0][start : stop + 1] for d, v in joints.items()}
     poses = _poses(world, bodies, q)  # (B, K, 4, 4)
-    centres = np.einsum("bkij,bj->bki", poses[:, :, :3, :3], np.stack([b.center for b in bodies]))
-    centres += poses[:, :, :3, 3]
+    centre_in_frame = np.stack([b.center for b in bodies])[:, None, :, None]  # (B, 1, 3, 1)
+    centres = (poses[:, :, :3, :3] @ centre_in_frame)[..., 0] + poses[:, :, :3, 3]
     radius = np.array([b.radius for b in bodies])
     moves = reach[:, start:stop]  # (B, K-1)
     around = np.zeros((len(bodies), K))  # each sample: the most a body moves to a neighbour
@@ -318,7 +318,8 @@ def _sweep_chunk(
     T_box = poses @ np.stack([b.shape.bounding_box.T_owner_box for b in bodies])[:, None]
     half = np.stack([b.shape.bounding_box.half_extents for b in bodies])
     for a, c in ((I, J), (J, I)):
-        local = np.einsum("pkji,pkj->pki", T_box[a, :, :3, :3], centres[c] - T_box[a, :, :3, 3])
+        offset = centres[c] - T_box[a, :, :3, 3]  # each centre in the other's box: R^T (x - t)
+        local = (offset[:, :, None, :] @ T_box[a, :, :3, :3])[:, :, 0]
         outside = np.linalg.norm(np.maximum(np.abs(local) - half[a, None, :], 0.0), axis=2)
         lower = np.maximum(lower, outside - radius[c, None])
     slack = 2.0 * (clearance - tolerance)
@@ -534,11 +535,16 @@ class _Levers:
     arm : ndarray, shape (B, L)
         Bound on the distance from each joint's axis to each body [m]; 1 for a prismatic joint
         (it moves the body by its own travel); 0 where the joint does not move the body.
+    round : ndarray of bool, shape (B, L)
+        The body is a sphere or cylinder on the link before or after the revolute joint, round
+        about the joint's axis: turning the joint leaves the body where it is, relative to the
+        link the joint turns against (:func:`_round_about_axes`).
     """
 
     joints: list[tuple[str, int]]
     limits: np.ndarray
     arm: np.ndarray
+    round: np.ndarray
 
     @classmethod
     def of(cls, world, bodies: list[Body], joints: dict) -> _Levers:
@@ -581,7 +587,7 @@ class _Levers:
                 table[b, column] = r
         keys = list(columns)
         limits = np.array([cell.devices[d].joints[i].limits.acceleration for d, i in keys])
-        return cls(keys, limits, table)
+        return cls(keys, limits, table, _round_about_axes(world, bodies, keys))
 
     def travel(self, lo: dict, hi: dict, h: np.ndarray, columns=None) -> np.ndarray:
         """Bound on each joint's travel over N intervals of length ``h`` (N,), from the states
@@ -618,7 +624,95 @@ class _Levers:
         ci, cj = cols_of[I], cols_of[J]
         wi = np.where(self.arm[J[:, None], ci] > 0, 0.0, arm_of[I])
         wj = np.where(self.arm[I[:, None], cj] > 0, 0.0, arm_of[J])
-        return PairWeights(np.hstack([ci, cj]), np.hstack([wi, wj]))
+        vals = np.hstack([wi, wj])
+        cols = np.hstack([ci, cj])
+        # a joint turning one body of the pair about an axis the other (or the body itself)
+        # is round about leaves their distance alone: it counts for whether the pair moves,
+        # not for how fast its distance can change
+        rows = np.arange(len(I))[:, None]
+        round_ = self.round[I[rows], cols] | self.round[J[rows], cols]
+        return PairWeights(cols, np.where(round_, 0.0, vals), vals > 0)
+
+
+def _round_about_axes(world, bodies: list[Body], joints: list[tuple[str, int]]) -> np.ndarray:
+    """(B, L): body b is a sphere or a cylinder fixed to the link before or after revolute joint
+    l (the device's base frame before the first joint) and round about the joint's axis - the
+    sphere's centre on it, or the cylinder's axis along it.
+
+    Then the joint's turn moves nothing of b relative to the link on its other side, at any
+    state: a pair with b gains no speed of approach from it (the distance's derivative by that
+    joint is zero).  A base cylinder coaxial with the first joint, a wrist sphere centred on the
+    wrist axes, a flange disc on the last axis are the common cases.
+    """
+    cell = world.cell
+    out = np.zeros((len(bodies), len(joints)), dtype=bool)
+    column = {key: c for c, key in enumerate(joints)}
+    # each frame a joint's axis is fixed in -> (column, point, direction) in that frame
+    axes: dict[str, list[tuple[int, np.ndarray, np.ndarray]]] = {}
+    lines = {d: _joint_axis_lines(cell.devices[d]) for d in {d for d, _ in joints}}
+    for (d, i), c in column.items():
+        dev = cell.devices[d]
+        if dev.joints[i].kind != "revolute" or lines[d][i] is None:
+            continue
+        (p_before, u_before), (p_after, u_after) = lines[d][i]
+        axes.setdefault(d if i == 0 else dev.link_frames[i - 1], []).append((c, p_before, u_before))
+        axes.setdefault(dev.link_frames[i], []).append((c, p_after, u_after))
+    if not axes:
+        return out
+    links = {f for dev in cell.devices.values() for f in dev.link_frames} | set(cell.devices)
+    for b, body in enumerate(bodies):
+        if body.parts is not None or body.shape.kind not in ("sphere", "cylinder"):
+            continue
+        node = body.frame  # up to the first link (or device base) frame, through fixed frames
+        while node is not None and node != WORLD and node not in links:
+            node = world.parent(node)
+        if node is None or node not in axes:
+            continue
+        T = world.T(node, body.frame) @ body.shape.T_owner_shape
+        centre, along = T[:3, 3], T[:3, 2]
+        for c, point, direction in axes[node]:
+            if np.linalg.norm(_cross(centre - point, direction)) > 1e-9:
+                continue  # the centre is off the axis
+            if body.shape.kind == "cylinder" and np.linalg.norm(_cross(along, direction)) > 1e-9:
+                continue  # the cylinder's axis is not the joint's
+            out[b, c] = True
+    return out
+
+
+_TURN = 0.5  # [rad]: the test turn that shows a joint's axis
+
+
+def _joint_axis_lines(dev) -> list:
+    """Each joint's axis as a line (point, unit direction) in the frame before it and in the
+    link frame after it, whatever the convention, from its link transform at two values: per
+    joint ``((point, direction), (point, direction))``, or None when the motion is not a turn
+    about a fixed line (a prismatic joint)."""
+    q = np.array(dev.home, dtype=float)
+    A0 = dev.joint_transforms(q)
+    A1 = dev.joint_transforms(q + _TURN)  # each link transform depends on its own joint only
+    out = []
+    for a0, a1 in zip(A0, A1):
+        inverse = np.eye(4)
+        inverse[:3, :3], inverse[:3, 3] = a0[:3, :3].T, -a0[:3, :3].T @ a0[:3, 3]
+        lines = []
+        for M in (a1 @ inverse, inverse @ a1):  # the turn seen from before; from after
+            R, t = M[:3, :3], M[:3, 3]
+            u = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+            u /= 2 * np.sin(_TURN)
+            if abs(np.linalg.norm(u) - 1) > 1e-9 or abs(u @ t) > 1e-12:
+                break
+            # the axis point nearest the frame's origin: R turns about it, t = (I - R) p
+            point = (t + _cross(u, t) / np.tan(_TURN / 2)) / 2
+            lines.append((point, u))
+        out.append(tuple(lines) if len(lines) == 2 else None)
+    return out
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b of two 3-vectors (np.cross costs 40x this for one pair)."""
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
 
 
 @dataclass
@@ -628,13 +722,15 @@ class PairWeights:
 
     cols: np.ndarray
     vals: np.ndarray
+    moves: np.ndarray  # (P, 2C) bool: the joint moves one body of the pair against the other
 
     def take(self, rows) -> PairWeights:
-        return PairWeights(self.cols[rows], self.vals[rows])
+        return PairWeights(self.cols[rows], self.vals[rows], self.moves[rows])
 
     def static(self, moving: np.ndarray) -> np.ndarray:
-        """(P,) pairs no moving joint (``moving``, (L,) bool) changes the distance of."""
-        return ~np.any((self.vals > 0) & moving[self.cols], axis=1)
+        """(P,) pairs that no moving joint (``moving``, (L,) bool) moves against each other: one
+        rigid body, settled at a stretch's first sample."""
+        return ~np.any(self.moves & moving[self.cols], axis=1)
 
     def bound(self, travel: np.ndarray) -> np.ndarray:
         """(P, K) motion bounds from joint travel bounds ``travel`` (K, L)."""
