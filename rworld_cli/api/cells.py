@@ -165,8 +165,6 @@ def validate_files(paths: list[str], cell: str | None = None) -> list[FileReport
     list of FileReport
         One per path, in order; ``valid`` is False when a file has errors.
     """
-    from ..schema import models as sm
-    from ..schema import program as sp
     from ..schema.loader import load_cell, resolve_cell_path, validate_document
 
     reports = []
@@ -190,11 +188,15 @@ def validate_files(paths: list[str], cell: str | None = None) -> list[FileReport
             elif kind == "measurements":
                 report.summary = _validate_measurement_file(raw, doc, cell)
             elif kind == "poses":
-                pf = validate_document(doc, sm.PoseFile)
+                from ..schema.models import PoseFile
+
+                pf = validate_document(doc, PoseFile)
                 report.summary = (
                     f"{len(pf.poses)} pose(s); frame names are checked when a cell uses this file"
                 )
             else:
+                from ..schema import program as sp  # program models: built only when needed
+
                 model = sp.ProgramFile if kind == "program" else sp.RunFile
                 parsed = validate_document(doc, model)
                 count = (

@@ -20,18 +20,21 @@ import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from pydantic import BaseModel, ValidationError
 
 from .. import spatial
 from ..errors import Issue, UserError, did_you_mean
 from ..model import cell as wm
 from ..model import rules
 from ..units import ANGLE, LENGTH
-from . import models as sm
-from .messages import pydantic_issues
-from .yamlio import Marked, read_yaml
+
+if TYPE_CHECKING:  # pydantic, the file models and YAML load when a file is checked
+    from pydantic import BaseModel  # (a cell read back from schema.cellcache needs none)
+
+    from . import models as sm
+    from .yamlio import Marked
 
 # Which feature kinds each condition accepts (calibration report, section 5).
 CONDITION_FEATURE_KINDS = {
@@ -114,6 +117,10 @@ def validate_document(doc: Marked, model: type[BaseModel]):
                 )
             ],
         )
+    from pydantic import ValidationError
+
+    from .messages import pydantic_issues
+
     issues = _implausible_numbers(doc)
     try:
         result = model.model_validate(doc.data)
@@ -151,14 +158,21 @@ def load_cell(
     UserError
         With every error (and the warnings) of the cell and its pose files.
     """
+    from . import cellcache
+
     real, shown = resolve_cell_path(path)
+    given = None if pose_files is None else [str(Path(f).resolve()) for f in pose_files]
+    kept = cellcache.lookup(real, shown, given)
+    if kept is not None:
+        return kept
+    from . import models as sm
+    from .yamlio import read_yaml
+
     if doc is None:
         doc = read_yaml(real, shown)
     cell_file = validate_document(doc, sm.CellFile)
-    if pose_files is not None:
-        cell_file = cell_file.model_copy(
-            update={"pose_files": [str(Path(f).resolve()) for f in pose_files]}
-        )
+    if given is not None:
+        cell_file = cell_file.model_copy(update={"pose_files": given})
     builder = _Builder(doc, cell_file, real.parent, Path(shown).parent)
     builder.issues.extend(implausible_values(doc, cell_file.units))
     cell = builder.build(real)
@@ -166,7 +180,9 @@ def load_cell(
     ordered = sorted(builder.issues, key=lambda i: (i.file != shown, i.file, i.line, i.column))
     if errors:
         raise UserError(f"{shown}: {len(errors)} error(s)", ordered)
-    return LoadedCell(cell, [i for i in ordered if i.severity == "warning"])
+    loaded = LoadedCell(cell, [i for i in ordered if i.severity == "warning"])
+    cellcache.store(real, shown, given, loaded, builder.read)
+    return loaded
 
 
 ANGLE_KEYS = {"alpha", "theta", "rpy"}  # keys whose numbers are angles in the file's unit
@@ -217,6 +233,9 @@ def implausible_values(doc: Marked, units: sm.Units) -> list[Issue]:
 
 def load_pose_file_doc(path: str | Path, display: str | None = None) -> tuple[Marked, sm.PoseFile]:
     """Read and schema-check a pose file on its own (``rworld validate poses.yaml``)."""
+    from . import models as sm
+    from .yamlio import read_yaml
+
     doc = read_yaml(path, display)
     return doc, validate_document(doc, sm.PoseFile)
 
@@ -389,6 +408,7 @@ class _Builder:
         self.features: dict[str, wm.Feature] = {}
         self.feature_paths: dict[str, tuple] = {}
         self.fixed_poses: dict[str, np.ndarray] = {}  # frames of fixed joints' links: T_parent
+        self.read: list[Path] = []  # files read besides the cell file: pose files, meshes
 
     # ------------------------------------------------------------------ helpers
     def err(self, path, message, prefer="value", doc: Marked | None = None):
@@ -577,6 +597,7 @@ class _Builder:
             )
             return None
         stat = file.stat()
+        self.read.append(file)
         facts = _mesh_facts(str(file.resolve()), stat.st_mtime_ns, stat.st_size)
         if isinstance(facts, str):
             self.err(path + ("file",), facts)
@@ -723,6 +744,8 @@ class _Builder:
         )
 
     def _device(self, i: int, d: sm.Device) -> wm.DeviceModel | None:
+        from . import models as sm
+
         path = ("devices", i)
         ok = True
         by_frames = d.dh is None
@@ -936,6 +959,8 @@ class _Builder:
         """Named joint configurations, SI; checked for length, limits and clashes with frame
         names.
         """
+        from . import models as sm
+
         out = {}
         scale = np.array([self.A if j.kind == "revolute" else self.L for j in joints])
         lower = np.array([j.limits.lower for j in joints])
@@ -975,6 +1000,8 @@ class _Builder:
 
     def _joint(self, path, j: int, row: sm.Joint, by_frames: bool) -> wm.Joint | None:
         """One joint row in SI (``None`` when its form does not fit the device's)."""
+        from . import models as sm
+
         dh_given = [k for k in ("a", "alpha", "d", "theta") if getattr(row, k) is not None]
         frame_given = [k for k in ("origin", "axis") if getattr(row, k) is not None]
         if by_frames and dh_given:
@@ -1369,6 +1396,7 @@ class _Builder:
                 self.issues.extend(exc.issues)
                 complete = False
                 continue
+            self.read.append(real)
             files.append(real)
             self.issues.extend(implausible_values(doc, pf.units))
             L, A = LENGTH[pf.units.length], ANGLE[pf.units.angle]

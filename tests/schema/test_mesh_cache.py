@@ -24,7 +24,8 @@ print(json.dumps({"trimesh": "trimesh" in sys.modules,
 
 
 def _load(cell, cache) -> dict:
-    env = os.environ | {"RWORLD_CACHE_DIR": str(cache)}
+    # the meshes' own cache: the whole loaded cell's (schema.cellcache) would skip them
+    env = os.environ | {"RWORLD_CACHE_DIR": str(cache), "RWORLD_CELL_CACHE": "0"}
     out = subprocess.run(
         [sys.executable, "-c", PROBE, str(cell)], env=env, capture_output=True, text=True
     )

@@ -1,0 +1,117 @@
+"""Loaded cells kept on disk (``schema/cellcache.py``): an unchanged cell loads again without
+pydantic or YAML and gives the same model and warnings; a changed byte in the cell, a pose file
+or a mesh loads it afresh; bad input is never kept; a damaged entry is a miss."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import pickle
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from rworld_cli.errors import UserError
+from rworld_cli.schema import cellcache
+from rworld_cli.schema.loader import load_cell
+from tests.conftest import WORKCELLS
+
+PROBE = """
+import json, sys
+from rworld_cli.schema.loader import load_cell
+loaded = load_cell(sys.argv[1])
+cell = loaded.cell
+print(json.dumps({
+    "pydantic": "pydantic" in sys.modules, "yaml": "yaml" in sys.modules,
+    "warnings": [str(w) for w in loaded.warnings],
+    "poses": {k: v.tolist() for k, v in sorted(cell.poses.items())},
+}))
+"""
+
+
+def _load(cell, cache, **env) -> dict:
+    run_env = os.environ | {"RWORLD_CACHE_DIR": str(cache)} | env
+    out = subprocess.run(
+        [sys.executable, "-c", PROBE, str(cell)], env=run_env, capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout)
+
+
+def test_an_unchanged_cell_loads_without_pydantic_and_the_same(tmp_path):
+    cell = tmp_path / "puma560"
+    shutil.copytree(WORKCELLS / "puma560", cell)
+    cache = tmp_path / "cache"
+    first = _load(cell, cache)
+    assert first["pydantic"] and first["yaml"] and first["warnings"]  # the Puma's two
+    assert len(list((cache / "cells").glob("*.pickle"))) == 1
+    second = _load(cell, cache)
+    assert not second["pydantic"] and not second["yaml"]
+    assert second["warnings"] == first["warnings"] and second["poses"] == first["poses"]
+    # switched off: checked afresh
+    off = _load(cell, cache, RWORLD_CELL_CACHE="0")
+    assert off["pydantic"] and off["poses"] == first["poses"]
+
+
+def _entry_count(cache) -> int:
+    return len(list((cache / "cells").glob("*.pickle")))
+
+
+def test_a_changed_pose_file_or_mesh_loads_afresh(tmp_path, monkeypatch):
+    monkeypatch.setenv("RWORLD_CACHE_DIR", str(tmp_path / "cache"))
+    cell = tmp_path / "panda"
+    shutil.copytree(WORKCELLS / "panda", cell)
+    first = load_cell(cell).cell
+    kept = load_cell(cell).cell
+    assert kept is not first and set(kept.poses) == set(first.poses)
+    for name, T in first.poses.items():
+        np.testing.assert_array_equal(kept.poses[name], T)
+    # a pose file is read again when its bytes change: the new number is seen
+    poses = cell / "poses.yaml"
+    text = poses.read_text()
+    assert "  panda:\n    xyz: [0.0, 0.0, 0.0]\n" in text
+    poses.write_text(
+        text.replace("  panda:\n    xyz: [0.0, 0.0, 0.0]\n", "  panda:\n    xyz: [0, 0, 0.25]\n")
+    )
+    moved = load_cell(cell).cell
+    assert moved.poses["panda"][2, 3] == pytest.approx(0.25)
+    # a mesh too: its facts are part of the model (a scaled copy of a link mesh)
+    mesh = next((cell / "meshes").rglob("*.stl"))
+    data = mesh.read_bytes()
+    mesh.write_bytes(b"changed".ljust(80) + data[80:])  # the same triangles, other bytes
+    load_cell(cell)  # a miss: loaded afresh, and the entry now holds the new bytes' digest
+    (entry,) = (tmp_path / "cache" / "cells").glob("*.pickle")
+    read = dict(pickle.loads(entry.read_bytes())["read"])
+    assert read[str(mesh.resolve())] == hashlib.sha256(mesh.read_bytes()).hexdigest()
+    assert read[str(poses.resolve())] == hashlib.sha256(poses.read_bytes()).hexdigest()
+
+
+def test_bad_input_is_never_kept_and_a_damaged_entry_is_a_miss(tmp_path, monkeypatch):
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("RWORLD_CACHE_DIR", str(cache))
+    cell = tmp_path / "puma560"
+    shutil.copytree(WORKCELLS / "puma560", cell)
+    text = (cell / "cell.yaml").read_text()
+    (cell / "cell.yaml").write_text(text.replace("mass: 17.4", "mass: -17.4"))
+    for _ in range(2):
+        with pytest.raises(UserError) as err:
+            load_cell(cell)
+        assert any("mass" in i.message or "mass" in i.location for i in err.value.issues)
+    assert _entry_count(cache) == 0
+    (cell / "cell.yaml").write_text(text)
+    good = load_cell(cell).cell
+    (entry,) = (cache / "cells").glob("*.pickle")
+    entry.write_bytes(b"not a pickle")
+    again = load_cell(cell).cell  # loaded afresh, and kept again
+    assert set(again.devices) == set(good.devices)
+    assert pickle.loads(entry.read_bytes())["loaded"].cell.name == good.name
+    # an entry naming a file that is gone is a miss, not an error
+    data = pickle.loads(entry.read_bytes())
+    data["read"].append((str(tmp_path / "gone.yaml"), "0" * 64))
+    entry.write_bytes(pickle.dumps(data))
+    assert cellcache.lookup(cell / "cell.yaml", str(cell / "cell.yaml"), None) is None
+    assert load_cell(cell).cell.name == good.name
