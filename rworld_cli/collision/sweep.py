@@ -315,15 +315,28 @@ def _sweep_chunk(
     lower = (
         np.linalg.norm(centres[I] - centres[J], axis=2) - radius[I, None] - radius[J, None]
     )  # (P, K)
-    T_box = poses @ np.stack([b.shape.bounding_box.T_owner_box for b in bodies])[:, None]
-    half = np.stack([b.shape.bounding_box.half_extents for b in bodies])
-    for a, c in ((I, J), (J, I)):
-        offset = centres[c] - T_box[a, :, :3, 3]  # each centre in the other's box: R^T (x - t)
-        local = (offset[:, :, None, :] @ T_box[a, :, :3, :3])[:, :, 0]
-        outside = np.linalg.norm(np.maximum(np.abs(local) - half[a, None, :], 0.0), axis=2)
-        lower = np.maximum(lower, outside - radius[c, None])
     slack = 2.0 * (clearance - tolerance)
     M = weights.bound(travel[start:stop])  # (P, K-1) motion bounds
+    # the boxes only where the spheres leave a sample or an interval to check
+    unsettled = np.any(lower < watch if watch > 0 else lower <= 0, axis=1)
+    if K > 1:
+        unsettled |= np.any(lower[:, :-1] + lower[:, 1:] - M < slack, axis=1)
+    rows = np.flatnonzero(unsettled)
+    if len(rows):
+        Ir, Jr = I[rows], J[rows]
+        boxed, slot = np.unique(np.concatenate([Ir, Jr]), return_inverse=True)
+        T_box = (
+            poses[boxed]
+            @ np.stack([bodies[b].shape.bounding_box.T_owner_box for b in boxed])[:, None]
+        )
+        half = np.stack([bodies[b].shape.bounding_box.half_extents for b in boxed])
+        sa, sb = slot[: len(rows)], slot[len(rows) :]
+        part = lower[rows]
+        for a, c in ((sa, Jr), (sb, Ir)):
+            local = np.einsum("pkji,pkj->pki", T_box[a, :, :3, :3], centres[c] - T_box[a, :, :3, 3])
+            outside = np.linalg.norm(np.maximum(np.abs(local) - half[a, None, :], 0.0), axis=2)
+            part = np.maximum(part, outside - radius[c, None])
+        lower[rows] = part
     if K > 1:
         need_interval = lower[:, :-1] + lower[:, 1:] - M < slack
         need_interval[static] = False
@@ -559,7 +572,12 @@ class _Levers:
         length = {}
         for d, dev in cell.devices.items():
             q = joints[d][0]
-            norms = np.linalg.norm(dev.joint_transforms(q)[..., :3, 3], axis=-1).max(axis=0)
+            # a revolute joint turns its link frame's offset about the joint axis, so the
+            # offset's length is the same at every sample - unless a prismatic joint or a
+            # calibration's correction (a turn before the joint's own) makes it vary
+            varying = any(j.kind == "prismatic" or j.correction is not None for j in dev.joints)
+            sampled = q if varying else q[:1]
+            norms = np.linalg.norm(dev.joint_transforms(sampled)[..., :3, 3], axis=-1).max(axis=0)
             steps = np.abs(np.diff(q, axis=0)).max(axis=0, initial=0.0)
             prismatic = np.array([j.kind == "prismatic" for j in dev.joints])
             for i, f in enumerate(dev.link_frames):
@@ -649,7 +667,13 @@ def _round_about_axes(world, bodies: list[Body], joints: list[tuple[str, int]]) 
     column = {key: c for c, key in enumerate(joints)}
     # each frame a joint's axis is fixed in -> (column, point, direction) in that frame
     axes: dict[str, list[tuple[int, np.ndarray, np.ndarray]]] = {}
-    lines = {d: _joint_axis_lines(cell.devices[d]) for d in {d for d, _ in joints}}
+    known: dict[tuple, list] = {}  # identical robots of a line: their axes worked out once
+    lines = {}
+    for d in {d for d, _ in joints}:
+        key = _chain_key(cell.devices[d])
+        if key not in known:
+            known[key] = _joint_axis_lines(cell.devices[d])
+        lines[d] = known[key]
     for (d, i), c in column.items():
         dev = cell.devices[d]
         if dev.joints[i].kind != "revolute" or lines[d][i] is None:
@@ -680,6 +704,31 @@ def _round_about_axes(world, bodies: list[Body], joints: list[tuple[str, int]]) 
 
 
 _TURN = 0.5  # [rad]: the test turn that shows a joint's axis
+
+
+def _chain_key(dev) -> tuple:
+    """What fixes a device's joint axes in its link frames: equal keys, equal axes."""
+
+    def array(x) -> bytes | None:
+        return None if x is None else np.asarray(x, dtype=float).tobytes()
+
+    return (
+        dev.convention,
+        array(dev.home),
+        tuple(
+            (
+                j.kind,
+                j.a,
+                j.alpha,
+                j.d,
+                j.theta,
+                array(j.origin),
+                array(j.axis),
+                array(j.correction),
+            )
+            for j in dev.joints
+        ),
+    )
 
 
 def _joint_axis_lines(dev) -> list:

@@ -11,6 +11,7 @@ name (``puma``); auxiliary, link and TCP frames are ``owner.name``
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -243,7 +244,7 @@ class DeviceModel:
     def dof(self) -> int:
         return len(self.joints)
 
-    @property
+    @functools.cached_property  # asked for at every pose of a batch: built once
     def link_frames(self) -> tuple[str, ...]:
         return tuple(f"{self.name}.{link.name}" for link in self.links)
 

@@ -176,7 +176,7 @@ class CollisionReport:
         }
 
 
-def check_run(run, sched, times: np.ndarray, report_within: float = REPORT_WITHIN):
+def check_run(run, sched, times: np.ndarray, report_within: float = REPORT_WITHIN, sampled=None):
     """Collisions and clearance of a scheduled run on its clock ``times`` (K,).
 
     Parameters
@@ -184,6 +184,9 @@ def check_run(run, sched, times: np.ndarray, report_within: float = REPORT_WITHI
     run : Run
         Its ``clearance`` and ``collision_tolerance`` apply.
     sched : the engine's scheduler, after ``run_all`` (tracks, snapshots, world).
+    sampled : dict, optional
+        Device -> (q, qd, qdd), each (K, n): the states at ``times`` already sampled (the
+        engine's timelines), used where the sweep asks for a stretch of the clock.
     """
     cell = run.cell
     model = collision_model(cell)
@@ -191,6 +194,13 @@ def check_run(run, sched, times: np.ndarray, report_within: float = REPORT_WITHI
 
     def states(t, devices=None):
         t = np.asarray(t, dtype=float)
+        if sampled is not None and len(t):  # a stretch of the clock: sampled already
+            k = int(np.searchsorted(times, t[0]))
+            if k + len(t) <= len(times) and np.array_equal(times[k : k + len(t)], t):
+                return {
+                    d: tuple(x[k : k + len(t)] for x in sampled[d])
+                    for d in (cell.devices if devices is None else devices)
+                }
         out = {}
         for d in cell.devices if devices is None else devices:
             dev = cell.devices[d]
@@ -362,27 +372,27 @@ def _clearance_columns(sched, model, result, times, spans):
             carried[d][k] = [body.frame in frames for body in bodies]
     world.restore(snaps[-1][1])
     stretch = np.searchsorted(np.array(starts[1:]), close["sample"], side="right")
-    columns = {}
-    mine_of = {}
-    for d in sched.tracks:
-        mine = carried[d][stretch, close["a"]] | carried[d][stretch, close["b"]]
-        mine_of[d] = mine
-        column = np.full(K, np.inf)
-        np.minimum.at(column, close["sample"][mine], close["distance"][mine])
-        columns[d] = column
+    devices = list(sched.tracks)
+    every = np.stack([carried[d] for d in devices], axis=-1)  # (stretches, B, D)
+    # (record, device) for every record of a body the device carries: all devices at once
+    r_of, d_of = np.nonzero(every[stretch, close["a"]] | every[stretch, close["b"]])
+    table = np.full((len(devices), K), np.inf)
+    np.minimum.at(table, (d_of, close["sample"][r_of]), close["distance"][r_of])
+    columns = dict(zip(devices, table))
     steps = []
     t = times[close["sample"]]
-    # records nearest first: the first of each pair is its least distance
-    order = np.argsort(close["distance"], kind="stable")
-    ranked = {d: order[mine[order]] for d, mine in mine_of.items()}  # each device's, nearest first
+    # each device's records nearest first (ties in record order): the first of each pair is
+    # its least distance
+    order = np.lexsort((r_of, close["distance"][r_of], d_of))
+    bounds = np.searchsorted(d_of[order], np.arange(len(devices) + 1))
+    ranked = {d: r_of[order[bounds[k] : bounds[k + 1]]] for k, d in enumerate(devices)}
     for d, t0, t1, step in spans:
         mine = ranked[d]
         sel = mine[(t[mine] >= t0 - 1e-12) & (t[mine] <= t1 + 1e-12)]
         if not len(sel):
             continue
-        _, first = np.unique(
-            np.stack([close["a"][sel], close["b"][sel]], axis=1), axis=0, return_index=True
-        )
+        # each pair once, at its first (least) record: pairs as one integer each
+        _, first = np.unique(close["a"][sel] * len(bodies) + close["b"][sel], return_index=True)
         pairs = sel[np.sort(first)]
         steps.append(
             {

@@ -872,13 +872,13 @@ def simulate(
     """
     sched = _Scheduler(run)
     sched.run_all()
-    result = _sample(run, sched, progress, payload)
+    result, sampled = _sample(run, sched, progress, payload)
     if collisions:
         from .collisions import check_run
 
         if progress:
             progress(0, None, "collisions")
-        result.collisions = check_run(run, sched, result.times)
+        result.collisions = check_run(run, sched, result.times, sampled=sampled)
     return result
 
 
@@ -889,7 +889,10 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(edges[::2], edges[1::2]))
 
 
-def _sample(run: Run, sched: _Scheduler, progress, payload: bool = False) -> SimulationResult:
+def _sample(
+    run: Run, sched: _Scheduler, progress, payload: bool = False
+) -> tuple[SimulationResult, dict]:
+    """The run on its clock, and every device's (q, qd, qdd) at the clock's instants."""
     cell = run.cell
     end = max((tr.end for tr in sched.tracks.values()), default=0.0)
     times = np.arange(0.0, end, run.dt)
@@ -1010,7 +1013,7 @@ def _sample(run: Run, sched: _Scheduler, progress, payload: bool = False) -> Sim
     violations.sort(key=lambda v: (v.t_start, v.device, v.joint))
     events = sorted(sched.events, key=lambda e: e.t)  # stable: simultaneous events keep their order
     unlimited = {d: cell.devices[d].unlimited() for d in timelines if cell.devices[d].unlimited()}
-    return SimulationResult(
+    result = SimulationResult(
         cell.name,
         run.file,
         run.dt,
@@ -1024,6 +1027,7 @@ def _sample(run: Run, sched: _Scheduler, progress, payload: bool = False) -> Sim
         step_where={d: [st.where for st in sched.tracks[d].program.steps] for d in run_devices},
         snapshots=list(snaps),
     )
+    return result, {d: (q[d], qd[d], qdd[d]) for d in devices}
 
 
 def _violations(device, dev, times, q, ratios, qd, qdd, tau, step_index, texts) -> list[Violation]:

@@ -466,9 +466,7 @@ class World:
         computed once.  The tree is the current one (a batch spans no affixment change).
         """
         N = len(next(iter(joints.values()))) if joints else 1
-        link_index = {
-            f: (d, i) for d, dev in self.cell.devices.items() for i, f in enumerate(dev.link_frames)
-        }
+        link_index = self._link_frames()
         links: dict[str, np.ndarray] = {}
         memo: dict[str, np.ndarray] = {WORLD: np.broadcast_to(np.eye(4), (N, 4, 4))}
 
