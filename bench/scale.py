@@ -1,18 +1,24 @@
 """Scale: one cell of N Puma 560s on a grid, 2 m apart, each with its own program of four joint
 moves (nothing to hit), checked in one run by ``rworld check`` with and without collisions.
 
-Run:  .venv/bin/python bench/scale.py [--robots 16 64 256] [--keep DIR]
+Run:  .venv/bin/python bench/scale.py [--robots 16 64 256] [--repeat 3] [--keep DIR]
 
-Printed per N: the wall time and peak memory (max RSS) of ``rworld check CELL line`` and of
-``rworld check CELL line --no-collisions`` in fresh processes, their ratio, and the time per
-robot (linear growth: the same per robot at every N).
+Printed per N: the median wall time and peak memory (max RSS) of ``rworld check CELL line``
+and of ``rworld check CELL line --no-collisions`` in fresh processes, run alternately, their
+ratio, and the time per robot (linear growth: the same per robot at every N).  Both start from
+the same state: a ``validate`` first fills the caches (compiled kernels, the loaded cell,
+``schema/cellcache.py``).  The last three columns repeat the pair with the cell cache off
+(``RWORLD_CELL_CACHE=0``: YAML and every check of the cell on every run, as on a CI machine
+with an empty cache).
 """
 
 from __future__ import annotations
 
 import argparse
 import copy
+import os
 import shutil
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -76,7 +82,7 @@ def line_cell(folder: Path, robots: int, seed: int = 0, spacing: float = 2.0) ->
     return folder
 
 
-def measured(cmd: list[str]) -> tuple[float, float, int]:
+def measured(cmd: list[str], env: dict | None = None) -> tuple[float, float, int]:
     """(wall time [s], peak RSS of the child [MB], exit code) of one fresh process."""
     wrapper = [
         sys.executable,
@@ -86,7 +92,9 @@ def measured(cmd: list[str]) -> tuple[float, float, int]:
         "w = time.perf_counter() - t; "
         "print(w, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024, rc)",
     ]
-    out = subprocess.run(wrapper + cmd, capture_output=True, text=True, check=True, cwd=REPO).stdout
+    out = subprocess.run(
+        wrapper + cmd, capture_output=True, text=True, check=True, cwd=REPO, env=env
+    ).stdout
     wall, rss, rc = out.split()
     return float(wall), float(rss), int(rc)
 
@@ -95,21 +103,36 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--robots", type=int, nargs="+", default=[16, 64, 256])
     parser.add_argument("--keep", type=Path, default=None, help="Write the cells here.")
+    parser.add_argument("--repeat", type=int, default=3, help="Alternating runs per figure.")
     args = parser.parse_args()
     rworld = shutil.which("rworld", path=str(Path(sys.executable).parent)) or "rworld"
     root = args.keep or Path(tempfile.mkdtemp())
     print(
         f"{'robots':>6} {'check':>9} {'MB':>6} {'limits only':>11} {'MB':>6} {'ratio':>6} "
-        f"{'s / robot':>9}"
+        f"{'s / robot':>9} | cell cache off: {'check':>7} {'limits':>7} {'ratio':>6}"
     )
+    cold = os.environ | {"RWORLD_CELL_CACHE": "0"}
     for n in args.robots:
         cell = line_cell(root / f"line_{n}", n)
-        full = measured([rworld, "check", str(cell), "line"])
-        bare = measured([rworld, "check", str(cell), "line", "--no-collisions"])
-        assert full[2] == 0 and bare[2] == 0, (full, bare)
+        subprocess.run([rworld, "validate", str(cell)], capture_output=True, check=True)
+
+        def pair(env=None):
+            full, bare = [], []
+            for _ in range(args.repeat):
+                full.append(measured([rworld, "check", str(cell), "line"], env))
+                bare.append(measured([rworld, "check", str(cell), "line", "--no-collisions"], env))
+            assert all(r[2] == 0 for r in full + bare), (full, bare)
+            return [
+                (statistics.median(r[0] for r in runs), max(r[1] for r in runs))
+                for runs in (full, bare)
+            ]
+
+        (t_full, mb_full), (t_bare, mb_bare) = pair()
+        (c_full, _), (c_bare, _) = pair(cold)
         print(
-            f"{n:>6} {full[0]:>8.1f}s {full[1]:>6.0f} {bare[0]:>10.1f}s {bare[1]:>6.0f} "
-            f"{full[0] / bare[0]:>6.2f} {full[0] / n:>9.3f}"
+            f"{n:>6} {t_full:>8.2f}s {mb_full:>6.0f} {t_bare:>10.2f}s {mb_bare:>6.0f} "
+            f"{t_full / t_bare:>6.2f} {t_full / n:>9.3f} | {'':15}{c_full:>6.2f}s {c_bare:>6.2f}s "
+            f"{c_full / c_bare:>6.2f}"
         )
 
 
