@@ -15,6 +15,7 @@ are reported again); bad input is always checked and located anew.
 else ``$XDG_CACHE_HOME/rworld`` or ``~/.cache/rworld``), as Python's ``__pycache__`` and the
 compiled kernels are: whoever can write there can already run code as the user.  A damaged
 or unreadable entry is a miss, never an error; ``RWORLD_CELL_CACHE=0`` turns the cache off.
+The folder keeps the 256 most recently used entries.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 FORMAT = 1  # bump when an entry's layout changes
+MAX_ENTRIES = 256  # the least recently used beyond this are removed when one is added
 
 _FINGERPRINT: list[str] = []  # computed once per process
 
@@ -80,6 +82,7 @@ def lookup(real: Path, shown: str, pose_files: list[str] | None) -> Any:
         for file, digest in data["read"]:
             if _digest(Path(file)) != digest:
                 return None
+        os.utime(entry)  # recently used: kept when the cache is pruned
         return data["loaded"]
     except Exception:  # a miss: absent, damaged, from another layout - loaded afresh
         return None
@@ -103,5 +106,17 @@ def store(
         temporary = entry.with_name(f".{entry.name}.{os.getpid()}")
         temporary.write_bytes(data)
         os.replace(temporary, entry)
+        _prune(entry.parent)
     except Exception:  # a cache: whatever fails to be kept is loaded afresh next time
         pass
+
+
+def _prune(folder: Path) -> None:
+    """Keep the :data:`MAX_ENTRIES` most recently used entries (a test suite or a sweep over
+    many generated cells would otherwise fill the folder)."""
+    entries = list(folder.glob("*.pickle"))
+    if len(entries) <= MAX_ENTRIES:
+        return
+    by_age = sorted(entries, key=lambda e: e.stat().st_mtime_ns)
+    for old in by_age[: len(entries) - MAX_ENTRIES]:
+        old.unlink(missing_ok=True)

@@ -115,3 +115,23 @@ def test_bad_input_is_never_kept_and_a_damaged_entry_is_a_miss(tmp_path, monkeyp
     entry.write_bytes(pickle.dumps(data))
     assert cellcache.lookup(cell / "cell.yaml", str(cell / "cell.yaml"), None) is None
     assert load_cell(cell).cell.name == good.name
+
+
+def test_the_folder_keeps_the_most_recently_used_entries(tmp_path, monkeypatch):
+    from rworld_cli.schema.loader import resolve_cell_path
+
+    monkeypatch.setenv("RWORLD_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(cellcache, "MAX_ENTRIES", 2)
+    cells, entries = [], []
+    for k in range(3):
+        cell = tmp_path / f"cell{k}"
+        shutil.copytree(WORKCELLS / "puma560", cell)
+        cells.append(cell)
+        entries.append(cellcache._entry(*resolve_cell_path(cell), None))
+    load_cell(cells[0])
+    load_cell(cells[1])
+    os.utime(entries[0], ns=(1, 1))  # the first long unused, the second less long
+    os.utime(entries[1], ns=(2, 2))
+    load_cell(cells[0])  # used again now
+    load_cell(cells[2])  # a third entry: the least recently used (the second) goes
+    assert entries[0].exists() and entries[2].exists() and not entries[1].exists()
