@@ -474,10 +474,18 @@ def _collision_free(cell, device: str, Q: np.ndarray) -> np.ndarray:
     T = world.T_world_frames(frames, {device: Q})
     I = np.repeat([i for i, _ in pairs], len(Q))
     J = np.repeat([j for _, j in pairs], len(Q))
+    state = np.tile(np.arange(len(Q)), len(pairs))
     TI = np.concatenate([T[bodies[i].frame] for i, _ in pairs])
     TJ = np.concatenate([T[bodies[j].frame] for _, j in pairs])
-    result = distances(bodies, I, J, TI, TJ)
-    hit = result.overlap.reshape(len(pairs), len(Q)).any(axis=0)
+    # bounding spheres apart: no overlap, and no exact query (most pairs, most states)
+    centre = np.array([b.center for b in bodies])
+    radius = np.array([b.radius for b in bodies])
+    ci = np.einsum("qij,qj->qi", TI[:, :3, :3], centre[I]) + TI[:, :3, 3]
+    cj = np.einsum("qij,qj->qi", TJ[:, :3, :3], centre[J]) + TJ[:, :3, 3]
+    near = np.flatnonzero(np.linalg.norm(ci - cj, axis=1) <= radius[I] + radius[J])
+    result = distances(bodies, I[near], J[near], TI[near], TJ[near])
+    hit = np.zeros(len(Q), dtype=bool)
+    hit[state[near[result.overlap]]] = True
     return ok & ~hit
 
 

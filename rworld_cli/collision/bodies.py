@@ -507,6 +507,15 @@ def _near_triangles(
     axes_local = np.einsum("koij,kjl->koil", axes.reshape(K, per_state, 3, 3), R)
     half = half.reshape(K, per_state, 3)
     reach = np.einsum("koij,koi->koj", np.abs(axes_local), half)  # the box along mesh axes
+    cylinder = other.cylinder.reshape(K, per_state)
+    if cylinder.any():  # a cylinder's own extent along the mesh's axes, not its box's: with
+        # it a face the cylinder hovers over ties with the distance measured and is dropped
+        along = np.abs(axes_local[cylinder][:, 2, :])  # (m, 3): |axis . e_j|
+        radial = np.sqrt(np.maximum(1.0 - along**2, 0.0))
+        r = other.radius.reshape(K, per_state)[cylinder][:, None]
+        h = other.half_length.reshape(K, per_state)[cylinder][:, None]
+        margin = other.margin.reshape(K, per_state)[cylinder][:, None]
+        reach[cylinder] = along * h + radial * r + margin
     out_k, out_o, out_t, out_low = [], [], [], []
     upper = np.empty(K)
     step = max(1, 400_000 // max(len(vertices), len(centre), 1) // per_state)
@@ -519,36 +528,62 @@ def _near_triangles(
         # along the mesh's axes: the boxes' gap
         gap = np.abs(centre[None, None] - pts[:, :, None]) - extent - reach[sl][:, :, None]
         lower = gap.max(axis=-1)
-        # along the piece box's axes: the triangle's vertices projected
-        proj = np.einsum("koij,tvj->kotvi", axes_local[sl], triangles)
-        along = np.einsum("koij,koj->koi", axes_local[sl], pts)[:, :, None, None, :]
-        near = np.min(proj - along, axis=3)
-        far = np.max(proj - along, axis=3)
-        box = half[sl][:, :, None, :]
-        lower = np.maximum(lower, np.maximum(near - box, -far - box).max(axis=-1))
         kk, oo, tt = np.nonzero(lower <= upper[sl][:, None, None] + 1e-9)
         out_k.append(kk + start)
         out_o.append(oo)
         out_t.append(tt)
         out_low.append(lower[kk, oo, tt])
     k, o, tri_index, low = (np.concatenate(x) for x in (out_k, out_o, out_t, out_low))
-    # the most promising combination of each state, measured exactly: a tight upper bound
-    first = np.lexsort((low, k))
-    first = first[np.r_[True, k[first][1:] != k[first][:-1]]]
-    world = np.einsum("qij,qtj->qti", R[k[first]], triangles[tri_index[first]]) + t[k[first], None]
-    exact = convex.distance(
-        convex.triangles(world), other.take(k[first] * per_state + o[first])
-    ).distance
-    exact = np.maximum(exact, 0.0)
-    measured = np.zeros(K, dtype=bool)  # the state's upper bound is a distance measured
-    measured[k[first]] = exact <= upper[k[first]]
-    upper[k[first]] = np.minimum(upper[k[first]], exact)
+    measured = np.zeros(K, dtype=bool)  # the state's upper bound is a distance measured ...
+    best_t = np.full(K, -1)  # ... the distance of this triangle and piece
+    best_o = np.full(K, -1)
+
+    def measure_most_promising() -> None:
+        """The most promising combination of each state, measured exactly: a tight upper
+        bound (``upper``, ``measured`` updated).  Bounds tie (a face's triangles under a
+        piece all give the gap to the face's plane): among bounds within 1e-9 m of the
+        lowest, the triangle whose box centre is nearest the piece's centre is the likeliest
+        to hold the nearest point."""
+        # the combinations come sorted by state: each state's run, reduced in one pass
+        starts = np.flatnonzero(np.r_[True, k[1:] != k[:-1]])
+        runs = np.diff(np.r_[starts, len(k)])
+        lowest = np.repeat(np.minimum.reduceat(low, starts), runs)
+        nearness = np.linalg.norm(centre[tri_index] - c_local[k, o], axis=1)
+        key = np.where(low > lowest + 1e-9, np.inf, nearness)
+        hit = np.flatnonzero(key == np.repeat(np.minimum.reduceat(key, starts), runs))
+        first = hit[np.r_[True, k[hit][1:] != k[hit][:-1]]]  # the first of each state's best
+        ks = k[first]
+        world = np.einsum("qij,qtj->qti", R[ks], triangles[tri_index[first]]) + t[ks, None]
+        exact = convex.distance(
+            convex.triangles(world), other.take(ks * per_state + o[first])
+        ).distance
+        exact = np.maximum(exact, 0.0)
+        better = exact <= upper[ks]
+        measured[ks[better]] = True
+        best_t[ks[better]], best_o[ks[better]] = tri_index[first][better], o[first][better]
+        upper[ks] = np.minimum(upper[ks], exact)
+
+    # 1. the boxes' gap along the mesh's axes, cut by the nearest vertex, then by a measure
+    measure_most_promising()
+    keep = low <= upper[k] + 1e-9
+    k, o, tri_index, low = k[keep], o[keep], tri_index[keep], low[keep]
+    # 2. along the piece box's own axes, for the combinations still in: the triangle's
+    # vertices projected (against every triangle this would cost 5x step 1)
+    axes_q = axes_local[k, o]  # (q, 3, 3)
+    proj = np.einsum("qij,qvj->qvi", axes_q, triangles[tri_index])  # (q, 3 vertices, 3 axes)
+    along = np.einsum("qij,qj->qi", axes_q, c_local[k, o])  # the box centre on its axes
+    box = half[k, o]
+    below = proj.min(axis=1) - along - box  # the triangle beyond the box's + side ...
+    above = along - proj.max(axis=1) - box  # ... or beyond its - side
+    low = np.maximum(low, np.maximum(below, above).max(axis=-1))
+    # 3. measured again with the sharper bounds
+    measure_most_promising()
     keep = low <= upper[k] + 1e-9  # a bound equal to the distance may round above it
     # Where the bound is the distance of a pair measured, a combination whose lower bound
     # ties with it cannot be nearer (a hole's rim, level with the face around it): it is left
     # out, unless the bodies overlap (every overlapping pair counts for the depth).
     tie = measured[k] & (upper[k] > 1e-9) & (low >= upper[k] - 1e-9)
-    tie[first] = False
+    tie &= (tri_index != best_t[k]) | (o != best_o[k])  # the pair measured stays
     keep &= ~tie
     return k[keep], o[keep], tri_index[keep]
 

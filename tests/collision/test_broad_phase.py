@@ -105,6 +105,22 @@ def test_a_mesh_pair_culled_in_the_meshs_frame_is_the_exhaustive_minimum():
     K = 40
     T_plate = np.repeat(spatial.make_transform(np.eye(3), [0.45, 0.1, 0.4])[None], K, 0)
     tri = plate._triangle_bounds[0]
+    # random poses around the plate, then poses hovering just over its top face (level or
+    # slightly tilted, over the holes and away from them): there the triangles of the face
+    # all tie with the face's plane, and only the one measured may stand for them
+    hover = [
+        spatial.make_transform(
+            spatial.rpy_to_matrix([0.0, 0.0, 0.0] if k % 2 else rng.uniform(-0.05, 0.05, 3)),
+            [0.45 + x, 0.1 + y, 0.4 + 0.015 + h],
+        )
+        for k, (x, y, h) in enumerate(
+            zip(
+                np.r_[0.04, 0.12, rng.uniform(0.0, 0.16, K // 2 - 2)],
+                np.r_[0.06, 0.06, rng.uniform(0.0, 0.12, K // 2 - 2)],
+                rng.uniform(0.03, 0.08, K // 2),
+            )
+        )
+    ]
     for other in others:
         T = np.array(
             [
@@ -112,8 +128,9 @@ def test_a_mesh_pair_culled_in_the_meshs_frame_is_the_exhaustive_minimum():
                     spatial.rpy_to_matrix(rng.uniform(-np.pi, np.pi, 3)),
                     [0.45, 0.1, 0.4] + rng.uniform([-0.05, -0.05, -0.05], [0.25, 0.2, 0.15]),
                 )
-                for _ in range(K)
+                for _ in range(K - len(hover))
             ]
+            + hover
         )
         culled = B.pair_distance(plate, other, T_plate, T)
         world = np.einsum("kij,tvj->ktvi", T_plate[:, :3, :3], tri) + T_plate[:, None, None, :3, 3]
