@@ -373,6 +373,8 @@ def _clearance_columns(sched, model, result, times, spans):
     world.restore(snaps[-1][1])
     stretch = np.searchsorted(np.array(starts[1:]), close["sample"], side="right")
     devices = list(sched.tracks)
+    if not devices:
+        return {}, []
     every = np.stack([carried[d] for d in devices], axis=-1)  # (stretches, B, D)
     # (record, device) for every record of a body the device carries: all devices at once
     r_of, d_of = np.nonzero(every[stretch, close["a"]] | every[stretch, close["b"]])
