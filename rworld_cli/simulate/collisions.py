@@ -15,6 +15,7 @@ import numpy as np
 from ..collision.bodies import collision_model
 from ..collision.handling import grasp_gap, rest
 from ..collision.sweep import Contact, Interval, sweep
+from ..model.cell import WORLD
 from ..motion.trajectory import sample_track
 
 REPORT_WITHIN = 0.05  # m: the clearance columns show distances below this (empty above)
@@ -361,23 +362,50 @@ def _clearance_columns(sched, model, result, times, spans):
     K = len(times)
     snaps = sched.snapshots
     starts = [int(np.searchsorted(times, t, side="left")) for t, _ in snaps] + [K]
-    # which bodies each device carries, per stretch between snapshots (the tree changes there)
-    carried = {d: np.zeros((len(snaps), len(bodies)), dtype=bool) for d in sched.tracks}
+    devices = list(sched.tracks)
+    if not devices:
+        return {}, []
+    index = {d: n for n, d in enumerate(devices)}
+    B, D = len(bodies), len(devices)
+    # which devices carry each body, per stretch between snapshots (the tree changes there):
+    # the devices among the body frame's ancestors, as (stretch, body, device) rows
+    rows: list[tuple[int, int, int]] = []
     for k, ((_, snap), a, b) in enumerate(zip(snaps, starts[:-1], starts[1:])):
         if b <= a:
             continue
         world.restore(snap)
-        for d in sched.tracks:
-            frames = set(world.subtree(d))
-            carried[d][k] = [body.frame in frames for body in bodies]
+        above: dict[str, tuple[int, ...]] = {}
+
+        def carriers(frame: str) -> tuple[int, ...]:
+            if frame not in above:
+                parent = world.parent(frame)
+                up = carriers(parent) if parent is not None and parent != WORLD else ()
+                above[frame] = up + ((index[frame],) if frame in index else ())
+            return above[frame]
+
+        rows += [(k, i, n) for i, body in enumerate(bodies) for n in carriers(body.frame)]
     world.restore(snaps[-1][1])
     stretch = np.searchsorted(np.array(starts[1:]), close["sample"], side="right")
-    devices = list(sched.tracks)
-    if not devices:
-        return {}, []
-    every = np.stack([carried[d] for d in devices], axis=-1)  # (stretches, B, D)
-    # (record, device) for every record of a body the device carries: all devices at once
-    r_of, d_of = np.nonzero(every[stretch, close["a"]] | every[stretch, close["b"]])
+    carried = np.array(rows, dtype=np.int64).reshape(-1, 3)
+    slot = carried[:, 0] * B + carried[:, 1]  # sorted: stretches, then bodies in order
+    first_row = np.searchsorted(slot, np.arange(len(snaps) * B + 1))
+
+    def carried_by(body: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(record, device index) for each device carrying the record's ``body``."""
+        at = stretch * B + body
+        counts = first_row[at + 1] - first_row[at]
+        record = np.repeat(np.arange(len(at)), counts)
+        offset = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+        return record, carried[np.repeat(first_row[at], counts) + offset, 2]
+
+    # (record, device) for every record of a body the device carries, each pair once
+    ra, da = carried_by(close["a"])
+    rb, db = carried_by(close["b"])
+    code = np.sort(np.concatenate([ra, rb]) * D + np.concatenate([da, db]))
+    repeated = np.zeros(len(code), dtype=bool)  # each once (np.unique hashes: 4x slower here)
+    repeated[1:] = code[1:] == code[:-1]
+    code = code[~repeated]
+    r_of, d_of = code // D, code % D
     table = np.full((len(devices), K), np.inf)
     np.minimum.at(table, (d_of, close["sample"][r_of]), close["distance"][r_of])
     columns = dict(zip(devices, table))

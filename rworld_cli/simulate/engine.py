@@ -210,6 +210,7 @@ class _Scheduler(FeatureSteps):
         self.run = run
         self.world = World(run.cell)
         self.order = [p.device for p in run.programs]
+        self.rank = {d: n for n, d in enumerate(self.order)}  # ties go to the run file's order
         self.tracks = {
             p.device: _Track(p, q_init=self.world.joints(p.device)) for p in run.programs
         }
@@ -272,7 +273,7 @@ class _Scheduler(FeatureSteps):
                 raise SimulationError(
                     "deadlock: the programs wait for each other: " + "; ".join(lines)
                 )
-            device = min(running, key=lambda d: (self.tracks[d].t, self.order.index(d)))
+            device = min(running, key=lambda d: (self.tracks[d].t, self.rank[d]))
             self.advance(device)
 
     def advance(self, device: str) -> None:
@@ -936,6 +937,20 @@ def _sample(
             if progress:
                 progress(done, total, "poses")
     gravity = cell.gravity
+    # what rides on each device's links, and where its active TCP sits, per stretch between
+    # snapshots: the state at the stretch's start fixes the loads' poses (one restore per
+    # stretch, not one per device and stretch: a line of robots)
+    stretch_loads: list[dict] = []
+    for (_, snap), a, b in zip(snaps, starts, bounds):
+        stretch_loads.append({})
+        if b <= a:
+            continue
+        world.restore(snap)
+        for other in devices:
+            world.set_joints(other, q[other][a])
+        for d in run_devices:
+            mount = ToolMount(*world.mount_of(d, world.active_tcp(d))) if payload else None
+            stretch_loads[-1][d] = (world.carried_loads(d), mount)
     timelines = {}
     violations: list[Violation] = []
     step_texts = {d: [st.describe() for st in sched.tracks[d].program.steps] for d in run_devices}
@@ -950,22 +965,17 @@ def _sample(
         g_base = np.einsum("kji,kj->ki", T_base[d][:, :3, :3], g_world)  # R^T (g - a)
         tau = np.empty_like(q[d])
         per_kg = np.zeros_like(q[d]) if payload else None
-        for (t_snap, snap), a, b in zip(snaps, starts, bounds):
+        for n, (a, b) in enumerate(zip(starts, bounds)):
             if b <= a:
                 continue
-            world.restore(snap)
-            for other in devices:  # the state at the interval's start fixes the loads' poses
-                world.set_joints(other, q[other][a])
-            loads = world.carried_loads(d)
+            loads, mount = stretch_loads[n][d]
             dyn = DeviceDynamics(dev, link_loads=loads)
             tau[a:b] = dyn.inverse(q[d][a:b], qd[d][a:b], qdd[d][a:b], g_base[a:b])
-            if per_kg is not None:
-                mount = ToolMount(*world.mount_of(d, world.active_tcp(d)))
-                if mount.link > 0:  # a TCP on the base loads no joint
-                    one = DeviceDynamics(dev, Payload.point_mass(1.0), mount, link_loads=loads)
-                    per_kg[a:b] = (
-                        one.inverse(q[d][a:b], qd[d][a:b], qdd[d][a:b], g_base[a:b]) - tau[a:b]
-                    )
+            if per_kg is not None and mount.link > 0:  # a TCP on the base loads no joint
+                one = DeviceDynamics(dev, Payload.point_mass(1.0), mount, link_loads=loads)
+                per_kg[a:b] = (
+                    one.inverse(q[d][a:b], qd[d][a:b], qdd[d][a:b], g_base[a:b]) - tau[a:b]
+                )
             done += 1
             if progress:
                 progress(done, total, "dynamics")
