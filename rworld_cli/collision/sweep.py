@@ -31,6 +31,7 @@ test never reach the exact (GJK) query.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -587,8 +588,9 @@ class _Levers:
                 length[f] = float(norms[i] + (steps[i] if prismatic[i] else 0.0))
         columns: dict[tuple[str, int], int] = {}
         arms: list[dict[int, float]] = []
+        offset: dict[str, float] = {}  # a fixed frame's distance from its parent [m]
         for body in bodies:
-            reach = float(np.linalg.norm(body.center)) + body.radius  # from the body's frame
+            reach = math.hypot(*body.center) + body.radius  # from the body's frame
             arm: dict[int, float] = {}
             node = body.frame
             while node is not None and node != WORLD:
@@ -599,7 +601,9 @@ class _Levers:
                     arm[column] = 1.0 if joint.kind == "prismatic" else reach + abs(joint.a)
                     reach += length[node]
                 else:
-                    reach += float(np.linalg.norm(world.T_parent(node)[:3, 3]))
+                    if node not in offset:
+                        offset[node] = math.hypot(*world.T_parent(node)[:3, 3])
+                    reach += offset[node]
                 node = world.parent(node)
             arms.append(arm)
         table = np.zeros((len(bodies), len(columns)))
