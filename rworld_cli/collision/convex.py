@@ -37,7 +37,6 @@ and for spheres.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -529,33 +528,4 @@ def hulls(vertices: np.ndarray, axes: np.ndarray) -> Pieces:
         np.zeros(P),
         np.zeros(P),
         np.asarray(axes, dtype=float),
-    )
-
-
-def _padded(vertices: np.ndarray, count: int) -> np.ndarray:
-    """Vertices (P, V, 3) padded to ``count`` by repeating the first."""
-    extra = count - vertices.shape[1]
-    if extra <= 0:
-        return vertices
-    return np.concatenate([vertices, np.repeat(vertices[:, :1], extra, axis=1)], axis=1)
-
-
-def concatenate(parts: list[Pieces]) -> Pieces:
-    """One batch from several (vertices padded to the largest count)."""
-    count = max(p.vertices.shape[1] for p in parts)
-    parts = [dataclasses.replace(p, vertices=_padded(p.vertices, count)) for p in parts]
-    return Pieces(
-        *(
-            np.concatenate([getattr(p, f) for p in parts], axis=0)
-            for f in (
-                "vertices",
-                "cylinder",
-                "center",
-                "axis",
-                "radius",
-                "half_length",
-                "margin",
-                "axes",
-            )
-        )
     )

@@ -56,7 +56,7 @@ def _digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-def _entry(real: Path, shown: str, pose_files: list[str] | None) -> Path | None:
+def entry(real: Path, shown: str, pose_files: list[str] | None) -> Path | None:
     """Where the entry of this load lives, or None (cache off, the cell file unreadable)."""
     if not enabled():
         return None
@@ -72,41 +72,38 @@ def _entry(real: Path, shown: str, pose_files: list[str] | None) -> Path | None:
         return None
 
 
-def lookup(real: Path, shown: str, pose_files: list[str] | None) -> Any:
-    """The ``LoadedCell`` kept for this load when every file it read is unchanged, else None."""
-    entry = _entry(real, shown, pose_files)
-    if entry is None:
+def lookup(where: Path | None) -> Any:
+    """The ``LoadedCell`` kept at ``where`` (:func:`entry`) when every file it read is
+    unchanged, else None."""
+    if where is None:
         return None
     try:
-        data = pickle.loads(entry.read_bytes())
+        data = pickle.loads(where.read_bytes())
         for file, digest in data["read"]:
             if _digest(Path(file)) != digest:
                 return None
-        os.utime(entry)  # recently used: kept when the cache is pruned
+        os.utime(where)  # recently used: kept when the cache is pruned
         return data["loaded"]
     except Exception:  # a miss: absent, damaged, from another layout - loaded afresh
         return None
 
 
-def store(
-    real: Path, shown: str, pose_files: list[str] | None, loaded: Any, read: list[Path]
-) -> None:
-    """Keep ``loaded`` (a cell that loaded without errors) and the digests of the files it
-    read.  A cache, not an output: written to a temporary and renamed (a torn entry fails to
-    load and is redone); a read-only cache is left alone."""
-    entry = _entry(real, shown, pose_files)
-    if entry is None:
+def store(where: Path | None, loaded: Any, read: list[Path]) -> None:
+    """Keep ``loaded`` (a cell that loaded without errors) at ``where`` (:func:`entry`) with
+    the digests of the files it read.  A cache, not an output: written to a temporary and
+    renamed (a torn entry fails to load and is redone); a read-only cache is left alone."""
+    if where is None:
         return
     try:
         data = pickle.dumps(
             {"read": [(str(p.resolve()), _digest(p)) for p in read], "loaded": loaded},
             protocol=pickle.HIGHEST_PROTOCOL,
         )
-        entry.parent.mkdir(parents=True, exist_ok=True)
-        temporary = entry.with_name(f".{entry.name}.{os.getpid()}")
+        where.parent.mkdir(parents=True, exist_ok=True)
+        temporary = where.with_name(f".{where.name}.{os.getpid()}")
         temporary.write_bytes(data)
-        os.replace(temporary, entry)
-        _prune(entry.parent)
+        os.replace(temporary, where)
+        _prune(where.parent)
     except Exception:  # a cache: whatever fails to be kept is loaded afresh next time
         pass
 

@@ -162,7 +162,8 @@ def load_cell(
 
     real, shown = resolve_cell_path(path)
     given = None if pose_files is None else [str(Path(f).resolve()) for f in pose_files]
-    kept = cellcache.lookup(real, shown, given)
+    where = cellcache.entry(real, shown, given)
+    kept = cellcache.lookup(where)
     if kept is not None:
         return kept
     from . import models as sm
@@ -181,7 +182,7 @@ def load_cell(
     if errors:
         raise UserError(f"{shown}: {len(errors)} error(s)", ordered)
     loaded = LoadedCell(cell, [i for i in ordered if i.severity == "warning"])
-    cellcache.store(real, shown, given, loaded, builder.read)
+    cellcache.store(where, loaded, builder.read)
     return loaded
 
 

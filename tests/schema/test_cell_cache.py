@@ -113,7 +113,9 @@ def test_bad_input_is_never_kept_and_a_damaged_entry_is_a_miss(tmp_path, monkeyp
     data = pickle.loads(entry.read_bytes())
     data["read"].append((str(tmp_path / "gone.yaml"), "0" * 64))
     entry.write_bytes(pickle.dumps(data))
-    assert cellcache.lookup(cell / "cell.yaml", str(cell / "cell.yaml"), None) is None
+    from rworld_cli.schema.loader import resolve_cell_path
+
+    assert cellcache.lookup(cellcache.entry(*resolve_cell_path(cell), None)) is None
     assert load_cell(cell).cell.name == good.name
 
 
@@ -127,7 +129,7 @@ def test_the_folder_keeps_the_most_recently_used_entries(tmp_path, monkeypatch):
         cell = tmp_path / f"cell{k}"
         shutil.copytree(WORKCELLS / "puma560", cell)
         cells.append(cell)
-        entries.append(cellcache._entry(*resolve_cell_path(cell), None))
+        entries.append(cellcache.entry(*resolve_cell_path(cell), None))
     load_cell(cells[0])
     load_cell(cells[1])
     os.utime(entries[0], ns=(1, 1))  # the first long unused, the second less long
