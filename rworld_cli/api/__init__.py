@@ -32,7 +32,13 @@ from .cells import (  # noqa: F401
     validate_files,
     write_schemas,
 )
-from .export import ProgramExport, Signals, TargetChange, export_program  # noqa: F401
+from .export import (  # noqa: F401
+    ProgramExport,
+    Signals,
+    TargetChange,
+    export_program,
+    measure_from_log,
+)
 from .fleet import (  # noqa: F401
     FleetCheck,
     RunCheck,

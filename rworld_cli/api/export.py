@@ -135,7 +135,6 @@ def export_program(
         Unknown format or device, a device the format cannot drive (exit 2).
     """
     from ..export import csv_trajectory, fanuc, krl, rapid, urscript
-    from ..export.common import instructions
     from .planning import parse_period
 
     loaded_format = fmt is None
@@ -207,35 +206,10 @@ def export_program(
                 f"'{name}' has a {vendor} controller (controller.vendor), whose language is "
                 f"{ARM_FORMATS[VENDOR_FORMATS[vendor]]}; written in {ARM_FORMATS[fmt]} as asked"
             )
-        T_link_flange = None
-        if profile is not None and profile.flange is not None:
-            T_link_flange = world.mount_of(name, profile.flange)[1]
-        program = instructions(
-            dev,
-            result.resolved[name],
-            result.times,
-            result.devices[name],
-            stem,
-            programs[name].file,
-            T_link_flange,
-            _flange_loads(World(loaded.cell), result, name, T_link_flange),
-        )
-        program.controller = profile
+        program = _device_program(loaded, result, name, world, stem, frame)
         if compensate:
-            moved = _compensate(cell, loaded.cell, name, program)
+            moved = _compensate(cell, loaded.cell, name, program, fmt)
             compensated.extend(moved)
-        if profile is not None and profile.base is not None:
-            program.T_base_controller = world.T(name, profile.base)
-        flange = [r.move for r in result.resolved[name] if r.move and r.move.link != dev.dof]
-        if flange:
-            m = flange[0]
-            raise UserError(
-                f"{m.tcp} sits on link {m.link} of '{name}', not on its flange (link {dev.dof}): "
-                "a robot language's tool data is given in the flange frame"
-            )
-        if frame is not None:
-            program.user_frame = frame
-            program.T_base_user = np.linalg.solve(world.T_world(name), world.T_world(frame))
         moves += len(program.moves)
         writer = {"urscript": urscript, "krl": krl, "rapid": rapid, "fanuc": fanuc}[fmt]
         for file_name, text in writer.write(program, signals).items():
@@ -263,12 +237,51 @@ def export_program(
     )
 
 
-def _compensate(cell_path: str, cell, device: str, program) -> list[dict]:
+def _device_program(loaded, result, name: str, world, stem: str, frame: str | None):
+    """One device's program for a writer (:class:`~rworld_cli.export.common.DeviceProgram`):
+    its instructions from the simulated run, its controller's flange and base, and the user
+    frame ``frame`` placed where it is at the run's start (``world``)."""
+    from ..export.common import instructions
+    from ..world.tree import World
+
+    dev = loaded.cell.devices[name]
+    profile = dev.controller
+    flange = [r.move for r in result.resolved[name] if r.move and r.move.link != dev.dof]
+    if flange:
+        m = flange[0]
+        raise UserError(
+            f"{m.tcp} sits on link {m.link} of '{name}', not on its flange (link {dev.dof}): "
+            "a robot language's tool data is given in the flange frame"
+        )
+    T_link_flange = None
+    if profile is not None and profile.flange is not None:
+        T_link_flange = world.mount_of(name, profile.flange)[1]
+    program = instructions(
+        dev,
+        result.resolved[name],
+        result.times,
+        result.devices[name],
+        stem,
+        next(p.file for p in loaded.programs if p.device == name),
+        T_link_flange,
+        _flange_loads(World(loaded.cell), result, name, T_link_flange),
+    )
+    program.controller = profile
+    if profile is not None and profile.base is not None:
+        program.T_base_controller = world.T(name, profile.base)
+    if frame is not None:
+        program.user_frame = frame
+        program.T_base_user = np.linalg.solve(world.T_world(name), world.T_world(frame))
+    return program
+
+
+def _compensate(cell_path: str, cell, device: str, program, fmt: str) -> list[dict]:
     """Replace the Cartesian targets of ``program`` by the nominal forward kinematics at their
     joint targets (the tool as calibrated: the controller's tool data); the moves' shifts.
 
     The nominal kinematics is the cell's device without the pose files that set its joints
-    (``joints:`` or ``corrections:``, what ``calibrate-robot`` writes)."""
+    (``joints:`` or ``corrections:``, what ``calibrate-robot`` writes).  Listed: the targets
+    whose written values changed in ``fmt`` (a joint move's joint target never does)."""
     import dataclasses
 
     from .. import spatial
@@ -286,19 +299,23 @@ def _compensate(cell_path: str, cell, device: str, program) -> list[dict]:
     out = []
     for item in program.moves:
         r = item.resolved
+        before = item.T_target
         new = {}
         for key, q in (("T_base_tcp", r.q_goal), ("T_base_planned", r.q_planned)):
             if q is None or getattr(r, key) is None:
                 continue
             T = link_poses(nominal, q)[r.link - 1] @ r.T_link_tcp
             new[key] = T
-        shift = float(np.linalg.norm(new["T_base_tcp"][:3, 3] - r.T_base_tcp[:3, 3]))
-        turn = float(
-            np.linalg.norm(
-                spatial.rotation_vector(r.T_base_tcp[:3, :3].T @ new["T_base_tcp"][:3, :3])
-            )
-        )
         item.resolved = dataclasses.replace(r, **new)
+        # only what the program writes: a joint move's target is its joint values, which stay
+        # (RAPID's search alone goes to a robtarget, whatever the move's motion)
+        if item.motion == "joint" and not (item.guard and fmt == "rapid"):
+            continue
+        after = item.T_target
+        shift = float(np.linalg.norm(after[:3, 3] - before[:3, 3]))
+        turn = float(np.linalg.norm(spatial.rotation_vector(before[:3, :3].T @ after[:3, :3])))
+        if shift <= 1e-12 and turn <= 1e-12:
+            continue
         out.append(
             {
                 "device": device,
@@ -431,3 +448,245 @@ def _write_together(output: str, files: dict[str, str]) -> None:
     with output_set(output):
         for name, text in files.items():
             atomic_write_text(Path(output) / name, text)
+
+
+# --------------------------------------------------------------------------- the way back
+
+CONTACT_TOLERANCE = 0.002  # [m]: how far a contact may lie off its search's line
+
+
+def measure_from_log(
+    cell: str,
+    run: str,
+    log: str,
+    output: str,
+    fmt: str | None = None,
+    device: str | None = None,
+    frame: str | None = None,
+    sigma: float | None = None,
+    contact_register: int = 101,
+    tolerance: float = CONTACT_TOLERANCE,
+) -> dict:
+    """Read the contacts a controller logged while it ran an exported probe program, and write
+    them as a measurement file (``rworld measure --from-log``): the report's steps 5-6 on a
+    real cell.
+
+    The run is simulated on the cell as it is now (the pose files the program was exported
+    with), which gives each ``probe:`` its search: the guarded move, its TCP and sensor, and the
+    controller's frames.  Each logged TCP pose is mapped through the controller's base frame
+    (or the user frame the program used) into the device's frame, the sensor's offset on the
+    TCP applied, and placed in the world; the measurement file holds those points as
+    ``measure --simulate --program`` writes them (planes' and circles' outside points, lines
+    in probing order).
+
+    Parameters
+    ----------
+    fmt : {"urscript", "rapid", "krl", "fanuc"} or None
+        The log's language; None: the device's ``controller.vendor``'s.
+    frame : str, optional
+        The user frame the program was exported with (``export program --frame``); the
+        reports' own ``frame=`` is taken when it names one.
+    sigma : float, optional
+        The probing's 1-sigma noise [m], written in the file for ``calibrate``.
+    contact_register : int
+        FANUC: the position register of contact 1.
+    tolerance : float
+        How far a contact may lie off its search's line, or outside its ends [m].
+
+    Raises
+    ------
+    UserError
+        A malformed log (at its line), a count or a field that does not match the program's
+        searches, a contact off its search's line (at its line); nothing written.
+    """
+    from ..calibration.probing import ProbedPoint, measurement_features
+    from ..export.common import field_value
+    from ..kinematics.jacobian import ToolMount, tool_pose
+    from ..schema.contactlog import LANGUAGES, read_contact_log
+    from ..schema.measurements import today, write_measurements
+    from ..world.tree import World
+
+    if not (tolerance > 0 and np.isfinite(tolerance)):
+        raise UserError(f"--tolerance must be a finite length > 0, got {tolerance}")
+    if sigma is not None and not (sigma > 0 and np.isfinite(sigma)):
+        raise UserError(f"--sigma must be a finite length > 0, got {sigma}")
+    loaded, result = _simulate(cell, run, None, None)
+    probing = [
+        p.device
+        for p in loaded.programs
+        if any(r.kind == "probe" for r in result.resolved[p.device])
+    ]
+    if device is None:
+        if len(probing) != 1:
+            raise UserError(
+                f"{run}: "
+                + (
+                    "no program records a contact (no 'probe:' step)"
+                    if not probing
+                    else f"{len(probing)} devices record contacts ({', '.join(probing)}): "
+                    "choose one with --device"
+                )
+            )
+        device = probing[0]
+    elif device not in probing:
+        raise UserError(
+            f"--device {device}: its program in {run} records no contact"
+            + did_you_mean(device, probing)
+        )
+    if fmt is None:
+        profile = loaded.cell.devices[device].controller
+        vendor = profile.vendor if profile is not None else None
+        if vendor not in VENDOR_FORMATS:
+            raise UserError(
+                f"give --format ({', '.join(LANGUAGES)}): '{device}' names no controller vendor "
+                "(controller.vendor) whose log rworld reads"
+            )
+        fmt = VENDOR_FORMATS[vendor]
+    if fmt not in LANGUAGES:
+        raise UserError(f"--format {fmt}: contact logs are read for {', '.join(LANGUAGES)}")
+    logged = read_contact_log(log, fmt, contact_register)
+    stated = {c.fields["frame"] for c in logged.contacts if "frame" in c.fields} - {"base"}
+    if fmt != "urscript" and stated:
+        if len(stated) > 1:
+            raise UserError(f"{log}: contacts in several frames ({', '.join(sorted(stated))})")
+        named = stated.pop()
+        if frame is None:
+            frame = next((f for f in loaded.cell.frames if field_value(f) == named), None)
+            if frame is None:
+                raise UserError(f"{log}: frame={named} is no frame of the cell")
+        elif field_value(frame) != named:
+            raise UserError(f"--frame {frame}, but the log's contacts are in frame={named}")
+    if frame is not None and frame not in loaded.cell.frames:
+        raise UserError(
+            f"--frame: unknown frame '{frame}'{did_you_mean(frame, loaded.cell.frames)}"
+        )
+    world = World(loaded.cell)
+    program = _device_program(
+        loaded,
+        result,
+        device,
+        world,
+        Path(next(p.file for p in loaded.programs if p.device == device)).stem,
+        frame,
+    )
+    records = program.records
+    contacts = logged.contacts
+    if len(contacts) != len(records):
+        if len(contacts) > len(records):
+            extra = contacts[len(records)]
+            raise UserError(
+                f"{extra.where}: contact {extra.number}: the program records "
+                f"{len(records)} contact(s), the log {len(contacts)}"
+            )
+        gone = records[len(contacts)]
+        last = contacts[-1].where if contacts else log
+        raise UserError(
+            f"{last}: the log holds {len(contacts)} of the program's {len(records)} contacts: "
+            f"contact {gone.number} ({gone.feature}, step {gone.step}, {gone.where}) and after "
+            "it are missing (the program stopped, or its log was cut)"
+        )
+    if logged.count is not None and logged.count != len(records):
+        raise UserError(
+            f"{log}: RWC_COUNT = {logged.count}: the program recorded {logged.count} of its "
+            f"{len(records)} contacts (the values after it are an earlier run's)"
+        )
+    events = [e for e in result.events if e.device == device and e.kind == "probe"]
+    dev = loaded.cell.devices[device]
+    T_world_base = world.T_world(device)
+    probed, report = [], []
+    for contact, record, event in zip(contacts, records, events):
+        expected = {
+            "program": field_value(program.name),
+            "step": str(record.step),
+            "feature": field_value(record.feature),
+            "tcp": field_value(record.search.tool.name),
+            "frame": "base" if fmt == "urscript" else field_value(program.user_frame or "base"),
+        }
+        if contact.number != record.number:
+            raise UserError(
+                f"{contact.where}: contact {contact.number} where contact {record.number} "
+                "was expected (the reports run 1, 2, ... in the program's order)"
+            )
+        if contact.total and contact.total != len(records):
+            raise UserError(
+                f"{contact.where}: contact {contact.number}/{contact.total}: this program "
+                f"records {len(records)} contacts: the log is another program's"
+            )
+        for key, value in expected.items():
+            if key in contact.fields and contact.fields[key] != value:
+                raise UserError(
+                    f"{contact.where}: contact {contact.number}: {key}={contact.fields[key]}, "
+                    f"but the program's contact {record.number} has {key}={value} "
+                    f"({record.where})"
+                )
+        search = record.search.resolved
+        sensor = search.guard
+        T_tcp_sensor = world.T(search.tcp, sensor)
+        mount = ToolMount(search.link, search.T_link_tcp)
+        # the search's line: the sensor's origin from the move's start to its planned end
+        ends = tool_pose(dev, np.array([search.q_start, search.q_planned]), mount) @ T_tcp_sensor
+        start, end = ends[0, :3, 3], ends[1, :3, 3]
+        user = program.T_base_user if fmt != "urscript" and program.user_frame else None
+        T_base_frame = user if user is not None else program.T_base_controller
+        at = (T_base_frame @ contact.T_frame_tcp @ T_tcp_sensor)[:3, 3]
+        line = end - start
+        length = float(np.linalg.norm(line))
+        along = float((at - start) @ line / length)
+        off = float(np.linalg.norm(at - start - along * line / length))
+        if off > tolerance or along < -tolerance or along > length + tolerance:
+            raise UserError(
+                f"{contact.where}: contact {contact.number} ({record.feature}, step "
+                f"{record.step}) lies {off * 1000:.3f} mm off its search's line and "
+                f"{along * 1000:.3f} mm along its {length * 1000:.3f} mm (at most "
+                f"{tolerance * 1000:g} mm off, within its ends): not this search's contact, or "
+                "the log's frame or units are not the export's"
+            )
+        point = (T_world_base @ np.append(at, 1.0))[:3]
+        probed.append(
+            ProbedPoint(
+                record.feature,
+                record.step,
+                record.where,
+                np.array(event.reading["point"]),
+                None,
+                reported=point,
+            )
+        )
+        report.append(
+            {
+                "contact": contact.number,
+                "feature": record.feature,
+                "step": record.step,
+                "where": record.where,
+                "log": contact.where,
+                "point_mm": (point * 1000).tolist(),
+                "from_simulated_mm": float(
+                    np.linalg.norm(point - np.array(event.reading["point"])) * 1000
+                ),
+            }
+        )
+    features = measurement_features(loaded.cell, probed, 0.0, 0)
+    radii = {float(loaded.cell.sensors[r.search.resolved.guard].ball or 0.0) for r in records}
+    write_measurements(
+        output,
+        features,
+        loaded.cell.name,
+        [
+            f"Contacts logged by {device}'s controller ({ARM_FORMATS[fmt]}), read by rworld "
+            "measure --from-log",
+            f"log: {log}, run: {run}, frame: {program.user_frame or 'base'}",
+        ],
+        sigma=sigma,
+        probe_radius=radii.pop() if len(radii) == 1 else 0.0,
+        instrument=f"{device} probing ({ARM_FORMATS[fmt]} contact log)",
+        date=today(),
+    )
+    return {
+        "written": output,
+        "device": device,
+        "format": fmt,
+        "contacts": report,
+        "features": sorted(features),
+        "points": {k: len(v.points) for k, v in features.items()},
+        "notes": logged.notes,
+    }

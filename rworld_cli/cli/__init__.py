@@ -87,7 +87,7 @@ COMMANDS = {
     "measure": (
         "calibrate",
         "measure",
-        "Synthetic probe-point measurements from a 'true' cell (--simulate).",
+        "Probe points from a controller's contact log (--from-log), or synthetic (--simulate).",
     ),
     "plan-measurements": (
         "plan_measurements",

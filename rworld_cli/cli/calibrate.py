@@ -195,25 +195,70 @@ def _render(run) -> None:
 
 
 @click.command()
-@click.argument("cell", metavar="CELL")
+@click.argument("cell", metavar="CELL", required=False)
+@click.option(
+    "--cell", "cell_option", default=None, metavar="CELL", help="The cell (or give it first)."
+)
 @click.option(
     "--simulate",
     "simulate_flag",
     is_flag=True,
-    required=True,
-    help="Synthetic measurements (the only mode).",
+    help="Synthetic measurements from a 'true' cell (--truth).",
+)
+@click.option(
+    "--from-log",
+    "log",
+    default=None,
+    type=click.Path(dir_okay=False),
+    metavar="LOG",
+    help="Read the contacts a controller logged running an exported probe program (its log, "
+    "the file the program wrote, the .dat or POSREG.VA).",
+)
+@click.option(
+    "--run",
+    default=None,
+    metavar="RUN|PROGRAM",
+    help="--from-log: the run (or program) that was exported.",
+)
+@click.option(
+    "--format",
+    "fmt",
+    default=None,
+    type=click.Choice(["urscript", "rapid", "krl", "fanuc"]),
+    help="--from-log: the log's language (default: the device's controller.vendor's).",
+)
+@click.option("--device", default=None, metavar="NAME", help="--from-log: the probing device.")
+@click.option(
+    "--frame",
+    "user_frame",
+    default=None,
+    metavar="FRAME",
+    help="--from-log: the user frame the program was exported with (export program --frame).",
+)
+@click.option(
+    "--contact-register",
+    default=101,
+    show_default=True,
+    type=click.IntRange(1, 10000),
+    help="--from-log --format fanuc: the position register of contact 1.",
+)
+@click.option(
+    "--tolerance",
+    default="2mm",
+    show_default=True,
+    help="--from-log: how far a contact may lie off its search's line.",
 )
 @click.option(
     "--truth",
-    required=True,
+    default=None,
     metavar="TRUE_CELL",
-    help="A cell whose poses are the 'real' ones (same features).",
+    help="--simulate: a cell whose poses are the 'real' ones (same features).",
 )
 @click.option(
     "--sigma",
-    default="0.05mm",
-    show_default=True,
-    help="Probing noise, 1 sigma (mm, um or m; a bare number is mm).",
+    default=None,
+    help="Probing noise, 1 sigma (mm, um or m; a bare number is mm): --simulate adds it "
+    "(default 0.05mm), --from-log states it in the file.",
 )
 @click.option("--seed", default=0, show_default=True, type=int)
 @click.option(
@@ -252,7 +297,15 @@ def _render(run) -> None:
 @handle_errors
 def measure(
     cell,
+    cell_option,
     simulate_flag,
+    log,
+    run,
+    fmt,
+    device,
+    user_frame,
+    contact_register,
+    tolerance,
     truth,
     sigma,
     seed,
@@ -263,36 +316,114 @@ def measure(
     output,
     json_output,
 ):
-    """Synthetic probe points for trials, demos and tests (--simulate).
+    """Probe points for 'rworld calibrate': from a robot's controller (--from-log) or
+    synthetic (--simulate).
 
-    Without --program: probes the features of CELL's frame conditions on
-    their material (spread over each feature's face), on TRUE_CELL's poses,
-    with Gaussian noise: an external instrument (a CMM, a tracker), so the robot
-    plays no part.  With --program: runs the probe program - the controller
-    drives the joint values the nominal cell gives, they move TRUE_CELL's robot
-    (its own DH rows or joint frames, base and TCP), each guarded move stops
-    where that robot's ball first touches the truth cell's parts, and the point
-    recorded is the controller's nominal forward kinematics at that instant -
-    and adds the noise (--joint-sigma: encoder noise too).  A truth robot off
-    its model thus puts its error into the points, as on a real cell.
-    Either way it writes a measurement file that 'rworld calibrate' reads.
+    --from-log: the contacts that an exported probe program ('rworld export
+    program') reported on the real controller - UR log lines, RAPID's file,
+    KRL's .dat, FANUC's POSREG.VA (docs/export.md: contact reports) - are
+    matched with the run's searches (count, step, feature, each contact on
+    its search's line), mapped through the controller's base frame, user
+    frame and the probe's offset on its TCP into the world, and written as a
+    measurement file.  Give the cell with the pose files the program was
+    exported with.
+
+    --simulate without --program: probes the features of CELL's frame
+    conditions on their material, on TRUE_CELL's poses, with Gaussian noise: an
+    external instrument (a CMM, a tracker), so the robot plays no part.  With
+    --program: runs the probe program - the controller drives the joint values
+    the nominal cell gives, they move TRUE_CELL's robot (its own DH rows or
+    joint frames, base and TCP), each guarded move stops where that robot's
+    ball first touches the truth cell's parts, and the point recorded is the
+    controller's nominal forward kinematics at that instant - and adds the
+    noise (--joint-sigma: encoder noise too).
 
     \b
     Examples:
-      rworld measure --simulate workcells/calibration_example --truth trial/ --sigma 0.05mm --seed 1
-      -o m.yaml
-      rworld measure --simulate workcells/probing --truth trial/ --program
-      workcells/probing/programs/probe.yaml -o m.yaml
+      rworld measure --from-log robot.log --cell workcells/probing --run probe_features \\
+          --format urscript --sigma 0.02mm -o m.yaml
+      rworld measure --from-log rworld_probe.log --cell workcells/probing --run probe \\
+          --format rapid -o m.yaml
+      rworld measure --simulate workcells/calibration_example --truth trial/ --sigma 0.05mm \\
+          --seed 1 -o m.yaml
+      rworld measure --simulate workcells/probing --truth trial/ --program \\
+          workcells/probing/programs/probe.yaml -o m.yaml
 
-    Exit codes: 0 written, 1 a guarded move touches nothing on the truth cell, 2 bad input.
+    Exit codes: 0 written, 1 a guarded move touches nothing on the truth cell
+    (--simulate), 2 bad input (a log that does not match the program: at its line).
     """
     from ..api import (
+        measure_from_log,
         parse_angle,
         parse_length,
         simulate_measurement_file,
         simulate_probe_measurements,
     )
 
+    if cell is not None and cell_option is not None and cell != cell_option:
+        raise click.UsageError(f"two cells: {cell} and --cell {cell_option}")
+    cell = cell or cell_option
+    if cell is None:
+        raise click.UsageError("give the cell: rworld measure CELL ... (or --cell CELL)")
+    if simulate_flag == (log is not None):
+        raise click.UsageError("give one of --simulate and --from-log LOG")
+    if log is not None:
+        wrong = [
+            name
+            for name, value in (
+                ("--truth", truth),
+                ("--program", program),
+                ("--joint-sigma", joint_sigma),
+                ("--frames", frames),
+            )
+            if value is not None
+        ]
+        if wrong:
+            raise click.UsageError(f"{', '.join(wrong)}: for --simulate, not --from-log")
+        if run is None:
+            raise click.UsageError("--from-log needs --run: the run or program that was exported")
+        info = measure_from_log(
+            cell,
+            run,
+            log,
+            output,
+            fmt,
+            device,
+            user_frame,
+            parse_length(sigma) if sigma is not None else None,
+            contact_register,
+            parse_length(tolerance),
+        )
+        if json_output:
+            emit_json(info)
+            return
+        click.echo(
+            f"wrote {output}: {len(info['contacts'])} contact(s) of {info['device']} "
+            f"({info['format']}), {len(info['features'])} feature(s)"
+        )
+        for c in info["contacts"]:
+            click.echo(
+                f"  {c['contact']:3d} {c['feature']} (step {c['step']}, {c['log']}): "
+                f"{c['from_simulated_mm']:.3f} mm from the simulated contact"
+            )
+        for line in info["notes"]:
+            click.echo(f"note: {line}", err=True)
+        return
+    unused = [
+        name
+        for name, value in (
+            ("--run", run),
+            ("--format", fmt),
+            ("--device", device),
+            ("--frame", user_frame),
+        )
+        if value is not None
+    ]
+    if unused:
+        raise click.UsageError(f"{', '.join(unused)}: for --from-log, not --simulate")
+    if truth is None:
+        raise click.UsageError("--simulate needs --truth TRUE_CELL")
+    sigma = "0.05mm" if sigma is None else sigma
     if joint_sigma is not None and program is None:
         raise click.UsageError("--joint-sigma is for --program: encoders of the probing robot")
     if program is not None:

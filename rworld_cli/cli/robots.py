@@ -200,6 +200,13 @@ def export_group():
     show_default=True,
     help="Digital input that stops a guarded move's search (the until: sensor).",
 )
+@click.option(
+    "--contact-register",
+    default=101,
+    show_default=True,
+    type=click.IntRange(1, 10000),
+    help="fanuc: the position register of a probe program's first contact (one per contact).",
+)
 @json_option
 @handle_errors
 def export_program(
@@ -215,6 +222,7 @@ def export_program(
     gripper_output,
     tool_changer_output,
     sensor_input,
+    contact_register,
     json_output,
 ):
     """Write the programs of RUN (or one PROGRAM file) on CELL in a robot language.
@@ -225,7 +233,8 @@ def export_program(
     data and the
     speeds and accelerations of the simulated motion.  A guarded move (until:) becomes a search
     to its planned end that stops on --sensor-input.  Grasp / release / place and tool changes
-    drive digital outputs; syncs and waits for other devices become comments.  The files appear
+    drive digital outputs; a probe: reports its contact in a line 'rworld measure --from-log'
+    reads back; syncs and waits for other devices become comments.  The files appear
     together or not at all.  An unreachable target exits 1 with the program's file:line.
 
     \b
@@ -248,7 +257,7 @@ def export_program(
         device,
         period,
         list(against) if against else None,
-        Signals(gripper_output, tool_changer_output, sensor_input),
+        Signals(gripper_output, tool_changer_output, sensor_input, contact_register),
         user_frame,
         compensate,
     )

@@ -12,12 +12,14 @@ VENDOR_FORMATS = {"ur": "urscript", "kuka": "krl", "abb": "rapid", "fanuc": "fan
 
 @dataclass(frozen=True)
 class Signals:
-    """The digital outputs that grasp / release and tool changes drive, and the digital input
-    that a guarded move's sensor closes."""
+    """The digital outputs that grasp / release and tool changes drive, the digital input
+    that a guarded move's sensor closes, and (FANUC) the first position register that keeps a
+    probe's contact."""
 
     gripper: int = 1
     tool_changer: int = 2
     sensor: int = 1
+    contact_register: int = 101  # FANUC: the first position register of the probes' contacts
 
     def output(self, signal: str) -> int:
         """The output number of ``signal`` ("gripper" or "tool_changer")."""

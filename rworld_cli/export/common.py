@@ -180,11 +180,32 @@ class Comment:
 
 @dataclass
 class Record:
-    """A probe step: report where the last search stopped, as a probe point of a feature."""
+    """A probe step: report where the last search stopped, as a probe point of a feature.
+
+    Every language writes the same fields (:func:`contact_fields`, ``docs/export.md``): the
+    contact's number of the program's contacts, the program, the step, its ``file:line``, the
+    feature, the TCP and the search's direction; the controller adds where the TCP stopped.
+
+    Attributes
+    ----------
+    number, total : int
+        This contact's number (1-based) and how many the program records.
+    step : int
+        The probe step's number in its program (1-based).
+    search : Move
+        The guarded move whose contact this records.
+    direction : ndarray, shape (3,)
+        The search's direction in the device's natural frame (unit; the TCP's travel).
+    """
 
     feature: str
     where: str
     text: str
+    number: int = 0
+    total: int = 0
+    step: int = 0
+    search: Move | None = None
+    direction: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
 
 Instruction = Tool | Load | Move | Output | Wait | Comment | Record
@@ -242,9 +263,19 @@ class DeviceProgram:
             f"axis values: {axes}",
         ]
 
+    def direction_in_user(self, d_base: np.ndarray) -> np.ndarray:
+        """A direction of the device's natural frame in the user frame (else the controller's
+        base frame)."""
+        T = self.T_base_user if self.T_base_user is not None else self.T_base_controller
+        return T[:3, :3].T @ d_base
+
     @property
     def moves(self) -> list[Move]:
         return [i for i in self.instructions if isinstance(i, Move)]
+
+    @property
+    def records(self) -> list[Record]:
+        return [i for i in self.instructions if isinstance(i, Record)]
 
     @property
     def tools(self) -> list[Tool]:
@@ -329,14 +360,17 @@ def instructions(
         written before each move whose load differs from the last one written.
     """
     from ..kinematics.configuration import arm_configurations, is_arm
-    from ..kinematics.jacobian import ToolMount
+    from ..kinematics.jacobian import ToolMount, tool_pose
 
     program = DeviceProgram(device.name, name, source, [j.name for j in device.joints])
     tool: Tool | None = None
     load: Load | None = None
+    search: Move | None = None  # the last guarded move: what a probe records
+    records: list[Record] = []
     for item in resolved:
         step, move = item.step, item.move
         text = step.describe()
+        kind = item.kind
         if move is not None and loads is not None:
             now = loads(move.t0)
             if load is None or now.describe() != load.describe():
@@ -353,21 +387,77 @@ def instructions(
             if is_arm(device):
                 item_move.configuration = arm_configurations(device, item_move.q_target).names()
             program.instructions.append(item_move)
-        elif step.kind in ("grasp", "release", "place"):
-            program.instructions.append(Output("gripper", step.kind == "grasp", step.where, text))
-        elif step.kind in ("attach_tool", "detach_tool"):
+            if move.guard:
+                search = item_move
+        elif kind in ("grasp", "release", "place"):
+            program.instructions.append(Output("gripper", kind == "grasp", step.where, text))
+        elif kind in ("attach_tool", "detach_tool"):
             program.instructions.append(
-                Output("tool_changer", step.kind == "attach_tool", step.where, text)
+                Output("tool_changer", kind == "attach_tool", step.where, text)
             )
-        elif step.kind == "probe":
-            program.instructions.append(Record(step.spec.feature, step.where, text))
-        elif step.kind == "wait" and step.spec.time is not None:
+        elif kind == "probe":
+            if search is None:  # the simulation records no contact without a guarded move
+                raise ValueError(f"{step.where}: a probe record with no guarded move before it")
+            r = search.resolved
+            mount = ToolMount(r.link, r.T_link_tcp)
+            travel = search.T_target[:3, 3] - tool_pose(device, r.q_start, mount)[:3, 3]
+            records.append(
+                Record(
+                    item.feature or step.spec.feature,
+                    step.where,
+                    text,
+                    len(records) + 1,
+                    0,
+                    step.index + 1,
+                    search,
+                    travel / max(float(np.linalg.norm(travel)), 1e-12),
+                )
+            )
+            program.instructions.append(records[-1])
+        elif kind == "wait" and step.spec.time is not None:
             program.instructions.append(Wait(float(step.spec.time), step.where, text))
         else:
             program.instructions.append(
                 Comment(f"{text} (at t = {item.t0:.3f} s in the simulation)", step.where)
             )
+    for record in records:
+        record.total = len(records)
     return program
+
+
+# --------------------------------------------------------------------------- contact reports
+
+CONTACT_MARK = "rworld contact"  # starts every contact report, in every language
+
+
+def field_value(text: object) -> str:
+    """A contact field's value: letters, digits and ``_ . : / -`` (anything else ``_``), so it
+    sits in any language's string literal and the report splits on spaces."""
+    return re.sub(r"[^A-Za-z0-9_.:/-]", "_", str(text)) or "_"
+
+
+def contact_fields(program: DeviceProgram, record: Record, unit: str, user: bool = True) -> str:
+    """The fields of a contact report that the export knows (``docs/export.md``)::
+
+        rworld contact 3/12 program=probe step=5 line=programs/probe.yaml:40
+        feature=plate.top tcp=puma.probe frame=base unit=mm dir=0,0,-1
+
+    ``frame`` is the frame the controller reports the TCP in: ``base`` (its base frame) or the
+    cell frame given as the user frame; ``unit`` the length unit of the reported position;
+    ``dir`` the search's direction in that frame.  ``user``: the controller reports in the
+    program's user frame (else always in its base frame).
+    """
+    if user:
+        d, frame = program.direction_in_user(record.direction), program.user_frame or "base"
+    else:
+        d, frame = program.T_base_controller[:3, :3].T @ record.direction, "base"
+    tcp = record.search.tool.name if record.search is not None else "_"
+    return (
+        f"{CONTACT_MARK} {record.number}/{record.total} program={field_value(program.name)} "
+        f"step={record.step} line={field_value(record.where)} "
+        f"feature={field_value(record.feature)} tcp={field_value(tcp)} "
+        f"frame={field_value(frame)} unit={unit} dir={','.join(number(x, 6) for x in d)}"
+    )
 
 
 # --------------------------------------------------------------------------- conventions

@@ -27,7 +27,6 @@ from .common import (
 note = FANUC.comment  # every text from a file goes into a comment through this
 
 SCRATCH_PR = 90  # the position register that carries tool and user frame values
-PROBE_PR = 91  # where a probe's search stopped
 KGF_CM_S2 = 9.80665 * 0.01  # [kg m^2] in one kgf cm s^2 (FANUC's payload inertia unit)
 
 
@@ -74,10 +73,18 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         *program.conventions(),
         "CONFIG: F when J5 > 0, U elbow up, T wrist centre in front of J1, then the turns of "
         "J4, J5, J6",
-        f"PR[{SCRATCH_PR}] carries tool and user frame values, PR[{PROBE_PR}] a probe's stop",
+        f"PR[{SCRATCH_PR}] carries tool and user frame values",
     ]
+    records = program.records
+    if records:
+        last = signals.contact_register + len(records) - 1
+        head.append(
+            f"contacts: PR[{signals.contact_register}] to PR[{last}], one a probe (cleared first)"
+        )
     for text in head:
         body += _comments(text)
+    for k in range(len(records)):  # a register the program did not reach reads zero
+        body.append(f"PR[{signals.contact_register + k}]=LPOS-LPOS")
     uframe = 0
     if program.user_frame:
         uframe = 1
@@ -162,9 +169,12 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         elif isinstance(item, Comment):
             body += _comments(f"{item.where}: {item.text}")
         elif isinstance(item, Record):
+            # where the skip stopped (LPOS: the active UFRAME and UTOOL), one register a
+            # contact, read back from POSREG.VA by 'rworld measure --from-log'
+            register = signals.contact_register + item.number - 1
             body += _comments(f"{item.where}: {item.text}")
-            body += _comments(f"the search's stop: record PR[{PROBE_PR}] for rworld calibrate")
-            body.append(f"PR[{PROBE_PR}]=LPOS")
+            body += _comments(f"contact {item.number}/{item.total} {item.feature}: PR[{register}]")
+            body.append(f"PR[{register}]=LPOS")
     numbered = []
     for k, line in enumerate(body, start=1):
         moves = line[:2] in ("J ", "L ")  # a motion line has its type after the number

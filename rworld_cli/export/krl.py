@@ -17,6 +17,7 @@ from .common import (
     Record,
     Tool,
     Wait,
+    contact_fields,
     kuka_abc,
     kuka_status_turn,
     number,
@@ -55,6 +56,12 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
     if any(m.guard for m in program.moves):
         src.append(f"INTERRUPT DECL 10 WHEN $IN[{signals.sensor}]==TRUE DO BRAKE  ; searches")
     dat = ["&ACCESS RVP", f"DEFDAT {name}", f"; targets of {note(program.name)}"]
+    contact = KRL.identifier("RWC", used)  # RWC_1.. in the .dat: the contacts
+    count = KRL.identifier("RWC_COUNT", used)
+    if program.records:
+        dat.append(f"; contacts: {contact}_k = $POS_INT of the k-th probe, {count} recorded")
+        dat.append(f"DECL INT {count}=0")
+        src.append(f"{count} = 0  ; contacts recorded (the .dat keeps them)")
     for tool_name, k in tools.items():
         dat.append(f"; TOOL_DATA[{k}] is {note(tool_name)}")
     k_target = 0
@@ -115,10 +122,18 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         elif isinstance(item, Comment):
             src.append(f"; {note(item.where)}: {note(item.text)}")
         elif isinstance(item, Record):
-            src.append(
-                f"; {note(item.where)}: {note(item.text)}: the contact is $POS_INT (latched by"
+            # the contact ($POS_INT: where the search's interrupt latched, in $BASE with
+            # $TOOL) kept in the .dat, whose values the controller saves: read back by
+            # 'rworld measure --from-log' (docs/export.md: contact reports)
+            variable = f"{contact}_{item.number}"
+            src.append(f"; {note(item.where)}: {note(item.text)}")
+            src.append(f"{variable} = $POS_INT")
+            src.append(f"{count} = {item.number}")
+            dat.append(f"; {contact_fields(program, item, 'mm')}")
+            dat.append(
+                f"DECL E6POS {variable}={{X 0.0,Y 0.0,Z 0.0,A 0.0,B 0.0,C 0.0,S 0,T 0,E1 0.0,"
+                "E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}"
             )
-            src.append("; the search's interrupt); record it for 'rworld calibrate'")
     src += ["END", ""]
     dat += ["ENDDAT", ""]
     return {f"{name}.src": "\n".join(src), f"{name}.dat": "\n".join(dat)}

@@ -5,8 +5,6 @@ by ``MoveL``; ``SetDO`` and ``WaitTime``."""
 
 from __future__ import annotations
 
-import re
-
 import numpy as np
 
 from . import Signals
@@ -22,6 +20,7 @@ from .common import (
     Wait,
     abb_confdata,
     abb_quaternion,
+    contact_fields,
     number,
     principal,
 )
@@ -58,6 +57,11 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         "files",
         f"  ! outputs: gripper do_{signals.gripper} (1 = closed), tool changer "
         f"do_{signals.tool_changer} (1 = locked); searches stop on di_{signals.sensor}",
+        *(
+            [f"  ! contacts: one line each in HOME:rworld_{name}.log (rworld measure --from-log)"]
+            if program.records
+            else []
+        ),
         *("  " + line for line in RAPID.renamed(name, program.name)),
         *(f"  ! {note(line)}" for line in program.conventions()),
     ]
@@ -91,6 +95,8 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             f"  PERS tooldata {tool_names[tool.name]} := [TRUE,[{pose(tool.T_flange_tcp)}],"
             f"{tload}];"
         )
+    log = RAPID.identifier("rworld_log", used)
+    log_file = f"rworld_{name}.log"
     payloads: list[str] = []
     body = ["  PROC main()"]
     current_tool = ""
@@ -139,10 +145,26 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             body.append(f"    WaitTime {number(item.seconds, 6)};")
         elif isinstance(item, Comment):
             body.append(f"    ! {note(item.where)}: {note(item.text)}")
-        elif isinstance(item, Record):
+        elif isinstance(item, Record) and last_hit is not None:
+            # SearchL's search point (where the input closed), in the work object, one line of
+            # the contact log; a RAPID string holds 80 characters, so the line is written in
+            # pieces (docs/export.md: contact reports)
             body.append(f"    ! {note(item.where)}: {note(item.text)}")
-            if last_hit is not None:  # SearchL's search point: where the input closed
-                label = re.sub(r"[^A-Za-z0-9_.]", "_", item.feature)  # inside a string literal
-                body.append(f'    TPWrite "rworld probe {label}" \\Pos:={last_hit}.trans;')
+            text = contact_fields(program, item, "mm") + " "
+            for k in range(0, len(text), 80):
+                body.append(f'    Write {log}, "{text[k : k + 80]}"\\NoNewLine;')
+            t, r = f"{last_hit}.trans", f"{last_hit}.rot"
+            body.append(
+                f'    Write {log}, "x=" + NumToStr({t}.x, 4) + " y=" + NumToStr({t}.y, 4) + '
+                f'" z=" + NumToStr({t}.z, 4) + " "\\NoNewLine;'
+            )
+            body.append(
+                f'    Write {log}, "q=" + NumToStr({r}.q1, 8) + "," + NumToStr({r}.q2, 8) + '
+                f'"," + NumToStr({r}.q3, 8) + "," + NumToStr({r}.q4, 8);'
+            )
+    if program.records:  # the contact log: a file on the controller, appended to
+        lines.append(f"  VAR iodev {log};")
+        body.insert(1, f'    Open "HOME:" \\File:="{log_file}", {log} \\Append;')
+        body.append(f"    Close {log};")
     lines += body + ["  ENDPROC", "ENDMODULE", ""]
     return {f"{name}.mod": "\n".join(lines)}

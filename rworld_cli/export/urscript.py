@@ -3,8 +3,6 @@
 
 from __future__ import annotations
 
-import re
-
 from . import Signals
 from .common import (
     URSCRIPT,
@@ -16,6 +14,7 @@ from .common import (
     Record,
     Tool,
     Wait,
+    contact_fields,
     number,
     rotation_vector,
 )
@@ -110,8 +109,10 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         elif isinstance(item, Comment):
             lines.append(f"  # {note(item.where)}: {note(item.text)}")
         elif isinstance(item, Record):  # where the search stopped (after its stopping distance)
+            # the TCP pose in the base frame as the controller logs a pose: p[x, y, z, rx, ry,
+            # rz], m and rotation vector (docs/export.md: contact reports)
             lines.append(f"  # {note(item.where)}: {note(item.text)}")
-            label = re.sub(r"[^A-Za-z0-9_.]", "_", item.feature)  # inside a string literal
-            lines.append(f'  textmsg("rworld probe {label}: ", get_actual_tcp_pose())')
+            fields = contact_fields(program, item, "m", user=False)
+            lines.append(f'  textmsg("{fields} pose=", get_actual_tcp_pose())')
     lines += ["end", f"{name}()", ""]
     return {f"{name}.script": "\n".join(lines)}

@@ -199,19 +199,36 @@ class MoveTarget:
 
 @dataclass
 class ResolvedStep:
-    """One step as the simulation carried it out: what exporters write (``rworld export
-    program``).
+    """One action of a step as the simulation carried it out, in the order it happened: what
+    exporters write (``rworld export program``).  A step may act several times (a feature
+    step's moves, a ``place:`` on a feature that moves and then lets go, a ``probe:`` on a
+    feature that touches and records each point): each action is one entry.
 
     Attributes
     ----------
     step : Step
         The program step (kind, parameters, ``file:line``).
     t0 : float
-        When it started [s].
+        When the action happened [s].
     move : MoveTarget or None
         For moves.
+    action : str or None
+        What happened when it is not a move: ``grasp``, ``release``, ``place``,
+        ``attach_tool``, ``detach_tool`` (the affixment tree changed), ``probe`` (a contact
+        recorded); None: the step itself (a wait, a sync, a sense).
+    feature : str or None
+        A ``probe`` action's feature.
     """
 
     step: Step
     t0: float
     move: MoveTarget | None = None
+    action: str | None = None
+    feature: str | None = None
+
+    @property
+    def kind(self) -> str:
+        """``move``, the action, or the step's kind."""
+        if self.move is not None:
+            return "move"
+        return self.action or self.step.kind

@@ -216,7 +216,7 @@ class _Scheduler(FeatureSteps):
         }
         self.events: list[Event] = []
         self.resolved: dict[str, list[ResolvedStep]] = {d: [] for d in self.order}
-        self._move_targets: list[MoveTarget] = []
+        self._actions: list[ResolvedStep] = []  # what the running step did, in order
         self._latched: dict[str, dict | None] = {}  # per device: the last guarded contact
         self.snapshots: list[tuple[float, dict]] = [(0.0, self.world.snapshot())]
         self.barriers: dict[tuple[str, int], dict[str, float]] = {}
@@ -285,12 +285,11 @@ class _Scheduler(FeatureSteps):
         self.set_time(tr.t)
         tr.step_starts.append((tr.t, step.index))
         handler = getattr(self, f"_{step.kind}")
-        t0, self._move_targets = tr.t, []
+        t0, self._actions = tr.t, []
         done = handler(device, tr, step)
-        if not self._move_targets:
-            self.resolved[device].append(ResolvedStep(step, t0, None))
-        for target in self._move_targets:  # a feature step may make several moves
-            self.resolved[device].append(ResolvedStep(step, target.t0, target))
+        # a step that recorded no action of its own (a wait, a sync) is one entry; a feature
+        # step may move, let go and record several times
+        self.resolved[device] += self._actions or [ResolvedStep(step, t0, None)]
         if done:  # the step completed, go on
             tr.pc += 1
             if tr.pc >= len(tr.program.steps):
@@ -504,22 +503,21 @@ class _Scheduler(FeatureSteps):
         if seg is not None and until is not None:
             seg = self._guard(device, tr, step, seg, until)
         spec = step.spec
-        self._move_targets.append(
-            self._target(
-                device,
-                tr,
-                step,
-                q_now,
-                seg,
-                planned,
-                name,
-                tcp or self._resolve_tcp(device, getattr(spec, "tcp", None)),
-                motion,
-                spec.speed if speed is None else speed,
-                spec.acceleration if acceleration is None else acceleration,
-                until,
-            )
+        target = self._target(
+            device,
+            tr,
+            step,
+            q_now,
+            seg,
+            planned,
+            name,
+            tcp or self._resolve_tcp(device, getattr(spec, "tcp", None)),
+            motion,
+            spec.speed if speed is None else speed,
+            spec.acceleration if acceleration is None else acceleration,
+            until,
         )
+        self._actions.append(ResolvedStep(step, target.t0, target))
         if seg is None:
             self.events.append(
                 Event(tr.t, device, step.index, "move", f"{step.describe()}: already there")
@@ -625,7 +623,7 @@ class _Scheduler(FeatureSteps):
             self._latched[device] = {
                 # the guarded move's place among the device's resolved moves (a feature step
                 # makes several moves on one program line)
-                "move": len(self.resolved[device]) + len(self._move_targets),
+                "move": len(self.resolved[device]) + len(self._actions),
                 "sensor": sensor,
                 "point": contact,
                 "objects": list(reading.objects),
@@ -666,6 +664,7 @@ class _Scheduler(FeatureSteps):
                 "ended without contact (or there was none)",
             )
         self._latched[device] = None  # one point per contact
+        self._actions.append(ResolvedStep(step, tr.t, None, "probe", feature))
         self.events.append(
             Event(
                 tr.t,
@@ -719,6 +718,7 @@ class _Scheduler(FeatureSteps):
         }
         self.events.append(Event(tr.t, device, step.index, kind, step.describe(), tree))
         self.snapshots.append((tr.t, self.world.snapshot()))
+        self._actions.append(ResolvedStep(step, tr.t, None, kind))
         return True
 
     def _held_by(self, device: str, child: str) -> bool:

@@ -91,7 +91,7 @@ class FeatureSteps:
         way to the next; when all fail, the first's failure is reported."""
         first_error = None
         for route in routes:
-            mark = (tr.t, len(tr.segments), len(self._move_targets), len(self.events))
+            mark = (tr.t, len(tr.segments), len(self._actions), len(self.events))
             q_mark = self.world.joints(device).copy()
             try:
                 for n, ((motion, T), speed) in enumerate(zip(route, speeds)):
@@ -113,7 +113,7 @@ class FeatureSteps:
             except UnreachableTarget as exc:
                 first_error = first_error or exc
                 tr.t = mark[0]
-                del tr.segments[mark[1] :], self._move_targets[mark[2] :], self.events[mark[3] :]
+                del tr.segments[mark[1] :], self._actions[mark[2] :], self.events[mark[3] :]
                 self.set_time(tr.t)
                 self.world.set_joints(device, q_mark)
         raise first_error
@@ -221,7 +221,7 @@ class FeatureSteps:
         ]
         self._through(device, tr, step, tcp, routes, [1.0, 0.25, fraction, 0.25])
         # the speed held: the line along the edge took its trapezoid's time, no longer
-        along_edge = self._move_targets[-2]
+        along_edge = self._actions[-2].move
         length = abs(s1 - s0)
         ramp = goal.speed / LINEAR_ACCELERATION
         ideal = (

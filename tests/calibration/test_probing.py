@@ -437,7 +437,7 @@ def test_export_records_each_probe(tmp_path):
 
     export_program(str(CELL), "probe", "rapid", str(tmp_path / "abb"))
     text = next((tmp_path / "abb").glob("*.mod")).read_text()
-    assert text.count('TPWrite "rworld probe ') == text.count("SearchL ") > 0
+    assert text.count('Write rworld_log, "rworld contact ') == text.count("SearchL ") > 0
 
 
 def test_a_boss_wall_is_found_and_probed_from_outside(tmp_path):

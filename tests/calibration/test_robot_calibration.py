@@ -325,7 +325,10 @@ def test_compensated_targets_take_a_nominal_controller_to_the_true_pose(cells, t
     )
     assert result.exit_code == 0, result.output
     moved = json.loads(result.output)["compensated"]
-    assert len(moved) == 2 and all(0.3 < m["moved_mm"] < 20 for m in moved), moved
+    # only the linear move's Cartesian target changed: the joint move's joint target did not
+    # (issue 44: listing it as moved was wrong)
+    assert len(moved) == 1 and 0.3 < moved[0]["moved_mm"] < 20, moved
+    assert "(linear)" in moved[0]["step"]
     [(_, q), (_, target)] = readers.urscript((out / "pick.script").read_text())
     model = pin.buildModelFromUrdf(str(UR5))
     data = model.createData()

@@ -280,5 +280,8 @@ def test_place_sets_the_face_down_on_the_plane_where_asked(tmp_path):
     expected = T_plate[:3, :3] @ (top.point + [-0.020, 0.030, 0.0]) + T_plate[:3, 3]
     assert np.allclose(T_peg[:3, 3], expected, atol=1e-6)  # the foot's centre, on the top
     assert np.allclose(T_peg[:3, 2], T_plate[:3, 2], atol=1e-6)  # upright
-    moves = [r.move.motion for r in result.resolved["puma"] if r.step.kind == "place"]
+    placing = [r.kind for r in result.resolved["puma"] if r.step.kind == "place"]
+    # the moves, then the release: what the exporters write (issue 44)
+    assert placing == ["move", "move", "place"]
+    moves = [r.move.motion for r in result.resolved["puma"] if r.step.kind == "place" and r.move]
     assert moves == ["joint", "linear"]

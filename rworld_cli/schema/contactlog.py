@@ -1,0 +1,300 @@
+"""Contact logs: what a robot controller recorded of the probe program's contacts.
+
+``rworld export program`` writes each ``probe:`` as a contact report in the controller's own
+means (``docs/export.md``, contact reports); this module reads them back, one reader per
+language, into :class:`LoggedContact` - the TCP pose the controller reported, in SI, in the
+frame it reported it in, with the log's ``file:line`` - for ``rworld measure --from-log``.
+
+The reports carry the same fields in every language::
+
+    rworld contact K/N program=P step=S line=FILE:LINE feature=F tcp=T frame=base unit=mm
+    dir=dx,dy,dz <the pose, in the language's form>
+
+- ``urscript``: the controller's log (``textmsg``), any text around the line (time stamps,
+  the log's own columns) ignored; the pose ``pose=p[x, y, z, rx, ry, rz]`` in m and the
+  rotation vector [rad], the TCP in the base frame.
+- ``rapid``: the file the program wrote (``HOME:rworld_<program>.log``), ``x= y= z=`` in mm
+  and ``q=q1,q2,q3,q4`` (w, x, y, z), the search point in the work object.
+- ``krl``: the program's ``.dat`` as the controller keeps it (its values saved as they are
+  assigned): each ``DECL E6POS RWC_K={X, Y, Z, A, B, C, ...}`` (mm, deg,
+  ``R = Rz(A) Ry(B) Rx(C)``) after its ``; rworld contact`` line, and ``RWC_COUNT``, the
+  contacts recorded.
+- ``fanuc``: ``POSREG.VA`` (the position registers as the controller lists them), register
+  ``first + K - 1`` holding contact K (X, Y, Z mm; W, P, R deg: ``R = Rz(R) Ry(P) Rx(W)``);
+  the fields are not in the controller's output: they are the exported program's.
+
+Several runs in one log (a UR log, an appended RAPID file): the last complete run is taken
+(a report ``1/N`` starts a run) and the earlier ones named in :attr:`ContactLog.notes`.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import spatial
+from ..errors import Issue, UserError
+
+LANGUAGES = ("urscript", "rapid", "krl", "fanuc")
+MARK = "rworld contact"
+NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+UNITS = {"m": 1.0, "mm": 1e-3}
+FIELDS = ("program", "step", "line", "feature", "tcp", "frame", "unit", "dir")
+
+
+@dataclass
+class LoggedContact:
+    """One contact as the controller reported it.
+
+    Attributes
+    ----------
+    number, total : int
+        The contact's number in its program (1-based) and how many the program records
+        (``total`` 0: the log does not say).
+    T_frame_tcp : ndarray, shape (4, 4)
+        The TCP pose at the contact in the reported frame [m].
+    fields : dict of str
+        The report's fields (``program``, ``step``, ``line``, ``feature``, ``tcp``, ``frame``,
+        ``unit``, ``dir``); empty where the controller's output has none (FANUC).
+    where : str
+        ``file:line`` in the log.
+    """
+
+    number: int
+    total: int
+    T_frame_tcp: np.ndarray
+    fields: dict[str, str]
+    where: str
+
+
+@dataclass
+class ContactLog:
+    contacts: list[LoggedContact]
+    notes: list[str] = field(default_factory=list)
+    count: int | None = None  # KRL: the contacts the program says it recorded
+
+
+def _fail(path: str, line: int, message: str, column: int = 1):
+    issue = Issue(path, line, column, "contact log", message)
+    raise UserError(issue.format(), [issue])
+
+
+def _rotvec(v: np.ndarray) -> np.ndarray:
+    angle = float(np.linalg.norm(v))
+    return spatial.axis_rotation(v / angle, angle) if angle > 0 else np.eye(3)
+
+
+def _pose(xyz, R) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, xyz
+    return T
+
+
+def _euler_zyx(z: float, y: float, x: float) -> np.ndarray:
+    """``R = Rz(z) Ry(y) Rx(x)`` of angles in degrees."""
+    return spatial.rpy_to_matrix(np.radians([x, y, z]))
+
+
+def _numbers(text: str, count: int, path: str, line: int, what: str) -> np.ndarray:
+    values = re.findall(NUM, text)
+    if len(values) != count:
+        _fail(path, line, f"{what}: {count} numbers expected, found {len(values)} ('{text}')")
+    out = np.array([float(v) for v in values])
+    if not np.all(np.isfinite(out)):
+        _fail(path, line, f"{what}: not a finite number ('{text}')")
+    return out
+
+
+def _report(text: str, path: str, line: int) -> tuple[int, int, dict[str, str], str]:
+    """(K, N, fields, the rest after the fields) of a report line from its mark on."""
+    start = text.index(MARK)
+    head = re.match(rf"{MARK} (\d+)/(\d+)\s", text[start:])
+    if head is None:
+        _fail(path, line, f"'{MARK}' without its 'K/N' count", start + 1)
+    fields = dict(re.findall(r"(\w+)=(\S+)", text[start + head.end() :]))
+    missing = [f for f in FIELDS if f not in fields]
+    if missing:
+        _fail(path, line, f"contact report without {', '.join(missing)}", start + 1)
+    if fields["unit"] not in UNITS:
+        _fail(
+            path, line, f"unit={fields['unit']}: the reports give m or mm", text.index("unit=") + 1
+        )
+    return int(head.group(1)), int(head.group(2)), fields, text[start + head.end() :]
+
+
+def _urscript(lines: list[str], path: str) -> list[LoggedContact]:
+    out = []
+    for n, text in enumerate(lines, start=1):
+        if MARK not in text:
+            continue
+        k, total, fields, rest = _report(text, path, n)
+        found = re.search(r"pose=\s*p\[([^\]]*)\]", rest)
+        if found is None:
+            _fail(path, n, "a URScript contact report ends in 'pose=p[x, y, z, rx, ry, rz]'")
+        v = _numbers(found.group(1), 6, path, n, "the pose")
+        scale = UNITS[fields["unit"]]
+        R = _rotvec(v[3:])
+        out.append(LoggedContact(k, total, _pose(v[:3] * scale, R), fields, f"{path}:{n}"))
+    return out
+
+
+def _rapid(lines: list[str], path: str) -> list[LoggedContact]:
+    out = []
+    for n, text in enumerate(lines, start=1):
+        if MARK not in text:
+            continue
+        k, total, fields, rest = _report(text, path, n)
+        xyz = re.search(rf"x=({NUM}) y=({NUM}) z=({NUM})", rest)
+        quat = re.search(rf"q=({NUM}),({NUM}),({NUM}),({NUM})", rest)
+        if xyz is None or quat is None:
+            _fail(path, n, "a RAPID contact report ends in 'x= y= z=' (mm) and 'q=q1,q2,q3,q4'")
+        p = np.array([float(v) for v in xyz.groups()]) * UNITS[fields["unit"]]
+        q = np.array([float(v) for v in quat.groups()])
+        norm = float(np.linalg.norm(q))
+        if not np.isfinite(norm) or abs(norm - 1.0) > 1e-3:
+            _fail(path, n, f"q={quat.group(0)[2:]} is not a unit quaternion (norm {norm:.6g})")
+        out.append(
+            LoggedContact(
+                k, total, _pose(p, spatial.quat_to_matrix(q / norm)), fields, f"{path}:{n}"
+            )
+        )
+    return out
+
+
+def _krl(lines: list[str], path: str) -> tuple[list[LoggedContact], int | None]:
+    out, count, report = [], None, None
+    for n, text in enumerate(lines, start=1):
+        stripped = text.strip()
+        if stripped.startswith(";") and MARK in stripped:
+            report = (n, *_report(stripped, path, n))
+            continue
+        found = re.match(r"DECL\s+INT\s+RWC_COUNT\s*=\s*(-?\d+)", stripped, re.I)
+        if found:
+            count = int(found.group(1))
+            continue
+        found = re.match(r"DECL\s+E6POS\s+RWC_(\d+)\s*=\s*\{(.*)\}", stripped, re.I)
+        if not found:
+            continue
+        k = int(found.group(1))
+        if report is None or report[1] != k:
+            _fail(path, n, f"RWC_{k} without its '; {MARK} {k}/N' line above it")
+        values = dict(re.findall(rf"\b([A-Z]\d?)\s+({NUM})", found.group(2), re.I))
+        absent = [c for c in "XYZABC" if c not in {key.upper() for key in values}]
+        if absent:
+            _fail(path, n, f"RWC_{k} has no {', '.join(absent)}")
+        v = {key.upper(): float(value) for key, value in values.items()}
+        _, _, total, fields, _ = report
+        scale = UNITS[fields["unit"]]
+        T = _pose(np.array([v["X"], v["Y"], v["Z"]]) * scale, _euler_zyx(v["A"], v["B"], v["C"]))
+        out.append(LoggedContact(k, total, T, fields, f"{path}:{n}"))
+        report = None
+    return out, count
+
+
+def _fanuc(lines: list[str], path: str, first: int) -> list[LoggedContact]:
+    """POSREG.VA: ``[g,i] = 'comment'`` then ``Group: g  Config: ...``, ``X: Y: Z:`` and
+    ``W: P: R:`` lines (mm, deg); a joint register (``J1 =``) or ``Uninitialized`` is no
+    contact."""
+    registers: dict[int, tuple[int, dict[str, float] | str]] = {}
+    current: int | None = None
+    for n, text in enumerate(lines, start=1):
+        head = re.match(r"\s*\[(\d+),(\d+)\]\s*=", text)
+        if head:
+            if int(head.group(1)) != 1:
+                current = None  # another motion group
+                continue
+            current = int(head.group(2))
+            registers[current] = (n, "Uninitialized" if "Uninitialized" in text else {})
+            continue
+        if current is None or isinstance(registers[current][1], str):
+            continue
+        values = registers[current][1]
+        assert isinstance(values, dict)
+        if re.search(r"\bJ1\s*=", text):
+            registers[current] = (registers[current][0], "joint")
+            continue
+        for key, value in re.findall(rf"\b([XYZWPR])\s*:\s*({NUM})", text):
+            values[key] = float(value)
+    if not registers:
+        _fail(path, 1, "no position registers: POSREG.VA lists '[*POSREG*]$POSREG' entries")
+    out = []
+    k = 1
+    while first + k - 1 in registers:
+        n, values = registers[first + k - 1]
+        if isinstance(values, str) or len(values) < 6:
+            what = values if isinstance(values, str) else "incomplete"
+            if k == 1 or what == "Uninitialized":
+                break
+            _fail(path, n, f"PR[{first + k - 1}] ({what}): a contact register holds X..R")
+        assert isinstance(values, dict)
+        if all(v == 0.0 for v in values.values()):  # cleared by the program, never reached
+            break
+        T = _pose(
+            np.array([values[c] for c in "XYZ"]) * 1e-3,
+            _euler_zyx(values["R"], values["P"], values["W"]),
+        )
+        out.append(LoggedContact(k, 0, T, {}, f"{path}:{n}"))
+        k += 1
+    return out
+
+
+def read_contact_log(path: str, language: str, first_register: int = 101) -> ContactLog:
+    """The contacts a controller recorded, from its log or the file the program wrote.
+
+    Parameters
+    ----------
+    language : {"urscript", "rapid", "krl", "fanuc"}
+    first_register : int
+        FANUC: the position register of contact 1 (``export program --contact-register``).
+
+    Raises
+    ------
+    UserError
+        An unreadable file, a malformed report (at its ``file:line``), no contact at all.
+    """
+    if language not in LANGUAGES:
+        raise UserError(f"--format: contact logs are read for {', '.join(LANGUAGES)}")
+    try:
+        raw = Path(path).read_bytes()
+    except OSError as exc:
+        raise UserError(f"cannot read {path}: {exc.strerror or exc}") from None
+    text = raw.decode("utf-8", errors="replace")
+    lines = text.splitlines()
+    count = None
+    if language == "urscript":
+        contacts = _urscript(lines, path)
+    elif language == "rapid":
+        contacts = _rapid(lines, path)
+    elif language == "krl":
+        contacts, count = _krl(lines, path)
+    else:
+        contacts = _fanuc(lines, path, first_register)
+    if not contacts:
+        where = {
+            "urscript": f"no line holds '{MARK}' (the program's textmsg reports)",
+            "rapid": f"no line holds '{MARK}' (the file HOME:rworld_<program>.log)",
+            "krl": "no 'DECL E6POS RWC_k' with its report line (the program's .dat file)",
+            "fanuc": f"PR[{first_register}] holds no contact",
+        }[language]
+        raise UserError(f"{path}: no contact: {where}")
+    notes = []
+    if language in ("urscript", "rapid"):  # the last run: from the last report 1/N on
+        starts = [i for i, c in enumerate(contacts) if c.number == 1]
+        if not starts or starts[0] != 0:
+            first = contacts[0]
+            _fail(
+                path,
+                int(first.where.rsplit(":", 1)[1]),
+                f"contact {first.number}/{first.total} before any contact 1: the log starts in "
+                "the middle of a run",
+            )
+        if len(starts) > 1:
+            notes.append(
+                f"{len(starts) - 1} earlier run(s) in {path} left out: the contacts from "
+                f"{contacts[starts[-1]].where} on are read"
+            )
+            contacts = contacts[starts[-1] :]
+    return ContactLog(contacts, notes, count)

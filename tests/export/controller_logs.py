@@ -1,0 +1,122 @@
+"""What a controller records when it runs an exported probe program, written independently of
+rworld's exporters (scipy's Rotation, plain string formatting): the tests' stand-in for a real
+controller's output, in each language's own form (docs/export.md: contact reports).
+
+Each writer takes the contacts as :class:`Reported`: the report's fields as the export writes
+them (read from the exported program's text, not from rworld) and the TCP pose the controller
+reports, in its reporting frame, in metres.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+
+@dataclass
+class Reported:
+    fields: str  # "rworld contact K/N program=... dir=..." as the exported program states it
+    T: np.ndarray  # (4, 4) the TCP in the controller's reporting frame [m]
+
+
+def _fmt(x: float, digits: int) -> str:
+    return f"{x:.{digits}f}"
+
+
+def urscript_log(contacts: list[Reported], digits: int = 12) -> str:
+    """A UR controller log: time stamps and the log's own columns around each textmsg; the pose
+    as URScript prints one, p[x, y, z, rx, ry, rz] (m, rotation vector)."""
+    out = ["2026-11-27 09:00:00.000 PolyScope started", "2026-11-27 09:00:01.250 Program running"]
+    for k, c in enumerate(contacts):
+        v = list(c.T[:3, 3]) + list(Rotation.from_matrix(c.T[:3, :3]).as_rotvec())
+        pose = "p[" + ", ".join(_fmt(x, digits) for x in v) + "]"
+        out.append(f"2026-11-27 09:00:{10 + k:02d}.500 [ROBOT] {c.fields} pose={pose}")
+    out.append("2026-11-27 09:01:00.000 Program stopped")
+    return "\n".join(out) + "\n"
+
+
+def rapid_file(contacts: list[Reported], digits: int = 8) -> str:
+    """The file a RAPID program appends to with Write: x, y, z in mm, the quaternion q1..q4 (w,
+    x, y, z)."""
+    out = []
+    for c in contacts:
+        p = c.T[:3, 3] * 1000
+        x, y, z, w = Rotation.from_matrix(c.T[:3, :3]).as_quat()
+        out.append(
+            f"{c.fields} x={_fmt(p[0], digits)} y={_fmt(p[1], digits)} z={_fmt(p[2], digits)} "
+            f"q={_fmt(w, 12)},{_fmt(x, 12)},{_fmt(y, 12)},{_fmt(z, 12)}"
+        )
+    return "\n".join(out) + "\n"
+
+
+def krl_dat(exported_dat: str, contacts: list[Reported], count: int | None = None) -> str:
+    """The exported .dat as the controller keeps it after the run: each RWC_K assigned its
+    $POS_INT (mm; A, B, C: R = Rz(A) Ry(B) Rx(C), deg), RWC_COUNT the contacts recorded; the
+    KSS writes values without the spaces after commas."""
+    text = exported_dat
+    for k, c in enumerate(contacts, start=1):
+        p = c.T[:3, 3] * 1000
+        a, b, cc = Rotation.from_matrix(c.T[:3, :3]).as_euler("ZYX", degrees=True)
+        values = (
+            f"X {p[0]:.9f},Y {p[1]:.9f},Z {p[2]:.9f},A {a:.9f},B {b:.9f},C {cc:.9f},S 2,T 35,"
+            "E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0"
+        )
+        text = re.sub(rf"(DECL E6POS RWC_{k})=\{{[^}}]*\}}", rf"\1={{{values}}}", text)
+    recorded = len(contacts) if count is None else count
+    return re.sub(r"DECL INT RWC_COUNT=\d+", f"DECL INT RWC_COUNT={recorded}", text)
+
+
+def fanuc_posreg(contacts: list[Reported], first: int, digits: int = 3, size: int = 200) -> str:
+    """POSREG.VA as the controller lists its position registers: group 1, the contacts from
+    PR[first] on (X, Y, Z mm; W, P, R deg: R = Rz(R) Ry(P) Rx(W)), the others uninitialised
+    or a joint position."""
+
+    def num(x: float) -> str:
+        text = f"{x:{digits + 7}.{digits}f}"
+        return text.replace("-0.", " -.").replace(" 0.", "  .")  # FANUC drops the leading 0
+
+    out = [f"[*POSREG*]$POSREG  Storage: CMOS  Access: RW  : ARRAY[1,{size}] OF Position Reg"]
+    by_register = {first + k: c for k, c in enumerate(contacts)}
+    for i in range(1, size + 1):
+        c = by_register.get(i)
+        if i == 1:
+            out += [
+                "    [1,1] =   'HOME'   Group: 1",
+                "  J1 =     0.000 deg   J2 =     0.000 deg   J3 =     0.000 deg ",
+                "  J4 =     0.000 deg   J5 =   -90.000 deg   J6 =     0.000 deg ",
+                "",
+            ]
+        elif c is None:
+            out.append(f"    [1,{i}] =   '' Uninitialized")
+        else:
+            p = c.T[:3, 3] * 1000
+            r, pp, w = Rotation.from_matrix(c.T[:3, :3]).as_euler("ZYX", degrees=True)
+            out += [
+                f"    [1,{i}] =   '' ",
+                "  Group: 1   Config: N U T, 0, 0, 0",
+                f"  X: {num(p[0])}   Y: {num(p[1])}   Z: {num(p[2])}",
+                f"  W: {num(w)}   P: {num(pp)}   R: {num(r)}",
+            ]
+    return "\n".join(out) + "\n"
+
+
+def reports_in(text: str) -> list[str]:
+    """The report fields an exported program states, in order (URScript's textmsg, RAPID's
+    Write pieces joined, KRL's .dat comment lines)."""
+    found = re.findall(r'textmsg\("(rworld contact [^"]*?) pose=", get_actual_tcp_pose\(\)\)', text)
+    if found:
+        return found
+    if "Write rworld_log" in text:  # literal pieces, then the x= expression
+        out, current = [], ""
+        for line in text.splitlines():
+            piece = re.match(r'\s*Write rworld_log, "([^"]*)"\\NoNewLine;$', line)
+            if piece:
+                current += piece.group(1)
+            elif re.match(r'\s*Write rworld_log, "x="', line):
+                out.append(current.strip())
+                current = ""
+        return out
+    return [line[2:] for line in text.splitlines() if line.startswith("; rworld contact ")]

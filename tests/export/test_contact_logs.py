@@ -1,0 +1,301 @@
+"""The calibration loop through a real controller's output (issue 44): an exported probe program
+reports each contact in its language, a stand-in controller (``controller_logs``, written
+without rworld's exporters) produces what the controller would record from the simulated
+contacts, ``rworld measure --from-log`` reads it back, and ``calibrate`` gives what the
+simulated loop gives; a log that does not match the program is refused at its line."""
+
+from __future__ import annotations
+
+import re
+import shutil
+
+import numpy as np
+import pytest
+
+from rworld_cli.calibration.pipeline import calibrate
+from rworld_cli.calibration.probing import probe_run
+from rworld_cli.schema.loader import load_cell
+from rworld_cli.schema.measurements import load_measurements
+from rworld_cli.schema.programs import load_run
+from rworld_cli.simulate.engine import simulate
+from rworld_cli.world.tree import World
+from tests.calibration.test_probing import make_truth
+from tests.conftest import WORKCELLS
+from tests.export import controller_logs
+from tests.export.controller_logs import Reported, reports_in
+
+PROGRAM = "programs/probe_features.yaml"  # probe: on features (the steps of issue 44's item 2)
+LOG_FILES = {
+    "urscript": "robot.log",
+    "rapid": "rworld.log",
+    "krl": "probe.dat",
+    "fanuc": "POSREG.VA",
+}
+
+
+@pytest.fixture(scope="module")
+def loop(tmp_path_factory):
+    """The nominal cell, a truth cell with the parts moved, the program's simulated contacts on
+    the truth (as the controller records them: its nominal kinematics at the contact) and the
+    measurement file of the simulated loop (noise-free)."""
+    from rworld_cli.api import simulate_probe_measurements
+
+    root = tmp_path_factory.mktemp("loop")
+    cell = root / "cell"
+    shutil.copytree(WORKCELLS / "probing", cell)
+    truth = make_truth(root / "truth")
+    run = load_run(str(cell), str(cell / PROGRAM))
+    result = simulate(run, collisions=False)
+    probed = probe_run(result, run, load_cell(str(truth)).cell)
+    simulated = root / "simulated.yaml"
+    simulate_probe_measurements(str(cell), str(truth), str(cell / PROGRAM), str(simulated), 0.0)
+    return cell, truth, run, result, probed, simulated
+
+
+def _tcp_poses(run, result, probed, frame: str | None) -> list[np.ndarray]:
+    """Where the controller's TCP stood at each recorded contact, in its reporting frame: the
+    search's orientation (a straight search keeps it), placed so that the probe's ball centre
+    is the recorded point."""
+    world = World(run.cell)
+    T_world_base = world.T_world("puma")
+    T_base_frame = (
+        np.eye(4) if frame is None else np.linalg.solve(T_world_base, world.T_world(frame))
+    )
+    probes = [e for e in result.events if e.device == "puma" and e.kind == "probe"]
+    out = []
+    for event, point in zip(probes, probed, strict=True):
+        search = result.resolved["puma"][event.reading["guard_move"]].move
+        offset = world.T(search.tcp, search.guard)[:3, 3]
+        R = search.T_base_planned[:3, :3]
+        T = np.eye(4)
+        T[:3, :3] = R
+        T[:3, 3] = np.linalg.solve(T_world_base, np.append(point.reported, 1.0))[:3] - R @ offset
+        out.append(np.linalg.solve(T_base_frame, T))
+    return out
+
+
+def _controller_output(fmt, exported, contacts, digits=None, noise=None) -> str:
+    if fmt == "urscript":
+        return controller_logs.urscript_log(contacts, *(() if digits is None else (digits,)))
+    if fmt == "rapid":
+        return controller_logs.rapid_file(contacts, *(() if digits is None else (digits,)))
+    if fmt == "krl":
+        return controller_logs.krl_dat(exported, contacts)
+    return controller_logs.fanuc_posreg(contacts, 101, 9 if digits is None else digits)
+
+
+def _export(cli, cell, fmt, frame, out):
+    args = ["export", "program", str(cell), str(cell / PROGRAM), "--format", fmt, "-o", str(out)]
+    result = cli(args + (["--frame", frame] if frame else []))
+    assert result.exit_code == 0, result.output
+    files = {p.suffix: p.read_text() for p in out.iterdir()}
+    return files.get(".dat") if fmt == "krl" else next(iter(files.values()))
+
+
+def _write_log(cli, loop, fmt, frame, tmp_path, digits=None, shift=None):
+    cell, _, run, result, probed, _ = loop
+    exported = _export(cli, cell, fmt, frame, tmp_path / "exported")
+    poses = _tcp_poses(run, result, probed, frame)
+    if shift is not None:
+        poses = [T.copy() for T in poses]
+        poses[shift[0]][:3, 3] += shift[1]
+    fields = reports_in(exported) if fmt != "fanuc" else [""] * len(poses)
+    assert len(fields) == len(poses) == 12  # every probe: on a feature reports its contact
+    contacts = [Reported(f, T) for f, T in zip(fields, poses)]
+    log = tmp_path / LOG_FILES[fmt]
+    log.write_text(_controller_output(fmt, exported, contacts, digits))
+    return log
+
+
+def _read_back(cli, cell, log, fmt, out, *extra):
+    args = ["measure", "--from-log", str(log), "--cell", str(cell), "--run", str(cell / PROGRAM)]
+    return cli(args + ["--format", fmt, "-o", str(out), *extra])
+
+
+def _frames(cell, path, sigma=2e-5):
+    """The frames ``calibrate`` solves from the file, weighting both files alike (the
+    noise-free simulated file states no usable sigma)."""
+    nominal = load_cell(str(cell)).cell
+    measured = load_measurements([str(path)], nominal)
+    measured.sigma = sigma
+    return calibrate(nominal, measured).solutions
+
+
+@pytest.mark.parametrize(
+    "fmt, frame", [("urscript", None), ("rapid", "plate"), ("krl", "table"), ("fanuc", "plate")]
+)
+def test_a_controller_log_calibrates_as_the_simulated_loop(cli, loop, tmp_path, fmt, frame):
+    """Each language's contact reports, read back through the controller's frames (the user
+    frame where the export used one), give the simulated loop's points and frames to 1e-9 m."""
+    cell, truth, *_, simulated = loop
+    log = _write_log(cli, loop, fmt, frame, tmp_path)
+    out = tmp_path / "from_log.yaml"
+    extra = ["--frame", frame] if fmt == "fanuc" and frame else []
+    result = _read_back(cli, cell, log, fmt, out, "--sigma", "0.02mm", *extra)
+    assert result.exit_code == 0, result.output
+    nominal = load_cell(str(cell)).cell
+    a = load_measurements([str(simulated)], nominal).measurements
+    b = load_measurements([str(out)], nominal).measurements
+    assert sorted(a) == sorted(b)
+    for name in a:
+        assert np.abs(a[name].points - b[name].points).max() < 1e-9, name
+    expected, got = _frames(cell, simulated), _frames(cell, out)
+    for frame_name in expected:
+        T_a, T_b = expected[frame_name].T_world, got[frame_name].T_world
+        assert np.abs(T_a - T_b).max() < 1e-9, frame_name
+    T_true = World(load_cell(str(truth)).cell).T_world("plate")
+    assert np.abs(got["plate"].T_world[:3, 3] - T_true[:3, 3]).max() < 1e-6  # noise-free
+
+
+def test_fanuc_registers_at_the_controllers_precision(cli, loop, tmp_path):
+    """POSREG.VA prints 3 decimals (mm, deg): the plate comes out within 5 um of the simulated
+    loop's."""
+    cell, *_, simulated = loop
+    log = _write_log(cli, loop, "fanuc", None, tmp_path, digits=3)
+    assert "  X: " in log.read_text() and " -." in log.read_text()
+    out = tmp_path / "m.yaml"
+    result = _read_back(cli, cell, log, "fanuc", out)
+    assert result.exit_code == 0, result.output
+    T_a, T_b = _frames(cell, simulated)["plate"].T_world, _frames(cell, out)["plate"].T_world
+    assert 0 < np.abs(T_a[:3, 3] - T_b[:3, 3]).max() < 5e-6
+
+
+def test_the_loop_recovers_the_moved_plate_within_its_predicted_sigma(cli, loop, tmp_path):
+    """The contacts with 20 um of probing noise (the stand-in controller's own generator): the
+    calibrated plate lies within 4 of its predicted sigmas of the true plate, per axis."""
+    cell, truth, run, result, probed, _ = loop
+    exported = _export(cli, cell, "urscript", None, tmp_path / "ur")
+    rng = np.random.default_rng(7)
+    noisy = [p.reported + rng.normal(0.0, 2e-5, 3) for p in probed]
+    shifted = [
+        type(p)(p.feature, p.step, p.where, p.nominal, p.true, reported=q)
+        for p, q in zip(probed, noisy)
+    ]
+    poses = _tcp_poses(run, result, shifted, None)
+    log = tmp_path / "robot.log"
+    log.write_text(
+        controller_logs.urscript_log([Reported(f, T) for f, T in zip(reports_in(exported), poses)])
+    )
+    out = tmp_path / "m.yaml"
+    result = _read_back(cli, cell, log, "urscript", out, "--sigma", "0.02mm")
+    assert result.exit_code == 0, result.output
+    solution = _frames(cell, out)["plate"]
+    T_true = World(load_cell(str(truth)).cell).T_world("plate")
+    T_nominal = World(load_cell(str(cell)).cell).T_world("plate")
+    error = np.abs(solution.T_world[:3, 3] - T_true[:3, 3])
+    assert np.all(error <= 4 * solution.sigma_translation), (error, solution.sigma_translation)
+    assert np.linalg.norm(T_nominal[:3, 3] - T_true[:3, 3]) > 10 * np.linalg.norm(error)
+
+
+# ---------------------------------------------------------------- a log that does not match
+
+
+def _refused(result, out, *words):
+    assert result.exit_code == 2, result.output
+    for word in words:
+        assert word in result.output, (word, result.output)
+    assert not out.exists()
+
+
+def test_a_cut_log_is_refused_naming_the_missing_contact(cli, loop, tmp_path):
+    cell = loop[0]
+    log = _write_log(cli, loop, "urscript", None, tmp_path)
+    lines = log.read_text().splitlines()
+    last = max(i for i, line in enumerate(lines) if "rworld contact" in line)
+    log.write_text("\n".join(lines[:last]) + "\n")
+    out = tmp_path / "m.yaml"
+    _refused(
+        _read_back(cli, cell, log, "urscript", out),
+        out,
+        f"robot.log:{last}:",
+        "11 of the program's 12 contacts: contact 12 (plate.hole2, step 5",
+    )
+
+
+def test_a_contact_off_its_search_is_refused_at_its_line(cli, loop, tmp_path):
+    cell = loop[0]
+    log = _write_log(cli, loop, "rapid", None, tmp_path, shift=(4, [0.0, 0.0, 0.01]))
+    out = tmp_path / "m.yaml"
+    _refused(
+        _read_back(cli, cell, log, "rapid", out),
+        out,
+        "rworld.log:5: contact 5 (plate.front, step 3) lies 10.000 mm off its search's line",
+    )
+
+
+def test_a_report_of_another_feature_or_unit_is_refused_at_its_line(cli, loop, tmp_path):
+    cell = loop[0]
+    log = _write_log(cli, loop, "urscript", None, tmp_path)
+    text = log.read_text()
+    out = tmp_path / "m.yaml"
+    log.write_text(text.replace("feature=plate.top", "feature=plate.bottom", 1))
+    _refused(
+        _read_back(cli, cell, log, "urscript", out),
+        out,
+        "robot.log:3: contact 1: feature=plate.bottom, but the program's contact 1 has "
+        "feature=plate.top",
+    )
+    log.write_text(text.replace("unit=m ", "unit=in ", 1))
+    _refused(_read_back(cli, cell, log, "urscript", out), out, "robot.log:3:", "unit=in")
+    log.write_text(text.replace("rworld contact 1/12", "rworld contact 1/13"))
+    _refused(_read_back(cli, cell, log, "urscript", out), out, "the log is another program's")
+
+
+def test_a_krl_run_that_stopped_early_is_refused(cli, loop, tmp_path):
+    cell = loop[0]
+    log = _write_log(cli, loop, "krl", None, tmp_path)
+    log.write_text(log.read_text().replace("DECL INT RWC_COUNT=12", "DECL INT RWC_COUNT=7"))
+    out = tmp_path / "m.yaml"
+    _refused(
+        _read_back(cli, cell, log, "krl", out),
+        out,
+        "RWC_COUNT = 7: the program recorded 7 of its 12 contacts",
+    )
+
+
+def test_several_runs_in_one_log_take_the_last(cli, loop, tmp_path):
+    cell = loop[0]
+    log = _write_log(cli, loop, "urscript", None, tmp_path)
+    text = log.read_text()
+    earlier = re.sub(r"pose=p\[[^\]]*\]", "pose=p[0, 0, 0, 0, 0, 0]", text)  # off every search
+    log.write_text(earlier + text)
+    out = tmp_path / "m.yaml"
+    result = _read_back(cli, cell, log, "urscript", out)
+    assert result.exit_code == 0, result.output
+    assert "1 earlier run(s)" in result.output
+
+
+def test_a_frame_level_probe_program_reads_back_too(cli, loop, tmp_path):
+    """The program plan-measurements --program writes (guarded moves to frames, then probe:
+    FEATURE): its RAPID contact file gives the simulated loop's points."""
+    from rworld_cli.api import simulate_probe_measurements
+
+    cell, truth, *_ = loop
+    program = cell / "programs" / "probe.yaml"
+    run = load_run(str(cell), str(program))
+    result = simulate(run, collisions=False)
+    probed = probe_run(result, run, load_cell(str(truth)).cell)
+    out = tmp_path / "abb"
+    assert (
+        cli(
+            ["export", "program", str(cell), str(program), "--format", "rapid", "-o", str(out)]
+        ).exit_code
+        == 0
+    )
+    fields = reports_in(next(out.iterdir()).read_text())
+    poses = _tcp_poses(run, result, probed, None)
+    assert len(fields) == len(poses) == 39
+    log = tmp_path / "rworld.log"
+    log.write_text(controller_logs.rapid_file([Reported(f, T) for f, T in zip(fields, poses)]))
+    read = tmp_path / "read.yaml"
+    args = ["measure", "--from-log", str(log), "--cell", str(cell), "--run", str(program)]
+    result = cli(args + ["--format", "rapid", "-o", str(read)])
+    assert result.exit_code == 0, result.output
+    simulated = tmp_path / "simulated.yaml"
+    simulate_probe_measurements(str(cell), str(truth), str(program), str(simulated), 0.0)
+    nominal = load_cell(str(cell)).cell
+    a = load_measurements([str(simulated)], nominal).measurements
+    b = load_measurements([str(read)], nominal).measurements
+    assert sorted(a) == sorted(b)
+    for name in a:
+        assert np.abs(a[name].points - b[name].points).max() < 1e-9, name
