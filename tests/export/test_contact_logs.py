@@ -52,19 +52,19 @@ def loop(tmp_path_factory):
     return cell, truth, run, result, probed, simulated
 
 
-def _tcp_poses(run, result, probed, frame: str | None) -> list[np.ndarray]:
-    """Where the controller's TCP stood at each recorded contact, in its reporting frame: the
-    search's orientation (a straight search keeps it), placed so that the probe's ball centre
-    is the recorded point."""
+def _tcp_poses(run, result, probed, frame: str | None, device="puma") -> list[np.ndarray]:
+    """Where the controller's TCP stood at each recorded contact, in the robot's frame or the
+    user frame: the search's orientation (a straight search keeps it), placed so that the
+    probe's ball centre is the recorded point."""
     world = World(run.cell)
-    T_world_base = world.T_world("puma")
+    T_world_base = world.T_world(device)
     T_base_frame = (
         np.eye(4) if frame is None else np.linalg.solve(T_world_base, world.T_world(frame))
     )
-    probes = [e for e in result.events if e.device == "puma" and e.kind == "probe"]
+    probes = [e for e in result.events if e.device == device and e.kind == "probe"]
     out = []
     for event, point in zip(probes, probed, strict=True):
-        search = result.resolved["puma"][event.reading["guard_move"]].move
+        search = result.resolved[device][event.reading["guard_move"]].move
         offset = world.T(search.tcp, search.guard)[:3, 3]
         R = search.T_base_planned[:3, :3]
         T = np.eye(4)
@@ -299,3 +299,97 @@ def test_a_frame_level_probe_program_reads_back_too(cli, loop, tmp_path):
     assert sorted(a) == sorted(b)
     for name in a:
         assert np.abs(a[name].points - b[name].points).max() < 1e-9, name
+
+
+# ---------------------------------------------------------------- vendors' robots
+
+PLATE = {
+    "name": "plate",
+    "mass": 1.0,
+    "com": [0.0, 0.0, -0.01],
+    "geometry": {"box": [0.2, 0.2, 0.02], "origin": {"xyz": [0.0, 0.0, -0.01]}},
+    "features": [{"name": "top", "plane": {"point": [0, 0, 0], "normal": [0, 0, 1]}}],
+}
+TOUCH = """device: {device}
+units: {{length: mm, angle: deg}}
+steps:
+  - move: {{to: target, tcp: tip, offset: {{xyz: [0, 0, -50]}}}}
+  - move: {{to: target, tcp: tip, offset: {{xyz: [0, 0, 10]}}, motion: linear, speed: 0.04,
+      until: ball}}
+  - probe: plate.top
+  - move: {{to: target, tcp: tip, offset: {{xyz: [0, 0, -50]}}, motion: linear}}
+  - move: {{to: target, tcp: tip, offset: {{xyz: [30, 20, -50]}}, motion: linear}}
+  - move: {{to: target, tcp: tip, offset: {{xyz: [30, 20, 10]}}, motion: linear, speed: 0.04,
+      until: ball}}
+  - probe: plate.top
+"""
+
+
+@pytest.mark.parametrize("vendor", ["ur5", "kr16", "irb2400", "lrmate200id"])
+def test_vendor_robots_report_in_their_controllers_frames(cli, vendor, tmp_path):
+    """A robot from the vendor's ROS package (its controller's flange tool0 and base 'base':
+    UR's turned by pi about z) touches a plate with a ball on its tool; its language's contact
+    report, as the controller gives it in its base frame (the frame taken from the cell's
+    'base' link), reads back to the simulated contacts (1e-7 m)."""
+    import yaml
+
+    from tests.conftest import urdf_without_meshes
+    from tests.export.test_vendors import TIP, VENDORS
+
+    urdf_path, fmt, _, target = VENDORS[vendor]
+    from rworld_cli.api import import_urdf
+
+    urdf = urdf_without_meshes(urdf_path, tmp_path / urdf_path.name)
+    root = tmp_path / "cell"
+    device = import_urdf(str(urdf), str(root)).device
+    cell = yaml.safe_load((root / "cell.yaml").read_text())
+    [dev] = cell["devices"]
+    for joint in dev["joints"]:
+        joint["limits"]["acceleration"] = 10.0
+    dev["tcps"].append({"name": "tip", "parent": "tool0"})
+    cell["frames"] = [{"name": "target"}]
+    cell["objects"] = [PLATE]
+    cell["sensors"] = [{"name": "ball", "type": "touch", "ball": 0.003}]
+    cell["affixments"] = [
+        {"parent": f"{device}.tip", "child": "ball", "type": "rigid", "kind": "fixture"}
+    ]
+    (root / "cell.yaml").write_text(yaml.safe_dump(cell, sort_keys=False))
+    poses = yaml.safe_load((root / "poses.yaml").read_text())
+    poses["poses"][f"{device}.tip"] = TIP
+    poses["poses"]["target"] = target
+    poses["poses"]["plate"] = {"xyz": target["xyz"]}  # its top through the target, level
+    poses["poses"]["ball"] = {"xyz": [0, 0, 0]}
+    (root / "poses.yaml").write_text(yaml.safe_dump(poses, sort_keys=False))
+    program = root / "touch.yaml"
+    program.write_text(TOUCH.format(device=device))
+    out = tmp_path / "out"
+    assert cli(["export", "program", str(root), str(program), "-o", str(out)]).exit_code == 0
+    run = load_run(str(root), str(program))
+    result = simulate(run, collisions=False)
+    nominal = load_cell(str(root)).cell
+    probed = probe_run(result, run, nominal)  # the cell as truth: the contacts as simulated
+    world = World(nominal)
+    T_world_controller = world.T_world(f"{device}.base")
+    T_world_base = world.T_world(device)
+    poses_in_controller = [
+        np.linalg.solve(np.linalg.solve(T_world_base, T_world_controller), T)
+        for T in _tcp_poses(run, result, probed, None, device)
+    ]
+    assert len(poses_in_controller) == 2
+    exported = {p.suffix: p.read_text() for p in out.iterdir()}
+    text = exported.get(".dat") if fmt == "krl" else next(iter(exported.values()))
+    fields = reports_in(text) if fmt != "fanuc" else ["", ""]
+    contacts = [Reported(f, T) for f, T in zip(fields, poses_in_controller, strict=True)]
+    log = tmp_path / LOG_FILES[fmt]
+    log.write_text(_controller_output(fmt, text, contacts))
+    read = tmp_path / "m.yaml"
+    args = ["measure", "--from-log", str(log), "--cell", str(root), "--run", str(program)]
+    answer = cli(args + ["-o", str(read), "--json"])  # the vendor names the language
+    assert answer.exit_code == 0, answer.output
+    import json
+
+    report = json.loads(answer.output)
+    assert report["format"] == fmt
+    events = [e for e in result.events if e.kind == "probe"]
+    for contact, event in zip(report["contacts"], events, strict=True):
+        assert np.abs(np.array(contact["point_mm"]) / 1000 - event.reading["point"]).max() < 1e-7
