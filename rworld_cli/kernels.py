@@ -16,11 +16,12 @@ How:
 * **Compile.** llvmlite (LLVM's Python binding, a wheel from PyPI; no compiler on the user's
   machine) optimises at O3 for the host CPU and emits an object file; MCJIT links it into
   the process.  A Newton-Euler kernel of a 6-joint arm compiles in about 40 ms.
-* **Cache.** The object file is stored under ``$RWORLD_CACHE_DIR`` (default
-  ``$XDG_CACHE_HOME/rworld`` or ``~/.cache/rworld``), in ``kernels/``, named by a hash of the IR,
-  the LLVM version and the host CPU, and guarded by a checksum, so a later process loads it
-  in about a millisecond.  Where the directory is not writable the kernel is compiled in
-  memory each time; a corrupt or foreign file is recompiled.
+* **Cache.** The object file is stored in the cache's ``kernels/`` folder (:mod:`.cache`:
+  ``$RWORLD_CACHE_DIR``, a folder only the user can write, entries authenticated by an HMAC
+  with the user's secret before the JIT sees them), named by a hash of the IR, the LLVM
+  version and the host CPU, so a later process loads it in about a millisecond.  Where the
+  folder is refused or not writable the kernel is compiled in memory each time; a corrupt,
+  foreign or forged file is recompiled.
 * **Threads.** A call runs without the GIL (ctypes releases it), so a batch of at least
   :data:`PARALLEL_MIN` samples is split over the CPUs this process may use
   (``RWORLD_THREADS`` caps it).
@@ -41,7 +42,6 @@ import struct
 import threading
 import warnings
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 
 import numpy as np
 
@@ -61,16 +61,6 @@ def backend() -> str:
     if choice == "numpy":
         return "numpy"
     return "llvm" if _llvm() is not None else "numpy"
-
-
-def cache_dir() -> Path:
-    """Where compiled kernels are kept (it may not exist, or not be writable)."""
-    root = os.environ.get("RWORLD_CACHE_DIR")
-    if root:
-        return Path(root) / "kernels"
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    base = Path(xdg) if xdg else Path.home() / ".cache"
-    return base / "rworld" / "kernels"
 
 
 def thread_count() -> int:
@@ -339,7 +329,6 @@ def _direct_ir(symbol: str, sizes: list[int], shapes: list[tuple[int, ...]]) -> 
 
 # ------------------------------------------------------------------------------- compile
 _COMPILED: dict[str, Kernel] = {}
-_MAGIC = b"rworld-kernel\n"
 
 
 def compiled_kernel(gen) -> Kernel | None:
@@ -410,8 +399,8 @@ def _load(llvm, key: str, symbols: list[str], ir) -> list[int]:
     """Addresses of ``symbols``: from the disk cache, else compiled from ``ir`` (the text, or a
     function that returns it) and stored when possible."""
     engine = _STATE["engine"]
-    path = cache_dir() / f"{key}.o"
-    obj = _read_cached(path)
+    name = f"{key}.o"
+    obj = _read_cached(name)
     if obj is None:
         module = llvm.parse_assembly(ir() if callable(ir) else ir)
         module.verify()
@@ -419,7 +408,7 @@ def _load(llvm, key: str, symbols: list[str], ir) -> list[int]:
         builder = llvm.create_pass_builder(_STATE["machine"], tuning)
         builder.getModulePassManager().run(module, builder)
         obj = _STATE["machine"].emit_object(module)
-        _write_cached(path, obj)
+        _write_cached(name, obj)
     ref = llvm.ObjectFileRef.from_data(obj)
     engine.add_object_file(ref)
     engine.finalize_object()
@@ -430,29 +419,18 @@ def _load(llvm, key: str, symbols: list[str], ir) -> list[int]:
     return addresses
 
 
-def _read_cached(path: Path) -> bytes | None:
-    try:
-        data = path.read_bytes()
-    except OSError:
-        return None
-    head = len(_MAGIC) + 64
-    if not data.startswith(_MAGIC) or len(data) <= head:
-        return None
-    obj = data[head:]
-    if hashlib.sha256(obj).hexdigest().encode() != data[len(_MAGIC) : head]:
-        return None  # torn or foreign: compile again
-    return obj
+def _read_cached(name: str) -> bytes | None:
+    """A compiled object from the cache, authenticated before the JIT sees it (``cache.py``)."""
+    from . import cache
+
+    return cache.read("kernels", name)
 
 
-def _write_cached(path: Path, obj: bytes) -> None:
-    """Store atomically; a cache that cannot be written is not an error."""
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
-        tmp.write_bytes(_MAGIC + hashlib.sha256(obj).hexdigest().encode() + obj)
-        os.replace(tmp, path)
-    except OSError:
-        pass
+def _write_cached(name: str, obj: bytes) -> None:
+    """Store it; a cache that cannot be written is not an error."""
+    from . import cache
+
+    cache.write("kernels", name, obj)
 
 
 # ---------------------------------------------------------------------------------- call

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import importlib
 import sys
+import warnings
 
 import click
 
@@ -149,6 +150,12 @@ class LazyGroup(click.Group):
             raise
 
 
+def _warning_line(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning from the library (a refused cache folder, a kernel that failed to compile) as
+    one line on standard error, without Python's source line."""
+    print(f"warning: {message}", file=file or sys.stderr)
+
+
 @click.group(
     cls=LazyGroup,
     context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
@@ -184,6 +191,7 @@ def main(ctx: click.Context, json_output: bool) -> None:
     """
     ctx.ensure_object(dict)
     ctx.obj["json"] = json_output
+    warnings.showwarning = _warning_line
     for stream in (sys.stdout, sys.stderr):
         # a file name whose bytes are not UTF-8 is printed as those bytes, never a crash
         if hasattr(stream, "reconfigure") and getattr(stream, "errors", "") == "strict":

@@ -11,11 +11,12 @@ before the entry is used.  So a changed byte anywhere, a moved file or a changed
 the cell afresh.  Only cells that loaded without errors are kept (with their warnings, which
 are reported again); bad input is always checked and located anew.
 
-**Trust.**  An entry is a pickle, read from the user's own cache folder (``RWORLD_CACHE_DIR``,
-else ``$XDG_CACHE_HOME/rworld`` or ``~/.cache/rworld``), as Python's ``__pycache__`` and the
-compiled kernels are: whoever can write there can already run code as the user.  A damaged
-or unreadable entry is a miss, never an error; ``RWORLD_CELL_CACHE=0`` turns the cache off.
-The folder keeps the 256 most recently used entries.
+**Trust.**  Entries live behind :mod:`rworld_cli.cache`: a folder only the user can write, and
+an HMAC with the user's secret over the whole entry, checked before it is unpickled - an entry
+nobody but this user could have written, byte for byte.  Anything else (planted, flipped,
+torn, of another layout) is a miss, removed and loaded afresh; never an error.
+``RWORLD_CELL_CACHE=0`` turns the cache off.  The folder keeps the 256 most recently used
+entries.
 """
 
 from __future__ import annotations
@@ -26,7 +27,8 @@ import pickle
 from pathlib import Path
 from typing import Any
 
-FORMAT = 1  # bump when an entry's layout changes
+FORMAT = 2  # bump when an entry's layout changes
+KIND = "cells"  # the cache's folder (rworld_cli.cache)
 MAX_ENTRIES = 256  # the least recently used beyond this are removed when one is added
 
 _FINGERPRINT: list[str] = []  # computed once per process
@@ -56,64 +58,54 @@ def _digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-def entry(real: Path, shown: str, pose_files: list[str] | None) -> Path | None:
-    """Where the entry of this load lives, or None (cache off, the cell file unreadable)."""
+def entry(real: Path, shown: str, pose_files: list[str] | None) -> str | None:
+    """The name of this load's entry, or None (cache off, the cell file unreadable)."""
     if not enabled():
         return None
     try:
-        from ..kernels import cache_dir
-
         h = hashlib.sha256(_fingerprint().encode())
         for part in (real.resolve(), shown, repr(pose_files)):  # names as bytes, whatever
             h.update(b"|" + os.fsencode(part))  # their encoding (a folder named in latin-1)
         h.update(b"|" + real.read_bytes())
-        return cache_dir().parent / "cells" / f"{h.hexdigest()[:40]}.pickle"
+        return f"{h.hexdigest()[:40]}.pickle"
     except (OSError, ValueError):  # unreadable; a name no file system can hold
         return None
 
 
-def lookup(where: Path | None) -> Any:
-    """The ``LoadedCell`` kept at ``where`` (:func:`entry`) when every file it read is
-    unchanged, else None."""
-    if where is None:
+def lookup(name: str | None) -> Any:
+    """The ``LoadedCell`` kept under ``name`` (:func:`entry`) when its entry authenticates and
+    every file it read is unchanged, else None."""
+    if name is None:
+        return None
+    from .. import cache
+
+    data = cache.read(KIND, name)  # authenticated: only then unpickled
+    if data is None:
         return None
     try:
-        data = pickle.loads(where.read_bytes())
-        for file, digest in data["read"]:
+        kept = pickle.loads(data)
+        for file, digest in kept["read"]:
             if _digest(Path(file)) != digest:
                 return None
-        os.utime(where)  # recently used: kept when the cache is pruned
-        return data["loaded"]
-    except Exception:  # a miss: absent, damaged, from another layout - loaded afresh
+        cache.touch(KIND, name)  # recently used: kept when the cache is pruned
+        return kept["loaded"]
+    except Exception:  # a layout of another rworld, a file gone: loaded afresh
         return None
 
 
-def store(where: Path | None, loaded: Any, read: list[Path]) -> None:
-    """Keep ``loaded`` (a cell that loaded without errors) at ``where`` (:func:`entry`) with
-    the digests of the files it read.  A cache, not an output: written to a temporary and
-    renamed (a torn entry fails to load and is redone); a read-only cache is left alone."""
-    if where is None:
+def store(name: str | None, loaded: Any, read: list[Path]) -> None:
+    """Keep ``loaded`` (a cell that loaded without errors) under ``name`` (:func:`entry`) with
+    the digests of the files it read."""
+    if name is None:
         return
+    from .. import cache
+
     try:
         data = pickle.dumps(
             {"read": [(str(p.resolve()), _digest(p)) for p in read], "loaded": loaded},
             protocol=pickle.HIGHEST_PROTOCOL,
         )
-        where.parent.mkdir(parents=True, exist_ok=True)
-        temporary = where.with_name(f".{where.name}.{os.getpid()}")
-        temporary.write_bytes(data)
-        os.replace(temporary, where)
-        _prune(where.parent)
-    except Exception:  # a cache: whatever fails to be kept is loaded afresh next time
-        pass
-
-
-def _prune(folder: Path) -> None:
-    """Keep the :data:`MAX_ENTRIES` most recently used entries (a test suite or a sweep over
-    many generated cells would otherwise fill the folder)."""
-    entries = list(folder.glob("*.pickle"))
-    if len(entries) <= MAX_ENTRIES:
+    except Exception:  # a cache: whatever cannot be kept is loaded afresh next time
         return
-    by_age = sorted(entries, key=lambda e: e.stat().st_mtime_ns)
-    for old in by_age[: len(entries) - MAX_ENTRIES]:
-        old.unlink(missing_ok=True)
+    if cache.write(KIND, name, data):
+        cache.prune(KIND, "*.pickle", MAX_ENTRIES)

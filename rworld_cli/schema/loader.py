@@ -16,7 +16,6 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -343,13 +342,15 @@ def _mesh_facts(file: str, mtime_ns: int, size: int):
     import hashlib
     import json
 
-    content = Path(file).read_bytes()
-    key = hashlib.sha256(f"{MESH_FACTS_FORMAT}|".encode() + content).hexdigest()[:40]
-    from ..kernels import cache_dir
+    from .. import cache
 
-    stored = cache_dir().parent / "meshes" / f"{key}.json"
+    content = Path(file).read_bytes()
+    name = hashlib.sha256(f"{MESH_FACTS_FORMAT}|".encode() + content).hexdigest()[:40] + ".json"
+    stored = cache.read("meshes", name)  # authenticated (rworld_cli.cache) before it is parsed
     try:
-        data = json.loads(stored.read_text())
+        if stored is None:
+            raise ValueError("not cached")
+        data = json.loads(stored)
         if isinstance(data, str):
             return data
         return (
@@ -358,8 +359,8 @@ def _mesh_facts(file: str, mtime_ns: int, size: int):
             np.array(data["extents"], dtype=float).reshape(3),
             bool(data["watertight"]),
         )
-    except (OSError, ValueError, KeyError, TypeError):
-        pass  # not cached yet, or a damaged entry: computed again
+    except (ValueError, KeyError, TypeError):
+        pass  # not cached yet, or of another layout: computed again
     from .meshfile import read_mesh
 
     tm, problem = read_mesh(file)
@@ -380,13 +381,7 @@ def _mesh_facts(file: str, mtime_ns: int, size: int):
             "extents": facts[2].tolist(),
             "watertight": facts[3],
         }
-    try:  # a cache, not an output: written directly (a torn file fails to parse, and is redone)
-        stored.parent.mkdir(parents=True, exist_ok=True)
-        temporary = stored.with_name(f".{stored.name}.{os.getpid()}")
-        temporary.write_text(json.dumps(data))
-        os.replace(temporary, stored)
-    except OSError:
-        pass  # a read-only cache: the facts are still right
+    cache.write("meshes", name, json.dumps(data).encode())  # a read-only cache: still right
     return facts
 
 

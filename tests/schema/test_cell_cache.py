@@ -15,6 +15,7 @@ import sys
 import numpy as np
 import pytest
 
+from rworld_cli import cache as kept_entries
 from rworld_cli.errors import UserError
 from rworld_cli.schema import cellcache
 from rworld_cli.schema.loader import load_cell
@@ -85,7 +86,7 @@ def test_a_changed_pose_file_or_mesh_loads_afresh(tmp_path, monkeypatch):
     mesh.write_bytes(b"changed".ljust(80) + data[80:])  # the same triangles, other bytes
     load_cell(cell)  # a miss: loaded afresh, and the entry now holds the new bytes' digest
     (entry,) = (tmp_path / "cache" / "cells").glob("*.pickle")
-    read = dict(pickle.loads(entry.read_bytes())["read"])
+    read = dict(pickle.loads(kept_entries.read("cells", entry.name))["read"])
     assert read[str(mesh.resolve())] == hashlib.sha256(mesh.read_bytes()).hexdigest()
     assert read[str(poses.resolve())] == hashlib.sha256(poses.read_bytes()).hexdigest()
 
@@ -108,11 +109,11 @@ def test_bad_input_is_never_kept_and_a_damaged_entry_is_a_miss(tmp_path, monkeyp
     entry.write_bytes(b"not a pickle")
     again = load_cell(cell).cell  # loaded afresh, and kept again
     assert set(again.devices) == set(good.devices)
-    assert pickle.loads(entry.read_bytes())["loaded"].cell.name == good.name
+    assert pickle.loads(kept_entries.read("cells", entry.name))["loaded"].cell.name == good.name
     # an entry naming a file that is gone is a miss, not an error
-    data = pickle.loads(entry.read_bytes())
+    data = pickle.loads(kept_entries.read("cells", entry.name))
     data["read"].append((str(tmp_path / "gone.yaml"), "0" * 64))
-    entry.write_bytes(pickle.dumps(data))
+    kept_entries.write("cells", entry.name, pickle.dumps(data))
     from rworld_cli.schema.loader import resolve_cell_path
 
     assert cellcache.lookup(cellcache.entry(*resolve_cell_path(cell), None)) is None
@@ -129,7 +130,8 @@ def test_the_folder_keeps_the_most_recently_used_entries(tmp_path, monkeypatch):
         cell = tmp_path / f"cell{k}"
         shutil.copytree(WORKCELLS / "puma560", cell)
         cells.append(cell)
-        entries.append(cellcache.entry(*resolve_cell_path(cell), None))
+        name = cellcache.entry(*resolve_cell_path(cell), None)
+        entries.append(tmp_path / "cache" / "cells" / name)
     load_cell(cells[0])
     load_cell(cells[1])
     os.utime(entries[0], ns=(1, 1))  # the first long unused, the second less long

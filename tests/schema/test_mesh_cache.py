@@ -48,7 +48,13 @@ def test_a_meshed_cell_loads_from_the_cache_without_trimesh(tmp_path):
     entries[0].write_text("{not json")
     third = _load(cell, cache)
     assert third["boxes"] == first["boxes"]
-    assert json.loads(entries[0].read_text())["extents"]
+    from rworld_cli import cache as kept
+
+    os.environ["RWORLD_CACHE_DIR"] = str(cache)
+    try:
+        assert json.loads(kept.read("meshes", entries[0].name))["extents"]
+    finally:
+        del os.environ["RWORLD_CACHE_DIR"]
     # the key is the file's content, not its name or time: a changed file is a new entry
     mesh = next((cell / "meshes").rglob("*.stl"))
     before = set((cache / "meshes").glob("*.json"))
