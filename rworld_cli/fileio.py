@@ -30,6 +30,7 @@ import os
 import re
 import secrets
 import shutil
+import stat
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,9 +39,74 @@ _NAME = re.compile(r"^\.(?P<target>.+)\.rworld-(?P<kind>tmp|stage|old)\.(?P<pid>
 _JOURNAL = re.compile(r"^\.rworld-journal\.(?P<pid>\d+)\.[0-9a-f]+\.json$")
 
 
+NAME_MAX = 255  # bytes in one file name (Linux, macOS, Windows' NTFS: the common limit)
+
+
+def _tag(name: str) -> str:
+    """``name`` as it appears in its temporaries' names: shortened with a hash when a long
+    name (up to the file system's limit) would make the temporary's too long."""
+    if len(os.fsencode(name)) <= NAME_MAX - 48:
+        return name
+    import hashlib
+
+    digest = hashlib.sha256(os.fsencode(name)).hexdigest()[:16]
+    return os.fsdecode(os.fsencode(name)[:120]).rstrip("\ufffd") + "~" + digest
+
+
 def _temporary_name(target: Path, kind: str) -> Path:
     """A name beside ``target`` that marks the file as rworld's (kind: tmp, stage, old)."""
-    return target.parent / f".{target.name}.rworld-{kind}.{os.getpid()}.{secrets.token_hex(4)}"
+    tag = _tag(target.name)
+    return target.parent / f".{tag}.rworld-{kind}.{os.getpid()}.{secrets.token_hex(4)}"
+
+
+def _cannot_write(path: str | Path, exc: OSError):
+    """An environment failure (a full disk, a read-only file system, a parent that is a file, a
+    name too long) as bad input: exit 2 with the path and the reason."""
+    from .errors import UserError
+
+    reason = exc.strerror or str(exc)
+    return UserError(f"cannot write {path}: {reason[:1].lower() + reason[1:]}")
+
+
+def _special(path: Path) -> str | None:
+    """What ``path`` is when it exists and is neither a regular file nor a folder (a device,
+    a FIFO, a socket; links followed), else None."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return None
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):
+        return None
+    if stat.S_ISCHR(mode):
+        return "a character device"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO"
+    return "a socket" if stat.S_ISSOCK(mode) else "a block device"
+
+
+def _write_in_place(path: str | Path, data: bytes) -> Path | None:
+    """Write to a character device or a FIFO as it is (never replaced by a file); refuse a
+    socket, a block device and ``-``.  None when ``path`` is an ordinary target."""
+    from .errors import UserError
+
+    if str(path) == "-":
+        raise UserError("'-' is not a file name here: give a file to write")
+    kind = _special(Path(path))
+    if kind is None:
+        return None
+    if kind not in ("a character device", "a FIFO"):
+        raise UserError(f"cannot write {path}: it is {kind}, not a file")
+    try:
+        fd = os.open(path, os.O_WRONLY)
+        try:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(fd, view) :]
+        finally:
+            os.close(fd)
+    except OSError as exc:
+        raise _cannot_write(path, exc) from None
+    return Path(path)
 
 
 def temporary_path(target: str | Path, suffix: str = "") -> Path:
@@ -71,13 +137,19 @@ def _mode_for(path: Path) -> int:
 
 
 def _write_new_file(path: Path, data: bytes, mode: int) -> None:
-    """Create ``path`` (never through an existing link: staged copies share inodes) and fsync."""
+    """Create ``path`` (never through an existing link: staged copies share inodes) and fsync;
+    a failed write (a full disk) leaves no partial file."""
     path.unlink(missing_ok=True)
-    with os.fdopen(os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, mode), "wb") as fh:
-        os.fchmod(fh.fileno(), mode)  # the mode as asked, whatever the umask
-        fh.write(data)
-        fh.flush()
-        os.fsync(fh.fileno())
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, mode)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            os.fchmod(fh.fileno(), mode)  # the mode as asked, whatever the umask
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+    except BaseException:
+        path.unlink(missing_ok=True)
+        raise
 
 
 def _fsync_dir(folder: Path) -> None:
@@ -150,11 +222,15 @@ class OutputSet:
 
     units: list[_Unit] = field(default_factory=list)
 
-    def claim_folder(self, folder: str | Path, keep_others: bool = False) -> Path:
+    def claim_folder(
+        self, folder: str | Path, keep_others: bool = False, replace: tuple[str, ...] = ()
+    ) -> Path:
         """Make ``folder`` an output replaced as a whole: files written under it go to a staging
         copy.  ``keep_others``: the copy starts with the folder's present files (hard links where
         the file system allows), so files the command does not write survive (a cell's programs
-        when its robot is imported again)."""
+        when its robot is imported again).  ``replace``: glob patterns of the command's own
+        outputs; the copy starts without them, so an output this run does not write (an earlier
+        run's plot, its collisions) is gone, not left beside the new ones."""
         target = Path(os.path.abspath(folder))
         if target.exists() and not target.is_dir():
             from .errors import UserError
@@ -163,34 +239,48 @@ class OutputSet:
         for unit in self.units:
             if unit.folder and Path(unit.target) == target:
                 return Path(unit.staged)
-        target.parent.mkdir(parents=True, exist_ok=True)
-        recover(target)
         staged = _temporary_name(target, "stage")
-        if keep_others and target.is_dir():
-            shutil.copytree(target, staged, symlinks=True, copy_function=_link_or_copy)
-        else:
-            staged.mkdir()
-        staged.chmod(target.stat().st_mode & 0o777 if target.exists() else 0o777 & ~_umask())
-        self.units.append(_Unit(str(target), str(staged), True, staged.stat().st_ino))
+        try:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            recover(target)
+            if keep_others and target.is_dir():
+                shutil.copytree(target, staged, symlinks=True, copy_function=_link_or_copy)
+                for pattern in replace:
+                    for old in staged.glob(pattern):
+                        if old.is_symlink() or old.is_file():
+                            old.unlink()
+            else:
+                staged.mkdir()
+            staged.chmod(target.stat().st_mode & 0o777 if target.exists() else 0o777 & ~_umask())
+            self.units.append(_Unit(str(target), str(staged), True, staged.stat().st_ino))
+        except OSError as exc:
+            shutil.rmtree(staged, ignore_errors=True)
+            raise _cannot_write(folder, exc) from None
         return staged
 
     def stage(self, path: str | Path, data: bytes) -> Path:
         """Stage ``data`` for ``path``; returns ``path`` (where it will be)."""
         target = Path(os.path.abspath(path))
-        for unit in self.units:
-            if unit.folder and target.is_relative_to(unit.target):
-                inside = Path(unit.staged) / target.relative_to(unit.target)
-                inside.parent.mkdir(parents=True, exist_ok=True)
-                _write_new_file(inside, data, _mode_for(target))
+        try:
+            for unit in self.units:
+                if unit.folder and target.is_relative_to(unit.target):
+                    inside = Path(unit.staged) / target.relative_to(unit.target)
+                    _no_links_between(Path(unit.staged), inside.parent, Path(unit.target))
+                    inside.parent.mkdir(parents=True, exist_ok=True)
+                    _write_new_file(inside, data, _mode_for(target))
+                    return Path(path)
+                if not unit.folder and Path(unit.target) == target:
+                    _write_new_file(Path(unit.staged), data, _mode_for(target))
+                    return Path(path)
+            if _write_in_place(path, data) is not None:
                 return Path(path)
-            if not unit.folder and Path(unit.target) == target:
-                _write_new_file(Path(unit.staged), data, _mode_for(target))
-                return Path(path)
-        target.parent.mkdir(parents=True, exist_ok=True)
-        recover(target)
-        staged = _temporary_name(target, "tmp")
-        _write_new_file(staged, data, _mode_for(target))
-        self.units.append(_Unit(str(target), str(staged), False))
+            target.parent.mkdir(parents=True, exist_ok=True)
+            recover(target)
+            staged = _temporary_name(target, "tmp")
+            _write_new_file(staged, data, _mode_for(target))
+            self.units.append(_Unit(str(target), str(staged), False))
+        except OSError as exc:
+            raise _cannot_write(path, exc) from None
         return Path(path)
 
     def commit(self) -> None:
@@ -200,7 +290,10 @@ class OutputSet:
         for unit in self.units:
             if unit.folder:
                 _fsync_tree(Path(unit.staged))
-        journals = _write_journals(self.units)
+        try:
+            journals = _write_journals(self.units)
+        except OSError as exc:  # nothing moved yet: the set is aborted, the old outputs stay
+            raise _cannot_write(exc.filename or self.units[0].target, exc) from None
         _roll_forward(self.units)
         for path in journals:
             path.unlink(missing_ok=True)
@@ -223,7 +316,9 @@ _ACTIVE: contextvars.ContextVar[OutputSet | None] = contextvars.ContextVar(
 
 
 @contextlib.contextmanager
-def output_set(*folders: str | Path | None, keep_others: bool = False):
+def output_set(
+    *folders: str | Path | None, keep_others: bool = False, replace: tuple[str, ...] = ()
+):
     """Stage every file written in the block (by any writer in rworld: they all go through
     :func:`atomic_write_bytes`) and commit them together when the block ends without an error.
 
@@ -237,7 +332,7 @@ def output_set(*folders: str | Path | None, keep_others: bool = False):
     try:
         for folder in folders:
             if folder is not None:
-                outputs.claim_folder(folder, keep_others)
+                outputs.claim_folder(folder, keep_others, replace)
         yield outputs
         if token is None:
             return  # joined: the outer set commits
@@ -274,7 +369,8 @@ def _fsync_tree(folder: Path) -> None:
 
 
 def _write_journals(units: list[_Unit]) -> list[Path]:
-    """The commit point: one journal in each folder that holds a target, written atomically."""
+    """The commit point: one journal in each folder that holds a target, written atomically;
+    a failure (a full disk) removes the journals written so far: nothing is committed."""
     name = f".rworld-journal.{os.getpid()}.{secrets.token_hex(4)}.json"
     parents = sorted({str(Path(u.target).parent) for u in units})
     journals = [Path(p) / name for p in parents]
@@ -285,12 +381,37 @@ def _write_journals(units: list[_Unit]) -> list[Path]:
         },
         indent=1,
     ).encode()
-    for journal in journals:
-        staged = _temporary_name(journal, "tmp")
-        _write_new_file(staged, text, 0o644)
-        os.replace(staged, journal)
-        _fsync_dir(journal.parent)
+    written: list[Path] = []
+    try:
+        for journal in journals:
+            staged = _temporary_name(journal, "tmp")
+            _write_new_file(staged, text, 0o644)
+            os.replace(staged, journal)
+            written.append(journal)
+            _fsync_dir(journal.parent)
+    except OSError:
+        for journal in written:
+            journal.unlink(missing_ok=True)
+        raise
     return journals
+
+
+def _no_links_between(top: Path, folder: Path, shown: Path) -> None:
+    """No folder from ``top`` down to ``folder`` is a link: a claimed output folder's files are
+    never written through one (a cell received in a pull request can carry ``meshes ->
+    /elsewhere``).  ``shown``: the output folder as the user knows it, for the message."""
+    from .errors import UserError
+
+    part = top
+    for name in folder.relative_to(top).parts:
+        part = part / name
+        if part.is_symlink():
+            inside = shown / part.relative_to(top)
+            raise UserError(
+                f"{inside} is a link (to {os.readlink(part)}): rworld does not write through "
+                f"links inside its output folder {shown}; replace it with a folder, or write "
+                "elsewhere"
+            )
 
 
 def _roll_forward(units: list[_Unit]) -> None:
@@ -321,13 +442,18 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
     outputs = _ACTIVE.get()
     if outputs is not None:
         return outputs.stage(path, data)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    recover(path)
+    if _write_in_place(path, data) is not None:
+        return Path(path)
+    shown, path = path, Path(path)
     tmp = _temporary_name(path, "tmp")
     try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        recover(path)
         _write_new_file(tmp, data, _mode_for(path))
         os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise _cannot_write(shown, exc) from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
@@ -388,7 +514,7 @@ def recover(target: str | Path) -> list[str]:
         match = _NAME.match(entry.name)
         if not entry.exists() and not entry.is_symlink():
             continue  # a journal's roll-forward took it
-        if match and (match["target"] == target.name or _JOURNAL.match(match["target"])):
+        if match and (match["target"] == _tag(target.name) or _JOURNAL.match(match["target"])):
             _remove(entry)
             done.append(f"removed {entry}, left by a killed rworld run")
     if done:

@@ -373,7 +373,7 @@ def summarize_cell(cell_path: str, joints: dict[str, list[float]] | None = None)
     cell = world.cell
     poses = world.world_poses()
 
-    def build(name: str) -> FrameNode:
+    def node_of(name: str) -> FrameNode:
         decl = cell.frames[name]
         primitive, mass, detail = (
             _detail(cell, name) if decl.kind == "natural" else (None, None, "")
@@ -390,8 +390,17 @@ def summarize_cell(cell_path: str, joints: dict[str, list[float]] | None = None)
             mass=mass,
             detail=detail,
         )
-        node.children = [build(c) for c in world.children(name)]
         return node
+
+    def build(top: str) -> FrameNode:
+        """The tree under ``top``, parents before children (no recursion on its depth)."""
+        root = node_of(top)
+        stack = [(root, top)]
+        while stack:
+            node, name = stack.pop()
+            node.children = [node_of(c) for c in world.children(name)]
+            stack.extend(zip(node.children, world.children(name)))
+        return root
 
     return CellSummary(
         name=cell.name,

@@ -83,10 +83,11 @@ def write_run_outputs(result, directory: str, plots: bool = False) -> list[Path]
     atomically.
     """
     from ..fileio import output_set
-    from ..schema.results import write_results
+    from ..schema.results import RUN_OUTPUTS, write_results
     from ..simulate.output import output_files, write_plots
 
-    with output_set(directory, keep_others=True):  # the folder's new files appear together
+    # the folder's new files appear together, and none of an earlier run's outputs stays
+    with output_set(directory, keep_others=True, replace=RUN_OUTPUTS):
         written = write_results(directory, *output_files(result))
         if plots:
             written += write_plots(result, Path(directory))
@@ -188,11 +189,11 @@ def write_run_view(
     """Write a run's scene: a .glb file, a viewer page, and/or the scene files of an output
     directory (``run.glb``, ``view.json``, which ``rworld view DIR`` reads); atomically."""
     from ..fileio import atomic_write_bytes, atomic_write_text, output_set
-    from ..schema.results import write_scene_files
+    from ..schema.results import SCENE_OUTPUTS, write_scene_files
     from ..viewer.page import viewer_page
 
     written = []
-    with output_set(directory, keep_others=True):  # all of them appear together
+    with output_set(directory, keep_others=True, replace=SCENE_OUTPUTS):  # all appear together
         if directory:
             written += write_scene_files(directory, glb, info)
         if glb_path:

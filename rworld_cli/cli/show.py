@@ -61,12 +61,15 @@ def show(cell: str, joints: tuple[str, ...], units: str, json_output: bool) -> N
 
 
 def _rows(node, depth=0):
-    """(node, display depth) in tree order; a device's link chain shows as one level."""
-    for child in node.children:
-        flat = child.kind == "link" and node.kind == "link"
-        child_depth = depth if flat else depth + 1
+    """(node, display depth) in tree order; a device's link chain shows as one level (an
+    explicit stack: no recursion on the tree's depth)."""
+    stack = [(child, node, depth) for child in reversed(node.children)]
+    while stack:
+        child, parent, level = stack.pop()
+        flat = child.kind == "link" and parent.kind == "link"
+        child_depth = level if flat else level + 1
         yield child, child_depth
-        yield from _rows(child, child_depth)
+        stack.extend((grandchild, child, child_depth) for grandchild in reversed(child.children))
 
 
 def _render(summary, units: str) -> None:

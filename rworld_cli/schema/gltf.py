@@ -451,8 +451,10 @@ def _structure_problem(gltf: dict, blob: bytes) -> str | None:
 
     try:
         buffers = items("buffers")
-        if len(buffers) > 1 or not all(is_int(b.get("byteLength")) for b in buffers):
-            raise _Bad("'buffers' is not one buffer with a whole byteLength")
+        if len(buffers) > 1 or not all(
+            is_int(b.get("byteLength")) and b["byteLength"] >= 0 for b in buffers
+        ):
+            raise _Bad("'buffers' is not one buffer with a whole byteLength >= 0")
         declared = sum(b["byteLength"] for b in buffers)
         if declared > len(blob):
             raise _Bad(f"its buffer declares {declared} bytes, the binary chunk has {len(blob)}")

@@ -33,6 +33,18 @@ def write_results(directory: str | Path, tables: dict, documents: dict) -> list[
 # the files of a run's scene in its output directory (rworld view DIR reads them back)
 SCENE_FILE = "run.glb"
 VIEW_FILE = "view.json"
+# everything 'simulate -o DIR' (and 'rworld view DIR') writes in DIR: a new run replaces all of
+# them, so none of an earlier run's stays beside it; other files in DIR are the user's and stay
+SCENE_OUTPUTS = (SCENE_FILE, VIEW_FILE, "view.html")
+RUN_OUTPUTS = (
+    "timeline_*.csv",
+    "timeline.json",
+    "events.json",
+    "summary.json",
+    "collisions.json",
+    "plot_*.png",
+    *SCENE_OUTPUTS,
+)
 
 
 def _text(value: str) -> str:

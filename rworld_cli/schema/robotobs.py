@@ -381,6 +381,17 @@ def _read_csv(p: Path, cell: CellModel) -> RobotObservations:
     issues = []
     q, points, lines = [], [], []
     for line_number, fields, cols in table.rows:
+        if len(fields) != len(table.header):  # a field shifted or dropped: never matched up
+            issues.append(
+                Issue(
+                    shown,
+                    line_number,
+                    1,
+                    "row",
+                    f"{len(fields)} fields where the header names {len(table.header)}",
+                )
+            )
+            continue
         try:
             values = np.array([float(fields[columns[w][0]]) for w in wanted]) * np.array(scales)
         except (ValueError, IndexError):

@@ -111,11 +111,18 @@ class _Names:
 
 def _default_tip(robot: UrdfRobot, base: str) -> str:
     """Follow the moving joints down from ``base`` while the way is unique."""
+    # link -> a moving joint lies below it; children before parents (iterative: a chain of
+    # hundreds of fixed links is no recursion)
     memo: dict[str, bool] = {}
+    order, stack = [], [base]
+    while stack:
+        link = stack.pop()
+        order.append(link)
+        stack.extend(j.child for j in robot.child_joints(link))
+    for link in reversed(order):
+        memo[link] = any(j.type != "fixed" or memo[j.child] for j in robot.child_joints(link))
 
     def moves(link: str) -> bool:
-        if link not in memo:
-            memo[link] = any(j.type != "fixed" or moves(j.child) for j in robot.child_joints(link))
         return memo[link]
 
     node = base

@@ -377,10 +377,15 @@ def _clearance_columns(sched, model, result, times, spans):
         above: dict[str, tuple[int, ...]] = {}
 
         def carriers(frame: str) -> tuple[int, ...]:
-            if frame not in above:
-                parent = world.parent(frame)
-                up = carriers(parent) if parent is not None and parent != WORLD else ()
-                above[frame] = up + ((index[frame],) if frame in index else ())
+            path = []  # up to a frame already known (iterative: trees may be deep)
+            node: str | None = frame
+            while node is not None and node != WORLD and node not in above:
+                path.append(node)
+                node = world.parent(node)
+            up = above[node] if node is not None and node in above else ()
+            for node in reversed(path):
+                up = up + ((index[node],) if node in index else ())
+                above[node] = up
             return above[frame]
 
         rows += [(k, i, n) for i, body in enumerate(bodies) for n in carriers(body.frame)]

@@ -470,34 +470,37 @@ class World:
         links: dict[str, np.ndarray] = {}
         memo: dict[str, np.ndarray] = {WORLD: np.broadcast_to(np.eye(4), (N, 4, 4))}
 
-        def pose(node: str) -> np.ndarray:
-            if node in memo:
-                return memo[node]
-            parent = self._parent[node]
-            above = pose(parent) if parent is not None else memo[WORLD]
-            if node in link_index:
-                dev, i = link_index[node]
-                if dev not in links:
-                    q = joints.get(dev)
-                    q = (
-                        np.broadcast_to(self._joints_of(dev), (N, self.cell.devices[dev].dof))
-                        if q is None
-                        else np.asarray(q, dtype=float)
-                    )
-                    links[dev] = self.cell.devices[dev].joint_transforms(q)
-                T = above @ links[dev][:, i]
-            else:
-                T = above @ self._T_parent[node]
-            memo[node] = T
-            return T
+        def pose(frame: str) -> np.ndarray:
+            # up to the first frame already known, then down (no recursion on the tree's
+            # depth: a hand-written chain of frames may be thousands deep)
+            path = []
+            node: str | None = frame
+            while node is not None and node not in memo:
+                path.append(node)
+                node = self._parent[node]
+            above = memo[node] if node is not None else memo[WORLD]
+            for node in reversed(path):
+                if node in link_index:
+                    dev, i = link_index[node]
+                    if dev not in links:
+                        q = joints.get(dev)
+                        q = (
+                            np.broadcast_to(self._joints_of(dev), (N, self.cell.devices[dev].dof))
+                            if q is None
+                            else np.asarray(q, dtype=float)
+                        )
+                        links[dev] = self.cell.devices[dev].joint_transforms(q)
+                    above = above @ links[dev][:, i]
+                else:
+                    above = above @ self._T_parent[node]
+                memo[node] = above
+            return above
 
         out = {}
         for frame in frames:
             self._check_frame(frame)
             out[frame] = pose(frame)
-        # pose() refers to itself: a cycle that would keep every array of the batch alive
-        # until the garbage collector runs (hundreds of MB on a line of robots)
-        links.clear()
+        links.clear()  # the batch's arrays go now, not with the closure
         memo.clear()
         return out
 

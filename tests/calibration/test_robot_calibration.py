@@ -234,6 +234,16 @@ def test_csv_observations_read_as_the_yaml_ones(cells, tmp_path):
     assert "rworld never guesses units" in str(info.value.lines()) and "t.csv:4" in str(
         info.value.lines()
     )
+    # a row with a field more than the header (issue 45), or one shifted in front: at its line
+    extra = rows[:6] + [rows[6] + ",1.5"] + rows[7:]
+    shifted = rows[:7] + ["0," + rows[7]] + rows[8:]
+    for bad, line in ((extra, 7), (shifted, 8)):
+        csv.write_text("\n".join(bad) + "\n")
+        with pytest.raises(UserError) as info:
+            read_observations(str(csv), cell)
+        assert info.value.lines() == [
+            f"{csv}:{line}:1: row: 10 fields where the header names 9"
+        ], info.value.lines()
 
 
 def test_full_poses_identify_the_orientation_too(cells, tmp_path):

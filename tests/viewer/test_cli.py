@@ -41,11 +41,17 @@ def test_a_damaged_run_directory_exits_2_and_writes_nothing(tmp_path):
     page = tmp_path / "page.html"
     page.write_text("the old page", encoding="utf-8")
     glb = (out / "run.glb").read_bytes()
+    import re
+
+    declared = re.search(rb'"buffers": ?\[\{"byteLength": ?(\d+)\}\]', glb)
+    negative = glb.replace(declared.group(1), b"-5".ljust(len(declared.group(1))), 1)
     cases = {
         "run.glb": (glb[: len(glb) // 2], "run.glb: not a valid glTF binary file: the header says"),
+        "run.glb ": (negative, "'buffers' is not one buffer with a whole byteLength >= 0"),
         "view.json": (b'{"title": "x",\n  "t": [1, 2,,]}', "view.json:2:14: not valid JSON"),
     }
     for name, (damage, message) in cases.items():
+        name = name.strip()  # the same file damaged two ways
         original = (out / name).read_bytes()
         (out / name).write_bytes(damage)
         result = run_cli(["view", str(out), "-o", str(page)])
