@@ -11,6 +11,12 @@ LENGTH = {"m": 1.0, "mm": 1e-3}  # length unit -> metres
 ANGLE = {"rad": 1.0, "deg": math.pi / 180.0}  # angle unit -> radians
 ARCSEC = math.pi / 648000.0  # one second of arc [rad]
 
+# The most clock samples one run may take, and one straight line's IK track: the work (and the
+# memory: 1.1 GB peak at 490 000 samples of a Puma run, 2.2 kB a sample) is bounded before it is
+# allocated; a slower speed, a longer wait or a finer clock step beyond it is refused (exit 2),
+# naming the number (docs/simulation.md).  300 000 samples: 50 minutes of motion at dt 10 ms.
+MAX_SAMPLES = 300_000
+
 # Probe points a feature of each kind needs at the least (a point: 1; a line: 2; a plane or circle:
 # 3).
 MIN_POINTS = {"point": 1, "line": 2, "plane": 3, "circle": 3}

@@ -83,13 +83,16 @@ def plan_time_optimal(
 
 
 def parse_period(text: str) -> float:
-    """'8ms', '0.004s' or a bare number of seconds -> seconds (> 0)."""
+    """'8ms', '0.004s' or a bare number of seconds -> seconds (0.1 ms to 1 s)."""
     from ..units import parse_duration
 
     try:
-        return parse_duration(text, "--period")
+        period = parse_duration(text, "--period")
     except ValueError as exc:
         raise UserError(str(exc)) from None
+    if not 1e-4 <= period <= 1.0:  # a controller's period, as a run's clock step
+        raise UserError(f"--period '{text}' is outside 0.1 ms to 1 s")
+    return period
 
 
 def sample_timed_path(

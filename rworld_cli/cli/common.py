@@ -42,6 +42,21 @@ class _StderrLines(logging.Handler):
         click.echo(f"rworld: {record.getMessage()}", err=True)
 
 
+class FiniteFloat(click.FloatRange):
+    """A number option checked like a file's value: finite (NaN and infinities refused, which
+    click's FloatRange lets through) and within its range."""
+
+    name = "number"
+
+    def convert(self, value, param, ctx):
+        import math
+
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        return number
+
+
 class ReportedExit(SystemExit):
     """An exit whose code reports what was found (a fleet with bad cells: 2) but whose files
     are the report of it: kept, as a failed check's are."""
@@ -73,6 +88,21 @@ def _in_one_output_set(fn: Callable, args, kwargs):
     return result
 
 
+def _no_empty_values(kwargs: dict) -> None:
+    """An option or argument given as empty text (``--pose-files ""``) is refused, never
+    silently ignored: exit 2 naming it."""
+    ctx = click.get_current_context(silent=True)
+    if ctx is None:
+        return
+    for param in ctx.command.params:
+        value = kwargs.get(param.name)
+        values = value if isinstance(value, tuple) else (value,)
+        if any(isinstance(v, str) and not v.strip() for v in values):
+            raise click.BadParameter(
+                "an empty value: give one, or leave the option out", ctx, param
+            )
+
+
 def handle_errors(fn: Callable) -> Callable:
     """Turn rworld errors into printed lines and exit codes; never a traceback for bad input.
 
@@ -85,6 +115,7 @@ def handle_errors(fn: Callable) -> Callable:
     def wrapper(*args, **kwargs):
         from ..errors import RworldError, UserError
 
+        _no_empty_values(kwargs)
         try:
             return _in_one_output_set(fn, args, kwargs)
         except click.exceptions.Exit:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import handle_errors, json_option
+from .common import FiniteFloat, handle_errors, json_option
 from .physics_common import context, device_options, emit, joint_rows, output_options, parse_vector
 
 
@@ -16,7 +16,11 @@ def payload_options(fn):
         help="Point mass position in the TCP frame [m].",
     )(fn)
     fn = click.option(
-        "--payload-mass", default=None, type=float, metavar="KG", help="A point mass at the TCP."
+        "--payload-mass",
+        default=None,
+        type=FiniteFloat(min=0),
+        metavar="KG",
+        help="A point mass at the TCP.",
     )(fn)
     fn = click.option(
         "--payload",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import emit_json, handle_errors, json_option
+from .common import FiniteFloat, emit_json, handle_errors, json_option
 from .physics_common import context, device_options, output_options, parse_vector
 
 GRID_HELP = "Grid points on the path (N points, N - 1 intervals), as toppra counts them."
@@ -82,7 +82,7 @@ def plan() -> None:
 @click.option(
     "--payload-mass",
     default=None,
-    type=float,
+    type=FiniteFloat(min=0),
     metavar="KG",
     help="A point mass at the TCP (see --payload-com).",
 )
@@ -238,7 +238,12 @@ def time_optimal(
     help="--path: time-optimal (velocity + acceleration limits, no payload) or a quintic time law "
     "over --duration.",
 )
-@click.option("--duration", type=float, default=None, help="Quintic: the duration [s].")
+@click.option(
+    "--duration",
+    type=FiniteFloat(min=0, min_open=True),
+    default=None,
+    help="Quintic: the duration [s].",
+)
 @click.option(
     "--payload-com",
     default="0,0,0",
@@ -372,7 +377,9 @@ def _echo_carried(carried: list[dict]) -> None:
 @click.option(
     "--path", "path_file", required=True, type=click.Path(dir_okay=False), help="Path file (YAML)."
 )
-@click.option("--duration", required=True, type=float, help="The cycle time [s].")
+@click.option(
+    "--duration", required=True, type=FiniteFloat(min=0, min_open=True), help="The cycle time [s]."
+)
 @click.option(
     "--payload-com",
     default="0,0,0",
@@ -384,7 +391,11 @@ def _echo_carried(carried: list[dict]) -> None:
     "--gridpoints", default=400, show_default=True, type=click.IntRange(10, 100000), help=GRID_HELP
 )
 @click.option(
-    "--tolerance", default=1e-4, show_default=True, type=float, help="Mass resolution [kg]."
+    "--tolerance",
+    default=1e-4,
+    show_default=True,
+    type=FiniteFloat(min=0, min_open=True),
+    help="Mass resolution [kg].",
 )
 @click.option(
     "--shape",
@@ -535,7 +546,7 @@ def load_optimal_cmd(
     "--payload-mass",
     default=0.0,
     show_default=True,
-    type=float,
+    type=FiniteFloat(min=0),
     help="Mass carried at the TCP [kg].",
 )
 @click.option(

@@ -4,7 +4,14 @@ from __future__ import annotations
 
 import click
 
-from .common import emit_json, handle_errors, joints_option, json_option, parse_joint_assignments
+from .common import (
+    FiniteFloat,
+    emit_json,
+    handle_errors,
+    joints_option,
+    json_option,
+    parse_joint_assignments,
+)
 
 
 @click.command()
@@ -34,7 +41,7 @@ from .common import emit_json, handle_errors, joints_option, json_option, parse_
 @click.option("--no-frames", is_flag=True, help="PNG: leave out the frame triads.")
 @click.option(
     "--tolerance",
-    type=float,
+    type=FiniteFloat(min=0),
     default=None,
     help="Sensor touching tolerance [m] (default 1e-6, docs/sensing.md).",
 )

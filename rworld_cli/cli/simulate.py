@@ -8,6 +8,7 @@ import click
 
 from .common import (
     EXIT_CHECK_FAILED,
+    FiniteFloat,
     ReportedExit,
     emit_json,
     handle_errors,
@@ -71,7 +72,7 @@ def _checks(clearance, collision_tolerance, no_collisions) -> dict:
 )
 @click.option(
     "--dt",
-    type=click.FloatRange(1e-4, 1.0),
+    type=FiniteFloat(1e-4, 1.0),
     default=None,
     help="Clock step [s] (default: the run file's).",
 )
@@ -210,7 +211,7 @@ def view(directory, output, json_output):
 @click.argument("targets", nargs=-1, metavar="CELL [RUN] | CELL... --all-runs")
 @click.option(
     "--dt",
-    type=click.FloatRange(1e-4, 1.0),
+    type=FiniteFloat(1e-4, 1.0),
     default=None,
     help="Clock step [s] (default: the run file's).",
 )

@@ -9,7 +9,10 @@ import click
 from .common import ReportedExit, emit_json, handle_errors, json_option, with_progress
 
 
-def _numbers(text: str, what: str) -> list[float]:
+def _numbers(text: str, what: str, positive: bool) -> list[float]:
+    """Finite numbers separated by commas, each at least 0 (above 0 when ``positive``)."""
+    import math
+
     try:
         values = [float(v) for v in text.split(",") if v.strip()]
     except ValueError:
@@ -18,6 +21,10 @@ def _numbers(text: str, what: str) -> list[float]:
         ) from None
     if not values:
         raise click.BadParameter(f"{what}: give at least one number")
+    for value in values:
+        if not math.isfinite(value) or value < 0 or (positive and value == 0):
+            bound = "above 0" if positive else "of at least 0"
+            raise click.BadParameter(f"{what}: {value:g} is not a finite number {bound}")
     return values
 
 
@@ -87,9 +94,11 @@ def sweep(
         if "=" not in mass:
             raise click.BadParameter("give OBJECT=KG,KG,...", param_hint="--mass")
         obj, _, values = mass.partition("=")
-        masses = _numbers(values, "--mass")
-    speeds = [p / 100 for p in _numbers(speed, "--speed")]
-    files = [v for v in (variants or "").split(",") if v.strip()] or None
+        masses = _numbers(values, "--mass", positive=False)
+    speeds = [p / 100 for p in _numbers(speed, "--speed", positive=True)]
+    files = [v.strip() for v in (variants or "").split(",") if v.strip()] or None
+    if variants is not None and files is None:
+        raise click.BadParameter("give pose files, e.g. calibrated.yaml", param_hint="--pose-files")
     result = with_progress(
         not json_output and sys.stderr.isatty(),
         lambda progress: sweep_run(

@@ -12,7 +12,13 @@ from .. import spatial
 from ..kinematics.inverse import track
 from ..kinematics.jacobian import ToolMount, tool_pose
 from ..model.cell import DeviceModel
-from ..units import ANGULAR_ACCELERATION, ANGULAR_SPEED, LINEAR_ACCELERATION, LINEAR_SPEED
+from ..units import (
+    ANGULAR_ACCELERATION,
+    ANGULAR_SPEED,
+    LINEAR_ACCELERATION,
+    LINEAR_SPEED,
+    MAX_SAMPLES,
+)
 from .trajectory import SampledMove, TrapezoidProfile, interpolate_poses
 
 
@@ -67,6 +73,13 @@ def linear_move(
     v_max, a_max = device.limit_array("velocity"), device.limit_array("acceleration")
     for _ in range(8):  # re-timing rounds, not samples
         profile = TrapezoidProfile.fit(V, A)
+        if not profile.T / dt <= MAX_SAMPLES:  # bounded before anything is allocated
+            raise PathError(
+                "samples",
+                0.0,
+                f"the line takes {profile.T:.4g} s: {profile.T / dt:.3g} clock samples at dt "
+                f"{dt:g} s, above the bound of {MAX_SAMPLES:,}",
+            )
         K = max(3, math.ceil(profile.T / dt) + 1)
         tau = np.linspace(0.0, profile.T, K)
         s = profile.evaluate(tau)[0]

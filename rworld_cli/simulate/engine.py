@@ -34,6 +34,7 @@ from ..kinematics.jacobian import ToolMount, tool_pose
 from ..model.program import MoveTarget, Program, ResolvedStep, Run, Step
 from ..motion.linear import PathError, linear_move
 from ..motion.trajectory import StoppedMove, UntimedMove, joint_move, sample_track
+from ..units import MAX_SAMPLES
 from ..world.tree import AffixmentError, World
 from .errors import SimulationError, UnreachableTarget
 from .feature_steps import FeatureSteps
@@ -248,6 +249,14 @@ class _Scheduler(FeatureSteps):
             f"{step.where}: {device} step {step.index + 1} ({step.describe()}): {message}"
         )
 
+    def _too_long(self, device: str, step: Step, detail: str, speed) -> None:
+        """Work beyond the documented bound (``units.MAX_SAMPLES``): exit 2, naming the
+        numbers that caused it."""
+        raise UserError(
+            f"{step.where}: {device} step {step.index + 1} ({step.describe()}): at speed "
+            f"{speed:g} {detail} (docs/simulation.md): raise the speed or the clock step (dt)"
+        )
+
     def unreachable(self, device: str, step: Step, message: str):
         """A target the device cannot reach: the check fails (exit 1), with the step."""
         raise UnreachableTarget(
@@ -408,6 +417,8 @@ class _Scheduler(FeatureSteps):
                     position_only,
                 )
             except PathError as exc:
+                if exc.reason == "samples":  # too slow to simulate: bad input, not a fail
+                    self._too_long(device, step, exc.detail, speed)
                 self.unreachable(device, step, exc.detail)
             wanted = step.configuration
             if wanted:
@@ -500,6 +511,15 @@ class _Scheduler(FeatureSteps):
         acceleration=None,
     ):
         """Guard, resolve and time a move's segment (None: already there); returns it."""
+        if seg is not None and not (seg.t1 - seg.t0) / self.run.dt <= MAX_SAMPLES:
+            T = seg.t1 - seg.t0
+            self._too_long(
+                device,
+                step,
+                f"the move takes {T:.4g} s: {T / self.run.dt:.3g} clock samples at dt "
+                f"{self.run.dt:g} s, above the bound of {MAX_SAMPLES:,}",
+                step.spec.speed if speed is None else speed,
+            )
         if seg is not None and until is not None:
             seg = self._guard(device, tr, step, seg, until)
         spec = step.spec
@@ -896,6 +916,12 @@ def _sample(
     """The run on its clock, and every device's (q, qd, qdd) at the clock's instants."""
     cell = run.cell
     end = max((tr.end for tr in sched.tracks.values()), default=0.0)
+    if not end / run.dt <= MAX_SAMPLES:  # waits may make a run long: bounded before sampling
+        raise UserError(
+            f"{run.file}: the run lasts {end:.4g} s: {end / run.dt:.3g} clock samples at dt "
+            f"{run.dt:g} s, above the bound of {MAX_SAMPLES:,} (docs/simulation.md): shorten "
+            "its waits or raise the clock step (dt)"
+        )
     times = np.arange(0.0, end, run.dt)
     if len(times) == 0 or end - times[-1] > 1e-9 * max(1.0, end):
         times = np.append(times, end)  # the last sample is the end of the last program
