@@ -131,12 +131,36 @@ def _split(where: str | None) -> tuple[str | None, int | None]:
     return (file, int(line)) if line.isdigit() else (where, None)
 
 
-def check_one(cell: str, run: str, options: dict) -> RunCheck:
+def check_one(cell: str, run: str, options: dict, where: str | None = None) -> RunCheck:
     """Check one run as ``rworld check CELL RUN`` does; bad input becomes ``error`` (with the
-    file and line when the message has them), never an exception."""
-    from .simulation import simulate_run
+    file and line when the message has them), never an exception.
+
+    ``where``: the cell's absolute path as the client saw it, checked on a cluster's worker
+    (``options["scheduler"]`` names the cluster) - a worker that cannot see it says so."""
 
     started = time.perf_counter()
+    remote = options.get("scheduler")
+    if remote and where is not None and not os.path.exists(where):
+        import socket
+
+        why = (
+            f"the worker at {remote} (host {socket.gethostname()}) cannot see {where}: "
+            "workers must see the cells at the same paths as the client"
+        )
+        return RunCheck(cell, run, False, why, problems=[Problem("input", why, cell)])
+    options = {k: v for k, v in options.items() if k != "scheduler"}
+    if where is not None:
+        cell_shown, cell = cell, where
+    else:
+        cell_shown = cell
+    result_check = _check(cell, run, options, started)
+    result_check.cell = cell_shown
+    return result_check
+
+
+def _check(cell: str, run: str, options: dict, started: float) -> RunCheck:
+    from .simulation import simulate_run
+
     if not run:
         if (_folder(cell) / "cell.yaml").is_file():
             return RunCheck(cell, run, True, skipped=True)  # a cell with nothing to run
@@ -220,9 +244,39 @@ class _Inline:
         pass
 
 
+_ADDRESS = re.compile(
+    r"^(?:(?P<scheme>tcp|tls|ws|wss|ucx)://)?(?P<host>\[[0-9a-fA-F:.]+\]|[A-Za-z0-9_.-]+):"
+    r"(?P<port>\d{1,5})/?$"
+)
+WORKER_WAIT = 30.0  # [s]: how long a cluster without workers is waited for, mid-run
+# (RWORLD_WORKER_WAIT overrides it: seconds)
+POLL = 1.0  # [s]: how often the cluster is looked at while runs are pending
+
+
+def scheduler_address(text: str) -> str:
+    """A Dask scheduler's address, ``tcp://HOST:PORT`` (or ``HOST:PORT``, tls, ws, wss, ucx);
+    anything else is bad input naming the option."""
+    match = _ADDRESS.match(text.strip())
+    if match is None or not 0 < int(match["port"]) < 65536:
+        raise UserError(
+            f"--scheduler '{text}' is not a Dask scheduler address: give tcp://HOST:PORT "
+            "(e.g. tcp://10.0.0.5:8786)"
+        )
+    return text.strip()
+
+
+def _workers(client) -> int:
+    try:
+        return len(client.scheduler_info().get("workers", {}))
+    except Exception:  # the scheduler went away: no workers either
+        return 0
+
+
 def _executor(workers: int | None, scheduler: str | None):
-    """(executor, description, close): a Dask cluster's executor, a process pool, or inline."""
+    """(executor, description, close, client): a Dask cluster's executor, a process pool, or
+    inline; ``client`` the cluster's (None otherwise)."""
     if scheduler is not None:
+        address = scheduler_address(scheduler)
         try:
             from distributed import Client
         except ImportError:
@@ -231,18 +285,24 @@ def _executor(workers: int | None, scheduler: str | None):
                 "'rworld[cluster]' (or distributed)"
             ) from None
         try:
-            client = Client(scheduler, timeout="10s")
-        except (OSError, TimeoutError) as exc:
-            raise UserError(f"no Dask scheduler answers at {scheduler}: {exc}") from None
-        workers_there = len(client.scheduler_info().get("workers", {}))
-        return client.get_executor(), f"dask {scheduler} ({workers_there} workers)", client.close
+            client = Client(address, timeout="10s")
+        except Exception as exc:  # refused, timed out, an address Dask cannot parse
+            raise UserError(f"no Dask scheduler answers at {address}: {exc}") from None
+        workers_there = _workers(client)
+        if workers_there == 0:  # the runs would wait for ever: say so now
+            client.close()
+            raise UserError(
+                f"{address}: 0 workers: start some ('dask worker {address}') before checking"
+            )
+        description = f"dask {address} ({workers_there} workers)"
+        return client.get_executor(), description, client.close, client
     count = workers or os.cpu_count() or 1
     if count == 1:
-        return _Inline(), "1 process", lambda: None
+        return _Inline(), "1 process", lambda: None, None
     from concurrent.futures import ProcessPoolExecutor
 
     pool = ProcessPoolExecutor(max_workers=count)
-    return pool, f"{count} local processes", lambda: pool.shutdown(wait=True)
+    return pool, f"{count} local processes", lambda: pool.shutdown(wait=True), None
 
 
 def check_fleet(
@@ -269,15 +329,18 @@ def check_fleet(
         raise UserError("give at least one cell")
     if workers is not None and workers < 1:
         raise UserError("--workers must be at least 1")
+    if run is not None and Path(run).is_file():  # a run file: where the workers find it too
+        run = os.path.abspath(run)
     tasks = fleet_runs(cells, run)
     options = {
         "clearance": clearance,
         "collision_tolerance": collision_tolerance,
         "collisions": collisions,
+        "scheduler": scheduler,
     }
-    results, description = run_tasks(
-        check_one, [(cell, name, options) for cell, name in tasks], workers, scheduler, progress
-    )
+    # a cluster's workers get absolute paths (their working folder is not the client's)
+    jobs = [(cell, name, options, os.path.abspath(cell)) for cell, name in tasks]
+    results, description = run_tasks(check_one, jobs, workers, scheduler, progress)
     return FleetCheck(results, description)
 
 
@@ -290,19 +353,51 @@ def run_tasks(fn, tasks: list[tuple], workers, scheduler, progress=None, what: s
     (list, str)
         The results, and the executor's description.
     """
-    from concurrent.futures import as_completed
+    from concurrent.futures import FIRST_COMPLETED, wait
 
-    executor, description, close = _executor(workers, scheduler)
+    executor, description, close, client = _executor(workers, scheduler)
+    patience = float(os.environ.get("RWORLD_WORKER_WAIT", WORKER_WAIT))
     try:
         futures = [executor.submit(fn, *task) for task in tasks]
-        done = 0
-        for _ in as_completed(futures):
-            done += 1
-            if progress:
+        pending, done = set(futures), 0
+        idle_since = None  # when the cluster was first seen without workers
+        while pending:
+            finished, pending = wait(pending, timeout=POLL, return_when=FIRST_COMPLETED)
+            done += len(finished)
+            if finished and progress:
                 progress(done, len(futures), what)
+            if client is None or finished or not pending:
+                idle_since = None
+                continue
+            if _workers(client) > 0:
+                idle_since = None
+                continue
+            now = time.monotonic()
+            idle_since = idle_since or now
+            _say(
+                f"{scheduler}: 0 workers, {len(pending)} {what} waiting; giving up in "
+                f"{max(patience - (now - idle_since), 0):.0f} s"
+            )
+            if now - idle_since >= patience:
+                left = [tasks[k] for k, f in enumerate(futures) if f in pending]
+                for f in pending:
+                    f.cancel()
+                named = ", ".join(" ".join(str(x) for x in t[:2]).strip() for t in left[:10])
+                raise UserError(
+                    f"{scheduler}: no worker for {patience:g} s, {len(left)} {what} not "
+                    f"done ({named}{', ...' if len(left) > 10 else ''}): restart the workers "
+                    "and check again"
+                )
         return [f.result() for f in futures], description
     finally:
         close()
+
+
+def _say(line: str) -> None:
+    """A progress line on the ``rworld`` logger (the CLI prints it on stderr)."""
+    import logging
+
+    logging.getLogger("rworld").warning(line)
 
 
 def junit_xml(fleet: FleetCheck) -> str:

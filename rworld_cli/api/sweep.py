@@ -20,6 +20,7 @@ devices, and which joint binds when).
 from __future__ import annotations
 
 import dataclasses
+import os
 import time
 from dataclasses import dataclass, field
 
@@ -210,7 +211,8 @@ def sweep_run(
     grid = [(m, s, v) for m in masses_grid for s in speeds for v in variants_grid]
     points, description = run_tasks(
         sweep_point,
-        [(cell, run, obj, m, s, v, collisions) for m, s, v in grid],
+        # absolute paths: a cluster's workers do not share the client's working folder
+        [(os.path.abspath(cell), run, obj, m, s, v, collisions) for m, s, v in grid],
         workers,
         scheduler,
         progress,
