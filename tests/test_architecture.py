@@ -27,7 +27,7 @@ CALCULATION = {
     "collision",
 }
 # shared utilities every room may use: they know no room
-COMMON = {"errors", "units", "spatial", "codegen", "kernels", "fileio", "jsonvalues"}
+COMMON = {"errors", "units", "spatial", "codegen", "kernels", "cache", "fileio", "jsonvalues"}
 
 
 def room_of(module: str) -> str:

@@ -226,3 +226,45 @@ def test_a_slow_speed_in_a_program_is_refused_naming_it(tmp_path):
         if code == 2:
             assert f"slow.yaml:3: puma step 1 (move to ready): at speed {float(speed):g}" in output
             assert "above the bound of 300,000" in output
+
+
+def test_a_chain_of_500_fixed_links_and_1500_nested_frames_load(cli, tmp_path):
+    """No recursion on a tree's depth: a URDF of 500 links joined by fixed joints (one
+    revolute) imports; a cell of 1500 nested frames validates and shows."""
+    links = ['<robot name="chain">', '<link name="l0"/>']
+    for i in range(1, 501):
+        links.append(
+            f'<link name="l{i}"><inertial><mass value="0.1"/><inertia ixx="0.001" iyy="0.001" '
+            'izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial></link>'
+        )
+        kind = "revolute" if i == 1 else "fixed"
+        limit = (
+            '<limit lower="-1" upper="1" velocity="1" effort="1"/><axis xyz="0 0 1"/>'
+            if i == 1
+            else ""
+        )
+        links.append(
+            f'<joint name="j{i}" type="{kind}"><parent link="l{i - 1}"/><child link="l{i}"/>'
+            f'<origin xyz="0 0 0.01"/>{limit}</joint>'
+        )
+    urdf = tmp_path / "chain.urdf"
+    urdf.write_text("\n".join(links + ["</robot>"]))
+    result = cli(["import", "urdf", str(urdf), "-o", str(tmp_path / "chain")])
+    assert result.exit_code == 0, result.output
+    assert "l0 -> l1" in result.output
+    frames = ["  - name: f0"] + [f"  - name: f{i}\n    parent: f{i - 1}" for i in range(1, 1500)]
+    deep = tmp_path / "deep"
+    deep.mkdir()
+    (deep / "cell.yaml").write_text(
+        "name: deep\nunits: {length: m, angle: rad}\npose_files: [poses.yaml]\nframes:\n"
+        + "\n".join(frames)
+        + "\n"
+    )
+    (deep / "poses.yaml").write_text(
+        "units: {length: m, angle: rad}\nposes:\n"
+        + "".join(f"  f{i}: {{xyz: [0, 0, 0.001]}}\n" for i in range(1500))
+    )
+    assert cli(["validate", str(deep / "cell.yaml")]).exit_code == 0
+    shown = cli(["show", str(deep), "--json"])
+    assert shown.exit_code == 0, shown.output[-500:]
+    assert cli(["show", str(deep)]).exit_code == 0

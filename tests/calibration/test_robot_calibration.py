@@ -241,9 +241,9 @@ def test_csv_observations_read_as_the_yaml_ones(cells, tmp_path):
         csv.write_text("\n".join(bad) + "\n")
         with pytest.raises(UserError) as info:
             read_observations(str(csv), cell)
-        assert info.value.lines() == [
-            f"{csv}:{line}:1: row: 10 fields where the header names 9"
-        ], info.value.lines()
+        assert info.value.lines() == [f"{csv}:{line}:1: row: 10 fields where the header names 9"], (
+            info.value.lines()
+        )
 
 
 def test_full_poses_identify_the_orientation_too(cells, tmp_path):
