@@ -363,9 +363,10 @@ def run_tasks(fn, tasks: list[tuple], workers, scheduler, progress=None, what: s
         idle_since = None  # when the cluster was first seen without workers
         while pending:
             finished, pending = wait(pending, timeout=POLL, return_when=FIRST_COMPLETED)
-            done += len(finished)
-            if finished and progress:
-                progress(done, len(futures), what)
+            for _ in finished:  # one call per task, as each finishes
+                done += 1
+                if progress:
+                    progress(done, len(futures), what)
             if client is None or finished or not pending:
                 idle_since = None
                 continue

@@ -41,7 +41,7 @@ from .common import (
 @click.option("--no-frames", is_flag=True, help="PNG: leave out the frame triads.")
 @click.option(
     "--tolerance",
-    type=FiniteFloat(min=0),
+    type=FiniteFloat(),
     default=None,
     help="Sensor touching tolerance [m] (default 1e-6, docs/sensing.md).",
 )

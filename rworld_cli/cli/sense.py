@@ -33,7 +33,7 @@ from .common import (
 )
 @click.option(
     "--tolerance",
-    type=FiniteFloat(min=0),
+    type=FiniteFloat(),
     default=None,
     help="Surfaces this close to a cell touch it [m] (default 1e-6).",
 )
