@@ -17,6 +17,11 @@ if TYPE_CHECKING:
     from ..calibration.robotplan import Touches
 
 IMPLAUSIBLE = 100.0  # residual rms over this many sigma: the data do not fit this robot
+MAX_CORRECTION = 0.05  # [m]: a joint frame, the target or the instrument frame moved further...
+MAX_ROTATION = np.radians(10.0)  # ... or turned further is refused (--max-correction)
+SPARE_EQUATIONS = 5  # equations at distinct poses beyond the identified parameters, at least
+MIN_RANGE = np.radians(10.0)  # a joint moved over less is named (its parameters weakly seen)
+MISFIT_WARNING = 2.0  # a-posteriori sigma over this many stated sigmas is named
 
 
 @dataclass
@@ -45,6 +50,13 @@ class RobotCalibrationRun:
     seconds: float = 0.0
     notes: list[str] = field(default_factory=list)
     cross_validation: dict | None = None  # --folds: pooled held-out errors [m]
+    warnings: list[str] = field(default_factory=list)
+    iterations: int = 0
+    converged: bool = True
+    variance_factor: float = 1.0  # a-posteriori sigma / the stated sigma
+    predicted_parts: tuple[float, float] | None = None  # (estimate, kept nominal) [m]
+    outliers: list[dict] = field(default_factory=list)  # ranked: where, residual [m]
+    loss: str = "linear"
 
     def as_dict(self) -> dict:
         mm = lambda d: None if d is None else {k: v * 1000 for k, v in d.items()}  # noqa: E731
@@ -78,6 +90,21 @@ class RobotCalibrationRun:
                 for r in self.parameter_rows
             ],
             "flagged": self.flagged,
+            "outliers": [
+                {"where": o["where"], "residual_mm": o["residual"] * 1000} for o in self.outliers
+            ],
+            "iterations": self.iterations,
+            "converged": self.converged,
+            "a_posteriori_sigma_mm": self.sigma * self.variance_factor * 1000,
+            "variance_factor": self.variance_factor,
+            "loss": self.loss,
+            "predicted_parts_mm": None
+            if self.predicted_parts is None
+            else {
+                "estimate": self.predicted_parts[0] * 1000,
+                "kept_nominal": self.predicted_parts[1] * 1000,
+            },
+            "warnings": self.warnings,
             "cross_validation_mm": None
             if self.cross_validation is None
             else {
@@ -162,9 +189,21 @@ def calibrate_robot(
     dry_run: bool = False,
     validate: list[str] | None = None,
     folds: int = 0,
+    loss: str = "linear",
+    loss_scale: float | None = None,
+    frame_only: bool = False,
+    max_correction: float = MAX_CORRECTION,
+    max_rotation: float = MAX_ROTATION,
+    accept_misfit: bool = False,
 ) -> RobotCalibrationRun:
     """Identify a device's kinematic errors (joint frames, or DH rows with a correction each)
     from instrument observations and write them as a pose-file overlay (unless ``dry_run``).
+
+    ``loss``: linear, huber or soft_l1 (``loss_scale`` [m], default 3 sigma); ``frame_only``:
+    the instrument frame (and the target's offset) alone, the robot nominal;
+    ``max_correction`` [m] / ``max_rotation`` [rad]: a joint frame, the target or the
+    instrument frame moved further is refused; ``accept_misfit``: write even when the
+    residuals are over 100 stated sigmas.
 
     Raises
     ------
@@ -213,18 +252,57 @@ def calibrate_robot(
     )
     if 3 * len(obs.q) < 12:
         raise UserError(f"{len(obs.q)} observation(s): too few to identify anything")
-    result = identify(model, obs)
+    if not np.all(np.isfinite(obs.points)) or np.abs(obs.points).max(initial=0.0) > 1e4:
+        k = int(np.argmax(np.abs(np.nan_to_num(obs.points, nan=np.inf)).max(axis=1)))
+        raise UserError(
+            f"{obs.lines[k] if k < len(obs.lines) else observation_paths[0]}: a coordinate of "
+            f"{np.abs(obs.points[k]).max():.4g} m: no instrument measures that; check the units"
+        )
+    from ..calibration.robot import LOSSES
+
+    if loss not in LOSSES:
+        raise UserError(f"--loss {loss}: give one of {', '.join(LOSSES)}")
+    warnings = _design_warnings(obs, dev)
+    result = identify(model, obs, loss=loss, loss_scale=loss_scale, frame_only=frame_only)
+    model = result.model  # with its instrument frame registered
+    per_pose = result.residuals.shape[1]
+    equations = len(np.unique(np.round(obs.q, 6), axis=0)) * per_pose  # repeated poses: once
+    if equations < result.rank + SPARE_EQUATIONS:
+        needed = int(np.ceil((result.rank + SPARE_EQUATIONS) / per_pose))
+        raise UserError(
+            f"{len(obs.q)} observation(s) give {equations} equations at distinct poses for "
+            f"{result.rank} identifiable parameters: the fit needs {SPARE_EQUATIONS} more than "
+            f"it identifies to show its error ({needed} observations at distinct poses), or "
+            "fewer parameters (--frame-only); nothing written"
+        )
     rms = float(np.sqrt(np.mean(result.residuals[:, :3] ** 2)))  # per coordinate (or gap)
-    if rms > IMPLAUSIBLE * obs.sigma or (
-        obs.rotations is not None
-        and np.sqrt(np.mean(model.residuals(result.p, obs)[:, 3:] ** 2)) > IMPLAUSIBLE * obs.sigma
-    ):
+    turned = np.sqrt(np.mean(result.residuals[:, 3:] ** 2)) if obs.rotations is not None else 0.0
+    if (rms > IMPLAUSIBLE * obs.sigma or turned > IMPLAUSIBLE * obs.sigma) and not accept_misfit:
         raise UserError(
             f"the observations do not fit '{obs.device}': residuals of {rms * 1000:.4g} mm rms "
-            f"per coordinate after the fit, {rms / obs.sigma:.0f} times the instrument's sigma "
-            f"({obs.sigma * 1000:g} mm). Check the units the files state (a joint in rad read as "
-            "deg, points in m read as mm), the joint order, and that the points are of "
-            f"'{obs.target}' in '{obs.frame}'"
+            f"per coordinate after the fit, {rms / obs.sigma:.0f} times the stated sigma "
+            f"({obs.sigma * 1000:g} mm). The causes, most likely first: a unit read wrongly (a "
+            "joint in rad read as deg, points in m read as mm; check what the files state), the "
+            f"joint order, points that are not of '{obs.target}' in '{obs.frame}', a sigma far "
+            "too small for the instrument, or error the geometric model does not have "
+            "(compliance, backlash). --accept-misfit writes the calibration all the same"
+        )
+    if result.variance_factor > MISFIT_WARNING:
+        warnings.append(
+            f"the residuals are {result.variance_factor:.1f} times the stated sigma "
+            f"({obs.sigma * 1000:g} mm): non-geometric error or an optimistic sigma; the "
+            "uncertainties are scaled by that factor"
+        )
+    if not result.converged:
+        warnings.append(f"the fit did not converge in {result.iterations} iterations")
+    moved = _too_large(model, result, max_correction, max_rotation)
+    if moved:
+        raise UserError(
+            "implausible calibration, nothing written: "
+            + "; ".join(moved)
+            + f" (more than --max-correction {max_correction * 1000:g} mm / "
+            f"{np.degrees(max_rotation):g} deg). A unit read wrongly, points of another target "
+            "or frame, or data that cannot separate these parameters are the usual causes"
         )
     zeros = np.zeros_like(result.p)
     before = position_errors(model, zeros, obs)
@@ -238,10 +316,13 @@ def calibrate_robot(
             raise UserError("the validation files measure another device, target or frame")
         validation_before = position_errors(model, zeros, checks)
         validation_after = position_errors(model, result.p, checks)
-        predicted = result.predicted_rms(checks.q)
+        parts = result.predicted(checks.q)
+        predicted = float(np.hypot(*parts))
+    else:
+        parts = None
     cross = None
     if folds:
-        cross = _cross_validation(model, obs, folds)
+        cross = _cross_validation(model, obs, folds, loss, loss_scale, frame_only)
     rows = []
     for name, value, sigma in zip(model.names, result.p, result.sigma):
         angular = name.rsplit(".", 1)[-1] in ("rx", "ry", "rz")
@@ -279,13 +360,66 @@ def calibrate_robot(
         written,
         listed,
         time.perf_counter() - started,
+        notes=result.notes,
         cross_validation=cross,
+        warnings=warnings,
+        iterations=result.iterations,
+        converged=result.converged,
+        variance_factor=result.variance_factor,
+        predicted_parts=parts,
+        outliers=[
+            {
+                "where": obs.lines[k] if k < len(obs.lines) else f"observation {k + 1}",
+                "residual": float(np.linalg.norm(result.residuals[k])),
+            }
+            for k in result.flagged
+        ],
+        loss=loss,
     )
 
 
-def _cross_validation(model, obs, folds: int) -> dict:
+def _design_warnings(obs, dev) -> list[str]:
+    """What the observations' joint states cannot support well: repeated poses, joints moved
+    over less than :data:`MIN_RANGE`."""
+    out = []
+    distinct = len(np.unique(np.round(obs.q, 6), axis=0))
+    if distinct < len(obs.q):
+        out.append(
+            f"{len(obs.q) - distinct} of {len(obs.q)} observations repeat a joint state: "
+            f"they add no information on the geometry ({distinct} distinct poses)"
+        )
+    spans = obs.q.max(axis=0) - obs.q.min(axis=0)
+    for j, span in zip(dev.joints, spans):
+        limit = MIN_RANGE if j.kind == "revolute" else 0.05
+        if span < limit:
+            unit = np.degrees(span) if j.kind == "revolute" else span * 1000
+            out.append(
+                f"{j.name} moved over {unit:.3g} {'deg' if j.kind == 'revolute' else 'mm'} only: "
+                "its parameters are seen weakly or not at all"
+            )
+    return out
+
+
+def _too_large(model, result, max_correction: float, max_rotation: float) -> list[str]:
+    """Each joint frame, the target and the instrument frame whose correction is beyond the
+    bounds, in words."""
+    names = model.names
+    out = []
+    for start in range(0, len(names), 6):
+        group = names[start].rsplit(".", 1)[0]
+        d = result.p[start : start + 6]
+        length = float(np.linalg.norm(d[:3]))
+        angle = float(np.linalg.norm(d[3:])) if len(d) == 6 else 0.0
+        if length > max_correction or angle > max_rotation:
+            out.append(f"{group} moves by {length * 1000:.1f} mm and {np.degrees(angle):.2f} deg")
+    return out
+
+
+def _cross_validation(model, obs, folds: int, loss="linear", scale=None, frame_only=False) -> dict:
     """k-fold: each fold's observations predicted by a fit on the others; the errors pooled
-    (rms, p95, max [m]) for the nominal and the fitted models."""
+    (rms, p95, max [m]) for the nominal and the fitted models.  Both are held-out figures:
+    "before" is the nominal robot with what any fit refits (the instrument frame registered,
+    the target's offset) fitted on the same training fold."""
     from ..calibration.robot import identify
 
     K = len(obs.q)
@@ -308,10 +442,11 @@ def _cross_validation(model, obs, folds: int) -> dict:
                 lines=[obs.lines[r] for r in rows if r < len(obs.lines)],
             )
 
-        fit = identify(model, part(train))
-        held = part(test)
-        for p, into in ((np.zeros_like(fit.p), before), (fit.p, after)):
-            residual = model.residuals(p, held)
+        train_obs, held = part(train), part(test)
+        fit = identify(model, train_obs, loss=loss, loss_scale=scale, frame_only=frame_only)
+        base = identify(model, train_obs, frame_only=True)
+        for fitted, into in ((base, before), (fit, after)):
+            residual = fitted.model.residuals(fitted.p, held)
             if held.surfaces is not None:
                 into.extend(np.abs(residual[:, 0]))
             else:
@@ -382,11 +517,12 @@ def _write_overlay(out: Path, obs, model, result, digests, world, T_link_target)
     poses = {
         obs.target: np.linalg.solve(T_world(world.parent(obs.target)), T_world_link @ T_link_new)
     }
-    if model.frame_estimated:  # the instrument's frame F' = F E
+    if model.frame_estimated:  # the instrument's frame F' = F R E (R: its registration)
         m = model.target_count
         E = small_pose(result.p[6 * n + m : 6 * n + m + 6])
         poses[obs.frame] = np.linalg.solve(
-            T_world(world.parent(obs.frame)), world.T_world(obs.frame) @ E
+            T_world(world.parent(obs.frame)),
+            world.T_world(obs.frame) @ result.T_frame_registered @ E,
         )
     lines.append("poses:")
     for name, T in poses.items():

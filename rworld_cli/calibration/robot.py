@@ -26,7 +26,7 @@ it.
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -163,89 +163,297 @@ def _differences(f, p: np.ndarray, h: float = 1e-6) -> np.ndarray:
 
 @dataclass
 class Unidentifiable:
-    """A combination of parameters the data cannot determine: kept nominal."""
+    """A parameter the data cannot determine: kept exactly nominal.
+
+    ``parameters``: the parameter (weight 1) and the identified ones its effect on the data is
+    (nearly) a combination of, with their weights; ``sigma``: how well the data would determine
+    it on its own, in units of its typical error (``inf``: not at all).
+    """
 
     parameters: list[tuple[str, float]]  # (name, weight) of its largest entries
+    sigma: float = float("inf")
 
     def describe(self) -> str:
-        return " + ".join(f"{w:+.2f} {n}" for n, w in self.parameters)
+        text = " + ".join(f"{w:+.2f} {n}" for n, w in self.parameters)
+        if np.isfinite(self.sigma):
+            return f"{text} (determined only to {self.sigma:.2g} x its typical error)"
+        return text
 
 
 @dataclass
 class RobotCalibration:
     """The identified parameters and their statistics (SI, scaled back)."""
 
-    model: RobotModel
-    p: np.ndarray  # (P,) the estimate
-    sigma: np.ndarray  # (P,) 1 sigma of each parameter (of its identifiable part)
-    covariance: np.ndarray  # (P, P)
-    rank: int
+    model: RobotModel  # as fitted: its instrument frame registered first
+    p: np.ndarray  # (P,) the estimate; 0 (nominal) for every parameter not identified
+    sigma: np.ndarray  # (P,) 1 sigma of each parameter; 0 where kept nominal
+    covariance: np.ndarray  # (P, P), scaled by the a-posteriori factor when it is above 1
+    rank: int  # parameters identified
     unidentifiable: list[Unidentifiable]
-    observability: float  # Borm and Menq's O1 of the scaled Jacobian's identifiable part
+    observability: float  # Borm and Menq's O1 of the scaled Jacobian of the identified ones
     residuals: np.ndarray  # (K, m) [m] after: positions (3), poses (6), contacts' gaps (1)
     residuals_before: np.ndarray  # (K, m) [m]
     iterations: int
     device: DeviceModel  # corrected
     T_frame_base: np.ndarray
-    sigma_instrument: float = 0.0  # [m], 1 sigma per coordinate
+    sigma_instrument: float = 0.0  # [m], 1 sigma per coordinate, as the files state it
+    identified: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))  # indices
+    converged: bool = True
+    variance_factor: float = 1.0  # a-posteriori sigma / stated sigma (chi^2 / dof, rooted)
+    T_frame_registered: np.ndarray = field(default_factory=lambda: np.eye(4))
+    weights: np.ndarray | None = None  # (K,) the robust loss's final weights
+    notes: list[str] = field(default_factory=list)
 
     @property
     def flagged(self) -> np.ndarray:
-        """Observations with a coordinate's residual over 4 sigma (indices)."""
-        return np.flatnonzero(np.abs(self.residuals).max(axis=1) > 4 * self.sigma_instrument)
+        """Observations far above the rest (indices, largest first): a residual over 5 times
+        the median and over 4 a-posteriori sigmas."""
+        d = np.linalg.norm(self.residuals, axis=1)
+        floor = 4 * self.sigma_instrument * max(self.variance_factor, 1.0)
+        big = np.flatnonzero((d > 5 * np.median(d)) & (d > floor))
+        return big[np.argsort(-d[big])]
 
     def predicted_rms(self, q: np.ndarray) -> float:
-        """The rms position error the estimate's covariance predicts at joint values ``q`` [m]
-        (the Cramer-Rao bound of the calibrated model's prediction)."""
+        """The rms position error predicted at joint values ``q`` [m]: the estimate's own
+        (its covariance) and what the parameters kept nominal do there (:meth:`predicted`)."""
+        return float(np.hypot(*self.predicted(q)))
+
+    def predicted(self, q: np.ndarray) -> tuple[float, float]:
+        """(the estimate's rms error, the rms error of the parameters kept nominal) at joint
+        values ``q`` [m].  The second: a typical error of each parameter not identified (1 mm,
+        1 mrad), after the identified ones absorbed what the fit's data let them."""
         J = self.model.jacobian(self.p, q)
         per_coordinate = np.einsum("ij,jk,ik->i", J, self.covariance, J)
-        return float(np.sqrt(per_coordinate.reshape(-1, 3).sum(axis=1).mean()))
+        estimate = float(np.sqrt(per_coordinate.reshape(-1, 3).sum(axis=1).mean()))
+        kept = np.setdiff1d(np.arange(len(self.p)), self.identified)
+        if not len(kept) or self._absorbed is None:
+            return estimate, 0.0
+        scales = self.model.scales
+        J_s, J_e = J[:, self.identified] * scales[self.identified], J[:, kept] * scales[kept]
+        induced = J_e - J_s @ self._absorbed  # (3K, E): per unit of each kept parameter
+        return estimate, float(np.sqrt((induced**2).sum(axis=1).reshape(-1, 3).sum(axis=1).mean()))
+
+    _absorbed: np.ndarray | None = None  # (S, E): identified change per kept parameter (scaled)
 
 
-def identify(model: RobotModel, obs: RobotObservations, iterations: int = 20) -> RobotCalibration:
+def register_frame(model: RobotModel, obs) -> tuple[RobotModel, np.ndarray]:
+    """The instrument frame fitted first, in closed form, with the robot nominal: the rigid
+    motion that best maps the nominal model's points onto the measured ones (Kabsch).  Returns
+    the model with it and the frame's change ``C`` (``T_frame_base' = C T_frame_base``)."""
+    a = model.points(np.zeros(len(model.names)), obs.q)
+    b = obs.points
+    ca, cb = a.mean(axis=0), b.mean(axis=0)
+    U, _, Vt = np.linalg.svd((a - ca).T @ (b - cb))
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T))])
+    C = np.eye(4)
+    C[:3, :3] = Vt.T @ D @ U.T
+    C[:3, 3] = cb - C[:3, :3] @ ca
+    return dataclasses.replace(model, T_frame_base=C @ model.T_frame_base), C
+
+
+def preference(model: RobotModel) -> list[int]:
+    """The order parameters are taken in when the data cannot tell some apart: the instrument
+    frame first (a base error is the instrument's, not joint 1's), then the target's offset,
+    then the joints from the base to the flange (x, y, z, rx, ry, rz each)."""
+    n6 = 6 * model.device.dof
+    m = model.target_count
+    order = list(range(n6 + m, len(model.names)))  # the frame, when estimated
+    order += list(range(n6, n6 + m))
+    return order + list(range(n6))
+
+
+def on_last_axis(model: RobotModel, tolerance: float = 1e-3) -> float | None:
+    """The distance [m] of a measured point from the last joint's axis when it lies within
+    ``tolerance`` of it (its orientation about and across that axis is then unseen), else
+    None; None for measured poses."""
+    if model.R_link_target is not None:
+        return None
+    dev = model.device
+    if dev.joints[-1].kind != "revolute":
+        return None
+    q = np.zeros(dev.dof)
+    T_last = link_poses(dev, q[None])[0][-1]
+    point = T_last @ np.append(model.p_link_target, 1.0)
+    # the last joint's axis: where link n turns about, in the frame of link n - 1
+    turned = link_poses(dev, np.r_[q[:-1], 1.0][None])[0][-1]
+    R = turned[:3, :3] @ T_last[:3, :3].T
+    angle = np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1))
+    if angle < 1e-9:
+        return None
+    axis = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]]) / (2 * np.sin(angle))
+    # a point on the axis: fixed by the turn (least squares of (R - I) x = t - R t_last...)
+    t = turned[:3, 3] - R @ T_last[:3, 3]
+    on_axis = np.linalg.lstsq(np.eye(3) - R, t, rcond=None)[0]
+    v = point[:3] - on_axis
+    distance = float(np.linalg.norm(v - (v @ axis) * axis))
+    return distance if distance <= tolerance else None
+
+
+def select(
+    J: np.ndarray, order: list[int], sigma: float, excluded: set[int] = frozenset()
+) -> tuple[list[int], dict[int, float]]:
+    """The identified parameters: each column of the scaled Jacobian ``J`` (in units of the
+    parameter's typical error) taken in ``order`` when the data determine it, beside the ones
+    already taken, to better than its typical error (its sigma below 1 in those units, with
+    the instrument's ``sigma``) and it is not numerically dependent on them; then, while any
+    taken parameter's sigma in the joint fit is above 1, the worst is let go.  Returns (taken,
+    {let go: its sigma in typical errors, inf when dependent})."""
+    taken: list[int] = []
+    basis = np.zeros((J.shape[0], 0))
+    dropped: dict[int, float] = {}
+    largest = float(np.linalg.norm(J, axis=0).max()) or 1.0
+    for k in order:
+        if k in excluded:
+            dropped[k] = float("inf")
+            continue
+        c = J[:, k]
+        orth = c - basis @ (basis.T @ c)
+        size = float(np.linalg.norm(orth))
+        if size <= 1e-7 * largest:
+            dropped[k] = float("inf")
+            continue
+        if sigma / size > 1.0:
+            dropped[k] = sigma / size
+            continue
+        taken.append(k)
+        basis = np.hstack([basis, (orth / size)[:, None]])
+    while taken:
+        Js = J[:, taken]
+        spread = sigma * np.sqrt(np.diag(np.linalg.pinv(Js.T @ Js)))
+        worst = int(np.argmax(spread))
+        if spread[worst] <= 1.0:
+            break
+        dropped[taken.pop(worst)] = float(spread[worst])
+    return taken, dropped
+
+
+LOSSES = ("linear", "huber", "soft_l1")
+
+
+def _weights(norms: np.ndarray, loss: str, scale: float) -> np.ndarray:
+    """IRLS weights of each observation's residual norm under the robust ``loss``."""
+    z = norms / scale
+    if loss == "huber":
+        return np.where(z <= 1.0, 1.0, 1.0 / np.maximum(z, 1e-300))
+    if loss == "soft_l1":
+        return 1.0 / np.sqrt(1.0 + z**2)
+    return np.ones_like(norms)
+
+
+def identify(
+    model: RobotModel,
+    obs: RobotObservations,
+    iterations: int = 50,
+    loss: str = "linear",
+    loss_scale: float | None = None,
+    frame_only: bool = False,
+) -> RobotCalibration:
     """Maximum-likelihood estimate of the identifiable parameters from ``obs``.
+
+    The gauge is fixed the way the literature fixes it: an estimated instrument frame is first
+    registered in closed form with the robot nominal (:func:`register_frame`), so the same
+    data give the same robot from any starting pose of the instrument; then the parameters
+    are taken in a stated order (:func:`preference`) while the data determine each to better
+    than its typical error (:func:`select`); the others stay exactly nominal and are listed.
+    A point on the last joint's axis leaves that joint's rotations nominal.
+
+    Gauss-Newton on the identified parameters (iteratively reweighted for a robust ``loss``,
+    huber or soft_l1, with ``loss_scale`` [m], default 3 sigma) until the cost changes by less
+    than 1e-10 of itself; the covariance is ``sigma^2 (J^T W J)^-1`` scaled by the
+    a-posteriori variance factor (chi^2 / dof) when that is above 1.  ``frame_only``: only the
+    instrument frame (and the target's offset) are fitted, the robot nominal.
 
     Raises
     ------
     ValueError
-        Fewer equations than identifiable parameters.
+        An unknown loss.
     """
+    if loss not in LOSSES:
+        raise ValueError(f"loss must be one of {', '.join(LOSSES)}, not {loss!r}")
     P = len(model.names)
-    p = np.zeros(P)
+    C = np.eye(4)
+    if model.frame_estimated and obs.surfaces is None:
+        model, C = register_frame(model, obs)
     scales = model.scales
-    q = obs.q
+    p = np.zeros(P)
     before = model.residuals(p, obs)
-    rank, U, s, Vt = 0, None, None, None
-    done = 0
-    for done in range(1, iterations + 1):
-        e = model.residuals(p, obs).ravel()
-        J = model.residual_jacobian(p, obs) * scales  # scaled columns
-        U, s, Vt = np.linalg.svd(J, full_matrices=False)
-        rank = int(np.sum(s > s[0] * 1e-6))
-        step = -Vt[:rank].T @ ((U[:, :rank].T @ e) / s[:rank])
-        p = p + step * scales
-        if np.abs(step).max() < 1e-9:  # in scaled units: 1e-12 m, 1e-12 rad
+    notes: list[str] = []
+    excluded: set[int] = set()
+    n6 = 6 * model.device.dof
+    if frame_only:
+        excluded = set(range(n6))
+    distance = on_last_axis(model)
+    if distance is not None and not frame_only:
+        excluded |= {n6 - 3, n6 - 2, n6 - 1}
+        name = model.device.joints[-1].name
+        notes.append(
+            f"the target lies on {name}'s axis ({distance * 1000:.2f} mm off it): the flange's "
+            f"orientation ({name}'s tilt and zero) is not determined and stays nominal; the "
+            "calibration holds for points on that axis"
+        )
+    m_per = before.shape[1]
+    J = model.residual_jacobian(p, obs) * scales
+    taken, dropped = select(J, preference(model), obs.sigma, excluded)
+    weights = np.ones(len(obs.q))
+    scale = loss_scale if loss_scale is not None else 3 * obs.sigma * np.sqrt(m_per)
+    cost_old, done, converged = None, 0, False
+    for done in range(1, iterations + 1 if taken else 1):
+        e = model.residuals(p, obs)
+        weights = _weights(np.linalg.norm(e, axis=1), loss, scale)
+        root = np.repeat(np.sqrt(weights), m_per)
+        cost = float(np.sum(root**2 * e.ravel() ** 2))
+        if cost_old is not None and abs(cost_old - cost) <= 1e-10 * max(cost, 1e-300):
+            converged = True
             break
-    assert Vt is not None and s is not None
+        cost_old = cost
+        if done > 1:
+            J = model.residual_jacobian(p, obs) * scales
+        Js = J[:, taken] * root[:, None]
+        step = np.linalg.lstsq(Js, -(root * e.ravel()), rcond=None)[0]
+        p[taken] = p[taken] + step * scales[taken]
+        if np.abs(step).max() < 1e-12:  # scaled units: 1e-15 m, 1e-15 rad
+            converged = True
+            break
     after = model.residuals(p, obs)
-    V = Vt[:rank].T
-    covariance_scaled = obs.sigma**2 * (V / s[:rank] ** 2) @ V.T
-    covariance = covariance_scaled * np.outer(scales, scales)
+    J = model.residual_jacobian(p, obs) * scales
+    root = np.repeat(np.sqrt(weights), m_per)
+    Js = J[:, taken] * root[:, None]
+    dof = max(len(after.ravel()) - len(taken), 1)
+    chi2 = float(np.sum(root**2 * after.ravel() ** 2)) / obs.sigma**2
+    factor = float(np.sqrt(chi2 / dof))
+    information = np.linalg.pinv(Js.T @ Js) if taken else np.zeros((0, 0))
+    covariance = np.zeros((P, P))
+    covariance[np.ix_(taken, taken)] = (
+        obs.sigma**2 * max(factor, 1.0) ** 2 * information * np.outer(scales[taken], scales[taken])
+    )
     names = model.names
     unidentifiable = []
-    for v in Vt[rank:]:
-        order = np.argsort(-np.abs(v))[:4]
-        entries = [(names[k], float(v[k])) for k in order if abs(v[k]) > 0.05]
-        unidentifiable.append(Unidentifiable(entries))
-    # Borm and Menq's O1: the geometric mean of the singular values over the root of the count
-    observability = float(np.exp(np.log(s[:rank]).mean()) / np.sqrt(len(q))) if rank else 0.0
+    kept = [k for k in range(P) if k not in taken]
+    absorbed = information @ Js.T @ (J[:, kept] * root[:, None]) if taken and kept else None
+    if not taken:
+        notes.append(
+            f"with the stated sigma ({obs.sigma * 1000:g} mm) the data determine no parameter "
+            "to better than its typical error (1 mm, 1 mrad): nothing is identified"
+        )
+    for column, k in enumerate(kept):
+        entries = [(names[k], 1.0)]
+        if absorbed is not None:
+            beta = absorbed[:, column]
+            for j in np.argsort(-np.abs(beta))[:3]:
+                if abs(beta[j]) > 0.05:
+                    entries.append((names[taken[j]], float(-beta[j])))
+        unidentifiable.append(Unidentifiable(entries, dropped.get(k, float("inf"))))
+    singular = np.linalg.svd(J[:, taken], compute_uv=False) if taken else np.zeros(0)
+    observability = (
+        float(np.exp(np.log(singular).mean()) / np.sqrt(len(obs.q))) if len(singular) else 0.0
+    )
     device, _, T = model.apply(p)
     out = RobotCalibration(
         model,
         p,
         np.sqrt(np.maximum(np.diag(covariance), 0.0)),
         covariance,
-        rank,
+        len(taken),
         unidentifiable,
         observability,
         after,
@@ -254,7 +462,14 @@ def identify(model: RobotModel, obs: RobotObservations, iterations: int = 20) ->
         device,
         T,
         obs.sigma,
+        np.array(taken, dtype=int),
+        converged,
+        factor,
+        np.linalg.inv(C),
+        weights if loss != "linear" else None,
+        notes,
     )
+    out._absorbed = absorbed
     return out
 
 
