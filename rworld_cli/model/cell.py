@@ -204,6 +204,15 @@ class ControllerProfile:
             out = out + q @ self.coupling.T
         return out
 
+    def joints(self, axes) -> np.ndarray:
+        """The cell's joint values of the controller's axis values ``axes`` (..., n), SI: the
+        inverse of :meth:`axes`."""
+        axes = np.asarray(axes, dtype=float)
+        M = np.diag(self.sign.astype(float))
+        if self.coupling is not None:
+            M = M + self.coupling
+        return np.linalg.solve(M, (axes - self.offset).T).T
+
     @property
     def identity(self) -> bool:
         """The axis values are the cell's joint values."""

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import hashlib
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 import numpy as np
 from annotated_types import Len
@@ -75,6 +75,12 @@ class ObservationFile(Strict):
     )
     target: str = Field(description="The measured frame: a frame with a pose on a link.")
     frame: str = Field("world", description="The frame the points are in.")
+    axes: Literal["cell", "controller"] = Field(
+        "cell",
+        description="Whose joint values: the cell's, or the controller's axis values as its "
+        "pendant and logs give them (a FANUC's or ABB's coupled J3), mapped through the cell's "
+        "controller.axes.",
+    )
     observations: list[Observation] = Field(default_factory=list)
     contacts: list[Contact] = Field(
         default_factory=list,
@@ -84,6 +90,49 @@ class ObservationFile(Strict):
     probe_radius: float | None = Field(
         None, ge=0, description="Contacts: the probe ball's radius [length unit]."
     )
+
+
+def _joint_reader(dev, axes: str, issue, path: str):
+    """``read(values, L, A) -> (q, why)``: a file's joint values as the cell's (SI, within the
+    limits); with ``axes: controller`` the controller's axis values, mapped through the cell's
+    ``controller.axes`` first."""
+    if axes == "controller":
+        profile = dev.controller
+        if profile is None:
+            raise _refuse(
+                [
+                    issue(
+                        f"axes: controller, but '{dev.name}' has no controller: section in the "
+                        "cell (its axes map: docs/formats.md)"
+                    )
+                ]
+            )
+
+        def read(values, L, A):
+            raw, why = joint_values(dev, values, L, A, limits=False)
+            if why is not None:
+                return None, why
+            q = profile.joints(raw)
+            return joint_values(dev, q / _file_scale(dev, L, A), L, A)
+
+        return read
+
+    coupled = dev.controller is not None and not dev.controller.identity
+
+    def read(values, L, A):
+        q, why = joint_values(dev, values, L, A)
+        if why is not None and coupled and "beyond the joint limits" in why:
+            why += (
+                "; or the controller's axis values (its coupled or offset axes): say "
+                "'axes: controller'"
+            )
+        return q, why
+
+    return read
+
+
+def _file_scale(dev, L: float, A: float) -> np.ndarray:
+    return np.array([A if j.kind == "revolute" else L for j in dev.joints])
 
 
 def _refuse(issues: list[Issue]) -> UserError:
@@ -136,6 +185,7 @@ def read_observations(path: str, cell: CellModel) -> tuple[RobotObservations, di
 
     _check(cell, f.device, f.target, f.frame, at)
     dev = cell.devices[f.device]
+    read_joints = _joint_reader(dev, f.axes, lambda m: at("axes", m), str(path))
     if bool(f.observations) == bool(f.contacts):
         raise _refuse(
             [
@@ -147,7 +197,7 @@ def read_observations(path: str, cell: CellModel) -> tuple[RobotObservations, di
             ]
         )
     if f.contacts:
-        return _contacts(doc, f, cell, dev, str(path), L, A), digest
+        return _contacts(doc, f, cell, dev, str(path), L, A, read_joints), digest
     issues = []
     q, points, rotations, lines = [], [], [], []
     with_poses = any(o.pose is not None for o in f.observations)
@@ -171,7 +221,7 @@ def read_observations(path: str, cell: CellModel) -> tuple[RobotObservations, di
             o_point, rotation = T[:3, 3] / L, T[:3, :3]
         else:
             o_point, rotation = np.array(o.point), None
-        values, why = joint_values(dev, o.joints, L, A)
+        values, why = read_joints(o.joints, L, A)
         point = np.asarray(o_point, dtype=float) * L
         if why is None and not np.all(np.isfinite(point)):
             why = "a value is not a finite number"
@@ -200,7 +250,9 @@ def read_observations(path: str, cell: CellModel) -> tuple[RobotObservations, di
     return obs, digest
 
 
-def _contacts(doc, f: ObservationFile, cell: CellModel, dev, path: str, L: float, A: float):
+def _contacts(
+    doc, f: ObservationFile, cell: CellModel, dev, path: str, L: float, A: float, read_joints
+):
     """The contact form: each touch's feature geometry in world (the cell's current poses)."""
     from ..model.measurements import Surfaces
 
@@ -225,7 +277,7 @@ def _contacts(doc, f: ObservationFile, cell: CellModel, dev, path: str, L: float
         if feature.owner == dev.name:
             issues.append(doc.issue(where + ("feature",), "a feature the robot itself carries"))
             continue
-        values, why = joint_values(dev, c.joints, L, A)
+        values, why = read_joints(c.joints, L, A)
         if why is not None:
             issues.append(doc.issue(where + ("joints",), why))
             continue
@@ -317,6 +369,13 @@ def _read_csv(p: Path, cell: CellModel) -> RobotObservations:
     sigma_text, sigma_line = need("sigma")
     _check(cell, device, target, frame, at)
     dev = cell.devices[device]
+    axes = meta.get("axes", ("cell", 0))[0]
+    if axes not in ("cell", "controller"):
+        raise _refuse([at("axes", f"axes: {axes}: give 'cell' or 'controller'")])
+    if axes == "controller" and dev.controller is None:
+        raise _refuse(
+            [at("axes", f"axes: controller, but '{device}' has no controller: section in the cell")]
+        )
     words = [w.strip() for w in meta.get("units", ("", 0))[0].split(",") if w.strip()]
     length_word = next((w for w in words if w in LENGTH), None)
     angle_word = next((w for w in words if w in ANGLE), None)
@@ -400,6 +459,8 @@ def _read_csv(p: Path, cell: CellModel) -> RobotObservations:
         if not np.all(np.isfinite(values)):
             issues.append(Issue(shown, line_number, 1, "row", "a value is not a finite number"))
             continue
+        if axes == "controller":  # the controller's axis values: the cell's joints first
+            values[: dev.dof] = dev.controller.joints(values[: dev.dof])
         issues += _limits(
             dev, values[: dev.dof], lambda m, n=line_number: Issue(shown, n, 1, "row", m)
         )

@@ -292,3 +292,60 @@ def test_a_joint_never_moved_and_a_small_range_are_warned_in_json(cli, cells, tm
     result = cli(["calibrate-robot", str(nominal), str(path), "--dry-run", "--json"])
     report = json.loads(result.output) if result.exit_code == 0 else {"warnings": [result.output]}
     assert sum("moved over" in w for w in report["warnings"]) >= 6 or "refused" in str(report)
+
+
+def test_controller_axis_values_are_read_through_the_cells_axes_map(tmp_path):
+    """A FANUC LR Mate 200iD (ROS-Industrial; the controller's J3 counts J3 - J2, as
+    fanuc_driver relays it): observations in the pendant's axis values with 'axes: controller'
+    give the same calibration as the same observations in the cell's joint values."""
+    from rworld_cli.api import import_urdf
+    from tests.conftest import urdf_without_meshes
+    from tests.export.test_vendors import VENDORS
+
+    urdf_path = VENDORS["lrmate200id"][0]
+    cell = tmp_path / "cell"
+    device = import_urdf(
+        str(urdf_without_meshes(urdf_path, tmp_path / urdf_path.name)), str(cell)
+    ).device
+    data = yaml.safe_load((cell / "cell.yaml").read_text())
+    data["devices"][0]["tcps"].append({"name": "tip", "parent": "tool0"})
+    (cell / "cell.yaml").write_text(yaml.safe_dump(data, sort_keys=False))
+    poses = yaml.safe_load((cell / "poses.yaml").read_text())
+    poses["poses"][f"{device}.tip"] = {"xyz": [0.02, 0.01, 0.1]}
+    (cell / "poses.yaml").write_text(yaml.safe_dump(poses, sort_keys=False))
+    model = load_cell(str(cell)).cell
+    dev = model.devices[device]
+    lo, hi = dev.limit_array("lower"), dev.limit_array("upper")
+    Q = np.random.default_rng(5).uniform(0.8 * lo, 0.8 * hi, (40, dev.dof))
+    world = World(model)
+    texts = {}
+    for axes in ("cell", "controller"):
+        lines = [
+            "units: {length: mm, angle: deg}",
+            f"device: {device}",
+            "sigma: 0.02",
+            f"target: {device}.tip",
+            f"axes: {axes}",
+            "observations:",
+        ]
+        for q in Q:
+            world.set_joints(device, q)
+            p = world.T_world(f"{device}.tip")[:3, 3] * 1000  # the nominal robot, no noise
+            shown = q.copy()
+            if axes == "controller":
+                shown[2] = q[2] - q[1]  # the controller's J3 (fanuc_driver, J23_factor 1)
+            joints = ", ".join(f"{v:.12f}" for v in np.degrees(shown))
+            lines.append(f"  - {{joints: [{joints}], point: [{', '.join(f'{v:.9f}' for v in p)}]}}")
+        path = tmp_path / f"{axes}.yaml"
+        path.write_text("\n".join(lines) + "\n")
+        texts[axes] = path
+    a = calibrate_robot(str(cell), [str(texts["cell"])], dry_run=True)
+    b = calibrate_robot(str(cell), [str(texts["controller"])], dry_run=True)
+    rows = lambda r: np.array([x["correction"] for x in r.parameter_rows])  # noqa: E731
+    assert np.abs(rows(a) - rows(b)).max() < 1e-6
+    plain = texts["controller"].read_text().replace("axes: controller\n", "")
+    texts["controller"].write_text(plain)
+    with pytest.raises(UserError) as info:
+        calibrate_robot(str(cell), [str(texts["controller"])], dry_run=True)
+    said = "\n".join(info.value.lines())
+    assert "do not fit" in said or "say 'axes: controller'" in said, said
