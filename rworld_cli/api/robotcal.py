@@ -563,9 +563,11 @@ class RobotPosePlanRun:
     template: str | None
     dropped: int = 0  # poses replaced because the program collided on the way to them
     seconds: float = 0.0
+    constraints: dict = field(default_factory=dict)  # tracker: candidates lost, by reason
 
     def as_dict(self) -> dict:
         return {
+            "constraints_lost": self.constraints,
             "device": self.device,
             "target": self.target,
             "instrument": self.instrument,
@@ -623,6 +625,82 @@ def _collision_free(cell, device: str, Q: np.ndarray) -> np.ndarray:
     hit = np.zeros(len(Q), dtype=bool)
     hit[state[near[result.overlap]]] = True
     return ok & ~hit
+
+
+SIGHT_CLEARANCE = 0.01  # [m]: the line of sight's radius: no robot body within it
+SIGHT_START = 0.03  # [m]: from this far out from the target (its own mount is not in the way)
+
+
+def _visible(cell, device, target, Q, floor, instrument_at, acceptance, world):
+    """Which tracker candidates (M, n) the instrument can measure: the target above the floor
+    (world z) or the robot's mounting plane, facing the instrument within the acceptance angle
+    of its z axis, the line of sight clear of every robot body by :data:`SIGHT_CLEARANCE`.
+    Returns (kept (M,) bool, {reason: count lost})."""
+    from ..collision.bodies import ball_body, collision_model, distances
+
+    link, T_link_target = world.mount_of(device, target)
+    T_world_base = world.T_world(device)
+    from ..kinematics.jacobian import ToolMount, tool_pose
+
+    T = T_world_base @ tool_pose(cell.devices[device], Q, ToolMount(link, T_link_target))
+    p = T[:, :3, 3]
+    lost: dict[str, int] = {}
+    if floor is not None:
+        keep = p[:, 2] > floor
+        lost["below the floor"] = int((~keep).sum())
+    else:
+        height = (p - T_world_base[:3, 3]) @ T_world_base[:3, 2]
+        keep = height > 0
+        lost["below the robot's mounting plane"] = int((~keep).sum())
+    if instrument_at is None:
+        return keep, lost
+    to = instrument_at - p
+    distance = np.linalg.norm(to, axis=1)
+    if acceptance is not None:
+        facing = np.einsum("ij,ij->i", to / distance[:, None], T[:, :3, 2])
+        inside = facing >= np.cos(acceptance)
+        lost["outside the reflector's acceptance angle"] = int((keep & ~inside).sum())
+        keep &= inside
+    # the line of sight: balls of the clearance's radius along it, against the robot's bodies
+    model = collision_model(cell)
+    bodies = list(model.bodies)
+    robot = [i for i, b in enumerate(bodies) if b.owner == device]
+    if not robot:
+        return keep, lost
+    ball = len(bodies)
+    bodies.append(ball_body("line of sight", SIGHT_CLEARANCE))
+    reach = max(float(np.linalg.norm(p - T_world_base[:3, 3], axis=1).max()), 0.1) + 0.3
+    # every kept candidate's beam samples at once: SIGHT_START, + clearance, ... to its end
+    kept = np.flatnonzero(keep)
+    length = np.minimum(distance[kept], reach)  # beyond the reach nothing is in the way
+    counts = np.maximum(np.ceil((length - SIGHT_START) / SIGHT_CLEARANCE).astype(int), 0)
+    owner = np.repeat(kept, counts)
+    if not len(owner):
+        return keep, lost
+    step = np.arange(len(owner)) - np.repeat(np.cumsum(counts) - counts, counts)
+    along = SIGHT_START + step * SIGHT_CLEARANCE
+    C = p[owner] + along[:, None] * (to[owner] / distance[owner][:, None])
+    frames = sorted({bodies[i].frame for i in robot})
+    T_bodies = world.T_world_frames(frames, {device: Q})  # per candidate, not per sample
+    hidden = np.zeros(len(Q), dtype=bool)
+    for i in robot:
+        b = bodies[i]
+        Tb = T_bodies[b.frame]
+        centre = np.einsum("kij,j->ki", Tb[:, :3, :3], b.center) + Tb[:, :3, 3]
+        near = np.flatnonzero(
+            np.linalg.norm(centre[owner] - C, axis=1) <= b.radius + SIGHT_CLEARANCE
+        )
+        near = near[~hidden[owner[near]]]
+        if not len(near):
+            continue
+        Tc = np.broadcast_to(np.eye(4), (len(near), 4, 4)).copy()
+        Tc[:, :3, 3] = C[near]
+        result = distances(
+            bodies, np.full(len(near), i), np.full(len(near), ball), Tb[owner[near]], Tc
+        )
+        hidden[owner[near[result.overlap]]] = True
+    lost["with the arm in the line of sight"] = int((keep & hidden).sum())
+    return keep & ~hidden, lost
 
 
 @dataclass
@@ -683,6 +761,9 @@ def plan_robot_calibration(
     template: str | None = None,
     instrument: str = "tracker",
     features: list[str] | None = None,
+    floor: float | None = None,
+    instrument_at: np.ndarray | None = None,
+    acceptance: float | None = None,
 ) -> RobotPosePlanRun:
     """Choose ``count`` joint states to measure for ``calibrate-robot``, then the choice that
     predicts the smallest error of the calibrated model
@@ -697,6 +778,12 @@ def plan_robot_calibration(
     home.  ``program``: a program that visits them - a pause at each for the instrument, or a
     guarded move to each touch - checked in simulation (a pose the robot collides on the way to
     is replaced).  ``template``: an observation or contacts file of the poses, to fill in.
+
+    A tracker's candidates must also keep the target above the floor - ``floor`` [m, world z],
+    else the robot's mounting plane (its base frame's xy plane) - and, with the instrument at
+    ``instrument_at`` (3,) [m, world], face it within ``acceptance`` [rad] of the target's z
+    axis (a reflector's acceptance cone) with the line of sight clear of the robot
+    (:func:`_visible`).
 
     Raises
     ------
@@ -749,20 +836,25 @@ def plan_robot_calibration(
         dev, np.linalg.inv(world.T_world(device)), link, T_link_target[:3, 3].copy(), False
     )
     rng = np.random.default_rng(seed)
+    constraints: dict[str, int] = {}
     if features and instrument == "probe":
         touches, tried = touch_candidates(cell, device, target, radius, features, candidates, seed)
         pool = _Pool(touches.q, touches.q_approach, touches.normals, touches)
     else:
         pool, tried = _tracker_pool(dev, rng, candidates), candidates
+        seen, lost = _visible(cell, device, target, pool.q, floor, instrument_at, acceptance, world)
+        pool = _Pool(pool.q[seen], pool.q_path[seen])
+        constraints = lost
     # each pose is visited from home and back: the pose and the joint path to it must be free
     fractions = np.linspace(0.125, 1.0, 8)
     path = dev.home + fractions[:, None, None] * (pool.q_path - dev.home)[None]  # (8, M, n)
     free = _collision_free(cell, device, path.reshape(-1, dev.dof)).reshape(8, -1).all(axis=0)
     usable_count = int(free.sum())
     if usable_count < count:
+        lost_said = "".join(f"; {n} {why}" for why, n in constraints.items() if n)
         raise UserError(
             f"only {usable_count} of {tried} candidates are reachable and free of "
-            "collisions; ask for fewer poses or more candidates"
+            f"collisions{lost_said}; ask for fewer poses or more candidates"
         )
     banned = np.logical_not(free)
     dropped = 0
@@ -859,4 +951,5 @@ def plan_robot_calibration(
         template,
         dropped,
         time.perf_counter() - started,
+        constraints,
     )

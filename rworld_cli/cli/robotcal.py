@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import emit_json, handle_errors, json_option
+from .common import FiniteFloat, emit_json, handle_errors, json_option
 
 
 @click.command("calibrate-robot")
@@ -243,6 +243,26 @@ def calibrate_robot(
     help="Write an observation file of the poses with the nominal points (a probe: the "
     "contacts with the nominal joints), to fill in.",
 )
+@click.option(
+    "--floor",
+    default=None,
+    type=FiniteFloat(),
+    metavar="Z",
+    help="Tracker: the target stays above this world height [m] (default: the robot's "
+    "mounting plane).",
+)
+@click.option(
+    "--instrument-at",
+    default=None,
+    metavar="X,Y,Z",
+    help="Tracker: where the instrument stands [m, world]; the line of sight must be clear.",
+)
+@click.option(
+    "--acceptance",
+    default=None,
+    metavar="ANGLE",
+    help="Tracker: the reflector's acceptance half-angle about the target's z axis (30deg).",
+)
 @json_option
 @handle_errors
 def plan_robot_calibration(
@@ -257,6 +277,9 @@ def plan_robot_calibration(
     seed,
     program,
     template,
+    floor,
+    instrument_at,
+    acceptance,
     json_output,
 ):
     """Choose the joint states to measure for 'rworld calibrate-robot'.
@@ -271,11 +294,15 @@ def plan_robot_calibration(
     least any choice of as many can predict (the optimal design's bound).  --program writes a
     program that visits each from home and back - a pause for the instrument, or a guarded
     move until the probe triggers - checked in simulation (a pose the robot collides on the
-    way to is replaced).
+    way to is replaced).  A tracker's poses keep the target above the floor (--floor, else the
+    robot's mounting plane) and, with --instrument-at, facing the tracker within --acceptance
+    of the target's z axis with the line of sight clear of the arm.
 
     \b
     Examples:
       rworld plan-robot-calibration workcells/puma560 --device puma --poses 30 --target probe
+      rworld plan-robot-calibration cell --device ur5 --poses 40 --instrument-at 2.5,-3,0.4 \
+          --acceptance 30deg --floor 0
       rworld plan-robot-calibration cell --device ur5 --poses 40 --program cal.yaml -o obs.yaml
       rworld plan-robot-calibration workcells/probing --device puma --poses 40 \\
           --instrument probe --feature plate.top --feature plate.front \\
@@ -283,9 +310,23 @@ def plan_robot_calibration(
 
     Exit codes: 0 planned, 1 the program still collides, 2 bad input.
     """
-    from ..api import parse_length
+    import numpy as np
+
+    from ..api import parse_angle, parse_length
     from ..api import plan_robot_calibration as run
 
+    at = None
+    if instrument_at is not None:
+        try:
+            at = np.array([float(v) for v in instrument_at.split(",")])
+        except ValueError:
+            at = np.zeros(0)
+        if at.shape != (3,) or not np.all(np.isfinite(at)):
+            raise click.BadParameter("give X,Y,Z in metres (world)", param_hint="--instrument-at")
+    if acceptance is not None and at is None:
+        raise click.UsageError("--acceptance is the reflector's, towards --instrument-at")
+    if instrument != "tracker" and (floor is not None or at is not None):
+        raise click.UsageError("--floor and --instrument-at are for --instrument tracker")
     result = run(
         cell,
         device,
@@ -298,6 +339,9 @@ def plan_robot_calibration(
         template,
         instrument,
         list(features),
+        floor,
+        at,
+        parse_angle(acceptance, "--acceptance") if acceptance is not None else None,
     )
     if json_output:
         emit_json(result.as_dict())
@@ -306,9 +350,12 @@ def plan_robot_calibration(
     click.echo(
         f"{result.device}: {result.poses} {what} of {result.target} chosen from "
         f"{result.candidates - result.rejected} usable candidates "
-        f"({result.rejected} unreachable or colliding); {result.identifiable} combinations "
-        "identifiable"
+        f"({result.rejected} unreachable, colliding or unseen); {result.identifiable} "
+        "combinations identifiable"
     )
+    for why, lost in result.constraints.items():
+        if lost:
+            click.echo(f"  {lost} candidate(s) {why}")
     if result.features:
         counts = {f: result.features.count(f) for f in dict.fromkeys(result.features)}
         click.echo("  " + ", ".join(f"{f}: {k}" for f, k in counts.items()))

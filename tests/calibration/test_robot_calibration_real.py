@@ -349,3 +349,56 @@ def test_controller_axis_values_are_read_through_the_cells_axes_map(tmp_path):
         calibrate_robot(str(cell), [str(texts["controller"])], dry_run=True)
     said = "\n".join(info.value.lines())
     assert "do not fit" in said or "say 'axes: controller'" in said, said
+
+
+def _inside_primitive(points: np.ndarray, geometry: dict, margin: float) -> np.ndarray:
+    """Points (K, 3) in a primitive's own frame within ``margin`` of it (box, cylinder along z,
+    sphere), by their own formulas."""
+    if "box" in geometry:
+        half = np.array(geometry["box"]) / 2 + margin
+        return np.all(np.abs(points) <= half, axis=1)
+    if "cylinder" in geometry:
+        c = geometry["cylinder"]
+        radial = np.linalg.norm(points[:, :2], axis=1) <= c["radius"] + margin
+        return radial & (np.abs(points[:, 2]) <= c["length"] / 2 + margin)
+    return np.linalg.norm(points, axis=1) <= geometry["sphere"]["radius"] + margin
+
+
+def test_tracker_poses_stay_above_the_floor_face_the_tracker_and_are_seen(cli, tmp_path):
+    """The Puma with the tracker at (1.5, -1.5, 1.0) m, a 40 deg reflector on its probe, the
+    floor at 0: every planned pose keeps the target above the floor, within the acceptance cone
+    and with the line of sight 10 mm clear of every link's primitive (checked here with their
+    own formulas, from cell.yaml)."""
+    from tests.conftest import WORKCELLS
+
+    cell = WORKCELLS / "puma560"
+    at = np.array([1.5, -1.5, 1.0])
+    result = cli(
+        ["plan-robot-calibration", str(cell), "--device", "puma", "--poses", "20"]
+        + ["--target", "probe", "--instrument-at", "1.5,-1.5,1.0", "--acceptance", "40deg"]
+        + ["--floor", "0", "--json"]
+    )
+    assert result.exit_code == 0, result.output
+    plan = json.loads(result.output)
+    assert plan["constraints_lost"]["outside the reflector's acceptance angle"] > 0
+    data = yaml.safe_load((cell / "cell.yaml").read_text())
+    links = data["devices"][0]["links"]
+    world = World(load_cell(str(cell)).cell)
+    for q in np.array(plan["joints"]):
+        world.set_joints("puma", q)
+        T = world.T_world("puma.probe")
+        assert T[2, 3] > 0.0
+        to = at - T[:3, 3]
+        assert to @ T[:3, 2] / np.linalg.norm(to) >= np.cos(np.radians(40)) - 1e-9
+        s = np.arange(0.03, np.linalg.norm(to), 0.002)
+        beam = T[:3, 3] + np.outer(s, to / np.linalg.norm(to))
+        for k, link in enumerate(links, start=1):
+            if "geometry" not in link:
+                continue
+            g = link["geometry"]
+            origin = g.get("origin", {})
+            T_shape = world.T_world(f"puma.{link['name']}") @ _pose(
+                {"xyz": origin.get("xyz", [0, 0, 0]), "rpy": origin.get("rpy", [0, 0, 0])}
+            )
+            local = (beam - T_shape[:3, 3]) @ T_shape[:3, :3]
+            assert not _inside_primitive(local, g, 0.009).any(), (q, link["name"])
