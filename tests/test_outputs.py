@@ -34,15 +34,23 @@ def _run(args, **kw) -> subprocess.CompletedProcess:
     return subprocess.run(RWORLD + args, cwd=REPO, capture_output=True, text=True, **kw)
 
 
+# a small process that runs the command and reports its peak memory: a child forked straight
+# from a large test worker would count the worker's pages in its own peak
+MEASURE = (
+    "import resource, subprocess, sys; "
+    "done = subprocess.run(sys.argv[1:], capture_output=True, text=True); "
+    "sys.stdout.write(done.stdout + done.stderr); "
+    "sys.stderr.write(str(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)); "
+    "sys.exit(done.returncode)"
+)
+
+
 def _peak(args) -> tuple[int, str, float]:
-    """(exit code, stderr, peak memory [MB]) of one command, measured on its own process."""
-    proc = subprocess.Popen(
-        RWORLD + args, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    """(exit code, output, peak memory [MB]) of one command, measured on its own process."""
+    done = subprocess.run(
+        [sys.executable, "-c", MEASURE, *RWORLD, *args], cwd=REPO, capture_output=True, text=True
     )
-    out, err = proc.stdout.read(), proc.stderr.read()
-    _, status, usage = os.wait4(proc.pid, 0)
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    return proc.returncode, out + err, usage.ru_maxrss / 1024
+    return done.returncode, done.stdout, int(done.stderr.strip().splitlines()[-1]) / 1024
 
 
 def _debris(folder: Path) -> list[str]:

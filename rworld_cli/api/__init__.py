@@ -97,6 +97,7 @@ from .robotcal import (  # noqa: F401
     RobotCalibrationRun,
     RobotPosePlanRun,
     calibrate_robot,
+    import_ur_calibration,
     plan_robot_calibration,
 )
 from .robots import UrdfExport, UrdfImport, export_urdf, import_urdf  # noqa: F401

@@ -9,7 +9,8 @@ from .common import emit_json, handle_errors, json_option
 
 @click.group("import")
 def import_group():
-    """Bring robots in from other formats (urdf)."""
+    """Bring robots in from other formats (urdf) and their factory calibrations
+    (ur-calibration)."""
 
 
 @import_group.command("urdf")
@@ -141,6 +142,49 @@ def import_urdf(
             click.echo(f"  {owner}: merged {', '.join(links[1:])}")
     if result.renamed:
         click.echo("  renamed: " + ", ".join(f"{a} -> {b}" for a, b in result.renamed.items()))
+
+
+@import_group.command("ur-calibration")
+@click.argument("calibration", metavar="FILE.yaml")
+@click.option("--cell", "cell", required=True, metavar="CELL", help="The cell with the UR.")
+@click.option("--device", default=None, metavar="NAME", help="The UR (default: the cell's arm).")
+@click.option(
+    "-o",
+    "--output",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="The overlay pose file to write (default: ur_calibration.yaml beside cell.yaml).",
+)
+@json_option
+@handle_errors
+def import_ur_calibration(calibration, cell, device, output, json_output):
+    """Write a UR robot's factory calibration (the kinematics: file ur_calibration reads from
+    its controller) as a pose-file overlay of the cell's joint frames.
+
+    The cell's UR must be imported from ur_description (rworld import urdf): each calibration
+    group is its joint's origin there; what the import merged before the shoulder (base_link
+    turned by pi) is kept.  Listed last in the cell's pose_files, the overlay puts the robot's
+    own kinematics under every command.
+
+    \b
+    Examples:
+      rworld import ur-calibration robot_calibration.yaml --cell ur5e -o ur5e/cal.yaml
+
+    Exit codes: 0 written, 2 bad input (a malformed file, a cell not from ur_description).
+    """
+    from ..api import import_ur_calibration as run
+
+    result = run(calibration, cell, output, device)
+    if json_output:
+        emit_json(result)
+        return
+    click.echo(
+        f"wrote {result['written']}: the factory calibration of {result['device']}"
+        + (f" ({result['hash']})" if result["hash"] else "")
+    )
+    for r in result["joints"]:
+        click.echo(f"  {r['joint']:<22} {r['moved_mm']:8.3f} mm {r['turned_deg']:8.4f} deg")
+    click.echo(f"note: list {result['written']} last in the cell's pose_files to use it", err=True)
 
 
 @click.group("export")

@@ -1469,6 +1469,21 @@ class _Builder:
                     continue
                 if warning:
                     self.warn(jpath, warning, doc=doc)
+                nominal = next(j for j in dev.joints if j.name == joint)
+                moved = np.linalg.solve(nominal.origin, T) if frames else T
+                shift = float(np.linalg.norm(moved[:3, 3]))
+                turn = float(np.arccos(np.clip((np.trace(moved[:3, :3]) - 1) / 2, -1.0, 1.0)))
+                if shift > CALIBRATION_SHIFT or turn > CALIBRATION_TURN:
+                    self.warn(
+                        jpath,
+                        f"moves {name}'s frame by {shift * 1000:.1f} mm and "
+                        f"{np.degrees(turn):.2f} deg from the cell's nominal: more than a "
+                        f"calibration does ({CALIBRATION_SHIFT * 1000:g} mm, "
+                        f"{np.degrees(CALIBRATION_TURN):g} deg); check the overlay (a frame "
+                        "the import merged into this joint, such as a base turned by 180 deg, "
+                        "left out?)",
+                        doc=doc,
+                    )
                 origins.setdefault(device, {})[joint] = T
         if complete:  # otherwise the missing poses may well be in the file we could not read
             shown_files = ", ".join(str(self.display_dir / r) for r in self.cf.pose_files)
@@ -1481,6 +1496,13 @@ class _Builder:
                     "rpy: [r, p, y]}'",
                 )
         return poses, sources, files, origins
+
+
+# an overlay that moves a joint's frame further than this is named (warning): calibrations move
+# frames by tenths of millimetres, and a hand-copied factory calibration that drops a frame the
+# import merged moves them by metres
+CALIBRATION_SHIFT = 0.01  # [m]
+CALIBRATION_TURN = np.radians(2.0)  # [rad]
 
 
 # the six entries of a symmetric inertia tensor, by name (as cell files and URDF write them)

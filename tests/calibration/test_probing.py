@@ -567,7 +567,10 @@ def test_the_loop_closed_with_the_robot_calibrated_first(planned, tmp_path, cli)
     robot = calibrate_robot(
         str(calibrated_dir), [str(tracker)], output=str(calibrated_dir / "robot.yaml")
     )
-    assert robot.written and robot.identified == 27, robot.identified
+    # the probe's ball centre lies on joint 6's axis: j6's tilts and zero stay nominal (issue
+    # 46), 25 of the 27 a point elsewhere would identify
+    assert robot.written and robot.identified == 25, robot.identified
+    assert any("lies on j6's axis" in n for n in robot.notes), robot.notes
     text = (calibrated_dir / "cell.yaml").read_text()
     (calibrated_dir / "cell.yaml").write_text(
         text.replace("pose_files: [poses.yaml]", "pose_files: [poses.yaml, robot.yaml]")
