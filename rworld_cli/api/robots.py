@@ -72,6 +72,8 @@ def import_urdf(
     locks: dict[str, str] | None = None,
     srdf: str | None = None,
     overlap_states: int = 8,
+    xacro_args: dict[str, str] | None = None,
+    joint_limits: str | None = None,
 ) -> UrdfImport:
     """Write a cell (``cell.yaml``, ``poses.yaml``, ``meshes/``) for a URDF robot's chain.
 
@@ -81,7 +83,8 @@ def import_urdf(
     Parameters
     ----------
     urdf : str
-        The URDF file.
+        The URDF file, or a xacro file (expanded with ``$(find PKG)`` from ``package_paths`` and
+        ``$(arg NAME)`` from ``xacro_args``).
     output : str
         The cell folder to create (``--force``: or to overwrite the files of).
     package_paths : list of str
@@ -91,6 +94,9 @@ def import_urdf(
         See :func:`rworld_cli.schema.urdf_cell.cell_from_urdf`.
     srdf : str, optional
         A MoveIt SRDF whose disabled collision pairs become the cell's ``allowed_contacts``.
+    joint_limits : str, optional
+        A ROS ``joint_limits.yaml`` (the vendor's MoveIt or ros2_control config): its velocity,
+        acceleration and effort limits replace or complete the URDF's.
     overlap_states : int
         Link pairs that overlap at the home and at ``overlap_states - 1`` seeded joint states
         (meshes drawn into each other at a joint) become ``allowed_contacts`` too, each with a
@@ -103,7 +109,7 @@ def import_urdf(
     """
     from ..fileio import atomic_write_bytes, output_set
     from ..schema.loader import load_cell
-    from ..schema.urdf import read_urdf
+    from ..schema.urdf import read_joint_limits, read_urdf
     from ..schema.urdf_cell import cell_from_urdf
 
     out = Path(output)
@@ -114,14 +120,17 @@ def import_urdf(
             f"{output} already holds a cell (cell.yaml); choose another folder or pass --force "
             "to overwrite its cell.yaml, poses.yaml and meshes"
         )
-    robot, warnings = read_urdf(urdf, package_paths)
+    robot, warnings = read_urdf(urdf, package_paths, xacro_args)
+    stated = read_joint_limits(joint_limits) if joint_limits is not None else None
     name = out.resolve().name
     disabled = []
     if srdf is not None:
         from ..schema.srdf import read_srdf
 
         disabled = read_srdf(srdf)
-    imported = cell_from_urdf(robot, name, base, tip, tcp, device_name, locks, disabled)
+    imported = cell_from_urdf(
+        robot, name, base, tip, tcp, device_name, locks, disabled, joint_limits=stated
+    )
     files = {"cell.yaml": imported.cell_text.encode(), "poses.yaml": imported.poses_text.encode()}
     files.update(imported.meshes)
     # the cell is written as a unit: the folder is swapped whole (its other files, programs and
@@ -151,6 +160,7 @@ def import_urdf(
                 locks,
                 disabled,
                 allow,
+                joint_limits=stated,
             )
             atomic_write_bytes(out / "cell.yaml", imported.cell_text.encode())
             loaded = load_cell(staging)

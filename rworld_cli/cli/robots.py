@@ -68,6 +68,19 @@ def import_group():
     help="Link pairs that overlap at the home and N-1 seeded joint states become "
     "allowed_contacts, each with a warning; 0 skips the check.",
 )
+@click.option(
+    "--xacro-arg",
+    "xacro_args",
+    multiple=True,
+    metavar="NAME:=VALUE",
+    help="A xacro file's argument ($(arg NAME)); repeatable.",
+)
+@click.option(
+    "--joint-limits",
+    default=None,
+    type=click.Path(dir_okay=False),
+    help="The vendor's ROS joint_limits.yaml: its velocity, acceleration and effort limits.",
+)
 @click.option("--force", is_flag=True, help="Overwrite cell.yaml, poses.yaml and meshes in DIR.")
 @json_option
 @handle_errors
@@ -82,6 +95,8 @@ def import_urdf(
     locks,
     srdf,
     overlap_states,
+    xacro_args,
+    joint_limits,
     force,
     json_output,
 ):
@@ -92,8 +107,10 @@ def import_urdf(
     are merged into it - masses combined, shapes joined into one mesh (collision geometry
     preferred over visual) - and kept as frames.  Moving joints off the chain are locked at 0
     (or at their --lock value), with a warning.  Mimic joints on the chain, floating and
-    planar joints are refused.  xacro files must be expanded first (xacro robot.urdf.xacro >
-    robot.urdf).  Link pairs whose meshes overlap at every joint state sampled
+    planar joints are refused.  A .xacro file is expanded first by the xacro package, its
+    $(find PKG) found under --package-path and its $(arg NAME) from --xacro-arg: no ROS
+    needed.  --joint-limits takes the vendor's joint_limits.yaml (acceleration limits, which
+    URDF lacks).  Link pairs whose meshes overlap at every joint state sampled
     (--overlap-states) are written to allowed_contacts with a warning, as MoveIt disables its
     'Always' pairs; --srdf takes a MoveIt SRDF's disabled pairs.
     Nothing is written unless the whole import succeeds.
@@ -104,6 +121,8 @@ def import_urdf(
       rworld import urdf panda.urdf -o workcells/panda --tip panda_hand --package-path share \
           --lock panda_finger_joint1=20mm --lock panda_finger_joint2=20mm
       rworld import urdf robot.urdf -o cells/r --base base_link --tip tool0 --json
+      rworld import urdf motoman_gp7_support/urdf/gp7.xacro --package-path src/motoman \
+          --joint-limits gp7_moveit_config/config/joint_limits.yaml -o cells/gp7
     """
     from ..api import import_urdf as run
 
@@ -115,6 +134,14 @@ def import_urdf(
                 f"'{text}': write JOINT=VALUE, e.g. finger=20mm", param_hint="--lock"
             )
         lock_values[name.strip()] = value.strip()
+    arguments = {}
+    for text in xacro_args:
+        name, sep, value = text.partition(":=")
+        if not sep or not name.strip():
+            raise click.BadParameter(
+                f"'{text}': write NAME:=VALUE, e.g. prefix:=left_", param_hint="--xacro-arg"
+            )
+        arguments[name.strip()] = value
     result = run(
         urdf,
         output,
@@ -127,6 +154,8 @@ def import_urdf(
         lock_values,
         srdf,
         overlap_states,
+        arguments,
+        joint_limits,
     )
     if json_output:
         emit_json(result.as_dict())

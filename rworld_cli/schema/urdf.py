@@ -12,6 +12,7 @@ of every element (``sourceline``), which the standard library's ElementTree does
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -391,17 +392,83 @@ class _Reader:
         )
 
 
+def find_package(name: str, package_paths: Sequence[Path]) -> Path | None:
+    """A ROS package's folder under the package paths: the path itself when it is the package
+    (its ``package.xml`` names it, or the folder has its name), a folder of that name in it, or
+    one level deeper (a repository of several packages)."""
+    for root in package_paths:
+        candidates = [root, root / name, *sorted(root.glob(f"*/{name}"))]
+        for folder in candidates:
+            if folder != root and folder.name != name:
+                continue
+            manifest = folder / "package.xml"
+            if folder.is_dir() and (folder.name == name or _package_name(manifest) == name):
+                return folder
+    return None
+
+
+def _package_name(manifest: Path) -> str | None:
+    try:
+        found = re.search(r"<name>\s*([^<\s]+)\s*</name>", manifest.read_text(errors="replace"))
+    except OSError:
+        return None
+    return found.group(1) if found else None
+
+
+def expand_xacro(
+    path: Path, shown: str, package_paths: Sequence[Path], args: dict[str, str] | None = None
+) -> bytes:
+    """A xacro file expanded to URDF by the ``xacro`` package (the ROS tool's own code), with
+    ``$(find PKG)`` resolved from ``package_paths`` - no ROS installation needed - and
+    ``$(arg NAME)`` from ``args``.
+
+    Raises
+    ------
+    UserError
+        A package not found under the package paths, or xacro's own error, naming the file.
+    """
+    import xacro
+    from xacro import substitution_args
+
+    def find(package: str) -> str:
+        folder = find_package(package, package_paths)
+        if folder is None:
+            where = ", ".join(str(p) for p in package_paths) or "no --package-path given"
+            raise UserError(
+                f"{shown}: $(find {package}): no ROS package '{package}' under the package paths "
+                f"({where}); give the folder that holds it with --package-path DIR"
+            )
+        return str(folder)
+
+    original = substitution_args._eval_find
+    substitution_args._eval_find = find  # ROS's package index, from the package paths
+    try:
+        document = xacro.process_file(str(path), mappings=dict(args or {}))
+    except UserError:
+        raise
+    except Exception as exc:  # xacro's errors: a missing argument, a macro, a file
+        raise UserError(f"{shown}: xacro: {exc}") from None
+    finally:
+        substitution_args._eval_find = original
+    return document.toprettyxml(indent="  ", encoding="utf-8")
+
+
 def read_urdf(
-    path: str | Path, package_paths: Sequence[str | Path] | None = None
+    path: str | Path,
+    package_paths: Sequence[str | Path] | None = None,
+    xacro_args: dict[str, str] | None = None,
 ) -> tuple[UrdfRobot, list[Issue]]:
-    """Read a URDF file.
+    """Read a URDF file, or a xacro file expanded (:func:`expand_xacro`).
 
     Parameters
     ----------
     path : path
-        The ``.urdf`` file (xacro files must be expanded first).
+        The ``.urdf`` file, or a ``.xacro`` / ``.urdf.xacro`` file.
     package_paths : list of path, optional
-        Folders that hold ROS packages, for ``package://`` mesh names.
+        Folders that hold ROS packages, for ``package://`` mesh names and xacro's
+        ``$(find PKG)``.
+    xacro_args : dict, optional
+        xacro's ``$(arg NAME)`` values.
 
     Returns
     -------
@@ -421,11 +488,8 @@ def read_urdf(
         raise UserError(f"no such URDF file: {shown}")
     data = path.read_bytes()
     if path.suffix == ".xacro" or ".xacro" in path.suffixes:
-        raise UserError(
-            f"{shown}: a xacro file; expand it to URDF first: 'xacro {path.name} > "
-            f"{path.name.replace('.xacro', '').removesuffix('.urdf')}.urdf' (ROS: "
-            "'ros2 run xacro xacro ...')"
-        )
+        data = expand_xacro(path, shown, [Path(p) for p in package_paths or []], xacro_args)
+        shown = f"{shown} (as xacro expands it)"
     try:  # the bytes as they are: the XML declaration's encoding holds (UTF-8 without one)
         root = etree.fromstring(data, etree.XMLParser(remove_comments=False))
     except etree.XMLSyntaxError as exc:
@@ -460,7 +524,7 @@ def read_urdf(
             macro,
             "(root)",
             "this file holds xacro macros (xacro:... elements or ${...} / $(...) expressions); "
-            "expand it to plain URDF first: 'xacro FILE.urdf.xacro > FILE.urdf'",
+            "name it FILE.xacro (or FILE.urdf.xacro) and rworld expands it",
         )
         raise UserError(f"invalid: {shown}", reader.issues)
     links: dict[str, UrdfLink] = {}
@@ -641,3 +705,44 @@ def write_urdf(
 ) -> None:
     """Write :func:`urdf_text` to ``path`` atomically."""
     atomic_write_text(path, urdf_text(robot, mesh_names))
+
+
+def read_joint_limits(path: str | Path) -> dict[str, dict[str, float]]:
+    """A ROS ``joint_limits.yaml`` (MoveIt's, ros2_control's): per joint the limits it states,
+    SI - ``velocity`` [rad/s or m/s], ``acceleration`` [rad/s^2 or m/s^2], ``effort`` [N m or
+    N] - each only where its ``has_*_limits`` is true.
+
+    Raises
+    ------
+    UserError
+        Not the format, a value that is not a finite number above 0: every one located.
+    """
+    from .yamlio import read_yaml
+
+    doc = read_yaml(path, str(path))
+    limits = doc.data.get("joint_limits") if isinstance(doc.data, dict) else None
+    if not isinstance(limits, dict):
+        issue = doc.issue((), "no 'joint_limits:' section (ROS joint_limits.yaml)")
+        raise UserError(issue.format(), [issue])
+    out: dict[str, dict[str, float]] = {}
+    issues = []
+    for joint, entry in limits.items():
+        if not isinstance(entry, dict):
+            issues.append(doc.issue(("joint_limits", joint), "a joint's limits are a mapping"))
+            continue
+        values = {}
+        for kind in ("velocity", "acceleration", "effort"):
+            if entry.get(f"has_{kind}_limits") is not True:
+                continue
+            value = entry.get(f"max_{kind}")
+            where = ("joint_limits", joint, f"max_{kind}")
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                issues.append(doc.issue(where, f"has_{kind}_limits is true: give max_{kind}"))
+            elif not (math.isfinite(value) and value > 0):
+                issues.append(doc.issue(where, f"max_{kind} {value!r} is not a number above 0"))
+            else:
+                values[kind] = float(value)
+        out[str(joint)] = values
+    if issues:
+        raise UserError(issues[0].format(), issues)
+    return out

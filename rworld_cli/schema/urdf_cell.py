@@ -266,6 +266,7 @@ def cell_from_urdf(
     locks: dict[str, str] | None = None,
     disabled=(),
     always=(),
+    joint_limits: dict[str, dict[str, float]] | None = None,
 ) -> ImportedCell:
     """The cell files for the serial chain ``base`` -> ``tip`` of a URDF robot.
 
@@ -467,15 +468,25 @@ def cell_from_urdf(
     if issues:
         raise UserError(f"invalid: {robot.file}: {len(issues)} error(s)", issues + warnings)
 
-    if moving:
-        first = moving[0]
+    stated = joint_limits or {}
+    unknown = [n for n in stated if n not in robot.joints]  # others' (a gripper's): skipped
+    if unknown:
+        raise UserError(
+            "the joint limits name joints the robot does not have: "
+            + ", ".join(f"'{n}'{did_you_mean(n, robot.joints)}" for n in unknown)
+        )
+    without = [j for j in moving if "acceleration" not in stated.get(j.name, {})]
+    if without:
+        first = without[0]
         warnings.append(
             _issue(
                 robot,
                 first,
                 f"joint[{first.name}].limit",
-                "URDF has no acceleration limits, and the simulator times joint moves with them: "
-                "add 'acceleration' to each joint's limits in cell.yaml before simulating",
+                f"no acceleration limit for {', '.join(j.name for j in without)} (URDF has none, "
+                "and the simulator times joint moves with them): give the vendor package's "
+                "joint_limits.yaml with --joint-limits, or add 'acceleration' to those joints' "
+                "limits in cell.yaml before simulating",
                 "warning",
             )
         )
@@ -492,10 +503,13 @@ def cell_from_urdf(
         limits: dict = {}
         if j.type != "continuous" and np.isfinite(j.lower) and np.isfinite(j.upper):
             limits["position"] = [float(j.lower), float(j.upper)]
-        if np.isfinite(j.velocity):
-            limits["velocity"] = float(j.velocity)
-        if np.isfinite(j.effort):
-            limits["effort"] = float(j.effort)
+        given = stated.get(j.name, {})
+        if np.isfinite(j.velocity) or "velocity" in given:
+            limits["velocity"] = float(given.get("velocity", j.velocity))
+        if "acceleration" in given:
+            limits["acceleration"] = given["acceleration"]
+        if np.isfinite(j.effort) or "effort" in given:
+            limits["effort"] = float(given.get("effort", j.effort))
         if limits:
             doc["limits"] = limits
         if j.damping or j.friction:
