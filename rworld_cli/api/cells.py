@@ -355,7 +355,8 @@ def _detail(cell, name: str) -> tuple[str | None, float | None, str]:
     if kind == "device":
         d = cell.devices[name]
         kinds = "".join("R" if j.kind == "revolute" else "P" for j in d.joints)
-        return kind, d.total_mass, f"{d.dof} DOF {kinds}, {d.convention} DH"
+        given = "joint frames" if d.convention == "frames" else f"{d.convention} DH"
+        return kind, d.total_mass, f"{d.dof} DOF {kinds}, {given}"
     return None, None, ""
 
 

@@ -59,6 +59,8 @@ class ProgramExport:
     changes: list[TargetChange] | None = None
     notes: list[str] = field(default_factory=list)
     compensated: list[dict] | None = None  # --compensate: how far each Cartesian target moved
+    samples: int | None = None  # csv: rows per device
+    period: float | None = None  # csv: [s]
 
     def as_dict(self) -> dict:
         return {
@@ -70,6 +72,8 @@ class ProgramExport:
             "changes": None if self.changes is None else [c.as_dict() for c in self.changes],
             "compensated": self.compensated,
             "notes": self.notes,
+            "samples": self.samples,
+            "period_s": self.period,
         }
 
 
@@ -234,6 +238,8 @@ def export_program(
         changes,
         notes,
         compensated if compensate else None,
+        len(result.times) if fmt == "csv" else None,
+        dt if fmt == "csv" else None,
     )
 
 

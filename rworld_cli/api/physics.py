@@ -137,16 +137,40 @@ def inverse_kinematics(
     seed=None,
     position_only: bool = False,
     restarts: int = 16,
+    configuration: dict[str, str] | None = None,
 ):
     """Solve IK for the context's TCP; raise UserError (exit 2) with the figures when
-    unreachable.
+    unreachable.  ``configuration``: a 6-axis arm's shoulder (front/back), elbow (up/down)
+    and wrist (noflip/flip) asked for (``docs/export.md``); a target with no solution in it
+    names the configuration that does reach it.
     """
+    from ..kinematics.configuration import arm_configurations, is_arm
     from ..kinematics.inverse import solve_ik
 
     T_base_target = np.linalg.inv(ctx.T_world_base) @ T_world_target
     seed = ctx.world.joints(ctx.device.name) if seed is None else np.asarray(seed, dtype=float)
     _check_joint_count(ctx, np.asarray(seed), "the seed")
-    result = solve_ik(ctx.device, T_base_target, ctx.mount, seed, position_only, restarts)
+    accept = None
+    if configuration:
+        if not is_arm(ctx.device):
+            raise UserError(f"--config is for 6-axis arms; '{ctx.device.name}' is none")
+        dev = ctx.device
+
+        def accept(Q):
+            return arm_configurations(dev, Q).matches(configuration)
+
+    result = solve_ik(
+        ctx.device, T_base_target, ctx.mount, seed, position_only, restarts, accept=accept
+    )
+    if not result.success and configuration:
+        anyhow = solve_ik(ctx.device, T_base_target, ctx.mount, seed, position_only, restarts)
+        if anyhow.success:
+            have = arm_configurations(ctx.device, anyhow.q).names()
+            said = lambda c: ", ".join(f"{k}={v}" for k, v in c.items())  # noqa: E731
+            raise UserError(
+                f"no joint solution within the limits reaches {target_name} with "
+                f"{said(configuration)}; one with {said(have)} does"
+            )
     if not result.success:
         why = result.unreachable(
             target_name, ctx.tcp, [j.name for j in ctx.device.joints], position_only

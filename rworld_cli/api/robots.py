@@ -43,6 +43,7 @@ class UrdfImport:
     merged: dict[str, list[str]]
     renamed: dict[str, str]
     warnings: list[Issue] = field(default_factory=list)
+    renamed_where: dict[str, str] = field(default_factory=dict)  # where each new name shows
 
     def as_dict(self) -> dict:
         return {
@@ -56,6 +57,7 @@ class UrdfImport:
             "tcp": self.tcp,
             "merged": self.merged,
             "renamed": self.renamed,
+            "renamed_where": self.renamed_where,
             "warnings": [w.as_dict() for w in self.warnings],
         }
 
@@ -188,6 +190,7 @@ def import_urdf(
         imported.merged,
         imported.renamed,
         warnings + imported.warnings + load_warnings,
+        imported.renamed_where,
     )
 
 

@@ -395,6 +395,95 @@ def feature_candidates(
 # --------------------------------------------------------------------------- choosing points
 
 
+def fit_rows(feature, points: np.ndarray) -> np.ndarray:
+    """Each contact point's row of the feature fit's design (M, r): a plane's ``[1, u, v]``
+    (in-plane coordinates), a circle's ``[1, cos, sin]`` of its angle about the axis, a line's
+    ``[1, s]`` along it, a point's ``[1]``.  Points chosen to make these rows' information
+    ``sum x x^T`` large (D-optimal) spread in two directions on a face and around a hole."""
+    from ..world.feature_targets import in_plane_axes
+
+    d = np.asarray(points, float) - feature.point
+    ones = np.ones((len(d), 1))
+    if feature.kind == "plane":
+        u, v = in_plane_axes(feature.direction)
+        return np.hstack([ones, (d @ u)[:, None], (d @ v)[:, None]])
+    if feature.kind == "circle":
+        u, v = in_plane_axes(feature.direction)
+        angle = np.arctan2(d @ v, d @ u)
+        return np.hstack([ones, np.cos(angle)[:, None], np.sin(angle)[:, None]])
+    if feature.kind == "line":
+        return np.hstack([ones, (d @ feature.direction)[:, None]])
+    return ones
+
+
+def next_spread(rows: np.ndarray, information: np.ndarray, pool: np.ndarray) -> int:
+    """Of the candidates ``pool`` (indices into ``rows``), the one that adds most to the
+    information's log-determinant (the D-optimal increment ``x^T M^-1 x``); ties to the first."""
+    M = information + 1e-9 * np.trace(information + np.eye(len(information))) * np.eye(
+        len(information)
+    )
+    X = rows[pool]
+    gain = np.einsum("ki,ij,kj->k", X, np.linalg.inv(M), X)
+    return int(pool[int(np.argmax(gain))])
+
+
+def spread_set(rows: np.ndarray, n: int, fixed: list[int], pool: np.ndarray) -> list[int]:
+    """``n`` candidates - the ``fixed`` ones and the best of ``pool`` - whose rows' information
+    has the largest determinant: greedy, then exchanges while one raises it (Fedorov's
+    algorithm); the fixed ones are never exchanged."""
+    chosen = list(fixed)
+    pool = pool[~np.isin(pool, chosen)]
+    information = rows[chosen].T @ rows[chosen]
+    while len(chosen) < n and len(pool):
+        k = next_spread(rows, information, pool)
+        chosen.append(k)
+        pool = pool[pool != k]
+        information += np.outer(rows[k], rows[k])
+
+    def logdet(indices) -> float:
+        X = rows[indices]
+        return float(np.linalg.slogdet(X.T @ X + 1e-12 * np.eye(rows.shape[1]))[1])
+
+    best = logdet(chosen)
+    improved = True
+    while improved and len(pool):
+        improved = False
+        for i in range(len(fixed), len(chosen)):
+            trial = [chosen[:i] + [int(k)] + chosen[i + 1 :] for k in pool]
+            values = [logdet(t) for t in trial]
+            j = int(np.argmax(values))
+            if values[j] > best + 1e-9:
+                pool = np.append(pool[pool != pool[j]], chosen[i])
+                chosen, best, improved = trial[j], values[j], True
+    return chosen
+
+
+def spread_warning(feature, points: np.ndarray) -> str | None:
+    """What ``calibrate`` would warn of the chosen contact points: a plane's points almost on a
+    line (in-plane spread ratio below 0.05), a hole's within less than 240 deg of its wall."""
+    if feature.kind == "plane" and len(points) >= 3:
+        d = np.asarray(points) - np.mean(points, axis=0)
+        values = np.sort(np.linalg.eigvalsh(d.T @ d))[::-1]
+        ratio = float(np.sqrt(max(values[1], 0.0) / max(values[0], 1e-300)))
+        if ratio < 0.05:
+            return (
+                f"the {len(points)} points on {feature.name} lie almost on a line (in-plane "
+                f"spread ratio {ratio:.3f}): calibrate will weakly determine its tilt; the face "
+                "holds no wider spread within reach"
+            )
+    if feature.kind == "circle" and len(points) >= 3:
+        angles = np.sort(fit_rows(feature, points)[:, 1:] @ np.array([1, 1j]))
+        angles = np.sort(np.angle(angles))
+        gaps = np.diff(np.r_[angles, angles[0] + 2 * np.pi])
+        covered = float(np.degrees(2 * np.pi - gaps.max()))
+        if covered < 240.0 - 1.0:  # 3 points 120 deg apart cover 240 deg
+            return (
+                f"the {len(points)} points on {feature.name} span {covered:.0f} deg of its "
+                "circle (under 240): its centre is weakly determined across the gap"
+            )
+    return None
+
+
 def farthest_points(points: np.ndarray, n: int, start: int = 0) -> np.ndarray:
     """Indices of ``n`` points spread by farthest-point sampling (uniform coverage)."""
     n = min(n, len(points))

@@ -149,6 +149,13 @@ def jacobian(cell, device, other_joints, tcp, q, states, frame, point, output, j
     type=click.IntRange(0, 10000),
     help="Random starts besides the seed.",
 )
+@click.option(
+    "--config",
+    "configuration",
+    default=None,
+    metavar="shoulder=front,elbow=up,wrist=noflip",
+    help="A 6-axis arm's configuration to solve in (any of the three; docs/export.md).",
+)
 @output_options
 @json_option
 @handle_errors
@@ -163,6 +170,7 @@ def ik(
     position_only,
     seed,
     restarts,
+    configuration,
     output,
     json_output,
 ):
@@ -176,6 +184,7 @@ def ik(
     Examples:
       rworld kinematics ik workcells/puma560 --target workpiece.grasp
       rworld kinematics ik workcells/puma560 --xyz 0.5,0.2,0.6 --position-only --json
+      rworld kinematics ik workcells/puma560 --target workpiece.grasp --config elbow=down
     """
 
     from ..api import inverse_kinematics, target_pose
@@ -195,11 +204,16 @@ def ik(
     if xyz is not None:
         name = f"xyz {xyz}"
     seed_q = parse_vector(seed, "--seed", ctx.device.dof) if seed else None
-    result = inverse_kinematics(ctx, T_target, name, seed_q, position_only, restarts)
+    wanted = _configuration(configuration) if configuration else None
+    result = inverse_kinematics(ctx, T_target, name, seed_q, position_only, restarts, wanted)
+    from ..kinematics.configuration import arm_configurations, is_arm
+
+    took = arm_configurations(ctx.device, result.q).names() if is_arm(ctx.device) else None
     payload = {
         "device": ctx.device.name,
         "tcp": ctx.tcp,
         "target": name,
+        "configuration": took,
         "q": result.q.tolist(),
         "position_error": result.position_error,
         "rotation_error": result.rotation_error,
@@ -209,7 +223,8 @@ def ik(
     if not json_output:
         click.echo(
             f"reached {name} with {ctx.tcp}: position error {result.position_error:.3g} m, "
-            f"rotation error {result.rotation_error:.3g} rad ({result.iterations} iterations)",
+            f"rotation error {result.rotation_error:.3g} rad ({result.iterations} iterations)"
+            + (f"; {', '.join(f'{k} {v}' for k, v in took.items())}" if took else ""),
             err=True,
         )
     emit(
@@ -220,3 +235,22 @@ def ik(
         output,
         [],
     )
+
+
+CONFIGURATION_WORDS = {
+    "shoulder": ("front", "back"),
+    "elbow": ("up", "down"),
+    "wrist": ("noflip", "flip"),
+}
+
+
+def _configuration(text: str) -> dict[str, str]:
+    """``shoulder=front,elbow=up,wrist=noflip`` (any of them) as a dict; bad words exit 2."""
+    out = {}
+    for part in text.split(","):
+        key, sep, value = part.strip().partition("=")
+        if not sep or key not in CONFIGURATION_WORDS or value not in CONFIGURATION_WORDS[key]:
+            choices = "; ".join(f"{k}={'|'.join(v)}" for k, v in CONFIGURATION_WORDS.items())
+            raise click.BadParameter(f"'{part.strip()}': give {choices}", param_hint="--config")
+        out[key] = value
+    return out

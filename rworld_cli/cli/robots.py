@@ -169,8 +169,12 @@ def import_urdf(
     for owner, links in result.merged.items():
         if len(links) > 1:
             click.echo(f"  {owner}: merged {', '.join(links[1:])}")
-    if result.renamed:
-        click.echo("  renamed: " + ", ".join(f"{a} -> {b}" for a, b in result.renamed.items()))
+    if result.renamed:  # names rworld cannot hold, or reserves ('world': the cell's frame)
+        click.echo(
+            "  renamed (names hold letters, digits, '_' and '-'; 'world' is the cell's own):"
+        )
+        for a, b in result.renamed.items():
+            click.echo(f"    {a} -> {b}: {result.renamed_where.get(a, '')}")
 
 
 @import_group.command("ur-calibration")
@@ -337,9 +341,13 @@ def export_program(
     if json_output:
         emit_json(result.as_dict())
         return
+    count = (
+        f"{result.samples} samples every {result.period * 1000:g} ms"
+        if result.samples is not None
+        else f"{result.moves} moves"
+    )
     click.echo(
-        f"wrote {result.output}: {', '.join(result.files)} ({', '.join(result.devices)}, "
-        f"{result.moves} moves)"
+        f"wrote {result.output}: {', '.join(result.files)} ({', '.join(result.devices)}, {count})"
     )
     if result.changes is not None:
         if not result.changes:

@@ -79,30 +79,23 @@ def _render(summary, units: str) -> None:
     from rich.text import Text
 
     scale = 1000.0 if units == "mm" else 1.0
-    digits = 2 if units == "mm" else 5
+    digits = 1 if units == "mm" else 4  # 0.1 mm, for people; --json has every digit
     console = Console(highlight=False)
     err_console = Console(stderr=True, highlight=False)
     for w in summary.warnings:
         err_console.print(w.format(), style="yellow", markup=False)
 
     title = summary.name + (f" - {summary.description}" if summary.description else "")
-    table = Table(
-        title=title,
-        title_justify="left",
-        show_edge=False,
-        pad_edge=False,
-        box=None,
-        header_style="bold",
-    )
+    # one line per frame at any width (80 columns too): the title and the descriptions are
+    # cut with an ellipsis, never wrapped; names and numbers are never cut (--json has it all)
+    console.print(Text(title, style="bold"), no_wrap=True, overflow="ellipsis", crop=True)
+    table = Table(show_edge=False, pad_edge=False, box=None, header_style="bold")
     rows = list(_rows(summary.root))
     name_width = max((2 * (d - 1) + (2 if d > 1 else 0) + len(n.name) for n, d in rows), default=5)
     table.add_column(
         "frame", no_wrap=True, min_width=name_width
     )  # names are what users type: never cut
-    table.add_column("what", overflow="fold")
-    # numbers stay whole; the descriptive columns wrap in narrow terminals
-    table.add_column(f"x y z [{units}]", justify="right", no_wrap=True)
-    table.add_column("roll pitch yaw [deg]", justify="right", no_wrap=True)
+    cells = []
     for node, depth in rows:
         if node.kind == "natural":
             style = KIND_STYLE.get(node.primitive, "bold")
@@ -125,8 +118,19 @@ def _render(summary, units: str) -> None:
         xyz = " ".join(
             f"{v:.{digits}f}" for v in np.round(node.T_world[:3, 3] * scale, digits) + 0.0
         )
-        rpy = " ".join(f"{v:.2f}" for v in np.round(np.degrees(node.rpy), 2) + 0.0)
-        table.add_row(name, what, xyz, rpy)
+        rpy = " ".join(f"{v:.1f}" for v in np.round(np.degrees(node.rpy), 1) + 0.0)
+        cells.append((name, what, xyz, rpy))
+    # numbers are never cut: the description takes what the names and numbers leave of the
+    # terminal's width; the units in the headers as Text, since rich reads "[mm]" as markup
+    headers = (f"x y z [{units}]", "r p y [deg]")
+    widths = [max([len(c[k]) for c in cells] + [len(h)]) for k, h in zip((2, 3), headers)]
+    left = console.width - name_width - sum(widths) - 6  # the gaps between the columns
+    what = max([len(str(c[1])) for c in cells] + [4])
+    table.add_column("what", no_wrap=True, overflow="ellipsis", max_width=max(min(what, left), 8))
+    for header, width in zip(headers, widths):
+        table.add_column(Text(header), justify="right", no_wrap=True, min_width=width)
+    for row in cells:
+        table.add_row(*row)
     console.print(table)
 
     if summary.joints:

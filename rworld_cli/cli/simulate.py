@@ -268,8 +268,9 @@ def check(
 
     Each collision names the pair, its time span, its depth and contact point, and the device,
     step and program line that were running.  No contact deeper than the collision tolerance
-    is missed between clock samples (docs/collision.md).  Bad input (files, names, unreachable
-    targets) exits 2 as everywhere.
+    is missed between clock samples (docs/collision.md).  A target no joint solution reaches
+    fails the check too (exit 1, naming the step); bad input (files, names) exits 2 as
+    everywhere.
 
     A fleet: --all-runs checks every run of every CELL given, on local processes (--workers)
     or a Dask cluster (--scheduler), in the order given whatever finishes first.  A bad cell is

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import spatial
+from ..kinematics.configuration import abb_confdata, fanuc_config, kuka_status_turn  # noqa: F401
 from ..model.cell import ControllerProfile, Inertial
 from ..model.program import MoveTarget, ResolvedStep
 
@@ -477,44 +478,6 @@ def kuka_abc(R: np.ndarray) -> np.ndarray:
 def abb_quaternion(R: np.ndarray) -> np.ndarray:
     """ABB's orientation quaternion ``[q1, q2, q3, q4] = (w, x, y, z)``, ``q1 >= 0``."""
     return spatial.matrix_to_quat(R)
-
-
-def abb_confdata(axes: np.ndarray, configuration: dict[str, str] | None) -> list[int]:
-    """ABB's ``confdata`` [cf1, cf4, cf6, cfx] of a 6-axis joint solution (the controller's
-    axis values [rad]): the quarter revolutions of axes 1, 4 and 6 (floor of angle / 90 deg);
-    cfx = 4 (wrist centre behind axis 1) + 2 (behind the lower arm: elbow down) + 1 (axis 5
-    negative)."""
-    quarter = np.floor(np.asarray(axes)[[0, 3, 5]] / (np.pi / 2)).astype(int)
-    cfx = 0
-    if configuration is not None:
-        cfx += 4 * (configuration["shoulder"] == "back") + 2 * (configuration["elbow"] == "down")
-    cfx += int(axes[4] < 0)
-    return [int(quarter[0]), int(quarter[1]), int(quarter[2]), cfx]
-
-
-def kuka_status_turn(axes: np.ndarray, configuration: dict[str, str] | None) -> tuple[int, int]:
-    """KUKA's Status and Turn of a joint solution (the controller's axis values [rad]).
-
-    Status: bit 0 the wrist centre in the overhead area (behind axis 1), bit 1 A3 >= phi (the
-    elbow up), bit 2 A5 <= 0.  Turn: bit i set when axis i+1 is negative.
-    """
-    status = 0
-    if configuration is not None:
-        status |= int(configuration["shoulder"] == "back") | 2 * int(configuration["elbow"] == "up")
-    status |= 4 * int(axes[4] <= 0)
-    turn = sum(1 << i for i, value in enumerate(np.asarray(axes)[:6]) if value < 0)
-    return status, int(turn)
-
-
-def fanuc_config(axes: np.ndarray, configuration: dict[str, str] | None) -> str:
-    """FANUC's configuration string of a joint solution (the controller's axis values [rad]):
-    'F' (J5 > 0) or 'N', 'U' (elbow up) or 'D', 'T' (wrist centre in front of J1) or 'B', then
-    the turn numbers of J4, J5 and J6 (0 for -180 < angle <= 180 deg)."""
-    flip = "F" if axes[4] > 0 else "N"
-    elbow = "U" if configuration is None or configuration["elbow"] == "up" else "D"
-    front = "T" if configuration is None or configuration["shoulder"] == "front" else "B"
-    turns = [int(np.ceil((np.degrees(a) - 180.0) / 360.0)) for a in np.asarray(axes)[3:6]]
-    return f"{flip} {elbow} {front}, " + ", ".join(str(t) for t in turns)
 
 
 @dataclass(frozen=True)

@@ -147,3 +147,58 @@ def arm_configurations(device: DeviceModel, Q) -> ArmConfigurations:
     down = np.sign(np.einsum("ki,ki->k", d4[:, 4], h) + 1e-300)
     noflip = bend * down >= 0.0
     return ArmConfigurations(front[1:], up[1:], noflip[1:])
+
+
+# ------------------------------------------------------------------ the vendors' words
+
+
+def abb_confdata(axes: np.ndarray, configuration: dict[str, str] | None) -> list[int]:
+    """ABB's ``confdata`` [cf1, cf4, cf6, cfx] of a 6-axis joint solution (the controller's
+    axis values [rad]): the quarter revolutions of axes 1, 4 and 6 (floor of angle / 90 deg);
+    cfx = 4 (wrist centre behind axis 1) + 2 (behind the lower arm: elbow down) + 1 (axis 5
+    negative)."""
+    quarter = np.floor(np.asarray(axes)[[0, 3, 5]] / (np.pi / 2)).astype(int)
+    cfx = 0
+    if configuration is not None:
+        cfx += 4 * (configuration["shoulder"] == "back") + 2 * (configuration["elbow"] == "down")
+    cfx += int(axes[4] < 0)
+    return [int(quarter[0]), int(quarter[1]), int(quarter[2]), cfx]
+
+
+def kuka_status_turn(axes: np.ndarray, configuration: dict[str, str] | None) -> tuple[int, int]:
+    """KUKA's Status and Turn of a joint solution (the controller's axis values [rad]).
+
+    Status: bit 0 the wrist centre in the overhead area (behind axis 1), bit 1 A3 >= phi (the
+    elbow up), bit 2 A5 <= 0.  Turn: bit i set when axis i+1 is negative.
+    """
+    status = 0
+    if configuration is not None:
+        status |= int(configuration["shoulder"] == "back") | 2 * int(configuration["elbow"] == "up")
+    status |= 4 * int(axes[4] <= 0)
+    turn = sum(1 << i for i, value in enumerate(np.asarray(axes)[:6]) if value < 0)
+    return status, int(turn)
+
+
+def fanuc_config(axes: np.ndarray, configuration: dict[str, str] | None) -> str:
+    """FANUC's configuration string of a joint solution (the controller's axis values [rad]):
+    'F' (J5 > 0) or 'N', 'U' (elbow up) or 'D', 'T' (wrist centre in front of J1) or 'B', then
+    the turn numbers of J4, J5 and J6 (0 for -180 < angle <= 180 deg)."""
+    flip = "F" if axes[4] > 0 else "N"
+    elbow = "U" if configuration is None or configuration["elbow"] == "up" else "D"
+    front = "T" if configuration is None or configuration["shoulder"] == "front" else "B"
+    turns = [int(np.ceil((np.degrees(a) - 180.0) / 360.0)) for a in np.asarray(axes)[3:6]]
+    return f"{flip} {elbow} {front}, " + ", ".join(str(t) for t in turns)
+
+
+def vendor_words(vendor: str | None, axes: np.ndarray, configuration: dict[str, str]) -> str:
+    """A 6-axis arm's configuration as its controller states it: KUKA's Status and Turn,
+    ABB's confdata, FANUC's CONFIG string (``axes``: the controller's axis values [rad]);
+    empty for a vendor without one (UR: joint targets) or none."""
+    if vendor == "kuka":
+        status, turn = kuka_status_turn(axes, configuration)
+        return f"KUKA S {status} T {turn}"
+    if vendor == "abb":
+        return "ABB confdata [" + ",".join(str(c) for c in abb_confdata(axes, configuration)) + "]"
+    if vendor == "fanuc":
+        return f"FANUC CONFIG '{fanuc_config(axes, configuration)}'"
+    return ""

@@ -56,7 +56,10 @@ class ImportedCell:
     merged : dict
         Device link (or the base) -> the URDF links merged into it.
     renamed : dict
-        URDF name -> rworld name, for names rworld cannot hold.
+        URDF name -> rworld name, for names rworld cannot hold (or reserves: ``world``) that the
+        cell shows; a renamed link merged away shows nowhere and is not listed.
+    renamed_where : dict
+        URDF name -> where its new name shows ("joint ur5.j_2", "frame ur5.world_2").
     warnings : list of Issue
     """
 
@@ -71,6 +74,7 @@ class ImportedCell:
     merged: dict[str, list[str]]
     renamed: dict[str, str]
     warnings: list[Issue] = field(default_factory=list)
+    renamed_where: dict[str, str] = field(default_factory=dict)
 
 
 def _issue(robot: UrdfRobot, item, location: str, message: str, severity="error") -> Issue:
@@ -573,8 +577,15 @@ def cell_from_urdf(
         "# Joints are given by their frames (origin, axis) as in the URDF; links fixed to a\n"
         "# moving link are merged into it and kept as frames (their poses are in poses.yaml).\n"
     )
-    if names.renamed:
-        renamed = ", ".join(f"{a} -> {b}" for a, b in names.renamed.items())
+    # where each rworld name shows: a URDF name renamed but merged away shows nowhere
+    shows = {device: f"the device {device}"}
+    shows |= {doc["name"]: f"joint {device}.{doc['name']}" for doc in joint_docs}
+    shows |= {h: f"link {device}.{h}" for h in heads[1:]}  # the base is the device
+    shows |= {k.split(".", 1)[1]: f"frame {k}" for k in poses if k.startswith(f"{device}.")}
+    renamed_where = {a: shows[b] for a, b in names.renamed.items() if b in shows}
+    renamed_shown = {a: b for a, b in names.renamed.items() if a in renamed_where}
+    if renamed_shown:
+        renamed = ", ".join(f"{a} -> {b}" for a, b in renamed_shown.items())
         head += f"# Renamed: {comment_text(renamed)}\n"
     cell_doc = {
         "name": _Names()(cell_name),  # the folder's name, made a name ('0mm' -> '_0mm')
@@ -612,8 +623,9 @@ def cell_from_urdf(
         tip,
         tcp_link,
         merged,
-        names.renamed,
+        renamed_shown,
         warnings,
+        renamed_where,
     )
 
 

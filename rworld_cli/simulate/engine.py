@@ -28,7 +28,7 @@ import numpy as np
 
 from ..dynamics import DeviceDynamics, Payload
 from ..errors import UserError
-from ..kinematics.configuration import arm_configurations
+from ..kinematics.configuration import arm_configurations, is_arm, vendor_words
 from ..kinematics.inverse import solve_ik, solve_ik_soonest
 from ..kinematics.jacobian import ToolMount, tool_pose
 from ..model.program import MoveTarget, Program, ResolvedStep, Run, Step
@@ -544,11 +544,33 @@ class _Scheduler(FeatureSteps):
             )
             return None
         tr.segments.append(seg)
+        took, words = self._configuration_taken(device, seg.q_end)
         self.events.append(
-            Event(tr.t, device, step.index, "move", f"{step.describe()} ({seg.t1 - seg.t0:.3f} s)")
+            Event(
+                tr.t,
+                device,
+                step.index,
+                "move",
+                f"{step.describe()} ({seg.t1 - seg.t0:.3f} s{words})",
+                reading={"configuration": took} if took else None,
+            )
         )
         tr.t = seg.t1
         return seg
+
+    def _configuration_taken(self, device: str, q) -> tuple[dict | None, str]:
+        """A 6-axis arm's configuration at ``q``: rworld's words, and the text for the move's
+        event - those words and the controller's (KUKA S/T, ABB confdata, FANUC CONFIG)."""
+        dev = self.run.cell.devices[device]
+        if not is_arm(dev):
+            return None, ""
+        names = arm_configurations(dev, q).names()
+        profile = dev.controller
+        axes = profile.axes(q) if profile is not None else np.asarray(q)
+        vendor = vendor_words(profile.vendor if profile is not None else None, axes, names)
+        took = {**names, **({"controller": vendor} if vendor else {})}
+        words = "; " + ", ".join(f"{k} {v}" for k, v in names.items())
+        return took, words + (f"; {vendor}" if vendor else "")
 
     def _target(
         self, device, tr, step, q_now, seg, planned, name, tcp, motion, speed, acceleration, until

@@ -245,7 +245,13 @@ class FeatureSteps:
         by a guarded move and recorded; holes entered along their axis."""
         from ..calibration.plan import ProbeGeometry
         from ..calibration.probing import ProbeRig, find_probe
-        from ..calibration.targets import farthest_points, feature_candidates
+        from ..calibration.targets import (
+            feature_candidates,
+            fit_rows,
+            spread_set,
+            spread_warning,
+        )
+        from .engine import Event
 
         goal, spec = step.goal, step.spec
         f = self.run.cell.features[goal.feature]
@@ -263,18 +269,34 @@ class FeatureSteps:
         except UserError as exc:
             raise UserError(f"{goal.where}: {exc.message}") from None
         T_world_owner = rig.world.T_world(f.owner)
-        solved, why = [], None
-        for k in farthest_points(cand.points, len(cand)):
-            why = rig.solve(cand, int(k), T_world_owner)
+        # the points spread for the fit: each the reachable candidate that adds most to the
+        # fit's information (a face in two directions, a hole around its wall), the first the
+        # farthest-point start
+        rows = fit_rows(f, cand.points)
+        pool = np.arange(len(cand))  # not yet tried
+        solved, chosen, why = [], [], None
+        while len(solved) < goal.points and len(pool):
+            # the best set that keeps the points reached (the first: the farthest-point start)
+            if chosen:
+                wanted = spread_set(rows, goal.points, chosen, pool)
+                k = wanted[len(chosen)] if len(wanted) > len(chosen) else int(pool[0])
+            else:
+                k = int(
+                    pool[np.argmax(np.linalg.norm(cand.points[pool] - cand.points.mean(0), axis=1))]
+                )
+            pool = pool[pool != k]
+            why = rig.solve(cand, k, T_world_owner)
             if why is None:
-                solved.append(rig.solved[f.name, int(k)])
-                if len(solved) == goal.points:
-                    break
+                solved.append(rig.solved[f.name, k])
+                chosen.append(k)
         if len(solved) < goal.points:
             raise UnreachableTarget(
                 f"{step.where}: {device} step {step.index + 1} ({step.describe()}): "
                 f"{len(solved)} of {goal.points} points on {f.name} can be probed ({why})"
             )
+        warning = spread_warning(f, cand.points[chosen])
+        if warning is not None:  # what calibrate would say of these points, said now
+            self.events.append(Event(tr.t, device, step.index, "warning", warning))
         T_world = self.world.T_world(f.owner)  # the owner now: its targets move with it
         first = solved[0]
 
