@@ -53,6 +53,7 @@ from .physics import (  # noqa: F401
     StaticResult,
     carried_loads,
     carried_summary,
+    configuration_of,
     device_context,
     device_dynamics,
     forward_dynamics,

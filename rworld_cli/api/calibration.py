@@ -204,6 +204,7 @@ class MeasurementPlan:
     probe: dict | None = None
     program: Path | None = None
     stops: int = 0
+    touches: int = 0  # the guarded touches (probe: steps) the program makes
     cycle_time: float | None = None
     rig: object = field(default=None, repr=False)  # the ProbeRig with every target solved
 
@@ -315,7 +316,7 @@ def plan_cell_measurements(
         out.probe = {"device": rig.device, "tcp": rig.tcp, "sensor": rig.sensor, "start": rig.start}
     if program is None or rig is None or not all(p.determined for p in plans):
         return out
-    out.program, out.stops, out.cycle_time = _write_probe_program(
+    out.program, out.stops, out.cycle_time, out.touches = _write_probe_program(
         cell_path, rig, plans, Path(program), ordered, progress
     )
     return out
@@ -359,7 +360,7 @@ def _write_probe_program(
     cell_path: str, rig, plans, out: Path, ordered: bool = True, progress=None
 ):
     """Write the probe program to ``out`` after it passes the simulation check; (path, stops,
-    cycle time)."""
+    cycle time, touches)."""
     from ..calibration.probing import probe_program
     from ..errors import CheckFailed
     from ..fileio import atomic_write_text, temporary_path, write_scratch
@@ -392,7 +393,7 @@ def _write_probe_program(
         atomic_write_text(out, text)
     finally:
         trial.unlink(missing_ok=True)
-    return out, stops, result.cycle_time
+    return out, stops, result.cycle_time, doc["touches"]
 
 
 def simulate_probe_measurements(

@@ -179,6 +179,13 @@ def inverse_kinematics(
     return result
 
 
+def configuration_of(ctx: DeviceContext, q) -> dict[str, str] | None:
+    """A 6-axis arm's configuration at ``q`` (shoulder, elbow, wrist), or None for others."""
+    from ..kinematics.configuration import arm_configurations, is_arm
+
+    return arm_configurations(ctx.device, q).names() if is_arm(ctx.device) else None
+
+
 def grasped(ctx: DeviceContext) -> list[tuple[str, float]]:
     """Objects the device grasps in the cell's state: [(name, mass [kg])]."""
     out = []

@@ -102,10 +102,16 @@ def run_summary(result) -> dict:
 
 
 def unlimited_notes(result) -> list[str]:
-    """One line per device naming the joints the cell gives no limit of a kind."""
+    """One line per device naming the joints the cell gives no limit of a kind, and per device
+    whose links have no mass (its torques are only what it carries)."""
     from ..simulate.output import unlimited_lines
 
-    return unlimited_lines(result.unlimited)
+    massless = [
+        f"{device}: its links have no mass in the cell (a URDF without <inertial>, say): its "
+        "torques are only those of what it carries, and its torque ratios say nothing of it"
+        for device in result.massless
+    ]
+    return unlimited_lines(result.unlimited) + massless
 
 
 def collision_notes(result) -> list[str]:

@@ -267,13 +267,19 @@ def calibrate(
     probing = {n: m.probing for n, m in measured.measurements.items()}
     for c in order:
         missing = [f for f in c.features if f not in fits]
-        if missing:
-            undetermined[c.frame] = f"not measured: {', '.join(missing)}"
+        ways_out = (
+            f"measure {', '.join(missing)}, or leave {c.frame} out (--frames), or drop "
+            f"{'it' if len(missing) == 1 else 'them'} from {c.frame}'s condition in the cell"
+        )
+        if missing and (c.code not in ("C1", "C2") or len(missing) == len(c.features)):
+            undetermined[c.frame] = f"not measured: {', '.join(missing)}: {ways_out}"
             continue
         T_nom = world.T_world(c.frame)
         if c.code in ("C1", "C2"):
-            feats = [cell.features[f] for f in c.features]
-            own = {f: fits[f] for f in c.features}
+            # the measured features alone, when they determine the frame (said in a warning)
+            present = [f for f in c.features if f in fits]
+            feats = [cell.features[f] for f in present]
+            own = {f: fits[f] for f in present}
             offsets = [
                 f
                 for f in feats
@@ -291,9 +297,18 @@ def calibrate(
                     own[f.name] = _fit(f, measured.measurements[f.name], T_owner)
                     fits[f.name] = own[f.name]
             if not sol.determined:
-                undetermined[c.frame] = sol.reason
+                undetermined[c.frame] = (
+                    f"{sol.reason}; not measured: {', '.join(missing)}: {ways_out}"
+                    if missing
+                    else sol.reason
+                )
                 solutions[c.frame] = sol
                 continue
+            if missing:
+                sol.warnings.append(
+                    f"solved from the measured features {', '.join(present)}, which determine "
+                    f"it; not measured: {', '.join(missing)}"
+                )
             world.place(c.frame, sol.T_world)
             solutions[c.frame] = sol
         else:

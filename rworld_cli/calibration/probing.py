@@ -471,6 +471,8 @@ def probe_program(
         spec: dict = {"to": o, "tcp": tcp, "offset": _offset(T)}
         if linear:
             spec["motion"] = "linear"
+        if steps and steps[-1][0] == {"move": spec}:
+            return  # already there (inside a hole: back at its centre, then off to the next)
         steps.append(({"move": spec}, comment))
 
     for name, solved in stops:
@@ -509,6 +511,7 @@ def probe_program(
         "units": {"length": "mm", "angle": "deg"},
         "steps": steps,
     }
+    doc["touches"] = sum(len(solved) for _, solved in stops)
     return doc, len(stops)
 
 

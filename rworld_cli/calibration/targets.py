@@ -424,7 +424,9 @@ def next_spread(rows: np.ndarray, information: np.ndarray, pool: np.ndarray) -> 
     )
     X = rows[pool]
     gain = np.einsum("ki,ij,kj->k", X, np.linalg.inv(M), X)
-    return int(pool[int(np.argmax(gain))])
+    # ties (symmetric candidates) to the first, whatever the last bits of the arithmetic (BLAS
+    # threads differ between executors): the same choice on every machine
+    return int(pool[int(np.argmax(np.round(gain / max(float(gain.max()), 1e-300), 9)))])
 
 
 def spread_set(rows: np.ndarray, n: int, fixed: list[int], pool: np.ndarray) -> list[int]:
@@ -440,9 +442,9 @@ def spread_set(rows: np.ndarray, n: int, fixed: list[int], pool: np.ndarray) -> 
         pool = pool[pool != k]
         information += np.outer(rows[k], rows[k])
 
-    def logdet(indices) -> float:
+    def logdet(indices) -> float:  # to 9 decimals: ties the same on every machine
         X = rows[indices]
-        return float(np.linalg.slogdet(X.T @ X + 1e-12 * np.eye(rows.shape[1]))[1])
+        return round(float(np.linalg.slogdet(X.T @ X + 1e-12 * np.eye(rows.shape[1]))[1]), 9)
 
     best = logdet(chosen)
     improved = True
@@ -452,7 +454,7 @@ def spread_set(rows: np.ndarray, n: int, fixed: list[int], pool: np.ndarray) -> 
             trial = [chosen[:i] + [int(k)] + chosen[i + 1 :] for k in pool]
             values = [logdet(t) for t in trial]
             j = int(np.argmax(values))
-            if values[j] > best + 1e-9:
+            if values[j] > best + 1e-6:
                 pool = np.append(pool[pool != pool[j]], chosen[i])
                 chosen, best, improved = trial[j], values[j], True
     return chosen

@@ -206,9 +206,9 @@ def ik(
     seed_q = parse_vector(seed, "--seed", ctx.device.dof) if seed else None
     wanted = _configuration(configuration) if configuration else None
     result = inverse_kinematics(ctx, T_target, name, seed_q, position_only, restarts, wanted)
-    from ..kinematics.configuration import arm_configurations, is_arm
+    from ..api import configuration_of
 
-    took = arm_configurations(ctx.device, result.q).names() if is_arm(ctx.device) else None
+    took = configuration_of(ctx, result.q)
     payload = {
         "device": ctx.device.name,
         "tcp": ctx.tcp,

@@ -208,6 +208,7 @@ def plan_measurements(
                 "program": str(result.program) if result.program else None,
                 "probe": result.probe,
                 "stops": result.stops if result.program else None,
+                "touches": result.touches if result.program else None,
                 "cycle_time_s": result.cycle_time,
             }
         )
@@ -257,6 +258,7 @@ def _render(result, output) -> None:
         console.print(f"\nwrote {output} (probe targets; fill in the measured points)")
     if result.program:
         console.print(
-            f"\nwrote {result.program}: {result.stops} stop(s), cycle time "
+            f"\nwrote {result.program}: {result.touches} touches at {result.stops} stop(s) (a "
+            "hole's touches are one stop), cycle time "
             f"{result.cycle_time:.2f} s in simulation (limits and collisions checked)"
         )

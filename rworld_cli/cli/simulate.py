@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 import click
 
@@ -149,6 +150,10 @@ def simulate(
     written = write_run_outputs(result, output, plot) if output else []
     if output or glb_path or view_path:
         written += _write_view(loaded, result, output, glb_path, view_path, not json_output)
+    once: dict = {}  # --glb into the -o folder: its run.glb once, named as given
+    for p in written:
+        once.setdefault(Path(p).resolve(), p)
+    written = list(once.values())
     if json_output:
         payload = run_summary(result)
         payload["written"] = [str(p) for p in written]

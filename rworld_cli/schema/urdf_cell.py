@@ -507,13 +507,13 @@ def cell_from_urdf(
         limits: dict = {}
         if j.type != "continuous" and np.isfinite(j.lower) and np.isfinite(j.upper):
             limits["position"] = [float(j.lower), float(j.upper)]
-        given = stated.get(j.name, {})
-        if np.isfinite(j.velocity) or "velocity" in given:
-            limits["velocity"] = float(given.get("velocity", j.velocity))
-        if "acceleration" in given:
-            limits["acceleration"] = given["acceleration"]
-        if np.isfinite(j.effort) or "effort" in given:
-            limits["effort"] = float(given.get("effort", j.effort))
+        from_file = stated.get(j.name, {})
+        if np.isfinite(j.velocity) or "velocity" in from_file:
+            limits["velocity"] = float(from_file.get("velocity", j.velocity))
+        if "acceleration" in from_file:
+            limits["acceleration"] = from_file["acceleration"]
+        if np.isfinite(j.effort) or "effort" in from_file:
+            limits["effort"] = float(from_file.get("effort", j.effort))
         if limits:
             doc["limits"] = limits
         if j.damping or j.friction:

@@ -155,6 +155,7 @@ class SimulationResult:
     collisions: Any = None  # simulate.collisions.CollisionReport, or None when not checked
     resolved: dict[str, list[ResolvedStep]] = field(default_factory=dict)  # device -> steps
     step_where: dict[str, list[str]] = field(default_factory=dict)  # device -> 'file:line' per step
+    massless: list[str] = field(default_factory=list)  # devices whose links have no mass at all
     # (t, World.snapshot()) at the start and after every affixment change: the tree each stretch
     # of samples ran in (a sample at t belongs to the latest snapshot at or before it)
     snapshots: list[tuple[float, dict]] = field(default_factory=list)
@@ -248,6 +249,10 @@ class _Scheduler(FeatureSteps):
         raise SimulationError(
             f"{step.where}: {device} step {step.index + 1} ({step.describe()}): {message}"
         )
+
+    def warn(self, device: str, tr, step: Step, message: str) -> None:
+        """A warning event at the step: what the step found questionable, said when it runs."""
+        self.events.append(Event(tr.t, device, step.index, "warning", message))
 
     def _too_long(self, device: str, step: Step, detail: str, speed) -> None:
         """Work beyond the documented bound (``units.MAX_SAMPLES``): exit 2, naming the
@@ -1084,6 +1089,7 @@ def _sample(
         resolved=sched.resolved,
         step_where={d: [st.where for st in sched.tracks[d].program.steps] for d in run_devices},
         snapshots=list(snaps),
+        massless=[d for d in timelines if d in run_devices and cell.devices[d].total_mass <= 0.0],
     )
     return result, {d: (q[d], qd[d], qdd[d]) for d in devices}
 

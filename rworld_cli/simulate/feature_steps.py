@@ -251,7 +251,6 @@ class FeatureSteps:
             spread_set,
             spread_warning,
         )
-        from .engine import Event
 
         goal, spec = step.goal, step.spec
         f = self.run.cell.features[goal.feature]
@@ -296,11 +295,16 @@ class FeatureSteps:
             )
         warning = spread_warning(f, cand.points[chosen])
         if warning is not None:  # what calibrate would say of these points, said now
-            self.events.append(Event(tr.t, device, step.index, "warning", warning))
+            self.warn(device, tr, step, warning)
         T_world = self.world.T_world(f.owner)  # the owner now: its targets move with it
         first = solved[0]
 
+        last: list = [None]
+
         def go(T_owner, motion="linear", until=None, speed=1.0):
+            if until is None and last[0] is not None and np.allclose(last[0], T_owner, atol=1e-12):
+                return  # already there: inside a hole, back at its centre before the next touch
+            last[0] = T_owner
             self.set_time(tr.t)
             self._go(
                 device, tr, step, tcp, (T_world @ T_owner)[None], motion, speed, 1.0, until, f.name

@@ -393,3 +393,33 @@ def test_vendor_robots_report_in_their_controllers_frames(cli, vendor, tmp_path)
     events = [e for e in result.events if e.kind == "probe"]
     for contact, event in zip(report["contacts"], events, strict=True):
         assert np.abs(np.array(contact["point_mm"]) / 1000 - event.reading["point"]).max() < 1e-7
+
+
+def test_a_condition_naming_an_unmeasured_feature_uses_the_measured_ones(cli, loop, tmp_path):
+    """Issue 50: the plate's condition names a left face the probe program did not touch; the
+    measured top, front and holes determine the plate: calibrate solves it from them and says
+    so.  The bracket, of which nothing was measured, names the ways out."""
+    from rworld_cli.api import simulate_probe_measurements
+
+    cell, truth, *_ = loop
+    simulated = tmp_path / "m.yaml"
+    simulate_probe_measurements(str(cell), str(truth), str(cell / PROGRAM), str(simulated), 2e-5)
+    edited = tmp_path / "cell"
+    shutil.copytree(cell, edited)
+    text = (edited / "cell.yaml").read_text()
+    text = text.replace(
+        "      - name: front\n        plane: {point: [0, 0, 0], normal: [0, -1, 0]}\n",
+        "      - name: front\n        plane: {point: [0, 0, 0], normal: [0, -1, 0]}\n"
+        "      - name: left\n        plane: {point: [0, 0, 0], normal: [-1, 0, 0]}\n",
+    )
+    text = text.replace(
+        "features: [top, front, hole1, hole2]}", "features: [top, front, hole1, hole2, left]}"
+    )
+    (edited / "cell.yaml").write_text(text)
+    result = cli(["calibrate", str(edited), str(simulated), "--dry-run"])
+    said = " ".join(result.output.split())  # the text as wrapped for the terminal, unwrapped
+    assert "solved from the measured features plate.top, plate.front, plate.hole1" in said
+    assert "not measured: plate.left" in said
+    assert "measure bracket.base_top" in said and "leave bracket out (--frames)" in said
+    only = cli(["calibrate", str(edited), str(simulated), "--frames", "plate", "--dry-run"])
+    assert only.exit_code == 0, only.output

@@ -115,9 +115,9 @@ def test_urscript_tool_data_is_the_tcp_in_the_flange(tmp_path):
 def test_csv_trajectory_at_the_controller_period(tmp_path):
     cell = str(WORKCELLS / "puma560")
     export_program(cell, "pick_place", "csv", str(tmp_path), period="8ms")
-    data = np.loadtxt(tmp_path / "pick_place.csv", delimiter=",", skiprows=1)
-    header = (tmp_path / "pick_place.csv").read_text().splitlines()[0]
-    assert header == "t,j1,j2,j3,j4,j5,j6"
+    data = np.loadtxt(tmp_path / "pick_place.csv", delimiter=",", skiprows=3)
+    lines = (tmp_path / "pick_place.csv").read_text().splitlines()
+    assert lines[1] == "# units: m, rad" and lines[2] == "t,j1,j2,j3,j4,j5,j6"
     np.testing.assert_allclose(np.diff(data[:, 0]), 0.008, atol=1e-9)
     _, result = _resolved(cell, "pick_place", "puma", dt=0.008)
     np.testing.assert_allclose(data[:, 1:], result.devices["puma"].q, atol=1e-9)

@@ -106,7 +106,9 @@ def test_a_urdf_in_iso_8859_1_reads_as_it_declares(tmp_path):
     (tmp_path / "r.urdf").write_bytes(text.encode("latin-1"))
     out = run_cli(["import", "urdf", str(tmp_path / "r.urdf"), "-o", str(tmp_path / "cell")])
     assert out.exit_code == 0, out.output
-    assert "renamed: r\u00fcb -> r_b, b\u00e4se -> b_se, j\u00f6 -> j_" in out.output
+    # the names the cell shows, with where (the base link's name shows nowhere: the device's)
+    assert "r\u00fcb -> r_b: the device r_b" in out.output
+    assert "j\u00f6 -> j_: joint r_b.j_" in out.output
 
 
 @pytest.mark.parametrize(
