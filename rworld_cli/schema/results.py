@@ -85,6 +85,14 @@ class ViewLabel(Strict):
     kind: Text
 
 
+class ViewContact(Strict):
+    """A contact a probe step recorded: drawn from its instant on."""
+
+    t: float
+    feature: Text
+    point: tuple[float, float, float] = Field(description="The ball centre [m], world (z up).")
+
+
 class ViewFile(Strict):
     """The viewer's panel data beside a run's scene (``view.json``, written by ``rworld
     simulate -o``): times, joint values, steps, marks, labels."""
@@ -96,6 +104,9 @@ class ViewFile(Strict):
     marks: list[ViewMark]
     without_geometry: list[Text]
     labels: list[ViewLabel]
+    contacts: list[ViewContact] = Field(
+        default_factory=list, description="Recorded probe contacts, in time order."
+    )
 
     @model_validator(mode="after")
     def _consistent(self):

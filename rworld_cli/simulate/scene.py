@@ -119,18 +119,40 @@ def _nodes(cell, poses, highlight=()) -> list[SceneNode]:
     from ..sensing.render import COLORS
 
     nodes = []
+    objects = [name for name, kind, shape, _ in _frame_nodes(cell) if kind == "object"]
     for name, kind, shape, axes in _frame_nodes(cell):
         mesh = None
         if shape is not None:
             raw = shape_mesh(shape)
+            colour = (
+                COLORS["device"]
+                if kind in ("device", "link")
+                else OBJECT_COLOURS[objects.index(name) % len(OBJECT_COLOURS)]
+                if name in objects
+                else COLORS["object"]
+            )
             mesh = SceneMesh(
                 np.asarray(raw.vertices, dtype=float),
                 np.asarray(raw.faces, dtype=np.int64),
-                COLORS["device" if kind in ("device", "link") else "object"],
+                colour,
             )
         spans = [(0.0, 1.0)] if name in highlight else []
         nodes.append(SceneNode(name, kind, poses(name), mesh, axes, spans))
     return nodes
+
+
+# each object its own colour (a part is not the table it lies on), in the cell's order; muted,
+# so that the device's blue and the contact and collision colours stand out
+OBJECT_COLOURS = (
+    "#9aa5b1",
+    "#c9a66b",
+    "#8fb996",
+    "#b48ead",
+    "#d08770",
+    "#88c0d0",
+    "#a3be8c",
+    "#ebcb8b",
+)
 
 
 def _without_geometry(nodes: list[SceneNode]) -> list[str]:
@@ -330,6 +352,15 @@ def viewer_info(result, without_geometry: list[str], labels: list[dict]) -> dict
                 }
             )
     marks.sort(key=lambda m: m["t"])
+    contacts = [
+        {
+            "t": e.t,
+            "feature": str(e.reading["feature"]),
+            "point": [round(float(x), 7) for x in e.reading["point"]],
+        }
+        for e in result.events
+        if e.kind == "probe" and e.reading and "point" in e.reading
+    ]
     return {
         "title": f"{result.cell}: {result.run}",
         "t": np.round(times, 6).tolist(),
@@ -338,4 +369,5 @@ def viewer_info(result, without_geometry: list[str], labels: list[dict]) -> dict
         "marks": marks,
         "without_geometry": without_geometry,
         "labels": labels,
+        "contacts": contacts,
     }

@@ -123,3 +123,46 @@ def test_hostile_text_in_the_data_stays_text(fig9_scene, tmp_path):
         assert browser.console_errors() == []
     finally:
         browser.close()
+
+
+@pytest.fixture(scope="module")
+def probing_page(example_run, tmp_path_factory):
+    """The probing cell's feature probes: three TCPs close together on the Puma's hand, and
+    twelve recorded contacts."""
+    from rworld_cli.schema.gltf import scene_glb
+    from rworld_cli.simulate.scene import run_scene
+    from rworld_cli.viewer.page import viewer_page
+
+    loaded, result = example_run("probing", "probe_features")
+    scene = run_scene(loaded.cell, result)
+    path = tmp_path_factory.mktemp("probing") / "probing.html"
+    path.write_text(viewer_page(scene_glb(scene), scene.info), encoding="utf-8")
+    browser = Browser(1200, 800)
+    try:
+        browser.open(path.as_uri(), "window.rworld && window.rworld.ready")
+        yield browser, result
+    finally:
+        browser.close()
+
+
+def test_recorded_contacts_are_marked_from_their_instant(probing_page):
+    """Issue 50: each contact a probe step recorded is a dot from its instant on."""
+    page, result = probing_page
+    times = [e.t for e in result.events if e.kind == "probe"]
+    assert len(times) == 12
+    for t, expected in ((0.0, 0), (times[2] + 1e-3, 3), (result.cycle_time, 12)):
+        page.evaluate(f"rworld.seek({t})")
+        page.evaluate("rworld.frameDrawn()")
+        assert page.evaluate("rworld.contactsShown()") == expected, t
+    assert page.console_errors() == []
+
+
+def test_labels_do_not_overlap(probing_page):
+    """Issue 50: the hand's TCP labels (tool, probe, gripper within 20 mm) stacked on each
+    other; now each sits below those it would cover."""
+    page, result = probing_page
+    page.evaluate("rworld.showLabels(true)")
+    for t in (0.0, result.cycle_time / 2):
+        page.evaluate(f"rworld.seek({t})")
+        page.evaluate("rworld.frameDrawn()")
+        assert page.evaluate("rworld.labelOverlaps()") == 0, t

@@ -197,3 +197,17 @@ def test_the_fig9_page_stays_under_5_mb(fig9_page):
     text = fig9_page.read_text(encoding="utf-8")
     assert "http://" not in text.split('<script type="importmap">')[0]  # no CDN
     assert "unpkg" not in text and "cdn." not in text
+
+
+def test_every_object_has_its_own_colour(example_run):
+    """Issue 50: the plate was drawn in the table's grey; each object now has its own colour."""
+    from rworld_cli.schema.gltf import scene_glb
+    from rworld_cli.simulate.scene import run_scene
+
+    loaded, result = example_run("probing", "probe_features")
+    scene = run_scene(loaded.cell, result)
+    colours = {n.name: n.mesh.colour for n in scene.nodes if n.kind == "object" and n.mesh}
+    assert set(colours) == {"table", "bracket", "plate", "peg"}
+    assert len(set(colours.values())) == len(colours)
+    glb = scene_glb(scene)
+    assert all(c.encode() in glb for c in colours.values())  # the materials are named so

@@ -81,8 +81,10 @@ function frame(now) {
   }
   if (needsRender) {
     controls.update();
+    updateContacts();
     renderer.render(scene, camera);
     labelRenderer.render(scene, camera);
+    declutter();
     drawCursors();
     needsRender = false;
   }
@@ -236,6 +238,7 @@ function bytesOf(base64) {
   return out.buffer;
 }
 
+const labelDivs = [];
 function addLabels(root) {
   const byFrame = {};
   root.traverse((o) => { if (o.userData && o.userData.frame) byFrame[o.userData.frame] = o; });
@@ -246,8 +249,54 @@ function addLabels(root) {
     div.className = `label label-${label.kind}`;
     div.textContent = label.text;
     node.add(new CSS2DObject(div));
+    labelDivs.push(div);
   }
   return byFrame;
+}
+
+// labels of frames close together (a hand's TCPs) would stack on each other: each is moved down
+// below those it overlaps, in screen order, after every render
+function declutter() {
+  if (labelRenderer.domElement.style.display === "none") return;
+  const shown = labelDivs.filter((d) => d.parentElement && d.style.display !== "none");
+  for (const d of shown) d.style.marginTop = "0px";
+  const boxes = shown.map((d) => ({ d, r: d.getBoundingClientRect() }));
+  boxes.sort((a, b) => a.r.top - b.r.top || a.r.left - b.r.left);
+  const placed = [];
+  for (const { d, r } of boxes) {
+    let shift = 0;
+    for (let moved = true; moved; ) {
+      moved = false;
+      for (const p of placed) {
+        if (r.left < p.right && r.right > p.left && r.top + shift < p.bottom
+            && r.bottom + shift > p.top) {
+          shift = p.bottom - r.top + 1;
+          moved = true;
+        }
+      }
+    }
+    d.style.marginTop = `${shift}px`;
+    placed.push({ left: r.left, right: r.right, top: r.top + shift, bottom: r.bottom + shift });
+  }
+}
+
+// recorded probe contacts: a small dot at each, from the instant it was recorded
+const contactDots = [];
+function addContacts() {
+  const radius = Math.max(0.002, 0.004);
+  const geometry = new THREE.SphereGeometry(radius, 12, 8);
+  const material = new THREE.MeshBasicMaterial({ color: 0xd62728 });
+  for (const c of info.contacts || []) {
+    const dot = new THREE.Mesh(geometry, material);
+    dot.position.set(c.point[0], c.point[1], c.point[2]);
+    dot.userData.contact = c;
+    dot.visible = false;
+    world.add(dot);
+    contactDots.push(dot);
+  }
+}
+function updateContacts() {
+  for (const dot of contactDots) dot.visible = current >= dot.userData.contact.t - 1e-9;
 }
 
 function frameCamera(root) {
@@ -268,6 +317,7 @@ new GLTFLoader().parse(
   (gltf) => {
     world.add(gltf.scene);
     api.frames = addLabels(gltf.scene);
+    addContacts();
     if (gltf.animations.length) {
       mixer = new THREE.AnimationMixer(gltf.scene);
       action = mixer.clipAction(gltf.animations[0]);
@@ -302,6 +352,17 @@ document.getElementById("title").textContent = info.title;
 
 // ------------------------------------------------------------------------------ for tests
 api.seek = (t) => { pause(); setTime(t); };
+api.contactsShown = () => contactDots.filter((d) => d.visible).length;
+api.labelOverlaps = () => {
+  const r = labelDivs.filter((d) => d.parentElement && d.offsetParent !== null)
+    .map((d) => d.getBoundingClientRect());
+  let n = 0;
+  for (let i = 0; i < r.length; i++) for (let j = i + 1; j < r.length; j++) {
+    if (r[i].left < r[j].right && r[j].left < r[i].right && r[i].top < r[j].bottom
+        && r[j].top < r[i].bottom) n++;
+  }
+  return n;
+};
 api.play = play;
 api.pause = pause;
 api.time = () => current;
