@@ -438,7 +438,8 @@ def expand_xacro(
                 f"{shown}: $(find {package}): no ROS package '{package}' under the package paths "
                 f"({where}); give the folder that holds it with --package-path DIR"
             )
-        return str(folder)
+        # absolute: xacro resolves includes against its own working folder
+        return str(Path(folder).resolve())
 
     original = substitution_args._eval_find
     substitution_args._eval_find = find  # ROS's package index, from the package paths

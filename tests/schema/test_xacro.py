@@ -100,3 +100,17 @@ def test_bad_joint_limits_are_located(cli, tmp_path, text, message):
     )
     assert result.exit_code == 2 and message in result.output, result.output
     assert not (tmp_path / "c").exists()
+
+
+def test_relative_package_paths_resolve_from_where_the_user_stands(cli, tmp_path, monkeypatch):
+    """`--package-path ./src` as typed in a shell: xacro includes `$(find PKG)/...` against its
+    own folder, so a relative package folder once made it look under the xacro's folder."""
+    monkeypatch.chdir(REPO / "tests")
+    cell = tmp_path / "gp7"
+    result = cli(
+        ["import", "urdf", "./data/motoman/motoman_gp7_support/urdf/gp7.xacro"]
+        + ["--package-path", "./data/motoman", "-o", str(cell)]
+    )
+    assert result.exit_code == 0, result.output
+    [device] = load_cell(str(cell)).cell.devices.values()
+    assert len(device.joints) == 6
