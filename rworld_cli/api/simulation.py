@@ -10,7 +10,8 @@ from ..errors import UserError
 
 
 def run_path(cell: str, run: str) -> str:
-    """RUN may be a file, or the name of CELL/runs/RUN.yaml."""
+    """RUN may be a file, the name of CELL/runs/RUN.yaml, or - when the cell has no such run -
+    of CELL/programs/RUN.yaml, which then runs alone."""
     from ..errors import did_you_mean
 
     p = Path(run)
@@ -20,6 +21,9 @@ def run_path(cell: str, run: str) -> str:
     candidate = base / "runs" / f"{run}.yaml"
     if candidate.is_file():
         return str(candidate)
+    program = base / "programs" / f"{run}.yaml"
+    if program.is_file():  # a program runs alone, as a run of one (schema.programs.load_run)
+        return str(program)
     names = sorted(f.stem for f in (base / "runs").glob("*.yaml"))
     raise UserError(
         f"no run '{run}': not a file, and no {candidate}{did_you_mean(run, names)}"

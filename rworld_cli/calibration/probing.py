@@ -611,6 +611,9 @@ def probe_run(
     rng = np.random.default_rng(seed)
     out = []
     for device, resolved in result.resolved.items():
+        # what the robot carries (its links, a stylus or gripper on the flange) moves with the
+        # ball: it is never what the ball touches
+        carried = set(world.subtree(device)) | {device}
         probes = [
             e for e in result.events if e.device == device and e.kind == "probe" and e.reading
         ]
@@ -624,7 +627,7 @@ def probe_run(
                 points.append(world.T_world(sensor)[:3, 3].copy())
                 believed.set_joints(device, q)
                 nominal_line.append(believed.T_world(sensor)[:3, 3].copy())
-            bodies = [b for b in sensable_bodies(world) if b.owner != device]
+            bodies = [b for b in sensable_bodies(world) if b.owner not in carried]
             hit = ball_first_contact(points[0], points[1], radius, bodies)
             true, objects, off_edge, reported = None, [], False, None
             if hit is not None:

@@ -269,7 +269,9 @@ def check(
     json_output,
 ):
     """For CI: exit 0 when every program of RUN runs within all limits and without collisions
-    (or clearance violations), 1 with them otherwise.
+    (or clearance violations), 1 with them otherwise.  RUN is a run file, a run's name
+    (CELL/runs/RUN.yaml) or, when there is no such run, a program's (CELL/programs/RUN.yaml,
+    run alone).
 
     Each collision names the pair, its time span, its depth and contact point, and the device,
     step and program line that were running.  No contact deeper than the collision tolerance

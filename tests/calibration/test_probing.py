@@ -599,3 +599,33 @@ def test_the_loop_closed_with_the_robot_calibrated_first(planned, tmp_path, cli)
     for frame, (error, sigma) in off["calibrated robot"].items():
         assert error < 3 * sigma, (frame, error, sigma)
     assert max(e / s for e, s in off["nominal robot"].values()) > 10, off
+
+
+STYLUS = """  - name: stylus           # the probe's shaft, on the flange up to 7 mm short of the ball
+    mass: 0.1
+    geometry: {cylinder: {radius: 0.006, length: 0.15}, origin: {xyz: [0, 0, 0.075]}}
+"""
+
+
+def test_a_stylus_carried_by_the_robot_is_not_what_its_ball_touches(tmp_path):
+    """Issue 50's walkthrough: a probe's shaft modelled as an object on the flange is carried by
+    the robot, and was taken for part of the cell - where it stood at the guarded move's end,
+    so the ball 'touched' its own shaft mm before the part.  With the nominal cell as truth the
+    recorded contacts are the simulated ones (to 1e-8 m: mm before the fix)."""
+    cell = tmp_path / "cell"
+    shutil.copytree(CELL, cell)
+    text = (cell / "cell.yaml").read_text()
+    text = text.replace("objects:\n", "objects:\n" + STYLUS, 1)
+    text = text.replace(
+        "affixments:\n", "affixments:\n  - {parent: puma.tool, child: stylus, type: rigid}\n", 1
+    )
+    (cell / "cell.yaml").write_text(text)
+    with (cell / "poses.yaml").open("a") as poses:
+        poses.write("  stylus: {xyz: [0, 0, 0]}\n")
+    run = load_run(str(cell), str(short_program(tmp_path)))
+    result = simulate(run, collisions=False)
+    [point] = probe_run(result, run, load_cell(str(cell)).cell)
+    assert point.objects == ["plate"]
+    # the engine latches its contact by bisection in time; the line search is exact
+    assert np.abs(point.true - point.nominal).max() < 1e-8
+    assert np.abs(point.reported - point.true).max() < 1e-12

@@ -193,3 +193,16 @@ def test_massless_links_are_noted_and_files_are_listed_once(cli, tmp_path):
     assert result.exit_code == 0, result.output
     assert "motoman_gp7: its links have no mass in the cell" in " ".join(result.output.split())
     assert result.output.count("run.glb") == 1, result.output
+
+
+def test_a_program_checks_by_its_name_when_the_cell_has_no_run_of_that_name(cli, tmp_path):
+    """A newcomer's cell has programs/ and no runs/ yet: `rworld check CELL PROGRAM` runs the
+    program alone (as a run of one), and a name that is neither still exits 2."""
+    cell = tmp_path / "cell"
+    shutil.copytree(WORKCELLS / "probing", cell)
+    (cell / "runs" / "insert.yaml").unlink()
+    result = cli(["check", str(cell), "insert"])
+    assert result.exit_code == 0, result.output
+    assert f"ok: {cell}/programs/insert.yaml: 1 device(s)" in result.output
+    missing = cli(["check", str(cell), "insrt"])
+    assert missing.exit_code == 2 and "no run 'insrt'" in missing.output
