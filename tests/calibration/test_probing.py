@@ -601,7 +601,7 @@ def test_the_loop_closed_with_the_robot_calibrated_first(planned, tmp_path, cli)
     assert max(e / s for e, s in off["nominal robot"].values()) > 10, off
 
 
-STYLUS = """  - name: stylus           # the probe's shaft, on the flange up to 7 mm short of the ball
+STYLUS = """  - name: stylus   # the probe's shaft, on the flange up to 7 mm short of the ball
     mass: 0.1
     geometry: {cylinder: {radius: 0.006, length: 0.15}, origin: {xyz: [0, 0, 0.075]}}
 """
