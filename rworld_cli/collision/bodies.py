@@ -224,6 +224,9 @@ def convex_parts(shape: Shape) -> tuple[tuple[np.ndarray, np.ndarray], ...] | No
 
 HULL_DEVIATION = COLLISION_TOLERANCE / 2  # [m] how far a part's hull may stand off its surface
 BLOCK = 16384  # primitive queries per batched GJK call: bounds the memory of a large batch
+# query-vertices per batched call: a block of pairs with 3000-vertex hulls (a vendor's link
+# meshes) gets fewer queries, so each (Q, V, 3) array stays near 100 MB
+VERTEX_BUDGET = 4_000_000
 
 
 @functools.lru_cache(maxsize=256)
@@ -661,8 +664,16 @@ def distances(
     single = np.array([b.single_piece for b in bodies])
     primitive = single[I] & single[J]
     everything = np.flatnonzero(primitive)
-    for start in range(0, len(everything), BLOCK):  # blocks: memory bounded, whatever Q
-        rows = everything[start : start + BLOCK]
+    # widest pairs first, so that a block's pieces are padded to similar vertex counts and a
+    # block of large hulls holds fewer queries: memory bounded, whatever Q and the meshes
+    counts = _piece_table(bodies).counts
+    width = np.maximum(counts[I], counts[J])
+    everything = everything[np.argsort(-width[everything], kind="stable")]
+    start = 0
+    while start < len(everything):
+        size = int(np.clip(VERTEX_BUDGET // max(int(width[everything[start]]), 1), 64, BLOCK))
+        rows = everything[start : start + size]
+        start += size
         pa = _gather(bodies, I[rows], TI[rows])
         pb = _gather(bodies, J[rows], TJ[rows])
         res = convex.distance(pa, pb, max_iterations)
@@ -691,12 +702,14 @@ def _gather(bodies: list[Body], index: np.ndarray, T: np.ndarray) -> convex.Piec
     kind = table.kind[index]
     Ts = T @ table.T_frame_shape[index]
     R, c = Ts[:, :3, :3], Ts[:, :3, 3]
-    # corners only where there are any (boxes, hulls): spheres and cylinders are their centre
+    # corners only where there are any (boxes, hulls): spheres and cylinders are their centre;
+    # padded only to the widest piece asked for (the padding repeats a vertex: the same shape)
     cornered = np.flatnonzero((kind == 0) | (kind == 2))
-    world = np.repeat(c[:, None, :], table.vertices.shape[1], axis=1)
+    width = int(table.counts[index].max(initial=1))
+    world = np.repeat(c[:, None, :], width, axis=1)
     if len(cornered):
         R_c = np.transpose(R[cornered], (0, 2, 1))
-        world[cornered] += table.vertices[index[cornered]] @ R_c  # matmul: 7x einsum's speed
+        world[cornered] += table.vertices[index[cornered], :width] @ R_c  # matmul: 7x einsum
     axes = np.transpose(R, (0, 2, 1)).copy()  # boxes and cylinders: their own axes as rows
     axis = R[:, :, 2].copy()
     center = c.copy()
@@ -732,6 +745,7 @@ class _PieceTable:
     scalars: np.ndarray  # (B, 3): radius, half length, margin
     axes: np.ndarray  # (B, 3, 3)
     center: np.ndarray  # (B, 3)
+    counts: np.ndarray  # (B,) int: each piece's own vertex count (before the padding)
 
 
 # the last few body sequences (the bodies kept alive, so that their ids stay theirs) and tables
@@ -768,6 +782,7 @@ def _piece_table(bodies: list[Body]) -> _PieceTable:
         ),
         np.stack([lp.axes for lp in local]) if local else np.zeros((0, 3, 3)),
         np.stack([lp.center for lp in local]) if local else np.zeros((0, 3)),
+        np.array([len(lp.vertices) for lp in local], dtype=int),
     )
     _TABLES.insert(0, (key, list(bodies), table))
     del _TABLES[4:]  # a few models at a time: bodies stay alive only while they are recent
