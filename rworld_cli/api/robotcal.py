@@ -811,6 +811,13 @@ def plan_robot_calibration(
     if not (count >= 1 and candidates >= count and sigma > 0 and np.isfinite(sigma)):
         raise UserError("give --poses >= 1, --candidates >= --poses and a sigma above 0")
     dev = cell.devices[device]
+    if program is not None and not np.isfinite(dev.limit_array("acceleration")).any():
+        # said once, before minutes of planning, not per move of the program checked at the end
+        raise UserError(
+            f"--program: no joint of '{device}' has an acceleration limit, so nothing times the "
+            "program's moves: add 'acceleration' to its joints' limits in the cell (an imported "
+            "robot: import it with --joint-limits joint_limits.yaml); nothing written"
+        )
     sensor: str | None = None
     radius = 0.0
     if instrument == "probe":

@@ -637,3 +637,25 @@ def test_touch_planning_refuses_what_it_cannot_touch(tmp_path, cli, extra, messa
     assert result.exit_code == 2, result.output
     assert message in result.output
     assert not program.exists()
+
+
+def test_a_program_for_a_robot_without_acceleration_limits_is_refused_before_planning(
+    tmp_path, cli
+):
+    """An imported robot without --joint-limits: said once, before the planning, not per move
+    at a temporary file's lines after it."""
+    from tests.conftest import WORKCELLS
+
+    cell = tmp_path / "cell"
+    shutil.copytree(WORKCELLS / "puma560", cell)
+    text = (cell / "cell.yaml").read_text()
+    lines = [line for line in text.splitlines() if "acceleration: " not in line]
+    (cell / "cell.yaml").write_text("\n".join(lines) + "\n")
+    result = cli(
+        ["plan-robot-calibration", str(cell), "--device", "puma", "--poses", "5"]
+        + ["--program", str(tmp_path / "p.yaml"), "-o", str(tmp_path / "o.yaml")]
+    )
+    assert result.exit_code == 2, result.output
+    assert result.output.count("acceleration limit") == 1
+    assert "import it with --joint-limits" in result.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cell"]
