@@ -210,7 +210,7 @@ def export_program(
                 f"'{name}' has a {vendor} controller (controller.vendor), whose language is "
                 f"{ARM_FORMATS[VENDOR_FORMATS[vendor]]}; written in {ARM_FORMATS[fmt]} as asked"
             )
-        program = _device_program(loaded, result, name, world, stem, frame)
+        program = _device_program(loaded, result, name, world, frame)
         if compensate:
             moved = _compensate(cell, loaded.cell, name, program, fmt)
             compensated.extend(moved)
@@ -243,15 +243,17 @@ def export_program(
     )
 
 
-def _device_program(loaded, result, name: str, world, stem: str, frame: str | None):
-    """One device's program for a writer (:class:`~rworld_cli.export.common.DeviceProgram`):
-    its instructions from the simulated run, its controller's flange and base, and the user
-    frame ``frame`` placed where it is at the run's start (``world``)."""
+def _device_program(loaded, result, name: str, world, frame: str | None):
+    """One device's program for a writer (:class:`~rworld_cli.export.common.DeviceProgram`),
+    named after its program file: its instructions from the simulated run, its controller's
+    flange and base, and the user frame ``frame`` placed where it is at the run's start
+    (``world``)."""
     from ..export.common import instructions
     from ..world.tree import World
 
     dev = loaded.cell.devices[name]
     profile = dev.controller
+    file = next(p.file for p in loaded.programs if p.device == name)
     flange = [r.move for r in result.resolved[name] if r.move and r.move.link != dev.dof]
     if flange:
         m = flange[0]
@@ -267,8 +269,8 @@ def _device_program(loaded, result, name: str, world, stem: str, frame: str | No
         result.resolved[name],
         result.times,
         result.devices[name],
-        stem,
-        next(p.file for p in loaded.programs if p.device == name),
+        Path(file).stem,
+        file,
         T_link_flange,
         _flange_loads(World(loaded.cell), result, name, T_link_flange),
     )
@@ -567,14 +569,7 @@ def measure_from_log(
             f"--frame: unknown frame '{frame}'{did_you_mean(frame, loaded.cell.frames)}"
         )
     world = World(loaded.cell)
-    program = _device_program(
-        loaded,
-        result,
-        device,
-        world,
-        Path(next(p.file for p in loaded.programs if p.device == device)).stem,
-        frame,
-    )
+    program = _device_program(loaded, result, device, world, frame)
     records = program.records
     contacts = logged.contacts
     if len(contacts) != len(records):

@@ -126,22 +126,9 @@ def import_urdf(
     """
     from ..api import import_urdf as run
 
-    lock_values = {}
-    for text in locks:
-        name, sep, value = text.partition("=")
-        if not sep or not name.strip():
-            raise click.BadParameter(
-                f"'{text}': write JOINT=VALUE, e.g. finger=20mm", param_hint="--lock"
-            )
-        lock_values[name.strip()] = value.strip()
-    arguments = {}
-    for text in xacro_args:
-        name, sep, value = text.partition(":=")
-        if not sep or not name.strip():
-            raise click.BadParameter(
-                f"'{text}': write NAME:=VALUE, e.g. prefix:=left_", param_hint="--xacro-arg"
-            )
-        arguments[name.strip()] = value
+    locked = _assignments(locks, "=", "JOINT=VALUE, e.g. finger=20mm", "--lock")
+    lock_values = {name: value.strip() for name, value in locked.items()}
+    arguments = _assignments(xacro_args, ":=", "NAME:=VALUE, e.g. prefix:=left_", "--xacro-arg")
     result = run(
         urdf,
         output,
@@ -175,6 +162,17 @@ def import_urdf(
         )
         for a, b in result.renamed.items():
             click.echo(f"    {a} -> {b}: {result.renamed_where.get(a, '')}")
+
+
+def _assignments(texts, sep: str, form: str, option: str) -> dict[str, str]:
+    """``NAME<sep>VALUE`` option values as {name: value}; a malformed one is a usage error."""
+    out = {}
+    for text in texts:
+        name, found, value = text.partition(sep)
+        if not found or not name.strip():
+            raise click.BadParameter(f"'{text}': write {form}", param_hint=option)
+        out[name.strip()] = value
+    return out
 
 
 @import_group.command("ur-calibration")
