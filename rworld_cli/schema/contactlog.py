@@ -87,12 +87,6 @@ def _rotvec(v: np.ndarray) -> np.ndarray:
     return spatial.axis_rotation(v / angle, angle) if angle > 0 else np.eye(3)
 
 
-def _pose(xyz, R) -> np.ndarray:
-    T = np.eye(4)
-    T[:3, :3], T[:3, 3] = R, xyz
-    return T
-
-
 def _euler_zyx(z: float, y: float, x: float) -> np.ndarray:
     """``R = Rz(z) Ry(y) Rx(x)`` of angles in degrees."""
     return spatial.rpy_to_matrix(np.radians([x, y, z]))
@@ -137,7 +131,9 @@ def _urscript(lines: list[str], path: str) -> list[LoggedContact]:
         v = _numbers(found.group(1), 6, path, n, "the pose")
         scale = UNITS[fields["unit"]]
         R = _rotvec(v[3:])
-        out.append(LoggedContact(k, total, _pose(v[:3] * scale, R), fields, f"{path}:{n}"))
+        out.append(
+            LoggedContact(k, total, spatial.make_transform(R, v[:3] * scale), fields, f"{path}:{n}")
+        )
     return out
 
 
@@ -156,11 +152,8 @@ def _rapid(lines: list[str], path: str) -> list[LoggedContact]:
         norm = float(np.linalg.norm(q))
         if not np.isfinite(norm) or abs(norm - 1.0) > 1e-3:
             _fail(path, n, f"q={quat.group(0)[2:]} is not a unit quaternion (norm {norm:.6g})")
-        out.append(
-            LoggedContact(
-                k, total, _pose(p, spatial.quat_to_matrix(q / norm)), fields, f"{path}:{n}"
-            )
-        )
+        T = spatial.make_transform(spatial.quat_to_matrix(q / norm), p)
+        out.append(LoggedContact(k, total, T, fields, f"{path}:{n}"))
     return out
 
 
@@ -188,7 +181,8 @@ def _krl(lines: list[str], path: str) -> tuple[list[LoggedContact], int | None]:
         v = {key.upper(): float(value) for key, value in values.items()}
         _, _, total, fields, _ = report
         scale = UNITS[fields["unit"]]
-        T = _pose(np.array([v["X"], v["Y"], v["Z"]]) * scale, _euler_zyx(v["A"], v["B"], v["C"]))
+        xyz = np.array([v["X"], v["Y"], v["Z"]]) * scale
+        T = spatial.make_transform(_euler_zyx(v["A"], v["B"], v["C"]), xyz)
         out.append(LoggedContact(k, total, T, fields, f"{path}:{n}"))
         report = None
     return out, count
@@ -232,9 +226,9 @@ def _fanuc(lines: list[str], path: str, first: int) -> list[LoggedContact]:
         assert isinstance(values, dict)
         if all(v == 0.0 for v in values.values()):  # cleared by the program, never reached
             break
-        T = _pose(
-            np.array([values[c] for c in "XYZ"]) * 1e-3,
+        T = spatial.make_transform(
             _euler_zyx(values["R"], values["P"], values["W"]),
+            np.array([values[c] for c in "XYZ"]) * 1e-3,
         )
         out.append(LoggedContact(k, 0, T, {}, f"{path}:{n}"))
         k += 1
