@@ -30,7 +30,7 @@ import numpy as np
 from ..geometry import MeshData, shape_mesh, winding_number
 from ..model.cell import CellModel, Shape
 from ..units import COLLISION_TOLERANCE
-from . import convex
+from . import bvh, convex
 
 
 @dataclass(frozen=True)
@@ -109,6 +109,37 @@ class Body:
         if shape.kind == "sphere":
             return LocalPiece(1, T, np.zeros((1, 3)), margin=size[0] / 2)
         return LocalPiece(3, T, np.zeros((1, 3)), radius=size[0] / 2, half_length=size[2] / 2)
+
+    @functools.cached_property
+    def tree(self) -> bvh.Tree:
+        """The box tree over the body's leaves (:mod:`bvh`): its triangles (a mesh checked by
+        its triangles), its convex parts' hulls, or its one piece; built once per body."""
+        if self.is_mesh:
+            return bvh.build(self._triangle_bounds[0])
+        if self.parts is not None:
+            return bvh.build(self._hulls[0])
+        box = self.shape.bounding_box
+        corners = convex.box_corners(box.half_extents) @ box.T_owner_box[:3, :3].T
+        return bvh.build((corners + box.T_owner_box[:3, 3])[None])
+
+    def leaf_pieces(self, leaf: np.ndarray, T_world_frame: np.ndarray) -> convex.Pieces:
+        """Leaves ``leaf[q]`` of :attr:`tree` at poses ``T_world_frame[q]`` (Q, 4, 4), as Q
+        convex pieces in world."""
+        T = np.asarray(T_world_frame, dtype=float).reshape(-1, 4, 4)
+        Rt, t = np.transpose(T[:, :3, :3], (0, 2, 1)), T[:, :3, 3]  # points as rows: x R^T
+        if self.is_mesh:
+            return convex.triangles(self._triangle_bounds[0][leaf] @ Rt + t[:, None])
+        if self.parts is not None and not self.single_piece:
+            local, axes = self._hulls
+            width = int(self._hull_counts[leaf].max(initial=1))
+            return convex.hulls(local[leaf, :width] @ Rt + t[:, None], axes[leaf] @ Rt)
+        return self.pieces(T)
+
+    @functools.cached_property
+    def _hull_counts(self) -> np.ndarray:
+        """Each convex part's own vertex count, before :attr:`_hulls` pads them (C,)."""
+        assert self.parts is not None
+        return np.array([len(v) for v, _ in self.parts])
 
     def pieces(self, T_world_frame: np.ndarray) -> convex.Pieces:
         """The body's convex pieces in world for K poses (K, 4, 4).
@@ -445,7 +476,7 @@ def pair_distance(
         k, io, it = _near_triangles(mesh_body, T_mesh, po, len(po) // K)
         tri = mesh_body._triangle_bounds[0][it]
         world = np.einsum("qij,qtj->qti", T_mesh[k, :3, :3], tri) + T_mesh[k, None, :3, 3]
-        pieces_mesh, pieces_other = convex.triangles(world), po.take(k * (len(po) // K) + io)
+        pieces_mesh, pieces_other = convex.triangles(world), po.share(k * (len(po) // K) + io)
         if a.is_mesh:
             return _closest(a, b, Ta, Tb, K, k, pieces_mesh, pieces_other, max_iterations)
         return _closest(a, b, Ta, Tb, K, k, pieces_other, pieces_mesh, max_iterations)
@@ -460,27 +491,28 @@ def pair_distance(
             d, n = convex.penetration(pa.take(rows), pb.take(rows))
             depth[rows] = np.maximum(d, 0.0)
         return PairDistance(dist, depth, pta, ptb, np.zeros(K, dtype=bool))
-    # several pieces on both sides (convex parts, two meshes): every (state, piece, piece)
-    # combination, culled by the pieces' bounding spheres against the best centre distance found
-    grid_a, grid_b = np.meshgrid(np.arange(Fa), np.arange(Fb), indexing="ij")
-    ia, ib = grid_a.ravel(), grid_b.ravel()
-    k = np.repeat(np.arange(K), len(ia))
-    ga = k * Fa + np.tile(ia, K)
-    gb = k * Fb + np.tile(ib, K)
-    ra, rb = _piece_radius(pa), _piece_radius(pb)
-    centre = np.linalg.norm(pa.center[ga] - pb.center[gb], axis=1)
-    lower = centre - ra[ga] - rb[gb]
-    upper = np.full(K, np.inf)
-    np.minimum.at(upper, k, centre + ra[ga] + rb[gb])
-    keep = lower <= upper[k]
-    k, ga, gb = k[keep], ga[keep], gb[keep]
-    return _closest(a, b, Ta, Tb, K, k, pa.take(ga), pb.take(gb), max_iterations)
+    # several leaves on both sides (convex parts, two meshes): the leaf pairs that may hold
+    # each state's nearest pair, found by the bodies' trees (bvh), then measured
+    whole = {id(body): body.pieces(T) for body, T in ((a, Ta), (b, Tb)) if body.single_piece}
+
+    def leaves(body, T, k, leaf):  # a single piece: placed once per state, shared by its pairs
+        if body.single_piece:
+            return whole[id(body)].share(k)
+        return body.leaf_pieces(leaf, T[k])
+
+    def measure(k, la, lb):
+        return convex.distance(leaves(a, Ta, k, la), leaves(b, Tb, k, lb), max_iterations).distance
+
+    k, la, lb = bvh.candidates(a.tree, b.tree, Ta, Tb, measure)
+    return _closest(
+        a, b, Ta, Tb, K, k, leaves(a, Ta, k, la), leaves(b, Tb, k, lb), max_iterations
+    )
 
 
 def _piece_boxes(p: convex.Pieces) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A box holding each piece: (centre (P, 3), axes as rows (P, 3, 3), half extents (P, 3))
     [m], along the piece's own axes (exact for boxes)."""
-    offset = p.vertices - p.center[:, None, :]
+    offset = p.points - p.center[:, None, :]
     half = np.abs(np.einsum("pij,pvj->pvi", p.axes, offset)).max(axis=1)
     half = half + np.where(
         p.cylinder[:, None], np.stack([p.radius, p.radius, p.half_length], axis=1), 0.0
@@ -558,7 +590,7 @@ def _near_triangles(
         ks = k[first]
         world = np.einsum("qij,qtj->qti", R[ks], triangles[tri_index[first]]) + t[ks, None]
         exact = convex.distance(
-            convex.triangles(world), other.take(ks * per_state + o[first])
+            convex.triangles(world), other.share(ks * per_state + o[first])
         ).distance
         exact = np.maximum(exact, 0.0)
         better = exact <= upper[ks]
@@ -613,8 +645,9 @@ def _closest(a, b, Ta, Tb, K, k, pa, pb, max_iterations) -> PairDistance:
         free = np.flatnonzero(dist > 0)
         if not len(free):
             continue
-        probe = other.pieces(T_other[free])
-        point = probe.vertices[:: len(probe) // len(free), 0]  # one point of the other body
+        point = other.leaf_pieces(np.zeros(len(free), dtype=int), T_other[free]).points[
+            :, 0
+        ]  # one point of the other body: its first leaf's first vertex
         local = np.einsum(
             "kji,kj->ki", T_mesh[free, :3, :3], point - T_mesh[free, :3, 3]
         )  # in the mesh's frame
@@ -625,11 +658,6 @@ def _closest(a, b, Ta, Tb, K, k, pa, pb, max_iterations) -> PairDistance:
     return PairDistance(np.where(buried, 0.0, dist), depth, pta, ptb, buried)
 
 
-def _piece_radius(p: convex.Pieces) -> np.ndarray:
-    """A radius about ``p.center`` enclosing each piece [m]."""
-    r = np.max(np.linalg.norm(p.vertices - p.center[:, None, :], axis=2), axis=1)
-    cyl = np.hypot(p.radius, p.half_length)
-    return np.where(p.cylinder, cyl, r) + p.margin
 
 
 def distances(

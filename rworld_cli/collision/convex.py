@@ -66,6 +66,9 @@ class Pieces:
         Growth of the core [m] (sphere radius; 0 otherwise).
     axes : ndarray, shape (P, 3, 3)
         The piece's own axes as rows (box axes; cylinder: two radial axes and the axis).
+    rows : ndarray of int, shape (P,), or None
+        When given, ``vertices`` is a table (M, V, 3) shared by the pieces: piece p's vertices
+        are ``vertices[rows[p]]`` (see :meth:`share`).
     """
 
     vertices: np.ndarray
@@ -76,14 +79,21 @@ class Pieces:
     half_length: np.ndarray
     margin: np.ndarray
     axes: np.ndarray
+    rows: np.ndarray | None = None
+
+    @property
+    def points(self) -> np.ndarray:
+        """Each piece's vertices (P, V, 3) [m] (copied out of a shared table)."""
+        return self.vertices if self.rows is None else self.vertices[self.rows]
 
     def __len__(self) -> int:
         return len(self.center)
 
     def take(self, index) -> Pieces:
         """The pieces at ``index`` (an integer array), as a new batch."""
+        shared = self.rows is not None
         return Pieces(
-            self.vertices[index],
+            self.vertices if shared else self.vertices[index],
             self.cylinder[index],
             self.center[index],
             self.axis[index],
@@ -91,12 +101,29 @@ class Pieces:
             self.half_length[index],
             self.margin[index],
             self.axes[index],
+            self.rows[index] if shared else None,
+        )
+
+    def share(self, index) -> Pieces:
+        """The pieces at ``index``, their vertices left in this batch's table (no copy): a
+        hull of thousands of vertices met by many pairs is stored once."""
+        return Pieces(
+            self.vertices,
+            self.cylinder[index],
+            self.center[index],
+            self.axis[index],
+            self.radius[index],
+            self.half_length[index],
+            self.margin[index],
+            self.axes[index],
+            (np.arange(len(self.center)) if self.rows is None else self.rows)[index],
         )
 
     def support(self, d: np.ndarray) -> np.ndarray:
         """The core's farthest point in direction ``d`` (P, 3) -> (P, 3) [m] (margin excluded)."""
-        dots = np.einsum("pvi,pi->pv", self.vertices, d)
-        out = self.vertices[np.arange(len(d)), np.argmax(dots, axis=1)]
+        vertices = self.points
+        dots = np.einsum("pvi,pi->pv", vertices, d)
+        out = vertices[np.arange(len(d)), np.argmax(dots, axis=1)]
         if self.cylinder.any():
             c = self.cylinder
             a, dc = self.axis[c], d[c]
@@ -164,7 +191,13 @@ def distance(a: Pieces, b: Pieces, max_iterations: int = MAX_ITERATIONS) -> Dist
     """
     from .compiled import gjk
 
-    rows = gjk(a, b, max_iterations)
+    rows = gjk(
+        a,
+        b,
+        max_iterations,
+        None if a.rows is None else (a.vertices, a.rows),
+        None if b.rows is None else (b.vertices, b.rows),
+    )
     if rows is None:
         return _distances(a, b, *_gjk_numpy(a, b, max_iterations))
     return _distances(
@@ -491,7 +524,7 @@ def triangles(tri: np.ndarray) -> Pieces:
     """Triangles (P, 3, 3) [m] as flat polytopes."""
     tri = np.asarray(tri, dtype=float).reshape(-1, 3, 3)
     P = len(tri)
-    vertices = np.concatenate([tri, np.repeat(tri[:, :1], 5, axis=1)], axis=1)
+    vertices = tri.copy()
     e0, e1 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
     n = np.cross(e0, e1)
     axes = np.stack([e0, n, np.cross(n, e0)], axis=1)
