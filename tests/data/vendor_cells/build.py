@@ -92,18 +92,18 @@ def build(name: str) -> None:
         shutil.copy(ROOT / "workcells/probing/meshes/plate.stl", cell / "meshes/plate.stl")
         (cell / "cell.yaml").write_text(
             text
-            + f"""
+            + """
 objects:
   - name: table
-    geometry: {{box: [0.6, 0.8, 0.3], origin: {{xyz: [0, 0, -0.15]}}}}
+    geometry: {box: [0.6, 0.8, 0.3], origin: {xyz: [0, 0, -0.15]}}
     frames:
       - name: top_center
   - name: plate            # workcells/probing's 160 x 120 x 15 mm plate with two 20 mm holes
     mass: 2.2
-    geometry: {{mesh: {{file: meshes/plate.stl, units: mm}}}}
+    geometry: {mesh: {file: meshes/plate.stl, units: mm}}
 
 affixments:
-  - {{parent: table.top_center, child: plate, type: non_rigid, kind: rests_on}}
+  - {parent: table.top_center, child: plate, type: non_rigid, kind: rests_on}
 """
         )
         poses = (cell / "poses.yaml").read_text()
