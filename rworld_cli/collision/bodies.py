@@ -453,7 +453,12 @@ class PairDistance:
 
 
 def pair_distance(
-    a: Body, b: Body, Ta: np.ndarray, Tb: np.ndarray, max_iterations: int = convex.MAX_ITERATIONS
+    a: Body,
+    b: Body,
+    Ta: np.ndarray,
+    Tb: np.ndarray,
+    max_iterations: int = convex.MAX_ITERATIONS,
+    within: float = np.inf,
 ) -> PairDistance:
     """Exact distance between bodies ``a`` and ``b`` at K states.
 
@@ -462,6 +467,10 @@ def pair_distance(
     a, b : Body
     Ta, Tb : ndarray, shape (K, 4, 4)
         ``T_world_frame`` of each body's frame.
+    within : float
+        Exact only where the distance is at most this [m]; elsewhere it may be reported as
+        inf (farther than ``within``).  A collision test passes 0: bodies with several leaves
+        on both sides then only look at their leaves whose boxes touch.
 
     Returns
     -------
@@ -503,10 +512,8 @@ def pair_distance(
     def measure(k, la, lb):
         return convex.distance(leaves(a, Ta, k, la), leaves(b, Tb, k, lb), max_iterations).distance
 
-    k, la, lb = bvh.candidates(a.tree, b.tree, Ta, Tb, measure)
-    return _closest(
-        a, b, Ta, Tb, K, k, leaves(a, Ta, k, la), leaves(b, Tb, k, lb), max_iterations
-    )
+    k, la, lb = bvh.candidates(a.tree, b.tree, Ta, Tb, measure, within + 1e-9)
+    return _closest(a, b, Ta, Tb, K, k, leaves(a, Ta, k, la), leaves(b, Tb, k, lb), max_iterations)
 
 
 def _piece_boxes(p: convex.Pieces) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -658,8 +665,6 @@ def _closest(a, b, Ta, Tb, K, k, pa, pb, max_iterations) -> PairDistance:
     return PairDistance(np.where(buried, 0.0, dist), depth, pta, ptb, buried)
 
 
-
-
 def distances(
     bodies: list[Body],
     I: np.ndarray,
@@ -667,6 +672,7 @@ def distances(
     TI: np.ndarray,
     TJ: np.ndarray,
     max_iterations: int = convex.MAX_ITERATIONS,
+    within: float = np.inf,
 ) -> PairDistance:
     """Exact distances of Q queries: body ``I[q]`` at ``TI[q]`` against ``J[q]`` at ``TJ[q]``.
 
@@ -681,6 +687,8 @@ def distances(
         ``T_world_frame`` of each query's bodies.
     max_iterations : int
         GJK's limit; a pair short of it reports a lower bound (see :func:`convex.distance`).
+    within : float
+        Distances above this [m] may be reported as inf (:func:`pair_distance`).
     """
     I, J = np.asarray(I, dtype=int), np.asarray(J, dtype=int)
     Q = len(I)
@@ -713,7 +721,7 @@ def distances(
             out.depth[rows[over]] = np.maximum(d, 0.0)
     for i, j in {(int(a), int(b)) for a, b in zip(I[~primitive], J[~primitive])}:
         sel = np.flatnonzero((I == i) & (J == j))
-        res1 = pair_distance(bodies[i], bodies[j], TI[sel], TJ[sel], max_iterations)
+        res1 = pair_distance(bodies[i], bodies[j], TI[sel], TJ[sel], max_iterations, within)
         out.distance[sel], out.depth[sel], out.buried[sel] = res1.distance, res1.depth, res1.buried
         out.point_a[sel], out.point_b[sel] = res1.point_a, res1.point_b
     return out

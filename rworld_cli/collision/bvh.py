@@ -165,9 +165,11 @@ def box_gap(
     reach_b = hb[:, None, i1] * absM[:, :, i2] + hb[:, None, i2] * absM[:, :, i1]
     across = np.abs(p[:, i2, None] * M[:, i1, :] - p[:, i1, None] * M[:, i2, :])
     length = np.sqrt(np.maximum(1.0 - M**2, 0.0))
-    edge = np.where(
-        length > 1e-6, (across - reach_a - reach_b) / np.maximum(length, 1e-6), -np.inf
-    ).reshape(len(p), 9).max(axis=1)
+    edge = (
+        np.where(length > 1e-6, (across - reach_a - reach_b) / np.maximum(length, 1e-6), -np.inf)
+        .reshape(len(p), 9)
+        .max(axis=1)
+    )
     inside = np.maximum(np.maximum(along_a.max(axis=1), along_b.max(axis=1)), edge)
     return np.where(inside > 0, np.maximum(np.maximum(apart_a, apart_b), edge), inside)
 
@@ -199,6 +201,7 @@ def candidates(
     Ta: np.ndarray,
     Tb: np.ndarray,
     measure,
+    within: float = np.inf,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The leaf pairs that may hold each state's nearest pair (module docstring).
 
@@ -210,6 +213,10 @@ def candidates(
     measure : callable
         ``measure(k, leaf_a, leaf_b) -> distance (Q,)``: the exact distance of leaves
         ``leaf_a[q]`` of a and ``leaf_b[q]`` of b at state ``k[q]`` [m].
+    within : float
+        Only pairs that may be nearer than this [m] are wanted (a collision test asks for 0):
+        the search starts with it as every state's upper bound, and a state left with no
+        pair is farther than it.
 
     Returns
     -------
@@ -247,7 +254,7 @@ def candidates(
             a[inner] = np.where(first, a1, a2)
             b[inner] = np.where(first, b1, b2)
 
-    upper = np.full(K, np.inf)
+    upper = np.full(K, float(within))
 
     def refine(k, a, b, g):
         """Each state's most promising node pair, followed down to a leaf pair and measured:

@@ -53,9 +53,7 @@ def gjk_ir(symbol: str) -> str:
     module = ir.Module(name="collision")
     fn = ir.Function(
         module,
-        ir.FunctionType(
-            ir.VoidType(), [I64, I64, I64, ptr, ptr, ptr, ptr, ptr, I64, iptr, iptr]
-        ),
+        ir.FunctionType(ir.VoidType(), [I64, I64, I64, ptr, ptr, ptr, ptr, ptr, I64, iptr, iptr]),
         name=symbol,
     )
     P, VA, VB, verts_a, verts_b, shape_a, shape_b, out, max_it, rows_a, rows_b = fn.args
@@ -451,9 +449,7 @@ def shape_rows(pieces) -> np.ndarray:
     )
 
 
-def gjk(
-    a, b, max_iterations: int, vertices_a=None, vertices_b=None
-) -> np.ndarray | None:
+def gjk(a, b, max_iterations: int, vertices_a=None, vertices_b=None) -> np.ndarray | None:
     """The cores' GJK for pairs ``a[k]``, ``b[k]``: (P, 11) rows (module docstring), or None
     when no compiled kernel is available.
 

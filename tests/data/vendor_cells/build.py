@@ -31,29 +31,51 @@ ROBOTS = {
         "staubli/staubli_tx2_60_support/urdf/tx2_60.xacro",
         "staubli",
         0.45,
-        [[0, 20, 100, 0, 50, 0], [30, 40, 90, 10, 40, 0], [-20, 35, 95, -10, 45, 30],
-         [0, 0, 90, 0, 0, 0]],
+        [
+            [0, 20, 100, 0, 50, 0],
+            [30, 40, 90, 10, 40, 0],
+            [-20, 35, 95, -10, 45, 30],
+            [0, 0, 90, 0, 0, 0],
+        ],
     ),
     "iiwa14": (
         "kuka_iiwa/kuka_lbr_iiwa_support/urdf/lbr_iiwa_14_r820.xacro",
         "kuka_iiwa",
         0.55,
-        [[0, 40, 0, -80, 0, 50, 0], [25, 45, 10, -75, 0, 55, 20], [-25, 45, -10, -75, 0, 55, -20],
-         [0, 20, 0, -100, 0, 50, 0], [0, 0, 0, 0, 0, 0, 0]],
+        [
+            [0, 40, 0, -80, 0, 50, 0],
+            [25, 45, 10, -75, 0, 55, 20],
+            [-25, 45, -10, -75, 0, 55, -20],
+            [0, 20, 0, -100, 0, 50, 0],
+            [0, 0, 0, 0, 0, 0, 0],
+        ],
     ),
     "gp7": (
         "motoman/motoman_gp7_support/urdf/gp7.xacro",
         "motoman",
         0.5,
-        [[0, 20, -20, 0, -70, 0], [25, 30, -10, 0, -80, 0], [-25, 30, -10, 0, -80, 0],
-         [0, 10, -30, 0, -60, 0], [0, 0, 0, 0, 0, 0]],
+        [
+            [0, 20, -20, 0, -70, 0],
+            [25, 30, -10, 0, -80, 0],
+            [-25, 30, -10, 0, -80, 0],
+            [0, 10, -30, 0, -60, 0],
+            [0, 0, 0, 0, 0, 0],
+        ],
     ),
 }
 
 
 def import_robot(xacro: Path, package: Path, out: Path, limits: Path | None = None) -> None:
-    command = ["rworld", "import", "urdf", str(xacro.relative_to(ROOT)), "--package-path",
-               str(package.relative_to(ROOT)), "-o", str(out)]
+    command = [
+        "rworld",
+        "import",
+        "urdf",
+        str(xacro.relative_to(ROOT)),
+        "--package-path",
+        str(package.relative_to(ROOT)),
+        "-o",
+        str(out),
+    ]
     if limits is not None:
         command += ["--joint-limits", str(limits)]
     subprocess.run(command, check=True, cwd=ROOT, capture_output=True)
