@@ -14,6 +14,15 @@ Run:  .venv/bin/pip install -e ".[bench]" && .venv/bin/python bench/collision.py
 3. A small box buried inside a closed mesh: fcl (meshes are surfaces) against rworld (solids).
 4. `rworld check` with the continuous collision check against `--no-collisions`, fresh
    processes, best of REPEAT.
+5. (``--vendor``) The vendor cells of issue 47 (tests/data/vendor_cells: the vendors' own ROS
+   meshes, a table, a holed plate of 2 900 triangles): `rworld check` against
+   `--no-collisions` with its peak memory; then configuration checks of each robot in its cell
+   (``ConfigurationChecker.check(q, nearest=False)``: free or not) at batches of 1, 64 and 4096
+   random joint states, beside coal 3 (the FCL successor; OBBRSS trees of the same triangles,
+   one ``coal.collide`` per pair the device may not touch, stopping at a state's first
+   contact).  Their decisions differ where they mean different things: rworld's solids
+   collide when overlapping deeper than the 1 mm tolerance or buried; coal's surfaces at any
+   contact and never when buried.
 
 Ratios are of one run on one machine; the machines are shared and noisy.
 """
@@ -278,21 +287,123 @@ def check_cost(repeat: int) -> None:
         )
 
 
+VENDOR_CELLS = ("tx2_60", "iiwa14", "gp7")
+
+
+def _timed(command: list[str]) -> tuple[float, float]:
+    """Wall time [s] and peak memory [MB] of a fresh process."""
+    t0 = time.perf_counter()
+    child = subprocess.Popen(
+        command, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
+    _, _, usage = os.wait4(child.pid, 0)
+    return time.perf_counter() - t0, usage.ru_maxrss / 1024
+
+
+def _cpu() -> str:
+    try:
+        for line in subprocess.run(["lscpu"], capture_output=True, text=True).stdout.splitlines():
+            if line.startswith("Model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return "unknown"
+
+
+def vendor_checks() -> None:
+    rworld = shutil.which("rworld", path=str(Path(sys.executable).parent)) or "rworld"
+    print("\n## 5a. `rworld check` on the vendor cells (fresh processes, one run each)\n")
+    print("| cell | --no-collisions [s] | check [s] | ratio | check peak [MB] |")
+    print("|---|---:|---:|---:|---:|")
+    for name in VENDOR_CELLS:
+        cell = str(REPO / "tests/data/vendor_cells" / name)
+        off, _ = _timed([rworld, "check", cell, "tour", "--no-collisions"])
+        on, peak = _timed([rworld, "check", cell, "tour"])
+        print(f"| {name} | {off:.2f} | {on:.2f} | {on / off:.1f} | {peak:.0f} |")
+
+
+def vendor_configurations(batches=(1, 64, 4096)) -> None:
+    import coal
+
+    from rworld_cli.collision.bodies import collision_model
+    from rworld_cli.collision.configurations import ConfigurationChecker
+    from rworld_cli.schema.loader import load_cell
+    from rworld_cli.world.tree import World
+
+    print("\n## 5b. Configuration checks: microseconds per joint state (one run)\n")
+    print(
+        "| robot | batch | rworld [us/state] | coal [us/state] | coal / rworld | decisions alike |"
+    )
+    print("|---|---:|---:|---:|---:|---:|")
+    for name in VENDOR_CELLS:
+        loaded = load_cell(str(REPO / "tests/data/vendor_cells" / name / "cell.yaml"))
+        cell = getattr(loaded, "cell", loaded)
+        world, model = World(cell), collision_model(cell)
+        device = next(iter(cell.devices))
+        check = ConfigurationChecker(world, model, device)
+        geometry = {}
+        for body in model.bodies:  # coal: an OBBRSS tree of the body's triangles, in its frame
+            tri = body.mesh().triangles()
+            vertices, faces = np.unique(tri.reshape(-1, 3), axis=0, return_inverse=True)
+            bvh = coal.BVHModelOBBRSS()
+            bvh.beginModel(len(tri), len(vertices))
+            bvh.addVertices(vertices)
+            bvh.addTriangles(faces.reshape(-1, 3))
+            bvh.endModel()
+            geometry[body.label] = bvh
+        pairs = [(model.bodies[i], model.bodies[j]) for i, j in check.pairs]
+        limits = np.clip(
+            [(j.limits.lower, j.limits.upper) for j in cell.devices[device].joints], -np.pi, np.pi
+        )
+        rng = np.random.default_rng(0)
+        check.check(rng.uniform(limits[:, 0], limits[:, 1], (2, len(limits))), nearest=False)
+        request = coal.CollisionRequest()
+        for batch in batches:
+            q = rng.uniform(limits[:, 0], limits[:, 1], (batch, len(limits)))
+            t0 = time.perf_counter()
+            free = check.check(q, nearest=False).free
+            ours = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            poses = check.poses(q)
+            theirs_free = np.ones(batch, dtype=bool)
+            for k in range(batch):
+                for a, b in pairs:
+                    Ta, Tb = poses[a.frame][k], poses[b.frame][k]
+                    result = coal.CollisionResult()
+                    if coal.collide(
+                        geometry[a.label],
+                        coal.Transform3s(Ta[:3, :3], Ta[:3, 3]),
+                        geometry[b.label],
+                        coal.Transform3s(Tb[:3, :3], Tb[:3, 3]),
+                        request,
+                        result,
+                    ):
+                        theirs_free[k] = False
+                        break
+            theirs = time.perf_counter() - t0
+            print(
+                f"| {name} | {batch} | {ours / batch * 1e6:.0f} | {theirs / batch * 1e6:.0f} "
+                f"| {theirs / ours:.2f} | {np.mean(free == theirs_free):.3f} |"
+            )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--vendor", action="store_true", help="only section 5: the vendor cells, beside coal"
+    )
     parser.add_argument("--pairs", type=int, default=5000, help="random poses per shape pair")
     parser.add_argument("--cylinder-pairs", type=int, default=400, help="poses for cylinders")
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
+    if args.vendor:
+        print(f"# Collision bench, vendor cells: {_cpu()}, Python {platform.python_version()}")
+        vendor_checks()
+        vendor_configurations()
+        return
     import fcl
 
-    cpu = "unknown"
-    try:
-        for line in subprocess.run(["lscpu"], capture_output=True, text=True).stdout.splitlines():
-            if line.startswith("Model name"):
-                cpu = line.split(":", 1)[1].strip()
-    except OSError:
-        pass
+    cpu = _cpu()
     print(
         f"# Collision bench: {cpu}, Python {platform.python_version()}, "
         f"python-fcl {getattr(fcl, '__version__', '?')}, numpy {np.__version__}"
@@ -300,6 +411,8 @@ def main() -> None:
     exactness_and_rate(args.pairs, args.cylinder_pairs, args.repeat)
     buried()
     check_cost(args.repeat)
+    vendor_checks()
+    vendor_configurations()
 
 
 if __name__ == "__main__":

@@ -489,9 +489,8 @@ def pair_distance(
         if a.is_mesh:
             return _closest(a, b, Ta, Tb, K, k, pieces_mesh, pieces_other, max_iterations)
         return _closest(a, b, Ta, Tb, K, k, pieces_other, pieces_mesh, max_iterations)
-    pa, pb = a.pieces(Ta), b.pieces(Tb)
-    Fa, Fb = len(pa) // K, len(pb) // K
-    if Fa == 1 and Fb == 1:
+    if a.single_piece and b.single_piece:
+        pa, pb = a.pieces(Ta), b.pieces(Tb)
         res = convex.distance(pa, pb, max_iterations)
         dist, pta, ptb, over = res.distance, res.point_a, res.point_b, res.overlap
         depth = np.zeros(K)
