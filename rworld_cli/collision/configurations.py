@@ -155,8 +155,8 @@ class ConfigurationChecker:
         distance = np.full(N, np.inf)
         np.minimum.at(distance, state, signed)
         best = np.flatnonzero(signed <= distance[state])
-        nearest = np.full((N, 2), -1)
-        nearest[state[best]] = self.pairs[pair[best]]
+        nearest_pair = np.full((N, 2), -1)
+        nearest_pair[state[best]] = self.pairs[pair[best]]
         bad = (signed < -self.tolerance) | res.buried
         if self.clearance > 0:
             bad |= signed < self.clearance
@@ -164,4 +164,4 @@ class ConfigurationChecker:
         free[state[bad]] = False
         buried = np.zeros(N, dtype=bool)
         buried[state[res.buried]] = True
-        return ConfigurationReport(free, distance, nearest, buried)
+        return ConfigurationReport(free, distance, nearest_pair, buried)

@@ -101,7 +101,7 @@ class Pieces:
             self.half_length[index],
             self.margin[index],
             self.axes[index],
-            self.rows[index] if shared else None,
+            None if self.rows is None else self.rows[index],
         )
 
     def share(self, index) -> Pieces:

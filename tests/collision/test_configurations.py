@@ -69,7 +69,7 @@ def test_free_only_decides_alike_with_a_clearance():
     _, _, _, limits, check = checker(
         REPO / "tests/data/vendor_cells/iiwa14/cell.yaml", clearance=0.01
     )
-    q = np.random.default_rng(6).uniform(limits[:, 0], limits[:, 1], (40, len(limits)))
+    q = np.random.default_rng(6).uniform(limits[:, 0], limits[:, 1], (24, len(limits)))
     full, quick = check.check(q), check.check(q, nearest=False)
     np.testing.assert_array_equal(full.free, quick.free)
     assert (~full.free).any() and full.free.any()
