@@ -29,6 +29,34 @@ from .bodies import CollisionModel, distances
 
 
 @dataclass
+class SegmentReport:
+    """A straight joint-space segment checked (:meth:`ConfigurationChecker.check_segment`).
+
+    Attributes
+    ----------
+    free : bool
+        No contact deeper than the tolerance (nor closer than the clearance less the tolerance)
+        anywhere on the segment, between the states measured too.
+    first : float or None
+        Where the first contact found lies, as the segment's parameter s in [0, 1] (the state
+        ``q0 + s (q1 - q0)``); None when free.
+    pair : tuple of int or None
+        Its body pair (indices into the model's bodies).
+    unresolved : bool
+        Bisection reached its depth without proving an interval before any contact clear or
+        finding a contact there: reported as not free (the safe side).
+    queries : int
+        Exact pair queries made.
+    """
+
+    free: bool
+    first: float | None
+    pair: tuple[int, int] | None
+    unresolved: bool
+    queries: int
+
+
+@dataclass
 class ConfigurationReport:
     """N joint states checked.
 
@@ -165,3 +193,99 @@ class ConfigurationChecker:
         buried = np.zeros(N, dtype=bool)
         buried[state[res.buried]] = True
         return ConfigurationReport(free, distance, nearest_pair, buried)
+
+    # bisection depth of :meth:`check_segment`: intervals of 2**-40 of the segment
+    SEGMENT_DEPTH = 40
+
+    def _signed(self, q: np.ndarray, pair: np.ndarray, at: np.ndarray):
+        """Signed distances (and buried) of pairs ``pair[r]`` at states ``q[at[r]]``."""
+        bodies = self.model.bodies
+        T = self.poses(q)
+        I, J = self.pairs[pair, 0], self.pairs[pair, 1]
+        TI = np.stack([T[bodies[i].frame][k] for i, k in zip(I, at)]).reshape(-1, 4, 4)
+        TJ = np.stack([T[bodies[j].frame][k] for j, k in zip(J, at)]).reshape(-1, 4, 4)
+        res = distances(bodies, I, J, TI, TJ)
+        return np.where(res.overlap, -np.maximum(res.depth, 0.0), res.distance), res.buried
+
+    def check_segment(self, q0, q1) -> SegmentReport:
+        """Check the straight joint-space segment from q0 to q1 (n,) [rad or m], with the
+        guarantee between states of ``rworld check`` (docs/collision.md): no contact deeper
+        than the tolerance is missed, however far apart the states measured.
+
+        For each pair, a point of either body moves, while s runs over [sa, sb], by at most
+        ``M (sb - sa)``: ``M`` the sum over the device's joints of ``|q1_j - q0_j|`` times
+        the joint's lever on the pair (``sweep._Levers``: its axis' distance to the body;
+        a joint that moves both bodies does not count).  The distance is 1-Lipschitz in that
+        motion, so an interval whose end distances satisfy ``da + db - M (sb - sa) >= 2 (c -
+        tol)`` is clear; other intervals are halved, their midpoints measured, until every
+        interval is clear or a contact is found.  Intervals after a contact found are
+        dropped (the first contact is what is reported), so a colliding segment ends early.
+        """
+        from .sweep import _Levers
+
+        q0 = np.asarray(q0, dtype=float).ravel()
+        q1 = np.asarray(q1, dtype=float).ravel()
+        P = len(self.pairs)
+        if not P:
+            return SegmentReport(True, None, None, False, 0)
+        bodies = self.model.bodies
+        zeros = np.zeros((2, len(q0)))
+        levers = _Levers.of(self.world, bodies, {self.device: (np.stack([q0, q1]), zeros, zeros)})
+        travel = np.array(
+            [abs(q1[j] - q0[j]) if d == self.device else 0.0 for d, j in levers.joints]
+        ).reshape(1, -1)
+        reach = levers.pair_weights(self.pairs[:, 0], self.pairs[:, 1]).bound(travel)[:, 0]
+        need = 2.0 * (max(self.clearance, 0.0) - self.tolerance)
+
+        def bad(signed, buried):
+            out = (signed < -self.tolerance) | buried
+            return out | (signed < self.clearance) if self.clearance > 0 else out
+
+        first, first_pair, queries = np.inf, None, 0
+
+        def found(s_values, pairs, signed, buried) -> None:
+            nonlocal first, first_pair
+            hit = np.flatnonzero(bad(signed, buried))
+            if len(hit):
+                k = hit[np.argmin(s_values[hit])]
+                if s_values[k] < first:
+                    first, first_pair = (
+                        float(s_values[k]),
+                        tuple(int(x) for x in self.pairs[pairs[k]]),
+                    )
+
+        # the ends
+        rows = np.arange(P)
+        ends = np.stack([q0, q1])
+        d0, b0 = self._signed(ends, rows, np.zeros(P, dtype=int))
+        d1, b1 = self._signed(ends, rows, np.ones(P, dtype=int))
+        queries += 2 * P
+        found(np.zeros(P), rows, d0, b0)
+        found(np.ones(P), rows, d1, b1)
+        pair, sa, sb, da, db = rows, np.zeros(P), np.ones(P), d0, d1
+        unresolved = False
+        for _ in range(self.SEGMENT_DEPTH):
+            open_ = (da + db - reach[pair] * (sb - sa) < need) & (sa < first)
+            # an interval that runs up to the contact found: the contact is known to 2**-20
+            # of the segment (refining further would chase the tolerance's boundary)
+            open_ &= ~((sb >= first) & (sb - sa < 2.0**-20))
+            pair, sa, sb, da, db = pair[open_], sa[open_], sb[open_], da[open_], db[open_]
+            if not len(pair):
+                break
+            mid = (sa + sb) / 2
+            states = q0 + mid[:, None] * (q1 - q0)
+            dm, bm = self._signed(states, pair, np.arange(len(pair)))
+            queries += len(pair)
+            found(mid, pair, dm, bm)
+            pair = np.concatenate([pair, pair])
+            sa, sb = np.concatenate([sa, mid]), np.concatenate([mid, sb])
+            da, db = np.concatenate([da, dm]), np.concatenate([dm, db])
+        else:
+            open_ = (da + db - reach[pair] * (sb - sa) < need) & (sb < first)
+            unresolved = bool(open_.any())
+            if unresolved and not np.isfinite(first):
+                first = float(sa[open_].min())
+                first_pair = tuple(int(x) for x in self.pairs[pair[open_][np.argmin(sa[open_])]])
+        if not np.isfinite(first):
+            return SegmentReport(True, None, None, False, queries)
+        return SegmentReport(False, first, first_pair, unresolved, queries)

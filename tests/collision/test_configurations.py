@@ -76,3 +76,44 @@ def test_free_only_decides_alike_with_a_clearance():
     within = full.distance <= 0.01
     np.testing.assert_allclose(quick.distance[within], full.distance[within], atol=1e-9)
     assert (quick.distance[~within] > 0.01).all()
+
+
+def test_a_segment_is_free_exactly_when_dense_samples_find_no_contact():
+    """Random straight joint-space segments of the Puma in its cell: the segment check (a few
+    hundred exact queries, with the guarantee between them) against 2 001 states along each
+    segment.  Where the dense states find a contact, the segment check finds one no later;
+    where it says free, no dense state collides."""
+    _, _, _, limits, check = checker(REPO / "workcells/puma560/cell.yaml")
+    rng = np.random.default_rng(1)
+    s = np.linspace(0.0, 1.0, 2001)
+    colliding = 0
+    for _ in range(60):
+        q0, q1 = rng.uniform(limits[:, 0], limits[:, 1], (2, len(limits)))
+        segment = check.check_segment(q0, q1)
+        dense = check.check(q0 + s[:, None] * (q1 - q0), nearest=False)
+        assert not segment.unresolved
+        if dense.free.all():  # free, or a contact between the dense states: one there
+            if not segment.free:
+                at = q0 + segment.first * (q1 - q0)
+                assert not check.check(at[None], nearest=False).free[0]
+        else:
+            colliding += 1
+            assert not segment.free
+            assert segment.first <= s[~dense.free].min() + 1e-12
+    assert colliding >= 4
+
+
+def test_a_segment_through_the_plate_stops_at_it():
+    _, model, _, _, check = checker(REPO / "tests/data/vendor_cells/iiwa14/cell.yaml")
+    down = np.radians([[0, 40, 0, -80, 0, 50, 0], [0, 40, 0, -90, 0, 50, 0]])
+    assert check.check(down[:1], nearest=False).free.all()
+    segment = check.check_segment(down[0], down[1])
+    assert not segment.free and 0 < segment.first < 1
+    assert {model.bodies[i].label for i in segment.pair} == {
+        "plate",
+        "kuka_lbr_iiwa_14_r820.link_7",
+    }
+    # the state found is a contact, and the segment before it is clear
+    at = down[0] + segment.first * (down[1] - down[0])
+    assert not check.check(at[None], nearest=False).free[0]
+    assert check.check_segment(down[0], down[0] + 0.9 * segment.first * (down[1] - down[0])).free
