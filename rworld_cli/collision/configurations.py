@@ -241,7 +241,8 @@ class ConfigurationChecker:
             out = (signed < -self.tolerance) | buried
             return out | (signed < self.clearance) if self.clearance > 0 else out
 
-        first, first_pair, queries = np.inf, None, 0
+        first, queries = np.inf, 0
+        first_pair: tuple[int, int] | None = None
 
         def found(s_values, pairs, signed, buried) -> None:
             nonlocal first, first_pair
@@ -251,7 +252,7 @@ class ConfigurationChecker:
                 if s_values[k] < first:
                     first, first_pair = (
                         float(s_values[k]),
-                        tuple(int(x) for x in self.pairs[pairs[k]]),
+                        _pair(self.pairs[pairs[k]]),
                     )
 
         # the ends
@@ -285,7 +286,11 @@ class ConfigurationChecker:
             unresolved = bool(open_.any())
             if unresolved and not np.isfinite(first):
                 first = float(sa[open_].min())
-                first_pair = tuple(int(x) for x in self.pairs[pair[open_][np.argmin(sa[open_])]])
+                first_pair = _pair(self.pairs[pair[open_][np.argmin(sa[open_])]])
         if not np.isfinite(first):
             return SegmentReport(True, None, None, False, queries)
         return SegmentReport(False, first, first_pair, unresolved, queries)
+
+
+def _pair(row) -> tuple[int, int]:
+    return int(row[0]), int(row[1])
