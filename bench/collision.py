@@ -22,7 +22,8 @@ Run:  .venv/bin/pip install -e ".[bench]" && .venv/bin/python bench/collision.py
    one ``coal.collide`` per pair the device may not touch, stopping at a state's first
    contact).  Their decisions differ where they mean different things: rworld's solids
    collide when overlapping deeper than the 1 mm tolerance or buried; coal's surfaces at any
-   contact and never when buried.
+   contact and never when buried.  Then segment checks (``check_segment``, the guarantee
+   between states) per second.
 
 Ratios are of one run on one machine; the machines are shared and noisy.
 """
@@ -387,6 +388,42 @@ def vendor_configurations(batches=(1, 64, 4096)) -> None:
             )
 
 
+def vendor_segments(count: int = 20, step: float = 0.2) -> None:
+    """Segment checks (``check_segment``): ``count`` straight joint-space segments of ``step``
+    rad each, from free random states, per robot."""
+    from rworld_cli.collision.bodies import collision_model
+    from rworld_cli.collision.configurations import ConfigurationChecker
+    from rworld_cli.schema.loader import load_cell
+    from rworld_cli.world.tree import World
+
+    print(f"\n## 5c. Segment checks: {count} segments of {step} rad from free states (one run)\n")
+    print("| robot | segments/s | ms a segment | free | exact queries a segment |")
+    print("|---|---:|---:|---:|---:|")
+    for name in VENDOR_CELLS:
+        loaded = load_cell(str(REPO / "tests/data/vendor_cells" / name / "cell.yaml"))
+        cell = getattr(loaded, "cell", loaded)
+        world, model = World(cell), collision_model(cell)
+        device = next(iter(cell.devices))
+        check = ConfigurationChecker(world, model, device)
+        limits = np.clip(
+            [(j.limits.lower, j.limits.upper) for j in cell.devices[device].joints], -np.pi, np.pi
+        )
+        rng = np.random.default_rng(2)
+        Q = rng.uniform(limits[:, 0], limits[:, 1], (20 * count, len(limits)))
+        starts = Q[check.check(Q, nearest=False).free][:count]
+        steps = rng.normal(size=starts.shape)
+        steps *= step / np.linalg.norm(steps, axis=1, keepdims=True)
+        t0 = time.perf_counter()
+        reports = [check.check_segment(q0, q0 + d) for q0, d in zip(starts, steps)]
+        elapsed = time.perf_counter() - t0
+        queries = np.mean([r.queries for r in reports])
+        free = sum(r.free for r in reports)
+        print(
+            f"| {name} | {len(reports) / elapsed:.1f} | {elapsed / len(reports) * 1e3:.0f} "
+            f"| {free} of {len(reports)} | {queries:.0f} |"
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
@@ -400,6 +437,7 @@ def main() -> None:
         print(f"# Collision bench, vendor cells: {_cpu()}, Python {platform.python_version()}")
         vendor_checks()
         vendor_configurations()
+        vendor_segments()
         return
     import fcl
 
@@ -413,6 +451,7 @@ def main() -> None:
     check_cost(args.repeat)
     vendor_checks()
     vendor_configurations()
+    vendor_segments()
 
 
 if __name__ == "__main__":
