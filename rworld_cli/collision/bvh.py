@@ -7,27 +7,26 @@ A tree over each body's leaves, built once per body, finds the few combinations 
 a state's nearest pair in about log(leaves) steps per state, and memory independent of
 leaves x leaves.
 
-**Tree.**  Each node is an axis-aligned box in the body's frame (centre, half extents) around
-its leaves; a leaf is one triangle, one convex part's hull, or a primitive.  Built top-down,
-splitting the leaves' centres at the median of the widest axis (so the depth is about
-log2(leaves) + 1).
+**Tree.**  Each node is an oriented box in the body's frame (centre, half extents, axes) around
+its leaves, fitted along their points' principal axes (a triangle's box is flat); a leaf is one
+triangle, one convex part's hull, or a primitive.  Built top-down, splitting the leaves'
+centres at the median along the node's longest axis (so the depth is about log2(leaves) + 1).
 
-**Bounds.**  For a node pair at a state (``T_a_b``, the pose of b's frame in a's), the boxes
-are two oriented boxes.  Along a's axes, b's box lies in the axis-aligned box that holds it,
-and the distance between a's box and that one is a lower bound on the distance of anything
-inside them; the same in b's frame; the larger of the two is the bound.  Where the boxes
-overlap along every one of those six axes, the bound is the least overlap, 0 or negative.
+**Bounds** (:func:`box_gap`).  For a node pair at a state (``T_a_b``, the pose of b's frame in
+a's), the separating-axis test of two oriented boxes gives a lower bound on the distance of
+anything inside them: along a's three axes, the distance between a's box and the box along
+those axes that holds b's; the same in b's frame; and the gaps along the nine edge-edge axes
+(Gottschalk et al., OBBTree, 1996).  The largest is the bound; where the boxes overlap along
+all fifteen axes, it is the least overlap, 0 or negative.
 
-**Search** (:func:`candidates`), vectorised over states:
-
-1. *A first guess per state*: from the roots, always into the child pair of the lowest bound,
-   down to a leaf pair, which is measured exactly (GJK): an upper bound on the state's
-   distance, usually close to it.
-2. *Breadth first with pruning*: node pairs are split (the node with the larger box, or the
-   one that is not a leaf) and kept only while their bound is within 1e-9 m of the state's
-   upper bound.  What is left are leaf pairs; they are all returned, the guess's among them,
-   so the nearest pair is never dropped: a pair dropped has a bound, hence a distance, above
-   a distance that was measured.
+**Search** (:func:`candidates`), vectorised over states, breadth first from the roots: node
+pairs are split (the node with the larger box, or the one that is not a leaf) and kept only
+while their bound is within 1e-9 m of the state's upper bound.  The upper bound is a distance
+measured: every :data:`REFINE_EVERY` levels, each state's most promising node pair (lowest
+bound; among overlapping boxes, the nearest centres) is followed down to a leaf pair, which is
+measured exactly (GJK), so it tightens as the boxes shrink.  What is left are leaf pairs; they
+are all returned, the measured ones among them, so the nearest pair is never dropped: a pair
+dropped has a bound, hence a distance, above a distance that was measured.
 
 Every pair that is not dropped is measured by the caller; the result equals GJK over every
 leaf pair (``tests/collision/test_bvh.py`` compares them).
@@ -267,8 +266,8 @@ def candidates(
         exact = np.maximum(measure(ks, tree_a.item[la], tree_b.item[lb]), 0.0)
         upper[ks] = np.minimum(upper[ks], exact)
 
-    # breadth first from the roots, the bounds refined at every level; states in batches,
-    # memory bounded
+    # breadth first from the roots, the upper bounds refined every few levels; states in
+    # batches, memory bounded
     out_k, out_a, out_b = [], [], []
     depth = max(int(np.ceil(np.log2(max(len(tree_a.item), 2)))), 1) + max(
         int(np.ceil(np.log2(max(len(tree_b.item), 2)))), 1
