@@ -17,8 +17,7 @@ so the two agree to rounding (tested).
 
 Layout, per pair k (rows of float64 arrays):
 
-* ``vertices_a`` (M, VA, 3), ``vertices_b`` (M, VB, 3): polytope vertices (cylinders: ignored),
-  pair k's in row ``rows_a[k]``, ``rows_b[k]`` (int64; ``arange(P)`` for one row per pair);
+* ``vertices_a`` (P, VA, 3), ``vertices_b`` (P, VB, 3): polytope vertices (cylinders: ignored);
 * ``shape_a``, ``shape_b`` (P, 9): ``[cylinder, centre xyz, axis xyz, radius, half length]``;
 * ``out`` (P, 11): ``[core distance, point on a xyz, point on b xyz, overlap, iterations,
   lower bound, unfinished]`` - the cores' nearest points (margins are applied by the caller).
@@ -43,21 +42,20 @@ def gjk_ir(symbol: str) -> str:
     """The LLVM IR text of the function ``symbol`` (see the module docstring for the layout):
 
     ``void f(i64 P, i64 VA, i64 VB, ptr vertices_a, ptr vertices_b, ptr shape_a, ptr shape_b,
-    ptr out, i64 max_iterations, ptr rows_a, ptr rows_b)``
+    ptr out, i64 max_iterations)``
     """
     import llvmlite.ir as ir
 
     D, I64, I1 = ir.DoubleType(), ir.IntType(64), ir.IntType(1)
     ptr = ir.PointerType(D)
-    iptr = ir.PointerType(I64)
     module = ir.Module(name="collision")
     fn = ir.Function(
         module,
-        ir.FunctionType(ir.VoidType(), [I64, I64, I64, ptr, ptr, ptr, ptr, ptr, I64, iptr, iptr]),
+        ir.FunctionType(ir.VoidType(), [I64, I64, I64, ptr, ptr, ptr, ptr, ptr, I64]),
         name=symbol,
     )
-    P, VA, VB, verts_a, verts_b, shape_a, shape_b, out, max_it, rows_a, rows_b = fn.args
-    for arg in (verts_a, verts_b, shape_a, shape_b, out, rows_a, rows_b):
+    P, VA, VB, verts_a, verts_b, shape_a, shape_b, out, max_it = fn.args
+    for arg in (verts_a, verts_b, shape_a, shape_b, out):
         arg.add_attribute("noalias")
     sqrt = module.declare_intrinsic("llvm.sqrt", [D])
     fabs = module.declare_intrinsic("llvm.fabs", [D])
@@ -145,9 +143,8 @@ def gjk_ir(symbol: str) -> str:
 
     A, B = shape(shape_a), shape(shape_b)
 
-    def support(piece, vertices, rows, V, d, target):
-        """The core's farthest point along d into ``target`` (the numpy code's Pieces.support);
-        the polytope's vertices are row ``rows[k]`` of ``vertices``."""
+    def support(piece, vertices, V, d, target):
+        """The core's farthest point along d into ``target`` (the numpy code's Pieces.support)."""
         cyl_block = fn.append_basic_block("cyl")
         poly_block = fn.append_basic_block("poly")
         merge = fn.append_basic_block("support_done")
@@ -172,7 +169,7 @@ def gjk_ir(symbol: str) -> str:
         b.branch(merge)
         # polytope: the first vertex of largest d.x
         b.position_at_end(poly_block)
-        base = b.mul(b.mul(b.load(b.gep(rows, [k])), V), i(3))
+        base = b.mul(b.mul(k, V), i(3))
         first = [row(vertices, b.add(base, i(j))) for j in range(3)]
         b.store(dot(first, d), best_slot)
         for j in range(3):
@@ -222,8 +219,8 @@ def gjk_ir(symbol: str) -> str:
 
     b.position_at_end(loop_body)
     v = [load(v_slot, j) for j in range(3)]
-    support(A, verts_a, rows_a, VA, [b.fneg(x) for x in v], sa_slot)
-    support(B, verts_b, rows_b, VB, v, sb_slot)
+    support(A, verts_a, VA, [b.fneg(x) for x in v], sa_slot)
+    support(B, verts_b, VB, v, sb_slot)
     sa = [load(sa_slot, j) for j in range(3)]
     sb = [load(sb_slot, j) for j in range(3)]
     w = sub(sa, sb)
@@ -429,8 +426,6 @@ def gjk_function():
                 ctypes.c_int64,
                 *[ctypes.c_void_p] * 5,
                 ctypes.c_int64,
-                ctypes.c_void_p,
-                ctypes.c_void_p,
             )(addresses[0])
         )
     return _FUNCTION[0]
@@ -449,15 +444,9 @@ def shape_rows(pieces) -> np.ndarray:
     )
 
 
-def gjk(a, b, max_iterations: int, vertices_a=None, vertices_b=None) -> np.ndarray | None:
+def gjk(a, b, max_iterations: int) -> np.ndarray | None:
     """The cores' GJK for pairs ``a[k]``, ``b[k]``: (P, 11) rows (module docstring), or None
-    when no compiled kernel is available.
-
-    ``vertices_a`` (optional): ``(table (M, V, 3), rows (P,))`` - pair k's polytope is
-    ``table[rows[k]]`` rather than ``a.vertices[k]``; the same for b.  A piece with thousands
-    of vertices met by many pairs (a link's hull against a fixture's triangles) is then
-    stored once, not once per pair.
-    """
+    when no compiled kernel is available."""
     if kernels.backend() != "llvm":  # RWORLD_KERNELS=numpy, or no llvmlite
         return None
     function = gjk_function()
@@ -467,25 +456,18 @@ def gjk(a, b, max_iterations: int, vertices_a=None, vertices_b=None) -> np.ndarr
     out = np.empty((P, OUT_COLUMNS))
     if not P:
         return out
-    tables = []
-    for pieces, shared in ((a, vertices_a), (b, vertices_b)):
-        table, rows = (pieces.vertices, np.arange(P)) if shared is None else shared
-        tables.append(
-            (np.ascontiguousarray(table, dtype=float), np.ascontiguousarray(rows, dtype=np.int64))
-        )
-    (table_a, rows_a), (table_b, rows_b) = tables
-    shapes = [shape_rows(a), shape_rows(b)]
+    arrays = [
+        np.ascontiguousarray(a.vertices, dtype=float),
+        np.ascontiguousarray(b.vertices, dtype=float),
+        shape_rows(a),
+        shape_rows(b),
+    ]
     function(
         P,
-        table_a.shape[1],
-        table_b.shape[1],
-        table_a.ctypes.data,
-        table_b.ctypes.data,
-        shapes[0].ctypes.data,
-        shapes[1].ctypes.data,
+        arrays[0].shape[1],
+        arrays[1].shape[1],
+        *[x.ctypes.data for x in arrays],
         out.ctypes.data,
         int(max_iterations),
-        rows_a.ctypes.data,
-        rows_b.ctypes.data,
     )
     return out

@@ -45,6 +45,7 @@ from .simplex import ABSOLUTE_TOLERANCE, RELATIVE_TOLERANCE
 from .simplex import FACES as _FACES
 
 MAX_ITERATIONS = 96
+SHARED_BUDGET = 4_000_000  # vertices copied out of shared tables per GJK call (about 100 MB)
 
 
 @dataclass
@@ -104,9 +105,25 @@ class Pieces:
             None if self.rows is None else self.rows[index],
         )
 
+    def materialized(self) -> Pieces:
+        """The same pieces with their own vertex rows (a shared table copied out)."""
+        if self.rows is None:
+            return self
+        return Pieces(
+            self.vertices[self.rows],
+            self.cylinder,
+            self.center,
+            self.axis,
+            self.radius,
+            self.half_length,
+            self.margin,
+            self.axes,
+        )
+
     def share(self, index) -> Pieces:
         """The pieces at ``index``, their vertices left in this batch's table (no copy): a
-        hull of thousands of vertices met by many pairs is stored once."""
+        hull of thousands of vertices met by many pairs is stored once, and :func:`distance`
+        copies them out a block of pairs at a time."""
         return Pieces(
             self.vertices,
             self.cylinder[index],
@@ -191,13 +208,28 @@ def distance(a: Pieces, b: Pieces, max_iterations: int = MAX_ITERATIONS) -> Dist
     """
     from .compiled import gjk
 
-    rows = gjk(
-        a,
-        b,
-        max_iterations,
-        None if a.rows is None else (a.vertices, a.rows),
-        None if b.rows is None else (b.vertices, b.rows),
-    )
+    if a.rows is not None or b.rows is not None:
+        # shared vertices: copied out a block of pairs at a time, so a hull of thousands of
+        # vertices met by many pairs costs a block's memory, not all of it at once
+        width = max(a.vertices.shape[1], b.vertices.shape[1], 1)
+        block = max(1, SHARED_BUDGET // width)
+        if len(a) > block:
+            parts = [
+                distance(
+                    a.take(np.arange(s, min(len(a), s + block))),
+                    b.take(np.arange(s, min(len(a), s + block))),
+                    max_iterations,
+                )
+                for s in range(0, len(a), block)
+            ]
+            return Distances(
+                *(
+                    np.concatenate([getattr(r, f) for r in parts])
+                    for f in ("distance", "point_a", "point_b", "overlap", "iterations", "error")
+                )
+            )
+        a, b = a.materialized(), b.materialized()
+    rows = gjk(a, b, max_iterations)
     if rows is None:
         return _distances(a, b, *_gjk_numpy(a, b, max_iterations))
     return _distances(
