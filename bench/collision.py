@@ -323,13 +323,26 @@ def vendor_checks() -> None:
         print(f"| {name} | {off:.2f} | {on:.2f} | {on / off:.1f} | {peak:.0f} |")
 
 
-def vendor_configurations(batches=(1, 64, 4096)) -> None:
-    import coal
-
+def _vendor_checker(name: str):
+    """A vendor cell's collision model, a configuration checker for its robot, and the
+    robot's joint ranges (n, 2) clipped to one turn [rad]."""
     from rworld_cli.collision.bodies import collision_model
     from rworld_cli.collision.configurations import ConfigurationChecker
     from rworld_cli.schema.loader import load_cell
     from rworld_cli.world.tree import World
+
+    loaded = load_cell(str(REPO / "tests/data/vendor_cells" / name / "cell.yaml"))
+    cell = getattr(loaded, "cell", loaded)
+    model = collision_model(cell)
+    device = next(iter(cell.devices))
+    check = ConfigurationChecker(World(cell), model, device)
+    joints = cell.devices[device].joints
+    limits = np.clip([(j.limits.lower, j.limits.upper) for j in joints], -np.pi, np.pi)
+    return model, check, limits
+
+
+def vendor_configurations(batches=(1, 64, 4096)) -> None:
+    import coal
 
     print("\n## 5b. Configuration checks: microseconds per joint state (one run)\n")
     print(
@@ -337,11 +350,7 @@ def vendor_configurations(batches=(1, 64, 4096)) -> None:
     )
     print("|---|---:|---:|---:|---:|---:|")
     for name in VENDOR_CELLS:
-        loaded = load_cell(str(REPO / "tests/data/vendor_cells" / name / "cell.yaml"))
-        cell = getattr(loaded, "cell", loaded)
-        world, model = World(cell), collision_model(cell)
-        device = next(iter(cell.devices))
-        check = ConfigurationChecker(world, model, device)
+        model, check, limits = _vendor_checker(name)
         geometry = {}
         for body in model.bodies:  # coal: an OBBRSS tree of the body's triangles, in its frame
             tri = body.mesh().triangles()
@@ -353,9 +362,6 @@ def vendor_configurations(batches=(1, 64, 4096)) -> None:
             bvh.endModel()
             geometry[body.label] = bvh
         pairs = [(model.bodies[i], model.bodies[j]) for i, j in check.pairs]
-        limits = np.clip(
-            [(j.limits.lower, j.limits.upper) for j in cell.devices[device].joints], -np.pi, np.pi
-        )
         rng = np.random.default_rng(0)
         check.check(rng.uniform(limits[:, 0], limits[:, 1], (2, len(limits))), nearest=False)
         request = coal.CollisionRequest()
@@ -391,23 +397,11 @@ def vendor_configurations(batches=(1, 64, 4096)) -> None:
 def vendor_segments(count: int = 20, step: float = 0.2) -> None:
     """Segment checks (``check_segment``): ``count`` straight joint-space segments of ``step``
     rad each, from free random states, per robot."""
-    from rworld_cli.collision.bodies import collision_model
-    from rworld_cli.collision.configurations import ConfigurationChecker
-    from rworld_cli.schema.loader import load_cell
-    from rworld_cli.world.tree import World
-
     print(f"\n## 5c. Segment checks: {count} segments of {step} rad from free states (one run)\n")
     print("| robot | segments/s | ms a segment | free | exact queries a segment |")
     print("|---|---:|---:|---:|---:|")
     for name in VENDOR_CELLS:
-        loaded = load_cell(str(REPO / "tests/data/vendor_cells" / name / "cell.yaml"))
-        cell = getattr(loaded, "cell", loaded)
-        world, model = World(cell), collision_model(cell)
-        device = next(iter(cell.devices))
-        check = ConfigurationChecker(world, model, device)
-        limits = np.clip(
-            [(j.limits.lower, j.limits.upper) for j in cell.devices[device].joints], -np.pi, np.pi
-        )
+        model, check, limits = _vendor_checker(name)
         rng = np.random.default_rng(2)
         Q = rng.uniform(limits[:, 0], limits[:, 1], (20 * count, len(limits)))
         starts = Q[check.check(Q, nearest=False).free][:count]

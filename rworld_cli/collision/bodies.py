@@ -501,18 +501,30 @@ def pair_distance(
         return PairDistance(dist, depth, pta, ptb, np.zeros(K, dtype=bool))
     # several leaves on both sides (convex parts, two meshes): the leaf pairs that may hold
     # each state's nearest pair, found by the bodies' trees (bvh), then measured
-    whole = {id(body): body.pieces(T) for body, T in ((a, Ta), (b, Tb)) if body.single_piece}
+    # a single piece is placed once per state and shared by its pairs
+    placed_a = a.pieces(Ta) if a.single_piece else None
+    placed_b = b.pieces(Tb) if b.single_piece else None
 
-    def leaves(body, T, k, leaf):  # a single piece: placed once per state, shared by its pairs
-        if body.single_piece:
-            return whole[id(body)].share(k)
-        return body.leaf_pieces(leaf, T[k])
+    def leaves(body, T, placed, k, leaf):
+        return placed.share(k) if placed is not None else body.leaf_pieces(leaf, T[k])
 
     def measure(k, la, lb):
-        return convex.distance(leaves(a, Ta, k, la), leaves(b, Tb, k, lb), max_iterations).distance
+        return convex.distance(
+            leaves(a, Ta, placed_a, k, la), leaves(b, Tb, placed_b, k, lb), max_iterations
+        ).distance
 
     k, la, lb = bvh.candidates(a.tree, b.tree, Ta, Tb, measure, within + 1e-9)
-    return _closest(a, b, Ta, Tb, K, k, leaves(a, Ta, k, la), leaves(b, Tb, k, lb), max_iterations)
+    return _closest(
+        a,
+        b,
+        Ta,
+        Tb,
+        K,
+        k,
+        leaves(a, Ta, placed_a, k, la),
+        leaves(b, Tb, placed_b, k, lb),
+        max_iterations,
+    )
 
 
 def _piece_boxes(p: convex.Pieces) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

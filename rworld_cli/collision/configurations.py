@@ -26,6 +26,7 @@ import numpy as np
 from ..units import COLLISION_TOLERANCE
 from .allowed import allowed_pairs
 from .bodies import CollisionModel, distances
+from .sweep import _Levers, _signed
 
 
 @dataclass
@@ -179,7 +180,7 @@ class ConfigurationChecker:
             TJ[state, pair],
             within=np.inf if nearest else watch,
         )
-        signed = np.where(res.overlap, -np.maximum(res.depth, 0.0), res.distance)
+        signed = _signed(res)
         distance = np.full(N, np.inf)
         np.minimum.at(distance, state, signed)
         best = np.flatnonzero(signed <= distance[state])
@@ -202,10 +203,16 @@ class ConfigurationChecker:
         bodies = self.model.bodies
         T = self.poses(q)
         I, J = self.pairs[pair, 0], self.pairs[pair, 1]
-        TI = np.stack([T[bodies[i].frame][k] for i, k in zip(I, at)]).reshape(-1, 4, 4)
-        TJ = np.stack([T[bodies[j].frame][k] for j, k in zip(J, at)]).reshape(-1, 4, 4)
-        res = distances(bodies, I, J, TI, TJ)
-        return np.where(res.overlap, -np.maximum(res.depth, 0.0), res.distance), res.buried
+
+        def placed(index):  # each row's body at its state: one gather per body, not per row
+            out = np.empty((len(index), 4, 4))
+            for body in np.unique(index):
+                rows = np.flatnonzero(index == body)
+                out[rows] = T[bodies[body].frame][at[rows]]
+            return out
+
+        res = distances(bodies, I, J, placed(I), placed(J))
+        return _signed(res), res.buried
 
     def check_segment(self, q0, q1) -> SegmentReport:
         """Check the straight joint-space segment from q0 to q1 (n,) [rad or m], with the
@@ -221,8 +228,6 @@ class ConfigurationChecker:
         interval is clear or a contact is found.  Intervals after a contact found are
         dropped (the first contact is what is reported), so a colliding segment ends early.
         """
-        from .sweep import _Levers
-
         q0 = np.asarray(q0, dtype=float).ravel()
         q1 = np.asarray(q1, dtype=float).ravel()
         P = len(self.pairs)

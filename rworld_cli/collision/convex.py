@@ -37,6 +37,7 @@ and for spheres.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -109,32 +110,16 @@ class Pieces:
         """The same pieces with their own vertex rows (a shared table copied out)."""
         if self.rows is None:
             return self
-        return Pieces(
-            self.vertices[self.rows],
-            self.cylinder,
-            self.center,
-            self.axis,
-            self.radius,
-            self.half_length,
-            self.margin,
-            self.axes,
-        )
+        return dataclasses.replace(self, vertices=self.vertices[self.rows], rows=None)
 
     def share(self, index) -> Pieces:
         """The pieces at ``index``, their vertices left in this batch's table (no copy): a
         hull of thousands of vertices met by many pairs is stored once, and :func:`distance`
         copies them out a block of pairs at a time."""
-        return Pieces(
-            self.vertices,
-            self.cylinder[index],
-            self.center[index],
-            self.axis[index],
-            self.radius[index],
-            self.half_length[index],
-            self.margin[index],
-            self.axes[index],
-            (np.arange(len(self.center)) if self.rows is None else self.rows)[index],
+        table = (
+            self if self.rows is not None else dataclasses.replace(self, rows=np.arange(len(self)))
         )
+        return table.take(index)
 
     def support(self, d: np.ndarray) -> np.ndarray:
         """The core's farthest point in direction ``d`` (P, 3) -> (P, 3) [m] (margin excluded)."""
@@ -224,8 +209,8 @@ def distance(a: Pieces, b: Pieces, max_iterations: int = MAX_ITERATIONS) -> Dist
             ]
             return Distances(
                 *(
-                    np.concatenate([getattr(r, f) for r in parts])
-                    for f in ("distance", "point_a", "point_b", "overlap", "iterations", "error")
+                    np.concatenate([getattr(r, f.name) for r in parts])
+                    for f in dataclasses.fields(Distances)
                 )
             )
         a, b = a.materialized(), b.materialized()
