@@ -177,7 +177,14 @@ def export_program(
     moves = 0
     compensated: list[dict] = []
     if compensate and fmt == "csv":
-        raise UserError("--compensate is for Cartesian targets: csv streams joint values")
+        from ..dynamics.compliance import compliances
+
+        if not any(compliances(loaded.cell.devices[d]).any() for d in devices):
+            raise UserError(
+                "--compensate with --format csv: the joint values stream as they are, unless "
+                "a joint's compliance (calibrate-robot --model compliance) asks for commands "
+                "that differ; no device here has one"
+            )
     for name in devices:
         dev = loaded.cell.devices[name]
         stem = Path(programs[name].file).stem
@@ -186,12 +193,15 @@ def export_program(
             # the clock's last instant is the run's end, off the period grid: the device is at
             # rest there, so it holds that state on the next tick
             times = dt * np.arange(len(result.times))
+            q_stream = result.devices[name].q
+            if compensate:  # the commands that put the compliant arm on the simulated joints
+                q_stream = _commanded_stream(World(loaded.cell), result, name)
             files.update(
                 csv_trajectory.write(
                     stem if len(devices) == 1 else f"{stem}_{name}",
                     [j.name for j in dev.joints],
                     times,
-                    result.devices[name].q,
+                    q_stream,
                 )
             )
             continue
@@ -212,7 +222,8 @@ def export_program(
             )
         program = _device_program(loaded, result, name, world, frame)
         if compensate:
-            moved = _compensate(cell, loaded.cell, name, program, fmt)
+            holding = _holding_at(World(loaded.cell), result, name)
+            moved = _compensate(cell, loaded.cell, name, program, fmt, holding)
             compensated.extend(moved)
         moves += len(program.moves)
         writer = {"urscript": urscript, "krl": krl, "rapid": rapid, "fanuc": fanuc}[fmt]
@@ -283,16 +294,21 @@ def _device_program(loaded, result, name: str, world, frame: str | None):
     return program
 
 
-def _compensate(cell_path: str, cell, device: str, program, fmt: str) -> list[dict]:
-    """Replace the Cartesian targets of ``program`` by the nominal forward kinematics at their
-    joint targets (the tool as calibrated: the controller's tool data); the moves' shifts.
+def _compensate(cell_path: str, cell, device: str, program, fmt: str, holding) -> list[dict]:
+    """Replace the targets of ``program`` by what a controller with the nominal kinematics must
+    be given to put the calibrated robot on them; the moves' shifts.
 
-    The nominal kinematics is the cell's device without the pose files that set its joints
-    (``joints:`` or ``corrections:``, what ``calibrate-robot`` writes).  Listed: the targets
-    whose written values changed in ``fmt`` (a joint move's joint target never does)."""
+    Joint targets: the commands that put the arm's joints there (the same values for a stiff
+    arm; ``q - c g(q)`` solved for a compliant one, :func:`rworld_cli.dynamics.compliance.
+    commanded`, with what the arm carries at that move: ``holding(t)``).  Cartesian targets:
+    the nominal forward kinematics at those commands (the tool as calibrated: the controller's
+    tool data).  The nominal kinematics is the cell's device without the pose files that set
+    its joints (``joints:``, ``corrections:``, ``compliance:``: what ``calibrate-robot``
+    writes).  Listed: the targets whose written values changed in ``fmt``."""
     import dataclasses
 
     from .. import spatial
+    from ..dynamics.compliance import commanded, compliances
     from ..kinematics.forward import link_poses
     from ..schema.loader import load_cell, robot_pose_files
 
@@ -304,25 +320,31 @@ def _compensate(cell_path: str, cell, device: str, program, fmt: str) -> list[di
         )
     keep = [str(p) for p in cell.pose_files if p not in robot_files]
     nominal = load_cell(cell_path, pose_files=keep).cell.devices[device]
+    calibrated = cell.devices[device]
+    compliant = compliances(calibrated).any()
     out = []
     for item in program.moves:
         r = item.resolved
-        before = item.T_target
+        before, q_before = item.T_target, item.q_target
         new = {}
-        for key, q in (("T_base_tcp", r.q_goal), ("T_base_planned", r.q_planned)):
+        for key, qkey in (("T_base_tcp", "q_goal"), ("T_base_planned", "q_planned")):
+            q = getattr(r, qkey)
             if q is None or getattr(r, key) is None:
                 continue
-            T = link_poses(nominal, q)[r.link - 1] @ r.T_link_tcp
-            new[key] = T
+            if compliant:
+                q = commanded(calibrated, q, holding(r.t0))
+            new[qkey] = q
+            new[key] = link_poses(nominal, q)[r.link - 1] @ r.T_link_tcp
         item.resolved = dataclasses.replace(r, **new)
-        # only what the program writes: a joint move's target is its joint values, which stay
-        # (RAPID's search alone goes to a robtarget, whatever the move's motion)
-        if item.motion == "joint" and not (item.guard and fmt == "rapid"):
-            continue
         after = item.T_target
         shift = float(np.linalg.norm(after[:3, 3] - before[:3, 3]))
         turn = float(np.linalg.norm(spatial.rotation_vector(before[:3, :3].T @ after[:3, :3])))
-        if shift <= 1e-12 and turn <= 1e-12:
+        joints = float(np.abs(item.q_target - q_before).max(initial=0.0))
+        # only what the program writes: a joint move's target is its joint values (RAPID's
+        # search alone goes to a robtarget, whatever the move's motion)
+        if item.motion == "joint" and not (item.guard and fmt == "rapid"):
+            shift = turn = 0.0
+        if max(shift, turn, joints) <= 1e-12:
             continue
         out.append(
             {
@@ -331,9 +353,57 @@ def _compensate(cell_path: str, cell, device: str, program, fmt: str) -> list[di
                 "step": item.text,
                 "moved_mm": shift * 1000,
                 "turned_deg": float(np.degrees(turn)),
+                "joints_deg": float(np.degrees(joints)),
             }
         )
     return out
+
+
+def _commanded_stream(world, result, device: str) -> np.ndarray:
+    """The commanded joint values (K, n) that put ``device``'s arm on its simulated ones, with
+    what it carries at each sample (a stiff arm: the simulated values)."""
+    from ..dynamics.compliance import commanded
+
+    dev = world.cell.devices[device]
+    q = result.devices[device].q
+    holding = _holding_at(world, result, device)
+    starts = np.array([ts for ts, _ in result.snapshots])
+    state = np.searchsorted(starts, result.times + 1e-12, side="right")  # affixment state
+    out = q.copy()
+    for s in np.unique(state):
+        rows = np.flatnonzero(state == s)
+        out[rows] = commanded(dev, q[rows], holding(float(result.times[rows[0]])))
+    return out
+
+
+def _holding_at(world, result, device: str):
+    """``holding(t)``: the torques that hold ``device`` still as a function of its joint values
+    (as :func:`rworld_cli.dynamics.compliance.holding_torques`), with what it carries at instant
+    ``t`` of the run; ``world`` is moved through the run."""
+    from ..dynamics.core import DeviceDynamics
+
+    dev = world.cell.devices[device]
+    built: dict[int, DeviceDynamics] = {}  # per affixment state: what it carries changes there
+
+    def holding(t: float):
+        _world_at(world, result, t)
+        state = sum(ts <= t + 1e-12 for ts, _ in result.snapshots)
+        if state not in built:
+            built[state] = DeviceDynamics(dev, link_loads=world.carried_loads(device))
+        dynamics = built[state]
+        g_base = world.T_world(device)[:3, :3].T @ world.cell.gravity
+        return lambda q: dynamics.gravity_torques(q, g_base)
+
+    return holding
+
+
+def _world_at(world, result, t: float) -> None:
+    """Put ``world`` in the run's state at instant ``t``: its affixments and every device's
+    joints."""
+    world.restore([s for ts, s in result.snapshots if ts <= t + 1e-12][-1])
+    k = int(np.searchsorted(result.times, t - 1e-12))
+    for d, tl in result.devices.items():
+        world.set_joints(d, tl.q[min(k, len(tl.q) - 1)])
 
 
 def _vendor_format(cell: str, run: str, device: str | None) -> str:
@@ -369,10 +439,7 @@ def _flange_loads(world, result, device: str, T_link_flange):
     flange = np.eye(4) if T_link_flange is None else T_link_flange
 
     def loads(t: float) -> Load:
-        world.restore([s for ts, s in result.snapshots if ts <= t + 1e-12][-1])
-        k = int(np.searchsorted(result.times, t - 1e-12))
-        for d, tl in result.devices.items():
-            world.set_joints(d, tl.q[min(k, len(tl.q) - 1)])
+        _world_at(world, result, t)
         parts: dict[str, list] = {"tool": [], "payload": []}
         names: dict[str, list[str]] = {"tool": [], "payload": []}
         for name, link, bodies in world.carried(device):

@@ -57,6 +57,7 @@ class RobotCalibrationRun:
     predicted_parts: tuple[float, float] | None = None  # (estimate, kept nominal) [m]
     outliers: list[dict] = field(default_factory=list)  # ranked: where, residual [m]
     loss: str = "linear"
+    model: str = "geometric"  # or "compliance": the joints' compliance under gravity fitted too
 
     def as_dict(self) -> dict:
         mm = lambda d: None if d is None else {k: v * 1000 for k, v in d.items()}  # noqa: E731
@@ -98,6 +99,7 @@ class RobotCalibrationRun:
             "a_posteriori_sigma_mm": self.sigma * self.variance_factor * 1000,
             "variance_factor": self.variance_factor,
             "loss": self.loss,
+            "model": self.model,
             "predicted_parts_mm": None
             if self.predicted_parts is None
             else {
@@ -195,6 +197,7 @@ def calibrate_robot(
     max_correction: float = MAX_CORRECTION,
     max_rotation: float = MAX_ROTATION,
     accept_misfit: bool = False,
+    error_model: str = "geometric",
 ) -> RobotCalibrationRun:
     """Identify a device's kinematic errors (joint frames, or DH rows with a correction each)
     from instrument observations and write them as a pose-file overlay (unless ``dry_run``).
@@ -203,12 +206,15 @@ def calibrate_robot(
     the instrument frame (and the target's offset) alone, the robot nominal;
     ``max_correction`` [m] / ``max_rotation`` [rad]: a joint frame, the target or the
     instrument frame moved further is refused; ``accept_misfit``: write even when the
-    residuals are over 100 stated sigmas.
+    residuals are over 100 stated sigmas; ``error_model``: "geometric" (the joint frames) or
+    "compliance" (and each joint's compliance under the torque holding the arm against gravity,
+    from the cell's link masses and what the arm carries).
 
     Raises
     ------
     UserError
-        Bad or mismatched observation files (located), a target without a pose,
+        Bad or mismatched observation files (located), a target without a pose, the
+        compliance model for an arm without link masses,
         data that do not fit the robot (residuals over 100 sigma: a unit read wrongly), an
         output that is one of the cell's own files.
     """
@@ -242,6 +248,11 @@ def calibrate_robot(
     T_world_base = world.T_world(obs.device)
     estimated = obs.frame != "world"
     T_world_frame = world.T_world(obs.frame) if estimated else np.eye(4)
+    if error_model not in MODELS:
+        raise UserError(f"--model {error_model}: give one of {', '.join(MODELS)}")
+    gravity, compliant, torque_scale, compliance_notes = _holding_torques(
+        cell, world, dev, error_model == "compliance"
+    )
     model = RobotModel(
         dev,
         np.linalg.solve(T_world_frame, T_world_base),
@@ -249,6 +260,9 @@ def calibrate_robot(
         T_link_target[:3, 3].copy(),
         estimated,
         T_link_target[:3, :3].copy() if obs.rotations is not None else None,
+        gravity,
+        compliant,
+        torque_scale,
     )
     if 3 * len(obs.q) < 12:
         raise UserError(f"{len(obs.q)} observation(s): too few to identify anything")
@@ -264,6 +278,7 @@ def calibrate_robot(
         raise UserError(f"--loss {loss}: give one of {', '.join(LOSSES)}")
     warnings = _design_warnings(obs, dev)
     result = identify(model, obs, loss=loss, loss_scale=loss_scale, frame_only=frame_only)
+    result.notes[:0] = compliance_notes
     model = result.model  # with its instrument frame registered
     per_pose = result.residuals.shape[1]
     equations = len(np.unique(np.round(obs.q, 6), axis=0)) * per_pose  # repeated poses: once
@@ -304,6 +319,7 @@ def calibrate_robot(
             f"{np.degrees(max_rotation):g} deg). A unit read wrongly, points of another target "
             "or frame, or data that cannot separate these parameters are the usual causes"
         )
+    warnings += _negative_compliance(model, result)
     zeros = np.zeros_like(result.p)
     before = position_errors(model, zeros, obs)
     after = position_errors(model, result.p, obs)
@@ -325,13 +341,13 @@ def calibrate_robot(
         cross = _cross_validation(model, obs, folds, loss, loss_scale, frame_only)
     rows = []
     for name, value, sigma in zip(model.names, result.p, result.sigma):
-        angular = name.rsplit(".", 1)[-1] in ("rx", "ry", "rz")
+        factor, unit = _display_unit(name, dev)
         rows.append(
             {
                 "name": name,
-                "correction": float(np.degrees(value) if angular else value * 1000),
-                "sigma": float(np.degrees(sigma) if angular else sigma * 1000),
-                "unit": "deg" if angular else "mm",
+                "correction": float(value * factor),
+                "sigma": float(sigma * factor),
+                "unit": unit,
             }
         )
     written = False
@@ -375,7 +391,77 @@ def calibrate_robot(
             for k in result.flagged
         ],
         loss=loss,
+        model=error_model,
     )
+
+
+MODELS = ("geometric", "compliance")
+
+
+def _display_unit(name: str, dev) -> tuple[float, str]:
+    """(SI -> shown factor, unit) of a calibration parameter: mm, deg, and a compliance in
+    mrad/kNm (= urad/Nm) or mm/kN (= um/N)."""
+    group, _, part = name.rpartition(".")
+    if part == "compliance":
+        prismatic = next(j.kind for j in dev.joints if j.name == group) == "prismatic"
+        return (1e6, "mm/kN") if prismatic else (1e6, "mrad/kNm")
+    if part in ("rx", "ry", "rz"):
+        return float(np.degrees(1.0)), "deg"
+    return 1000.0, "mm"
+
+
+def _holding_torques(cell, world, dev, fitted: bool):
+    """What the compliance model needs of the cell: (the holding torques at joint values (K, n)
+    -> (K, n) [N m, N] or None for a stiff arm, the joints whose compliance is fitted, the
+    largest holding torque of each joint over 256 states in its limits, notes on the joints
+    left out).  The torques are the cell's own dynamics: its link masses and what the arm
+    carries in the cell (a tool, a reflector), gravity in the arm's base axes."""
+    if not fitted and not any(j.compliance for j in dev.joints):
+        return None, (), None, []
+    from ..dynamics.compliance import holding_torques
+
+    g_base = world.T_world(dev.name)[:3, :3].T @ cell.gravity
+    holding = holding_torques(dev, world.carried_loads(dev.name), g_base)
+    low = np.maximum(dev.limit_array("lower"), -np.pi)
+    high = np.minimum(dev.limit_array("upper"), np.pi)
+    states = np.random.default_rng(0).uniform(low, high, size=(256, dev.dof))
+    scale = np.abs(holding(states)).max(axis=0)
+    if not fitted:
+        return holding, (), scale, []
+    if scale.max() <= 1e-9:
+        raise UserError(
+            f"--model compliance: '{dev.name}' holds no torque against gravity in this cell "
+            "(its links give no mass: 'inertial:' in the cell, or the URDF's <inertial>); "
+            "compliance is the joints' yield under that torque. Give the links' masses, or "
+            "use --model geometric"
+        )
+    # a joint whose torque never reaches 1e-3 of the largest (a vertical first axis, a wrist
+    # roll carrying nothing) shows no yield: its compliance is not a parameter
+    compliant = tuple(int(i) for i in np.flatnonzero(scale > 1e-3 * scale.max()))
+    notes = [
+        f"{dev.joints[i].name} holds at most {scale[i]:.3g} "
+        f"{'N' if dev.joints[i].kind == 'prismatic' else 'N m'} against gravity here: its "
+        "compliance is not seen and stays as the cell gives it"
+        for i in range(dev.dof)
+        if i not in compliant
+    ]
+    return holding, compliant, scale, notes
+
+
+def _negative_compliance(model, result) -> list[str]:
+    """A compliance estimated below zero by more than 2 sigma, in words: not a physical yield."""
+    out = []
+    start = model.compliance_start
+    for k, i in enumerate(model.compliant):
+        value, sigma = result.p[start + k], result.sigma[start + k]
+        if value < -2 * sigma and sigma > 0:
+            c = value + model.device.joints[i].compliance
+            out.append(
+                f"{model.device.joints[i].name}'s compliance came out negative "
+                f"({c * 1e6:.3g} mrad/kNm, {value / sigma:.1f} sigma): the joint would move "
+                "against its load; error the model does not have is the likelier cause"
+            )
+    return out
 
 
 def _design_warnings(obs, dev) -> list[str]:
@@ -403,15 +489,30 @@ def _design_warnings(obs, dev) -> list[str]:
 def _too_large(model, result, max_correction: float, max_rotation: float) -> list[str]:
     """Each joint frame, the target and the instrument frame whose correction is beyond the
     bounds, in words."""
-    names = model.names
+    groups: dict[str, list[int]] = {}  # a joint frame, the target, the instrument frame
+    for k, name in enumerate(model.names):
+        group, _, part = name.rpartition(".")
+        if part != "compliance":
+            groups.setdefault(group, []).append(k)
     out = []
-    for start in range(0, len(names), 6):
-        group = names[start].rsplit(".", 1)[0]
-        d = result.p[start : start + 6]
-        length = float(np.linalg.norm(d[:3]))
-        angle = float(np.linalg.norm(d[3:])) if len(d) == 6 else 0.0
+    for group, rows in groups.items():
+        d = np.zeros(6)
+        d[: len(rows)] = result.p[rows]  # x y z (rx ry rz)
+        length, angle = float(np.linalg.norm(d[:3])), float(np.linalg.norm(d[3:]))
         if length > max_correction or angle > max_rotation:
             out.append(f"{group} moves by {length * 1000:.1f} mm and {np.degrees(angle):.2f} deg")
+    start = model.compliance_start
+    for k, i in enumerate(model.compliant):  # a yield at the joint's largest holding torque
+        j = model.device.joints[i]
+        bound = max_correction if j.kind == "prismatic" else max_rotation
+        yielded = abs(result.p[start + k]) * float(model.torque_scale[i])
+        if yielded > bound:
+            shown = (
+                f"{yielded * 1000:.1f} mm"
+                if j.kind == "prismatic"
+                else (f"{np.degrees(yielded):.2f} deg")
+            )
+            out.append(f"{j.name}'s compliance yields {shown} at its largest holding torque")
     return out
 
 
@@ -477,8 +578,9 @@ def _take(surfaces, rows):
 
 
 def _write_overlay(out: Path, obs, model, result, digests, world, T_link_target) -> None:
-    """The calibrated numbers as a pose file (mm, deg): every joint's frame, the measured
-    frame's pose, the instrument frame's pose; provenance with the files' hashes."""
+    """The calibrated numbers as a pose file (mm, deg): every joint's frame (and compliance),
+    the measured frame's pose, the instrument frame's pose; provenance with the files'
+    hashes."""
     from .. import spatial
     from ..calibration.robot import small_pose
     from ..fileio import atomic_write_text
@@ -506,6 +608,12 @@ def _write_overlay(out: Path, obs, model, result, digests, world, T_link_target)
         lines.append("corrections:")
         for j in result.device.joints:
             lines.append(f"  {yaml_value(f'{obs.device}.{j.name}')}: {pose(j.correction)}")
+    if any(j.compliance for j in result.device.joints):  # per kN m (per kN): readable numbers
+        lines.append("compliance:  # deg per kN m (mm per kN for a prismatic joint)")
+        for j in result.device.joints:
+            unit = 1000.0 if j.kind == "prismatic" else float(np.degrees(1.0))  # mm or deg
+            value = repr(float(j.compliance * unit * 1000))
+            lines.append(f"  {yaml_value(f'{obs.device}.{j.name}')}: {value}")
     # the measured frame: its point on the link moved by the estimate, relative to its parent
     # (on the same link, so any joint state gives the same relative pose)
     if model.R_link_target is None:

@@ -11,6 +11,11 @@ about its own axis).  A joint frame (the URDF's ``origin``) takes it on its righ
 instrument frame other than the world 6 more.  The base pose needs none: an error there is an
 error of joint 1's frame.
 
+**Compliance** (``--model compliance``): a joint yields under the torque that holds the arm
+against gravity, ``q_arm = q + c g(q)`` (the commanded ``q``; ``g`` from the cell's own link
+masses and what the arm carries), one ``c`` per joint that carries a holding torque (Klimchik
+et al.; Hollerbach, Khalil and Gautier, Springer Handbook of Robotics ch. 6).
+
 **Identifiability.**  The model is complete and so redundant: a length along two parallel
 axes, a rotation about an axis that only turns what is measured about itself.  The singular
 value decomposition of the identification Jacobian, each column scaled by the parameter's
@@ -26,17 +31,21 @@ it.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .. import spatial
+from ..dynamics.compliance import compliances
 from ..kinematics.forward import link_poses
 from ..model.cell import DeviceModel
 from ..model.measurements import RobotObservations  # noqa: F401  (read by schema/robotobs)
 
 LENGTH_SCALE = 1e-3  # [m]: a typical length error, to scale the Jacobian's columns
 ANGLE_SCALE = 1e-3  # [rad]
+COMPLIANCE_SCALE = 1e-5  # [rad/(N m)]: a typical compliance error (industrial arms: 1e-7-1e-5)
+COMPLIANCE_SCALE_PRISMATIC = 1e-6  # [m/N]
 
 
 def small_pose(d: np.ndarray) -> np.ndarray:
@@ -63,6 +72,13 @@ class RobotModel:
     p_link_target: np.ndarray
     frame_estimated: bool  # the instrument's frame is a parameter (it is not the world)
     R_link_target: np.ndarray | None = None  # set: full poses are measured (6-DoF)
+    # the torques that hold the arm against gravity, (K, n) [N m, N] at joint values (K, n),
+    # with what it carries: the joints' deflection is compliance x these (None: a stiff arm)
+    gravity: Callable[[np.ndarray], np.ndarray] | None = None
+    # joints whose compliance is a parameter (indices; --model compliance)
+    compliant: tuple[int, ...] = ()
+    # the largest holding torque of each joint over its range [N m, N]: scales the compliance
+    torque_scale: np.ndarray | None = None
 
     @property
     def target_count(self) -> int:
@@ -77,7 +93,13 @@ class RobotModel:
         out += [f"target.{k}" for k in six[: self.target_count]]
         if self.frame_estimated:
             out += [f"frame.{k}" for k in six]
+        out += [f"{self.device.joints[i].name}.compliance" for i in self.compliant]
         return out
+
+    @property
+    def compliance_start(self) -> int:
+        """The index of the first compliance parameter (after the joints, target and frame)."""
+        return 6 * self.device.dof + self.target_count + 6 * self.frame_estimated
 
     @property
     def scales(self) -> np.ndarray:
@@ -85,10 +107,36 @@ class RobotModel:
         out = joint * self.device.dof + joint[: self.target_count]
         if self.frame_estimated:
             out += joint
+        # a typical compliance error: 10 urad/Nm (1 um/N), or less where that would yield more
+        # than 1 mrad (1 mm) at the joint's largest holding torque
+        for i in self.compliant:
+            prismatic = self.device.joints[i].kind == "prismatic"
+            typical = LENGTH_SCALE if prismatic else ANGLE_SCALE
+            cap = COMPLIANCE_SCALE_PRISMATIC if prismatic else COMPLIANCE_SCALE
+            out.append(min(cap, typical / float(self.torque_scale[i])))  # type: ignore[index]
         return np.array(out)
 
+    def deflected(self, device: DeviceModel, q: np.ndarray) -> np.ndarray:
+        """The arm's joint values at commanded ``q`` (K, n): ``q + c * g(q)`` with each joint's
+        compliance ``c`` of ``device`` (the commanded values when the arm is stiff)."""
+        c = compliances(device)
+        if self.gravity is None or not c.any():
+            return q
+        return q + c * self._holding(q)
+
+    def _holding(self, q: np.ndarray) -> np.ndarray:
+        """The gravity torques at ``q``, kept for the last array asked (the fit asks for the
+        same observations at every parameter's difference)."""
+        cached = self.__dict__.get("_held")
+        if cached is not None and cached[0] is q:
+            return cached[1]
+        tau = np.asarray(self.gravity(q))  # type: ignore[misc]
+        self.__dict__["_held"] = (q, tau)
+        return tau
+
     def apply(self, p: np.ndarray) -> tuple[DeviceModel, np.ndarray, np.ndarray]:
-        """(the device with its joint frames corrected, the target point, T_frame_base)."""
+        """(the device with its joint frames and compliance corrected, the target point,
+        T_frame_base)."""
         n = self.device.dof
         if self.device.convention == "frames":  # the joint frame: origin' = origin E
             joints = tuple(
@@ -106,6 +154,13 @@ class RobotModel:
                 )
                 for i, j in enumerate(self.device.joints)
             )
+        if self.compliant:  # the compliance found added to the cell's own
+            start = self.compliance_start
+            joints = list(joints)
+            for k, i in enumerate(self.compliant):
+                j = joints[i]
+                joints[i] = dataclasses.replace(j, compliance=j.compliance + p[start + k])
+            joints = tuple(joints)
         device = dataclasses.replace(self.device, joints=joints)
         m = self.target_count
         target = np.eye(4)
@@ -122,7 +177,7 @@ class RobotModel:
     def poses(self, p: np.ndarray, q: np.ndarray) -> np.ndarray:
         """The target frame in the instrument's frame at joint values ``q`` (K, n): (K, 4, 4)."""
         device, target, T = self.apply(p)
-        link = link_poses(device, q)[:, self.link - 1]
+        link = link_poses(device, self.deflected(device, q))[:, self.link - 1]
         return T @ link @ target
 
     def points(self, p: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -254,12 +309,15 @@ def register_frame(model: RobotModel, obs) -> tuple[RobotModel, np.ndarray]:
 def preference(model: RobotModel) -> list[int]:
     """The order parameters are taken in when the data cannot tell some apart: the instrument
     frame first (a base error is the instrument's, not joint 1's), then the target's offset,
-    then the joints from the base to the flange (x, y, z, rx, ry, rz each)."""
+    then the joints from the base to the flange (x, y, z, rx, ry, rz each), then the joints'
+    compliance."""
     n6 = 6 * model.device.dof
     m = model.target_count
-    order = list(range(n6 + m, len(model.names)))  # the frame, when estimated
+    start = model.compliance_start
+    order = list(range(n6 + m, start))  # the frame, when estimated
     order += list(range(n6, n6 + m))
-    return order + list(range(n6))
+    # the joints' compliance last: what geometry explains is geometry's
+    return order + list(range(n6)) + list(range(start, len(model.names)))
 
 
 def on_last_axis(model: RobotModel, tolerance: float = 1e-3) -> float | None:
@@ -381,7 +439,7 @@ def identify(
     excluded: set[int] = set()
     n6 = 6 * model.device.dof
     if frame_only:
-        excluded = set(range(n6))
+        excluded = set(range(n6)) | set(range(model.compliance_start, P))
     distance = on_last_axis(model)
     if distance is not None and not frame_only:
         excluded |= {n6 - 3, n6 - 2, n6 - 1}

@@ -72,6 +72,15 @@ from .common import FiniteFloat, emit_json, handle_errors, json_option
     is_flag=True,
     help="Write even when the residuals are over 100 times the stated sigma.",
 )
+@click.option(
+    "--model",
+    "error_model",
+    default="geometric",
+    show_default=True,
+    type=click.Choice(["geometric", "compliance"]),
+    help="compliance: each joint's yield under the torque holding the arm against gravity "
+    "(the cell's link masses and what it carries) is fitted too.",
+)
 @click.option("--all", "show_all", is_flag=True, help="List every identified parameter.")
 @json_option
 @handle_errors
@@ -89,6 +98,7 @@ def calibrate_robot(
     max_correction,
     max_rotation,
     accept_misfit,
+    error_model,
     show_all,
     json_output,
 ):
@@ -102,13 +112,16 @@ def calibrate_robot(
     frame, target, joints from the base) while the data determine each to better than its
     typical error (1 mm, 1 mrad); the others stay exactly nominal and are listed.  The rest is
     the maximum-likelihood estimate, with each parameter's sigma scaled by the a-posteriori
-    factor when the residuals exceed the stated sigma.  Listed last in the cell's pose_files,
-    the overlay moves every command to the calibrated robot (docs/calibration.md).
+    factor when the residuals exceed the stated sigma.  --model compliance adds each joint's
+    compliance under the torque that holds the arm against gravity (q_arm = q + c g(q)).
+    Listed last in the cell's pose_files, the overlay moves every command to the calibrated
+    robot (docs/calibration.md).
 
     \b
     Examples:
       rworld calibrate-robot workcells/ur5 measurements/ur5/tracker.yaml --dry-run
       rworld calibrate-robot workcells/ur5 tracker.yaml --validate check.yaml -o cal.yaml --json
+      rworld calibrate-robot workcells/ur5 tracker.yaml --model compliance --validate check.yaml
 
     Exit codes: 0 identified (and written), 2 bad input or data that do not fit the robot.
     """
@@ -129,6 +142,7 @@ def calibrate_robot(
         parse_length(max_correction),
         parse_angle(max_rotation, "--max-rotation"),
         accept_misfit,
+        error_model,
     )
     if json_output:
         emit_json(result.as_dict())
@@ -143,7 +157,8 @@ def calibrate_robot(
     )
     click.echo(
         f"  fit: {result.iterations} iteration(s), "
-        f"{'converged' if result.converged else 'NOT converged'}, loss {result.loss}; "
+        f"{'converged' if result.converged else 'NOT converged'}, loss {result.loss}, "
+        f"model {result.model}; "
         f"a-posteriori sigma {result.sigma * result.variance_factor * 1000:.4g} mm "
         f"({result.variance_factor:.2f} x the stated)"
     )

@@ -258,7 +258,9 @@ def export_group():
     is_flag=True,
     help="For a controller that keeps the nominal kinematics while the cell holds the robot's "
     "calibration (calibrate-robot): Cartesian targets are the nominal kinematics at the "
-    "calibrated joint targets, so the robot reaches the true poses; lists how far each moved.",
+    "calibrated joint targets, so the robot reaches the true poses; with joint compliance "
+    "(calibrate-robot --model compliance) the joint targets are the commands the yielding arm "
+    "needs (csv too); lists how far each moved.",
 )
 @click.option(
     "--gripper-output", default=1, show_default=True, help="Digital output of the gripper."
@@ -360,6 +362,7 @@ def export_program(
         for c in result.compensated:
             click.echo(
                 f"  {c['where']}: {c['step']}: {c['moved_mm']:.3f} mm, {c['turned_deg']:.4f} deg"
+                f", joints up to {c['joints_deg']:.4f} deg"
             )
     for note in result.notes:
         click.echo(f"note: {note}", err=True)

@@ -156,6 +156,10 @@ class Joint:
     viscous: float = 0.0  # joint side [N m s/rad or N s/m]
     coulomb_positive: float = 0.0  # joint side [N m or N]
     coulomb_negative: float = 0.0
+    # the joint's compliance under load, joint side [rad/(N m) or m/N]: the arm's joint value
+    # is the commanded one plus compliance x the torque holding it (a robot calibration's
+    # non-geometric error, docs/calibration.md); 0: stiff
+    compliance: float = 0.0
 
     @property
     def armature(self) -> float:

@@ -271,12 +271,12 @@ def joint_values(
 
 
 def robot_pose_files(cell, device: str) -> list[Path]:
-    """The cell's pose files that set ``device``'s joints (``joints:`` or ``corrections:``:
-    a robot calibration), in order."""
+    """The cell's pose files that set ``device``'s joints (``joints:``, ``corrections:`` or
+    ``compliance:``: a robot calibration), in order."""
     out = []
     for path in cell.pose_files:
         _, pf = load_pose_file_doc(path)
-        names = list(pf.joints) + list(pf.corrections)
+        names = list(pf.joints) + list(pf.corrections) + list(pf.compliance)
         if any(name.startswith(f"{device}.") for name in names):
             out.append(Path(path))
     return out
@@ -467,12 +467,19 @@ class _Builder:
         self._check_owned_parents()
         affixments = self._affixments()
         conditions = self._conditions()
-        poses, sources, files, origins = self._poses(devices)
+        poses, sources, files, origins, compliances = self._poses(devices)
         for name, replaced in origins.items():  # joint frames, or DH rows' corrections
             dev = devices[name]
             key = "origin" if dev.convention == "frames" else "correction"
             joints = tuple(
                 dataclasses.replace(j, **{key: replaced[j.name]}) if j.name in replaced else j
+                for j in dev.joints
+            )
+            devices[name] = dataclasses.replace(dev, joints=joints)
+        for name, values in compliances.items():  # the joints' compliance under load
+            dev = devices[name]
+            joints = tuple(
+                dataclasses.replace(j, compliance=values[j.name]) if j.name in values else j
                 for j in dev.joints
             )
             devices[name] = dataclasses.replace(dev, joints=joints)
@@ -1375,6 +1382,7 @@ class _Builder:
     def _poses(self, devices):
         poses: dict[str, np.ndarray] = dict(self.fixed_poses)
         origins: dict[str, dict[str, np.ndarray]] = {}  # device -> joint -> origin (SI)
+        compliances: dict[str, dict[str, float]] = {}  # device -> joint -> [rad/(N m), m/N]
         sources: dict[str, Path] = {}
         files: list[Path] = []
         complete = True  # every pose file was read and schema-valid
@@ -1439,16 +1447,8 @@ class _Builder:
             for section, name, pose in entries:
                 jpath = (section, name)
                 device, _, joint = name.rpartition(".")
-                dev = devices.get(device)
-                names = [j.name for j in dev.joints] if dev is not None else []
-                if dev is None or joint not in names:
-                    known = [f"{d}.{j.name}" for d, m in devices.items() for j in m.joints]
-                    self.err(
-                        jpath,
-                        f"unknown joint '{name}'{did_you_mean(name, known)}; write 'device.joint'",
-                        prefer="key",
-                        doc=doc,
-                    )
+                dev = self._joint_named(devices, name, jpath, doc)
+                if dev is None:
                     continue
                 frames = dev.convention == "frames"
                 if frames != (section == "joints"):
@@ -1485,6 +1485,22 @@ class _Builder:
                         doc=doc,
                     )
                 origins.setdefault(device, {})[joint] = T
+            for name, value in pf.compliance.items():
+                cpath = ("compliance", name)
+                device, _, joint = name.rpartition(".")
+                dev = self._joint_named(devices, name, cpath, doc)
+                if dev is None:
+                    continue
+                if value < 0:  # kept: a fit's estimate, but not a physical one
+                    self.warn(
+                        cpath,
+                        f"a negative compliance ({value:g}): the joint moves against its load; "
+                        "a fit absorbing other error than compliance?",
+                        doc=doc,
+                    )
+                kind = next(j.kind for j in dev.joints if j.name == joint)
+                per_kilo = (A if kind == "revolute" else L) * 1e-3  # per kN m / kN -> SI
+                compliances.setdefault(device, {})[joint] = value * per_kilo
         if complete:  # otherwise the missing poses may well be in the file we could not read
             shown_files = ", ".join(str(self.display_dir / r) for r in self.cf.pose_files)
             for name, decl in self.frames.items():
@@ -1495,7 +1511,22 @@ class _Builder:
                     f"no pose for frame '{name}' in {shown_files}; add '{name}: {{xyz: [x, y, z], "
                     "rpy: [r, p, y]}'",
                 )
-        return poses, sources, files, origins
+        return poses, sources, files, origins, compliances
+
+    def _joint_named(self, devices, name: str, path, doc):
+        """The device of a pose file's 'device.joint' key, or None with the error recorded."""
+        device, _, joint = name.rpartition(".")
+        dev = devices.get(device)
+        if dev is not None and any(j.name == joint for j in dev.joints):
+            return dev
+        known = [f"{d}.{j.name}" for d, m in devices.items() for j in m.joints]
+        self.err(
+            path,
+            f"unknown joint '{name}'{did_you_mean(name, known)}; write 'device.joint'",
+            prefer="key",
+            doc=doc,
+        )
+        return None
 
 
 # an overlay that moves a joint's frame further than this is named (warning): calibrations move

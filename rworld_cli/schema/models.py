@@ -673,6 +673,13 @@ class PoseFile(Strict):
         "replacing the cell's none: a DH device's calibrated kinematics ('rworld "
         "calibrate-robot'), a tilt between parallel axes included.",
     )
+    compliance: dict[str, float] = Field(
+        default_factory=dict,
+        description="'device.joint' -> the joint's compliance under load, in the file's angle "
+        "unit per kN m (revolute) or length unit per kN (prismatic): the arm's joint "
+        "value is the commanded one plus compliance x the torque that holds it against gravity "
+        "('rworld calibrate-robot --model compliance').",
+    )
     provenance: dict[str, Any] | None = Field(
         None,
         description="Written by 'rworld calibrate': date, measurement files and their hashes, "
