@@ -402,3 +402,24 @@ def test_tracker_poses_stay_above_the_floor_face_the_tracker_and_are_seen(cli, t
             )
             local = (beam - T_shape[:3, 3]) @ T_shape[:3, :3]
             assert not _inside_primitive(local, g, 0.009).any(), (q, link["name"])
+
+
+def test_the_bounds_take_each_group_by_its_name(cells):
+    """The instrument frame turned by 5 deg is within --max-rotation 10deg (its rotations are
+    not lengths); moved by 60 mm it is beyond --max-correction 50mm, named as the frame."""
+    from types import SimpleNamespace
+
+    from rworld_cli.api.robotcal import MAX_CORRECTION, MAX_ROTATION, _too_large
+    from rworld_cli.calibration.robot import RobotModel
+
+    nominal, _ = cells
+    dev = load_cell(str(nominal)).cell.devices["ur5"]
+    model = RobotModel(dev, np.eye(4), 6, np.zeros(3), True)
+    names = model.names
+    p = np.zeros(len(names))
+    p[names.index("frame.rz")] = np.radians(5.0)
+    p[names.index("target.x")] = 0.04
+    assert _too_large(model, SimpleNamespace(p=p), MAX_CORRECTION, MAX_ROTATION) == []
+    p[names.index("frame.y")] = 0.06
+    said = _too_large(model, SimpleNamespace(p=p), MAX_CORRECTION, MAX_ROTATION)
+    assert said == ["frame moves by 60.0 mm and 5.00 deg"]
