@@ -697,42 +697,14 @@ class RobotPosePlanRun:
 
 
 def _collision_free(cell, device: str, Q: np.ndarray) -> np.ndarray:
-    """Which joint states (K, n) of ``device`` touch nothing it may not touch (K,) bool."""
-    from ..collision.allowed import allowed_pairs
-    from ..collision.bodies import collision_model, distances
+    """Which joint states (K, n) of ``device`` touch nothing it may not touch (K,) bool: the
+    collision room's configuration check, with no overlap tolerated."""
+    from ..collision.bodies import collision_model
+    from ..collision.configurations import ConfigurationChecker
     from ..world.tree import World
 
-    world = World(cell)
-    model = collision_model(cell)
-    allowed = allowed_pairs(world, model)
-    bodies = model.bodies
-    mine = [i for i, b in enumerate(bodies) if b.owner == device]
-    pairs = [
-        (i, j)
-        for i in mine
-        for j in range(len(bodies))
-        if j != i and (j not in mine or j > i) and (min(i, j), max(i, j)) not in allowed
-    ]
-    ok = np.ones(len(Q), dtype=bool)
-    if not pairs:
-        return ok
-    frames = sorted({bodies[k].frame for pair in pairs for k in pair})
-    T = world.T_world_frames(frames, {device: Q})
-    I = np.repeat([i for i, _ in pairs], len(Q))
-    J = np.repeat([j for _, j in pairs], len(Q))
-    state = np.tile(np.arange(len(Q)), len(pairs))
-    TI = np.concatenate([T[bodies[i].frame] for i, _ in pairs])
-    TJ = np.concatenate([T[bodies[j].frame] for _, j in pairs])
-    # bounding spheres apart: no overlap, and no exact query (most pairs, most states)
-    centre = np.array([b.center for b in bodies])
-    radius = np.array([b.radius for b in bodies])
-    ci = np.einsum("qij,qj->qi", TI[:, :3, :3], centre[I]) + TI[:, :3, 3]
-    cj = np.einsum("qij,qj->qi", TJ[:, :3, :3], centre[J]) + TJ[:, :3, 3]
-    near = np.flatnonzero(np.linalg.norm(ci - cj, axis=1) <= radius[I] + radius[J])
-    result = distances(bodies, I[near], J[near], TI[near], TJ[near])
-    hit = np.zeros(len(Q), dtype=bool)
-    hit[state[near[result.overlap]]] = True
-    return ok & ~hit
+    checker = ConfigurationChecker(World(cell), collision_model(cell), device, tolerance=0.0)
+    return checker.check(Q, nearest=False).free
 
 
 SIGHT_CLEARANCE = 0.01  # [m]: the line of sight's radius: no robot body within it

@@ -260,8 +260,65 @@ BLOCK = 16384  # primitive queries per batched GJK call: bounds the memory of a 
 VERTEX_BUDGET = 4_000_000
 
 
+# what the cached convex parts depend on besides the file, its scale and placement: this
+# module's code (the deviation test) and its constant
+PARTS_FORMAT = f"parts|{HULL_DEVIATION!r}"
+
+
 @functools.lru_cache(maxsize=256)
 def _convex_parts(mesh_file: str, scale: float, T_bytes: bytes, mtime_ns: int = 0, size: int = 0):
+    """:func:`convex_parts` of a mesh file: in the process on (path, mtime, size), on disk on
+    the file's content (``rworld_cli.cache``, kind ``meshes``): the hulls and the deviation
+    test cost seconds for a vendor's dense link meshes."""
+    import hashlib
+
+    from .. import cache
+
+    content = Path(mesh_file).read_bytes()
+    code = Path(__file__).read_bytes()
+    key = hashlib.sha256(
+        f"{PARTS_FORMAT}|{scale!r}|".encode() + code + T_bytes + b"|" + content
+    ).hexdigest()[:40]
+    name = f"parts-{key}.npz"
+    stored = cache.read("meshes", name)  # authenticated before it is parsed
+    if stored is not None:
+        try:
+            return _parts_from_bytes(stored)
+        except (ValueError, KeyError, OSError):
+            pass  # another layout: computed again
+    parts = _hull_parts(mesh_file, scale, T_bytes)
+    cache.write("meshes", name, _parts_to_bytes(parts))
+    return parts
+
+
+def _parts_to_bytes(parts) -> bytes:
+    """The parts as an npz of float and int arrays (no pickles)."""
+    import io
+
+    arrays: dict[str, np.ndarray] = {"convex": np.array([parts is not None])}
+    if parts is not None:
+        arrays["counts"] = np.array([len(v) for v, _ in parts], dtype=np.int64)
+        arrays["vertices"] = np.concatenate([v for v, _ in parts])
+        arrays["axes"] = np.stack([a for _, a in parts])
+    buffer = io.BytesIO()
+    np.savez(buffer, **arrays)
+    return buffer.getvalue()
+
+
+def _parts_from_bytes(data: bytes):
+    """The inverse of :func:`_parts_to_bytes`."""
+    import io
+
+    with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+        if not bool(npz["convex"][0]):
+            return None
+        counts = npz["counts"]
+        vertices = np.split(npz["vertices"], np.cumsum(counts)[:-1])
+        return tuple(zip(vertices, list(npz["axes"])))
+
+
+def _hull_parts(mesh_file: str, scale: float, T_bytes: bytes):
+    """The convex parts of a mesh file (:func:`convex_parts`), computed."""
     import trimesh
 
     T = np.frombuffer(T_bytes).reshape(4, 4)
@@ -459,6 +516,7 @@ def pair_distance(
     Tb: np.ndarray,
     max_iterations: int = convex.MAX_ITERATIONS,
     within: float = np.inf,
+    deep_enough: float = np.inf,
 ) -> PairDistance:
     """Exact distance between bodies ``a`` and ``b`` at K states.
 
@@ -471,6 +529,10 @@ def pair_distance(
         Exact only where the distance is at most this [m]; elsewhere it may be reported as
         inf (farther than ``within``).  A collision test passes 0: bodies with several leaves
         on both sides then only look at their leaves whose boxes touch.
+    deep_enough : float
+        Exact depths only up to this [m]: a state with an overlapping leaf pair deeper is
+        reported with that pair's depth, its other overlapping pairs not measured (a
+        collision test needs to know the depth is over the tolerance, not by how much).
 
     Returns
     -------
@@ -479,7 +541,9 @@ def pair_distance(
     Ta = np.asarray(Ta, dtype=float).reshape(-1, 4, 4)
     Tb = np.asarray(Tb, dtype=float).reshape(-1, 4, 4)
     K = len(Ta)
-    if a.is_mesh != b.is_mesh:  # a triangle mesh and convex pieces: cull in the mesh's frame
+    if a.is_mesh != b.is_mesh and (b if a.is_mesh else a).single_piece and not np.isfinite(within):
+        # a triangle mesh and one convex piece, every distance asked: cull in the mesh's frame
+        # (a collision-only question goes down the trees below, which stop at ``within``)
         mesh_body, T_mesh, other, T_other = (a, Ta, b, Tb) if a.is_mesh else (b, Tb, a, Ta)
         po = other.pieces(T_other)
         k, io, it = _near_triangles(mesh_body, T_mesh, po, len(po) // K)
@@ -489,6 +553,7 @@ def pair_distance(
         if a.is_mesh:
             return _closest(a, b, Ta, Tb, K, k, pieces_mesh, pieces_other, max_iterations)
         return _closest(a, b, Ta, Tb, K, k, pieces_other, pieces_mesh, max_iterations)
+    # (every distance asked: depths exact, deep_enough does not apply above)
     if a.single_piece and b.single_piece:
         pa, pb = a.pieces(Ta), b.pieces(Tb)
         res = convex.distance(pa, pb, max_iterations)
@@ -524,6 +589,7 @@ def pair_distance(
         leaves(a, Ta, placed_a, k, la),
         leaves(b, Tb, placed_b, k, lb),
         max_iterations,
+        deep_enough,
     )
 
 
@@ -641,9 +707,11 @@ def _near_triangles(
     return k[keep], o[keep], tri_index[keep]
 
 
-def _closest(a, b, Ta, Tb, K, k, pa, pb, max_iterations) -> PairDistance:
+def _closest(a, b, Ta, Tb, K, k, pa, pb, max_iterations, deep_enough=np.inf) -> PairDistance:
     """Each state's closest pair among the piece pairs ``pa[q]``, ``pb[q]`` of state ``k[q]``,
-    its depth where they overlap, and whether one body is buried in the other's closed mesh."""
+    its depth where they overlap, and whether one body is buried in the other's closed mesh.
+    ``deep_enough``: a state's overlapping pairs are measured a few at a time (GJK's simplex
+    bound first), and a state with one deeper than this is done."""
     res = convex.distance(pa, pb, max_iterations)
     dist = np.full(K, np.inf)
     np.minimum.at(dist, k, res.distance)
@@ -651,10 +719,24 @@ def _closest(a, b, Ta, Tb, K, k, pa, pb, max_iterations) -> PairDistance:
     pta, ptb = np.zeros((K, 3)), np.zeros((K, 3))
     pta[k[best]], ptb[k[best]] = res.point_a[best], res.point_b[best]
     depth = np.zeros(K)
-    if res.overlap.any():  # the deepest overlapping piece pair of each state
-        rows = np.flatnonzero(res.overlap)
-        d, _ = convex.penetration(pa.take(rows), pb.take(rows))
-        np.maximum.at(depth, k[rows], np.maximum(d, 0.0))
+    overlapping = np.flatnonzero(res.overlap)
+    if np.isfinite(deep_enough) and res.depth_bound is not None:
+        # deeper than asked by GJK's own simplex: that state's depth is settled
+        deep = overlapping[res.depth_bound[overlapping] > deep_enough]
+        np.maximum.at(depth, k[deep], res.depth_bound[deep])
+    # the deepest overlapping piece pair of each state: all at once when depths are to be
+    # exact, else the first of each state, then the next two, four, ... of the states not
+    # yet deeper than deep_enough
+    rank = _rank_in_state(k[overlapping])
+    last = int(rank.max(initial=-1))
+    low, high = 0, (last + 1 if not np.isfinite(deep_enough) else 1)
+    while low <= last:
+        take = (rank >= low) & (rank < high) & (depth[k[overlapping]] <= deep_enough)
+        rows = overlapping[take]
+        if len(rows):
+            d, _ = convex.penetration(pa.take(rows), pb.take(rows))
+            np.maximum.at(depth, k[rows], np.maximum(d, 0.0))
+        low, high = high, 2 * high + 1
     buried = np.zeros(K, dtype=bool)
     # solids: the other body inside a closed mesh touches no triangle, yet collides
     for mesh_body, other, T_mesh, T_other in ((a, b, Ta, Tb), (b, a, Tb, Ta)):
@@ -676,6 +758,17 @@ def _closest(a, b, Ta, Tb, K, k, pa, pb, max_iterations) -> PairDistance:
     return PairDistance(np.where(buried, 0.0, dist), depth, pta, ptb, buried)
 
 
+def _rank_in_state(k: np.ndarray) -> np.ndarray:
+    """Each row's place among the rows of its state (0 for the first), in row order."""
+    order = np.argsort(k, kind="stable")
+    sorted_k = k[order]
+    position = np.arange(len(k))
+    first = np.maximum.accumulate(np.where(np.r_[True, sorted_k[1:] != sorted_k[:-1]], position, 0))
+    rank = np.empty(len(k), dtype=int)
+    rank[order] = position - first
+    return rank
+
+
 def distances(
     bodies: list[Body],
     I: np.ndarray,
@@ -684,6 +777,7 @@ def distances(
     TJ: np.ndarray,
     max_iterations: int = convex.MAX_ITERATIONS,
     within: float = np.inf,
+    deep_enough: float = np.inf,
 ) -> PairDistance:
     """Exact distances of Q queries: body ``I[q]`` at ``TI[q]`` against ``J[q]`` at ``TJ[q]``.
 
@@ -700,6 +794,8 @@ def distances(
         GJK's limit; a pair short of it reports a lower bound (see :func:`convex.distance`).
     within : float
         Distances above this [m] may be reported as inf (:func:`pair_distance`).
+    deep_enough : float
+        Depths above this [m] may be reported as any depth above it (:func:`pair_distance`).
     """
     I, J = np.asarray(I, dtype=int), np.asarray(J, dtype=int)
     Q = len(I)
@@ -721,18 +817,31 @@ def distances(
         size = int(np.clip(VERTEX_BUDGET // max(int(width[everything[start]]), 1), 64, BLOCK))
         rows = everything[start : start + size]
         start += size
-        pa = _gather(bodies, I[rows], TI[rows])
-        pb = _gather(bodies, J[rows], TJ[rows])
-        res = convex.distance(pa, pb, max_iterations)
+        res = _local_distance(bodies, I[rows], J[rows], TI[rows], TJ[rows], max_iterations)
+        if res is None:  # no compiled kernel: the pieces placed in world, the numpy GJK
+            pa = _gather(bodies, I[rows], TI[rows])
+            pb = _gather(bodies, J[rows], TJ[rows])
+            res = convex.distance(pa, pb, max_iterations)
         out.distance[rows] = res.distance
         out.point_a[rows], out.point_b[rows] = res.point_a, res.point_b
         if res.overlap.any():
-            over = np.flatnonzero(res.overlap)
-            d, _ = convex.penetration(pa.take(over), pb.take(over))
-            out.depth[rows[over]] = np.maximum(d, 0.0)
+            overlapping = np.flatnonzero(res.overlap)
+            if np.isfinite(deep_enough) and res.depth_bound is not None:
+                # deeper than asked by GJK's own simplex: no depth to measure
+                deep = res.depth_bound[overlapping] > deep_enough
+                out.depth[rows[overlapping[deep]]] = res.depth_bound[overlapping[deep]]
+                overlapping = overlapping[~deep]
+            over = rows[overlapping]
+            if len(over):
+                pa = _gather(bodies, I[over], TI[over])
+                pb = _gather(bodies, J[over], TJ[over])
+                d, _ = convex.penetration(pa, pb)
+                out.depth[over] = np.maximum(d, 0.0)
     for i, j in {(int(a), int(b)) for a, b in zip(I[~primitive], J[~primitive])}:
         sel = np.flatnonzero((I == i) & (J == j))
-        res1 = pair_distance(bodies[i], bodies[j], TI[sel], TJ[sel], max_iterations, within)
+        res1 = pair_distance(
+            bodies[i], bodies[j], TI[sel], TJ[sel], max_iterations, within, deep_enough
+        )
         out.distance[sel], out.depth[sel], out.buried[sel] = res1.distance, res1.depth, res1.buried
         out.point_a[sel], out.point_b[sel] = res1.point_a, res1.point_b
     return out
@@ -757,6 +866,13 @@ def _gather(bodies: list[Body], index: np.ndarray, T: np.ndarray) -> convex.Piec
     if len(cornered):
         R_c = np.transpose(R[cornered], (0, 2, 1))
         world[cornered] += table.vertices[index[cornered], :width] @ R_c  # matmul: 7x einsum
+    return _placed(table, index, kind, R, c, world)
+
+
+def _placed(table, index, kind, R, c, world) -> convex.Pieces:
+    """The pieces ``table[index[q]]`` placed by ``R[q]``, ``c[q]`` (their shape frames in
+    world), with vertices ``world`` (Q, V, 3) (their centres alone where the caller does not
+    need them)."""
     axes = np.transpose(R, (0, 2, 1)).copy()  # boxes and cylinders: their own axes as rows
     axis = R[:, :, 2].copy()
     center = c.copy()
@@ -781,6 +897,28 @@ def _gather(bodies: list[Body], index: np.ndarray, T: np.ndarray) -> convex.Piec
     )
 
 
+def _local_distance(bodies, I, J, TI, TJ, max_iterations) -> convex.Distances | None:
+    """:func:`convex.distance` of the single pieces of ``bodies[I[q]]`` at ``TI[q]`` and
+    ``bodies[J[q]]`` at ``TJ[q]`` by the compiled GJK on the pieces in their own frames
+    (:func:`compiled.gjk_local`: no vertex is copied or moved, and a hull of thousands of
+    vertices is climbed, not scanned); None when no compiled kernel is available."""
+    from .compiled import gjk_local, shape_rows
+
+    table = _piece_table(bodies)
+    sides = []
+    for index, T in ((I, TI), (J, TJ)):
+        Ts = T @ table.T_frame_shape[index]
+        R, c = Ts[:, :3, :3], Ts[:, :3, 3]
+        pieces = _placed(table, index, table.kind[index], R, c, c[:, None, :])
+        pose = np.concatenate([R.reshape(-1, 9), c], axis=1)
+        sides.append((pieces, (table.vertices, table.neighbours, index, pose)))
+    (pa, local_a), (pb, local_b) = sides
+    rows = gjk_local(local_a, local_b, shape_rows(pa), shape_rows(pb), max_iterations)
+    if rows is None:
+        return None
+    return convex.from_kernel(pa, pb, rows)
+
+
 @dataclass(frozen=True)
 class _PieceTable:
     """Every single-piece body's :class:`LocalPiece`, stacked (bodies of several pieces hold
@@ -793,6 +931,7 @@ class _PieceTable:
     axes: np.ndarray  # (B, 3, 3)
     center: np.ndarray  # (B, 3)
     counts: np.ndarray  # (B,) int: each piece's own vertex count (before the padding)
+    neighbours: np.ndarray  # (B, V, D) int64: each vertex's on the hull (convex.hull_neighbours)
 
 
 # the last few body sequences (the bodies kept alive, so that their ids stay theirs) and tables
@@ -830,10 +969,28 @@ def _piece_table(bodies: list[Body]) -> _PieceTable:
         np.stack([lp.axes for lp in local]) if local else np.zeros((0, 3, 3)),
         np.stack([lp.center for lp in local]) if local else np.zeros((0, 3)),
         np.array([len(lp.vertices) for lp in local], dtype=int),
+        _neighbour_table(local, count),
     )
     _TABLES.insert(0, (key, list(bodies), table))
     del _TABLES[4:]  # a few models at a time: bodies stay alive only while they are recent
     return table
+
+
+def _neighbour_table(local: list, count: int) -> np.ndarray:
+    """The hull neighbours of every piece's vertices (:func:`convex.hull_neighbours`), padded
+    to one table (B, count, D): boxes and hulls; spheres and cylinders have none."""
+    rows = [
+        convex.hull_neighbours(lp.vertices, count)
+        if lp.kind in (0, 2)
+        else np.full((count, 1), -1, dtype=np.int64)
+        for lp in local
+    ]
+    width = max((r.shape[1] for r in rows), default=1)
+    if not rows:
+        return np.full((0, count, 1), -1, dtype=np.int64)
+    return np.stack(
+        [np.pad(r, ((0, 0), (0, width - r.shape[1])), constant_values=-1) for r in rows]
+    )
 
 
 @dataclass(frozen=True)

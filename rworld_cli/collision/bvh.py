@@ -173,6 +173,24 @@ def box_gap(
     return np.where(inside > 0, np.maximum(np.maximum(apart_a, apart_b), edge), inside)
 
 
+def gap_at(
+    tree_a: Tree, a: np.ndarray, tree_b: Tree, b: np.ndarray, k: np.ndarray, R, t
+) -> np.ndarray:
+    """:func:`box_gap` of node pairs ``a[q]``, ``b[q]`` at states ``k[q]`` of ``T_a_b`` (``R``
+    (K, 3, 3), ``t`` (K, 3)): compiled (:mod:`compiled_bvh`) when kernels are on, else by
+    numpy in blocks of :data:`GAP_BLOCK` (temporaries bounded, whatever the frontier)."""
+    from .compiled_bvh import box_gap as compiled_gap
+
+    out = compiled_gap(tree_a, a, tree_b, b, k, R, t)
+    if out is not None:
+        return out
+    out = np.empty(len(k))
+    for start in range(0, len(k), GAP_BLOCK):
+        sl = slice(start, start + GAP_BLOCK)
+        out[sl] = box_gap(tree_a, a[sl], tree_b, b[sl], R[k[sl]], t[k[sl]])
+    return out
+
+
 def _relative(Ta: np.ndarray, Tb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``T_a_b`` = inv(Ta) Tb as rotations (K, 3, 3) and translations (K, 3)."""
     Ra = Ta[:, :3, :3]
@@ -226,11 +244,7 @@ def candidates(
     R, t = _relative(Ta, Tb)
 
     def gap(k, a, b):
-        out = np.empty(len(k))
-        for start in range(0, len(k), GAP_BLOCK):  # temporaries bounded, whatever the frontier
-            sl = slice(start, start + GAP_BLOCK)
-            out[sl] = box_gap(tree_a, a[sl], tree_b, b[sl], R[k[sl]], t[k[sl]])
-        return out
+        return gap_at(tree_a, a, tree_b, b, k, R, t)
 
     def promise(k, a, b, g):
         """How promising a node pair is: its bound, and among pairs whose boxes overlap (all
@@ -279,7 +293,9 @@ def candidates(
         g = gap(k, fa, fb)
         level = 0
         while len(k):
-            if level % REFINE_EVERY == 0:
+            # a collision test (within 0): a distance measured, clamped at 0, cannot lower the
+            # bound below 0, so the descents would be spent for nothing
+            if level % REFINE_EVERY == 0 and within > 1e-9:
                 refine(k, fa, fb, g)
             level += 1
             keep = g <= upper[k] + 1e-9

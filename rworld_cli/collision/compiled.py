@@ -19,8 +19,11 @@ Layout, per pair k (rows of float64 arrays):
 
 * ``vertices_a`` (P, VA, 3), ``vertices_b`` (P, VB, 3): polytope vertices (cylinders: ignored);
 * ``shape_a``, ``shape_b`` (P, 9): ``[cylinder, centre xyz, axis xyz, radius, half length]``;
-* ``out`` (P, 11): ``[core distance, point on a xyz, point on b xyz, overlap, iterations,
-  lower bound, unfinished]`` - the cores' nearest points (margins are applied by the caller).
+* ``out`` (P, 12): ``[core distance, point on a xyz, point on b xyz, overlap, iterations,
+  lower bound, unfinished, depth bound]`` - the cores' nearest points (margins are applied by
+  the caller); for cores that overlap with the origin inside the final tetrahedron, the
+  distance from the origin to its nearest face (the tetrahedron lies in the Minkowski
+  difference, so the penetration depth is at least that), else 0.
 """
 
 from __future__ import annotations
@@ -35,28 +38,37 @@ from .simplex import ABSOLUTE_TOLERANCE, RELATIVE_TOLERANCE
 from .simplex import FACES as _FACES
 
 SHAPE_COLUMNS = 9
-OUT_COLUMNS = 11
+OUT_COLUMNS = 12
 
 
-def gjk_ir(symbol: str) -> str:
+def gjk_ir(symbol: str, local: bool = False) -> str:
     """The LLVM IR text of the function ``symbol`` (see the module docstring for the layout):
 
     ``void f(i64 P, i64 VA, i64 VB, ptr vertices_a, ptr vertices_b, ptr shape_a, ptr shape_b,
     ptr out, i64 max_iterations)``
+
+    ``local``: the polytopes are rows of tables in their own frames, placed per pair, with
+    their vertices' neighbours (:func:`gjk_local`); the function takes six more arguments,
+    ``ptr rows_a, ptr rows_b, ptr pose_a, ptr pose_b, ptr neighbours_a, ptr neighbours_b``
+    and two counts ``i64 DA, i64 DB`` (neighbours per vertex).
     """
     import llvmlite.ir as ir
 
     D, I64, I1 = ir.DoubleType(), ir.IntType(64), ir.IntType(1)
     ptr = ir.PointerType(D)
+    iptr = ir.PointerType(I64)
     module = ir.Module(name="collision")
+    extra = [iptr, iptr, ptr, ptr, iptr, iptr, I64, I64] if local else []
     fn = ir.Function(
         module,
-        ir.FunctionType(ir.VoidType(), [I64, I64, I64, ptr, ptr, ptr, ptr, ptr, I64]),
+        ir.FunctionType(ir.VoidType(), [I64, I64, I64, ptr, ptr, ptr, ptr, ptr, I64] + extra),
         name=symbol,
     )
-    P, VA, VB, verts_a, verts_b, shape_a, shape_b, out, max_it = fn.args
+    P, VA, VB, verts_a, verts_b, shape_a, shape_b, out, max_it = fn.args[:9]
     for arg in (verts_a, verts_b, shape_a, shape_b, out):
         arg.add_attribute("noalias")
+    if local:
+        rows_a, rows_b, pose_a, pose_b, nbr_a, nbr_b, DA, DB = fn.args[9:]
     sqrt = module.declare_intrinsic("llvm.sqrt", [D])
     fabs = module.declare_intrinsic("llvm.fabs", [D])
 
@@ -87,6 +99,10 @@ def gjk_ir(symbol: str) -> str:
     best_slot = b.alloca(D, name="best")
     scan_slot = b.alloca(I64, name="scan")
     iterations_slot = b.alloca(I64, name="iterations")
+    start_slots = [b.alloca(I64, name="start_a"), b.alloca(I64, name="start_b")]
+    cur_slot = b.alloca(I64, name="cur")
+    m_slot = b.alloca(I64, name="m")
+    best_index_slot = b.alloca(I64, name="best_index")
 
     def at(array, index):
         return b.gep(array, [i(0), index if not isinstance(index, int) else i(index)])
@@ -142,6 +158,106 @@ def gjk_ir(symbol: str) -> str:
         }
 
     A, B = shape(shape_a), shape(shape_b)
+    if local:
+        A.update(rows=rows_a, pose=pose_a, nbr=nbr_a, degree=DA, start=start_slots[0])
+        B.update(rows=rows_b, pose=pose_b, nbr=nbr_b, degree=DB, start=start_slots[1])
+        for slot in start_slots:  # hill climbing starts at the first vertex, then the last found
+            b.store(i(0), slot)
+
+    def local_polytope(piece, vertices, V, d, target, merge):
+        """A polytope of a table in its own frame, placed by the pair's pose: the direction
+        taken into its frame, the farthest vertex found by climbing its neighbours from the last
+        one found (a linear function has no other local maximum on a convex polytope's edge
+        graph), or by scanning every vertex when the row is flagged (-2: no neighbours known),
+        placed back in world."""
+        row_index = b.load(b.gep(piece["rows"], [k]))
+        base = b.mul(b.mul(row_index, V), i(3))
+        pose = [row(piece["pose"], b.add(b.mul(k, i(12)), i(j))) for j in range(12)]
+        Rm, tv = pose[:9], pose[9:]
+        dl = [
+            b.fadd(b.fadd(b.fmul(Rm[j], d[0]), b.fmul(Rm[3 + j], d[1])), b.fmul(Rm[6 + j], d[2]))
+            for j in range(3)
+        ]  # R^T d
+
+        def vertex(index):
+            offset = b.add(base, b.mul(index, i(3)))
+            return [row(vertices, b.add(offset, i(j))) for j in range(3)]
+
+        degree = piece["degree"]
+        nbr = piece["nbr"]
+
+        def neighbour(vertex_index, m):
+            flat = b.add(b.mul(b.add(b.mul(row_index, V), vertex_index), degree), m)
+            return b.load(b.gep(nbr, [flat]))
+
+        place = fn.append_basic_block("place")
+        climb_head = fn.append_basic_block("climb_head")
+        scan_all = fn.append_basic_block("scan_all")
+        flag = neighbour(i(0), i(0))
+        scan = b.or_(b.icmp_signed("==", degree, i(0)), b.icmp_signed("==", flag, i(-2)))
+        b.store(b.load(piece["start"]), cur_slot)
+        b.cbranch(scan, scan_all, climb_head)
+        # every vertex, the first of largest d.x (as the world scan)
+        b.position_at_end(scan_all)
+        b.store(i(0), cur_slot)
+        b.store(dot(vertex(i(0)), dl), best_slot)
+        b.store(i(1), m_slot)
+        all_head = fn.append_basic_block("all_head")
+        all_body = fn.append_basic_block("all_body")
+        b.branch(all_head)
+        b.position_at_end(all_head)
+        m = b.load(m_slot)
+        b.cbranch(b.icmp_signed("<", m, V), all_body, place)
+        b.position_at_end(all_body)
+        value = dot(vertex(m), dl)
+        better = b.fcmp_ordered(">", value, b.load(best_slot))
+        b.store(select(better, value, b.load(best_slot)), best_slot)
+        b.store(b.select(better, m, b.load(cur_slot)), cur_slot)
+        b.store(b.add(m, i(1)), m_slot)
+        b.branch(all_head)
+        # climbing: to the best neighbour while it is better
+        b.position_at_end(climb_head)
+        cur = b.load(cur_slot)
+        b.store(dot(vertex(cur), dl), best_slot)
+        b.store(cur, best_index_slot)
+        b.store(i(0), m_slot)
+        nb_head = fn.append_basic_block("nb_head")
+        nb_body = fn.append_basic_block("nb_body")
+        nb_done = fn.append_basic_block("nb_done")
+        b.branch(nb_head)
+        b.position_at_end(nb_head)
+        m = b.load(m_slot)
+        b.cbranch(b.icmp_signed("<", m, degree), nb_body, nb_done)
+        b.position_at_end(nb_body)
+        n = neighbour(cur, m)
+        nb_work = fn.append_basic_block("nb_work")
+        b.cbranch(b.icmp_signed(">=", n, i(0)), nb_work, nb_done)  # -1: the list has ended
+        b.position_at_end(nb_work)
+        value = dot(vertex(n), dl)
+        better = b.fcmp_ordered(">", value, b.load(best_slot))
+        b.store(select(better, value, b.load(best_slot)), best_slot)
+        b.store(b.select(better, n, b.load(best_index_slot)), best_index_slot)
+        b.store(b.add(m, i(1)), m_slot)
+        b.branch(nb_head)
+        b.position_at_end(nb_done)
+        moved = b.icmp_signed("!=", b.load(best_index_slot), cur)
+        b.store(b.load(best_index_slot), cur_slot)
+        b.cbranch(moved, climb_head, place)
+        # the vertex found, in world
+        b.position_at_end(place)
+        found = b.load(cur_slot)
+        b.store(found, piece["start"])
+        x = vertex(found)
+        for j in range(3):
+            value = b.fadd(
+                b.fadd(
+                    b.fadd(b.fmul(Rm[3 * j], x[0]), b.fmul(Rm[3 * j + 1], x[1])),
+                    b.fmul(Rm[3 * j + 2], x[2]),
+                ),
+                tv[j],
+            )
+            store(value, target, j)
+        b.branch(merge)
 
     def support(piece, vertices, V, d, target):
         """The core's farthest point along d into ``target`` (the numpy code's Pieces.support)."""
@@ -169,6 +285,10 @@ def gjk_ir(symbol: str) -> str:
         b.branch(merge)
         # polytope: the first vertex of largest d.x
         b.position_at_end(poly_block)
+        if local:
+            local_polytope(piece, vertices, V, d, target, merge)
+            b.position_at_end(merge)
+            return
         base = b.mul(b.mul(k, V), i(3))
         first = [row(vertices, b.add(base, i(j))) for j in range(3)]
         b.store(dot(first, d), best_slot)
@@ -345,6 +465,24 @@ def gjk_ir(symbol: str) -> str:
     values = [b.call(sqrt, [dot(gap, gap)])] + pa + pb
     iterations = b.uitofp(b.load(iterations_slot), D)
     values += [b.load(overlap_slot), iterations, b.load(lower_slot), b.load(unfinished_slot)]
+    # the depth bound: the origin's distance to the nearest face plane of a full simplex
+    Y = [point(simplex, s) for s in range(4)]
+    nearest_face = c(float("inf"))
+    for face in ((0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)):
+        p0, p1, p2 = (Y[s] for s in face)
+        normal = cross(sub(p1, p0), sub(p2, p0))
+        size = b.call(sqrt, [dot(normal, normal)])
+        height = b.fdiv(
+            b.call(fabs, [dot(normal, p0)]),
+            select(b.fcmp_ordered(">", size, c(1e-300)), size, c(1.0)),
+        )
+        height = select(b.fcmp_ordered(">", size, c(1e-300)), height, c(0.0))
+        nearest_face = select(b.fcmp_ordered("<", height, nearest_face), height, nearest_face)
+    full = b.and_(
+        b.fcmp_ordered("!=", b.load(overlap_slot), c(0.0)),
+        b.icmp_signed("==", b.load(count_slot), i(4)),
+    )
+    values.append(select(full, nearest_face, c(0.0)))
     for j, value in enumerate(values):
         b.store(value, b.gep(out, [b.add(base, i(j))]))
     b.store(b.add(k, i(1)), k_slot)
@@ -429,6 +567,85 @@ def gjk_function():
             )(addresses[0])
         )
     return _FUNCTION[0]
+
+
+_LOCAL: list = []  # [ctypes function or None]: the local-frame variant
+
+
+def gjk_local_function():
+    """The compiled local-frame GJK (``gjk_ir(..., local=True)``) as a ctypes function, or None."""
+    if not _LOCAL:
+        import ctypes
+
+        source = f"{Path(__file__).read_text()}|{RELATIVE_TOLERANCE!r}|{ABSOLUTE_TOLERANCE!r}|local"
+        symbol = f"rworld_gjk_local_{hashlib.sha256(source.encode()).hexdigest()[:20]}"
+        addresses = kernels.compile_ir(
+            "GJK (local)", lambda: gjk_ir(symbol, local=True), [symbol], source
+        )
+        _LOCAL.append(
+            None
+            if addresses is None
+            else ctypes.CFUNCTYPE(
+                None,
+                ctypes.c_int64,
+                ctypes.c_int64,
+                ctypes.c_int64,
+                *[ctypes.c_void_p] * 5,
+                ctypes.c_int64,
+                *[ctypes.c_void_p] * 6,
+                ctypes.c_int64,
+                ctypes.c_int64,
+            )(addresses[0])
+        )
+    return _LOCAL[0]
+
+
+def gjk_local(table_a, table_b, shape_a, shape_b, max_iterations: int) -> np.ndarray | None:
+    """The cores' GJK for pairs of polytopes given as rows of tables in their own frames:
+    (P, 11) rows as :func:`gjk`, or None when no compiled kernel is available.
+
+    ``table_a`` = (vertices (R, V, 3) in the row's frame, neighbours (R, V, D) int64 - each
+    vertex's neighbours on the hull, -1 padded; row r's vertex 0 holding -2 first: scan every
+    vertex - , rows (P,) int64: each pair's row, poses (P, 12): R's rows then t, placing it
+    in world); ``shape_a`` (P, 9) as :func:`shape_rows` (a cylinder's own support is used where it
+    is flagged).
+    """
+    if kernels.backend() != "llvm":
+        return None
+    function = gjk_local_function()
+    if function is None:
+        return None
+    P = len(shape_a)
+    out = np.empty((P, OUT_COLUMNS))
+    if not P:
+        return out
+    # every array is held by a name until the call returns: the kernel reads raw addresses
+    va, na, ra, pa = (np.ascontiguousarray(x) for x in table_a)
+    vb, nb, rb, pb = (np.ascontiguousarray(x) for x in table_b)
+    va, vb, pa, pb = (np.ascontiguousarray(x, dtype=float) for x in (va, vb, pa, pb))
+    na, nb, ra, rb = (np.ascontiguousarray(x, dtype=np.int64) for x in (na, nb, ra, rb))
+    sa = np.ascontiguousarray(shape_a, dtype=float)
+    sb = np.ascontiguousarray(shape_b, dtype=float)
+    function(
+        P,
+        va.shape[1],
+        vb.shape[1],
+        va.ctypes.data,
+        vb.ctypes.data,
+        sa.ctypes.data,
+        sb.ctypes.data,
+        out.ctypes.data,
+        int(max_iterations),
+        ra.ctypes.data,
+        rb.ctypes.data,
+        pa.ctypes.data,
+        pb.ctypes.data,
+        na.ctypes.data,
+        nb.ctypes.data,
+        na.shape[2],
+        nb.shape[2],
+    )
+    return out
 
 
 def shape_rows(pieces) -> np.ndarray:

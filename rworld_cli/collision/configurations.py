@@ -132,6 +132,9 @@ class ConfigurationChecker:
         }
         self._centre = np.array([b.center for b in bodies]).reshape(-1, 3)
         self._radius = np.array([b.radius for b in bodies])
+        # a pair's cost to query, roughly: its bodies' leaves (the free-only order)
+        leaves = np.array([len(b.tree.item) for b in bodies], dtype=float)
+        self._cost = leaves[self.pairs[:, 0]] * leaves[self.pairs[:, 1]]
 
     def poses(self, q: np.ndarray) -> dict[str, np.ndarray]:
         """``T_world_frame`` (N, 4, 4) of every body frame in a pair, at joint states q (N, n)."""
@@ -146,7 +149,9 @@ class ConfigurationChecker:
 
         ``nearest=False`` answers free / not free only (what a planner asks): pairs farther
         apart than the clearance are not measured, and ``distance`` is then exact only where
-        it is within the clearance (inf elsewhere: farther), ``pair`` -1 there.
+        it is within the clearance (inf elsewhere: farther), ``pair`` -1 there; a state is
+        done at its first pair found deeper than the tolerance, whose depth is then only
+        known to be deeper (``distance`` at most ``-tolerance``, the pair one that collides).
         """
         q = np.atleast_2d(np.asarray(q, dtype=float))
         N, P = len(q), len(self.pairs)
@@ -172,28 +177,63 @@ class ConfigurationChecker:
             upper = (centre + reach).min(axis=1)
             near |= centre - reach <= upper[:, None] + 1e-9
         state, pair = np.nonzero(near)
-        res = distances(
-            bodies,
-            I[pair],
-            J[pair],
-            TI[state, pair],
-            TJ[state, pair],
-            within=np.inf if nearest else watch,
-        )
-        signed = _signed(res)
+        if not nearest:  # the bodies' boxes (their trees' roots) apart: the pair is farther
+            state, pair = self._boxes_near(TI, TJ, state, pair, watch)
         distance = np.full(N, np.inf)
-        np.minimum.at(distance, state, signed)
-        best = np.flatnonzero(signed <= distance[state])
         nearest_pair = np.full((N, 2), -1)
-        nearest_pair[state[best]] = self.pairs[pair[best]]
-        bad = (signed < -self.tolerance) | res.buried
-        if self.clearance > 0:
-            bad |= signed < self.clearance
         free = np.ones(N, dtype=bool)
-        free[state[bad]] = False
         buried = np.zeros(N, dtype=bool)
-        buried[state[res.buried]] = True
+        if nearest:  # every pair that may be the nearest, at once
+            groups = [np.arange(len(state))]
+        else:  # pairs of single pieces at once, then the others, cheapest first, each only at
+            # the states still free: a state is done at its first collision
+            single = np.array([b.single_piece for b in bodies])
+            simple = single[I[pair]] & single[J[pair]]
+            others = np.unique(pair[~simple])
+            others = others[np.argsort(self._cost[others], kind="stable")]
+            groups = [np.flatnonzero(simple)] + [np.flatnonzero(pair == p) for p in others]
+        for rows in groups:
+            if not nearest:
+                rows = rows[free[state[rows]]]
+            if not len(rows):
+                continue
+            s, p = state[rows], pair[rows]
+            res = distances(
+                bodies,
+                I[p],
+                J[p],
+                TI[s, p],
+                TJ[s, p],
+                within=np.inf if nearest else watch,
+                deep_enough=np.inf if nearest else self.tolerance,
+            )
+            signed = _signed(res)
+            np.minimum.at(distance, s, signed)
+            best = np.flatnonzero(signed <= distance[s])
+            nearest_pair[s[best]] = self.pairs[p[best]]
+            bad = (signed < -self.tolerance) | res.buried
+            if self.clearance > 0:
+                bad |= signed < self.clearance
+            free[s[bad]] = False
+            buried[s[res.buried]] = True
         return ConfigurationReport(free, distance, nearest_pair, buried)
+
+    def _boxes_near(self, TI, TJ, state, pair, watch: float):
+        """The (state, pair) rows whose bodies' oriented boxes (the roots of their trees) are
+        within ``watch`` of each other: the separating-axis bound of :func:`bvh.box_gap`,
+        pair by pair."""
+        from . import bvh
+
+        bodies = self.model.bodies
+        keep = np.zeros(len(state), dtype=bool)
+        for p in np.unique(pair):
+            rows = np.flatnonzero(pair == p)
+            a, b = bodies[self.pairs[p, 0]], bodies[self.pairs[p, 1]]
+            R, t = bvh._relative(TI[state[rows], p], TJ[state[rows], p])
+            root = np.zeros(len(rows), dtype=int)
+            gap = bvh.gap_at(a.tree, root, b.tree, root, np.arange(len(rows)), R, t)
+            keep[rows] = gap <= watch + 1e-9
+        return state[keep], pair[keep]
 
     # bisection depth of :meth:`check_segment`: intervals of 2**-40 of the segment
     SEGMENT_DEPTH = 40

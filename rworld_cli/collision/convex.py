@@ -169,6 +169,9 @@ class Distances:
     overlap: np.ndarray
     iterations: np.ndarray
     error: np.ndarray  # bound on (true distance - reported distance) [m]; 0 when converged
+    # overlapping pairs: a lower bound on the penetration depth [m] GJK's last simplex gives
+    # (0 where it gives none, and always from the numpy GJK)
+    depth_bound: np.ndarray | None = None
 
 
 def distance(a: Pieces, b: Pieces, max_iterations: int = MAX_ITERATIONS) -> Distances:
@@ -217,7 +220,14 @@ def distance(a: Pieces, b: Pieces, max_iterations: int = MAX_ITERATIONS) -> Dist
     rows = gjk(a, b, max_iterations)
     if rows is None:
         return _distances(a, b, *_gjk_numpy(a, b, max_iterations))
-    return _distances(
+    return from_kernel(a, b, rows)
+
+
+def from_kernel(a: Pieces, b: Pieces, rows: np.ndarray) -> Distances:
+    """:class:`Distances` of pieces ``a``, ``b`` from the compiled GJK's rows (P, 12)
+    (:mod:`rworld_cli.collision.compiled`): margins applied, the depth bound kept where the
+    pieces have none (a sphere's margin adds to the depth)."""
+    out = _distances(
         a,
         b,
         rows[:, 1:4],
@@ -227,6 +237,8 @@ def distance(a: Pieces, b: Pieces, max_iterations: int = MAX_ITERATIONS) -> Dist
         rows[:, 9],
         rows[:, 10] != 0.0,
     )
+    out.depth_bound = np.where((a.margin == 0) & (b.margin == 0), rows[:, 11], 0.0)
+    return out
 
 
 def _gjk_numpy(a: Pieces, b: Pieces, max_iterations: int):
@@ -606,3 +618,36 @@ def hulls(vertices: np.ndarray, axes: np.ndarray) -> Pieces:
         np.zeros(P),
         np.asarray(axes, dtype=float),
     )
+
+
+def hull_neighbours(vertices: np.ndarray, width: int | None = None) -> np.ndarray:
+    """Each vertex's neighbours on the convex hull of ``vertices`` (V, 3) - every vertex must be
+    one of the hull's -, as rows of indices padded with -1 to the largest count (V, D), or to
+    ``width`` rows.  A flat or degenerate set (no hull with volume) gives -2 in the first
+    entry: the compiled GJK then scans every vertex (:func:`rworld_cli.collision.compiled.
+    gjk_local`)."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    V = len(vertices)
+    rows = V if width is None else width
+    if V <= 1:
+        return np.full((rows, 1), -1, dtype=np.int64)
+    try:
+        hull = ConvexHull(vertices)
+    except (QhullError, ValueError):
+        out = np.full((rows, 1), -1, dtype=np.int64)
+        out[0, 0] = -2
+        return out
+    if len(hull.vertices) != V:  # not every point on the hull: climbing could stop inside
+        out = np.full((rows, 1), -1, dtype=np.int64)
+        out[0, 0] = -2
+        return out
+    edges = np.unique(np.sort(hull.simplices[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
+    both = np.concatenate([edges, edges[:, ::-1]])
+    both = both[np.argsort(both[:, 0], kind="stable")]
+    counts = np.bincount(both[:, 0], minlength=V)
+    out = np.full((rows, int(counts.max())), -1, dtype=np.int64)
+    starts = np.r_[0, np.cumsum(counts)[:-1]]
+    slot = np.arange(len(both)) - starts[both[:, 0]]
+    out[both[:, 0], slot] = both[:, 1]
+    return out

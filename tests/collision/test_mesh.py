@@ -167,3 +167,42 @@ def test_a_vendor_mesh_with_slivers_loads_and_checks_without_warnings(cli, tmp_p
 
     [pair] = json.loads(out.stdout)["pairs"]
     assert 0.2 < pair["distance"] < 0.5
+
+
+def test_convex_parts_are_kept_on_disk_by_content(tmp_path, monkeypatch):
+    """A vendor link's hull parts (the deviation test costs seconds on dense meshes) are
+    stored in the user's cache: read back equal without computing, a damaged entry computed
+    again."""
+    from rworld_cli.collision import bodies as B
+    from rworld_cli.schema.loader import load_cell
+    from tests.conftest import REPO
+
+    monkeypatch.setenv("RWORLD_CACHE_DIR", str(tmp_path / "cache"))
+    cell = load_cell(str(REPO / "tests/data/vendor_cells/gp7/cell.yaml")).cell
+    shape = next(
+        link.shape
+        for link in cell.devices["motoman_gp7"].links
+        if link.shape is not None and link.shape.kind == "mesh"
+    )
+    B._convex_parts.cache_clear()
+    first = B.convex_parts(shape)
+    assert first is not None
+    [entry] = (tmp_path / "cache" / "meshes").glob("parts-*.npz")
+
+    def computing(*args):
+        raise AssertionError("computed, not read")
+
+    real = B._hull_parts
+    monkeypatch.setattr(B, "_hull_parts", computing)
+    B._convex_parts.cache_clear()
+    second = B.convex_parts(shape)
+    assert len(second) == len(first)
+    for (v1, a1), (v2, a2) in zip(first, second):
+        np.testing.assert_array_equal(v1, v2)
+        np.testing.assert_array_equal(a1, a2)
+    entry.write_bytes(entry.read_bytes()[:-7])  # torn: fails authentication, a miss
+    monkeypatch.setattr(B, "_hull_parts", real)
+    B._convex_parts.cache_clear()
+    third = B.convex_parts(shape)
+    np.testing.assert_array_equal(third[0][0], first[0][0])
+    B._convex_parts.cache_clear()
