@@ -301,7 +301,7 @@ def _parts_to_bytes(parts) -> bytes:
         arrays["vertices"] = np.concatenate([v for v, _ in parts])
         arrays["axes"] = np.stack([a for _, a in parts])
     buffer = io.BytesIO()
-    np.savez(buffer, **arrays)
+    np.savez(buffer, **arrays)  # type: ignore[arg-type]  # (numpy stubs: allow_pickle)
     return buffer.getvalue()
 
 

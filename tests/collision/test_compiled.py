@@ -66,10 +66,11 @@ def test_the_local_climbing_gjk_equals_the_world_scan():
     frames, placed per pair, their supports found by climbing the hull's edges from the last
     one: the same distances and decisions as the world-frame GJK that scans every vertex of
     the placed copies, and a depth bound never above the penetration depth."""
-    from rworld_cli import kernels
-    from rworld_cli.collision.compiled import gjk_local, shape_rows
     from scipy.spatial import ConvexHull
     from scipy.spatial.transform import Rotation
+
+    from rworld_cli import kernels
+    from rworld_cli.collision.compiled import gjk_local, shape_rows
 
     if kernels.backend() != "llvm":
         pytest.skip("no compiled kernels on this machine")
@@ -114,9 +115,10 @@ def test_the_local_climbing_gjk_equals_the_world_scan():
 def test_the_compiled_box_bound_equals_the_numpy_one():
     """bvh.box_gap compiled (compiled_bvh) against its numpy form on random trees and poses,
     flat (triangle) boxes included: equal to rounding."""
+    from scipy.spatial.transform import Rotation
+
     from rworld_cli import kernels
     from rworld_cli.collision import bvh, compiled_bvh
-    from scipy.spatial.transform import Rotation
 
     if kernels.backend() != "llvm":
         pytest.skip("no compiled kernels on this machine")
