@@ -76,6 +76,11 @@ class Body:
         )
         return local, np.stack([a for _, a in self.parts])
 
+    @functools.cached_property
+    def _own_table(self) -> _PieceTable:
+        """This body's single piece as a one-row piece table (its hull's neighbours too)."""
+        return _build_piece_table([self])
+
     @property
     def single_piece(self) -> bool:
         """One convex piece: a primitive, or a mesh of one convex part."""
@@ -86,13 +91,9 @@ class Body:
         return shape_mesh(self.shape)
 
     @functools.cached_property
-    def _triangle_bounds(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """A triangle mesh in its body's frame: triangles (T, 3, 3), the centres (T, 3) and half
-        extents (T, 3) of their axis-aligned boxes [m], and the distinct vertices (V, 3): built
-        once per body."""
-        tri = self.mesh().triangles()
-        low, high = tri.min(axis=1), tri.max(axis=1)
-        return tri, (low + high) / 2, (high - low) / 2, np.unique(tri.reshape(-1, 3), axis=0)
+    def _triangles(self) -> np.ndarray:
+        """A triangle mesh's triangles in its body's frame (T, 3, 3) [m], built once per body."""
+        return self.mesh().triangles()
 
     @functools.cached_property
     def local_piece(self) -> LocalPiece:
@@ -115,7 +116,7 @@ class Body:
         """The box tree over the body's leaves (:mod:`bvh`): its triangles (a mesh checked by
         its triangles), its convex parts' hulls, or its one piece; built once per body."""
         if self.is_mesh:
-            return bvh.build(self._triangle_bounds[0])
+            return bvh.build(self._triangles)
         if self.parts is not None:
             return bvh.build(self._hulls[0])
         box = self.shape.bounding_box
@@ -128,7 +129,7 @@ class Body:
         T = np.asarray(T_world_frame, dtype=float).reshape(-1, 4, 4)
         Rt, t = np.transpose(T[:, :3, :3], (0, 2, 1)), T[:, :3, 3]  # points as rows: x R^T
         if self.is_mesh:
-            return convex.triangles(self._triangle_bounds[0][leaf] @ Rt + t[:, None])
+            return convex.triangles(self._triangles[leaf] @ Rt + t[:, None])
         if self.parts is not None and not self.single_piece:
             local, axes = self._hulls
             width = int(self._hull_counts[leaf].max(initial=1))
@@ -148,6 +149,16 @@ class Body:
         """
         T = np.asarray(T_world_frame, dtype=float).reshape(-1, 4, 4)
         shape = self.shape
+        if self.single_piece and self.parts is not None and len(self.parts[0][0]) > LOCAL_VERTICES:
+            # a large hull: left in its own frame, placed per state (convex.Pieces.local)
+            table = self._own_table
+            index = np.zeros(len(T), dtype=int)
+            Ts = T @ table.T_frame_shape[0]
+            R, c = Ts[:, :3, :3], Ts[:, :3, 3]
+            pieces = _placed(table, index, table.kind[index], R, c, c[:, None, :])
+            pose = np.concatenate([R.reshape(-1, 9), c], axis=1)
+            pieces.local = (table.vertices, table.neighbours, index, pose)
+            return pieces
         if self.parts is not None:  # K * C hulls, state-major
             local, axes = self._hulls
             count = local.shape[1]
@@ -254,6 +265,9 @@ def convex_parts(shape: Shape) -> tuple[tuple[np.ndarray, np.ndarray], ...] | No
 
 
 HULL_DEVIATION = COLLISION_TOLERANCE / 2  # [m] how far a part's hull may stand off its surface
+# a single hull with more vertices than this is placed per state by its pose, not copied
+# (convex.Pieces.local): GJK climbs it in its own frame
+LOCAL_VERTICES = 32
 BLOCK = 16384  # primitive queries per batched GJK call: bounds the memory of a large batch
 # query-vertices per batched call: a block of pairs with 3000-vertex hulls (a vendor's link
 # meshes) gets fewer queries, so each (Q, V, 3) array stays near 100 MB
@@ -528,7 +542,7 @@ def pair_distance(
     within : float
         Exact only where the distance is at most this [m]; elsewhere it may be reported as
         inf (farther than ``within``).  A collision test passes 0: bodies with several leaves
-        on both sides then only look at their leaves whose boxes touch.
+        then only look at their leaves whose boxes touch.
     deep_enough : float
         Exact depths only up to this [m]: a state with an overlapping leaf pair deeper is
         reported with that pair's depth, its other overlapping pairs not measured (a
@@ -541,19 +555,6 @@ def pair_distance(
     Ta = np.asarray(Ta, dtype=float).reshape(-1, 4, 4)
     Tb = np.asarray(Tb, dtype=float).reshape(-1, 4, 4)
     K = len(Ta)
-    if a.is_mesh != b.is_mesh and (b if a.is_mesh else a).single_piece and not np.isfinite(within):
-        # a triangle mesh and one convex piece, every distance asked: cull in the mesh's frame
-        # (a collision-only question goes down the trees below, which stop at ``within``)
-        mesh_body, T_mesh, other, T_other = (a, Ta, b, Tb) if a.is_mesh else (b, Tb, a, Ta)
-        po = other.pieces(T_other)
-        k, io, it = _near_triangles(mesh_body, T_mesh, po, len(po) // K)
-        tri = mesh_body._triangle_bounds[0][it]
-        world = np.einsum("qij,qtj->qti", T_mesh[k, :3, :3], tri) + T_mesh[k, None, :3, 3]
-        pieces_mesh, pieces_other = convex.triangles(world), po.share(k * (len(po) // K) + io)
-        if a.is_mesh:
-            return _closest(a, b, Ta, Tb, K, k, pieces_mesh, pieces_other, max_iterations)
-        return _closest(a, b, Ta, Tb, K, k, pieces_other, pieces_mesh, max_iterations)
-    # (every distance asked: depths exact, deep_enough does not apply above)
     if a.single_piece and b.single_piece:
         pa, pb = a.pieces(Ta), b.pieces(Tb)
         res = convex.distance(pa, pb, max_iterations)
@@ -564,9 +565,9 @@ def pair_distance(
             d, n = convex.penetration(pa.take(rows), pb.take(rows))
             depth[rows] = np.maximum(d, 0.0)
         return PairDistance(dist, depth, pta, ptb, np.zeros(K, dtype=bool))
-    # several leaves on both sides (convex parts, two meshes): the leaf pairs that may hold
-    # each state's nearest pair, found by the bodies' trees (bvh), then measured
-    # a single piece is placed once per state and shared by its pairs
+    # several leaves on either side (triangles, convex parts): the leaf pairs that may hold
+    # each state's nearest pair, found by the bodies' trees (bvh), then measured; a single
+    # piece is placed once per state and shared by its pairs
     placed_a = a.pieces(Ta) if a.single_piece else None
     placed_b = b.pieces(Tb) if b.single_piece else None
 
@@ -591,120 +592,6 @@ def pair_distance(
         max_iterations,
         deep_enough,
     )
-
-
-def _piece_boxes(p: convex.Pieces) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A box holding each piece: (centre (P, 3), axes as rows (P, 3, 3), half extents (P, 3))
-    [m], along the piece's own axes (exact for boxes)."""
-    offset = p.points - p.center[:, None, :]
-    half = np.abs(np.einsum("pij,pvj->pvi", p.axes, offset)).max(axis=1)
-    half = half + np.where(
-        p.cylinder[:, None], np.stack([p.radius, p.radius, p.half_length], axis=1), 0.0
-    )
-    return p.center, p.axes, half + p.margin[:, None]
-
-
-def _near_triangles(
-    mesh_body: Body, T_mesh: np.ndarray, other: convex.Pieces, per_state: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The (state, other piece, triangle) combinations that may hold a state's closest pair,
-    as index arrays, computed in the mesh's frame from bounds built once:
-
-    1. a lower bound per combination: the widest gap between the piece's box
-       (:func:`_piece_boxes`) and the triangle along the mesh's axes and the box's own axes
-       (separating axes: no pair of points is closer);
-    2. an upper bound per state: the distance from a piece's centre (inside the piece) to the
-       nearest mesh vertex, then the exact distance of the piece to the triangle of lowest
-       bound (one GJK call per state, the best first);
-    3. the combinations whose lower bound is above their state's upper bound are dropped.
-    """
-    triangles, centre, extent, vertices = mesh_body._triangle_bounds
-    K = len(T_mesh)
-    R, t = T_mesh[:, :3, :3], T_mesh[:, :3, 3]
-    c, axes, half = _piece_boxes(other)
-    c_local = np.einsum("kji,koj->koi", R, c.reshape(K, per_state, 3) - t[:, None])
-    axes_local = np.einsum("koij,kjl->koil", axes.reshape(K, per_state, 3, 3), R)
-    half = half.reshape(K, per_state, 3)
-    reach = np.einsum("koij,koi->koj", np.abs(axes_local), half)  # the box along mesh axes
-    cylinder = other.cylinder.reshape(K, per_state)
-    if cylinder.any():  # a cylinder's own extent along the mesh's axes, not its box's: with
-        # it a face the cylinder hovers over ties with the distance measured and is dropped
-        along = np.abs(axes_local[cylinder][:, 2, :])  # (m, 3): |axis . e_j|
-        radial = np.sqrt(np.maximum(1.0 - along**2, 0.0))
-        r = other.radius.reshape(K, per_state)[cylinder][:, None]
-        h = other.half_length.reshape(K, per_state)[cylinder][:, None]
-        margin = other.margin.reshape(K, per_state)[cylinder][:, None]
-        reach[cylinder] = along * h + radial * r + margin
-    out_k, out_o, out_t, out_low = [], [], [], []
-    upper = np.empty(K)
-    step = max(1, 400_000 // max(len(vertices), len(centre), 1) // per_state)
-    for start in range(0, K, step):  # states in chunks: memory bounded for large meshes
-        sl = slice(start, min(K, start + step))
-        pts = c_local[sl]  # (k, o, 3)
-        upper[sl] = np.sqrt(
-            ((pts[:, :, None, :] - vertices[None, None]) ** 2).sum(-1).min(axis=(1, 2))
-        )
-        # along the mesh's axes: the boxes' gap
-        gap = np.abs(centre[None, None] - pts[:, :, None]) - extent - reach[sl][:, :, None]
-        lower = gap.max(axis=-1)
-        kk, oo, tt = np.nonzero(lower <= upper[sl][:, None, None] + 1e-9)
-        out_k.append(kk + start)
-        out_o.append(oo)
-        out_t.append(tt)
-        out_low.append(lower[kk, oo, tt])
-    k, o, tri_index, low = (np.concatenate(x) for x in (out_k, out_o, out_t, out_low))
-    measured = np.zeros(K, dtype=bool)  # the state's upper bound is a distance measured ...
-    best_t = np.full(K, -1)  # ... the distance of this triangle and piece
-    best_o = np.full(K, -1)
-
-    def measure_most_promising() -> None:
-        """The most promising combination of each state, measured exactly: a tight upper
-        bound (``upper``, ``measured`` updated).  Bounds tie (a face's triangles under a
-        piece all give the gap to the face's plane): among bounds within 1e-9 m of the
-        lowest, the triangle whose box centre is nearest the piece's centre is the likeliest
-        to hold the nearest point."""
-        # the combinations come sorted by state: each state's run, reduced in one pass
-        starts = np.flatnonzero(np.r_[True, k[1:] != k[:-1]])
-        runs = np.diff(np.r_[starts, len(k)])
-        lowest = np.repeat(np.minimum.reduceat(low, starts), runs)
-        nearness = np.linalg.norm(centre[tri_index] - c_local[k, o], axis=1)
-        key = np.where(low > lowest + 1e-9, np.inf, nearness)
-        hit = np.flatnonzero(key == np.repeat(np.minimum.reduceat(key, starts), runs))
-        first = hit[np.r_[True, k[hit][1:] != k[hit][:-1]]]  # the first of each state's best
-        ks = k[first]
-        world = np.einsum("qij,qtj->qti", R[ks], triangles[tri_index[first]]) + t[ks, None]
-        exact = convex.distance(
-            convex.triangles(world), other.share(ks * per_state + o[first])
-        ).distance
-        exact = np.maximum(exact, 0.0)
-        better = exact <= upper[ks]
-        measured[ks[better]] = True
-        best_t[ks[better]], best_o[ks[better]] = tri_index[first][better], o[first][better]
-        upper[ks] = np.minimum(upper[ks], exact)
-
-    # 1. the boxes' gap along the mesh's axes, cut by the nearest vertex, then by a measure
-    measure_most_promising()
-    keep = low <= upper[k] + 1e-9
-    k, o, tri_index, low = k[keep], o[keep], tri_index[keep], low[keep]
-    # 2. along the piece box's own axes, for the combinations still in: the triangle's
-    # vertices projected (against every triangle this would cost 5x step 1)
-    axes_q = axes_local[k, o]  # (q, 3, 3)
-    proj = np.einsum("qij,qvj->qvi", axes_q, triangles[tri_index])  # (q, 3 vertices, 3 axes)
-    along = np.einsum("qij,qj->qi", axes_q, c_local[k, o])  # the box centre on its axes
-    box = half[k, o]
-    below = proj.min(axis=1) - along - box  # the triangle beyond the box's + side ...
-    above = along - proj.max(axis=1) - box  # ... or beyond its - side
-    low = np.maximum(low, np.maximum(below, above).max(axis=-1))
-    # 3. measured again with the sharper bounds
-    measure_most_promising()
-    keep = low <= upper[k] + 1e-9  # a bound equal to the distance may round above it
-    # Where the bound is the distance of a pair measured, a combination whose lower bound
-    # ties with it cannot be nearer (a hole's rim, level with the face around it): it is left
-    # out, unless the bodies overlap (every overlapping pair counts for the depth).
-    tie = measured[k] & (upper[k] > 1e-9) & (low >= upper[k] - 1e-9)
-    tie &= (tri_index != best_t[k]) | (o != best_o[k])  # the pair measured stays
-    keep &= ~tie
-    return k[keep], o[keep], tri_index[keep]
 
 
 def _closest(a, b, Ta, Tb, K, k, pa, pb, max_iterations, deep_enough=np.inf) -> PairDistance:
@@ -751,7 +638,7 @@ def _closest(a, b, Ta, Tb, K, k, pa, pb, max_iterations, deep_enough=np.inf) -> 
         local = np.einsum(
             "kji,kj->ki", T_mesh[free, :3, :3], point - T_mesh[free, :3, 3]
         )  # in the mesh's frame
-        inside = winding_number(local, mesh_body._triangle_bounds[0]) > 0.5
+        inside = winding_number(local, mesh_body._triangles) > 0.5
         rows = free[inside]
         buried[rows] = True
         depth[rows] = dist[rows]  # at least as deep as its distance to the surface
@@ -945,12 +832,20 @@ def _piece_table(bodies: list[Body]) -> _PieceTable:
     for known, _, table in _TABLES:
         if known == key:
             return table
+    table = _build_piece_table(bodies)
+    _TABLES.insert(0, (key, list(bodies), table))
+    del _TABLES[4:]  # a few models at a time: bodies stay alive only while they are recent
+    return table
+
+
+def _build_piece_table(bodies: list[Body]) -> _PieceTable:
+    """The stacked pieces of ``bodies`` (:class:`_PieceTable`), built."""
     local = [
         b.local_piece if b.single_piece else LocalPiece(-1, np.eye(4), np.zeros((1, 3)))
         for b in bodies
     ]
     count = max((len(lp.vertices) for lp in local), default=1)
-    table = _PieceTable(
+    return _PieceTable(
         np.array([lp.kind for lp in local], dtype=int),
         np.stack([lp.T_frame_shape for lp in local]) if local else np.zeros((0, 4, 4)),
         np.stack(
@@ -971,9 +866,6 @@ def _piece_table(bodies: list[Body]) -> _PieceTable:
         np.array([len(lp.vertices) for lp in local], dtype=int),
         _neighbour_table(local, count),
     )
-    _TABLES.insert(0, (key, list(bodies), table))
-    del _TABLES[4:]  # a few models at a time: bodies stay alive only while they are recent
-    return table
 
 
 def _neighbour_table(local: list, count: int) -> np.ndarray:

@@ -242,6 +242,15 @@ def candidates(
     """
     K = len(Ta)
     R, t = _relative(Ta, Tb)
+    # a collision test (within about 0): a distance measured, clamped at 0, cannot lower the
+    # bound below 0, so no refinement; the compiled depth-first walk finds the same leaf pairs
+    refining = within > 1e-9
+    if not refining:
+        from .compiled_bvh import touching
+
+        found = touching(tree_a, tree_b, R, t, within + 1e-9)
+        if found is not None:
+            return found
 
     def gap(k, a, b):
         return gap_at(tree_a, a, tree_b, b, k, R, t)
@@ -293,9 +302,7 @@ def candidates(
         g = gap(k, fa, fb)
         level = 0
         while len(k):
-            # a collision test (within 0): a distance measured, clamped at 0, cannot lower the
-            # bound below 0, so the descents would be spent for nothing
-            if level % REFINE_EVERY == 0 and within > 1e-9:
+            if level % REFINE_EVERY == 0 and refining:
                 refine(k, fa, fb, g)
             level += 1
             keep = g <= upper[k] + 1e-9

@@ -602,13 +602,13 @@ def gjk_local_function():
 
 def gjk_local(table_a, table_b, shape_a, shape_b, max_iterations: int) -> np.ndarray | None:
     """The cores' GJK for pairs of polytopes given as rows of tables in their own frames:
-    (P, 11) rows as :func:`gjk`, or None when no compiled kernel is available.
+    (P, 12) rows as :func:`gjk`, or None when no compiled kernel is available.
 
-    ``table_a`` = (vertices (R, V, 3) in the row's frame, neighbours (R, V, D) int64 - each
-    vertex's neighbours on the hull, -1 padded; row r's vertex 0 holding -2 first: scan every
-    vertex - , rows (P,) int64: each pair's row, poses (P, 12): R's rows then t, placing it
-    in world); ``shape_a`` (P, 9) as :func:`shape_rows` (a cylinder's own support is used where it
-    is flagged).
+    ``table_a`` = (vertices (R, V, 3) in the row's frame; neighbours (R, V, D) int64, each
+    vertex's neighbours on the hull, -1 padded, row r's vertex 0 holding -2 first to scan
+    every vertex, or None to scan every row; rows (P,) int64, each pair's row; poses (P, 12),
+    R's rows then t, placing it in world).  ``shape_a`` (P, 9) as :func:`shape_rows` (a
+    cylinder's own support is used where it is flagged).
     """
     if kernels.backend() != "llvm":
         return None
@@ -619,9 +619,20 @@ def gjk_local(table_a, table_b, shape_a, shape_b, max_iterations: int) -> np.nda
     out = np.empty((P, OUT_COLUMNS))
     if not P:
         return out
-    # every array is held by a name until the call returns: the kernel reads raw addresses
-    va, na, ra, pa = (np.ascontiguousarray(x) for x in table_a)
-    vb, nb, rb, pb = (np.ascontiguousarray(x) for x in table_b)
+
+    # every array is held by a name until the call returns: the kernel reads raw addresses;
+    # a table without neighbours is scanned (its count 0, one flag entry to read)
+    def table(t):
+        vertices, neighbours, rows, poses = t
+        if neighbours is None:
+            neighbours = np.full((1, 1, 1), -2, dtype=np.int64)
+            return vertices, neighbours, rows, poses, 0
+        return vertices, neighbours, rows, poses, np.shape(neighbours)[2]
+
+    *a_arrays, degree_a = table(table_a)
+    *b_arrays, degree_b = table(table_b)
+    va, na, ra, pa = (np.ascontiguousarray(x) for x in a_arrays)
+    vb, nb, rb, pb = (np.ascontiguousarray(x) for x in b_arrays)
     va, vb, pa, pb = (np.ascontiguousarray(x, dtype=float) for x in (va, vb, pa, pb))
     na, nb, ra, rb = (np.ascontiguousarray(x, dtype=np.int64) for x in (na, nb, ra, rb))
     sa = np.ascontiguousarray(shape_a, dtype=float)
@@ -642,8 +653,8 @@ def gjk_local(table_a, table_b, shape_a, shape_b, max_iterations: int) -> np.nda
         pb.ctypes.data,
         na.ctypes.data,
         nb.ctypes.data,
-        na.shape[2],
-        nb.shape[2],
+        degree_a,
+        degree_b,
     )
     return out
 

@@ -24,6 +24,110 @@ import numpy as np
 from .. import kernels
 
 
+class _Emit:
+    """Scalar arithmetic on an llvmlite IR builder: what the bound is written with."""
+
+    def __init__(self, b, module):
+        import llvmlite.ir as ir
+
+        self.b, self.ir = b, ir
+        D = ir.DoubleType()
+        self.sqrt = module.declare_intrinsic("llvm.sqrt", [D])
+        self.fabs = module.declare_intrinsic("llvm.fabs", [D])
+        self.D, self.I64 = D, ir.IntType(64)
+
+    def c(self, x: float):
+        return self.ir.Constant(self.D, float(x))
+
+    def i(self, x: int):
+        return self.ir.Constant(self.I64, int(x))
+
+    def row(self, pointer, base, count):
+        b = self.b
+        return [b.load(b.gep(pointer, [b.add(base, self.i(j))])) for j in range(count)]
+
+    def add(self, *xs):
+        total = xs[0]
+        for x in xs[1:]:
+            total = self.b.fadd(total, x)
+        return total
+
+    def maximum(self, x, y):
+        return self.b.select(self.b.fcmp_ordered(">", x, y), x, y)
+
+    def gap(self, Ua, Ub, hA, hB, cA, cB, R, t):
+        """The bound of :func:`rworld_cli.collision.bvh.box_gap` for one node pair: a's box
+        axes ``Ua`` (9, rows), half extents ``hA`` and centre ``cA``; the same of b; ``R`` (9)
+        and ``t`` (3), b's frame in a's."""
+        b, c, add, maximum = self.b, self.c, self.add, self.maximum
+        mul, sub = b.fmul, b.fsub
+
+        def absolute(x):
+            return b.call(self.fabs, [x])
+
+        # W = R Ub^T (3 x 3): W[i][j] = sum_l R[i][l] Ub[j][l]; M = Ua W
+        W = [
+            [add(*[mul(R[3 * i + m], Ub[3 * j + m]) for m in range(3)]) for j in range(3)]
+            for i in range(3)
+        ]
+        M = [
+            [add(*[mul(Ua[3 * i + m], W[m][j]) for m in range(3)]) for j in range(3)]
+            for i in range(3)
+        ]
+        # p = Ua (R cB + t - cA)
+        world = [
+            sub(add(*[mul(R[3 * i + m], cB[m]) for m in range(3)], t[i]), cA[i]) for i in range(3)
+        ]
+        p = [add(*[mul(Ua[3 * i + m], world[m]) for m in range(3)]) for i in range(3)]
+        absM = [[absolute(M[i][j]) for j in range(3)] for i in range(3)]
+        along_a = [
+            sub(sub(absolute(p[i]), hA[i]), add(*[mul(absM[i][j], hB[j]) for j in range(3)]))
+            for i in range(3)
+        ]
+        along_b = [
+            sub(
+                sub(absolute(add(*[mul(p[i], M[i][j]) for i in range(3)])), hB[j]),
+                add(*[mul(hA[i], absM[i][j]) for i in range(3)]),
+            )
+            for j in range(3)
+        ]
+
+        def apart(values):
+            clipped = [maximum(v, c(0.0)) for v in values]
+            return b.call(self.sqrt, [add(*[mul(x, x) for x in clipped])])
+
+        apart_a, apart_b = apart(along_a), apart(along_b)
+        # the nine edge-edge axes, as in bvh.box_gap
+        i1, i2 = [1, 2, 0], [2, 0, 1]
+        absE = [[b.fadd(absM[i][j], c(1e-12)) for j in range(3)] for i in range(3)]
+        edge = c(-np.inf)
+        for i in range(3):
+            for j in range(3):
+                reach_a = add(mul(hA[i1[i]], absE[i2[i]][j]), mul(hA[i2[i]], absE[i1[i]][j]))
+                reach_b = add(mul(hB[i1[j]], absE[i][i2[j]]), mul(hB[i2[j]], absE[i][i1[j]]))
+                across = absolute(sub(mul(p[i2[i]], M[i1[i]][j]), mul(p[i1[i]], M[i2[i]][j])))
+                length = b.call(self.sqrt, [maximum(sub(c(1.0), mul(M[i][j], M[i][j])), c(0.0))])
+                gap = b.fdiv(sub(sub(across, reach_a), reach_b), maximum(length, c(1e-6)))
+                gap = b.select(b.fcmp_ordered(">", length, c(1e-6)), gap, c(-np.inf))
+                edge = maximum(edge, gap)
+        inside = maximum(
+            maximum(maximum(*along_a[:2]), along_a[2]), maximum(maximum(*along_b[:2]), along_b[2])
+        )
+        inside = maximum(inside, edge)
+        return b.select(
+            b.fcmp_ordered(">", inside, c(0.0)), maximum(maximum(apart_a, apart_b), edge), inside
+        )
+
+    def node(self, centre, half, axes, index):
+        """A node's (axes (9), half extents (3), centre (3))."""
+        b = self.b
+        return (
+            self.row(axes, b.mul(index, self.i(9)), 9),
+            self.row(half, b.mul(index, self.i(3)), 3),
+            self.row(centre, b.mul(index, self.i(3)), 3),
+        )
+
+
 def box_gap_ir(symbol: str) -> str:
     """The LLVM IR text of ``void f(i64 Q, ptr a, ptr b, ptr k, ptr centre_a, ptr half_a, ptr
     axes_a, ptr centre_b, ptr half_b, ptr axes_b, ptr R, ptr t, ptr out)``."""
@@ -40,115 +144,162 @@ def box_gap_ir(symbol: str) -> str:
     Q, ia, ib, ik, ca, ha, ua, cb, hb, ub, Rp, tp, out = fn.args
     for arg in fn.args[1:]:
         arg.add_attribute("noalias")
-    sqrt = module.declare_intrinsic("llvm.sqrt", [D])
-    fabs = module.declare_intrinsic("llvm.fabs", [D])
     entry = fn.append_basic_block("entry")
     head = fn.append_basic_block("head")
     body = fn.append_basic_block("body")
     done = fn.append_basic_block("done")
     b = ir.IRBuilder(entry)
+    e = _Emit(b, module)
     b.branch(head)
     b.position_at_end(head)
     q = b.phi(I64, name="q")
-    q.add_incoming(ir.Constant(I64, 0), entry)
+    q.add_incoming(e.i(0), entry)
     b.cbranch(b.icmp_signed("<", q, Q), body, done)
     b.position_at_end(body)
-
-    def c(x: float):
-        return ir.Constant(D, float(x))
-
-    def row(pointer, base, count):
-        return [b.load(b.gep(pointer, [b.add(base, ir.Constant(I64, j))])) for j in range(count)]
-
-    def mul(x, y):
-        return b.fmul(x, y)
-
-    def add(*xs):
-        total = xs[0]
-        for x in xs[1:]:
-            total = b.fadd(total, x)
-        return total
-
-    def sub(x, y):
-        return b.fsub(x, y)
-
-    def absolute(x):
-        return b.call(fabs, [x])
-
-    def maximum(x, y):
-        return b.select(b.fcmp_ordered(">", x, y), x, y)
-
-    def three(index):
-        return b.mul(index, ir.Constant(I64, 3))
-
-    def nine(index):
-        return b.mul(index, ir.Constant(I64, 9))
-
     a = b.load(b.gep(ia, [q]))
     bb = b.load(b.gep(ib, [q]))
     k = b.load(b.gep(ik, [q]))
-    Ua = row(ua, nine(a), 9)  # rows: Ua[3 i + j]
-    Ub = row(ub, nine(bb), 9)
-    hA = row(ha, three(a), 3)
-    hB = row(hb, three(bb), 3)
-    cA = row(ca, three(a), 3)
-    cB = row(cb, three(bb), 3)
-    R = row(Rp, nine(k), 9)
-    t = row(tp, three(k), 3)
-    # W = R Ub^T (3 x 3): W[i][j] = sum_l R[i][l] Ub[j][l]; M = Ua W
-    W = [
-        [add(*[mul(R[3 * i + l], Ub[3 * j + l]) for l in range(3)]) for j in range(3)]
-        for i in range(3)
-    ]
-    M = [
-        [add(*[mul(Ua[3 * i + l], W[l][j]) for l in range(3)]) for j in range(3)] for i in range(3)
-    ]
-    # p = Ua (R cB + t - cA)
-    world = [sub(add(*[mul(R[3 * i + l], cB[l]) for l in range(3)], t[i]), cA[i]) for i in range(3)]
-    p = [add(*[mul(Ua[3 * i + l], world[l]) for l in range(3)]) for i in range(3)]
-    absM = [[absolute(M[i][j]) for j in range(3)] for i in range(3)]
-    along_a = [
-        sub(sub(absolute(p[i]), hA[i]), add(*[mul(absM[i][j], hB[j]) for j in range(3)]))
-        for i in range(3)
-    ]
-    along_b = [
-        sub(
-            sub(absolute(add(*[mul(p[i], M[i][j]) for i in range(3)])), hB[j]),
-            add(*[mul(hA[i], absM[i][j]) for i in range(3)]),
-        )
-        for j in range(3)
-    ]
-
-    def apart(values):
-        clipped = [maximum(v, c(0.0)) for v in values]
-        return b.call(sqrt, [add(*[mul(x, x) for x in clipped])])
-
-    apart_a, apart_b = apart(along_a), apart(along_b)
-    # the nine edge-edge axes, as in bvh.box_gap
-    i1, i2 = [1, 2, 0], [2, 0, 1]
-    absE = [[b.fadd(absM[i][j], c(1e-12)) for j in range(3)] for i in range(3)]
-    edge = c(-np.inf)
-    for i in range(3):
-        for j in range(3):
-            reach_a = add(mul(hA[i1[i]], absE[i2[i]][j]), mul(hA[i2[i]], absE[i1[i]][j]))
-            reach_b = add(mul(hB[i1[j]], absE[i][i2[j]]), mul(hB[i2[j]], absE[i][i1[j]]))
-            across = absolute(sub(mul(p[i2[i]], M[i1[i]][j]), mul(p[i1[i]], M[i2[i]][j])))
-            length = b.call(sqrt, [maximum(sub(c(1.0), mul(M[i][j], M[i][j])), c(0.0))])
-            gap = b.fdiv(sub(sub(across, reach_a), reach_b), maximum(length, c(1e-6)))
-            gap = b.select(b.fcmp_ordered(">", length, c(1e-6)), gap, c(-np.inf))
-            edge = maximum(edge, gap)
-    inside = maximum(
-        maximum(maximum(*along_a[:2]), along_a[2]), maximum(maximum(*along_b[:2]), along_b[2])
-    )
-    inside = maximum(inside, edge)
-    result = b.select(
-        b.fcmp_ordered(">", inside, c(0.0)), maximum(maximum(apart_a, apart_b), edge), inside
-    )
-    b.store(result, b.gep(out, [q]))
-    q_next = b.add(q, ir.Constant(I64, 1))
-    q.add_incoming(q_next, b.block)
+    Ua, hA, cA = e.node(ca, ha, ua, a)
+    Ub, hB, cB = e.node(cb, hb, ub, bb)
+    R = e.row(Rp, b.mul(k, e.i(9)), 9)
+    t = e.row(tp, b.mul(k, e.i(3)), 3)
+    b.store(e.gap(Ua, Ub, hA, hB, cA, cB, R, t), b.gep(out, [q]))
+    q.add_incoming(b.add(q, e.i(1)), b.block)
     b.branch(head)
     b.position_at_end(done)
+    b.ret_void()
+    return str(module)
+
+
+STACK = 512  # node pairs pending in the traversal: depth of both trees at the most, with room
+
+
+def touching_ir(symbol: str) -> str:
+    """The LLVM IR text of the collision-only traversal:
+
+    ``void f(i64 K, double limit, ptr R, ptr t, (tree a:) ptr centre, ptr half, ptr axes,
+    ptr left, ptr right, ptr item, (tree b: the same six), i64 capacity, ptr out_k, ptr
+    out_a, ptr out_b, ptr count)``
+
+    For each state k, depth first from the roots: a node pair whose bound is above ``limit``
+    is dropped; a leaf pair is written (k, its items) while there is room, and counted in any
+    case; an inner pair is split as :func:`rworld_cli.collision.bvh._split` splits it (the
+    node with the larger box, or the one that is not a leaf).
+    """
+    import llvmlite.ir as ir
+
+    D, I64 = ir.DoubleType(), ir.IntType(64)
+    dptr, iptr = ir.PointerType(D), ir.PointerType(I64)
+    module = ir.Module(name="touching")
+    tree = [dptr, dptr, dptr, iptr, iptr, iptr]
+    fn = ir.Function(
+        module,
+        ir.FunctionType(
+            ir.VoidType(), [I64, D, dptr, dptr] + tree + tree + [I64, iptr, iptr, iptr, iptr]
+        ),
+        name=symbol,
+    )
+    K, limit, Rp, tp = fn.args[:4]
+    A = fn.args[4:10]
+    B = fn.args[10:16]
+    capacity, out_k, out_a, out_b, count_out = fn.args[16:]
+    entry = fn.append_basic_block("entry")
+    b = ir.IRBuilder(entry)
+    e = _Emit(b, module)
+    i = e.i
+    stack_a = b.alloca(ir.ArrayType(I64, STACK), name="stack_a")
+    stack_b = b.alloca(ir.ArrayType(I64, STACK), name="stack_b")
+    top_slot = b.alloca(I64, name="top")
+    count_slot = b.alloca(I64, name="count")
+    k_slot = b.alloca(I64, name="k")
+    b.store(i(0), count_slot)
+    b.store(i(0), k_slot)
+    state_head = fn.append_basic_block("state_head")
+    state_body = fn.append_basic_block("state_body")
+    pop_head = fn.append_basic_block("pop_head")
+    pop_body = fn.append_basic_block("pop_body")
+    state_next = fn.append_basic_block("state_next")
+    finished = fn.append_basic_block("finished")
+    b.branch(state_head)
+    b.position_at_end(state_head)
+    k = b.load(k_slot)
+    b.cbranch(b.icmp_signed("<", k, K), state_body, finished)
+    b.position_at_end(state_body)
+    b.store(i(0), b.gep(stack_a, [i(0), i(0)]))
+    b.store(i(0), b.gep(stack_b, [i(0), i(0)]))
+    b.store(i(1), top_slot)
+    b.branch(pop_head)
+    b.position_at_end(pop_head)
+    top = b.load(top_slot)
+    b.cbranch(b.icmp_signed(">", top, i(0)), pop_body, state_next)
+    b.position_at_end(pop_body)
+    k = b.load(k_slot)
+    top = b.sub(b.load(top_slot), i(1))
+    b.store(top, top_slot)
+    na = b.load(b.gep(stack_a, [i(0), top]))
+    nb = b.load(b.gep(stack_b, [i(0), top]))
+    Ua, hA, cA = e.node(A[0], A[1], A[2], na)
+    Ub, hB, cB = e.node(B[0], B[1], B[2], nb)
+    R = e.row(Rp, b.mul(k, i(9)), 9)
+    t = e.row(tp, b.mul(k, i(3)), 3)
+    gap = e.gap(Ua, Ub, hA, hB, cA, cB, R, t)
+    near = fn.append_basic_block("near")
+    b.cbranch(b.fcmp_ordered("<=", gap, limit), near, pop_head)  # NaN: dropped
+    b.position_at_end(near)
+    item_a = b.load(b.gep(A[5], [na]))
+    item_b = b.load(b.gep(B[5], [nb]))
+    leaf_a = b.icmp_signed(">=", item_a, i(0))
+    leaf_b = b.icmp_signed(">=", item_b, i(0))
+    emit = fn.append_basic_block("emit")
+    split = fn.append_basic_block("split")
+    b.cbranch(b.and_(leaf_a, leaf_b), emit, split)
+    # a leaf pair: written while there is room, counted always
+    b.position_at_end(emit)
+    count = b.load(count_slot)
+    room = fn.append_basic_block("room")
+    counted = fn.append_basic_block("counted")
+    b.cbranch(b.icmp_signed("<", count, capacity), room, counted)
+    b.position_at_end(room)
+    b.store(k, b.gep(out_k, [count]))
+    b.store(item_a, b.gep(out_a, [count]))
+    b.store(item_b, b.gep(out_b, [count]))
+    b.branch(counted)
+    b.position_at_end(counted)
+    b.store(b.add(count, i(1)), count_slot)
+    b.branch(pop_head)
+    # an inner pair: the larger node's children (or the one that is not a leaf)
+    b.position_at_end(split)
+    size_a = e.add(*hA)
+    size_b = e.add(*hB)
+    split_a = b.and_(b.not_(leaf_a), b.or_(leaf_b, b.fcmp_ordered(">=", size_a, size_b)))
+    left_a, right_a = b.load(b.gep(A[3], [na])), b.load(b.gep(A[4], [na]))
+    left_b, right_b = b.load(b.gep(B[3], [nb])), b.load(b.gep(B[4], [nb]))
+    first_a = b.select(split_a, left_a, na)
+    second_a = b.select(split_a, right_a, na)
+    first_b = b.select(split_a, nb, left_b)
+    second_b = b.select(split_a, nb, right_b)
+    top = b.load(top_slot)
+    room_for_two = b.icmp_signed("<=", b.add(top, i(2)), i(STACK))
+    push = fn.append_basic_block("push")
+    overflow = fn.append_basic_block("overflow")
+    b.cbranch(room_for_two, push, overflow)
+    b.position_at_end(push)
+    # the second child pair below the first: the first is looked at first
+    b.store(second_a, b.gep(stack_a, [i(0), top]))
+    b.store(second_b, b.gep(stack_b, [i(0), top]))
+    b.store(first_a, b.gep(stack_a, [i(0), b.add(top, i(1))]))
+    b.store(first_b, b.gep(stack_b, [i(0), b.add(top, i(1))]))
+    b.store(b.add(top, i(2)), top_slot)
+    b.branch(pop_head)
+    # no room (a tree far deeper than it should be): the count marks the answer unusable
+    b.position_at_end(overflow)
+    b.store(i(-1), count_out)
+    b.ret_void()
+    b.position_at_end(state_next)
+    b.store(b.add(b.load(k_slot), i(1)), k_slot)
+    b.branch(state_head)
+    b.position_at_end(finished)
+    b.store(b.load(count_slot), count_out)
     b.ret_void()
     return str(module)
 
@@ -156,20 +307,86 @@ def box_gap_ir(symbol: str) -> str:
 _FUNCTION: list = []  # [ctypes function or None], built once per process
 
 
-def box_gap_function():
-    """The compiled bound as a ctypes function, or None (kernels off, or the compile failed)."""
+def _functions():
+    """The compiled bound and traversal as ctypes functions, or (None, None) (kernels off, or
+    the compile failed); one module, compiled once per process and cached on disk."""
     if not _FUNCTION:
         import ctypes
 
         source = Path(__file__).read_text()
-        symbol = f"rworld_box_gap_{hashlib.sha256(source.encode()).hexdigest()[:20]}"
-        addresses = kernels.compile_ir("box gap", lambda: box_gap_ir(symbol), [symbol], source)
-        _FUNCTION.append(
-            None
-            if addresses is None
-            else ctypes.CFUNCTYPE(None, ctypes.c_int64, *[ctypes.c_void_p] * 12)(addresses[0])
+        digest = hashlib.sha256(source.encode()).hexdigest()[:20]
+        gap_symbol, walk_symbol = f"rworld_box_gap_{digest}", f"rworld_touching_{digest}"
+
+        def build() -> str:
+            import llvmlite.binding as llvm
+
+            module = llvm.parse_assembly(box_gap_ir(gap_symbol))
+            module.link_in(llvm.parse_assembly(touching_ir(walk_symbol)))
+            return str(module)
+
+        addresses = kernels.compile_ir("box trees", build, [gap_symbol, walk_symbol], source)
+        if addresses is None:
+            _FUNCTION.extend([None, None])
+        else:
+            _FUNCTION.append(
+                ctypes.CFUNCTYPE(None, ctypes.c_int64, *[ctypes.c_void_p] * 12)(addresses[0])
+            )
+            _FUNCTION.append(
+                ctypes.CFUNCTYPE(
+                    None,
+                    ctypes.c_int64,
+                    ctypes.c_double,
+                    *[ctypes.c_void_p] * 14,
+                    ctypes.c_int64,
+                    *[ctypes.c_void_p] * 4,
+                )(addresses[1])
+            )
+    return _FUNCTION[0], _FUNCTION[1]
+
+
+def box_gap_function():
+    """The compiled bound as a ctypes function, or None (kernels off, or the compile failed)."""
+    return _functions()[0]
+
+
+def touching(tree_a, tree_b, R: np.ndarray, t: np.ndarray, limit: float):
+    """The leaf pairs of two trees whose boxes' bound stays within ``limit`` [m] all the way
+    down, at each of K states ``T_a_b`` = (``R`` (K, 3, 3), ``t`` (K, 3)): (k, leaf_a, leaf_b)
+    int arrays sorted by state, as :func:`rworld_cli.collision.bvh.candidates` finds them
+    without its refinements (a collision test); None when no compiled kernel is available."""
+    if kernels.backend() != "llvm":
+        return None
+    walk = _functions()[1]
+    if walk is None:
+        return None
+    # every array is held by a name until the call returns: the kernel reads raw addresses
+    Rc, tc = np.ascontiguousarray(R, dtype=float), np.ascontiguousarray(t, dtype=float)
+    trees = []
+    for tree in (tree_a, tree_b):
+        trees += [np.ascontiguousarray(x, dtype=float) for x in (tree.center, tree.half, tree.axes)]
+        trees += [
+            np.ascontiguousarray(x, dtype=np.int64) for x in (tree.left, tree.right, tree.item)
+        ]
+    capacity = max(64, 8 * len(Rc))
+    while True:
+        out = [np.empty(capacity, dtype=np.int64) for _ in range(3)]
+        count = np.zeros(1, dtype=np.int64)
+        walk(
+            len(Rc),
+            float(limit),
+            Rc.ctypes.data,
+            tc.ctypes.data,
+            *[x.ctypes.data for x in trees],
+            capacity,
+            *[x.ctypes.data for x in out],
+            count.ctypes.data,
         )
-    return _FUNCTION[0]
+        found = int(count[0])
+        if found < 0:  # a tree deeper than the kernel's stack: the numpy search answers
+            return None
+        if found <= capacity:
+            return out[0][:found], out[1][:found], out[2][:found]
+        capacity = found
 
 
 def box_gap(tree_a, a, tree_b, b, k, R, t) -> np.ndarray | None:

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..units import COLLISION_TOLERANCE
+from . import bvh
 from .allowed import allowed_pairs
 from .bodies import CollisionModel, distances
 from .sweep import _Levers, _signed
@@ -132,6 +133,16 @@ class ConfigurationChecker:
         }
         self._centre = np.array([b.center for b in bodies]).reshape(-1, 3)
         self._radius = np.array([b.radius for b in bodies])
+        # every body's root box, as one tree's nodes (node i: body i), for one bound call
+        trees = [b.tree for b in bodies]
+        self._roots = bvh.Tree(
+            np.array([tr.center[0] for tr in trees]).reshape(-1, 3),
+            np.array([tr.half[0] for tr in trees]).reshape(-1, 3),
+            np.array([tr.axes[0] for tr in trees]).reshape(-1, 3, 3),
+            np.full(len(trees), -1),
+            np.full(len(trees), -1),
+            np.arange(len(trees)),
+        )
         # a pair's cost to query, roughly: its bodies' leaves (the free-only order)
         leaves = np.array([len(b.tree.item) for b in bodies], dtype=float)
         self._cost = leaves[self.pairs[:, 0]] * leaves[self.pairs[:, 1]]
@@ -220,19 +231,13 @@ class ConfigurationChecker:
 
     def _boxes_near(self, TI, TJ, state, pair, watch: float):
         """The (state, pair) rows whose bodies' oriented boxes (the roots of their trees) are
-        within ``watch`` of each other: the separating-axis bound of :func:`bvh.box_gap`,
-        pair by pair."""
-        from . import bvh
-
-        bodies = self.model.bodies
-        keep = np.zeros(len(state), dtype=bool)
-        for p in np.unique(pair):
-            rows = np.flatnonzero(pair == p)
-            a, b = bodies[self.pairs[p, 0]], bodies[self.pairs[p, 1]]
-            R, t = bvh._relative(TI[state[rows], p], TJ[state[rows], p])
-            root = np.zeros(len(rows), dtype=int)
-            gap = bvh.gap_at(a.tree, root, b.tree, root, np.arange(len(rows)), R, t)
-            keep[rows] = gap <= watch + 1e-9
+        within ``watch`` of each other: the separating-axis bound of :func:`bvh.box_gap`, all
+        rows in one call."""
+        R, t = bvh._relative(TI[state, pair], TJ[state, pair])
+        rows = np.arange(len(state))
+        I, J = self.pairs[pair, 0], self.pairs[pair, 1]
+        gap = bvh.gap_at(self._roots, I, self._roots, J, rows, R, t)
+        keep = gap <= watch + 1e-9
         return state[keep], pair[keep]
 
     # bisection depth of :meth:`check_segment`: intervals of 2**-40 of the segment

@@ -71,6 +71,12 @@ class Pieces:
     rows : ndarray of int, shape (P,), or None
         When given, ``vertices`` is a table (M, V, 3) shared by the pieces: piece p's vertices
         are ``vertices[rows[p]]`` (see :meth:`share`).
+    local : tuple, or None
+        When given, the polytopes in their own frames: ``(table (M, V, 3), neighbours (M, V, D)
+        int64, rows (P,) int64, poses (P, 12): R's rows then t)``, piece p being
+        ``table[rows[p]]`` placed by its pose (:func:`rworld_cli.collision.compiled.
+        gjk_local` climbs their hulls); ``vertices`` then holds only their centres, and
+        :attr:`points` places the vertices when something needs them.
     """
 
     vertices: np.ndarray
@@ -82,10 +88,15 @@ class Pieces:
     margin: np.ndarray
     axes: np.ndarray
     rows: np.ndarray | None = None
+    local: tuple | None = None
 
     @property
     def points(self) -> np.ndarray:
-        """Each piece's vertices (P, V, 3) [m] (copied out of a shared table)."""
+        """Each piece's vertices (P, V, 3) [m] (copied out of a shared table, or placed)."""
+        if self.local is not None:
+            table, _, rows, poses = self.local
+            R, t = poses[:, :9].reshape(-1, 3, 3), poses[:, 9:]
+            return table[rows] @ np.transpose(R, (0, 2, 1)) + t[:, None, :]
         return self.vertices if self.rows is None else self.vertices[self.rows]
 
     def __len__(self) -> int:
@@ -94,6 +105,10 @@ class Pieces:
     def take(self, index) -> Pieces:
         """The pieces at ``index`` (an integer array), as a new batch."""
         shared = self.rows is not None
+        local = None
+        if self.local is not None:
+            table, neighbours, rows, poses = self.local
+            local = (table, neighbours, rows[index], poses[index])
         return Pieces(
             self.vertices if shared else self.vertices[index],
             self.cylinder[index],
@@ -104,18 +119,23 @@ class Pieces:
             self.margin[index],
             self.axes[index],
             None if self.rows is None else self.rows[index],
+            local,
         )
 
     def materialized(self) -> Pieces:
-        """The same pieces with their own vertex rows (a shared table copied out)."""
-        if self.rows is None:
+        """The same pieces with their own vertex rows (a shared table copied out, pieces in
+        their own frames placed)."""
+        if self.rows is None and self.local is None:
             return self
-        return dataclasses.replace(self, vertices=self.vertices[self.rows], rows=None)
+        return dataclasses.replace(self, vertices=self.points, rows=None, local=None)
 
     def share(self, index) -> Pieces:
         """The pieces at ``index``, their vertices left in this batch's table (no copy): a
         hull of thousands of vertices met by many pairs is stored once, and :func:`distance`
-        copies them out a block of pairs at a time."""
+        copies them out a block of pairs at a time (pieces in their own frames are only
+        taken: their table is shared already)."""
+        if self.local is not None:
+            return self.take(index)
         table = (
             self if self.rows is not None else dataclasses.replace(self, rows=np.arange(len(self)))
         )
@@ -194,8 +214,21 @@ def distance(a: Pieces, b: Pieces, max_iterations: int = MAX_ITERATIONS) -> Dist
     -------
     Distances
     """
-    from .compiled import gjk
+    from .compiled import gjk, gjk_local, shape_rows
 
+    if a.local is not None or b.local is not None:
+        # pieces in their own frames: the compiled GJK climbs them where it runs; the other
+        # side is read where it lies (a world table, or a shared one, by row)
+        def side(p: Pieces):
+            if p.local is not None:
+                return p.local
+            rows = p.rows if p.rows is not None else np.arange(len(p))
+            return (p.vertices, None, rows, _IDENTITY_POSES(len(p)))
+
+        rows = gjk_local(side(a), side(b), shape_rows(a), shape_rows(b), max_iterations)
+        if rows is not None:
+            return from_kernel(a, b, rows)
+        a, b = a.materialized(), b.materialized()
     if a.rows is not None or b.rows is not None:
         # shared vertices: copied out a block of pairs at a time, so a hull of thousands of
         # vertices met by many pairs costs a block's memory, not all of it at once
@@ -238,6 +271,13 @@ def from_kernel(a: Pieces, b: Pieces, rows: np.ndarray) -> Distances:
         rows[:, 10] != 0.0,
     )
     out.depth_bound = np.where((a.margin == 0) & (b.margin == 0), rows[:, 11], 0.0)
+    return out
+
+
+def _IDENTITY_POSES(count: int) -> np.ndarray:
+    """``count`` identity poses as rows of R then t (P, 12)."""
+    out = np.zeros((count, 12))
+    out[:, [0, 4, 8]] = 1.0
     return out
 
 

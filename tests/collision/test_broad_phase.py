@@ -104,7 +104,7 @@ def test_a_mesh_pair_culled_in_the_meshs_frame_is_the_exhaustive_minimum():
     rng = np.random.default_rng(7)
     K = 40
     T_plate = np.repeat(spatial.make_transform(np.eye(3), [0.45, 0.1, 0.4])[None], K, 0)
-    tri = plate._triangle_bounds[0]
+    tri = plate._triangles
     # random poses around the plate, then poses hovering just over its top face (level or
     # slightly tilted, over the holes and away from them): there the triangles of the face
     # all tie with the face's plane, and only the one measured may stand for them

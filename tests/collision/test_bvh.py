@@ -85,7 +85,7 @@ def test_every_leaf_lies_in_every_box_above_it():
     for label in ("plate", "kuka_lbr_iiwa_14_r820.link_2", "kuka_lbr_iiwa_14_r820"):
         body = bodies[label]
         tree = body.tree
-        points = body._triangle_bounds[0] if body.is_mesh else body._hulls[0]
+        points = body._triangles if body.is_mesh else body._hulls[0]
         parent = np.full(len(tree.item), -1)
         inner = np.flatnonzero(tree.left >= 0)
         parent[tree.left[inner]], parent[tree.right[inner]] = inner, inner
@@ -165,8 +165,9 @@ def test_the_tree_search_finds_the_exhaustive_minimum(cell, label_a, label_b, st
 
 @pytest.mark.parametrize("backend", ["llvm", "numpy"])
 def test_shared_vertices_give_what_copies_give(backend, monkeypatch):
-    """A hull stored once for many pairs (``Pieces.share``) measures as its copies do, on
-    both GJK implementations."""
+    """A hull of thousands of vertices is kept once, in its own frame, for all its states
+    (``Pieces.local``; ``share`` refers to it) and measures as its placed copies do, on both
+    GJK implementations (the compiled one climbs it, the numpy one places it)."""
     from rworld_cli import kernels
 
     monkeypatch.setenv("RWORLD_KERNELS", backend)
@@ -178,7 +179,48 @@ def test_shared_vertices_give_what_copies_give(backend, monkeypatch):
     rows = rng.integers(0, 4, 200)
     triangles = cv.triangles(rng.normal(size=(200, 3, 3)) * 0.3)
     shared = cv.distance(hulls.share(rows), triangles)
-    copied = cv.distance(hulls.take(rows), triangles)
-    assert hulls.share(rows).vertices.shape[0] == 4  # not copied
-    assert np.abs(shared.distance - copied.distance).max() == 0.0
-    assert np.abs(shared.point_a - copied.point_a).max() == 0.0
+    copied = cv.distance(hulls.take(rows).materialized(), triangles)
+    kept = hulls.share(rows)
+    assert kept.local[0].shape[:2] == (1, 3202) and kept.vertices.shape[1] == 1  # not copied
+    assert hulls.take(rows).materialized().vertices.shape == (200, 3202, 3)
+    assert 0 < shared.overlap.sum() < 200
+    assert np.array_equal(shared.overlap, copied.overlap)
+    assert np.abs(shared.distance - copied.distance).max() <= 1e-12
+    far = ~copied.overlap
+    assert np.abs(shared.point_a[far] - copied.point_a[far]).max() <= 1e-12
+
+
+@pytest.mark.parametrize("label_a, label_b", [
+    ("plate", "kuka_lbr_iiwa_14_r820.link_4"),
+    ("kuka_lbr_iiwa_14_r820.link_2", "kuka_lbr_iiwa_14_r820.link_5"),
+])  # fmt: skip
+def test_the_compiled_walk_finds_the_numpy_searchs_leaf_pairs(label_a, label_b, monkeypatch):
+    """A collision test (within 0): the compiled depth-first walk returns exactly the leaf
+    pairs of the breadth-first numpy search, at random poses with the boxes overlapping, and
+    the same collision answer from pair_distance."""
+    from rworld_cli import kernels
+    from rworld_cli.collision import compiled_bvh
+
+    if kernels.backend() != "llvm":
+        pytest.skip("no compiled kernels on this machine")
+    bodies = vendor_bodies("iiwa14")
+    a, b = bodies[label_a], bodies[label_b]
+    rng = np.random.default_rng(9)
+    n = 200
+    Ta = random_frames(rng, n, 0.0)
+    Tb = random_frames(rng, n, 0.0)
+    direction = rng.normal(size=(n, 3))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    spread = rng.uniform(0.2, 1.0, (n, 1)) * (a.radius + b.radius)
+    Tb[:, :3, 3] = spread * direction - Tb[:, :3, :3] @ b.center + Ta[:, :3, :3] @ a.center
+    walked = bvh.candidates(a.tree, b.tree, Ta, Tb, None, 1e-9)
+    with_walk = pair_distance(a, b, Ta, Tb, within=0.0, deep_enough=1e-3)
+    monkeypatch.setattr(compiled_bvh, "touching", lambda *args: None)
+    searched = bvh.candidates(a.tree, b.tree, Ta, Tb, None, 1e-9)
+    without = pair_distance(a, b, Ta, Tb, within=0.0, deep_enough=1e-3)
+    assert len(searched[0]) > n  # boxes overlap: work for both
+    assert set(zip(*(x.tolist() for x in walked))) == set(zip(*(x.tolist() for x in searched)))
+    assert np.all(np.diff(walked[0]) >= 0)  # sorted by state
+    collide = lambda r: (r.distance <= 0) & (r.depth > 1e-3) | r.buried  # noqa: E731
+    assert np.array_equal(collide(with_walk), collide(without))
+    assert collide(without).any() and (~collide(without)).any()
