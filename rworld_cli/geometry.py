@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 
@@ -46,6 +47,8 @@ class MeshData:
 
 @lru_cache(maxsize=256)
 def _primitive_mesh(kind: str, size: tuple, mesh_file: str | None, scale: float) -> MeshData:
+    if kind == "mesh" and mesh_file is not None:
+        return _mesh_file(mesh_file, scale)
     import trimesh
 
     if kind == "box":
@@ -58,6 +61,39 @@ def _primitive_mesh(kind: str, size: tuple, mesh_file: str | None, scale: float)
         tm = trimesh.load(mesh_file, force="mesh")
         tm.apply_scale(scale)
     return MeshData(np.asarray(tm.vertices, dtype=float), np.asarray(tm.faces, dtype=np.int64))
+
+
+MESH_DATA_FORMAT = "meshdata-1"
+
+
+def _mesh_file(mesh_file: str, scale: float) -> MeshData:
+    """A mesh file's vertices and faces at ``scale``, kept in the user's cache (``rworld_cli.
+    cache``, kind ``meshes``) by the file's content: a command on a cell of vendor meshes then
+    neither imports trimesh nor parses a mesh."""
+    import hashlib
+    import io
+
+    from . import cache
+
+    content = Path(mesh_file).read_bytes()
+    key = hashlib.sha256(f"{MESH_DATA_FORMAT}|{scale!r}|".encode() + content).hexdigest()[:40]
+    name = f"mesh-{key}.npz"
+    stored = cache.read("meshes", name)  # authenticated before it is parsed
+    if stored is not None:
+        try:
+            with np.load(io.BytesIO(stored), allow_pickle=False) as npz:
+                return MeshData(npz["vertices"], npz["faces"])
+        except (ValueError, KeyError, OSError):
+            pass  # another layout: read again
+    import trimesh
+
+    tm = trimesh.load(mesh_file, force="mesh")
+    tm.apply_scale(scale)
+    data = MeshData(np.asarray(tm.vertices, dtype=float), np.asarray(tm.faces, dtype=np.int64))
+    buffer = io.BytesIO()
+    np.savez(buffer, vertices=data.vertices, faces=data.faces)
+    cache.write("meshes", name, buffer.getvalue())
+    return data
 
 
 def shape_mesh(shape) -> MeshData:

@@ -868,11 +868,40 @@ def _build_piece_table(bodies: list[Body]) -> _PieceTable:
     )
 
 
+def _hull_neighbours(vertices: np.ndarray, count: int) -> np.ndarray:
+    """:func:`convex.hull_neighbours`, kept in the user's cache (kind ``meshes``) for hulls of
+    64 vertices or more, by their vertices: a vendor link's hull costs tens of milliseconds."""
+    if len(vertices) < 64:
+        return convex.hull_neighbours(vertices, count)
+    import hashlib
+    import io
+
+    from .. import cache
+
+    vertices = np.ascontiguousarray(vertices, dtype=float)
+    key = hashlib.sha256(
+        f"neighbours-1|{count}|{vertices.shape}|".encode() + vertices.tobytes()
+    ).hexdigest()[:40]
+    name = f"neighbours-{key}.npz"
+    stored = cache.read("meshes", name)  # authenticated before it is parsed
+    if stored is not None:
+        try:
+            with np.load(io.BytesIO(stored), allow_pickle=False) as npz:
+                return npz["neighbours"]
+        except (ValueError, KeyError, OSError):
+            pass  # another layout: computed again
+    out = convex.hull_neighbours(vertices, count)
+    buffer = io.BytesIO()
+    np.savez(buffer, neighbours=out)
+    cache.write("meshes", name, buffer.getvalue())
+    return out
+
+
 def _neighbour_table(local: list, count: int) -> np.ndarray:
     """The hull neighbours of every piece's vertices (:func:`convex.hull_neighbours`), padded
     to one table (B, count, D): boxes and hulls; spheres and cylinders have none."""
     rows = [
-        convex.hull_neighbours(lp.vertices, count)
+        _hull_neighbours(lp.vertices, count)
         if lp.kind in (0, 2)
         else np.full((count, 1), -1, dtype=np.int64)
         for lp in local

@@ -43,7 +43,7 @@ FRONTIER_BUDGET = 1_000_000
 GAP_BLOCK = 65536  # node pairs per bound evaluation: its temporaries stay near 50 MB
 # the upper bounds are refined every this many levels of the search (each refinement is a
 # descent to a leaf pair and one exact distance per state)
-REFINE_EVERY = 2
+REFINE_EVERY = 3
 
 
 @dataclass(frozen=True)
@@ -74,6 +74,9 @@ class Tree:
         return self.item >= 0
 
 
+CACHED_LEAVES = 64  # trees over this many leaves or more are kept in the user's cache
+
+
 def build(points: np.ndarray) -> Tree:
     """The tree over leaves given by points that they are the hull of (module docstring).
 
@@ -82,8 +85,56 @@ def build(points: np.ndarray) -> Tree:
     points : ndarray, shape (L, P, 3)
         Each leaf's points in the body's frame [m] (a triangle's 3 vertices, a hull's
         vertices, a primitive's box corners; padding by repeating a point is harmless).
+
+    A tree of :data:`CACHED_LEAVES` leaves or more is kept in the user's cache
+    (``rworld_cli.cache``, kind ``meshes``), keyed by the points and this module's code: a
+    vendor link's tree costs a tenth of a second to fit, every command.
     """
-    points = np.asarray(points, dtype=float)
+    import hashlib
+    from pathlib import Path
+
+    from .. import cache
+
+    points = np.ascontiguousarray(points, dtype=float)
+    if len(points) < CACHED_LEAVES:
+        return _build(points)
+    key = hashlib.sha256(
+        Path(__file__).read_bytes() + str(points.shape).encode() + points.tobytes()
+    ).hexdigest()[:40]
+    name = f"tree-{key}.npz"
+    stored = cache.read("meshes", name)  # authenticated before it is parsed
+    if stored is not None:
+        try:
+            return _tree_from_bytes(stored)
+        except (ValueError, KeyError, OSError):
+            pass  # another layout: built again
+    tree = _build(points)
+    cache.write("meshes", name, _tree_to_bytes(tree))
+    return tree
+
+
+def _tree_to_bytes(tree: Tree) -> bytes:
+    """A tree as an npz of its arrays (no pickles)."""
+    import io
+
+    buffer = io.BytesIO()
+    np.savez(buffer, **{f: getattr(tree, f) for f in _FIELDS})  # type: ignore[arg-type]
+    return buffer.getvalue()
+
+
+def _tree_from_bytes(data: bytes) -> Tree:
+    """The inverse of :func:`_tree_to_bytes`."""
+    import io
+
+    with np.load(io.BytesIO(data), allow_pickle=False) as npz:
+        return Tree(*(npz[f] for f in _FIELDS))
+
+
+_FIELDS = ("center", "half", "axes", "left", "right", "item")
+
+
+def _build(points: np.ndarray) -> Tree:
+    """:func:`build`, computed."""
     L = len(points)
     centroid = points.mean(axis=1)
     n_nodes = 2 * L - 1

@@ -43,3 +43,46 @@ def test_a_tour_through_the_plate_fails_at_its_step(cli, tmp_path):
     first = next(line for line in result.output.splitlines() if line.startswith("collision:"))
     assert first.startswith("collision: plate with kuka_lbr_iiwa_14_r820.link_7")
     assert "step 2 (move to joint values)" in first
+
+
+def test_a_second_check_reads_meshes_parts_and_trees_from_the_cache(tmp_path):
+    """The GP7 cell checked twice in fresh processes with an empty cache: the second neither
+    imports trimesh nor fits a hull or a tree (all read back, authenticated), and reports the
+    same."""
+    import os
+    import subprocess
+    import sys
+
+    probe = (
+        "import json, sys\n"
+        "from rworld_cli.collision import bvh, bodies\n"
+        "fitted = []\n"
+        "build, hulls = bvh._build, bodies._hull_parts\n"
+        "bvh._build = lambda p: (len(p) >= bvh.CACHED_LEAVES and fitted.append('tree'))"
+        " or build(p)\n"
+        "bodies._hull_parts = lambda *a: fitted.append('hull') or hulls(*a)\n"
+        "from rworld_cli.cli import main\n"
+        "sys.argv = ['rworld', 'check', sys.argv[1], 'tour', '--json']\n"
+        "try:\n"
+        "    main()\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "print(json.dumps({'trimesh': 'trimesh' in sys.modules, 'fitted': sorted(set(fitted))}))\n"
+    )
+    env = os.environ | {"RWORLD_CACHE_DIR": str(tmp_path / "cache"), "RWORLD_CELL_CACHE": "0"}
+
+    def run() -> dict:
+        out = subprocess.run(
+            [sys.executable, "-c", probe, str(CELLS / "gp7")],
+            env=env,
+            capture_output=True,
+            text=True,
+        )
+        assert out.returncode == 0, out.stderr
+        *report, probed = out.stdout.strip().splitlines()
+        return json.loads("\n".join(report)), json.loads(probed)
+
+    (first, fitted), (second, read) = run(), run()
+    assert fitted["trimesh"] and fitted["fitted"] == ["hull", "tree"]
+    assert not read["trimesh"] and read["fitted"] == []
+    assert first["ok"] and second == first
