@@ -245,7 +245,9 @@ def distance(a: Pieces, b: Pieces, max_iterations: int = MAX_ITERATIONS) -> Dist
             ]
             return Distances(
                 *(
-                    np.concatenate([getattr(r, f.name) for r in parts])
+                    None  # the numpy GJK gives no depth bound
+                    if any(getattr(r, f.name) is None for r in parts)
+                    else np.concatenate([getattr(r, f.name) for r in parts])
                     for f in dataclasses.fields(Distances)
                 )
             )

@@ -224,3 +224,23 @@ def test_the_compiled_walk_finds_the_numpy_searchs_leaf_pairs(label_a, label_b, 
     collide = lambda r: (r.distance <= 0) & (r.depth > 1e-3) | r.buried  # noqa: E731
     assert np.array_equal(collide(with_walk), collide(without))
     assert collide(without).any() and (~collide(without)).any()
+
+
+@pytest.mark.parametrize("backend", ["llvm", "numpy"])
+def test_shared_rows_in_blocks_join_on_both_gjks(backend, monkeypatch):
+    """Shared vertex rows measured a block at a time give what one call gives, with or without
+    the compiled GJK's depth bound (the numpy GJK has none: the blocks' results still join)."""
+    from rworld_cli import kernels
+
+    monkeypatch.setenv("RWORLD_KERNELS", backend)
+    if backend == "llvm" and kernels.backend() != "llvm":
+        pytest.skip("no compiled kernels on this machine")
+    rng = np.random.default_rng(5)
+    table = cv.triangles(rng.normal(size=(50, 3, 3)) * 0.2)
+    rows = rng.integers(0, 50, 300)
+    others = cv.triangles(rng.normal(size=(300, 3, 3)) * 0.2)
+    whole = cv.distance(table.share(rows), others)
+    monkeypatch.setattr(cv, "SHARED_BUDGET", 3 * 40)  # blocks of 40 pairs
+    blocks = cv.distance(table.share(rows), others)
+    np.testing.assert_array_equal(blocks.distance, whole.distance)
+    assert (blocks.depth_bound is None) == (backend == "numpy")
