@@ -243,14 +243,13 @@ def distance(a: Pieces, b: Pieces, max_iterations: int = MAX_ITERATIONS) -> Dist
                 )
                 for s in range(0, len(a), block)
             ]
-            return Distances(
-                *(
-                    None  # the numpy GJK gives no depth bound
-                    if any(getattr(r, f.name) is None for r in parts)
-                    else np.concatenate([getattr(r, f.name) for r in parts])
-                    for f in dataclasses.fields(Distances)
-                )
-            )
+            joined = {
+                f.name: None  # the numpy GJK gives no depth bound
+                if any(getattr(r, f.name) is None for r in parts)
+                else np.concatenate([getattr(r, f.name) for r in parts])
+                for f in dataclasses.fields(Distances)
+            }
+            return Distances(**joined)  # type: ignore[arg-type]
         a, b = a.materialized(), b.materialized()
     rows = gjk(a, b, max_iterations)
     if rows is None:
