@@ -314,6 +314,11 @@ def candidates(
 
     def descend(k, a, b):
         """From node pairs down to leaf pairs, always into the more promising child pair."""
+        from .compiled_bvh import descend as compiled_descend
+
+        leaves = compiled_descend(tree_a, tree_b, k, a, b, R, t)
+        if leaves is not None:
+            return leaves
         a, b = a.copy(), b.copy()
         while True:
             inner = ~(tree_a.is_leaf[a] & tree_b.is_leaf[b])

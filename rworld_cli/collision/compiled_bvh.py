@@ -171,6 +171,94 @@ def box_gap_ir(symbol: str) -> str:
     return str(module)
 
 
+def descend_ir(symbol: str) -> str:
+    """The LLVM IR text of the descent of :func:`rworld_cli.collision.bvh.candidates`:
+
+    ``void f(i64 Q, ptr k, ptr a, ptr b, ptr R, ptr t, (tree a:) ptr centre, ptr half,
+    ptr axes, ptr left, ptr right, ptr item, (tree b: the same six))``
+
+    Each row's node pair (``a[q]``, ``b[q]``, overwritten) is followed down to a leaf pair,
+    always into the more promising child pair: the lower bound clamped at 0, ties broken by
+    the nearer box centres (the first child pair on a full tie), as the numpy descent does.
+    """
+    import llvmlite.ir as ir
+
+    D, I64 = ir.DoubleType(), ir.IntType(64)
+    dptr, iptr = ir.PointerType(D), ir.PointerType(I64)
+    module = ir.Module(name="descend")
+    tree = [dptr, dptr, dptr, iptr, iptr, iptr]
+    fn = ir.Function(
+        module,
+        ir.FunctionType(ir.VoidType(), [I64, iptr, iptr, iptr, dptr, dptr] + tree + tree),
+        name=symbol,
+    )
+    Q, ik, ia, ib, Rp, tp = fn.args[:6]
+    A, B = fn.args[6:12], fn.args[12:18]
+    entry = fn.append_basic_block("entry")
+    b = ir.IRBuilder(entry)
+    e = _Emit(b, module)
+    i = e.i
+    q_slot, na_slot, nb_slot = (b.alloca(I64, name=n) for n in ("q", "na", "nb"))
+    b.store(i(0), q_slot)
+    row_head = fn.append_basic_block("row_head")
+    row_body = fn.append_basic_block("row_body")
+    step = fn.append_basic_block("step")
+    split = fn.append_basic_block("split")
+    row_done = fn.append_basic_block("row_done")
+    finished = fn.append_basic_block("finished")
+    b.branch(row_head)
+    b.position_at_end(row_head)
+    q = b.load(q_slot)
+    b.cbranch(b.icmp_signed("<", q, Q), row_body, finished)
+    b.position_at_end(row_body)
+    b.store(b.load(b.gep(ia, [q])), na_slot)
+    b.store(b.load(b.gep(ib, [q])), nb_slot)
+    b.branch(step)
+    b.position_at_end(step)
+    q = b.load(q_slot)
+    na, nb = b.load(na_slot), b.load(nb_slot)
+    leaf_a = b.icmp_signed(">=", b.load(b.gep(A[5], [na])), i(0))
+    leaf_b = b.icmp_signed(">=", b.load(b.gep(B[5], [nb])), i(0))
+    b.cbranch(b.and_(leaf_a, leaf_b), row_done, split)
+    b.position_at_end(split)
+    k = b.load(b.gep(ik, [q]))
+    R = e.row(Rp, b.mul(k, i(9)), 9)
+    t = e.row(tp, b.mul(k, i(3)), 3)
+    _, hA, _ = e.node(A[0], A[1], A[2], na)
+    _, hB, _ = e.node(B[0], B[1], B[2], nb)
+    split_a = b.and_(b.not_(leaf_a), b.or_(leaf_b, b.fcmp_ordered(">=", e.add(*hA), e.add(*hB))))
+    children = []
+    for side in (3, 4):  # left, then right
+        ca = b.select(split_a, b.load(b.gep(A[side], [na])), na)
+        cb = b.select(split_a, nb, b.load(b.gep(B[side], [nb])))
+        Ua, ha, cA = e.node(A[0], A[1], A[2], ca)
+        Ub, hb, cB = e.node(B[0], B[1], B[2], cb)
+        gap = e.maximum(e.gap(Ua, Ub, ha, hb, cA, cB, R, t), e.c(0.0))
+        placed = [
+            b.fsub(e.add(*[b.fmul(R[3 * r + m], cB[m]) for m in range(3)], t[r]), cA[r])
+            for r in range(3)
+        ]
+        near = b.call(e.sqrt, [e.add(*[b.fmul(x, x) for x in placed])])
+        children.append((ca, cb, gap, near))
+    (a1, b1, g1, c1), (a2, b2, g2, c2) = children
+    first = b.or_(
+        b.fcmp_ordered("<", g1, g2),
+        b.and_(b.fcmp_ordered("==", g1, g2), b.fcmp_ordered("<=", c1, c2)),
+    )
+    b.store(b.select(first, a1, a2), na_slot)
+    b.store(b.select(first, b1, b2), nb_slot)
+    b.branch(step)
+    b.position_at_end(row_done)
+    q = b.load(q_slot)
+    b.store(b.load(na_slot), b.gep(ia, [q]))
+    b.store(b.load(nb_slot), b.gep(ib, [q]))
+    b.store(b.add(q, i(1)), q_slot)
+    b.branch(row_head)
+    b.position_at_end(finished)
+    b.ret_void()
+    return str(module)
+
+
 STACK = 512  # node pairs pending in the traversal: depth of both trees at the most, with room
 
 
@@ -316,17 +404,21 @@ def _functions():
         source = Path(__file__).read_text()
         digest = hashlib.sha256(source.encode()).hexdigest()[:20]
         gap_symbol, walk_symbol = f"rworld_box_gap_{digest}", f"rworld_touching_{digest}"
+        descend_symbol = f"rworld_descend_{digest}"
 
         def build() -> str:
             import llvmlite.binding as llvm
 
             module = llvm.parse_assembly(box_gap_ir(gap_symbol))
             module.link_in(llvm.parse_assembly(touching_ir(walk_symbol)))
+            module.link_in(llvm.parse_assembly(descend_ir(descend_symbol)))
             return str(module)
 
-        addresses = kernels.compile_ir("box trees", build, [gap_symbol, walk_symbol], source)
+        addresses = kernels.compile_ir(
+            "box trees", build, [gap_symbol, walk_symbol, descend_symbol], source
+        )
         if addresses is None:
-            _FUNCTION.extend([None, None])
+            _FUNCTION.extend([None, None, None])
         else:
             _FUNCTION.append(
                 ctypes.CFUNCTYPE(None, ctypes.c_int64, *[ctypes.c_void_p] * 12)(addresses[0])
@@ -341,7 +433,42 @@ def _functions():
                     *[ctypes.c_void_p] * 4,
                 )(addresses[1])
             )
-    return _FUNCTION[0], _FUNCTION[1]
+            _FUNCTION.append(
+                ctypes.CFUNCTYPE(None, ctypes.c_int64, *[ctypes.c_void_p] * 17)(addresses[2])
+            )
+    return _FUNCTION[0], _FUNCTION[1], _FUNCTION[2]
+
+
+def descend(tree_a, tree_b, k, a, b, R, t):
+    """The descent of :func:`rworld_cli.collision.bvh.candidates`, compiled: each node pair
+    (``a[q]``, ``b[q]``) at state ``k[q]`` of ``R`` (K, 3, 3), ``t`` (K, 3) followed down to a
+    leaf pair; (leaf nodes of a, of b), or None when no compiled kernel is available."""
+    if kernels.backend() != "llvm":
+        return None
+    function = _functions()[2]
+    if function is None:
+        return None
+    # every array is held by a name until the call returns: the kernel reads raw addresses
+    ka = np.ascontiguousarray(k, dtype=np.int64)
+    na = np.array(a, dtype=np.int64)  # copies: the kernel writes the leaves over them
+    nb = np.array(b, dtype=np.int64)
+    Rc, tc = np.ascontiguousarray(R, dtype=float), np.ascontiguousarray(t, dtype=float)
+    trees = []
+    for tree in (tree_a, tree_b):
+        trees += [np.ascontiguousarray(x, dtype=float) for x in (tree.center, tree.half, tree.axes)]
+        trees += [
+            np.ascontiguousarray(x, dtype=np.int64) for x in (tree.left, tree.right, tree.item)
+        ]
+    function(
+        len(ka),
+        ka.ctypes.data,
+        na.ctypes.data,
+        nb.ctypes.data,
+        Rc.ctypes.data,
+        tc.ctypes.data,
+        *[x.ctypes.data for x in trees],
+    )
+    return na, nb
 
 
 def box_gap_function():

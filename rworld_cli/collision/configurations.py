@@ -243,8 +243,10 @@ class ConfigurationChecker:
     # bisection depth of :meth:`check_segment`: intervals of 2**-40 of the segment
     SEGMENT_DEPTH = 40
 
-    def _signed(self, q: np.ndarray, pair: np.ndarray, at: np.ndarray):
-        """Signed distances (and buried) of pairs ``pair[r]`` at states ``q[at[r]]``."""
+    def _signed(self, q: np.ndarray, pair: np.ndarray, at: np.ndarray, within: float = np.inf):
+        """Signed distances (and buried) of pairs ``pair[r]`` at states ``q[at[r]]``: exact up to
+        ``within`` [m], and ``within`` (a lower bound) where the pair is farther; depths exact
+        up to the tolerance (a contact deeper is one, whatever its depth)."""
         bodies = self.model.bodies
         T = self.poses(q)
         I, J = self.pairs[pair, 0], self.pairs[pair, 1]
@@ -256,8 +258,10 @@ class ConfigurationChecker:
                 out[rows] = T[bodies[body].frame][at[rows]]
             return out
 
-        res = distances(bodies, I, J, placed(I), placed(J))
-        return _signed(res), res.buried
+        res = distances(
+            bodies, I, J, placed(I), placed(J), within=within, deep_enough=self.tolerance
+        )
+        return np.minimum(_signed(res), within), res.buried
 
     def check_segment(self, q0, q1) -> SegmentReport:
         """Check the straight joint-space segment from q0 to q1 (n,) [rad or m], with the
@@ -325,7 +329,10 @@ class ConfigurationChecker:
                 break
             mid = (sa + sb) / 2
             states = q0 + mid[:, None] * (q1 - q0)
-            dm, bm = self._signed(states, pair, np.arange(len(pair)))
+            # a midpoint farther than this clears both halves with either end at 0 or more:
+            # nearer ones are measured exactly, farther ones only known to be farther
+            enough = float(np.max(reach[pair] * (sb - sa) / 2 + need, initial=0.0))
+            dm, bm = self._signed(states, pair, np.arange(len(pair)), max(enough, 0.0) + 1e-6)
             queries += len(pair)
             found(mid, pair, dm, bm)
             pair = np.concatenate([pair, pair])

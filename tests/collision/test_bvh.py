@@ -244,3 +244,52 @@ def test_shared_rows_in_blocks_join_on_both_gjks(backend, monkeypatch):
     blocks = cv.distance(table.share(rows), others)
     np.testing.assert_array_equal(blocks.distance, whole.distance)
     assert (blocks.depth_bound is None) == (backend == "numpy")
+
+
+def test_the_compiled_descent_follows_the_numpy_one():
+    """The descent to a leaf pair (the upper bound's measure) compiled: it ends on leaves, and
+    on the same leaves as the numpy descent (bounds tie exactly at 0 where boxes overlap; a
+    rounding of the bound may break a rare tie between apart boxes the other way: any leaf
+    pair is an upper bound)."""
+    from rworld_cli import kernels
+    from rworld_cli.collision import compiled_bvh
+
+    if kernels.backend() != "llvm":
+        pytest.skip("no compiled kernels on this machine")
+    bodies = vendor_bodies("iiwa14")
+    a, b = bodies["plate"], bodies["kuka_lbr_iiwa_14_r820.link_4"]
+    rng = np.random.default_rng(11)
+    n = 400
+    Ta, Tb = random_frames(rng, n, 0.0), random_frames(rng, n, 0.0)
+    direction = rng.normal(size=(n, 3))
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    spread = rng.uniform(0.3, 1.5, (n, 1)) * (a.radius + b.radius)
+    Tb[:, :3, 3] = spread * direction - Tb[:, :3, :3] @ b.center + Ta[:, :3, :3] @ a.center
+    R, t = bvh._relative(Ta, Tb)
+    k = np.arange(n)
+    roots = np.zeros(n, dtype=int)
+    got_a, got_b = compiled_bvh.descend(a.tree, b.tree, k, roots, roots, R, t)
+    assert a.tree.is_leaf[got_a].all() and b.tree.is_leaf[got_b].all()
+    numpy_a, numpy_b = _numpy_descent(a.tree, b.tree, k, roots, R, t)
+    same = (numpy_a == got_a) & (numpy_b == got_b)
+    assert same.mean() >= 0.99
+
+
+def _numpy_descent(tree_a, tree_b, k, roots, R, t):
+    """The numpy descent of bvh.candidates, from the roots."""
+    a, b = roots.copy(), roots.copy()
+    while True:
+        inner = ~(tree_a.is_leaf[a] & tree_b.is_leaf[b])
+        if not inner.any():
+            return a, b
+        ki = k[inner]
+        a1, b1, a2, b2 = bvh._split(tree_a, tree_b, a[inner], b[inner])
+        out = []
+        for x, y in ((a1, b1), (a2, b2)):
+            g = np.maximum(bvh.box_gap(tree_a, x, tree_b, y, R[ki], t[ki]), 0.0)
+            centre = np.einsum("qij,qj->qi", R[ki], tree_b.center[y]) + t[ki]
+            out.append((g, np.linalg.norm(tree_a.center[x] - centre, axis=1)))
+        (g1, c1), (g2, c2) = out
+        first = (g1 < g2) | ((g1 == g2) & (c1 <= c2))
+        a[inner] = np.where(first, a1, a2)
+        b[inner] = np.where(first, b1, b2)
