@@ -102,6 +102,12 @@ class Pieces:
     def __len__(self) -> int:
         return len(self.center)
 
+    @property
+    def width(self) -> int:
+        """Vertices per piece (a table's, for pieces in their own frames): what a block of
+        them costs in memory once placed."""
+        return int(self.local[0].shape[1] if self.local is not None else self.vertices.shape[1])
+
     def take(self, index) -> Pieces:
         """The pieces at ``index`` (an integer array), as a new batch."""
         shared = self.rows is not None
@@ -232,7 +238,7 @@ def distance(a: Pieces, b: Pieces, max_iterations: int = MAX_ITERATIONS) -> Dist
     if a.rows is not None or b.rows is not None:
         # shared vertices: copied out a block of pairs at a time, so a hull of thousands of
         # vertices met by many pairs costs a block's memory, not all of it at once
-        width = max(a.vertices.shape[1], b.vertices.shape[1], 1)
+        width = max(a.width, b.width, 1)
         block = max(1, SHARED_BUDGET // width)
         if len(a) > block:
             parts = [
@@ -519,7 +525,7 @@ def penetration(a: Pieces, b: Pieces) -> tuple[np.ndarray, np.ndarray]:
     depth = np.empty((P, dirs.shape[1], 2))
     # every direction in one product per block of pairs (not one pass over the vertices per
     # direction and sign): a hull of thousands of vertices is read once
-    width = max(a.vertices.shape[1], b.vertices.shape[1], 1)
+    width = max(a.width, b.width, 1)
     block = max(1, PENETRATION_BUDGET // (width * dirs.shape[1]))
     for start in range(0, P, block):
         sl = slice(start, min(P, start + block))

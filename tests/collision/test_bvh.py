@@ -188,6 +188,14 @@ def test_shared_vertices_give_what_copies_give(backend, monkeypatch):
     assert np.abs(shared.distance - copied.distance).max() <= 1e-12
     far = ~copied.overlap
     assert np.abs(shared.point_a[far] - copied.point_a[far]).max() <= 1e-12
+    # depths: placed a block at a time from the table, as from the copies
+    over = np.flatnonzero(copied.overlap)
+    assert kept.take(over).width == 3202
+    depth_kept, _ = cv.penetration(kept.take(over), triangles.take(over))
+    depth_copied, _ = cv.penetration(
+        hulls.take(rows).materialized().take(over), triangles.take(over)
+    )
+    np.testing.assert_array_equal(depth_kept, depth_copied)
 
 
 @pytest.mark.parametrize("label_a, label_b", [
