@@ -233,6 +233,29 @@ def write(kind: str, name: str, payload: bytes) -> bool:
         return False
 
 
+def arrays(kind: str, name: str, fields: tuple[str, ...], compute) -> dict:
+    """Numpy arrays kept under ``name``: read back when an entry holds every one of ``fields``
+    (an npz of plain arrays, loaded with ``allow_pickle=False`` after authentication), else
+    ``compute()`` (a dict of those arrays) stored.  A cache that cannot be used is no error:
+    the arrays are computed."""
+    import io
+
+    import numpy as np
+
+    stored = read(kind, name)
+    if stored is not None:
+        try:
+            with np.load(io.BytesIO(stored), allow_pickle=False) as npz:
+                return {f: npz[f] for f in fields}
+        except (ValueError, KeyError, OSError):
+            pass  # another layout: computed again
+    out = compute()
+    buffer = io.BytesIO()
+    np.savez(buffer, **out)
+    write(kind, name, buffer.getvalue())
+    return out
+
+
 def touch(kind: str, name: str) -> None:
     """Mark an entry recently used (pruning keeps it)."""
     where = folder(kind)

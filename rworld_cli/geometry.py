@@ -71,29 +71,24 @@ def _mesh_file(mesh_file: str, scale: float) -> MeshData:
     cache``, kind ``meshes``) by the file's content: a command on a cell of vendor meshes then
     neither imports trimesh nor parses a mesh."""
     import hashlib
-    import io
 
     from . import cache
 
     content = Path(mesh_file).read_bytes()
     key = hashlib.sha256(f"{MESH_DATA_FORMAT}|{scale!r}|".encode() + content).hexdigest()[:40]
-    name = f"mesh-{key}.npz"
-    stored = cache.read("meshes", name)  # authenticated before it is parsed
-    if stored is not None:
-        try:
-            with np.load(io.BytesIO(stored), allow_pickle=False) as npz:
-                return MeshData(npz["vertices"], npz["faces"])
-        except (ValueError, KeyError, OSError):
-            pass  # another layout: read again
-    import trimesh
 
-    tm = trimesh.load(mesh_file, force="mesh")
-    tm.apply_scale(scale)
-    data = MeshData(np.asarray(tm.vertices, dtype=float), np.asarray(tm.faces, dtype=np.int64))
-    buffer = io.BytesIO()
-    np.savez(buffer, vertices=data.vertices, faces=data.faces)
-    cache.write("meshes", name, buffer.getvalue())
-    return data
+    def read() -> dict:
+        import trimesh
+
+        tm = trimesh.load(mesh_file, force="mesh")
+        tm.apply_scale(scale)
+        return {
+            "vertices": np.asarray(tm.vertices, dtype=float),
+            "faces": np.asarray(tm.faces, dtype=np.int64),
+        }
+
+    data = cache.arrays("meshes", f"mesh-{key}.npz", ("vertices", "faces"), read)
+    return MeshData(data["vertices"], data["faces"])
 
 
 def shape_mesh(shape) -> MeshData:

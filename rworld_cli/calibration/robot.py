@@ -79,6 +79,8 @@ class RobotModel:
     compliant: tuple[int, ...] = ()
     # the largest holding torque of each joint over its range [N m, N]: scales the compliance
     torque_scale: np.ndarray | None = None
+    # (q, g(q)) of the last joint values asked (the fit asks the same at every difference)
+    _held: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def target_count(self) -> int:
@@ -127,11 +129,10 @@ class RobotModel:
     def _holding(self, q: np.ndarray) -> np.ndarray:
         """The gravity torques at ``q``, kept for the last array asked (the fit asks for the
         same observations at every parameter's difference)."""
-        cached = self.__dict__.get("_held")
-        if cached is not None and cached[0] is q:
-            return cached[1]
+        if self._held is not None and self._held[0] is q:
+            return self._held[1]
         tau = np.asarray(self.gravity(q))  # type: ignore[misc]
-        self.__dict__["_held"] = (q, tau)
+        self._held = (q, tau)
         return tau
 
     def apply(self, p: np.ndarray) -> tuple[DeviceModel, np.ndarray, np.ndarray]:

@@ -289,46 +289,43 @@ def _convex_parts(mesh_file: str, scale: float, T_bytes: bytes, mtime_ns: int = 
     from .. import cache
 
     content = Path(mesh_file).read_bytes()
-    code = Path(__file__).read_bytes()
     key = hashlib.sha256(
-        f"{PARTS_FORMAT}|{scale!r}|".encode() + code + T_bytes + b"|" + content
+        f"{PARTS_FORMAT}|{scale!r}|".encode() + _code() + T_bytes + b"|" + content
     ).hexdigest()[:40]
-    name = f"parts-{key}.npz"
-    stored = cache.read("meshes", name)  # authenticated before it is parsed
-    if stored is not None:
-        try:
-            return _parts_from_bytes(stored)
-        except (ValueError, KeyError, OSError):
-            pass  # another layout: computed again
-    parts = _hull_parts(mesh_file, scale, T_bytes)
-    cache.write("meshes", name, _parts_to_bytes(parts))
-    return parts
+    data = cache.arrays(
+        "meshes",
+        f"parts-{key}.npz",
+        ("convex", "counts", "vertices", "axes"),
+        lambda: _parts_arrays(_hull_parts(mesh_file, scale, T_bytes)),
+    )
+    if not bool(data["convex"][0]):
+        return None
+    vertices = np.split(data["vertices"], np.cumsum(data["counts"])[:-1])
+    return tuple(zip(vertices, list(data["axes"])))
 
 
-def _parts_to_bytes(parts) -> bytes:
-    """The parts as an npz of float and int arrays (no pickles)."""
-    import io
+def _parts_arrays(parts) -> dict[str, np.ndarray]:
+    """Convex parts (or None: not convex) as plain arrays: a flag, each part's vertex count,
+    the vertices one after another, the axes."""
+    if parts is None:
+        return {
+            "convex": np.array([False]),
+            "counts": np.zeros(0, dtype=np.int64),
+            "vertices": np.zeros((0, 3)),
+            "axes": np.zeros((0, 3, 3)),
+        }
+    return {
+        "convex": np.array([True]),
+        "counts": np.array([len(v) for v, _ in parts], dtype=np.int64),
+        "vertices": np.concatenate([v for v, _ in parts]),
+        "axes": np.stack([a for _, a in parts]),
+    }
 
-    arrays: dict[str, np.ndarray] = {"convex": np.array([parts is not None])}
-    if parts is not None:
-        arrays["counts"] = np.array([len(v) for v, _ in parts], dtype=np.int64)
-        arrays["vertices"] = np.concatenate([v for v, _ in parts])
-        arrays["axes"] = np.stack([a for _, a in parts])
-    buffer = io.BytesIO()
-    np.savez(buffer, **arrays)  # type: ignore[arg-type]  # (numpy stubs: allow_pickle)
-    return buffer.getvalue()
 
-
-def _parts_from_bytes(data: bytes):
-    """The inverse of :func:`_parts_to_bytes`."""
-    import io
-
-    with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-        if not bool(npz["convex"][0]):
-            return None
-        counts = npz["counts"]
-        vertices = np.split(npz["vertices"], np.cumsum(counts)[:-1])
-        return tuple(zip(vertices, list(npz["axes"])))
+@functools.cache
+def _code() -> bytes:
+    """This module's code: what cached parts depend on besides the mesh (the deviation test)."""
+    return Path(__file__).read_bytes()
 
 
 def _hull_parts(mesh_file: str, scale: float, T_bytes: bytes):
@@ -874,7 +871,6 @@ def _hull_neighbours(vertices: np.ndarray, count: int) -> np.ndarray:
     if len(vertices) < 64:
         return convex.hull_neighbours(vertices, count)
     import hashlib
-    import io
 
     from .. import cache
 
@@ -882,19 +878,13 @@ def _hull_neighbours(vertices: np.ndarray, count: int) -> np.ndarray:
     key = hashlib.sha256(
         f"neighbours-1|{count}|{vertices.shape}|".encode() + vertices.tobytes()
     ).hexdigest()[:40]
-    name = f"neighbours-{key}.npz"
-    stored = cache.read("meshes", name)  # authenticated before it is parsed
-    if stored is not None:
-        try:
-            with np.load(io.BytesIO(stored), allow_pickle=False) as npz:
-                return npz["neighbours"]
-        except (ValueError, KeyError, OSError):
-            pass  # another layout: computed again
-    out = convex.hull_neighbours(vertices, count)
-    buffer = io.BytesIO()
-    np.savez(buffer, neighbours=out)
-    cache.write("meshes", name, buffer.getvalue())
-    return out
+    data = cache.arrays(
+        "meshes",
+        f"neighbours-{key}.npz",
+        ("neighbours",),
+        lambda: {"neighbours": convex.hull_neighbours(vertices, count)},
+    )
+    return data["neighbours"]
 
 
 def _neighbour_table(local: list, count: int) -> np.ndarray:

@@ -34,6 +34,8 @@ leaf pair (``tests/collision/test_bvh.py`` compares them).
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -91,46 +93,28 @@ def build(points: np.ndarray) -> Tree:
     vendor link's tree costs a tenth of a second to fit, every command.
     """
     import hashlib
-    from pathlib import Path
 
     from .. import cache
 
     points = np.ascontiguousarray(points, dtype=float)
     if len(points) < CACHED_LEAVES:
         return _build(points)
-    key = hashlib.sha256(
-        Path(__file__).read_bytes() + str(points.shape).encode() + points.tobytes()
-    ).hexdigest()[:40]
-    name = f"tree-{key}.npz"
-    stored = cache.read("meshes", name)  # authenticated before it is parsed
-    if stored is not None:
-        try:
-            return _tree_from_bytes(stored)
-        except (ValueError, KeyError, OSError):
-            pass  # another layout: built again
-    tree = _build(points)
-    cache.write("meshes", name, _tree_to_bytes(tree))
-    return tree
+    key = hashlib.sha256(_code() + str(points.shape).encode() + points.tobytes()).hexdigest()
+    data = cache.arrays(
+        "meshes", f"tree-{key[:40]}.npz", _FIELDS, lambda: dataclasses.asdict(_build(points))
+    )
+    return Tree(**data)
 
 
-def _tree_to_bytes(tree: Tree) -> bytes:
-    """A tree as an npz of its arrays (no pickles)."""
-    import io
-
-    buffer = io.BytesIO()
-    np.savez(buffer, **{f: getattr(tree, f) for f in _FIELDS})  # type: ignore[arg-type]
-    return buffer.getvalue()
+_FIELDS = tuple(f.name for f in dataclasses.fields(Tree))
 
 
-def _tree_from_bytes(data: bytes) -> Tree:
-    """The inverse of :func:`_tree_to_bytes`."""
-    import io
+@functools.cache
+def _code() -> bytes:
+    """This module's code: what a cached tree depends on besides its points."""
+    from pathlib import Path
 
-    with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-        return Tree(*(npz[f] for f in _FIELDS))
-
-
-_FIELDS = ("center", "half", "axes", "left", "right", "item")
+    return Path(__file__).read_bytes()
 
 
 def _build(points: np.ndarray) -> Tree:

@@ -439,6 +439,17 @@ def _functions():
     return _FUNCTION[0], _FUNCTION[1], _FUNCTION[2]
 
 
+def _tree_arrays(tree_a, tree_b) -> list[np.ndarray]:
+    """Both trees' arrays in the kernels' argument order (each tree: centre, half, axes as
+    float64; left, right, item as int64), contiguous; held by the caller until the call
+    returns (the kernels read raw addresses)."""
+    out = []
+    for tree in (tree_a, tree_b):
+        out += [np.ascontiguousarray(x, dtype=float) for x in (tree.center, tree.half, tree.axes)]
+        out += [np.ascontiguousarray(x, dtype=np.int64) for x in (tree.left, tree.right, tree.item)]
+    return out
+
+
 def descend(tree_a, tree_b, k, a, b, R, t):
     """The descent of :func:`rworld_cli.collision.bvh.candidates`, compiled: each node pair
     (``a[q]``, ``b[q]``) at state ``k[q]`` of ``R`` (K, 3, 3), ``t`` (K, 3) followed down to a
@@ -453,12 +464,7 @@ def descend(tree_a, tree_b, k, a, b, R, t):
     na = np.array(a, dtype=np.int64)  # copies: the kernel writes the leaves over them
     nb = np.array(b, dtype=np.int64)
     Rc, tc = np.ascontiguousarray(R, dtype=float), np.ascontiguousarray(t, dtype=float)
-    trees = []
-    for tree in (tree_a, tree_b):
-        trees += [np.ascontiguousarray(x, dtype=float) for x in (tree.center, tree.half, tree.axes)]
-        trees += [
-            np.ascontiguousarray(x, dtype=np.int64) for x in (tree.left, tree.right, tree.item)
-        ]
+    trees = _tree_arrays(tree_a, tree_b)
     function(
         len(ka),
         ka.ctypes.data,
@@ -488,12 +494,7 @@ def touching(tree_a, tree_b, R: np.ndarray, t: np.ndarray, limit: float):
         return None
     # every array is held by a name until the call returns: the kernel reads raw addresses
     Rc, tc = np.ascontiguousarray(R, dtype=float), np.ascontiguousarray(t, dtype=float)
-    trees = []
-    for tree in (tree_a, tree_b):
-        trees += [np.ascontiguousarray(x, dtype=float) for x in (tree.center, tree.half, tree.axes)]
-        trees += [
-            np.ascontiguousarray(x, dtype=np.int64) for x in (tree.left, tree.right, tree.item)
-        ]
+    trees = _tree_arrays(tree_a, tree_b)
     capacity = max(64, 8 * len(Rc))
     while True:
         out = [np.empty(capacity, dtype=np.int64) for _ in range(3)]

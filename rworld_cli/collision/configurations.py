@@ -143,6 +143,7 @@ class ConfigurationChecker:
             np.full(len(trees), -1),
             np.arange(len(trees)),
         )
+        self._single = np.array([b.single_piece for b in bodies], dtype=bool)
         # a pair's cost to query, roughly: its bodies' leaves (the free-only order)
         leaves = np.array([len(b.tree.item) for b in bodies], dtype=float)
         self._cost = leaves[self.pairs[:, 0]] * leaves[self.pairs[:, 1]]
@@ -198,8 +199,7 @@ class ConfigurationChecker:
             groups = [np.arange(len(state))]
         else:  # pairs of single pieces at once, then the others, cheapest first, each only at
             # the states still free: a state is done at its first collision
-            single = np.array([b.single_piece for b in bodies])
-            simple = single[I[pair]] & single[J[pair]]
+            simple = self._single[I[pair]] & self._single[J[pair]]
             others = np.unique(pair[~simple])
             others = others[np.argsort(self._cost[others], kind="stable")]
             groups = [np.flatnonzero(simple)] + [np.flatnonzero(pair == p) for p in others]

@@ -15,7 +15,13 @@ import pytest
 import yaml
 
 from rworld_cli.schema.loader import load_cell
-from tests.calibration.test_robot_calibration import UR5, _states, _tip
+from tests.calibration.test_robot_calibration import (
+    UR5,
+    _pick_cell,
+    _states,
+    _tip,
+    _with_overlay,
+)
 from tests.calibration.test_robot_calibration import cells as cells  # noqa: F401 (a fixture)
 
 # the truth's compliance [rad/(N m)]: shoulder pan and the last two wrists hold no torque
@@ -98,24 +104,13 @@ def test_compliance_is_recovered_and_held_out_error_falls_to_the_noise(
         assert f"{name} holds at most" in notes
     # the overlay carries it: loaded, the cell's joints have the fitted compliance
     written = yaml.safe_load(out.read_text())["compliance"]
-    cell = load_cell(str(_listed(nominal, out, tmp_path / "calibrated"))).cell
+    cell = load_cell(str(_with_overlay(nominal, out, tmp_path / "calibrated"))).cell
     for j in cell.devices["ur5"].joints:
         value = written[f"ur5.{j.name}"]  # deg per kN m
         assert j.compliance == pytest.approx(np.radians(value) / 1000, rel=1e-12, abs=1e-300)
         if f"{j.name}.compliance" in rows:
             fitted = rows[f"{j.name}.compliance"]["correction"] * 1e-6
             assert j.compliance == pytest.approx(fitted, rel=1e-9)
-
-
-def _listed(cell: Path, overlay: Path, folder: Path) -> Path:
-    """A copy of ``cell`` with ``overlay`` listed last in its pose files."""
-    shutil.copytree(cell, folder)
-    shutil.copy(overlay, folder / overlay.name)
-    text = (folder / "cell.yaml").read_text()
-    (folder / "cell.yaml").write_text(
-        text.replace("pose_files:\n- poses.yaml", f"pose_files:\n- poses.yaml\n- {overlay.name}")
-    )
-    return folder
 
 
 def test_compensated_commands_put_the_yielding_arm_on_its_joints(cells, gravity, tmp_path, cli):
@@ -129,16 +124,7 @@ def test_compensated_commands_put_the_yielding_arm_on_its_joints(cells, gravity,
     from tests.export import readers
 
     nominal, _ = cells
-    cell_dir = tmp_path / "cell"
-    shutil.copytree(nominal, cell_dir)
-    cell = yaml.safe_load((cell_dir / "cell.yaml").read_text())
-    for joint in cell["devices"][0]["joints"]:
-        joint["limits"]["acceleration"] = 10.0
-    cell["frames"] = [{"name": "target"}]
-    (cell_dir / "cell.yaml").write_text(yaml.safe_dump(cell, sort_keys=False))
-    poses = yaml.safe_load((cell_dir / "poses.yaml").read_text())
-    poses["poses"]["target"] = {"xyz": [0.35, 0.25, 0.3], "rpy": [3.1, 0.1, 0.4]}
-    (cell_dir / "poses.yaml").write_text(yaml.safe_dump(poses, sort_keys=False))
+    cell_dir = _pick_cell(nominal, tmp_path / "cell")
     deg_per_knm = np.degrees(TRUE_COMPLIANCE) * 1000
     overlay = tmp_path / "stiffness.yaml"
     overlay.write_text(
@@ -152,14 +138,8 @@ def test_compensated_commands_put_the_yielding_arm_on_its_joints(cells, gravity,
             )
         )
     )
-    cell_dir = _listed(cell_dir, overlay, tmp_path / "compliant")
-    (cell_dir / "programs").mkdir()
+    cell_dir = _with_overlay(cell_dir, overlay, tmp_path / "compliant")
     program = cell_dir / "programs" / "pick.yaml"
-    program.write_text(
-        "device: ur5\nunits: {length: mm, angle: deg}\nsteps:\n"
-        "  - move: {to: target, tcp: tip, offset: {xyz: [0, 0, -80]}}\n"
-        "  - move: {to: target, tcp: tip, motion: linear, speed: 0.3}\n"
-    )
     out = tmp_path / "out"
     result = cli(
         ["export", "program", str(cell_dir), str(program), "--format", "urscript"]

@@ -74,6 +74,27 @@ def _with_overlay(cell: Path, overlay: Path, folder: Path) -> Path:
     return folder
 
 
+def _pick_cell(cell: Path, folder: Path) -> Path:
+    """A copy of ``cell`` with a frame 'target' and ``programs/pick.yaml``: the tip 80 mm over
+    the target (a joint move), then onto it (linear); joint accelerations 10 rad/s^2."""
+    shutil.copytree(cell, folder)
+    data = yaml.safe_load((folder / "cell.yaml").read_text())
+    for joint in data["devices"][0]["joints"]:
+        joint["limits"]["acceleration"] = 10.0
+    data["frames"] = [{"name": "target"}]
+    (folder / "cell.yaml").write_text(yaml.safe_dump(data, sort_keys=False))
+    poses = yaml.safe_load((folder / "poses.yaml").read_text())
+    poses["poses"]["target"] = {"xyz": [0.35, 0.25, 0.3], "rpy": [3.1, 0.1, 0.4]}
+    (folder / "poses.yaml").write_text(yaml.safe_dump(poses, sort_keys=False))
+    (folder / "programs").mkdir()
+    (folder / "programs" / "pick.yaml").write_text(
+        "device: ur5\nunits: {length: mm, angle: deg}\nsteps:\n"
+        "  - move: {to: target, tcp: tip, offset: {xyz: [0, 0, -80]}}\n"
+        "  - move: {to: target, tcp: tip, motion: linear, speed: 0.3}\n"
+    )
+    return folder
+
+
 def _states(cell, count: int, seed: int) -> np.ndarray:
     dev = cell.devices["ur5"]
     lo, hi = dev.limit_array("lower"), dev.limit_array("upper")
@@ -311,23 +332,9 @@ def test_compensated_targets_take_a_nominal_controller_to_the_true_pose(cells, t
     from tests.export import readers
 
     nominal, truth_dir = cells
-    calibrated = tmp_path / "calibrated"
-    shutil.copytree(truth_dir, calibrated)  # the truth's overlay stands for a calibration
-    cell = yaml.safe_load((calibrated / "cell.yaml").read_text())
-    for joint in cell["devices"][0]["joints"]:
-        joint["limits"]["acceleration"] = 10.0
-    cell["frames"] = [{"name": "target"}]
-    (calibrated / "cell.yaml").write_text(yaml.safe_dump(cell, sort_keys=False))
-    poses = yaml.safe_load((calibrated / "poses.yaml").read_text())
-    poses["poses"]["target"] = {"xyz": [0.35, 0.25, 0.3], "rpy": [3.1, 0.1, 0.4]}
-    (calibrated / "poses.yaml").write_text(yaml.safe_dump(poses, sort_keys=False))
-    (calibrated / "programs").mkdir()
+    # the truth's overlay stands for a calibration
+    calibrated = _pick_cell(truth_dir, tmp_path / "calibrated")
     program = calibrated / "programs" / "pick.yaml"
-    program.write_text(
-        "device: ur5\nunits: {length: mm, angle: deg}\nsteps:\n"
-        "  - move: {to: target, tcp: tip, offset: {xyz: [0, 0, -80]}}\n"
-        "  - move: {to: target, tcp: tip, motion: linear, speed: 0.3}\n"
-    )
     out = tmp_path / "out"
     result = cli(
         ["export", "program", str(calibrated), str(program), "--format", "urscript"]
