@@ -112,6 +112,11 @@ class Body:
         return LocalPiece(3, T, np.zeros((1, 3)), radius=size[0] / 2, half_length=size[2] / 2)
 
     @functools.cached_property
+    def _triangle_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """The least and greatest corner (3,) of the mesh's triangles in the body's frame [m]."""
+        return self._triangles.min(axis=(0, 1)), self._triangles.max(axis=(0, 1))
+
+    @functools.cached_property
     def tree(self) -> bvh.Tree:
         """The box tree over the body's leaves (:mod:`bvh`): its triangles (a mesh checked by
         its triangles), its convex parts' hulls, or its one piece; built once per body."""
@@ -526,7 +531,7 @@ def pair_distance(
     Ta: np.ndarray,
     Tb: np.ndarray,
     max_iterations: int = convex.MAX_ITERATIONS,
-    within: float = np.inf,
+    within: float | np.ndarray = np.inf,
     deep_enough: float = np.inf,
 ) -> PairDistance:
     """Exact distance between bodies ``a`` and ``b`` at K states.
@@ -536,10 +541,11 @@ def pair_distance(
     a, b : Body
     Ta, Tb : ndarray, shape (K, 4, 4)
         ``T_world_frame`` of each body's frame.
-    within : float
-        Exact only where the distance is at most this [m]; elsewhere it may be reported as
-        inf (farther than ``within``).  A collision test passes 0: bodies with several leaves
-        then only look at their leaves whose boxes touch.
+    within : float or ndarray, shape (K,)
+        Exact only where the distance is at most this [m] (for all states, or each); elsewhere
+        it may be reported as inf, or as any distance above ``within`` (farther than it).  A
+        collision test passes 0: bodies with several leaves then only look at their leaves
+        whose boxes touch.
     deep_enough : float
         Exact depths only up to this [m]: a state with an overlapping leaf pair deeper is
         reported with that pair's depth, its other overlapping pairs not measured (a
@@ -576,7 +582,7 @@ def pair_distance(
             leaves(a, Ta, placed_a, k, la), leaves(b, Tb, placed_b, k, lb), max_iterations
         ).distance
 
-    k, la, lb = bvh.candidates(a.tree, b.tree, Ta, Tb, measure, within + 1e-9)
+    k, la, lb = bvh.candidates(a.tree, b.tree, Ta, Tb, measure, np.asarray(within) + 1e-9)
     return _closest(
         a,
         b,
@@ -635,8 +641,11 @@ def _closest(a, b, Ta, Tb, K, k, pa, pb, max_iterations, deep_enough=np.inf) -> 
         local = np.einsum(
             "kji,kj->ki", T_mesh[free, :3, :3], point - T_mesh[free, :3, 3]
         )  # in the mesh's frame
-        inside = winding_number(local, mesh_body._triangles) > 0.5
-        rows = free[inside]
+        # only a point within the mesh's box can be inside it: the winding number elsewhere
+        # is 0, and a free link is rarely in a fixture's box
+        lo, hi = mesh_body._triangle_box
+        boxed = np.flatnonzero(np.all((local >= lo) & (local <= hi), axis=1))
+        rows = free[boxed[winding_number(local[boxed], mesh_body._triangles) > 0.5]]
         buried[rows] = True
         depth[rows] = dist[rows]  # at least as deep as its distance to the surface
     return PairDistance(np.where(buried, 0.0, dist), depth, pta, ptb, buried)
@@ -660,7 +669,7 @@ def distances(
     TI: np.ndarray,
     TJ: np.ndarray,
     max_iterations: int = convex.MAX_ITERATIONS,
-    within: float = np.inf,
+    within: float | np.ndarray = np.inf,
     deep_enough: float = np.inf,
 ) -> PairDistance:
     """Exact distances of Q queries: body ``I[q]`` at ``TI[q]`` against ``J[q]`` at ``TJ[q]``.
@@ -676,8 +685,9 @@ def distances(
         ``T_world_frame`` of each query's bodies.
     max_iterations : int
         GJK's limit; a pair short of it reports a lower bound (see :func:`convex.distance`).
-    within : float
-        Distances above this [m] may be reported as inf (:func:`pair_distance`).
+    within : float or ndarray, shape (Q,)
+        Distances above this [m] (for all queries, or each) may be reported as inf
+        (:func:`pair_distance`).
     deep_enough : float
         Depths above this [m] may be reported as any depth above it (:func:`pair_distance`).
     """
@@ -721,10 +731,11 @@ def distances(
                 pb = _gather(bodies, J[over], TJ[over])
                 d, _ = convex.penetration(pa, pb)
                 out.depth[over] = np.maximum(d, 0.0)
+    limit = np.broadcast_to(np.asarray(within, dtype=float), (Q,))
     for i, j in {(int(a), int(b)) for a, b in zip(I[~primitive], J[~primitive])}:
         sel = np.flatnonzero((I == i) & (J == j))
         res1 = pair_distance(
-            bodies[i], bodies[j], TI[sel], TJ[sel], max_iterations, within, deep_enough
+            bodies[i], bodies[j], TI[sel], TJ[sel], max_iterations, limit[sel], deep_enough
         )
         out.distance[sel], out.depth[sel], out.buried[sel] = res1.distance, res1.depth, res1.buried
         out.point_a[sel], out.point_b[sel] = res1.point_a, res1.point_b
@@ -866,10 +877,9 @@ def _build_piece_table(bodies: list[Body]) -> _PieceTable:
 
 
 def _hull_neighbours(vertices: np.ndarray, count: int) -> np.ndarray:
-    """:func:`convex.hull_neighbours`, kept in the user's cache (kind ``meshes``) for hulls of
-    64 vertices or more, by their vertices: a vendor link's hull costs tens of milliseconds."""
-    if len(vertices) < 64:
-        return convex.hull_neighbours(vertices, count)
+    """:func:`convex.hull_neighbours`, kept in the user's cache (kind ``meshes``) by the
+    vertices: a vendor link's hull costs tens of milliseconds, and the first hull of a
+    process the import of scipy's Qhull (about 0.3 s)."""
     import hashlib
 
     from .. import cache
@@ -891,8 +901,10 @@ def _neighbour_table(local: list, count: int) -> np.ndarray:
     """The hull neighbours of every piece's vertices (:func:`convex.hull_neighbours`), padded
     to one table (B, count, D): boxes and hulls; spheres and cylinders have none."""
     rows = [
-        _hull_neighbours(lp.vertices, count)
-        if lp.kind in (0, 2)
+        convex.box_neighbours(count)
+        if lp.kind == 0
+        else _hull_neighbours(lp.vertices, count)
+        if lp.kind == 2
         else np.full((count, 1), -1, dtype=np.int64)
         for lp in local
     ]

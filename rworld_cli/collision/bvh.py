@@ -253,7 +253,7 @@ def candidates(
     Ta: np.ndarray,
     Tb: np.ndarray,
     measure,
-    within: float = np.inf,
+    within: float | np.ndarray = np.inf,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The leaf pairs that may hold each state's nearest pair (module docstring).
 
@@ -265,10 +265,10 @@ def candidates(
     measure : callable
         ``measure(k, leaf_a, leaf_b) -> distance (Q,)``: the exact distance of leaves
         ``leaf_a[q]`` of a and ``leaf_b[q]`` of b at state ``k[q]`` [m].
-    within : float
-        Only pairs that may be nearer than this [m] are wanted (a collision test asks for 0):
-        the search starts with it as every state's upper bound, and a state left with no
-        pair is farther than it.
+    within : float or ndarray, shape (K,)
+        Only pairs that may be nearer than this [m] are wanted (a collision test asks for 0),
+        for all states or each: the search starts with it as the state's upper bound, and a
+        state left with no pair is farther than it.
 
     Returns
     -------
@@ -279,11 +279,12 @@ def candidates(
     R, t = _relative(Ta, Tb)
     # a collision test (within about 0): a distance measured, clamped at 0, cannot lower the
     # bound below 0, so no refinement; the compiled depth-first walk finds the same leaf pairs
-    refining = within > 1e-9
+    upper = np.broadcast_to(np.asarray(within, dtype=float), (K,)).copy()
+    refining = bool(np.any(upper > 1e-9))
     if not refining:
         from .compiled_bvh import touching
 
-        found = touching(tree_a, tree_b, R, t, within + 1e-9)
+        found = touching(tree_a, tree_b, R, t, float(upper.max(initial=0.0)) + 1e-9)
         if found is not None:
             return found
 
@@ -315,8 +316,6 @@ def candidates(
             first = (g1 < g2) | ((g1 == g2) & (c1 <= c2))
             a[inner] = np.where(first, a1, a2)
             b[inner] = np.where(first, b1, b2)
-
-    upper = np.full(K, float(within))
 
     def refine(k, a, b, g):
         """Each state's most promising node pair, followed down to a leaf pair and measured:

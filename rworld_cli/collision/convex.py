@@ -667,6 +667,17 @@ def hulls(vertices: np.ndarray, axes: np.ndarray) -> Pieces:
     )
 
 
+def box_neighbours(width: int = 8) -> np.ndarray:
+    """:func:`hull_neighbours` of :func:`box_corners` in closed form: corner ``4x + 2y + z``
+    (each bit a sign) and the three corners that differ from it in one bit, padded with -1 to
+    ``width`` rows (8, 3).  Exact for climbing on any box, flat ones too: a linear function
+    on a box's corners is a sum over its axes, so a corner no neighbour beats is the best."""
+    out = np.full((max(width, 8), 3), -1, dtype=np.int64)
+    corner = np.arange(8)
+    out[:8] = corner[:, None] ^ np.array([4, 2, 1])
+    return out
+
+
 def hull_neighbours(vertices: np.ndarray, width: int | None = None) -> np.ndarray:
     """Each vertex's neighbours on the convex hull of ``vertices`` (V, 3) - every vertex must be
     one of the hull's -, as rows of indices padded with -1 to the largest count (V, D), or to

@@ -27,6 +27,13 @@ larger, its acceleration at either end.
 **Broad phase.**  Bounding spheres give every pair's distance a lower bound
 at each sample for one subtraction; pairs whose lower bounds already pass the
 test never reach the exact (GJK) query.
+
+**Exact only as far as needed.**  A sample's distance is asked exactly up to
+the larger of the watched distance (the clearance and the report's columns)
+and the motion bound of the intervals it ends plus the clearance
+(:func:`_within`); a pair farther than that is known only to be farther, which
+passes those intervals whatever the other end, and its bodies' trees stop at
+that depth instead of finding the nearest triangles.
 """
 
 from __future__ import annotations
@@ -352,9 +359,20 @@ def _sweep_chunk(
     need_sample[static, 1:] = False  # a pair that does not move: its first state tells all
     exact = np.full(lower.shape, np.nan)  # signed: distance, or minus the penetration depth
     qp, qk = np.nonzero(need_sample)
-    res = distances(bodies, I[qp], J[qp], poses[I[qp], qk], poses[J[qp], qk], SWEEP_ITERATIONS)
+    # how far a sample's distance must be known: exactly within the watched distance, and
+    # up to the motion bound of a neighbouring interval to check (with the clearance); past
+    # that, a lower bound passes the interval whatever the other end (_within)
+    adjacent = np.zeros(lower.shape)
+    if K > 1:
+        bound = np.where(need_interval, M, 0.0)
+        adjacent[:, :-1] = bound
+        adjacent[:, 1:] = np.maximum(adjacent[:, 1:], bound)
+    within = _within(adjacent[qp, qk], watch, clearance)
+    res = distances(
+        bodies, I[qp], J[qp], poses[I[qp], qk], poses[J[qp], qk], SWEEP_ITERATIONS, within
+    )
     stats["queries"] += len(qp)
-    exact[qp, qk] = _signed(res)
+    exact[qp, qk] = _signed(res, within)
     # the first sample is the previous chunk's last: reported there when queried there
     fresh = np.ones(len(qp), dtype=bool)
     if queried:
@@ -456,18 +474,25 @@ def _midpoints(run: _Sweep, levers, weights, pairs, items, tm, rows: slice):
     slot = np.searchsorted(involved, pairs[p])  # (n, 2): each pair's bodies among involved
     every = np.arange(n)
     I2, J2 = pairs[p, 0], pairs[p, 1]
-    res = distances(
-        bodies, I2, J2, mid_poses[slot[:, 0], every], mid_poses[slot[:, 1], every], SWEEP_ITERATIONS
-    )
-    dm = _signed(res)
-    for r in _reportable(res, run.tolerance, run.clearance):
-        run.found.append(_finding(I2[r], J2[r], float(tm[r]), res, r, True, run.tolerance))
     lo = {d: (v[0][:n], v[1][:n], v[2][:n]) for d, v in st.items()}
     mi = {d: (v[0][n : 2 * n], v[1][n : 2 * n], v[2][n : 2 * n]) for d, v in st.items()}
     hi = {d: (v[0][2 * n :], v[1][2 * n :], v[2][2 * n :]) for d, v in st.items()}
     W = weights.take(p).dense(columns)
     M1 = np.einsum("nl,nl->n", W, levers.travel(lo, mi, tm - ta, columns))
     M2 = np.einsum("nl,nl->n", W, levers.travel(mi, hi, tb - tm, columns))
+    within = _within(np.maximum(M1, M2), 0.0, run.clearance)
+    res = distances(
+        bodies,
+        I2,
+        J2,
+        mid_poses[slot[:, 0], every],
+        mid_poses[slot[:, 1], every],
+        SWEEP_ITERATIONS,
+        within,
+    )
+    dm = _signed(res, within)
+    for r in _reportable(res, run.tolerance, run.clearance):
+        run.found.append(_finding(I2[r], J2[r], float(tm[r]), res, r, True, run.tolerance))
     return dm, M1, M2
 
 
@@ -491,9 +516,24 @@ def _unresolved(items, pairs, found) -> None:
         )
 
 
-def _signed(res) -> np.ndarray:
-    """Distance, or minus the penetration depth where the bodies overlap [m]."""
-    return np.where(res.overlap, -np.maximum(res.depth, 0.0), res.distance)
+def _within(motion: np.ndarray, watch: float, clearance: float) -> np.ndarray:
+    """How far each query's distance must be exact [m]: the watched distance, and the motion
+    bound ``motion`` of the intervals it ends plus the clearance.  A farther pair reports
+    ``within`` as a lower bound (:func:`_signed`), and an interval with such an end passes
+    ``da + db - M >= 2 (c - tol)`` for any other end not reported (``db >= c``, or
+    ``>= -tol`` when ``c`` is 0), so no interval is split for want of an exact distance.
+    Without the broad phase (the tests' reference) every distance is exact."""
+    if not BROAD_PHASE:
+        return np.full(np.shape(motion), np.inf)
+    return np.maximum(motion + max(clearance, 0.0), max(watch, 0.0))
+
+
+def _signed(res, within: np.ndarray | float = np.inf) -> np.ndarray:
+    """Distance, or minus the penetration depth where the bodies overlap [m]; at most
+    ``within``: a query is exact only up to it, and farther reports any value above it (inf,
+    or the nearest of the leaf pairs it looked at), so ``within`` is the lower bound there."""
+    signed = np.where(res.overlap, -np.maximum(res.depth, 0.0), res.distance)
+    return np.minimum(signed, within)
 
 
 def _reportable(res, tolerance: float, clearance: float) -> np.ndarray:

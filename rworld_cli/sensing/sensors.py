@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import spatial
-from ..collision.bodies import pair_distance
+from ..collision.bodies import ball_body, make_body, pair_distance
 from ..geometry import DEFAULT_TOLERANCE, grid_interference, obb_overlap, shape_mesh
 from ..model.cell import WORLD
 from .readings import SensorReading
@@ -33,20 +33,90 @@ class Body:
     shape: object  # model.cell.Shape
 
 
-def sensable_bodies(world) -> list[Body]:
-    """Every shape in the world with its owner and world pose."""
-    cell = world.cell
-    bodies = []
+def _sensable(cell) -> list[tuple[str, str, object]]:
+    """Every shape of the cell as (owner primitive, frame: the label, shape)."""
+    out = []
     for name, obj in cell.objects.items():
         if obj.shape is not None:
-            bodies.append(Body(name, name, world.T_world(name), obj.shape))
+            out.append((name, name, obj.shape))
     for name, dev in cell.devices.items():
         if dev.shape is not None:
-            bodies.append(Body(name, name, world.T_world(name), dev.shape))
+            out.append((name, name, dev.shape))
         for link, frame in zip(dev.links, dev.link_frames):
             if link.shape is not None:
-                bodies.append(Body(name, frame, world.T_world(frame), link.shape))
-    return bodies
+                out.append((name, frame, link.shape))
+    return out
+
+
+def sensable_bodies(world) -> list[Body]:
+    """Every shape in the world with its owner and world pose."""
+    return [
+        Body(owner, frame, world.T_world(frame), shape)
+        for owner, frame, shape in _sensable(world.cell)
+    ]
+
+
+MAY_TOUCH = 1e-7  # m: a ball farther than this from every shape (by the collision room's
+# distances, exact to about 1e-12 m, or below the exact ones for a mesh's hulls) touches none
+
+
+def ball_may_touch(world, name: str, joints: dict[str, np.ndarray]) -> np.ndarray:
+    """Whether ball sensor ``name`` may touch anything at each of N joint states, all states
+    at once: its ball reaches some sensable shape's bounding box (:func:`_near_ball`) and
+    comes within :data:`MAY_TOUCH` of the shape (the collision room's batched distances).
+
+    Where this is False, :func:`read_sensors` reads the sensor inactive, so a guarded move
+    reads only the other states.
+
+    Parameters
+    ----------
+    world : World
+        Its current affixments; the devices not in ``joints`` where they are.
+    name : str
+        A sensor with a ``ball``.
+    joints : dict
+        Device name -> joint values (N, n).
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+    """
+    sensor = world.cell.sensors[name]
+    radius = float(sensor.ball)
+    mount = _mount_owner(world, name)
+    shapes = [(frame, shape) for owner, frame, shape in _sensable(world.cell) if owner != mount]
+    frames = world.T_world_frames([name] + [frame for frame, _ in shapes], joints)
+    centre = frames[name][:, :3, 3]  # (N, 3)
+    T_ball = frames[name].copy()
+    T_ball[:, :3, :3] = np.eye(3)
+    ball = ball_body("probe ball", radius)
+    may = np.zeros(len(centre), dtype=bool)
+    for frame, shape in shapes:
+        box = shape.bounding_box
+        T = frames[frame] @ box.T_owner_box  # (N, 4, 4)
+        local = np.abs(np.einsum("nji,nj->ni", T[:, :3, :3], centre - T[:, :3, 3]))
+        rows = np.flatnonzero(np.all(local <= box.half_extents + radius, axis=1) & ~may)
+        if len(rows):
+            res = pair_distance(
+                ball,
+                _collision_body(frame, shape),
+                T_ball[rows],
+                frames[frame][rows],
+                within=0.0,
+                deep_enough=0.0,
+            )
+            may[rows] |= res.overlap | (res.distance <= MAY_TOUCH)
+    return may
+
+
+def _collision_body(label: str, shape):
+    """The collision room's body of a sensable shape, made once per shape (its trees and
+    convex parts with it)."""
+    cached = shape.__dict__.get("_sensing_body")
+    if cached is None:
+        cached = make_body(label, label, label, shape)
+        object.__setattr__(shape, "_sensing_body", cached)  # a cache, not a field
+    return cached
 
 
 def _mount_owner(world, sensor: str) -> str | None:

@@ -240,6 +240,17 @@ class _Scheduler(FeatureSteps):
                 return seg.sample(np.array([t]))[0][0]
         return track.q_init
 
+    def q_over(self, device: str, times: np.ndarray) -> np.ndarray:
+        """:meth:`q_at` at N instants ``times`` (N,): the joints (N, n), by segment."""
+        track = self.tracks[device]
+        out = np.tile(np.asarray(track.q_init, dtype=float), (len(times), 1))
+        for seg in track.segments:  # time-ordered: later segments overwrite what follows
+            out[times >= seg.t1] = seg.q_end
+            during = np.flatnonzero((times >= seg.t0) & (times < seg.t1))
+            if len(during):
+                out[during] = seg.sample(times[during])[0]
+        return out
+
     def set_time(self, t: float) -> None:
         """Every device at instant ``t``: each device's joints are sampled when first needed
         (a step of one robot in a line of many reads one or two devices, not all)."""
@@ -637,7 +648,7 @@ class _Scheduler(FeatureSteps):
         """Cut a guarded move where its sensor first senses something: the first clock sample
         that senses, then bisection between it and the sample before down to ``LATCH_TIME``, as
         a touch-trigger probe latches the position at contact."""
-        from ..sensing.sensors import read_sensors
+        from ..sensing.sensors import ball_may_touch, read_sensors
 
         times = np.append(np.arange(seg.t0, seg.t1, self.run.dt), seg.t1)
         q_move = seg.sample(times)[0]
@@ -647,9 +658,15 @@ class _Scheduler(FeatureSteps):
             self.world.set_joints(device, seg.sample(np.array([t]))[0][0] if q is None else q)
             return read_sensors(self.world, [sensor])[0]
 
+        samples = range(len(times))
+        if self.world.cell.sensors[sensor].ball is not None:
+            # a ball reads nothing where it reaches no shape's box: only the other samples
+            # are read, one state at a time (sensing needs the whole world at each instant)
+            joints = {d: self.q_over(d, times) for d in self.tracks if d != device}
+            samples = np.flatnonzero(ball_may_touch(self.world, sensor, joints | {device: q_move}))
         self._latched[device] = None
-        for k, (t, q) in enumerate(zip(times, q_move)):
-            # sensing needs the whole world at each instant: one state at a time
+        for k in samples:
+            t, q = times[k], q_move[k]
             reading = senses(t, q)
             if not reading.active:
                 continue

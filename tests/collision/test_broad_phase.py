@@ -66,6 +66,23 @@ def test_the_broad_phase_finds_what_every_pair_finds_on_every_example(cell, run,
         np.testing.assert_array_equal(fast_clear[d], full_clear[d])
 
 
+@pytest.mark.parametrize("cell", ["tx2_60", "iiwa14", "gp7"])
+def test_the_vendor_tours_report_what_exact_distances_everywhere_report(cell, monkeypatch):
+    """The vendor robots' meshes near the table and the holed plate, with a 5 mm clearance:
+    distances asked only as far as each sample needs them (``sweep._within``) give the report
+    of every pair measured exactly at every sample, to the clearance columns."""
+    from tests.conftest import REPO
+
+    where = REPO / "tests" / "data" / "vendor_cells" / cell
+    fast, fast_clear, fast_queries = _report(where, "tour", monkeypatch, True, clearance="5mm")
+    full, full_clear, full_queries = _report(where, "tour", monkeypatch, False, clearance="5mm")
+    assert any(np.isfinite(v).any() for v in fast_clear.values()), "nothing within 50 mm"
+    _same(fast, full)
+    assert fast_clear.keys() == full_clear.keys()
+    for d in fast_clear:
+        np.testing.assert_array_equal(fast_clear[d], full_clear[d])
+
+
 @pytest.mark.parametrize("spacing", [0.9, 1.3])
 def test_robots_that_hit_each_other_are_found_alike(tmp_path, monkeypatch, spacing):
     """Six Pumas on a grid close enough for their arms to meet (0.9 m) or nearly (1.3 m, with

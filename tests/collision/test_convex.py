@@ -153,3 +153,23 @@ def test_triangles_and_degenerate_inputs():
     rough, exact = cv.distance(a, b, max_iterations=3), cv.distance(a, b)
     assert np.all(rough.distance <= exact.distance + TOL)
     assert np.all(rough.distance + rough.error >= exact.distance - TOL)
+
+
+def test_climbing_a_box_by_its_closed_form_neighbours_finds_the_best_corner():
+    """``box_neighbours`` (three per corner, no hull computed): from any corner, climbing
+    to a better neighbour until none is better ends at the corner a scan finds, for boxes
+    flat or not (seeded directions and extents)."""
+    rng = np.random.default_rng(3)
+    neighbours = cv.box_neighbours(8)
+    for half in (np.array([0.1, 0.2, 0.3]), np.array([0.1, 0.0, 0.3]), np.array([0.0, 0.0, 0.2])):
+        corners = cv.box_corners(half)
+        for d in rng.normal(size=(200, 3)):
+            value = corners @ d
+            for start in range(8):
+                at = start
+                while True:
+                    better = [n for n in neighbours[at] if n >= 0 and value[n] > value[at]]
+                    if not better:
+                        break
+                    at = max(better, key=lambda n: value[n])
+                assert value[at] == value.max()

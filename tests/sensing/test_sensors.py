@@ -168,3 +168,29 @@ def test_bad_sensing_input_exits_2(cli, tmp_path, args, message):
     result = cli(args, cwd=None)
     assert result.exit_code == 2, result.output
     assert message in result.output
+
+
+def test_a_ball_that_may_not_touch_reads_nothing():
+    """``ball_may_touch`` (all states at once) is True wherever the exact reading is active:
+    the probe cell's 39 latched contacts on the plate and bracket, each turned by up to 4 mrad
+    per joint (seeded), read one state at a time and all at once."""
+    from rworld_cli.api import simulate_run
+    from rworld_cli.sensing.sensors import ball_may_touch
+
+    _, result = simulate_run("workcells/probing", "probe")
+    latched = np.array(
+        [e.reading["q"] for e in result.events if e.kind == "guard" and e.reading is not None]
+    )
+    assert len(latched) == 39
+    rng = np.random.default_rng(7)
+    q = np.repeat(latched, 8, axis=0) + rng.uniform(-4e-3, 4e-3, (8 * len(latched), 6))
+    world = World(load_cell("workcells/probing").cell)
+    may = ball_may_touch(world, "probe_ball", {"puma": q})
+    active = []
+    for state in q:
+        world.set_joints("puma", state)
+        active.append(read_sensors(world, ["probe_ball"])[0].active)
+    active = np.array(active)
+    assert not (active & ~may).any()
+    # both sides well represented: touching states, and states it spares reading
+    assert active.sum() > 50 and (~may).sum() > 50
