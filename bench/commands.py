@@ -15,7 +15,10 @@ example of ``docs/calibration.md``):
 * ``payload``: the capacity of that path's time-optimal timing;
 * ``load-optimal --shape``: the heaviest payload in 2.2 s, knots moved (Nelder-Mead);
 * ``impulse``: the probe TCP to ``table.drop`` straight down with 2 kg;
-* ``check probe``: ``rworld check workcells/probing probe`` (29 stops, 39 guarded moves);
+* ``check probe``: ``rworld check workcells/probing probe`` (29 stops, 39 guarded moves), and
+  with ``--no-collisions``;
+* ``check tx2_60``, ``check iiwa14``, ``check gp7``: the vendor cells' tours
+  (``tests/data/vendor_cells``), and each with ``--no-collisions``;
 * ``plan-measurements --program``: the probe program planned, checked and written (to a
   temporary file).
 """
@@ -34,6 +37,7 @@ REPO = Path(__file__).resolve().parents[1]
 CELL = str(REPO / "workcells" / "puma560")  # the same input files for every tree
 PATH = str(REPO / "workcells" / "puma560" / "paths" / "reference.yaml")
 PROBING = str(REPO / "workcells" / "probing")
+VENDOR = REPO / "tests" / "data" / "vendor_cells"
 OUT = Path(tempfile.gettempdir()) / "rworld-bench-probe.yaml"
 COMMANDS = {
     "time-optimal": ["plan", "time-optimal", CELL, "--path", PATH],
@@ -64,6 +68,12 @@ COMMANDS = {
         "2",
     ],
     "check probe": ["check", PROBING, "probe"],
+    "check probe --no-collisions": ["check", PROBING, "probe", "--no-collisions"],
+    **{
+        f"check {name}{extra}": ["check", str(VENDOR / name), "tour"] + extra.split()
+        for name in ("tx2_60", "iiwa14", "gp7")
+        for extra in ("", " --no-collisions")
+    },
     "plan-measurements --program": ["plan-measurements", PROBING, "--program", str(OUT)],
 }
 
@@ -71,6 +81,7 @@ COMMANDS = {
 def run(tree: Path, args: list[str]) -> float:
     """Wall time [s] of ``rworld ARGS`` with ``tree``'s package, in a fresh process."""
     env = dict(os.environ, PYTHONPATH=str(tree))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)  # as users run it: bytecode kept between runs
     OUT.unlink(missing_ok=True)  # plan-measurements writes it
     code = (
         "import sys; from rworld_cli.cli import main; sys.argv = ['rworld'] + sys.argv[1:]; main()"

@@ -49,18 +49,45 @@ class MeshData:
 def _primitive_mesh(kind: str, size: tuple, mesh_file: str | None, scale: float) -> MeshData:
     if kind == "mesh" and mesh_file is not None:
         return _mesh_file(mesh_file, scale)
+    if kind in ("box", "cylinder", "sphere"):
+        return _tessellated(kind, size)
     import trimesh
 
-    if kind == "box":
-        tm = trimesh.creation.box(extents=size)
-    elif kind == "cylinder":
-        tm = trimesh.creation.cylinder(radius=size[0] / 2, height=size[2], sections=48)
-    elif kind == "sphere":
-        tm = trimesh.creation.icosphere(subdivisions=3, radius=size[0] / 2)
-    else:
-        tm = trimesh.load(mesh_file, force="mesh")
-        tm.apply_scale(scale)
+    tm = trimesh.load(mesh_file, force="mesh")
+    tm.apply_scale(scale)
     return MeshData(np.asarray(tm.vertices, dtype=float), np.asarray(tm.faces, dtype=np.int64))
+
+
+def _tessellated(kind: str, size: tuple) -> MeshData:
+    """A box, cylinder (48 sections) or sphere (icosphere, 3 subdivisions) of ``size`` [m] as
+    trimesh makes it, kept in the user's cache (kind ``meshes``) by the kind, the size and
+    trimesh's version: a scene or a sensor on primitives then does not import trimesh (half a
+    second)."""
+    import hashlib
+    from importlib.metadata import version
+
+    from . import cache
+
+    key = hashlib.sha256(
+        f"primitive-1|{kind}|{size!r}|trimesh {version('trimesh')}".encode()
+    ).hexdigest()[:40]
+
+    def make() -> dict:
+        import trimesh
+
+        if kind == "box":
+            tm = trimesh.creation.box(extents=size)
+        elif kind == "cylinder":
+            tm = trimesh.creation.cylinder(radius=size[0] / 2, height=size[2], sections=48)
+        else:
+            tm = trimesh.creation.icosphere(subdivisions=3, radius=size[0] / 2)
+        return {
+            "vertices": np.asarray(tm.vertices, dtype=float),
+            "faces": np.asarray(tm.faces, dtype=np.int64),
+        }
+
+    data = cache.arrays("meshes", f"primitive-{key}.npz", ("vertices", "faces"), make)
+    return MeshData(data["vertices"], data["faces"])
 
 
 MESH_DATA_FORMAT = "meshdata-1"
