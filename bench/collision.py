@@ -367,7 +367,7 @@ def vendor_configurations(batches=(1, 64, 4096)) -> None:
             geometry[body.label] = bvh
         pairs = [(model.bodies[i], model.bodies[j]) for i, j in check.pairs]
         rng = np.random.default_rng(0)
-        check.check(rng.uniform(limits[:, 0], limits[:, 1], (2, len(limits))), nearest=False)
+        check.check(rng.uniform(limits[:, 0], limits[:, 1], (256, len(limits))), nearest=False)
         request = coal.CollisionRequest()
         for batch in batches:
             q = rng.uniform(limits[:, 0], limits[:, 1], (batch, len(limits)))

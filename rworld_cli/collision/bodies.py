@@ -128,6 +128,32 @@ class Body:
         corners = convex.box_corners(box.half_extents) @ box.T_owner_box[:3, :3].T
         return bvh.build((corners + box.T_owner_box[:3, 3])[None])
 
+    @functools.cached_property
+    def leaf_table(self) -> tuple[np.ndarray, np.ndarray | None, np.ndarray] | None:
+        """The leaves of :attr:`tree` as polytopes in a table, for the compiled walk that
+        measures them (:func:`compiled_bvh.contacts`): (vertices (R, V, 3), neighbours (R, V,
+        D) or None: scanned, pose (12,) of the table's frame in the body's: R's rows then t);
+        leaf ``item`` is row ``item``.  None for a sphere or a cylinder (not polytopes)."""
+        identity = np.r_[np.eye(3).ravel(), np.zeros(3)]
+        if self.is_mesh:
+            return self._triangles, None, identity
+        if self.parts is not None and not self.single_piece:
+            return self._hulls[0], None, identity
+        table = self._own_table
+        if table.kind[0] not in (0, 2):
+            return None
+        T = table.T_frame_shape[0]
+        return table.vertices, table.neighbours, np.r_[T[:3, :3].ravel(), T[:3, 3]]
+
+    @functools.cached_property
+    def walk_side(self) -> tuple | None:
+        """:attr:`tree` and :attr:`leaf_table` prepared for :func:`compiled_bvh.contacts`
+        (held here: the kernel reads their addresses), or None (a sphere or a cylinder)."""
+        from .compiled_bvh import walk_side
+
+        leaves = self.leaf_table
+        return None if leaves is None else walk_side(self.tree, leaves)
+
     def leaf_pieces(self, leaf: np.ndarray, T_world_frame: np.ndarray) -> convex.Pieces:
         """Leaves ``leaf[q]`` of :attr:`tree` at poses ``T_world_frame[q]`` (Q, 4, 4), as Q
         convex pieces in world."""
@@ -628,27 +654,32 @@ def _closest(a, b, Ta, Tb, K, k, pa, pb, max_iterations, deep_enough=np.inf) -> 
             np.maximum.at(depth, k[rows], np.maximum(d, 0.0))
         low, high = high, 2 * high + 1
     buried = np.zeros(K, dtype=bool)
-    # solids: the other body inside a closed mesh touches no triangle, yet collides
+    free = np.flatnonzero(dist > 0)
+    rows = free[buried_in(a, b, Ta[free], Tb[free])]
+    buried[rows] = True
+    depth[rows] = dist[rows]  # at least as deep as its distance to the surface
+    return PairDistance(np.where(buried, 0.0, dist), depth, pta, ptb, buried)
+
+
+def buried_in(a: Body, b: Body, Ta: np.ndarray, Tb: np.ndarray) -> np.ndarray:
+    """Whether one body lies inside the other's closed mesh at each of K states where their
+    surfaces do not meet (the caller knows they do not): a solid inside a closed mesh touches
+    no triangle, yet collides.  One point of the inner body (its first leaf's first vertex)
+    decides, by the mesh's winding number (K,) bool."""
+    buried = np.zeros(len(Ta), dtype=bool)
     for mesh_body, other, T_mesh, T_other in ((a, b, Ta, Tb), (b, a, Tb, Ta)):
-        if not mesh_body.is_mesh or not mesh_body.shape.closed:
+        if not mesh_body.is_mesh or not mesh_body.shape.closed or not len(Ta):
             continue
-        free = np.flatnonzero(dist > 0)
-        if not len(free):
-            continue
-        point = other.leaf_pieces(np.zeros(len(free), dtype=int), T_other[free]).points[
-            :, 0
-        ]  # one point of the other body: its first leaf's first vertex
+        point = other.leaf_pieces(np.zeros(len(Ta), dtype=int), T_other).points[:, 0]
         local = np.einsum(
-            "kji,kj->ki", T_mesh[free, :3, :3], point - T_mesh[free, :3, 3]
+            "kji,kj->ki", T_mesh[:, :3, :3], point - T_mesh[:, :3, 3]
         )  # in the mesh's frame
         # only a point within the mesh's box can be inside it: the winding number elsewhere
         # is 0, and a free link is rarely in a fixture's box
         lo, hi = mesh_body._triangle_box
         boxed = np.flatnonzero(np.all((local >= lo) & (local <= hi), axis=1))
-        rows = free[boxed[winding_number(local[boxed], mesh_body._triangles) > 0.5]]
-        buried[rows] = True
-        depth[rows] = dist[rows]  # at least as deep as its distance to the surface
-    return PairDistance(np.where(buried, 0.0, dist), depth, pta, ptb, buried)
+        buried[boxed[winding_number(local[boxed], mesh_body._triangles) > 0.5]] = True
+    return buried
 
 
 def _rank_in_state(k: np.ndarray) -> np.ndarray:

@@ -392,6 +392,211 @@ def touching_ir(symbol: str) -> str:
     return str(module)
 
 
+def contacts_ir(symbol: str, gjk_symbol: str) -> str:
+    """The LLVM IR text of the collision-only walk with its leaves measured in place:
+
+    ``void f(i64 K, double limit, double deep, ptr R, ptr t, (tree a:) ptr centre, ptr half,
+    ptr axes, ptr left, ptr right, ptr item, (tree b: the same six), (leaves a:) i64 V,
+    ptr table, ptr neighbours, i64 D, ptr pose, (leaves b: the same five), i64 max_iterations,
+    ptr status, ptr nearest)``
+
+    For each state k (``T_a_b`` = ``R[k]``, ``t[k]``), the walk of :func:`touching_ir`; each
+    leaf pair it reaches is measured by ``gjk_symbol`` (:func:`rworld_cli.collision.compiled.
+    gjk_ir` with ``local``, called for one pair): leaf ``item`` of a side is row ``item`` of its
+    table (V vertices in the side's own frame, placed by its fixed ``pose``, 12 doubles, and for
+    b then by the state's ``T_a_b``), climbed by its neighbours (D per vertex; 0: scanned).
+    ``status[k]``: 0 no leaf pair overlaps, 1 one overlaps deeper than ``deep`` by GJK's
+    depth bound (the walk of that state stops there), 2 some overlap is not known to be that
+    deep; ``nearest[k]``: the least distance of the leaf pairs measured that do not overlap
+    (inf: none), exact for every pair within ``limit``; for status 1, minus that depth bound.
+    ``status[0]`` -1: a tree deeper than the stack (the caller falls back).
+    """
+    import llvmlite.ir as ir
+
+    D, I64 = ir.DoubleType(), ir.IntType(64)
+    dptr, iptr = ir.PointerType(D), ir.PointerType(I64)
+    module = ir.Module(name="contacts")
+    gjk = ir.Function(
+        module,
+        ir.FunctionType(
+            ir.VoidType(),
+            [I64, I64, I64, dptr, dptr, dptr, dptr, dptr, I64]
+            + [iptr, iptr, dptr, dptr, iptr, iptr, I64, I64],
+        ),
+        name=gjk_symbol,
+    )
+    tree = [dptr, dptr, dptr, iptr, iptr, iptr]
+    leaves = [I64, dptr, iptr, I64, dptr]
+    fn = ir.Function(
+        module,
+        ir.FunctionType(
+            ir.VoidType(),
+            [I64, D, D, dptr, dptr] + tree + tree + leaves + leaves + [I64, iptr, dptr],
+        ),
+        name=symbol,
+    )
+    K, limit, deep, Rp, tp = fn.args[:5]
+    A, B = fn.args[5:11], fn.args[11:17]
+    VA, table_a, nbr_a, DA, pose_a = fn.args[17:22]
+    VB, table_b, nbr_b, DB, fixed_b = fn.args[22:27]
+    max_it, status_out, nearest_out = fn.args[27:]
+    entry = fn.append_basic_block("entry")
+    b = ir.IRBuilder(entry)
+    e = _Emit(b, module)
+    i, c = e.i, e.c
+    stack_a = b.alloca(ir.ArrayType(I64, STACK), name="stack_a")
+    stack_b = b.alloca(ir.ArrayType(I64, STACK), name="stack_b")
+    top_slot = b.alloca(I64, name="top")
+    k_slot = b.alloca(I64, name="k")
+    status_slot = b.alloca(I64, name="status")
+    nearest_slot = b.alloca(D, name="nearest")
+    row_a = b.alloca(I64, name="row_a")
+    row_b = b.alloca(I64, name="row_b")
+    pose_b = b.alloca(ir.ArrayType(D, 12), name="pose_b")
+    shape_a = b.alloca(ir.ArrayType(D, 9), name="shape_a")
+    shape_b = b.alloca(ir.ArrayType(D, 9), name="shape_b")
+    out = b.alloca(ir.ArrayType(D, 12), name="out")
+
+    def cell(array, j):
+        return b.gep(array, [i(0), i(j)])
+
+    def first(array, kind):
+        return b.bitcast(b.gep(array, [i(0), i(0)]), kind)
+
+    for shape in (shape_a, shape_b):  # polytopes: no cylinder flag, axis z, no radius
+        for j, value in enumerate((0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0)):
+            b.store(c(value), cell(shape, j))
+    b.store(i(0), k_slot)
+    state_head = fn.append_basic_block("state_head")
+    state_body = fn.append_basic_block("state_body")
+    pop_head = fn.append_basic_block("pop_head")
+    pop_body = fn.append_basic_block("pop_body")
+    state_next = fn.append_basic_block("state_next")
+    finished = fn.append_basic_block("finished")
+    b.branch(state_head)
+    b.position_at_end(state_head)
+    k = b.load(k_slot)
+    b.cbranch(b.icmp_signed("<", k, K), state_body, finished)
+    # a state: b's leaves placed by T_a_b o its fixed pose, the walk from the roots
+    b.position_at_end(state_body)
+    R = e.row(Rp, b.mul(k, i(9)), 9)
+    t = e.row(tp, b.mul(k, i(3)), 3)
+    fixed = e.row(fixed_b, i(0), 12)
+    Rf, tf = fixed[:9], fixed[9:]
+    for r in range(3):
+        for col in range(3):
+            value = e.add(*[b.fmul(R[3 * r + m], Rf[3 * m + col]) for m in range(3)])
+            b.store(value, cell(pose_b, 3 * r + col))
+        value = e.add(*[b.fmul(R[3 * r + m], tf[m]) for m in range(3)], t[r])
+        b.store(value, cell(pose_b, 9 + r))
+    b.store(i(0), status_slot)
+    b.store(c(np.inf), nearest_slot)
+    b.store(i(0), b.gep(stack_a, [i(0), i(0)]))
+    b.store(i(0), b.gep(stack_b, [i(0), i(0)]))
+    b.store(i(1), top_slot)
+    b.branch(pop_head)
+    b.position_at_end(pop_head)
+    top = b.load(top_slot)
+    b.cbranch(b.icmp_signed(">", top, i(0)), pop_body, state_next)
+    b.position_at_end(pop_body)
+    k = b.load(k_slot)
+    top = b.sub(b.load(top_slot), i(1))
+    b.store(top, top_slot)
+    na = b.load(b.gep(stack_a, [i(0), top]))
+    nb = b.load(b.gep(stack_b, [i(0), top]))
+    Ua, hA, cA = e.node(A[0], A[1], A[2], na)
+    Ub, hB, cB = e.node(B[0], B[1], B[2], nb)
+    R = e.row(Rp, b.mul(k, i(9)), 9)
+    t = e.row(tp, b.mul(k, i(3)), 3)
+    gap = e.gap(Ua, Ub, hA, hB, cA, cB, R, t)
+    near = fn.append_basic_block("near")
+    b.cbranch(b.fcmp_ordered("<=", gap, limit), near, pop_head)  # NaN: dropped
+    b.position_at_end(near)
+    item_a = b.load(b.gep(A[5], [na]))
+    item_b = b.load(b.gep(B[5], [nb]))
+    leaf_a = b.icmp_signed(">=", item_a, i(0))
+    leaf_b = b.icmp_signed(">=", item_b, i(0))
+    measure = fn.append_basic_block("measure")
+    split = fn.append_basic_block("split")
+    b.cbranch(b.and_(leaf_a, leaf_b), measure, split)
+    # a leaf pair: GJK on the two rows, a's in its frame, b's placed; the boxes' centres as
+    # GJK's first direction
+    b.position_at_end(measure)
+    b.store(item_a, row_a)
+    b.store(item_b, row_b)
+    for j in range(3):
+        b.store(cA[j], cell(shape_a, 1 + j))
+        placed = e.add(*[b.fmul(R[3 * j + m], cB[m]) for m in range(3)], t[j])
+        b.store(placed, cell(shape_b, 1 + j))
+    b.call(
+        gjk,
+        [
+            i(1),
+            VA,
+            VB,
+            table_a,
+            table_b,
+            first(shape_a, dptr),
+            first(shape_b, dptr),
+            first(out, dptr),
+            max_it,
+            row_a,
+            row_b,
+            pose_a,
+            first(pose_b, dptr),
+            nbr_a,
+            nbr_b,
+            DA,
+            DB,
+        ],
+    )
+    overlap = b.fcmp_ordered("!=", b.load(cell(out, 7)), c(0.0))
+    unfinished = b.fcmp_ordered("!=", b.load(cell(out, 10)), c(0.0))
+    distance = b.select(unfinished, b.load(cell(out, 9)), b.load(cell(out, 0)))
+    deeper = b.and_(overlap, b.fcmp_ordered(">", b.load(cell(out, 11)), deep))
+    collided = fn.append_basic_block("collided")
+    measured = fn.append_basic_block("measured")
+    b.cbranch(deeper, collided, measured)
+    b.position_at_end(collided)
+    b.store(i(1), status_slot)
+    b.store(b.fneg(b.load(cell(out, 11))), nearest_slot)
+    b.branch(state_next)
+    b.position_at_end(measured)
+    b.store(b.select(overlap, i(2), b.load(status_slot)), status_slot)
+    kept = b.load(nearest_slot)
+    nearer = b.and_(b.not_(overlap), b.fcmp_ordered("<", distance, kept))
+    b.store(b.select(nearer, distance, kept), nearest_slot)
+    b.branch(pop_head)
+    # an inner pair: split as the collision-only walk does
+    b.position_at_end(split)
+    split_a = b.and_(b.not_(leaf_a), b.or_(leaf_b, b.fcmp_ordered(">=", e.add(*hA), e.add(*hB))))
+    left_a, right_a = b.load(b.gep(A[3], [na])), b.load(b.gep(A[4], [na]))
+    left_b, right_b = b.load(b.gep(B[3], [nb])), b.load(b.gep(B[4], [nb]))
+    top = b.load(top_slot)
+    push = fn.append_basic_block("push")
+    overflow = fn.append_basic_block("overflow")
+    b.cbranch(b.icmp_signed("<=", b.add(top, i(2)), i(STACK)), push, overflow)
+    b.position_at_end(push)
+    b.store(b.select(split_a, right_a, na), b.gep(stack_a, [i(0), top]))
+    b.store(b.select(split_a, nb, right_b), b.gep(stack_b, [i(0), top]))
+    b.store(b.select(split_a, left_a, na), b.gep(stack_a, [i(0), b.add(top, i(1))]))
+    b.store(b.select(split_a, nb, left_b), b.gep(stack_b, [i(0), b.add(top, i(1))]))
+    b.store(b.add(top, i(2)), top_slot)
+    b.branch(pop_head)
+    b.position_at_end(overflow)
+    b.store(i(-1), status_out)
+    b.ret_void()
+    b.position_at_end(state_next)
+    k = b.load(k_slot)
+    b.store(b.load(status_slot), b.gep(status_out, [k]))
+    b.store(b.load(nearest_slot), b.gep(nearest_out, [k]))
+    b.store(b.add(k, i(1)), k_slot)
+    b.branch(state_head)
+    b.position_at_end(finished)
+    b.ret_void()
+    return str(module)
+
+
 _FUNCTION: list = []  # [ctypes function or None], built once per process
 
 
@@ -401,10 +606,15 @@ def _functions():
     if not _FUNCTION:
         import ctypes
 
-        source = Path(__file__).read_text()
+        from . import compiled
+
+        # the leaves' GJK is compiled.py's: both files make the module
+        source = Path(__file__).read_text() + Path(compiled.__file__).read_text()
         digest = hashlib.sha256(source.encode()).hexdigest()[:20]
         gap_symbol, walk_symbol = f"rworld_box_gap_{digest}", f"rworld_touching_{digest}"
         descend_symbol = f"rworld_descend_{digest}"
+        contacts_symbol = f"rworld_contacts_{digest}"
+        gjk_symbol = f"rworld_contacts_gjk_{digest}"
 
         def build() -> str:
             import llvmlite.binding as llvm
@@ -412,13 +622,18 @@ def _functions():
             module = llvm.parse_assembly(box_gap_ir(gap_symbol))
             module.link_in(llvm.parse_assembly(touching_ir(walk_symbol)))
             module.link_in(llvm.parse_assembly(descend_ir(descend_symbol)))
+            module.link_in(llvm.parse_assembly(compiled.gjk_ir(gjk_symbol, local=True)))
+            module.link_in(llvm.parse_assembly(contacts_ir(contacts_symbol, gjk_symbol)))
             return str(module)
 
         addresses = kernels.compile_ir(
-            "box trees", build, [gap_symbol, walk_symbol, descend_symbol], source
+            "box trees",
+            build,
+            [gap_symbol, walk_symbol, descend_symbol, contacts_symbol],
+            source,
         )
         if addresses is None:
-            _FUNCTION.extend([None, None, None])
+            _FUNCTION.extend([None, None, None, None])
         else:
             _FUNCTION.append(
                 ctypes.CFUNCTYPE(None, ctypes.c_int64, *[ctypes.c_void_p] * 12)(addresses[0])
@@ -436,7 +651,89 @@ def _functions():
             _FUNCTION.append(
                 ctypes.CFUNCTYPE(None, ctypes.c_int64, *[ctypes.c_void_p] * 17)(addresses[2])
             )
+            leaves = [ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64]
+            leaves += [ctypes.c_void_p]
+            _FUNCTION.append(
+                ctypes.CFUNCTYPE(
+                    None,
+                    ctypes.c_int64,
+                    ctypes.c_double,
+                    ctypes.c_double,
+                    *[ctypes.c_void_p] * 14,
+                    *leaves,
+                    *leaves,
+                    ctypes.c_int64,
+                    ctypes.c_void_p,
+                    ctypes.c_void_p,
+                )(addresses[3])
+            )
     return _FUNCTION[0], _FUNCTION[1], _FUNCTION[2]
+
+
+def contacts_function():
+    """The compiled walk with its leaves measured (:func:`contacts_ir`), or None."""
+    _functions()
+    return _FUNCTION[3]
+
+
+def walk_side(tree, leaves) -> tuple:
+    """A body's tree and leaf table as :func:`contacts` takes them (contiguous, typed; kept
+    by the caller, so that one pair's call does not convert them again): ``leaves`` =
+    (table (R, V, 3), neighbours (R, V, D) int64 or None: scanned, pose (12,): the table's
+    frame in the tree's, R's rows then t); the tree's leaf ``item`` is the table's row
+    ``item``, a polytope."""
+    table, neighbours, pose = leaves
+    arrays = [np.ascontiguousarray(x, dtype=float) for x in (tree.center, tree.half, tree.axes)]
+    arrays += [np.ascontiguousarray(x, dtype=np.int64) for x in (tree.left, tree.right, tree.item)]
+    table = np.ascontiguousarray(table, dtype=float)
+    degree = 0 if neighbours is None else int(np.shape(neighbours)[2])
+    neighbours = (
+        np.full((1, 1, 1), -2, dtype=np.int64)
+        if neighbours is None
+        else np.ascontiguousarray(neighbours, dtype=np.int64)
+    )
+    pose = np.ascontiguousarray(pose, dtype=float)
+    held = (*arrays, table, neighbours, pose)
+    addresses = [x.ctypes.data for x in arrays]
+    leaf = [table.shape[1], table.ctypes.data, neighbours.ctypes.data, degree, pose.ctypes.data]
+    return held, addresses, leaf
+
+
+def contacts(side_a, side_b, R, t, limit: float, deep: float, max_iterations: int):
+    """For each of K states ``T_a_b`` = (``R`` (K, 3, 3), ``t`` (K, 3)): whether a leaf pair of
+    the two bodies (:func:`walk_side` each) within ``limit`` [m] overlaps, deeper than ``deep``
+    by GJK's bound, and the least distance of those that do not (:func:`contacts_ir`):
+    (status (K,) int, nearest (K,)), or None when no compiled kernel is available or a tree is
+    too deep for its stack."""
+    if kernels.backend() != "llvm":
+        return None
+    function = contacts_function()
+    if function is None:
+        return None
+    # every array is held by a name until the call returns: the kernel reads raw addresses
+    Rc, tc = np.ascontiguousarray(R, dtype=float), np.ascontiguousarray(t, dtype=float)
+    K = len(Rc)
+    status = np.zeros(K, dtype=np.int64)
+    nearest = np.full(K, np.inf)
+    if not K:
+        return status, nearest
+    function(
+        K,
+        float(limit),
+        float(deep),
+        Rc.ctypes.data,
+        tc.ctypes.data,
+        *side_a[1],
+        *side_b[1],
+        *side_a[2],
+        *side_b[2],
+        int(max_iterations),
+        status.ctypes.data,
+        nearest.ctypes.data,
+    )
+    if status[0] < 0:  # a tree deeper than the kernel's stack: the caller's search answers
+        return None
+    return status, nearest
 
 
 def _tree_arrays(tree_a, tree_b) -> list[np.ndarray]:

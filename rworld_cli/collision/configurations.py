@@ -26,7 +26,8 @@ import numpy as np
 from ..units import COLLISION_TOLERANCE
 from . import bvh
 from .allowed import allowed_pairs
-from .bodies import CollisionModel, distances
+from .bodies import CollisionModel, buried_in, distances
+from .convex import MAX_ITERATIONS
 from .sweep import _Levers, _signed
 
 
@@ -197,18 +198,26 @@ class ConfigurationChecker:
         buried = np.zeros(N, dtype=bool)
         if nearest:  # every pair that may be the nearest, at once
             groups = [np.arange(len(state))]
-        else:  # pairs of single pieces at once, then the others, cheapest first, each only at
-            # the states still free: a state is done at its first collision
-            simple = self._single[I[pair]] & self._single[J[pair]]
-            others = np.unique(pair[~simple])
-            others = others[np.argsort(self._cost[others], kind="stable")]
-            groups = [np.flatnonzero(simple)] + [np.flatnonzero(pair == p) for p in others]
+        else:  # pair by pair, cheapest first (pairs of single pieces lead), each only at the
+            # states still free: a state is done at its first collision
+            pairs = np.unique(pair)
+            pairs = pairs[np.argsort(self._cost[pairs], kind="stable")]
+            groups = [np.flatnonzero(pair == p) for p in pairs]
         for rows in groups:
             if not nearest:
                 rows = rows[free[state[rows]]]
             if not len(rows):
                 continue
             s, p = state[rows], pair[rows]
+            if not nearest:  # one pair of bodies: trees walked, leaves measured, compiled
+                walked = self._walked(TI[s, p], TJ[s, p], int(p[0]), watch)
+                if walked is not None:
+                    signed, buried_now, undecided = walked
+                    self._tally(s, p, signed, buried_now, distance, nearest_pair, free, buried)
+                    rows = rows[undecided]
+                    if not len(rows):
+                        continue
+                    s, p = state[rows], pair[rows]
             res = distances(
                 bodies,
                 I[p],
@@ -218,16 +227,46 @@ class ConfigurationChecker:
                 within=np.inf if nearest else watch,
                 deep_enough=np.inf if nearest else self.tolerance,
             )
-            signed = _signed(res)
-            np.minimum.at(distance, s, signed)
-            best = np.flatnonzero(signed <= distance[s])
-            nearest_pair[s[best]] = self.pairs[p[best]]
-            bad = (signed < -self.tolerance) | res.buried
-            if self.clearance > 0:
-                bad |= signed < self.clearance
-            free[s[bad]] = False
-            buried[s[res.buried]] = True
+            self._tally(s, p, _signed(res), res.buried, distance, nearest_pair, free, buried)
         return ConfigurationReport(free, distance, nearest_pair, buried)
+
+    def _tally(self, s, p, signed, buried_now, distance, nearest_pair, free, buried) -> None:
+        """Rows (state ``s``, pair ``p``) measured: each state's nearest, and whether it is
+        free (no overlap deeper than the tolerance, nothing buried, nothing within the
+        clearance), into the report's arrays."""
+        np.minimum.at(distance, s, signed)
+        best = np.flatnonzero(signed <= distance[s])
+        nearest_pair[s[best]] = self.pairs[p[best]]
+        bad = (signed < -self.tolerance) | buried_now
+        if self.clearance > 0:
+            bad |= signed < self.clearance
+        free[s[bad]] = False
+        buried[s[buried_now]] = True
+
+    def _walked(self, TI, TJ, pair: int, watch: float):
+        """One pair of bodies with trees at R states (poses (R, 4, 4) each), collision only:
+        both trees walked and their leaf pairs within ``watch`` measured in one compiled call
+        (:func:`compiled_bvh.contacts`).  Returns (signed (R,): the distance where within
+        ``watch``, inf farther, at most minus the tolerance where a leaf pair is found deeper;
+        buried (R,); undecided (R,) bool: an overlap not known to be deeper than the
+        tolerance, left to the exact query), or None (no kernel; a sphere or a cylinder)."""
+        from .compiled_bvh import contacts
+
+        a, b = (self.model.bodies[k] for k in self.pairs[pair])
+        if a.walk_side is None or b.walk_side is None:
+            return None
+        R, t = bvh._relative(TI, TJ)
+        found = contacts(
+            a.walk_side, b.walk_side, R, t, watch + 2e-9, self.tolerance, MAX_ITERATIONS
+        )
+        if found is None:
+            return None
+        status, nearest = found
+        signed = np.where((status == 1) | (nearest <= watch), nearest, np.inf)
+        buried_now = np.zeros(len(status), dtype=bool)
+        clear = np.flatnonzero(status == 0)
+        buried_now[clear] = buried_in(a, b, TI[clear], TJ[clear])
+        return signed, buried_now, status == 2
 
     def _boxes_near(self, TI, TJ, state, pair, watch: float):
         """The (state, pair) rows whose bodies' oriented boxes (the roots of their trees) are

@@ -65,6 +65,34 @@ def test_the_nearest_pair_is_every_pairs_least(cell_file, states):
     assert (~report.free).any() and report.free.any()
 
 
+@pytest.mark.parametrize("cell", ["tx2_60", "iiwa14", "gp7"])
+def test_the_compiled_walk_decides_as_the_exact_distances(cell):
+    """``nearest=False`` walks each pair's trees and measures their leaves in one compiled
+    call (``compiled_bvh.contacts``): at 40 random states of each vendor robot, and at the
+    two ends of the last of 12 bisections (1/4096 of the way) towards the first contact on
+    lines from 40 free states to colliding ones, it decides as the exact nearest distances
+    do, and its distances of touches (overlaps within the tolerance) are theirs."""
+    _, _, _, limits, check = checker(REPO / "tests/data/vendor_cells" / cell / "cell.yaml")
+    rng = np.random.default_rng(11)
+    q = rng.uniform(limits[:, 0], limits[:, 1], (240, len(limits)))
+    first = check.check(q, nearest=False).free
+    free, hit = q[first][:40], q[~first][:40]
+    count = min(len(free), len(hit))
+    free, hit = free[:count], hit[:count]
+    lo, hi = np.zeros(count), np.ones(count)
+    for _ in range(12):
+        mid = 0.5 * (lo + hi)
+        bad = ~check.check(free + mid[:, None] * (hit - free), nearest=False).free
+        hi, lo = np.where(bad, mid, hi), np.where(bad, lo, mid)
+    edge = [free + s[:, None] * (hit - free) for s in (lo, hi)]
+    states = np.concatenate([q[:40], *edge])
+    exact, quick = check.check(states), check.check(states, nearest=False)
+    np.testing.assert_array_equal(quick.free, exact.free)
+    assert quick.free.sum() > 30 and (~quick.free).sum() > 30
+    touch = exact.free & (exact.distance <= 0)
+    np.testing.assert_allclose(quick.distance[touch], exact.distance[touch], atol=1e-9)
+
+
 def test_free_only_decides_alike_with_a_clearance():
     _, _, _, limits, check = checker(
         REPO / "tests/data/vendor_cells/iiwa14/cell.yaml", clearance=0.01
