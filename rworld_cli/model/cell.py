@@ -261,6 +261,24 @@ class DeviceModel:
     def link_frames(self) -> tuple[str, ...]:
         return tuple(f"{self.name}.{link.name}" for link in self.links)
 
+    @functools.cached_property
+    def _frame_arrays(self) -> tuple[np.ndarray, ...]:
+        """A joint-frame chain as arrays: origins (n, 4, 4), axes (n, 3), the axes' cross
+        product matrices and outer products (n, 3, 3) each, prismatic (n,) bool."""
+        origin = np.array([np.asarray(j.origin, dtype=float) for j in self.joints]).reshape(
+            -1, 4, 4
+        )
+        axis = np.array([np.asarray(j.axis, dtype=float) for j in self.joints]).reshape(-1, 3)
+        zero = np.zeros(len(axis))
+        x, y, z = axis.T
+        cross = np.stack(
+            [np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1), np.stack([-y, x, zero], -1)],
+            axis=1,
+        )
+        outer = axis[:, :, None] * axis[:, None, :]
+        prismatic = np.array([j.kind == "prismatic" for j in self.joints], dtype=bool)
+        return origin, axis, cross, outer, prismatic
+
     def dh_arrays(self) -> dict[str, np.ndarray]:
         """The DH table as arrays of shape (n,): a, alpha, d, theta, prismatic (bool)."""
         return {
@@ -289,13 +307,15 @@ class DeviceModel:
 
         q = np.asarray(q, dtype=float)
         if self.convention == "frames":
-            return np.stack(
-                [
-                    spatial.joint_frame(j.origin, j.axis, q[..., i], j.kind == "prismatic")
-                    for i, j in enumerate(self.joints)
-                ],
-                axis=-3,
-            )
+            # spatial.joint_frame for all joints at once: Rodrigues' terms in its order
+            origin, axis, cross, outer, prismatic = self._frame_arrays
+            c, s = np.cos(q)[..., None, None], np.sin(q)[..., None, None]
+            turn = c * np.eye(3) + s * cross + (1.0 - c) * outer
+            motion = np.zeros(q.shape + (4, 4))
+            motion[..., 3, 3] = 1.0
+            motion[..., :3, :3] = np.where(prismatic[:, None, None], np.eye(3), turn)
+            motion[..., :3, 3] = np.where(prismatic[:, None], q[..., None] * axis, 0.0)
+            return origin @ motion
         dh = self.dh_arrays()
         prismatic = dh["prismatic"]
         theta = dh["theta"] + np.where(prismatic, 0.0, q)
