@@ -146,6 +146,12 @@ class Body:
         return table.vertices, table.neighbours, np.r_[T[:3, :3].ravel(), T[:3, 3]]
 
     @functools.cached_property
+    def first_point(self) -> np.ndarray:
+        """A point of the body in its frame (3,) [m]: its first leaf's first vertex (the
+        buried test's witness, :func:`buried_in`)."""
+        return self.leaf_pieces(np.zeros(1, dtype=int), np.eye(4)[None]).points[0, 0].copy()
+
+    @functools.cached_property
     def walk_side(self) -> tuple | None:
         """:attr:`tree` and :attr:`leaf_table` prepared for :func:`compiled_bvh.contacts`
         (held here: the kernel reads their addresses), or None (a sphere or a cylinder)."""
@@ -664,13 +670,13 @@ def _closest(a, b, Ta, Tb, K, k, pa, pb, max_iterations, deep_enough=np.inf) -> 
 def buried_in(a: Body, b: Body, Ta: np.ndarray, Tb: np.ndarray) -> np.ndarray:
     """Whether one body lies inside the other's closed mesh at each of K states where their
     surfaces do not meet (the caller knows they do not): a solid inside a closed mesh touches
-    no triangle, yet collides.  One point of the inner body (its first leaf's first vertex)
-    decides, by the mesh's winding number (K,) bool."""
+    no triangle, yet collides.  One point of the inner body (:attr:`Body.first_point`) decides,
+    by the mesh's winding number (K,) bool."""
     buried = np.zeros(len(Ta), dtype=bool)
     for mesh_body, other, T_mesh, T_other in ((a, b, Ta, Tb), (b, a, Tb, Ta)):
         if not mesh_body.is_mesh or not mesh_body.shape.closed or not len(Ta):
             continue
-        point = other.leaf_pieces(np.zeros(len(Ta), dtype=int), T_other).points[:, 0]
+        point = T_other[:, :3, :3] @ other.first_point + T_other[:, :3, 3]
         local = np.einsum(
             "kji,kj->ki", T_mesh[:, :3, :3], point - T_mesh[:, :3, 3]
         )  # in the mesh's frame

@@ -395,12 +395,13 @@ def touching_ir(symbol: str) -> str:
 def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     """The LLVM IR text of the collision-only walk with its leaves measured in place:
 
-    ``void f(i64 K, double limit, double deep, ptr R, ptr t, (tree a:) ptr centre, ptr half,
+    ``void f(i64 K, ptr limit, double deep, ptr R, ptr t, (tree a:) ptr centre, ptr half,
     ptr axes, ptr left, ptr right, ptr item, (tree b: the same six), (leaves a:) i64 V,
     ptr table, ptr neighbours, i64 D, ptr pose, (leaves b: the same five), i64 max_iterations,
     ptr status, ptr nearest)``
 
-    For each state k (``T_a_b`` = ``R[k]``, ``t[k]``), the walk of :func:`touching_ir`; each
+    For each state k (``T_a_b`` = ``R[k]``, ``t[k]``), the walk of :func:`touching_ir` with the
+    bound ``min(limit[k], the nearest distance measured so far)`` (branch and bound); each
     leaf pair it reaches is measured by ``gjk_symbol`` (:func:`rworld_cli.collision.compiled.
     gjk_ir` with ``local``, called for one pair): leaf ``item`` of a side is row ``item`` of its
     table (V vertices in the side's own frame, placed by its fixed ``pose``, 12 doubles, and for
@@ -431,7 +432,7 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
         module,
         ir.FunctionType(
             ir.VoidType(),
-            [I64, D, D, dptr, dptr] + tree + tree + leaves + leaves + [I64, iptr, dptr],
+            [I64, dptr, D, dptr, dptr] + tree + tree + leaves + leaves + [I64, iptr, dptr],
         ),
         name=symbol,
     )
@@ -510,7 +511,12 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     t = e.row(tp, b.mul(k, i(3)), 3)
     gap = e.gap(Ua, Ub, hA, hB, cA, cB, R, t)
     near = fn.append_basic_block("near")
-    b.cbranch(b.fcmp_ordered("<=", gap, limit), near, pop_head)  # NaN: dropped
+    # a pair farther than asked, or than a leaf pair already measured, cannot matter: the
+    # nearest kept is exact up to the limit, and an overlap's box gap is at most 0
+    bound = b.load(b.gep(limit, [k]))
+    kept = b.load(nearest_slot)
+    bound = b.select(b.fcmp_ordered("<", kept, bound), kept, bound)
+    b.cbranch(b.fcmp_ordered("<=", gap, bound), near, pop_head)  # NaN: dropped
     b.position_at_end(near)
     item_a = b.load(b.gep(A[5], [na]))
     item_b = b.load(b.gep(B[5], [nb]))
@@ -657,7 +663,7 @@ def _functions():
                 ctypes.CFUNCTYPE(
                     None,
                     ctypes.c_int64,
-                    ctypes.c_double,
+                    ctypes.c_void_p,
                     ctypes.c_double,
                     *[ctypes.c_void_p] * 14,
                     *leaves,
@@ -699,9 +705,10 @@ def walk_side(tree, leaves) -> tuple:
     return held, addresses, leaf
 
 
-def contacts(side_a, side_b, R, t, limit: float, deep: float, max_iterations: int):
+def contacts(side_a, side_b, R, t, limit, deep: float, max_iterations: int):
     """For each of K states ``T_a_b`` = (``R`` (K, 3, 3), ``t`` (K, 3)): whether a leaf pair of
-    the two bodies (:func:`walk_side` each) within ``limit`` [m] overlaps, deeper than ``deep``
+    the two bodies (:func:`walk_side` each) within ``limit`` [m] (one for all states, or (K,))
+    overlaps, deeper than ``deep``
     by GJK's bound, and the least distance of those that do not (:func:`contacts_ir`):
     (status (K,) int, nearest (K,)), or None when no compiled kernel is available or a tree is
     too deep for its stack."""
@@ -717,9 +724,10 @@ def contacts(side_a, side_b, R, t, limit: float, deep: float, max_iterations: in
     nearest = np.full(K, np.inf)
     if not K:
         return status, nearest
+    limits = np.ascontiguousarray(np.broadcast_to(np.asarray(limit, dtype=float), (K,)))
     function(
         K,
-        float(limit),
+        limits.ctypes.data,
         float(deep),
         Rc.ctypes.data,
         tc.ctypes.data,

@@ -243,13 +243,14 @@ class ConfigurationChecker:
         free[s[bad]] = False
         buried[s[buried_now]] = True
 
-    def _walked(self, TI, TJ, pair: int, watch: float):
-        """One pair of bodies with trees at R states (poses (R, 4, 4) each), collision only:
-        both trees walked and their leaf pairs within ``watch`` measured in one compiled call
-        (:func:`compiled_bvh.contacts`).  Returns (signed (R,): the distance where within
-        ``watch``, inf farther, at most minus the tolerance where a leaf pair is found deeper;
-        buried (R,); undecided (R,) bool: an overlap not known to be deeper than the
-        tolerance, left to the exact query), or None (no kernel; a sphere or a cylinder)."""
+    def _walked(self, TI, TJ, pair: int, watch):
+        """One pair of bodies with trees at R states (poses (R, 4, 4) each): both trees walked
+        and their leaf pairs within ``watch`` [m] (one for all states, or (R,)) measured in one
+        compiled call (:func:`compiled_bvh.contacts`, branch and bound on the nearest).
+        Returns (signed (R,): the distance where within ``watch``, inf farther, at most minus
+        the tolerance where a leaf pair is found deeper; buried (R,); undecided (R,) bool: an
+        overlap not known to be deeper than the tolerance, left to the exact query), or None
+        (no kernel; a sphere or a cylinder)."""
         from .compiled_bvh import contacts
 
         a, b = (self.model.bodies[k] for k in self.pairs[pair])
@@ -282,25 +283,53 @@ class ConfigurationChecker:
     # bisection depth of :meth:`check_segment`: intervals of 2**-40 of the segment
     SEGMENT_DEPTH = 40
 
-    def _signed(self, q: np.ndarray, pair: np.ndarray, at: np.ndarray, within: float = np.inf):
+    def _signed(self, q: np.ndarray, pair: np.ndarray, at: np.ndarray, within=np.inf):
         """Signed distances (and buried) of pairs ``pair[r]`` at states ``q[at[r]]``: exact up to
-        ``within`` [m], and ``within`` (a lower bound) where the pair is farther; depths exact
-        up to the tolerance (a contact deeper is one, whatever its depth)."""
+        ``within`` [m] (one for all rows, or per row), and ``within`` (a lower bound) where the
+        pair is farther; depths exact up to the tolerance (a contact deeper is one, whatever
+        its depth).  Pair by pair, trees walked and leaves measured compiled where they can
+        be (:meth:`_walked`), the exact query elsewhere."""
         bodies = self.model.bodies
         T = self.poses(q)
-        I, J = self.pairs[pair, 0], self.pairs[pair, 1]
+        within = np.broadcast_to(np.asarray(within, dtype=float), (len(pair),))
+        signed, buried = np.empty(len(pair)), np.zeros(len(pair), dtype=bool)
+        left = []  # rows for the exact query
+        for p in np.unique(pair):
+            rows = np.flatnonzero(pair == p)
+            i, j = self.pairs[p]
+            TI, TJ = T[bodies[i].frame][at[rows]], T[bodies[j].frame][at[rows]]
+            walked = (
+                self._walked(TI, TJ, int(p), within[rows])
+                if np.isfinite(within[rows]).all()
+                else None
+            )
+            if walked is None:
+                left.append(rows)
+                continue
+            signed[rows], buried[rows], undecided = walked
+            left.append(rows[undecided])
+        rows = np.concatenate(left) if left else np.zeros(0, dtype=int)
+        if len(rows):
+            I, J = self.pairs[pair[rows], 0], self.pairs[pair[rows], 1]
 
-        def placed(index):  # each row's body at its state: one gather per body, not per row
-            out = np.empty((len(index), 4, 4))
-            for body in np.unique(index):
-                rows = np.flatnonzero(index == body)
-                out[rows] = T[bodies[body].frame][at[rows]]
-            return out
+            def placed(index):  # each row's body at its state: one gather per body
+                out = np.empty((len(index), 4, 4))
+                for body in np.unique(index):
+                    mine = np.flatnonzero(index == body)
+                    out[mine] = T[bodies[body].frame][at[rows[mine]]]
+                return out
 
-        res = distances(
-            bodies, I, J, placed(I), placed(J), within=within, deep_enough=self.tolerance
-        )
-        return np.minimum(_signed(res), within), res.buried
+            res = distances(
+                bodies,
+                I,
+                J,
+                placed(I),
+                placed(J),
+                within=within[rows],
+                deep_enough=self.tolerance,
+            )
+            signed[rows], buried[rows] = _signed(res), res.buried
+        return np.minimum(signed, within), buried
 
     def check_segment(self, q0, q1) -> SegmentReport:
         """Check the straight joint-space segment from q0 to q1 (n,) [rad or m], with the
@@ -348,11 +377,13 @@ class ConfigurationChecker:
                         _pair(self.pairs[pairs[k]]),
                     )
 
-        # the ends
+        # the ends, each exact only up to what clears the whole segment whatever the other
+        # end (an end not itself a contact): the segment's motion bound and the clearance
         rows = np.arange(P)
         ends = np.stack([q0, q1])
-        d0, b0 = self._signed(ends, rows, np.zeros(P, dtype=int))
-        d1, b1 = self._signed(ends, rows, np.ones(P, dtype=int))
+        far = reach + max(self.clearance, 0.0) + 1e-6
+        d0, b0 = self._signed(ends, rows, np.zeros(P, dtype=int), far)
+        d1, b1 = self._signed(ends, rows, np.ones(P, dtype=int), far)
         queries += 2 * P
         found(np.zeros(P), rows, d0, b0)
         found(np.ones(P), rows, d1, b1)
@@ -370,8 +401,8 @@ class ConfigurationChecker:
             states = q0 + mid[:, None] * (q1 - q0)
             # a midpoint farther than this clears both halves with either end at 0 or more:
             # nearer ones are measured exactly, farther ones only known to be farther
-            enough = float(np.max(reach[pair] * (sb - sa) / 2 + need, initial=0.0))
-            dm, bm = self._signed(states, pair, np.arange(len(pair)), max(enough, 0.0) + 1e-6)
+            enough = np.maximum(reach[pair] * (sb - sa) / 2 + need, 0.0) + 1e-6
+            dm, bm = self._signed(states, pair, np.arange(len(pair)), enough)
             queries += len(pair)
             found(mid, pair, dm, bm)
             pair = np.concatenate([pair, pair])
