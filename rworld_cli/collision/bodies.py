@@ -600,6 +600,54 @@ def pair_distance(
             d, n = convex.penetration(pa.take(rows), pb.take(rows))
             depth[rows] = np.maximum(d, 0.0)
         return PairDistance(dist, depth, pta, ptb, np.zeros(K, dtype=bool))
+    walked = _walked(a, b, Ta, Tb, max_iterations, within, deep_enough)
+    if walked is not None:
+        return walked
+    return _searched(a, b, Ta, Tb, max_iterations, within, deep_enough)
+
+
+def _walked(a, b, Ta, Tb, max_iterations, within, deep_enough) -> PairDistance | None:
+    """:func:`pair_distance` by the compiled walk of both trees (:func:`compiled_bvh.
+    contacts`: branch and bound, each leaf pair measured by GJK where it is met): the states
+    where no leaf pair overlaps take its nearest distance and closest points; the others
+    (their depths to measure) go to :func:`_searched`.  None: no kernel, or a sphere or a
+    cylinder (not polytopes)."""
+    if a.walk_side is None or b.walk_side is None:
+        return None
+    from .compiled_bvh import contacts
+
+    K = len(Ta)
+    limit = np.broadcast_to(np.asarray(within, dtype=float), (K,))
+    R, t = bvh._relative(Ta, Tb)
+    found = contacts(a.walk_side, b.walk_side, R, t, limit + 2e-9, deep_enough, max_iterations)
+    if found is None:
+        return None
+    status, nearest, witness = found
+    out = PairDistance(
+        np.full(K, np.inf), np.zeros(K), np.zeros((K, 3)), np.zeros((K, 3)), np.zeros(K, bool)
+    )
+    clear = np.flatnonzero(status == 0)
+    measured = clear[np.isfinite(nearest[clear])]
+    out.distance[measured] = nearest[measured]
+    Rw, tw = Ta[measured, :3, :3], Ta[measured, :3, 3]  # a's frame, where GJK ran, in world
+    out.point_a[measured] = np.einsum("kij,kj->ki", Rw, witness[measured, 0:3]) + tw
+    out.point_b[measured] = np.einsum("kij,kj->ki", Rw, witness[measured, 3:6]) + tw
+    rows = clear[buried_in(a, b, Ta[clear], Tb[clear])]
+    out.buried[rows] = True
+    out.depth[rows] = out.distance[rows]  # at least as deep as its distance to the surface
+    out.distance[rows] = 0.0
+    rest = np.flatnonzero(status != 0)  # overlaps: their depths measured by the search
+    if len(rest):
+        found_rest = _searched(a, b, Ta[rest], Tb[rest], max_iterations, limit[rest], deep_enough)
+        for name in ("distance", "depth", "point_a", "point_b", "buried"):
+            getattr(out, name)[rest] = getattr(found_rest, name)
+    return out
+
+
+def _searched(a, b, Ta, Tb, max_iterations, within, deep_enough) -> PairDistance:
+    """:func:`pair_distance` of two bodies of several leaves (or one of them) by the trees'
+    breadth-first search (:func:`bvh.candidates`) and their leaf pairs measured in batches."""
+    K = len(Ta)
     # several leaves on either side (triangles, convex parts): the leaf pairs that may hold
     # each state's nearest pair, found by the bodies' trees (bvh), then measured; a single
     # piece is placed once per state and shared by its pairs

@@ -398,7 +398,7 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     ``void f(i64 K, ptr limit, double deep, ptr R, ptr t, (tree a:) ptr centre, ptr half,
     ptr axes, ptr left, ptr right, ptr item, (tree b: the same six), (leaves a:) i64 V,
     ptr table, ptr neighbours, i64 D, ptr pose, (leaves b: the same five), i64 max_iterations,
-    ptr status, ptr nearest)``
+    ptr status, ptr nearest, ptr witness)``
 
     For each state k (``T_a_b`` = ``R[k]``, ``t[k]``), the walk of :func:`touching_ir` with the
     bound ``min(limit[k], the nearest distance measured so far)`` (branch and bound); each
@@ -409,7 +409,9 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     ``status[k]``: 0 no leaf pair overlaps, 1 one overlaps deeper than ``deep`` by GJK's
     depth bound (the walk of that state stops there), 2 some overlap is not known to be that
     deep; ``nearest[k]``: the least distance of the leaf pairs measured that do not overlap
-    (inf: none), exact for every pair within ``limit``; for status 1, minus that depth bound.
+    (inf: none), exact for every pair within ``limit``; for status 1, minus that depth bound;
+    ``witness[k]`` (8 doubles): that nearest pair's closest points in a's frame (6), then its
+    two leaf items (as doubles).
     ``status[0]`` -1: a tree deeper than the stack (the caller falls back).
     """
     import llvmlite.ir as ir
@@ -432,7 +434,7 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
         module,
         ir.FunctionType(
             ir.VoidType(),
-            [I64, dptr, D, dptr, dptr] + tree + tree + leaves + leaves + [I64, iptr, dptr],
+            [I64, dptr, D, dptr, dptr] + tree + tree + leaves + leaves + [I64, iptr, dptr, dptr],
         ),
         name=symbol,
     )
@@ -440,7 +442,7 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     A, B = fn.args[5:11], fn.args[11:17]
     VA, table_a, nbr_a, DA, pose_a = fn.args[17:22]
     VB, table_b, nbr_b, DB, fixed_b = fn.args[22:27]
-    max_it, status_out, nearest_out = fn.args[27:]
+    max_it, status_out, nearest_out, witness_out = fn.args[27:]
     entry = fn.append_basic_block("entry")
     b = ir.IRBuilder(entry)
     e = _Emit(b, module)
@@ -571,7 +573,16 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     b.store(b.select(overlap, i(2), b.load(status_slot)), status_slot)
     kept = b.load(nearest_slot)
     nearer = b.and_(b.not_(overlap), b.fcmp_ordered("<", distance, kept))
-    b.store(b.select(nearer, distance, kept), nearest_slot)
+    record = fn.append_basic_block("record")
+    b.cbranch(nearer, record, pop_head)
+    # the nearest so far: its distance, closest points and leaves
+    b.position_at_end(record)
+    b.store(distance, nearest_slot)
+    base = b.mul(b.load(k_slot), i(8))
+    for j in range(6):
+        b.store(b.load(cell(out, 1 + j)), b.gep(witness_out, [b.add(base, i(j))]))
+    b.store(b.sitofp(b.load(row_a), D), b.gep(witness_out, [b.add(base, i(6))]))
+    b.store(b.sitofp(b.load(row_b), D), b.gep(witness_out, [b.add(base, i(7))]))
     b.branch(pop_head)
     # an inner pair: split as the collision-only walk does
     b.position_at_end(split)
@@ -671,6 +682,7 @@ def _functions():
                     ctypes.c_int64,
                     ctypes.c_void_p,
                     ctypes.c_void_p,
+                    ctypes.c_void_p,
                 )(addresses[3])
             )
     return _FUNCTION[0], _FUNCTION[1], _FUNCTION[2]
@@ -710,8 +722,9 @@ def contacts(side_a, side_b, R, t, limit, deep: float, max_iterations: int):
     the two bodies (:func:`walk_side` each) within ``limit`` [m] (one for all states, or (K,))
     overlaps, deeper than ``deep``
     by GJK's bound, and the least distance of those that do not (:func:`contacts_ir`):
-    (status (K,) int, nearest (K,)), or None when no compiled kernel is available or a tree is
-    too deep for its stack."""
+    (status (K,) int, nearest (K,), witness (K, 8): the nearest pair's closest points in a's
+    frame and its leaves), or None when no compiled kernel is available or a tree is too deep
+    for its stack."""
     if kernels.backend() != "llvm":
         return None
     function = contacts_function()
@@ -722,8 +735,9 @@ def contacts(side_a, side_b, R, t, limit, deep: float, max_iterations: int):
     K = len(Rc)
     status = np.zeros(K, dtype=np.int64)
     nearest = np.full(K, np.inf)
+    witness = np.full((K, 8), -1.0)
     if not K:
-        return status, nearest
+        return status, nearest, witness
     limits = np.ascontiguousarray(np.broadcast_to(np.asarray(limit, dtype=float), (K,)))
     function(
         K,
@@ -738,10 +752,11 @@ def contacts(side_a, side_b, R, t, limit, deep: float, max_iterations: int):
         int(max_iterations),
         status.ctypes.data,
         nearest.ctypes.data,
+        witness.ctypes.data,
     )
     if status[0] < 0:  # a tree deeper than the kernel's stack: the caller's search answers
         return None
-    return status, nearest
+    return status, nearest, witness
 
 
 def _tree_arrays(tree_a, tree_b) -> list[np.ndarray]:

@@ -262,7 +262,7 @@ class ConfigurationChecker:
         )
         if found is None:
             return None
-        status, nearest = found
+        status, nearest, _ = found
         signed = np.where((status == 1) | (nearest <= watch), nearest, np.inf)
         buried_now = np.zeros(len(status), dtype=bool)
         clear = np.flatnonzero(status == 0)
