@@ -19,9 +19,9 @@ Run:  .venv/bin/pip install -e ".[bench]" && .venv/bin/python bench/collision.py
    `--no-collisions` with its peak memory (best of 3); then configuration checks of each robot
    in its cell (``ConfigurationChecker.check(q, nearest=False)``: free or not) at batches of 1,
    64 and 4096 random joint states (at least 256 states a batch size, in calls of that size;
-   a first batch of 256 warms the checker), beside coal 3 (the FCL successor; OBBRSS trees of the same
-   triangles, one ``coal.collide`` per pair the device may not touch, stopping at a state's first
-   contact).  Their decisions differ where they mean different things: rworld's solids
+   a first batch of 256 warms the checker), beside coal 3 (the FCL successor; OBBRSS trees of
+   the same triangles, one ``coal.collide`` per pair the device may not touch, stopping at a
+   state's first contact).  Their decisions differ where they mean different things: rworld's solids
    collide when overlapping deeper than the 1 mm tolerance or buried; coal's surfaces at any
    contact and never when buried.  Then segment checks (``check_segment``, the guarantee
    between states) per second.

@@ -131,6 +131,7 @@ class ProbeRig:
             if (min(i, j), max(i, j)) not in allowed
         ]
         self.pairs = np.array(pairs, dtype=int).reshape(-1, 2)
+        self.fixed = fixed
         self.T_box = np.array([b.shape.bounding_box.T_owner_box for b in self.bodies])
         self.half = np.array([b.shape.bounding_box.half_extents for b in self.bodies])
         self.centres = np.array([b.center for b in self.bodies]).reshape(-1, 3)
@@ -257,6 +258,10 @@ class ProbeRig:
                 f"{f.name} target {k + 1} is {distance * 1000:.0f} mm from {self.device}'s base, "
                 f"beyond its reach ({self.reach * 1000:.0f} mm at most)"
             )
+        for point, what in ((start, "its approach would start"), (entry, "its entry is")):
+            inside = None if point is None else self._ball_inside(point)
+            if inside is not None:  # no pose can put the ball there: say so without trying
+                return f"{f.name} target {k + 1}: {what} inside {inside}"
         why = "no spin of the probe about its stylus"
         best = None
         orientations = list(self._orientations(f.kind, stylus, spins))
@@ -329,6 +334,25 @@ class ProbeRig:
             T_owner_world @ T_lift,
             q_lift,
         )
+        return None
+
+    def _ball_inside(self, centre: np.ndarray) -> str | None:
+        """The body the probe's ball would overlap with its centre at ``centre`` (world), of
+        those that do not move with the robot (exact distances: a ball started there touches
+        at once, or is inside the material); None when it is clear of them all."""
+        from ..collision.bodies import ball_body, pair_distance
+
+        ball = ball_body("probe ball", self.radius)
+        T_ball = spatial.make_transform(np.eye(3), centre)[None]
+        for i in self.fixed:
+            body = self.bodies[i]
+            T = self.world.T_world(body.frame)
+            if np.linalg.norm(T[:3, :3] @ body.center + T[:3, 3] - centre) > (
+                body.radius + self.radius
+            ):
+                continue
+            if pair_distance(ball, body, T_ball, T[None], within=0.0).overlap[0]:
+                return body.label
         return None
 
     def _orientations(self, kind: str, stylus: np.ndarray, spins):

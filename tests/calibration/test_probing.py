@@ -205,6 +205,31 @@ def test_a_feature_the_robot_cannot_reach_exits_1_and_writes_nothing(cli, tmp_pa
     assert not out.exists()
 
 
+def test_a_face_against_the_table_is_refused_without_searching_poses(cli, tmp_path):
+    """The plate's underside lies on the table: every target's approach would start with
+    the ball inside the table, which is said at once (the IK was tried at every target,
+    stylus tilt and spin before: 36 s on the GP7 cell of docs/performance.md)."""
+    cell = tmp_path / "cell"
+    shutil.copytree(CELL, cell)
+    text = (cell / "cell.yaml").read_text()
+    text = text.replace(
+        "      - name: front\n",
+        "      - name: bottom\n        plane: {point: [0.08, 0.06, 0], normal: [0, 0, -1]}\n"
+        "      - name: front\n",
+        1,
+    )
+    (cell / "cell.yaml").write_text(text)
+    (cell / "programs" / "under.yaml").write_text(
+        "device: puma\nsteps:\n  - move: {to: ready}\n"
+        "  - probe: {feature: plate.bottom, points: 3}\n"
+    )
+    result = cli(["check", str(cell), "under"])
+    assert result.exit_code == 1, result.output
+    said = " ".join(result.output.split())
+    assert "0 of 3 points on plate.bottom can be probed" in said
+    assert "its approach would start inside table" in said
+
+
 # ---------------------------------------------------------------- the loop closed
 
 
