@@ -614,6 +614,198 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     return str(module)
 
 
+BODY_WORDS = 11  # a body's row of the table free_states reads: 6 tree arrays, 5 leaf fields
+
+
+def free_states_ir(symbol: str, contacts_symbol: str) -> str:
+    """The LLVM IR text of a configuration check of many pairs of bodies at N states:
+
+    ``void f(i64 N, i64 P, ptr pairs, i64 B, ptr poses, ptr bodies, ptr spheres, ptr boxes,
+    double limit, double deep, i64 max_iterations, ptr status, ptr nearest, ptr witness)``
+
+    ``pairs`` (P, 2) int64 body indices, in the order to try them; ``poses`` (N, B, 12) each
+    body's frame in world (R's rows, then t); ``bodies`` (B, :data:`BODY_WORDS`) int64: the
+    addresses of its tree's six arrays, then its leaf table's V, table address, neighbours
+    address, D and pose address (:func:`walk_side`); ``spheres`` (B, 4): each body's bounding
+    sphere (centre in its frame, radius); ``boxes`` (B, 9): a closed mesh's box in its frame
+    (least and greatest corner; +inf and -inf for other bodies) and each body's witness point
+    (:attr:`~rworld_cli.collision.bodies.Body.first_point`).  For each state, pair after
+    pair: a pair whose
+    bounding spheres are farther apart than ``limit`` is 3 with inf; another is walked by
+    ``contacts_symbol`` (:func:`contacts_ir`, one state) and its status and nearest written
+    (``nearest`` (N, P), ``status`` (N, P): 0, 1, 2 as there, -1 a tree too deep); after a
+    pair of status 1 the state's other pairs are skipped (status -2); a pair of status 0 one
+    of whose witness points lies in the other's closed-mesh box is 4 (the caller's winding
+    number decides whether it is buried).  ``witness``: 8 doubles of scratch.
+    """
+    import llvmlite.ir as ir
+
+    D, I64 = ir.DoubleType(), ir.IntType(64)
+    dptr, iptr = ir.PointerType(D), ir.PointerType(I64)
+    module = ir.Module(name="free_states")
+    tree = [dptr, dptr, dptr, iptr, iptr, iptr]
+    leaves = [I64, dptr, iptr, I64, dptr]
+    contacts = ir.Function(
+        module,
+        ir.FunctionType(
+            ir.VoidType(),
+            [I64, dptr, D, dptr, dptr] + tree + tree + leaves + leaves + [I64, iptr, dptr, dptr],
+        ),
+        name=contacts_symbol,
+    )
+    fn = ir.Function(
+        module,
+        ir.FunctionType(
+            ir.VoidType(),
+            [I64, I64, iptr, I64, dptr, iptr, dptr, dptr, D, D, I64, iptr, dptr, dptr],
+        ),
+        name=symbol,
+    )
+    N, P, pairs, B, poses, bodies, spheres, boxes, limit, deep, max_it = fn.args[:11]
+    status_out, nearest_out, witness = fn.args[11:]
+    entry = fn.append_basic_block("entry")
+    b = ir.IRBuilder(entry)
+    e = _Emit(b, module)
+    i, c = e.i, e.c
+    n_slot, p_slot = b.alloca(I64, name="n"), b.alloca(I64, name="p")
+    hit_slot = b.alloca(I64, name="hit")
+    limit_slot = b.alloca(D, name="limit")
+    R_slot = b.alloca(ir.ArrayType(D, 9), name="R")
+    t_slot = b.alloca(ir.ArrayType(D, 3), name="t")
+    st_slot = b.alloca(I64, name="status")
+    near_slot = b.alloca(D, name="nearest")
+    b.store(limit, limit_slot)
+    b.store(i(0), n_slot)
+    state_head = fn.append_basic_block("state_head")
+    state_body = fn.append_basic_block("state_body")
+    pair_head = fn.append_basic_block("pair_head")
+    pair_body = fn.append_basic_block("pair_body")
+    pair_next = fn.append_basic_block("pair_next")
+    state_next = fn.append_basic_block("state_next")
+    finished = fn.append_basic_block("finished")
+    b.branch(state_head)
+    b.position_at_end(state_head)
+    b.cbranch(b.icmp_signed("<", b.load(n_slot), N), state_body, finished)
+    b.position_at_end(state_body)
+    b.store(i(0), p_slot)
+    b.store(i(0), hit_slot)
+    b.branch(pair_head)
+    b.position_at_end(pair_head)
+    b.cbranch(b.icmp_signed("<", b.load(p_slot), P), pair_body, state_next)
+    b.position_at_end(pair_body)
+    n, p = b.load(n_slot), b.load(p_slot)
+    out_index = b.add(b.mul(n, P), p)
+    skipped = fn.append_basic_block("skipped")
+    looked = fn.append_basic_block("looked")
+    b.cbranch(b.icmp_signed("!=", b.load(hit_slot), i(0)), skipped, looked)
+    b.position_at_end(skipped)  # the state collides already: the rest is not asked
+    b.store(i(-2), b.gep(status_out, [out_index]))
+    b.store(c(np.inf), b.gep(nearest_out, [out_index]))
+    b.branch(pair_next)
+    b.position_at_end(looked)
+    ia = b.load(b.gep(pairs, [b.mul(p, i(2))]))
+    ib = b.load(b.gep(pairs, [b.add(b.mul(p, i(2)), i(1))]))
+    pose_a = e.row(poses, b.mul(b.add(b.mul(n, B), ia), i(12)), 12)
+    pose_b = e.row(poses, b.mul(b.add(b.mul(n, B), ib), i(12)), 12)
+    Ra, ta, Rb, tb = pose_a[:9], pose_a[9:], pose_b[:9], pose_b[9:]
+    sa = e.row(spheres, b.mul(ia, i(4)), 4)
+    sb = e.row(spheres, b.mul(ib, i(4)), 4)
+    ca = [e.add(*[b.fmul(Ra[3 * r + m], sa[m]) for m in range(3)], ta[r]) for r in range(3)]
+    cb = [e.add(*[b.fmul(Rb[3 * r + m], sb[m]) for m in range(3)], tb[r]) for r in range(3)]
+    gap = [b.fsub(ca[r], cb[r]) for r in range(3)]
+    apart = b.fsub(b.call(e.sqrt, [e.add(*[b.fmul(g, g) for g in gap])]), b.fadd(sa[3], sb[3]))
+    far = fn.append_basic_block("far")
+    walk = fn.append_basic_block("walk")
+    b.cbranch(b.fcmp_ordered(">", apart, limit), far, walk)
+    b.position_at_end(far)
+    b.store(i(3), b.gep(status_out, [out_index]))
+    b.store(c(np.inf), b.gep(nearest_out, [out_index]))
+    b.branch(pair_next)
+    # T_a_b = inv(Ta) Tb: R = Ra^T Rb, t = Ra^T (tb - ta)
+    b.position_at_end(walk)
+    for r in range(3):
+        for col in range(3):
+            value = e.add(*[b.fmul(Ra[3 * m + r], Rb[3 * m + col]) for m in range(3)])
+            b.store(value, b.gep(R_slot, [i(0), i(3 * r + col)]))
+        value = e.add(*[b.fmul(Ra[3 * m + r], b.fsub(tb[m], ta[m])) for m in range(3)])
+        b.store(value, b.gep(t_slot, [i(0), i(r)]))
+
+    def word(body, j):
+        return b.load(b.gep(bodies, [b.add(b.mul(body, i(BODY_WORDS)), i(j))]))
+
+    def side(body):
+        tree_args = [
+            b.inttoptr(word(body, j), kind)
+            for j, kind in enumerate([dptr, dptr, dptr, iptr, iptr, iptr])
+        ]
+        leaf_args = [
+            word(body, 6),
+            b.inttoptr(word(body, 7), dptr),
+            b.inttoptr(word(body, 8), iptr),
+            word(body, 9),
+            b.inttoptr(word(body, 10), dptr),
+        ]
+        return tree_args, leaf_args
+
+    tree_a, leaf_a = side(ia)
+    tree_b, leaf_b = side(ib)
+    b.call(
+        contacts,
+        [
+            i(1),
+            limit_slot,
+            deep,
+            b.gep(R_slot, [i(0), i(0)]),
+            b.gep(t_slot, [i(0), i(0)]),
+            *tree_a,
+            *tree_b,
+            *leaf_a,
+            *leaf_b,
+            max_it,
+            st_slot,
+            near_slot,
+            witness,
+        ],
+    )
+    status = b.load(st_slot)
+    # clear of each other's surfaces: a witness point in the other's closed-mesh box?
+    R = [b.load(b.gep(R_slot, [i(0), i(j)])) for j in range(9)]
+    t = [b.load(b.gep(t_slot, [i(0), i(j)])) for j in range(3)]
+    box_a = e.row(boxes, b.mul(ia, i(9)), 9)
+    box_b = e.row(boxes, b.mul(ib, i(9)), 9)
+
+    def inside(point, box):
+        flags = [
+            b.and_(
+                b.fcmp_ordered(">=", point[j], box[j]), b.fcmp_ordered("<=", point[j], box[3 + j])
+            )
+            for j in range(3)
+        ]
+        return b.and_(b.and_(flags[0], flags[1]), flags[2])
+
+    w_b = box_b[6:9]  # b's witness in a's frame: R w + t
+    in_a = [e.add(*[b.fmul(R[3 * r + m], w_b[m]) for m in range(3)], t[r]) for r in range(3)]
+    w_a = box_a[6:9]  # a's witness in b's frame: R^T (w - t)
+    in_b = [
+        e.add(*[b.fmul(R[3 * m + r], b.fsub(w_a[m], t[m])) for m in range(3)]) for r in range(3)
+    ]
+    boxed = b.or_(inside(in_a, box_a), inside(in_b, box_b))
+    status = b.select(b.and_(b.icmp_signed("==", status, i(0)), boxed), i(4), status)
+    b.store(status, b.gep(status_out, [out_index]))
+    b.store(b.load(near_slot), b.gep(nearest_out, [out_index]))
+    b.store(b.zext(b.icmp_signed("==", status, i(1)), I64), hit_slot)
+    b.branch(pair_next)
+    b.position_at_end(pair_next)
+    b.store(b.add(b.load(p_slot), i(1)), p_slot)
+    b.branch(pair_head)
+    b.position_at_end(state_next)
+    b.store(b.add(b.load(n_slot), i(1)), n_slot)
+    b.branch(state_head)
+    b.position_at_end(finished)
+    b.ret_void()
+    return str(module)
+
+
 _FUNCTION: list = []  # [ctypes function or None], built once per process
 
 
@@ -632,6 +824,7 @@ def _functions():
         descend_symbol = f"rworld_descend_{digest}"
         contacts_symbol = f"rworld_contacts_{digest}"
         gjk_symbol = f"rworld_contacts_gjk_{digest}"
+        free_symbol = f"rworld_free_states_{digest}"
 
         def build() -> str:
             import llvmlite.binding as llvm
@@ -641,16 +834,17 @@ def _functions():
             module.link_in(llvm.parse_assembly(descend_ir(descend_symbol)))
             module.link_in(llvm.parse_assembly(compiled.gjk_ir(gjk_symbol, local=True)))
             module.link_in(llvm.parse_assembly(contacts_ir(contacts_symbol, gjk_symbol)))
+            module.link_in(llvm.parse_assembly(free_states_ir(free_symbol, contacts_symbol)))
             return str(module)
 
         addresses = kernels.compile_ir(
             "box trees",
             build,
-            [gap_symbol, walk_symbol, descend_symbol, contacts_symbol],
+            [gap_symbol, walk_symbol, descend_symbol, contacts_symbol, free_symbol],
             source,
         )
         if addresses is None:
-            _FUNCTION.extend([None, None, None, None])
+            _FUNCTION.extend([None, None, None, None, None])
         else:
             _FUNCTION.append(
                 ctypes.CFUNCTYPE(None, ctypes.c_int64, *[ctypes.c_void_p] * 12)(addresses[0])
@@ -685,7 +879,67 @@ def _functions():
                     ctypes.c_void_p,
                 )(addresses[3])
             )
+            _FUNCTION.append(
+                ctypes.CFUNCTYPE(
+                    None,
+                    ctypes.c_int64,
+                    ctypes.c_int64,
+                    ctypes.c_void_p,
+                    ctypes.c_int64,
+                    *[ctypes.c_void_p] * 4,
+                    ctypes.c_double,
+                    ctypes.c_double,
+                    ctypes.c_int64,
+                    *[ctypes.c_void_p] * 3,
+                )(addresses[4])
+            )
     return _FUNCTION[0], _FUNCTION[1], _FUNCTION[2]
+
+
+def free_states(pairs, poses, table, spheres, boxes, limit, deep, max_iterations: int):
+    """:func:`free_states_ir` on ``pairs`` (P, 2) of bodies whose rows of ``table`` (B,
+    :data:`BODY_WORDS`) int64 (:func:`body_table`), ``spheres`` (B, 4) and ``boxes`` (B, 9)
+    describe them, at
+    ``poses`` (N, B, 12): (status (N, P), nearest (N, P)), or None (no compiled kernel)."""
+    if kernels.backend() != "llvm":
+        return None
+    _functions()
+    function = _FUNCTION[4]
+    if function is None:
+        return None
+    # every array is held by a name until the call returns: the kernel reads raw addresses
+    pairs = np.ascontiguousarray(pairs, dtype=np.int64)
+    poses = np.ascontiguousarray(poses, dtype=float)
+    N, P = len(poses), len(pairs)
+    status = np.zeros((N, P), dtype=np.int64)
+    nearest = np.full((N, P), np.inf)
+    witness = np.zeros(8)
+    if N and P:
+        function(
+            N,
+            P,
+            pairs.ctypes.data,
+            poses.shape[1],
+            poses.ctypes.data,
+            table.ctypes.data,
+            spheres.ctypes.data,
+            boxes.ctypes.data,
+            float(limit),
+            float(deep),
+            int(max_iterations),
+            status.ctypes.data,
+            nearest.ctypes.data,
+            witness.ctypes.data,
+        )
+    return status, nearest
+
+
+def body_table(sides: list) -> np.ndarray:
+    """The rows (B, :data:`BODY_WORDS`) int64 of :func:`free_states_ir` for bodies' prepared
+    sides (:func:`walk_side`, held by the caller as long as the table is used)."""
+    return np.array([[*side[1], *side[2]] for side in sides], dtype=np.int64).reshape(
+        -1, BODY_WORDS
+    )
 
 
 def contacts_function():

@@ -148,6 +148,49 @@ class ConfigurationChecker:
         # a pair's cost to query, roughly: its bodies' leaves (the free-only order)
         leaves = np.array([len(b.tree.item) for b in bodies], dtype=float)
         self._cost = leaves[self.pairs[:, 0]] * leaves[self.pairs[:, 1]]
+        self._fused = self._fuse()
+
+    def _fuse(self) -> dict | None:
+        """What the free-only check hands to one compiled call (:func:`compiled_bvh.
+        free_states`): the pairs of polytope bodies, cheapest first, their bodies' rows (trees,
+        leaf tables, bounding spheres), and the closed meshes' boxes for the buried test.
+        None: no pair of polytopes, or no compiled kernel."""
+        from .. import kernels
+        from .compiled_bvh import body_table
+
+        bodies = self.model.bodies
+        if not len(self.pairs) or kernels.backend() != "llvm":
+            return None
+        ok = np.array([b.walk_side is not None for b in bodies], dtype=bool)
+        fused = np.flatnonzero(ok[self.pairs[:, 0]] & ok[self.pairs[:, 1]])
+        if not len(fused):
+            return None
+        fused = fused[np.argsort(self._cost[fused], kind="stable")]
+        used = np.unique(self.pairs[fused])
+        row = np.full(len(bodies), -1)
+        row[used] = np.arange(len(used))
+        lo = np.full((len(bodies), 3), np.inf)
+        hi = np.full((len(bodies), 3), -np.inf)
+        closed = np.array([b.is_mesh and b.shape.closed for b in bodies], dtype=bool)
+        for k in np.flatnonzero(closed):
+            lo[k], hi[k] = bodies[k]._triangle_box
+        first = np.array([bodies[k].first_point for k in range(len(bodies))]).reshape(-1, 3)
+        return {
+            "pairs": fused,  # global pair indices, in the order tried
+            "local": row[self.pairs[fused]],  # the same pairs as rows of the table
+            "row": row,  # each body's row of the table (-1: none)
+            "frames": [bodies[k].frame for k in used],
+            "table": body_table([bodies[k].walk_side for k in used]),
+            "spheres": np.ascontiguousarray(
+                np.column_stack([self._centre[used], self._radius[used]])
+            ),
+            "boxes": np.ascontiguousarray(np.column_stack([lo[used], hi[used], first[used]])),
+            "rest": np.setdiff1d(np.arange(len(self.pairs)), fused),
+            "closed": closed,
+            "lo": lo,
+            "hi": hi,
+            "first": first,
+        }
 
     def poses(self, q: np.ndarray) -> dict[str, np.ndarray]:
         """``T_world_frame`` (N, 4, 4) of every body frame in a pair, at joint states q (N, n)."""
@@ -174,7 +217,18 @@ class ConfigurationChecker:
             )
         bodies = self.model.bodies
         T = self.poses(q)
-        I, J = self.pairs[:, 0], self.pairs[:, 1]
+        watch = max(self.clearance, 0.0)
+        distance = np.full(N, np.inf)
+        nearest_pair = np.full((N, 2), -1)
+        free = np.ones(N, dtype=bool)
+        buried = np.zeros(N, dtype=bool)
+        subset = np.arange(P)  # the pairs left to the steps below
+        if not nearest and self._fused is not None:
+            if self._free_states(T, N, watch, distance, nearest_pair, free, buried):
+                subset = self._fused["rest"]
+                if not len(subset):
+                    return ConfigurationReport(free, distance, nearest_pair, buried)
+        I, J = self.pairs[subset, 0], self.pairs[subset, 1]
         TI = np.stack([T[bodies[i].frame] for i in I], axis=1)  # (N, P, 4, 4)
         TJ = np.stack([T[bodies[j].frame] for j in J], axis=1)
         ci = (TI[..., :3, :3] @ self._centre[I][:, :, None])[..., 0] + TI[..., :3, 3]
@@ -184,18 +238,13 @@ class ConfigurationChecker:
         # a pair's distance lies between its spheres' gap and centre distance + radii: only
         # pairs whose lower bound is within the state's best upper bound can be the nearest,
         # and only those within the clearance can make a state not free
-        watch = max(self.clearance, 0.0)
         near = centre - reach <= watch
         if nearest:
             upper = (centre + reach).min(axis=1)
             near |= centre - reach <= upper[:, None] + 1e-9
         state, pair = np.nonzero(near)
         if not nearest:  # the bodies' boxes (their trees' roots) apart: the pair is farther
-            state, pair = self._boxes_near(TI, TJ, state, pair, watch)
-        distance = np.full(N, np.inf)
-        nearest_pair = np.full((N, 2), -1)
-        free = np.ones(N, dtype=bool)
-        buried = np.zeros(N, dtype=bool)
+            state, pair = self._boxes_near(TI, TJ, state, pair, watch, subset)
         if nearest:  # every pair that may be the nearest, at once
             groups = [np.arange(len(state))]
         else:  # pair by pair, cheapest first (pairs of single pieces lead), each only at the
@@ -208,12 +257,14 @@ class ConfigurationChecker:
                 rows = rows[free[state[rows]]]
             if not len(rows):
                 continue
-            s, p = state[rows], pair[rows]
+            s, p = state[rows], pair[rows]  # p: a column of TI, pair subset[p]
             if not nearest:  # one pair of bodies: trees walked, leaves measured, compiled
-                walked = self._walked(TI[s, p], TJ[s, p], int(p[0]), watch)
+                walked = self._walked(TI[s, p], TJ[s, p], int(subset[p[0]]), watch)
                 if walked is not None:
                     signed, buried_now, undecided = walked
-                    self._tally(s, p, signed, buried_now, distance, nearest_pair, free, buried)
+                    self._tally(
+                        s, subset[p], signed, buried_now, distance, nearest_pair, free, buried
+                    )
                     rows = rows[undecided]
                     if not len(rows):
                         continue
@@ -227,8 +278,106 @@ class ConfigurationChecker:
                 within=np.inf if nearest else watch,
                 deep_enough=np.inf if nearest else self.tolerance,
             )
-            self._tally(s, p, _signed(res), res.buried, distance, nearest_pair, free, buried)
+            self._tally(
+                s, subset[p], _signed(res), res.buried, distance, nearest_pair, free, buried
+            )
         return ConfigurationReport(free, distance, nearest_pair, buried)
+
+    def _free_states(self, T, N, watch, distance, nearest_pair, free, buried) -> bool:
+        """The free-only check of the pairs of polytopes (:meth:`_fuse`) in one compiled call,
+        into the report's arrays; each state stops at its first pair deeper than the
+        tolerance.  Overlaps not known to be that deep go to the exact query, a closed mesh's
+        pairs with nothing overlapping to the buried test.  False: no kernel (nothing done)."""
+        from .compiled_bvh import free_states
+
+        fused = self._fused
+        assert fused is not None
+        placed = np.stack([T[frame] for frame in fused["frames"]], axis=1)  # (N, U, 4, 4)
+        poses = np.concatenate([placed[..., :3, :3].reshape(N, -1, 9), placed[..., :3, 3]], axis=2)
+        found = free_states(
+            fused["local"],
+            poses,
+            fused["table"],
+            fused["spheres"],
+            fused["boxes"],
+            watch + 2e-9,
+            self.tolerance,
+            MAX_ITERATIONS,
+        )
+        if found is None:
+            return False
+        status, near = found
+        s, c = np.nonzero((status == 0) | (status == 1) | (status == 4))
+        p = fused["pairs"][c]
+        value = near[s, c]
+        signed = np.where((status[s, c] == 1) | (value <= watch), value, np.inf)
+        # a witness point in the other's closed-mesh box (the kernel's 4): the winding number
+        buried_now = self._buried(placed, s, p, status[s, c] == 4)
+        self._tally(s, p, signed, buried_now, distance, nearest_pair, free, buried)
+        # overlaps the walk could not call deep enough: measured exactly, pair by pair
+        s, c = np.nonzero((status == 2) | (status == -1))
+        keep = free[s]
+        s, c = s[keep], c[keep]
+        bodies = self.model.bodies
+        for column in np.unique(c):
+            rows = s[c == column]
+            rows = rows[free[rows]]
+            if not len(rows):
+                continue
+            pair = int(fused["pairs"][column])
+            i, j = self.pairs[pair]
+            res = distances(
+                bodies,
+                np.full(len(rows), i),
+                np.full(len(rows), j),
+                T[bodies[i].frame][rows],
+                T[bodies[j].frame][rows],
+                within=watch,
+                deep_enough=self.tolerance,
+            )
+            self._tally(
+                rows,
+                np.full(len(rows), pair),
+                _signed(res),
+                res.buried,
+                distance,
+                nearest_pair,
+                free,
+                buried,
+            )
+        return True
+
+    def _buried(self, placed, s, p, clear) -> np.ndarray:
+        """Whether one body of pair ``p[r]`` lies inside the other's closed mesh at state
+        ``s[r]``, for the rows ``clear`` (their surfaces do not meet): each body's witness
+        point tested against the other's box, all rows at once, then the winding number of
+        the few inside a box (:func:`bodies.buried_in`'s test).  ``placed`` (N, U, 4, 4): the
+        poses of the table's bodies."""
+        from ..geometry import winding_number
+
+        fused = self._fused
+        assert fused is not None
+        out = np.zeros(len(s), dtype=bool)
+        bodies = self.model.bodies
+        for mesh_side in (0, 1):
+            mesh = self.pairs[p, mesh_side]
+            other = self.pairs[p, 1 - mesh_side]
+            rows = np.flatnonzero(clear & fused["closed"][mesh])
+            if not len(rows):
+                continue
+            Tm = placed[s[rows], fused["row"][mesh[rows]]]
+            To = placed[s[rows], fused["row"][other[rows]]]
+            point = np.einsum("kij,kj->ki", To[:, :3, :3], fused["first"][other[rows]])
+            point += To[:, :3, 3]
+            local = np.einsum("kji,kj->ki", Tm[:, :3, :3], point - Tm[:, :3, 3])
+            boxed = np.all(
+                (local >= fused["lo"][mesh[rows]]) & (local <= fused["hi"][mesh[rows]]), axis=1
+            )
+            for k in np.unique(mesh[rows][boxed]):
+                pick = rows[boxed & (mesh[rows] == k)]
+                inside = winding_number(local[np.searchsorted(rows, pick)], bodies[k]._triangles)
+                out[pick[inside > 0.5]] = True
+        return out
 
     def _tally(self, s, p, signed, buried_now, distance, nearest_pair, free, buried) -> None:
         """Rows (state ``s``, pair ``p``) measured: each state's nearest, and whether it is
@@ -269,13 +418,13 @@ class ConfigurationChecker:
         buried_now[clear] = buried_in(a, b, TI[clear], TJ[clear])
         return signed, buried_now, status == 2
 
-    def _boxes_near(self, TI, TJ, state, pair, watch: float):
+    def _boxes_near(self, TI, TJ, state, pair, watch: float, subset):
         """The (state, pair) rows whose bodies' oriented boxes (the roots of their trees) are
         within ``watch`` of each other: the separating-axis bound of :func:`bvh.box_gap`, all
-        rows in one call."""
+        rows in one call (``pair``: columns of TI, the pairs ``subset[pair]``)."""
         R, t = bvh._relative(TI[state, pair], TJ[state, pair])
         rows = np.arange(len(state))
-        I, J = self.pairs[pair, 0], self.pairs[pair, 1]
+        I, J = self.pairs[subset[pair], 0], self.pairs[subset[pair], 1]
         gap = bvh.gap_at(self._roots, I, self._roots, J, rows, R, t)
         keep = gap <= watch + 1e-9
         return state[keep], pair[keep]

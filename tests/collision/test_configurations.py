@@ -152,3 +152,44 @@ def test_a_segment_through_the_plate_stops_at_it():
     at = down[0] + segment.first * (down[1] - down[0])
     assert not check.check(at[None], nearest=False).free[0]
     assert check.check_segment(down[0], down[0] + 0.9 * segment.first * (down[1] - down[0])).free
+
+
+def test_an_arm_inside_a_closed_solid_is_buried_for_the_compiled_check(tmp_path):
+    """An enclosure modelled as a closed solid (a 3 m box with a dent in its top, so not
+    convex: checked by its triangles) around the whole iiwa: its links touch none of the
+    triangles, yet each lies inside the solid.  The compiled free-only check finds them
+    buried and not free (its witness points in the box, then the winding number), as the
+    exact check does (where it gets to the enclosure's pairs)."""
+    import shutil
+
+    import trimesh
+
+    cell = tmp_path / "iiwa14"
+    shutil.copytree(REPO / "tests/data/vendor_cells/iiwa14", cell)
+    hood = trimesh.creation.box(extents=[3.0, 3.0, 3.0]).subdivide().subdivide()
+    top = np.flatnonzero(np.isclose(hood.vertices[:, 2], 1.5))
+    centre = top[np.argmin(np.linalg.norm(hood.vertices[top, :2], axis=1))]
+    hood.vertices[centre, 2] -= 0.3  # a dent: not convex
+    assert hood.is_watertight
+    hood.export(cell / "meshes" / "hood.stl")
+    text = (
+        (cell / "cell.yaml")
+        .read_text()
+        .replace(
+            "objects:\n",
+            "objects:\n  - name: hood\n    geometry: {mesh: {file: meshes/hood.stl, units: m}}\n",
+        )
+    )
+    (cell / "cell.yaml").write_text(text)
+    poses = cell / "poses.yaml"
+    poses.write_text(poses.read_text() + "  hood: {xyz: [0, 0, 0.5]}\n")
+    _, model, _, limits, check = checker(cell / "cell.yaml")
+    assert check._fused is not None
+    assert next(b for b in model.bodies if b.label == "hood").is_mesh
+    q = np.random.default_rng(4).uniform(limits[:, 0], limits[:, 1], (16, len(limits)))
+    exact, quick = check.check(q), check.check(q, nearest=False)
+    np.testing.assert_array_equal(quick.free, exact.free)
+    assert exact.buried.all() and not quick.free.any()
+    # the free-only check stops at a state's first collision: a link deep in the table may
+    # come before the enclosure, and then the state is not said to be buried too
+    assert quick.buried.sum() >= 12 and not (quick.buried & ~exact.buried).any()
