@@ -449,6 +449,7 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     i, c = e.i, e.c
     stack_a = b.alloca(ir.ArrayType(I64, STACK), name="stack_a")
     stack_b = b.alloca(ir.ArrayType(I64, STACK), name="stack_b")
+    stack_g = b.alloca(ir.ArrayType(D, STACK), name="stack_g")  # each pending pair's bound
     top_slot = b.alloca(I64, name="top")
     k_slot = b.alloca(I64, name="k")
     status_slot = b.alloca(I64, name="status")
@@ -496,6 +497,9 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     b.store(c(np.inf), nearest_slot)
     b.store(i(0), b.gep(stack_a, [i(0), i(0)]))
     b.store(i(0), b.gep(stack_b, [i(0), i(0)]))
+    root_a, root_b = e.node(A[0], A[1], A[2], i(0)), e.node(B[0], B[1], B[2], i(0))
+    (Ua0, hA0, cA0), (Ub0, hB0, cB0) = root_a, root_b
+    b.store(e.gap(Ua0, Ub0, hA0, hB0, cA0, cB0, R, t), cell(stack_g, 0))
     b.store(i(1), top_slot)
     b.branch(pop_head)
     b.position_at_end(pop_head)
@@ -507,11 +511,7 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     b.store(top, top_slot)
     na = b.load(b.gep(stack_a, [i(0), top]))
     nb = b.load(b.gep(stack_b, [i(0), top]))
-    Ua, hA, cA = e.node(A[0], A[1], A[2], na)
-    Ub, hB, cB = e.node(B[0], B[1], B[2], nb)
-    R = e.row(Rp, b.mul(k, i(9)), 9)
-    t = e.row(tp, b.mul(k, i(3)), 3)
-    gap = e.gap(Ua, Ub, hA, hB, cA, cB, R, t)
+    gap = b.load(b.gep(stack_g, [i(0), top]))
     near = fn.append_basic_block("near")
     # a pair farther than asked, or than a leaf pair already measured, cannot matter: the
     # nearest kept is exact up to the limit, and an overlap's box gap is at most 0
@@ -520,6 +520,10 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     bound = b.select(b.fcmp_ordered("<", kept, bound), kept, bound)
     b.cbranch(b.fcmp_ordered("<=", gap, bound), near, pop_head)  # NaN: dropped
     b.position_at_end(near)
+    _, hA, cA = e.node(A[0], A[1], A[2], na)
+    _, hB, cB = e.node(B[0], B[1], B[2], nb)
+    R = e.row(Rp, b.mul(k, i(9)), 9)
+    t = e.row(tp, b.mul(k, i(3)), 3)
     item_a = b.load(b.gep(A[5], [na]))
     item_b = b.load(b.gep(B[5], [nb]))
     leaf_a = b.icmp_signed(">=", item_a, i(0))
@@ -594,10 +598,24 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     overflow = fn.append_basic_block("overflow")
     b.cbranch(b.icmp_signed("<=", b.add(top, i(2)), i(STACK)), push, overflow)
     b.position_at_end(push)
-    b.store(b.select(split_a, right_a, na), b.gep(stack_a, [i(0), top]))
-    b.store(b.select(split_a, nb, right_b), b.gep(stack_b, [i(0), top]))
-    b.store(b.select(split_a, left_a, na), b.gep(stack_a, [i(0), b.add(top, i(1))]))
-    b.store(b.select(split_a, nb, left_b), b.gep(stack_b, [i(0), b.add(top, i(1))]))
+    # both child pairs' bounds; the nearer is pushed last, so looked at first (the nearest
+    # found early prunes more)
+    children = []
+    for first_a, first_b in ((left_a, left_b), (right_a, right_b)):
+        ca = b.select(split_a, first_a, na)
+        cb = b.select(split_a, nb, first_b)
+        Ua2, ha2, ca2 = e.node(A[0], A[1], A[2], ca)
+        Ub2, hb2, cb2 = e.node(B[0], B[1], B[2], cb)
+        children.append((ca, cb, e.gap(Ua2, Ub2, ha2, hb2, ca2, cb2, R, t)))
+    (a1, b1, g1), (a2, b2, g2) = children
+    first_near = b.fcmp_ordered("<=", g1, g2)  # the left one on a tie, as before
+    b.store(b.select(first_near, a2, a1), b.gep(stack_a, [i(0), top]))
+    b.store(b.select(first_near, b2, b1), b.gep(stack_b, [i(0), top]))
+    b.store(b.select(first_near, g2, g1), b.gep(stack_g, [i(0), top]))
+    up = b.add(top, i(1))
+    b.store(b.select(first_near, a1, a2), b.gep(stack_a, [i(0), up]))
+    b.store(b.select(first_near, b1, b2), b.gep(stack_b, [i(0), up]))
+    b.store(b.select(first_near, g1, g2), b.gep(stack_g, [i(0), up]))
     b.store(b.add(top, i(2)), top_slot)
     b.branch(pop_head)
     b.position_at_end(overflow)
