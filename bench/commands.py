@@ -106,15 +106,9 @@ def gp7_probe_cell() -> Path:
     )
     cell += "  - {parent: motoman_gp7.probe, child: probe_ball, type: rigid, kind: fixture}\n"
     (folder / "cell.yaml").write_text(cell)
-    poses = (
-        (folder / "poses.yaml")
-        .read_text()
-        .replace(
-            "  motoman_gp7.base:",
-            "  motoman_gp7.probe:\n    xyz: [0.18, 0.0, 0.0]\n    rpy: [3.1415926, -1.570796, 0.0]\n"
-            "  motoman_gp7.base:",
-        )
-    )
+    probe = "  motoman_gp7.probe:\n    xyz: [0.18, 0.0, 0.0]\n    rpy: [3.1415926, -1.570796, 0]\n"
+    poses = (folder / "poses.yaml").read_text()
+    poses = poses.replace("  motoman_gp7.base:", probe + "  motoman_gp7.base:")
     (folder / "poses.yaml").write_text(poses + "  probe_ball: {xyz: [0, 0, 0]}\n")
     for name, face in (("probe_top", "top"), ("probe_bottom", "bottom")):
         (folder / "programs" / f"{name}.yaml").write_text(
