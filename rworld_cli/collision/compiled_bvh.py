@@ -392,6 +392,78 @@ def touching_ir(symbol: str) -> str:
     return str(module)
 
 
+def _triangle_depth(e: _Emit, table_a, row_a, pose_a, table_b, row_b, pose_b):
+    """The depth estimate of :func:`rworld_cli.collision.convex.penetration` for triangle
+    ``row_a`` of ``table_a`` placed by ``pose_a`` (12 doubles: R's rows, then t) against
+    ``row_b`` of ``table_b`` placed by ``pose_b``: the least of ``hi_a - lo_b`` and ``hi_b -
+    lo_a`` over the unit directions of each triangle's axes (its first edge, its normal, their
+    cross product, as :func:`~rworld_cli.collision.convex.triangles` makes them), their nine
+    cross products and the centres' difference, those no shorter than 1e-9."""
+    b, c, i = e.b, e.c, e.i
+
+    def placed(table, row, pose):
+        Rt = [b.load(b.gep(pose, [i(j)])) for j in range(12)]
+        base = b.mul(row, i(9))
+        points = []
+        for v in range(3):
+            x = [b.load(b.gep(table, [b.add(base, i(3 * v + j))])) for j in range(3)]
+            points.append(
+                [
+                    e.add(*[b.fmul(Rt[3 * r + m], x[m]) for m in range(3)], Rt[9 + r])
+                    for r in range(3)
+                ]
+            )
+        return points
+
+    def sub(x, y):
+        return [b.fsub(x[j], y[j]) for j in range(3)]
+
+    def cross(x, y):
+        return [
+            b.fsub(b.fmul(x[1], y[2]), b.fmul(x[2], y[1])),
+            b.fsub(b.fmul(x[2], y[0]), b.fmul(x[0], y[2])),
+            b.fsub(b.fmul(x[0], y[1]), b.fmul(x[1], y[0])),
+        ]
+
+    def dot(x, y):
+        return e.add(*[b.fmul(x[j], y[j]) for j in range(3)])
+
+    def norm(x):
+        return b.call(e.sqrt, [dot(x, x)])
+
+    def axes(points):
+        e0, e1 = sub(points[1], points[0]), sub(points[2], points[0])
+        n = cross(e0, e1)
+        rows = [e0, n, cross(n, e0)]
+        return [[b.fdiv(x, b.fadd(norm(row), c(1e-300))) for x in row] for row in rows]
+
+    A = placed(table_a, row_a, pose_a)
+    B = placed(table_b, row_b, pose_b)
+    axes_a, axes_b = axes(A), axes(B)
+    centre = [b.fmul(e.add(*[p[j] for p in B]), c(1 / 3)) for j in range(3)]
+    centre_a = [b.fmul(e.add(*[p[j] for p in A]), c(1 / 3)) for j in range(3)]
+    candidates = axes_a + axes_b
+    candidates += [cross(x, y) for x in axes_a for y in axes_b]
+    candidates.append(sub(centre, centre_a))
+    best = c(np.inf)
+    for d in candidates:
+        length = norm(d)
+        good = b.fcmp_ordered(">", length, c(1e-9))
+        unit = [b.fdiv(x, b.select(good, length, c(1.0))) for x in d]
+        on_a = [dot(unit, p) for p in A]
+        on_b = [dot(unit, p) for p in B]
+        hi_a = e.maximum(e.maximum(on_a[0], on_a[1]), on_a[2])
+        hi_b = e.maximum(e.maximum(on_b[0], on_b[1]), on_b[2])
+        lo_a = b.fneg(e.maximum(e.maximum(b.fneg(on_a[0]), b.fneg(on_a[1])), b.fneg(on_a[2])))
+        lo_b = b.fneg(e.maximum(e.maximum(b.fneg(on_b[0]), b.fneg(on_b[1])), b.fneg(on_b[2])))
+        least = b.fsub(hi_a, lo_b)
+        other = b.fsub(hi_b, lo_a)
+        least = b.select(b.fcmp_ordered("<", other, least), other, least)
+        least = b.select(good, least, c(np.inf))
+        best = b.select(b.fcmp_ordered("<", least, best), least, best)
+    return best
+
+
 def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     """The LLVM IR text of the collision-only walk with its leaves measured in place:
 
@@ -457,6 +529,7 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     row_a = b.alloca(I64, name="row_a")
     row_b = b.alloca(I64, name="row_b")
     pose_b = b.alloca(ir.ArrayType(D, 12), name="pose_b")
+    depth_slot = b.alloca(D, name="depth")
     shape_a = b.alloca(ir.ArrayType(D, 9), name="shape_a")
     shape_b = b.alloca(ir.ArrayType(D, 9), name="shape_b")
     out = b.alloca(ir.ArrayType(D, 12), name="out")
@@ -477,6 +550,7 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     pop_body = fn.append_basic_block("pop_body")
     state_next = fn.append_basic_block("state_next")
     finished = fn.append_basic_block("finished")
+    settled = fn.append_basic_block("settled")
     b.branch(state_head)
     b.position_at_end(state_head)
     k = b.load(k_slot)
@@ -565,15 +639,31 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     overlap = b.fcmp_ordered("!=", b.load(cell(out, 7)), c(0.0))
     unfinished = b.fcmp_ordered("!=", b.load(cell(out, 10)), c(0.0))
     distance = b.select(unfinished, b.load(cell(out, 9)), b.load(cell(out, 0)))
-    deeper = b.and_(overlap, b.fcmp_ordered(">", b.load(cell(out, 11)), deep))
+    bound_depth = b.load(cell(out, 11))
+    deeper = b.and_(overlap, b.fcmp_ordered(">", bound_depth, deep))
     collided = fn.append_basic_block("collided")
     measured = fn.append_basic_block("measured")
+    triangles = fn.append_basic_block("triangles")
+    b.store(bound_depth, depth_slot)
+    # two triangles that cross leave GJK's simplex little volume to bound the depth with:
+    # there, the depth estimate of convex.penetration (the least overlap over the pieces'
+    # axes, their cross products and the centres' difference) decides
+    crossing = b.and_(
+        b.and_(overlap, b.not_(deeper)),
+        b.and_(b.icmp_signed("==", VA, i(3)), b.icmp_signed("==", VB, i(3))),
+    )
     b.cbranch(deeper, collided, measured)
+    b.position_at_end(measured)
+    b.cbranch(crossing, triangles, settled)
+    b.position_at_end(triangles)
+    estimate = _triangle_depth(e, table_a, item_a, pose_a, table_b, item_b, first(pose_b, dptr))
+    b.store(estimate, depth_slot)
+    b.cbranch(b.fcmp_ordered(">", estimate, deep), collided, settled)
     b.position_at_end(collided)
     b.store(i(1), status_slot)
-    b.store(b.fneg(b.load(cell(out, 11))), nearest_slot)
+    b.store(b.fneg(b.load(depth_slot)), nearest_slot)
     b.branch(state_next)
-    b.position_at_end(measured)
+    b.position_at_end(settled)
     b.store(b.select(overlap, i(2), b.load(status_slot)), status_slot)
     kept = b.load(nearest_slot)
     nearer = b.and_(b.not_(overlap), b.fcmp_ordered("<", distance, kept))
