@@ -129,21 +129,31 @@ class Body:
         return bvh.build((corners + box.T_owner_box[:3, 3])[None])
 
     @functools.cached_property
-    def leaf_table(self) -> tuple[np.ndarray, np.ndarray | None, np.ndarray] | None:
+    def leaf_table(self) -> tuple | None:
         """The leaves of :attr:`tree` as polytopes in a table, for the compiled walk that
         measures them (:func:`compiled_bvh.contacts`): (vertices (R, V, 3), neighbours (R, V,
-        D) or None: scanned, pose (12,) of the table's frame in the body's: R's rows then t);
-        leaf ``item`` is row ``item``.  None for a sphere or a cylinder (not polytopes)."""
+        D) or None: scanned, pose (12,) of the table's frame in the body's: R's rows then t,
+        the estimate's axes (R, 3, 3) and centres (R, 3) or None); leaf ``item`` is row
+        ``item``.  The axes and centres are those :func:`convex.penetration` takes from the
+        pieces (a triangle's as :func:`convex.triangles` makes them; a single piece's from its
+        table); convex parts have none (their pieces' centres depend on the batch's padding),
+        and their overlaps go to the exact query.  None for a sphere or a cylinder."""
         identity = np.r_[np.eye(3).ravel(), np.zeros(3)]
         if self.is_mesh:
-            return self._triangles, None, identity
+            pieces = convex.triangles(self._triangles)
+            return self._triangles, None, identity, (pieces.axes, pieces.center)
         if self.parts is not None and not self.single_piece:
-            return self._hulls[0], None, identity
+            return self._hulls[0], None, identity, None
         table = self._own_table
         if table.kind[0] not in (0, 2):
             return None
         T = table.T_frame_shape[0]
-        return table.vertices, table.neighbours, np.r_[T[:3, :3].ravel(), T[:3, 3]]
+        if table.kind[0] == 0:  # a box: its own axes and centre in its shape frame
+            estimate = (np.eye(3)[None], np.zeros((1, 3)))
+        else:
+            estimate = (table.axes[:1], table.center[:1])
+        pose = np.r_[T[:3, :3].ravel(), T[:3, 3]]
+        return table.vertices, table.neighbours, pose, estimate
 
     @functools.cached_property
     def first_point(self) -> np.ndarray:

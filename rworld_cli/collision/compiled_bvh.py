@@ -392,75 +392,113 @@ def touching_ir(symbol: str) -> str:
     return str(module)
 
 
-def _triangle_depth(e: _Emit, table_a, row_a, pose_a, table_b, row_b, pose_b):
-    """The depth estimate of :func:`rworld_cli.collision.convex.penetration` for triangle
-    ``row_a`` of ``table_a`` placed by ``pose_a`` (12 doubles: R's rows, then t) against
-    ``row_b`` of ``table_b`` placed by ``pose_b``: the least of ``hi_a - lo_b`` and ``hi_b -
-    lo_a`` over the unit directions of each triangle's axes (its first edge, its normal, their
-    cross product, as :func:`~rworld_cli.collision.convex.triangles` makes them), their nine
-    cross products and the centres' difference, those no shorter than 1e-9."""
-    b, c, i = e.b, e.c, e.i
+DIRECTIONS = 16  # convex.penetration's candidates: 3 + 3 axes, their 9 crosses, the centres
 
-    def placed(table, row, pose):
-        Rt = [b.load(b.gep(pose, [i(j)])) for j in range(12)]
-        base = b.mul(row, i(9))
-        points = []
-        for v in range(3):
-            x = [b.load(b.gep(table, [b.add(base, i(3 * v + j))])) for j in range(3)]
-            points.append(
-                [
-                    e.add(*[b.fmul(Rt[3 * r + m], x[m]) for m in range(3)], Rt[9 + r])
-                    for r in range(3)
-                ]
-            )
-        return points
 
-    def sub(x, y):
-        return [b.fsub(x[j], y[j]) for j in range(3)]
+def _polytope_depth(e: _Emit, fn, a: tuple, b: tuple):
+    """The depth estimate of :func:`rworld_cli.collision.convex.penetration` for two rows of
+    leaf tables: the least of ``hi_a - lo_b`` and ``hi_b - lo_a`` over the unit directions of
+    each piece's three axes, their nine cross products and the centres' difference, those no
+    shorter than 1e-9.  A side is (vertices table, V, row, pose (12 doubles: R's rows, then
+    t), axes table (3 rows of 3 a row), centres table); the builder is left at the end of the
+    emitted code, and the estimate returned."""
+    import llvmlite.ir as ir
+
+    b_, c, i = e.b, e.c, e.i
+    D = ir.DoubleType()
+
+    def load(pointer, index):
+        return b_.load(b_.gep(pointer, [index]))
+
+    def placed_side(side):
+        table, V, row, pose, axes, centres = side
+        Rt = [load(pose, i(j)) for j in range(12)]
+        R, t = Rt[:9], Rt[9:]
+        rows = [
+            [load(axes, b_.add(b_.mul(row, i(9)), i(3 * r + m))) for m in range(3)]
+            for r in range(3)
+        ]
+        turned = [
+            [e.add(*[b_.fmul(R[3 * j + m], x[m]) for m in range(3)]) for j in range(3)]
+            for x in rows
+        ]
+        local = [load(centres, b_.add(b_.mul(row, i(3)), i(m))) for m in range(3)]
+        centre = [
+            e.add(*[b_.fmul(R[3 * j + m], local[m]) for m in range(3)], t[j]) for j in range(3)
+        ]
+        return turned, centre, R, t
 
     def cross(x, y):
         return [
-            b.fsub(b.fmul(x[1], y[2]), b.fmul(x[2], y[1])),
-            b.fsub(b.fmul(x[2], y[0]), b.fmul(x[0], y[2])),
-            b.fsub(b.fmul(x[0], y[1]), b.fmul(x[1], y[0])),
+            b_.fsub(b_.fmul(x[1], y[2]), b_.fmul(x[2], y[1])),
+            b_.fsub(b_.fmul(x[2], y[0]), b_.fmul(x[0], y[2])),
+            b_.fsub(b_.fmul(x[0], y[1]), b_.fmul(x[1], y[0])),
         ]
 
     def dot(x, y):
-        return e.add(*[b.fmul(x[j], y[j]) for j in range(3)])
+        return e.add(*[b_.fmul(x[j], y[j]) for j in range(3)])
 
-    def norm(x):
-        return b.call(e.sqrt, [dot(x, x)])
-
-    def axes(points):
-        e0, e1 = sub(points[1], points[0]), sub(points[2], points[0])
-        n = cross(e0, e1)
-        rows = [e0, n, cross(n, e0)]
-        return [[b.fdiv(x, b.fadd(norm(row), c(1e-300))) for x in row] for row in rows]
-
-    A = placed(table_a, row_a, pose_a)
-    B = placed(table_b, row_b, pose_b)
-    axes_a, axes_b = axes(A), axes(B)
-    centre = [b.fmul(e.add(*[p[j] for p in B]), c(1 / 3)) for j in range(3)]
-    centre_a = [b.fmul(e.add(*[p[j] for p in A]), c(1 / 3)) for j in range(3)]
-    candidates = axes_a + axes_b
-    candidates += [cross(x, y) for x in axes_a for y in axes_b]
-    candidates.append(sub(centre, centre_a))
-    best = c(np.inf)
+    axes_a, centre_a, Ra, ta = placed_side(a)
+    axes_b, centre_b, Rb, tb = placed_side(b)
+    candidates = axes_a + axes_b + [cross(x, y) for x in axes_a for y in axes_b]
+    candidates.append([b_.fsub(centre_b[j], centre_a[j]) for j in range(3)])
+    units, goods = [], []
     for d in candidates:
-        length = norm(d)
-        good = b.fcmp_ordered(">", length, c(1e-9))
-        unit = [b.fdiv(x, b.select(good, length, c(1.0))) for x in d]
-        on_a = [dot(unit, p) for p in A]
-        on_b = [dot(unit, p) for p in B]
-        hi_a = e.maximum(e.maximum(on_a[0], on_a[1]), on_a[2])
-        hi_b = e.maximum(e.maximum(on_b[0], on_b[1]), on_b[2])
-        lo_a = b.fneg(e.maximum(e.maximum(b.fneg(on_a[0]), b.fneg(on_a[1])), b.fneg(on_a[2])))
-        lo_b = b.fneg(e.maximum(e.maximum(b.fneg(on_b[0]), b.fneg(on_b[1])), b.fneg(on_b[2])))
-        least = b.fsub(hi_a, lo_b)
-        other = b.fsub(hi_b, lo_a)
-        least = b.select(b.fcmp_ordered("<", other, least), other, least)
-        least = b.select(good, least, c(np.inf))
-        best = b.select(b.fcmp_ordered("<", least, best), least, best)
+        length = b_.call(e.sqrt, [dot(d, d)])
+        good = b_.fcmp_ordered(">", length, c(1e-9))
+        units.append([b_.fdiv(x, b_.select(good, length, c(1.0))) for x in d])
+        goods.append(good)
+    # the accumulators on the function's stack frame, allocated once in its entry block (an
+    # alloca where the walk loops would grow the stack at every leaf pair)
+    here = b_.block
+    b_.position_at_start(fn.entry_basic_block)
+    slots = [
+        (
+            b_.alloca(ir.ArrayType(D, DIRECTIONS)),
+            b_.alloca(ir.ArrayType(D, DIRECTIONS)),
+            b_.alloca(ir.IntType(64)),
+        )
+        for _ in range(2)
+    ]
+    b_.position_at_end(here)
+    extents = []
+    for (side, R, t), (hi, lo, m_slot) in zip(((a, Ra, ta), (b, Rb, tb)), slots):
+        table, V, row, _, _, _ = side
+        for k in range(DIRECTIONS):
+            b_.store(c(-np.inf), b_.gep(hi, [i(0), i(k)]))
+            b_.store(c(np.inf), b_.gep(lo, [i(0), i(k)]))
+        b_.store(i(0), m_slot)
+        head = fn.append_basic_block("extent_head")
+        body = fn.append_basic_block("extent_body")
+        done = fn.append_basic_block("extent_done")
+        b_.branch(head)
+        b_.position_at_end(head)
+        m = b_.load(m_slot)
+        b_.cbranch(b_.icmp_signed("<", m, V), body, done)
+        b_.position_at_end(body)
+        base = b_.mul(b_.add(b_.mul(row, V), m), i(3))
+        x = [load(table, b_.add(base, i(j))) for j in range(3)]
+        v = [e.add(*[b_.fmul(R[3 * j + n], x[n]) for n in range(3)], t[j]) for j in range(3)]
+        for k, unit in enumerate(units):
+            value = dot(unit, v)
+            h_ptr, l_ptr = b_.gep(hi, [i(0), i(k)]), b_.gep(lo, [i(0), i(k)])
+            b_.store(e.maximum(value, b_.load(h_ptr)), h_ptr)
+            low = b_.load(l_ptr)
+            b_.store(b_.select(b_.fcmp_ordered("<", value, low), value, low), l_ptr)
+        b_.store(b_.add(m, i(1)), m_slot)
+        b_.branch(head)
+        b_.position_at_end(done)
+        extents.append((hi, lo))
+    (hi_a, lo_a), (hi_b, lo_b) = extents
+    best = c(np.inf)
+    for k in range(DIRECTIONS):
+        ha, la = b_.load(b_.gep(hi_a, [i(0), i(k)])), b_.load(b_.gep(lo_a, [i(0), i(k)]))
+        hb, lb = b_.load(b_.gep(hi_b, [i(0), i(k)])), b_.load(b_.gep(lo_b, [i(0), i(k)]))
+        least = b_.fsub(ha, lb)
+        other = b_.fsub(hb, la)
+        least = b_.select(b_.fcmp_ordered("<", other, least), other, least)
+        least = b_.select(goods[k], least, c(np.inf))
+        best = b_.select(b_.fcmp_ordered("<", least, best), least, best)
     return best
 
 
@@ -469,8 +507,8 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
 
     ``void f(i64 K, ptr limit, double deep, ptr R, ptr t, (tree a:) ptr centre, ptr half,
     ptr axes, ptr left, ptr right, ptr item, (tree b: the same six), (leaves a:) i64 V,
-    ptr table, ptr neighbours, i64 D, ptr pose, (leaves b: the same five), i64 max_iterations,
-    ptr status, ptr nearest, ptr witness)``
+    ptr table, ptr neighbours, i64 D, ptr pose, i64 estimate, ptr axes, ptr centres, (leaves
+    b: the same eight), i64 max_iterations, ptr status, ptr nearest, ptr witness)``
 
     For each state k (``T_a_b`` = ``R[k]``, ``t[k]``), the walk of :func:`touching_ir` with the
     bound ``min(limit[k], the nearest distance measured so far)`` (branch and bound); each
@@ -501,7 +539,7 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
         name=gjk_symbol,
     )
     tree = [dptr, dptr, dptr, iptr, iptr, iptr]
-    leaves = [I64, dptr, iptr, I64, dptr]
+    leaves = [I64, dptr, iptr, I64, dptr, I64, dptr, dptr]
     fn = ir.Function(
         module,
         ir.FunctionType(
@@ -512,9 +550,9 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     )
     K, limit, deep, Rp, tp = fn.args[:5]
     A, B = fn.args[5:11], fn.args[11:17]
-    VA, table_a, nbr_a, DA, pose_a = fn.args[17:22]
-    VB, table_b, nbr_b, DB, fixed_b = fn.args[22:27]
-    max_it, status_out, nearest_out, witness_out = fn.args[27:]
+    VA, table_a, nbr_a, DA, pose_a, estimate_a, axes_a, centres_a = fn.args[17:25]
+    VB, table_b, nbr_b, DB, fixed_b, estimate_b, axes_b, centres_b = fn.args[25:33]
+    max_it, status_out, nearest_out, witness_out = fn.args[33:]
     entry = fn.append_basic_block("entry")
     b = ir.IRBuilder(entry)
     e = _Emit(b, module)
@@ -643,20 +681,24 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     deeper = b.and_(overlap, b.fcmp_ordered(">", bound_depth, deep))
     collided = fn.append_basic_block("collided")
     measured = fn.append_basic_block("measured")
-    triangles = fn.append_basic_block("triangles")
+    estimating = fn.append_basic_block("estimating")
     b.store(bound_depth, depth_slot)
-    # two triangles that cross leave GJK's simplex little volume to bound the depth with:
-    # there, the depth estimate of convex.penetration (the least overlap over the pieces'
-    # axes, their cross products and the centres' difference) decides
-    crossing = b.and_(
-        b.and_(overlap, b.not_(deeper)),
-        b.and_(b.icmp_signed("==", VA, i(3)), b.icmp_signed("==", VB, i(3))),
-    )
+    # an overlap GJK's simplex bounds too little (two crossing triangles leave it little
+    # volume): where both leaves carry their axes, the depth estimate of convex.penetration
+    # (the least overlap over the pieces' axes, their cross products and the centres'
+    # difference) decides, as the exact query would
+    both = b.and_(b.icmp_signed("!=", estimate_a, i(0)), b.icmp_signed("!=", estimate_b, i(0)))
+    shallow = b.and_(b.and_(overlap, b.not_(deeper)), both)
     b.cbranch(deeper, collided, measured)
     b.position_at_end(measured)
-    b.cbranch(crossing, triangles, settled)
-    b.position_at_end(triangles)
-    estimate = _triangle_depth(e, table_a, item_a, pose_a, table_b, item_b, first(pose_b, dptr))
+    b.cbranch(shallow, estimating, settled)
+    b.position_at_end(estimating)
+    estimate = _polytope_depth(
+        e,
+        fn,
+        (table_a, VA, item_a, pose_a, axes_a, centres_a),
+        (table_b, VB, item_b, first(pose_b, dptr), axes_b, centres_b),
+    )
     b.store(estimate, depth_slot)
     b.cbranch(b.fcmp_ordered(">", estimate, deep), collided, settled)
     b.position_at_end(collided)
@@ -722,7 +764,7 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     return str(module)
 
 
-BODY_WORDS = 11  # a body's row of the table free_states reads: 6 tree arrays, 5 leaf fields
+BODY_WORDS = 14  # a body's row of the table free_states reads: 6 tree arrays, 8 leaf fields
 
 
 def free_states_ir(symbol: str, contacts_symbol: str) -> str:
@@ -734,17 +776,17 @@ def free_states_ir(symbol: str, contacts_symbol: str) -> str:
     ``pairs`` (P, 2) int64 body indices, in the order to try them; ``poses`` (N, B, 12) each
     body's frame in world (R's rows, then t); ``bodies`` (B, :data:`BODY_WORDS`) int64: the
     addresses of its tree's six arrays, then its leaf table's V, table address, neighbours
-    address, D and pose address (:func:`walk_side`); ``spheres`` (B, 4): each body's bounding
-    sphere (centre in its frame, radius); ``boxes`` (B, 9): a closed mesh's box in its frame
-    (least and greatest corner; +inf and -inf for other bodies) and each body's witness point
-    (:attr:`~rworld_cli.collision.bodies.Body.first_point`).  For each state, pair after
-    pair: a pair whose
-    bounding spheres are farther apart than ``limit`` is 3 with inf; another is walked by
-    ``contacts_symbol`` (:func:`contacts_ir`, one state) and its status and nearest written
-    (``nearest`` (N, P), ``status`` (N, P): 0, 1, 2 as there, -1 a tree too deep); after a
-    pair of status 1 the state's other pairs are skipped (status -2); a pair of status 0 one
-    of whose witness points lies in the other's closed-mesh box is 4 (the caller's winding
-    number decides whether it is buried).  ``witness``: 8 doubles of scratch.
+    address, D, pose address, estimate flag, axes and centres addresses (:func:`walk_side`);
+    ``spheres`` (B, 4): each body's bounding sphere (centre in its frame, radius); ``boxes``
+    (B, 9): a closed mesh's box in its frame (least and greatest corner; +inf and -inf for
+    other bodies) and each body's witness point (:attr:`~rworld_cli.collision.bodies.Body.
+    first_point`).  For each state, pair after pair: a pair whose bounding spheres are
+    farther apart than ``limit`` is 3 with inf; another is walked by ``contacts_symbol``
+    (:func:`contacts_ir`, one state) and its status and nearest written (``nearest`` (N, P),
+    ``status`` (N, P): 0, 1, 2 as there, -1 a tree too deep); after a pair of status 1 the
+    state's other pairs are skipped (status -2); a pair of status 0 one of whose witness
+    points lies in the other's closed-mesh box is 4 (the caller's winding number decides
+    whether it is buried).  ``witness``: 8 doubles of scratch.
     """
     import llvmlite.ir as ir
 
@@ -752,7 +794,7 @@ def free_states_ir(symbol: str, contacts_symbol: str) -> str:
     dptr, iptr = ir.PointerType(D), ir.PointerType(I64)
     module = ir.Module(name="free_states")
     tree = [dptr, dptr, dptr, iptr, iptr, iptr]
-    leaves = [I64, dptr, iptr, I64, dptr]
+    leaves = [I64, dptr, iptr, I64, dptr, I64, dptr, dptr]
     contacts = ir.Function(
         module,
         ir.FunctionType(
@@ -852,6 +894,9 @@ def free_states_ir(symbol: str, contacts_symbol: str) -> str:
             b.inttoptr(word(body, 8), iptr),
             word(body, 9),
             b.inttoptr(word(body, 10), dptr),
+            word(body, 11),
+            b.inttoptr(word(body, 12), dptr),
+            b.inttoptr(word(body, 13), dptr),
         ]
         return tree_args, leaf_args
 
@@ -971,7 +1016,7 @@ def _functions():
                 ctypes.CFUNCTYPE(None, ctypes.c_int64, *[ctypes.c_void_p] * 17)(addresses[2])
             )
             leaves = [ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_int64]
-            leaves += [ctypes.c_void_p]
+            leaves += [ctypes.c_void_p, ctypes.c_int64, ctypes.c_void_p, ctypes.c_void_p]
             _FUNCTION.append(
                 ctypes.CFUNCTYPE(
                     None,
@@ -1060,9 +1105,10 @@ def walk_side(tree, leaves) -> tuple:
     """A body's tree and leaf table as :func:`contacts` takes them (contiguous, typed; kept
     by the caller, so that one pair's call does not convert them again): ``leaves`` =
     (table (R, V, 3), neighbours (R, V, D) int64 or None: scanned, pose (12,): the table's
-    frame in the tree's, R's rows then t); the tree's leaf ``item`` is the table's row
-    ``item``, a polytope."""
-    table, neighbours, pose = leaves
+    frame in the tree's, R's rows then t, estimate: (axes (R, 3, 3), centres (R, 3)) in the
+    table's frame as :func:`rworld_cli.collision.convex.penetration` takes them, or None);
+    the tree's leaf ``item`` is the table's row ``item``, a polytope."""
+    table, neighbours, pose, estimate = leaves
     arrays = [np.ascontiguousarray(x, dtype=float) for x in (tree.center, tree.half, tree.axes)]
     arrays += [np.ascontiguousarray(x, dtype=np.int64) for x in (tree.left, tree.right, tree.item)]
     table = np.ascontiguousarray(table, dtype=float)
@@ -1073,9 +1119,16 @@ def walk_side(tree, leaves) -> tuple:
         else np.ascontiguousarray(neighbours, dtype=np.int64)
     )
     pose = np.ascontiguousarray(pose, dtype=float)
-    held = (*arrays, table, neighbours, pose)
+    # each row's axes (3 rows of 3) and centre, in the table's frame, for the depth estimate;
+    # none (a flag of 0, one zero row) where the exact query is to decide
+    flag = 0 if estimate is None else 1
+    axes, centres = (np.zeros((1, 9)), np.zeros((1, 3))) if estimate is None else estimate
+    axes = np.ascontiguousarray(np.reshape(axes, (-1, 9)), dtype=float)
+    centres = np.ascontiguousarray(np.reshape(centres, (-1, 3)), dtype=float)
+    held = (*arrays, table, neighbours, pose, axes, centres)
     addresses = [x.ctypes.data for x in arrays]
     leaf = [table.shape[1], table.ctypes.data, neighbours.ctypes.data, degree, pose.ctypes.data]
+    leaf += [flag, axes.ctypes.data, centres.ctypes.data]
     return held, addresses, leaf
 
 
