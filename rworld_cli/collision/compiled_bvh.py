@@ -517,12 +517,15 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     table (V vertices in the side's own frame, placed by its fixed ``pose``, 12 doubles, and for
     b then by the state's ``T_a_b``), climbed by its neighbours (D per vertex; 0: scanned).
     ``status[k]``: 0 no leaf pair overlaps, 1 one overlaps deeper than ``deep`` by GJK's
-    depth bound (the walk of that state stops there), 2 some overlap is not known to be that
-    deep; ``nearest[k]``: the least distance of the leaf pairs measured that do not overlap
-    (inf: none), exact for every pair within ``limit``; for status 1, minus that depth bound;
+    depth bound or, where the bound says less and both leaves carry their axes (``estimate``
+    not 0: rows of ``axes`` (3 x 3) and ``centres`` (3) in the table's frame), by the depth
+    estimate of :func:`rworld_cli.collision.convex.penetration` (:func:`_polytope_depth`;
+    the walk of that state stops there), 2 some overlap is not known to be that deep;
+    ``nearest[k]``: the least distance of the leaf pairs measured that do not overlap (inf:
+    none), exact for every pair within ``limit``; for status 1, minus that depth;
     ``witness[k]`` (8 doubles): that nearest pair's closest points in a's frame (6), then its
-    two leaf items (as doubles).
-    ``status[0]`` -1: a tree deeper than the stack (the caller falls back).
+    two leaf items (as doubles).  ``status[0]`` -1: a tree deeper than the stack (the caller
+    falls back).
     """
     import llvmlite.ir as ir
 
