@@ -321,6 +321,14 @@ def gjk_ir(symbol: str, local: bool = False) -> str:
         store(v0[j], v_slot, j)
     for j in range(4):
         store(c(0.0), weights, j)
+    # every simplex slot defined before a pair's first iteration: a slot not yet written is
+    # read with a zero weight (0 x garbage is NaN when the garbage is NaN or inf, which made
+    # a pair's distance NaN depending on what the stack held before: found 2026-11-27)
+    for array in (simplex, from_a, from_b, *scratch):
+        for j in range(12):
+            store(c(0.0), array, j)
+    for j in range(4):
+        store(c(0.0), scratch_w, j)
     b.store(i(0), count_slot)
     b.store(i(0), it_slot)
     b.store(i(0), iterations_slot)
