@@ -326,7 +326,9 @@ def candidates(
         ks = k[first]
         la, lb = descend(ks, a[first], b[first])
         exact = np.maximum(measure(ks, tree_a.item[la], tree_b.item[lb]), 0.0)
-        upper[ks] = np.minimum(upper[ks], exact)
+        # fmin: a measurement that failed (NaN) must not become the state's bound, which
+        # would drop every pair of the state (it is measured again below, and reported)
+        upper[ks] = np.fmin(upper[ks], exact)
 
     # breadth first from the roots, the upper bounds refined every few levels; states in
     # batches, memory bounded
