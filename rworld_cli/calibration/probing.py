@@ -30,6 +30,7 @@ followed by ``probe: feature``, which records the contact.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -336,13 +337,20 @@ class ProbeRig:
         )
         return None
 
+    @functools.cached_property
+    def _ball(self):
+        """The probe's ball as a collision body, made once (asked at every target)."""
+        from ..collision.bodies import ball_body
+
+        return ball_body("probe ball", self.radius)
+
     def _ball_inside(self, centre: np.ndarray) -> str | None:
         """The body the probe's ball would overlap with its centre at ``centre`` (world), of
         those that do not move with the robot (exact distances: a ball started there touches
         at once, or is inside the material); None when it is clear of them all."""
-        from ..collision.bodies import ball_body, pair_distance
+        from ..collision.bodies import pair_distance
 
-        ball = ball_body("probe ball", self.radius)
+        ball = self._ball
         T_ball = spatial.make_transform(np.eye(3), centre)[None]
         for i in self.fixed:
             body = self.bodies[i]

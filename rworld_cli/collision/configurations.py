@@ -252,36 +252,31 @@ class ConfigurationChecker:
             pairs = np.unique(pair)
             pairs = pairs[np.argsort(self._cost[pairs], kind="stable")]
             groups = [np.flatnonzero(pair == p) for p in pairs]
+        report = (distance, nearest_pair, free, buried)
         for rows in groups:
             if not nearest:
                 rows = rows[free[state[rows]]]
             if not len(rows):
                 continue
             s, p = state[rows], pair[rows]  # p: a column of TI, pair subset[p]
-            if not nearest:  # one pair of bodies: trees walked, leaves measured, compiled
-                walked = self._walked(TI[s, p], TJ[s, p], int(subset[p[0]]), watch)
-                if walked is not None:
-                    signed, buried_now, undecided = walked
-                    self._tally(
-                        s, subset[p], signed, buried_now, distance, nearest_pair, free, buried
-                    )
-                    rows = rows[undecided]
-                    if not len(rows):
-                        continue
-                    s, p = state[rows], pair[rows]
-            res = distances(
-                bodies,
-                I[p],
-                J[p],
-                TI[s, p],
-                TJ[s, p],
-                within=np.inf if nearest else watch,
-                deep_enough=np.inf if nearest else self.tolerance,
-            )
-            self._tally(
-                s, subset[p], _signed(res), res.buried, distance, nearest_pair, free, buried
-            )
+            within, deep = (np.inf, np.inf) if nearest else (watch, self.tolerance)
+            self._measure(s, subset[p], TI[s, p], TJ[s, p], within, deep, report)
         return ConfigurationReport(free, distance, nearest_pair, buried)
+
+    def _measure(self, s, p, TI, TJ, within, deep_enough, report) -> None:
+        """Pairs ``p[r]`` (indices of :attr:`pairs`) at states ``s[r]``, their bodies at ``TI``,
+        ``TJ`` (R, 4, 4), by the exact query (:func:`bodies.distances`), into ``report``
+        (distance, nearest pair, free, buried: :meth:`_tally`)."""
+        res = distances(
+            self.model.bodies,
+            self.pairs[p, 0],
+            self.pairs[p, 1],
+            TI,
+            TJ,
+            within=within,
+            deep_enough=deep_enough,
+        )
+        self._tally(s, p, _signed(res), res.buried, *report)
 
     def _free_states(self, T, N, watch, distance, nearest_pair, free, buried) -> bool:
         """The free-only check of the pairs of polytopes (:meth:`_fuse`) in one compiled call,
@@ -314,37 +309,19 @@ class ConfigurationChecker:
         # a witness point in the other's closed-mesh box (the kernel's 4): the winding number
         buried_now = self._buried(placed, s, p, status[s, c] == 4)
         self._tally(s, p, signed, buried_now, distance, nearest_pair, free, buried)
-        # overlaps the walk could not call deep enough: measured exactly, pair by pair
+        # overlaps the walk could not call deep enough: measured exactly, pair by pair, each
+        # at the states still free
         s, c = np.nonzero((status == 2) | (status == -1))
-        keep = free[s]
-        s, c = s[keep], c[keep]
-        bodies = self.model.bodies
         for column in np.unique(c):
             rows = s[c == column]
             rows = rows[free[rows]]
-            if not len(rows):
-                continue
-            pair = int(fused["pairs"][column])
-            i, j = self.pairs[pair]
-            res = distances(
-                bodies,
-                np.full(len(rows), i),
-                np.full(len(rows), j),
-                T[bodies[i].frame][rows],
-                T[bodies[j].frame][rows],
-                within=watch,
-                deep_enough=self.tolerance,
-            )
-            self._tally(
-                rows,
-                np.full(len(rows), pair),
-                _signed(res),
-                res.buried,
-                distance,
-                nearest_pair,
-                free,
-                buried,
-            )
+            if len(rows):
+                u, v = fused["local"][column]
+                pair = np.full(len(rows), fused["pairs"][column])
+                report = (distance, nearest_pair, free, buried)
+                self._measure(
+                    rows, pair, placed[rows, u], placed[rows, v], watch, self.tolerance, report
+                )
         return True
 
     def _buried(self, placed, s, p, clear) -> np.ndarray:
