@@ -966,8 +966,9 @@ _FUNCTION: list = []  # [ctypes function or None], built once per process
 
 
 def _functions():
-    """The compiled bound and traversal as ctypes functions, or (None, None) (kernels off, or
-    the compile failed); one module, compiled once per process and cached on disk."""
+    """The module's ctypes functions - the bound, the collision-only walk, the descent, the
+    walk with its leaves measured, the free-only check - or five Nones (kernels off, or the
+    compile failed); one module, compiled once per process and cached on disk."""
     if not _FUNCTION:
         import ctypes
 
@@ -1049,7 +1050,7 @@ def _functions():
                     *[ctypes.c_void_p] * 3,
                 )(addresses[4])
             )
-    return _FUNCTION[0], _FUNCTION[1], _FUNCTION[2]
+    return tuple(_FUNCTION)
 
 
 def free_states(pairs, poses, table, spheres, boxes, limit, deep, max_iterations: int):
@@ -1059,8 +1060,7 @@ def free_states(pairs, poses, table, spheres, boxes, limit, deep, max_iterations
     ``poses`` (N, B, 12): (status (N, P), nearest (N, P)), or None (no compiled kernel)."""
     if kernels.backend() != "llvm":
         return None
-    _functions()
-    function = _FUNCTION[4]
+    function = _functions()[4]
     if function is None:
         return None
     # every array is held by a name until the call returns: the kernel reads raw addresses
@@ -1096,12 +1096,6 @@ def body_table(sides: list) -> np.ndarray:
     return np.array([[*side[1], *side[2]] for side in sides], dtype=np.int64).reshape(
         -1, BODY_WORDS
     )
-
-
-def contacts_function():
-    """The compiled walk with its leaves measured (:func:`contacts_ir`), or None."""
-    _functions()
-    return _FUNCTION[3]
 
 
 def walk_side(tree, leaves) -> tuple:
@@ -1145,7 +1139,7 @@ def contacts(side_a, side_b, R, t, limit, deep: float, max_iterations: int):
     for its stack."""
     if kernels.backend() != "llvm":
         return None
-    function = contacts_function()
+    function = _functions()[3]
     if function is None:
         return None
     # every array is held by a name until the call returns: the kernel reads raw addresses
@@ -1215,11 +1209,6 @@ def descend(tree_a, tree_b, k, a, b, R, t):
     return na, nb
 
 
-def box_gap_function():
-    """The compiled bound as a ctypes function, or None (kernels off, or the compile failed)."""
-    return _functions()[0]
-
-
 def touching(tree_a, tree_b, R: np.ndarray, t: np.ndarray, limit: float):
     """The leaf pairs of two trees whose boxes' bound stays within ``limit`` [m] all the way
     down, at each of K states ``T_a_b`` = (``R`` (K, 3, 3), ``t`` (K, 3)): (k, leaf_a, leaf_b)
@@ -1260,7 +1249,7 @@ def box_gap(tree_a, a, tree_b, b, k, R, t) -> np.ndarray | None:
     ``k[q]`` of ``R`` (K, 3, 3), ``t`` (K, 3), compiled; None when no kernel is available."""
     if kernels.backend() != "llvm":
         return None
-    function = box_gap_function()
+    function = _functions()[0]
     if function is None:
         return None
     out = np.empty(len(a))
