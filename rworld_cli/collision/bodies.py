@@ -619,8 +619,9 @@ def pair_distance(
 def _walked(a, b, Ta, Tb, max_iterations, within, deep_enough) -> PairDistance | None:
     """:func:`pair_distance` by the compiled walk of both trees (:func:`compiled_bvh.
     contacts`: branch and bound, each leaf pair measured by GJK where it is met): the states
-    where no leaf pair overlaps take its nearest distance and closest points; the others
-    (their depths to measure) go to :func:`_searched`.  None: no kernel, or a sphere or a
+    where no leaf pair overlaps take its nearest distance and closest points, those whose
+    overlaps are none deeper than asked and all carry the depth estimate take the deepest's;
+    the others (their depths to measure) go to :func:`_searched`.  None: no kernel, or a sphere or a
     cylinder (not polytopes)."""
     if a.walk_side is None or b.walk_side is None:
         return None
@@ -639,14 +640,21 @@ def _walked(a, b, Ta, Tb, max_iterations, within, deep_enough) -> PairDistance |
     clear = np.flatnonzero(status == 0)
     measured = clear[np.isfinite(nearest[clear])]
     out.distance[measured] = nearest[measured]
-    Rw, tw = Ta[measured, :3, :3], Ta[measured, :3, 3]  # a's frame, where GJK ran, in world
-    out.point_a[measured] = np.einsum("kij,kj->ki", Rw, witness[measured, 0:3]) + tw
-    out.point_b[measured] = np.einsum("kij,kj->ki", Rw, witness[measured, 3:6]) + tw
+    # overlaps none deeper than asked, each with the estimate the search would take: the
+    # deepest one's depth and points (distance 0)
+    shallow = np.flatnonzero((status == 2) & np.isfinite(witness[:, 8]))
+    out.distance[shallow] = 0.0
+    out.depth[shallow] = np.maximum(witness[shallow, 8], 0.0)
+    placed = np.r_[measured, shallow]
+    Rw, tw = Ta[placed, :3, :3], Ta[placed, :3, 3]  # a's frame, where GJK ran, in world
+    out.point_a[placed] = np.einsum("kij,kj->ki", Rw, witness[placed, 0:3]) + tw
+    out.point_b[placed] = np.einsum("kij,kj->ki", Rw, witness[placed, 3:6]) + tw
     rows = clear[buried_in(a, b, Ta[clear], Tb[clear])]
     out.buried[rows] = True
     out.depth[rows] = out.distance[rows]  # at least as deep as its distance to the surface
     out.distance[rows] = 0.0
-    rest = np.flatnonzero(status != 0)  # overlaps: their depths measured by the search
+    # deeper overlaps, or shallow ones without an estimate: their depths measured by the search
+    rest = np.flatnonzero((status != 0) & ~((status == 2) & np.isfinite(witness[:, 8])))
     if len(rest):
         found_rest = _searched(a, b, Ta[rest], Tb[rest], max_iterations, limit[rest], deep_enough)
         for name in ("distance", "depth", "point_a", "point_b", "buried"):
@@ -971,44 +979,54 @@ def _build_piece_table(bodies: list[Body]) -> _PieceTable:
     )
 
 
-def _hull_neighbours(vertices: np.ndarray, count: int) -> np.ndarray:
-    """:func:`convex.hull_neighbours`, kept in the user's cache (kind ``meshes``) by the
-    vertices: a vendor link's hull costs tens of milliseconds, and the first hull of a
-    process the import of scipy's Qhull (about 0.3 s)."""
+_NEIGHBOURS: dict[str, np.ndarray] = {}  # this process's hull neighbours, by their key
+
+
+def _hull_neighbours(vertices: np.ndarray) -> np.ndarray:
+    """:func:`convex.hull_neighbours` (V, D), kept in the user's cache (kind ``meshes``) by the
+    vertices, and in this process once read (every piece table holding the hull pads the same
+    rows): a vendor link's hull costs tens of milliseconds, and the first hull of a process
+    the import of scipy's Qhull (about 0.3 s)."""
     import hashlib
 
     from .. import cache
 
     vertices = np.ascontiguousarray(vertices, dtype=float)
-    key = hashlib.sha256(
-        f"neighbours-1|{count}|{vertices.shape}|".encode() + vertices.tobytes()
-    ).hexdigest()[:40]
-    data = cache.arrays(
-        "meshes",
-        f"neighbours-{key}.npz",
-        ("neighbours",),
-        lambda: {"neighbours": convex.hull_neighbours(vertices, count)},
-    )
-    return data["neighbours"]
+    key = hashlib.sha256(f"neighbours-2|{vertices.shape}|".encode() + vertices.tobytes())
+    name = f"neighbours-{key.hexdigest()[:40]}.npz"
+    known = _NEIGHBOURS.get(name)
+    if known is None:
+        known = cache.arrays(
+            "meshes",
+            name,
+            ("neighbours",),
+            lambda: {"neighbours": convex.hull_neighbours(vertices)},
+        )["neighbours"]
+        if len(_NEIGHBOURS) >= 256:  # a long process meets many cells: the oldest goes
+            del _NEIGHBOURS[next(iter(_NEIGHBOURS))]
+        _NEIGHBOURS[name] = known
+    return known
 
 
 def _neighbour_table(local: list, count: int) -> np.ndarray:
-    """The hull neighbours of every piece's vertices (:func:`convex.hull_neighbours`), padded
-    to one table (B, count, D): boxes and hulls; spheres and cylinders have none."""
+    """The hull neighbours of every piece's vertices (:func:`convex.hull_neighbours`), in one
+    table (B, count, D) padded with -1 (rows past a piece's vertices: the copies of its first
+    vertex that pad the vertex table, never climbed to): boxes and hulls; spheres and
+    cylinders have none."""
     rows = [
-        convex.box_neighbours(count)
+        convex.box_neighbours()
         if lp.kind == 0
-        else _hull_neighbours(lp.vertices, count)
+        else _hull_neighbours(lp.vertices)
         if lp.kind == 2
-        else np.full((count, 1), -1, dtype=np.int64)
+        else None
         for lp in local
     ]
-    width = max((r.shape[1] for r in rows), default=1)
-    if not rows:
-        return np.full((0, count, 1), -1, dtype=np.int64)
-    return np.stack(
-        [np.pad(r, ((0, 0), (0, width - r.shape[1])), constant_values=-1) for r in rows]
-    )
+    width = max((r.shape[1] for r in rows if r is not None), default=1)
+    out = np.full((len(local), count, width), -1, dtype=np.int64)
+    for j, r in enumerate(rows):
+        if r is not None:
+            out[j, : len(r), : r.shape[1]] = r
+    return out
 
 
 @dataclass(frozen=True)

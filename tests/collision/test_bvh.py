@@ -117,9 +117,12 @@ def exhaustive(a, b, Ta, Tb):
 
 
 PAIRS = [  # (cell, a, b, random states): mesh x mesh, fixture x link mesh, hulls x mesh,
-    # open x closed mesh (the fixture's pair has 2.4 M leaf pairs a state to measure)
+    # open x closed mesh (the fixture's pair has 2.4 M leaf pairs a state to measure), a
+    # single large hull (the flange, 198 vertices) over the plate's triangles: the walk's
+    # leaf-against-box bound
     ("iiwa14", "kuka_lbr_iiwa_14_r820.link_2", "kuka_lbr_iiwa_14_r820.link_4", 3),
     ("iiwa14", "plate", "kuka_lbr_iiwa_14_r820.link_6", 1),
+    ("iiwa14", "plate", "kuka_lbr_iiwa_14_r820.link_7", 4),
     ("iiwa14", "kuka_lbr_iiwa_14_r820", "kuka_lbr_iiwa_14_r820.link_3", 3),
     ("tx2_60", "staubli_tx2_60.link_1", "staubli_tx2_60.link_3", 3),
 ]
