@@ -596,8 +596,8 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     pose_state = b.alloca(ir.ArrayType(D, 12), name="pose_state")
     b.store(i(0), box_row)
     b.store(i(-2), no_neighbours)
-    for j, value in enumerate((1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0)):
-        b.store(c(float(value)), b.gep(pose_identity, [i(0), i(j)]))
+    for j, one in enumerate((1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)):
+        b.store(c(one), b.gep(pose_identity, [i(0), i(j)]))
 
     def cell(array, j):
         return b.gep(array, [i(0), i(j)])
