@@ -47,6 +47,7 @@ from .fleet import (  # noqa: F401
     junit_xml,
     write_junit,
 )
+from .motion import PlannedPath, plan_free_path  # noqa: F401
 from .physics import (  # noqa: F401
     DeviceContext,
     JacobianResult,

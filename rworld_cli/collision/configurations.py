@@ -478,7 +478,14 @@ class ConfigurationChecker:
             return SegmentReport(True, None, None, False, 0)
         bodies = self.model.bodies
         zeros = np.zeros((2, len(q0)))
-        levers = _Levers.of(self.world, bodies, {self.device: (np.stack([q0, q1]), zeros, zeros)})
+        # the other devices hold still where the world has them (a two-robot cell)
+        held = {}
+        for d, dev in self.world.cell.devices.items():
+            if d != self.device:
+                still = np.zeros((2, dev.dof))
+                held[d] = (np.tile(self.world.joints(d), (2, 1)), still, still)
+        held[self.device] = (np.stack([q0, q1]), zeros, zeros)
+        levers = _Levers.of(self.world, bodies, held)
         travel = np.array(
             [abs(q1[j] - q0[j]) if d == self.device else 0.0 for d, j in levers.joints]
         ).reshape(1, -1)

@@ -12,7 +12,8 @@ class PathSpec:
     """A joint-space path: a cubic spline through ``waypoints`` (K, n) [rad or m].
 
     ``knots`` (K,) on [0, 1] place the waypoints (None: equally spaced); ``boundary`` is
-    'clamped' (at rest at both ends), 'natural' or 'not-a-knot'.
+    'clamped' (at rest at both ends), 'natural', 'not-a-knot' or 'segments' (straight
+    joint-space segments, at rest at every waypoint).
     """
 
     waypoints: np.ndarray

@@ -107,6 +107,7 @@ class Step:
             return (
                 f"move to {s.to if s.to is not None else 'joint values'}"
                 + (" (linear)" if s.motion == "linear" else "")
+                + (" (free path)" if getattr(s, "path", "straight") == "free" else "")
                 + (f" until {s.until}" if s.until else "")
             )
         if self.kind in ("grasp", "release"):

@@ -19,9 +19,13 @@ class JointPath:
     boundary : {"clamped", "natural", "not-a-knot"}
         ``clamped``: dq/ds = 0 at both ends (start and end at rest); ``natural``: d2q/ds2 = 0
         there; ``not-a-knot``: the third derivative is continuous at the second and the
-        second-last knot.  The same splines as ``scipy.interpolate.CubicSpline`` with that
-        ``bc_type`` (tested to 1e-12), built here: importing scipy's interpolation costs about
-        half a second, more than a whole time-optimal solve.
+        second-last knot; ``segments``: dq/ds = 0 at every knot, so that each piece runs
+        along the straight joint-space segment between its waypoints (``q_i + (q_{i+1} -
+        q_i)(3u^2 - 2u^3)``), at rest at each: the lines a collision-free path was checked
+        on (``rworld plan path``), not a spline through them.  The others are the same
+        splines as ``scipy.interpolate.CubicSpline`` with that ``bc_type`` (tested to 1e-12),
+        built here: importing scipy's interpolation costs about half a second, more than a
+        whole time-optimal solve.
     """
 
     def __init__(self, waypoints, knots=None, boundary: str = "clamped"):
@@ -161,8 +165,10 @@ def spline_slopes(knots: np.ndarray, values: np.ndarray, boundary: str) -> np.nd
     under not-a-knot the parabola through them (scipy's special cases).  A tridiagonal solve
     (Thomas algorithm) over the K knots, each step vectorised over the n joints.
     """
-    if boundary not in ("clamped", "natural", "not-a-knot"):
+    if boundary not in ("clamped", "natural", "not-a-knot", "segments"):
         raise ValueError(f"unknown spline boundary {boundary!r}")
+    if boundary == "segments":  # at rest at every knot: each piece runs along its chord
+        return np.zeros_like(values, dtype=float)
     K = len(knots)
     h = np.diff(knots)
     d = np.diff(values, axis=0) / h[:, None]  # (K - 1, n)

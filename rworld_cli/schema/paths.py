@@ -129,3 +129,24 @@ def write_path_with_knots(path_file: str, knots, output: str, note: str = "") ->
     lines.append("knots: [" + ", ".join(f"{float(k):.9g}" for k in knots) + "]")
     lines.append(f"boundary: {pf.boundary}")
     atomic_write_text(output, "\n".join(lines) + "\n")
+
+
+def write_planned_path(output: str, device, waypoints, knots, note: str) -> None:
+    """A planned joint path as a path file, atomically: ``waypoints`` (W, n) in SI written in
+    rad and m (read back bit for bit), ``knots`` (W,), ``boundary: segments`` (the straight
+    joint-space lines between the waypoints, at rest at each: what was checked)."""
+    waypoints = np.asarray(waypoints, dtype=float)
+    kinds = {j.kind for j in device.joints}
+    units = ([("angle", "rad")] if "revolute" in kinds else []) + (
+        [("length", "m")] if "prismatic" in kinds else []
+    )
+    lines = [
+        f"# {comment_text(note)}",
+        f"device: {yaml_value(device.name)}",
+        "units: {" + ", ".join(f"{k}: {v}" for k, v in units) + "}",
+        "waypoints:",
+    ]
+    lines += ["  - [" + ", ".join(repr(float(v)) for v in row) + "]" for row in waypoints]
+    lines.append("knots: [" + ", ".join(repr(float(k)) for k in knots) + "]")
+    lines.append("boundary: segments")
+    atomic_write_text(output, "\n".join(lines) + "\n")

@@ -115,6 +115,14 @@ class MoveSpec(Strict):
         "unit). Deeper is a collision.",
     )
 
+    path: Literal["straight", "free"] = Field(
+        "straight",
+        description="A joint move: 'straight' goes along the straight line in joint space; "
+        "'free' plans a collision-free joint path when the step runs (in the world as it is "
+        "then: other devices, grasps, calibrated poses) and goes through its via points "
+        "(docs/planning.md).",
+    )
+
     @model_validator(mode="after")
     def _one_goal(self):
         if (self.to is None) == (self.joints is None):
@@ -123,6 +131,10 @@ class MoveSpec(Strict):
             self.motion == "linear" or self.offset is not None or self.config is not None
         ):
             raise ValueError("'joints' is a joint move: no linear motion, offset or config")
+        if self.path == "free" and (self.motion == "linear" or self.until is not None):
+            raise ValueError(
+                "'path: free' plans a joint move: no linear motion, no guarded move ('until')"
+            )
         return self
 
 
@@ -379,6 +391,9 @@ class PathFile(Strict):
         None,
         description="Path parameter of each waypoint, rising from 0 to 1; default equally spaced.",
     )
-    boundary: Literal["clamped", "natural", "not-a-knot"] = Field(
-        "clamped", description="clamped: dq/ds = 0 at both ends."
+    boundary: Literal["clamped", "natural", "not-a-knot", "segments"] = Field(
+        "clamped",
+        description="clamped: dq/ds = 0 at both ends. segments: straight joint-space "
+        "segments between the waypoints, at rest at each (a collision-free path from 'rworld "
+        "plan path': the lines it checked).",
     )

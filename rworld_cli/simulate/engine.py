@@ -39,6 +39,7 @@ from ..world.tree import AffixmentError, World
 from .errors import SimulationError, UnreachableTarget
 from .feature_steps import FeatureSteps
 
+FREE_PATH_TIMEOUT = 10.0  # [s] a 'path: free' move's search gives up after this
 LATCH_TIME = 1e-9  # [s]: a guarded move's contact instant is found to this (a probe's latch)
 
 
@@ -220,6 +221,9 @@ class _Scheduler(FeatureSteps):
         self.resolved: dict[str, list[ResolvedStep]] = {d: [] for d in self.order}
         self._actions: list[ResolvedStep] = []  # what the running step did, in order
         self._latched: dict[str, dict | None] = {}  # per device: the last guarded contact
+        self._collisions = None  # the collision model, built by the first 'path: free' move
+        self._in_free_path = False  # recording a free path's via moves
+        self._free_leg = ""  # the leg recorded (for its event)
         self.snapshots: list[tuple[float, dict]] = [(0.0, self.world.snapshot())]
         self.barriers: dict[tuple[str, int], dict[str, float]] = {}
         self.sync_totals = {d: {} for d in self.order}
@@ -526,7 +530,17 @@ class _Scheduler(FeatureSteps):
         speed=None,
         acceleration=None,
     ):
-        """Guard, resolve and time a move's segment (None: already there); returns it."""
+        """Guard, resolve and time a move's segment (None: already there); returns it.  A
+        joint move with ``path: free`` goes through the via points of a collision-free path
+        (:meth:`_free_path`), each recorded as a joint move of its own."""
+        if (
+            seg is not None
+            and motion == "joint"
+            and step.kind == "move"
+            and getattr(step.spec, "path", "straight") == "free"
+            and not self._in_free_path
+        ):
+            return self._free_path(device, tr, step, q_now, seg, name, tcp, speed, acceleration)
         if seg is not None and not (seg.t1 - seg.t0) / self.run.dt <= MAX_SAMPLES:
             T = seg.t1 - seg.t0
             self._too_long(
@@ -561,18 +575,74 @@ class _Scheduler(FeatureSteps):
             return None
         tr.segments.append(seg)
         took, words = self._configuration_taken(device, seg.q_end)
+        via = f", {self._free_leg}" if self._in_free_path and self._free_leg else ""  # its leg
         self.events.append(
             Event(
                 tr.t,
                 device,
                 step.index,
                 "move",
-                f"{step.describe()} ({seg.t1 - seg.t0:.3f} s{words})",
+                f"{step.describe()}{via} ({seg.t1 - seg.t0:.3f} s{words})",
                 reading={"configuration": took} if took else None,
             )
         )
         tr.t = seg.t1
         return seg
+
+    def _free_path(self, device, tr, step, q_now, seg, name, tcp, speed, acceleration):
+        """``move: {..., path: free}``: a collision-free joint path from the joints now to the
+        move's end (``planning.motion.plan_in_world``: in the world at this instant - other
+        devices where their programs have them, grasps, tools, calibrated poses; the run's
+        clearance and collision tolerance; seeded by the step's index), driven as joint moves
+        through its via points, each at rest there.  No path: the target is unreachable (exit
+        1), with the planner's reason."""
+        from ..collision.bodies import collision_model
+        from ..planning.motion import plan_in_world
+
+        if self._collisions is None:
+            self._collisions = collision_model(self.run.cell)
+        self.set_time(tr.t)
+        self.world.set_joints(device, q_now)
+        plan, _ = plan_in_world(
+            self.world,
+            self._collisions,
+            device,
+            q_now,
+            seg.q_end[None],
+            tolerance=self.run.collision_tolerance,
+            clearance=self.run.clearance,
+            seed=step.index,
+            timeout=FREE_PATH_TIMEOUT,
+        )
+        if not plan.found:
+            self.unreachable(device, step, f"no collision-free path to '{name}': {plan.reason}")
+        way = plan.waypoints
+        self._in_free_path = True
+        try:
+            last = None
+            for k in range(1, len(way)):
+                piece = self._joint_move(device, tr, step, way[k - 1], way[k], speed, acceleration)
+                leg = f"via point {k} of {len(way) - 2}" if k < len(way) - 1 else "last leg"
+                leg = leg if len(way) > 2 else ""  # the straight line was free: one move
+                self._free_leg = leg
+                label = name if k == len(way) - 1 else f"{name} ({leg})"
+                last = self._record_move(
+                    device,
+                    tr,
+                    step,
+                    way[k - 1],
+                    piece,
+                    piece,
+                    label,
+                    tcp,
+                    None,
+                    "joint",
+                    speed,
+                    acceleration,
+                )
+        finally:
+            self._in_free_path = False
+        return last
 
     def _configuration_taken(self, device: str, q) -> tuple[dict | None, str]:
         """A 6-axis arm's configuration at ``q``: rworld's words, and the text for the move's

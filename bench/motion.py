@@ -1,0 +1,223 @@
+"""Collision-free joint paths beside OMPL's RRT-Connect, on the same problems with the same
+collision checks.
+
+Run:  .venv/bin/pip install -e ".[bench]" && .venv/bin/python bench/motion.py [--timeout 10]
+
+The problems are ``tests/data/motion/problems.yaml`` (tests/data/motion/build.py: six scenes -
+a shelf, a bin, a table with fixtures, two arms on one table for the Franka Panda; a shelf and
+the holed-plate fixture cell for the Yaskawa GP7 from the vendor's meshes - ten start/goal pairs
+each, both ends free, the straight segment between them not).
+
+Both planners get rworld's own checks (``planning.motion.WorldChecks``, built once per scene):
+a state is free by ``ConfigurationChecker.check`` with a 5 mm margin over the clearance (none
+near the ends); OMPL (``ompl`` 2.0.1 from PyPI, ``og.RRTConnect`` with its default range, the
+default discrete motion validator with states 0.05 rad apart, Euclidean) asks one state at a
+time, as its ``StateValidityChecker`` interface does, then simplifies its path
+(``simplifySolution``: vertex reduction, shortcuts, B-spline smoothing, each step checked);
+rworld asks an edge's states in one batch and checks its final segments continuously
+(``check_segment``) itself.  OMPL's final path is then checked with the same
+``check_segment`` (not timed): a path that fails it does not count as solved - the guarantee
+``rworld check`` gives is continuous.  Times are wall times of one process, both in it; path
+lengths are Euclidean in joint space [rad].
+
+Reported per robot and overall: success rate, median and 95th-percentile planning time, median
+path length, and each side's median over the problems both solved.
+
+VAMP (``vamp-planner``, the speed anchor the issue names) is not on the package index this
+machine reaches (``vamp`` on PyPI is an unrelated audio package), so it is not run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+PROBLEMS = REPO / "tests" / "data" / "motion" / "problems.yaml"
+OMPL_STEP = 0.05  # [rad] OMPL's motion validator: states this far apart (Euclidean)
+
+
+def scene_checks(scene: str, device: str, tolerance: float = 1e-3):
+    """(world, model, WorldChecks) of a scene."""
+    from rworld_cli.api import device_context
+    from rworld_cli.collision.bodies import collision_model
+    from rworld_cli.planning.motion import WorldChecks
+
+    ctx = device_context(str(PROBLEMS.parent / scene), device)
+    model = collision_model(ctx.world.cell)
+    return ctx.world, model, WorldChecks(ctx.world, model, device, tolerance)
+
+
+def ompl_plan(checks, start, goal, timeout: float):
+    """OMPL's RRT-Connect with ``checks``: (found, waypoints (W, n), seconds, continuous-valid)."""
+    from ompl import base as ob
+    from ompl import geometric as og
+    from ompl import util as ou
+
+    ou.setLogLevel(ou.LogLevel.LOG_NONE)
+    usable, why = checks.problem(start, goal)
+    n = len(start)
+    if why is not None:
+        return False, np.zeros((0, n)), 0.0, False
+    lower, upper = checks.box()
+    space = ob.RealVectorStateSpace(n)
+    bounds = ob.RealVectorBounds(n)
+    for i in range(n):
+        bounds.setLow(i, float(lower[i]))
+        bounds.setHigh(i, float(upper[i]))
+    space.setBounds(bounds)
+    ss = og.SimpleSetup(space)
+
+    def valid(state) -> bool:
+        return bool(checks.states_free(np.array([[state[i] for i in range(n)]]))[0])
+
+    ss.setStateValidityChecker(valid)
+    si = ss.getSpaceInformation()
+    si.setStateValidityCheckingResolution(OMPL_STEP / space.getMaximumExtent())
+    a, b = space.allocState(), space.allocState()
+    for i in range(n):
+        a[i], b[i] = float(start[i]), float(goal[i])
+    ss.setStartAndGoalStates(a, b)
+    ss.setPlanner(og.RRTConnect(si))
+    t0 = time.perf_counter()
+    solved = ss.solve(timeout)
+    found = bool(solved) and ss.haveExactSolutionPath()
+    if found:
+        ss.simplifySolution(max(0.0, timeout - (time.perf_counter() - t0)))
+    seconds = time.perf_counter() - t0
+    if not found:
+        return False, np.zeros((0, n)), seconds, False
+    path = ss.getSolutionPath()
+    way = np.array([[s[i] for i in range(n)] for s in path.getStates()])
+    valid_path = all(checks.segment_free(p, q) for p, q in zip(way[:-1], way[1:]))
+    return True, way, seconds, valid_path
+
+
+def ompl_solve(ctx, model, device, start, goal, timeout: float) -> bool:
+    """For tests/data/motion/build.py: whether OMPL finds a continuously valid path."""
+    from rworld_cli.planning.motion import WorldChecks
+
+    checks = WorldChecks(ctx.world, model, device, 1e-3)
+    found, _, _, valid = ompl_plan(checks, np.asarray(start), np.asarray(goal), timeout)
+    return found and valid
+
+
+def rworld_plan(world, model, device, checks, start, goal, timeout: float, seed: int):
+    from rworld_cli.planning.motion import plan_in_world
+
+    t0 = time.perf_counter()
+    plan, _ = plan_in_world(
+        world, model, device, start, goal, tolerance=1e-3, seed=seed, timeout=timeout, checks=checks
+    )
+    return plan.found, plan.waypoints, time.perf_counter() - t0
+
+
+def length(way: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(way, axis=0), axis=1).sum()) if len(way) > 1 else 0.0
+
+
+def summary(rows: list[dict], side: str) -> tuple[float, float, float, float]:
+    ok = [r for r in rows if r[f"{side}_ok"]]
+    times = np.array([r[f"{side}_s"] for r in rows])
+    lengths = np.array([r[f"{side}_len"] for r in ok])
+    return (
+        len(ok) / max(1, len(rows)),
+        float(np.median(times)) if len(times) else float("nan"),
+        float(np.percentile(times, 95)) if len(times) else float("nan"),
+        float(np.median(lengths)) if len(lengths) else float("nan"),
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--timeout", type=float, default=10.0, help="per problem and planner [s]")
+    parser.add_argument("--only", nargs="*", default=None, help="scenes to run")
+    parser.add_argument("--limit", type=int, default=None, help="problems per scene at most")
+    parser.add_argument("--no-ompl", action="store_true", help="rworld alone")
+    args = parser.parse_args()
+    problems = yaml.safe_load(PROBLEMS.read_text())["problems"]
+    scenes: dict[str, list[dict]] = {}
+    for p in problems:
+        if args.only is None or p["scene"] in args.only:
+            scenes.setdefault(p["scene"], []).append(p)
+    cpu = next(
+        (
+            line.split(":", 1)[1].strip()
+            for line in Path("/proc/cpuinfo").read_text().splitlines()
+            if line.startswith("model name")
+        ),
+        platform.processor(),
+    )
+    print(
+        f"# Motion planning beside OMPL: {cpu}, Python {platform.python_version()}, "
+        f"timeout {args.timeout:g} s\n"
+    )
+    rows = []
+    for scene, items in scenes.items():
+        items = items[: args.limit] if args.limit else items
+        device = items[0]["device"]
+        world, model, checks = scene_checks(scene, device)
+        for k, p in enumerate(items):
+            start, goal = np.array(p["start"]), np.array(p["goal"])
+            ok, way, seconds = rworld_plan(
+                world, model, device, checks, start, goal, args.timeout, seed=k
+            )
+            row = {"scene": scene, "robot": device, "rworld_ok": ok, "rworld_s": seconds}
+            row["rworld_len"] = length(way)
+            if not args.no_ompl:
+                found, oway, oseconds, valid = ompl_plan(checks, start, goal, args.timeout)
+                row.update(
+                    ompl_ok=found and valid,
+                    ompl_found=found,
+                    ompl_s=oseconds,
+                    ompl_len=length(oway),
+                )
+            rows.append(row)
+            print(
+                f"{scene} {k + 1}: rworld {'ok' if ok else 'FAIL'} {seconds:.3f} s "
+                f"{row['rworld_len']:.3f} rad"
+                + (
+                    ""
+                    if args.no_ompl
+                    else f" | ompl {'ok' if row['ompl_ok'] else ('invalid' if found else 'FAIL')} "
+                    f"{oseconds:.3f} s {row['ompl_len']:.3f} rad"
+                ),
+                file=sys.stderr,
+                flush=True,
+            )
+    sides = ["rworld"] + ([] if args.no_ompl else ["ompl"])
+    print("| robot | planner | problems | solved | median [s] | p95 [s] | median length [rad] |")
+    print("|---|---|---:|---:|---:|---:|---:|")
+    for robot in sorted({r["robot"] for r in rows}) + ["all"]:
+        subset = [r for r in rows if robot in ("all", r["robot"])]
+        for side in sides:
+            rate, median, p95, med_len = summary(subset, side)
+            print(
+                f"| {robot} | {side} | {len(subset)} | {100 * rate:.0f} % | {median:.3f} | "
+                f"{p95:.3f} | {med_len:.3f} |"
+            )
+    if not args.no_ompl:
+        both = [r for r in rows if r["rworld_ok"] and r["ompl_ok"]]
+        if both:
+            t_ratio = np.median([r["ompl_s"] / r["rworld_s"] for r in both])
+            l_ratio = np.median([r["rworld_len"] / r["ompl_len"] for r in both])
+            print(
+                f"\nOn the {len(both)} problems both solved: OMPL's time / rworld's, median "
+                f"{t_ratio:.2f}x; rworld's path length / OMPL's, median {l_ratio:.2f}"
+            )
+        bad = sum(1 for r in rows if r.get("ompl_found") and not r["ompl_ok"])
+        print(f"OMPL paths found but failing the continuous check: {bad} of {len(rows)}")
+    sys.stdout.flush()
+    os._exit(0)  # ompl's bindings report leaked objects at interpreter exit: not ours
+
+
+if __name__ == "__main__":
+    main()

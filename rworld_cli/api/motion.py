@@ -1,0 +1,221 @@
+"""``rworld plan path``: a collision-free joint path for a device in its cell, to a frame, a
+named position or joint values (``planning/motion.py``, checked by the collision room's
+configuration and segment checks)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..errors import CheckFailed, UserError
+from ..units import COLLISION_TOLERANCE
+from .physics import DeviceContext
+
+if TYPE_CHECKING:
+    from ..planning.motion import PathPlan
+
+IK_SEEDS = 24  # random IK starts besides the start state: the goal's configurations
+
+
+@dataclass
+class PlannedPath:
+    """A path planned for ``rworld plan path``.
+
+    Attributes
+    ----------
+    plan : PathPlan
+        Waypoints (W, n) [rad or m], counters, lengths (``planning.motion.PathPlan``).
+    device, target : str
+    start : ndarray, shape (n,)
+    goals : ndarray, shape (G, n)
+        The goal states given to the search (a frame's IK solutions, nearest the start first;
+        those not free or touching something are dropped there).
+    clearance, tolerance : float
+        The clearance kept and the collision tolerance [m].
+    knots : ndarray, shape (W,)
+        The waypoints' path parameters (by joint-space length) as the path file gives them.
+    written : str or None
+        The path file written.
+    """
+
+    plan: PathPlan
+    device: str
+    target: str
+    start: np.ndarray
+    goals: np.ndarray
+    clearance: float
+    tolerance: float
+    knots: np.ndarray
+    written: str | None = None
+
+    def as_dict(self) -> dict:
+        p = self.plan
+        return {
+            "device": self.device,
+            "target": self.target,
+            "found": p.found,
+            "reason": p.reason,
+            "waypoints": p.waypoints.tolist(),
+            "knots": self.knots.tolist(),
+            "goal": p.goal,
+            "goals_tried": self.goals.tolist(),
+            "length": p.length,
+            "length_before_shortcuts": p.raw_length,
+            "iterations": p.iterations,
+            "tree_states": p.tree_states,
+            "states_checked": p.states_checked,
+            "segments_checked": p.segments_checked,
+            "repairs": p.repairs,
+            "seconds": p.seconds,
+            "clearance": self.clearance,
+            "collision_tolerance": self.tolerance,
+            "written": self.written,
+        }
+
+
+def named_state(ctx: DeviceContext, text: str, what: str) -> np.ndarray:
+    """Joint values [SI] from 'home', a named position of the device, or comma-separated
+    values (SI: rad, m)."""
+    dev = ctx.device
+    if text == "home":
+        return np.asarray(dev.home, dtype=float)
+    if text in dev.positions:
+        return np.asarray(dev.positions[text], dtype=float)
+    try:
+        q = np.array([float(v) for v in text.split(",")])
+    except ValueError:
+        q = None
+    if q is None or len(q) != dev.dof or not np.isfinite(q).all():
+        from ..errors import did_you_mean
+
+        named = ["home", *dev.positions]
+        raise UserError(
+            f"{what} '{text}' is neither a named position of '{dev.name}' ("
+            f"{', '.join(named)}){did_you_mean(text, named)} nor {dev.dof} joint values [rad, m]"
+        )
+    return q
+
+
+def goal_states(ctx: DeviceContext, to: str, start: np.ndarray, seed: int) -> np.ndarray:
+    """The goal states for ``to``: a named position or joint values (one state), or a frame of
+    the cell, whose IK solutions within the limits (from the start and from
+    :data:`IK_SEEDS` random starts) are the goals, nearest the start first (G, n)."""
+    from ..kinematics.inverse import solve_ik
+    from ..planning.motion import sampled_box
+
+    cell = ctx.world.cell
+    if to not in cell.frames:
+        return named_state(ctx, to, "--to")[None]
+    dev = ctx.device
+    T_base = np.linalg.inv(ctx.T_world_base) @ ctx.world.T_world(to)
+    lower, upper = dev.limit_array("lower"), dev.limit_array("upper")
+    rng = np.random.default_rng(seed)
+    seeds = [start] + list(rng.uniform(sampled_box(lower), sampled_box(upper), (IK_SEEDS, dev.dof)))
+    found: list[np.ndarray] = []
+    first = None
+    for q_seed in seeds:
+        result = solve_ik(dev, T_base, ctx.mount, q_seed, dev.dof < 6, restarts=0)
+        first = first or result
+        if result.success and all(np.abs(result.q - q).max() > 1e-3 for q in found):
+            found.append(np.asarray(result.q, dtype=float))
+    if not found:
+        result = solve_ik(dev, T_base, ctx.mount, start, dev.dof < 6)
+        if not result.success:
+            raise UserError(
+                result.unreachable(to, ctx.tcp, [j.name for j in dev.joints], dev.dof < 6)
+            )
+        found.append(np.asarray(result.q, dtype=float))
+    goals = np.array(found)
+    return goals[np.argsort(np.linalg.norm(goals - start, axis=1), kind="stable")]
+
+
+def plan_free_path(
+    ctx: DeviceContext,
+    to: str,
+    start=None,
+    *,
+    seed: int = 0,
+    timeout: float = 10.0,
+    clearance: float = 0.0,
+    tolerance: float = COLLISION_TOLERANCE,
+    output: str | None = None,
+    progress=None,
+) -> PlannedPath:
+    """``rworld plan path``: a collision-free joint path of ``ctx``'s device from ``start``
+    (default the joints now) to ``to`` (a frame of the cell for the TCP, a named position,
+    'home', or joint values), in the cell as it is (other devices where the pose files put
+    them; ``planning.motion.plan_in_world``).  Written to ``output`` as a path file
+    (``boundary: segments``: the straight lines checked) when one was found.
+
+    Raises
+    ------
+    UserError
+        Unknown target, wrong joint count, a start outside the limits, a frame no joint
+        solution reaches (exit 2).
+    CheckFailed
+        No path: the start not free, every goal not free or touching something (naming the
+        nearest pairs), or none found within ``timeout`` (exit 1).
+    """
+    from ..collision.bodies import collision_model
+    from ..planning.motion import plan_in_world
+
+    dev = ctx.device
+    q0 = (
+        np.asarray(ctx.world.joints(dev.name), dtype=float)
+        if start is None
+        else (named_state(ctx, start, "--from") if isinstance(start, str) else np.asarray(start))
+    )
+    if q0.shape != (dev.dof,):
+        raise UserError(f"device '{dev.name}' has {dev.dof} joint(s); the start has {q0.size}")
+    lower, upper = dev.limit_array("lower"), dev.limit_array("upper")
+    outside = np.flatnonzero((q0 < lower - 1e-12) | (q0 > upper + 1e-12))
+    if len(outside):
+        j = int(outside[0])
+        raise UserError(
+            f"the start puts {dev.joints[j].name} at {q0[j]:.6g}, outside its limits "
+            f"[{lower[j]:.6g}, {upper[j]:.6g}]"
+        )
+    goals = goal_states(ctx, to, q0, seed)
+    plan, _ = plan_in_world(
+        ctx.world,
+        collision_model(ctx.world.cell),
+        dev.name,
+        q0,
+        goals,
+        tolerance=tolerance,
+        clearance=clearance,
+        seed=seed,
+        timeout=timeout,
+        progress=None
+        if progress is None
+        else lambda rounds, states: progress(rounds, None, f"searching: {states} states"),
+    )
+    out = PlannedPath(plan, dev.name, to, q0, goals, clearance, tolerance, _knots(plan.waypoints))
+    if not plan.found:
+        raise CheckFailed(f"no path to '{to}': {plan.reason}")
+    if output is not None:
+        from ..schema.paths import write_planned_path
+
+        write_planned_path(output, dev, plan.waypoints, out.knots, _note(out))
+        out.written = output
+    return out
+
+
+def _knots(waypoints: np.ndarray) -> np.ndarray:
+    """Path parameters by joint-space length, 0 to 1."""
+    if len(waypoints) < 2:
+        return np.zeros(len(waypoints))
+    lengths = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(waypoints, axis=0), axis=1))]
+    return lengths / lengths[-1] if lengths[-1] > 0 else np.linspace(0.0, 1.0, len(waypoints))
+
+
+def _note(out: PlannedPath) -> str:
+    p = out.plan
+    return (
+        f"rworld plan path: '{out.device}' to '{out.target}', {len(p.waypoints)} waypoints, "
+        f"{p.length:.4g} rad of joint travel, clearance {out.clearance * 1000:g} mm, collision "
+        f"tolerance {out.tolerance * 1000:g} mm; straight joint segments, each checked "
+        "continuously (docs/planning.md)"
+    )

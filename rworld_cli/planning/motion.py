@@ -1,0 +1,609 @@
+"""Collision-free joint paths: bidirectional sampling (RRT-Connect), lazy continuous checks,
+shortcutting.
+
+The planner takes plain data and two questions it may ask as often as it likes:
+
+* ``states_free(Q)``: Q (N, n) joint states -> (N,) bool, free at that instant (for rworld,
+  ``ConfigurationChecker.check(Q, nearest=False).free``: no overlap deeper than the collision
+  tolerance, nothing buried, the clearance kept);
+* ``segment_free(q0, q1)``: the straight joint-space segment free everywhere, between its
+  states too (``ConfigurationChecker.check_segment``: the continuous guarantee of
+  ``rworld check``).
+
+Why this shape: a state costs tens of microseconds in a batch and a continuous segment check
+milliseconds, so the search asks states - each edge as the states along it at
+``resolution`` apart, all in one batch - and the continuous check is asked only of the
+path's final segments (lazy).  A final segment the states passed but the continuous check
+does not (an obstacle thinner than the spacing) is planned again between its ends at a
+quarter of the spacing.
+
+The search (Kuffner and LaValle, *RRT-Connect*, ICRA 2000): two trees, one from the start
+and one from every goal (several IK solutions may be given: the first reached is taken),
+grown in turn towards uniform samples of the joint box; the tree that grew is then
+connected towards the other's new state as far as it is free.  Shortcutting: the path's
+waypoints joined to the farthest one a straight segment reaches (greedy), then straight
+segments between random points of the path kept when free and shorter.  Straight segments
+between states inside the joint box stay inside it, so every path keeps the joint limits.
+
+Deterministic for a seed: the same problem and seed give the same path, unless ``timeout``
+cuts the search (then it fails).  Probabilistically complete: if a free path with some
+clearance exists, the probability of not finding it falls to zero as the search goes on; a
+failure within ``timeout`` proves nothing.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+FIRST_BATCH = 8  # states of a line's first batch (then 16, 32, ...)
+SHORTCUT_PATIENCE = 30  # random shortcuts stop after this many in a row that found nothing
+StatesFree = Callable[[np.ndarray], np.ndarray]
+SegmentFree = Callable[[np.ndarray, np.ndarray], bool]
+
+
+@dataclass
+class PathPlan:
+    """A planned joint path (:func:`plan_path`).
+
+    Attributes
+    ----------
+    found : bool
+    waypoints : ndarray, shape (W, n)
+        Start first, the goal reached last [rad or m]; straight joint-space segments between
+        them, each checked continuously.  Empty (0, n) when not found.
+    goal : int
+        Index of the goal reached (-1: none).
+    reason : str or None
+        Why none was found (the start or every goal not free, the timeout, the iteration
+        bound).
+    iterations : int
+        Growth rounds of the trees.
+    tree_states : int
+        States in both trees.
+    states_checked : int
+        States asked of ``states_free``.
+    segments_checked : int
+        Segments asked of ``segment_free``.
+    seconds : float
+        Wall time of the search, shortcuts and checks.
+    raw_length, length : float
+        Joint-space length (Euclidean, rad or m) of the path found and after shortcutting.
+    repairs : int
+        Final segments planned again (the states passed, the continuous check did not).
+    """
+
+    found: bool
+    waypoints: np.ndarray
+    goal: int = -1
+    reason: str | None = None
+    iterations: int = 0
+    tree_states: int = 0
+    states_checked: int = 0
+    segments_checked: int = 0
+    seconds: float = 0.0
+    raw_length: float = float("nan")
+    length: float = float("nan")
+    repairs: int = 0
+
+
+def path_length(waypoints: np.ndarray) -> float:
+    """Joint-space length of a polyline (W, n): the sum of its segments' Euclidean lengths."""
+    waypoints = np.asarray(waypoints, dtype=float)
+    return float(np.linalg.norm(np.diff(waypoints, axis=0), axis=1).sum())
+
+
+@dataclass
+class _Tree:
+    """States (capacity grows) with their parents; roots have parent -1."""
+
+    n: int
+    states: np.ndarray = field(init=False)
+    parent: np.ndarray = field(init=False)
+    count: int = 0
+
+    def __post_init__(self) -> None:
+        self.states = np.empty((256, self.n))
+        self.parent = np.empty(256, dtype=np.int64)
+
+    def add(self, q: np.ndarray, parent: int) -> int:
+        if self.count == len(self.states):
+            self.states = np.concatenate([self.states, np.empty_like(self.states)])
+            self.parent = np.concatenate([self.parent, np.empty_like(self.parent)])
+        self.states[self.count] = q
+        self.parent[self.count] = parent
+        self.count += 1
+        return self.count - 1
+
+    def nearest(self, q: np.ndarray) -> int:
+        d = self.states[: self.count] - q
+        return int(np.argmin(np.einsum("ij,ij->i", d, d)))
+
+    def branch(self, index: int) -> np.ndarray:
+        """The states from ``index`` back to its root (M, n)."""
+        out = []
+        while index >= 0:
+            out.append(self.states[index])
+            index = int(self.parent[index])
+        return np.array(out)
+
+
+class _Search:
+    """One planning problem's counters, clock and questions."""
+
+    def __init__(self, states_free, segment_free, resolution, deadline, clock):
+        self.states_free, self.segment_free = states_free, segment_free
+        self.resolution, self.deadline, self.clock = resolution, deadline, clock
+        self.states_checked = 0
+        self.segments_checked = 0
+        self.iterations = 0
+        self.tree_states = 0
+
+    def out_of_time(self) -> bool:
+        return self.clock() > self.deadline
+
+    def free_prefix(self, q0: np.ndarray, q1: np.ndarray, resolution: float | None = None):
+        """How far along q0 -> q1 the states at ``resolution`` apart (q0 excluded: known free)
+        are free: (fraction reached in [0, 1], all free)."""
+        resolution = self.resolution if resolution is None else resolution
+        span = float(np.abs(q1 - q0).max())
+        count = max(1, int(np.ceil(span / resolution)))
+        s = np.arange(1, count + 1) / count
+        Q = q0 + s[:, None] * (q1 - q0)
+        # in order, in batches that double (8, 16, 32, ...): a line blocked near its start
+        # costs a few states, a free one a few calls more than one batch
+        done, size = 0, FIRST_BATCH
+        while done < count:
+            part = slice(done, min(count, done + size))
+            free = np.asarray(self.states_free(Q[part]), dtype=bool)
+            self.states_checked += len(free)
+            if not free.all():
+                first = done + int(np.argmin(free))
+                return (float(s[first - 1]) if first else 0.0), False
+            done, size = part.stop, 2 * size
+        return 1.0, True
+
+    def line_free(self, q0, q1, resolution: float | None = None) -> bool:
+        """Whether every state along q0 -> q1 at ``resolution`` apart (q0 excluded) is free:
+        coarse to fine (every 2^k-th state first, then the ones between), in batches that
+        double, so that a blocked line is found blocked after a few states wherever it is
+        blocked."""
+        resolution = self.resolution if resolution is None else resolution
+        span = float(np.abs(q1 - q0).max())
+        count = max(1, int(np.ceil(span / resolution)))
+        k = np.arange(1, count + 1)
+        # the largest power of two dividing k, largest first: 1/2, 1/4 and 3/4, ...
+        order = k[np.argsort(-(k & -k), kind="stable")]
+        Q = q0 + (order / count)[:, None] * (q1 - q0)
+        done, size = 0, FIRST_BATCH
+        while done < count:
+            part = slice(done, min(count, done + size))
+            free = np.asarray(self.states_free(Q[part]), dtype=bool)
+            self.states_checked += len(free)
+            if not free.all():
+                return False
+            done, size = part.stop, 2 * size
+        return True
+
+    def segment(self, q0, q1) -> bool:
+        self.segments_checked += 1
+        return bool(self.segment_free(q0, q1))
+
+
+def plan_path(
+    states_free: StatesFree,
+    segment_free: SegmentFree,
+    start,
+    goals,
+    lower,
+    upper,
+    *,
+    seed: int = 0,
+    timeout: float = 10.0,
+    step: float = 0.5,
+    resolution: float = 0.05,
+    shortcuts: int = 60,
+    max_iterations: int = 100_000,
+    progress: Callable[[int, int], None] | None = None,
+    clock: Callable[[], float] = time.perf_counter,
+) -> PathPlan:
+    """A collision-free joint path from ``start`` to one of ``goals`` (module docstring).
+
+    Parameters
+    ----------
+    states_free : callable
+        (N, n) joint states -> (N,) bool.
+    segment_free : callable
+        (q0 (n,), q1 (n,)) -> bool: free everywhere between them (the continuous check).
+    start : array_like, shape (n,)
+    goals : array_like, shape (G, n) or (n,)
+        Goal states, in order of preference (the first one a tree reaches wins).
+    lower, upper : array_like, shape (n,)
+        The joint box sampled [rad or m] (finite).
+    seed : int
+        Random generator seed: the same problem and seed give the same path.
+    timeout : float
+        Wall-time budget [s] of the search.
+    step : float
+        Longest tree edge, Euclidean in joint space [rad or m].
+    resolution : float
+        Spacing of the states checked along an edge, largest joint change [rad or m].
+    shortcuts : int
+        Random shortcut attempts after the greedy pass.
+    max_iterations : int
+        Growth rounds at most.
+    progress : callable, optional
+        ``progress(iterations, tree_states)`` now and then during the search.
+
+    Returns
+    -------
+    PathPlan
+    """
+    t0 = clock()
+    start = np.asarray(start, dtype=float).ravel()
+    goals = np.atleast_2d(np.asarray(goals, dtype=float))
+    lower = np.asarray(lower, dtype=float).ravel()
+    upper = np.asarray(upper, dtype=float).ravel()
+    n = len(start)
+    if goals.shape[1] != n or lower.shape != (n,) or upper.shape != (n,):
+        raise ValueError("start, goals and limits must have the device's joint count")
+    if not (np.isfinite(lower).all() and np.isfinite(upper).all() and (lower <= upper).all()):
+        raise ValueError("the joint box to sample must be finite, lower <= upper")
+    search = _Search(states_free, segment_free, resolution, t0 + timeout, clock)
+    empty = np.zeros((0, n))
+
+    def failed(reason: str, iterations: int = 0, states: int = 0) -> PathPlan:
+        return PathPlan(
+            False,
+            empty,
+            reason=reason,
+            iterations=iterations,
+            tree_states=states,
+            states_checked=search.states_checked,
+            segments_checked=search.segments_checked,
+            seconds=clock() - t0,
+        )
+
+    inside = np.all((goals >= lower - 1e-12) & (goals <= upper + 1e-12), axis=1)
+    ends = np.concatenate([start[None], goals])
+    free = np.asarray(states_free(ends), dtype=bool)
+    search.states_checked += len(ends)
+    if not free[0]:
+        return failed("the start state is not free")
+    usable = np.flatnonzero(free[1:] & inside)
+    if not len(usable):
+        return failed(
+            "no goal state is free"
+            if inside.any()
+            else "every goal state lies outside the joint limits"
+        )
+    rng = np.random.default_rng(seed)
+    # the straight line first: most moves in an open cell need nothing else
+    for g in usable:
+        if search.line_free(start, goals[g]) and search.segment(start, goals[g]):
+            way = np.stack([start, goals[g]])
+            length = path_length(way)
+            return PathPlan(
+                True,
+                way,
+                int(g),
+                None,
+                0,
+                1 + len(usable),
+                search.states_checked,
+                search.segments_checked,
+                clock() - t0,
+                length,
+                length,
+            )
+    found = _connect_trees(
+        search, rng, start, goals, usable, lower, upper, step, max_iterations, progress
+    )
+    if isinstance(found, str):
+        return failed(found, search.iterations, search.tree_states)
+    raw, goal, iterations, states = found
+    way = _shortcut(search, rng, raw, shortcuts)
+    way, repairs = _validated(search, rng, way, lower, upper, step)
+    if way is None:
+        return failed(
+            "a segment the states passed failed the continuous check and could not be "
+            "planned around",
+            iterations,
+            states,
+        )
+    return PathPlan(
+        True,
+        way,
+        goal,
+        None,
+        iterations,
+        states,
+        search.states_checked,
+        search.segments_checked,
+        clock() - t0,
+        path_length(raw),
+        path_length(way),
+        repairs,
+    )
+
+
+def _connect_trees(search, rng, start, goals, usable, lower, upper, step, max_iterations, progress):
+    """RRT-Connect: (the path's states (M, n) start to goal, goal index, iterations, tree
+    states), or the reason it failed (str)."""
+    n = len(start)
+    from_start, from_goals = _Tree(n), _Tree(n)
+    from_start.add(start, -1)
+    root_goal = {}
+    for g in usable:
+        root_goal[from_goals.add(goals[g], -1)] = int(g)
+    grow, other = from_start, from_goals
+    for iteration in range(1, max_iterations + 1):
+        search.iterations = iteration
+        search.tree_states = from_start.count + from_goals.count
+        if progress is not None and iteration % 64 == 0:
+            progress(iteration, search.tree_states)
+        if search.out_of_time():
+            return "no path found within the time limit"
+        q_rand = rng.uniform(lower, upper)
+        new = _extend(search, grow, q_rand, step, connect=False)
+        if new is not None:
+            q_new = grow.states[new]
+            reached = _extend(search, other, q_new, step, connect=True)
+            if reached is not None and np.array_equal(other.states[reached], q_new):
+                a, b = (new, reached) if grow is from_start else (reached, new)
+                path = np.concatenate([from_start.branch(a)[::-1], from_goals.branch(b)[1:]])
+                root = b
+                while from_goals.parent[root] >= 0:
+                    root = int(from_goals.parent[root])
+                search.tree_states = from_start.count + from_goals.count
+                return path, root_goal[root], iteration, search.tree_states
+        grow, other = other, grow
+    return "no path found within the iteration bound"
+
+
+def _extend(search: _Search, tree: _Tree, target: np.ndarray, step: float, connect: bool):
+    """Grow ``tree`` from its state nearest ``target`` towards it: one ``step`` (RRT's
+    extend), or as far as it is free (``connect``: RRT-Connect's connect, every state along
+    the line checked in one batch).  Returns the index of the last state added (None: none)."""
+    near = tree.nearest(target)
+    q_near = tree.states[near].copy()
+    gap = float(np.linalg.norm(target - q_near))
+    if gap == 0.0:
+        return near
+    reach = gap if connect else min(gap, step)
+    q_end = q_near + (target - q_near) * (reach / gap)
+    fraction, whole = search.free_prefix(q_near, q_end)
+    if not whole:
+        fraction = fraction if connect else 0.0
+    if fraction <= 0.0:
+        return None
+    # states every `step` along the free part, and its end (the target itself when reached)
+    length = reach * fraction
+    pieces = max(1, int(np.ceil(length / step - 1e-12)))
+    reached = whole and reach == gap  # the target itself, exactly (the trees meet on it)
+    index = near
+    for k in range(1, pieces + 1):
+        last = k == pieces
+        q = target if reached and last else q_near + (q_end - q_near) * (fraction * k / pieces)
+        index = tree.add(q, index)
+    return index
+
+
+def _shortcut(search: _Search, rng, way: np.ndarray, attempts: int) -> np.ndarray:
+    """The path shortened: each waypoint joined to the farthest later one a free straight line
+    reaches (greedy), then ``attempts`` straight lines between random points of two different
+    segments kept where free and shorter."""
+    way = _greedy(search, np.asarray(way, dtype=float))
+    misses = 0
+    for _ in range(attempts):
+        if len(way) < 3 or misses >= SHORTCUT_PATIENCE or search.out_of_time():
+            break
+        misses += 1
+        i, j = np.sort(rng.choice(len(way) - 1, size=2, replace=False))
+        if j == i:
+            continue
+        a = way[i] + rng.uniform() * (way[i + 1] - way[i])
+        b = way[j] + rng.uniform() * (way[j + 1] - way[j])
+        old = (
+            np.linalg.norm(way[i + 1] - a)
+            + path_length(way[i + 1 : j + 1])
+            + np.linalg.norm(b - way[j])
+        )
+        if np.linalg.norm(b - a) < old - 1e-9 and search.line_free(a, b):
+            way = np.concatenate([way[: i + 1], a[None], b[None], way[j + 1 :]])
+            way = _without_repeats(way)
+            misses = 0
+    return _greedy(search, way)
+
+
+def _greedy(search: _Search, way: np.ndarray) -> np.ndarray:
+    """Each kept waypoint joined to the farthest later one a free straight line reaches."""
+    kept = [way[0]]
+    i = 0
+    while i < len(way) - 1:
+        j = len(way) - 1
+        while j > i + 1 and not search.line_free(way[i], way[j]):
+            j -= 1
+        kept.append(way[j])
+        i = j
+    return np.array(kept)
+
+
+def _without_repeats(way: np.ndarray) -> np.ndarray:
+    keep = np.r_[True, np.abs(np.diff(way, axis=0)).max(axis=1) > 1e-12]
+    return way[keep]
+
+
+def _validated(search: _Search, rng, way, lower, upper, step, depth: int = 0):
+    """Every segment checked continuously; one that fails is planned again between its ends
+    with a quarter of the spacing (three times at most).  (path, repairs), or (None, repairs)."""
+    out = [way[0]]
+    repairs = 0
+    for q0, q1 in zip(way[:-1], way[1:]):
+        if search.segment(q0, q1):
+            out.append(q1)
+            continue
+        repairs += 1
+        if depth >= 3 or search.out_of_time():
+            return None, repairs
+        finer = _Search(
+            search.states_free,
+            search.segment_free,
+            search.resolution / 4,
+            search.deadline,
+            search.clock,
+        )
+        found = _connect_trees(
+            finer, rng, q0, q1[None], np.array([0]), lower, upper, step, 100_000, None
+        )
+        piece, more = None, 0
+        if not isinstance(found, str):
+            piece = _shortcut(finer, rng, found[0], 20)
+            piece, more = _validated(finer, rng, piece, lower, upper, step, depth + 1)
+        search.states_checked += finer.states_checked
+        search.segments_checked += finer.segments_checked
+        repairs += more
+        if piece is None:
+            return None, repairs
+        out.extend(piece[1:])
+    return np.array(out), repairs
+
+
+SEARCH_MARGIN = 0.005  # [m] the search's states keep this much more than the clearance asked
+NEAR_END = 0.1  # [rad or m] states this near the start or a goal: searched without the margin
+
+
+class WorldChecks:
+    """The questions :func:`plan_path` asks, for ``device`` in ``world`` as it is now (other
+    devices, grasps and tools where the world has them), answered by the collision room: a
+    state is free by ``ConfigurationChecker.check`` at the clearance plus
+    :data:`SEARCH_MARGIN`, except within :data:`NEAR_END` of the start and the goals, where
+    the rule asked decides (a goal just above a table is reached); a segment by
+    ``check_segment`` at the clearance asked (``exact``).  Built once per world and device
+    (the pairs, the trees); :meth:`problem` sets the ends."""
+
+    def __init__(self, world, model, device: str, tolerance: float, clearance: float = 0.0):
+        from ..collision.configurations import ConfigurationChecker
+
+        self.device = world.cell.devices[device]
+        self.search = ConfigurationChecker(
+            world, model, device, tolerance=tolerance, clearance=clearance + SEARCH_MARGIN
+        )
+        self.exact = ConfigurationChecker(
+            world, model, device, tolerance=tolerance, clearance=clearance
+        )
+        self.ends = np.zeros((0, self.device.dof))
+
+    def problem(self, start, goals) -> tuple[np.ndarray, str | None]:
+        """Set the ends: the goals that are free and touch nothing (an overlap within the
+        tolerance: every way into such a goal grazes what it touches) - (their indices, None),
+        or (empty, why no path can start or end)."""
+        start = np.asarray(start, dtype=float).ravel()
+        goals = np.atleast_2d(np.asarray(goals, dtype=float))
+        report = self.exact.check(np.concatenate([start[None], goals]))
+        if not report.free[0]:
+            words = nearest_words(self.exact, report, 0)
+            return np.zeros(0, dtype=int), f"the start is not free ({words})"
+        free, touching = report.free[1:], report.distance[1:] < 0.0
+        usable = np.flatnonzero(free & ~touching)
+        if not len(usable):
+            words = "; ".join(
+                nearest_words(self.exact, report, 1 + k) for k in range(min(3, len(goals)))
+            )
+            words += f"; and {len(goals) - 3} more" if len(goals) > 3 else ""
+            if (free & touching).any():
+                return usable, (
+                    f"every free goal state touches something ({words}): a motion into contact "
+                    "is a guarded or straight move's work (with 'touch:'); plan to a state clear "
+                    "of it (an offset) and approach from there"
+                )
+            return usable, f"no goal state is free ({words})"
+        self.ends = np.concatenate([start[None], goals[usable]])
+        return usable, None
+
+    def states_free(self, Q) -> np.ndarray:
+        """(N, n) joint states -> (N,) bool (the class docstring's rule)."""
+        Q = np.atleast_2d(np.asarray(Q, dtype=float))
+        near = (np.abs(Q[:, None, :] - self.ends[None]).max(axis=2) < NEAR_END).any(axis=1)
+        out = np.zeros(len(Q), dtype=bool)
+        if (~near).any():
+            out[~near] = self.search.check(Q[~near], nearest=False).free
+        if near.any():
+            out[near] = self.exact.check(Q[near], nearest=False).free
+        return out
+
+    def segment_free(self, qa, qb) -> bool:
+        """The straight segment free everywhere, at the clearance asked (continuous)."""
+        return bool(self.exact.check_segment(qa, qb).free)
+
+    def box(self) -> tuple[np.ndarray, np.ndarray]:
+        """The joint box sampled (:func:`sampled_box` of the limits)."""
+        return sampled_box(self.device.limit_array("lower")), sampled_box(
+            self.device.limit_array("upper")
+        )
+
+
+def plan_in_world(
+    world,
+    model,
+    device: str,
+    start,
+    goals,
+    *,
+    tolerance: float,
+    clearance: float = 0.0,
+    seed: int = 0,
+    timeout: float = 10.0,
+    progress: Callable[[int, int], None] | None = None,
+    checks: WorldChecks | None = None,
+) -> tuple[PathPlan, WorldChecks]:
+    """:func:`plan_path` for ``device`` in ``world`` as it is now, checked as
+    :class:`WorldChecks` says (``checks``: one built before for this world and device).
+    Goals that are not free or touch something are dropped first; with none left the plan
+    is not found and its reason names the nearest pairs.  Returns (plan, the checks)."""
+    checks = checks or WorldChecks(world, model, device, tolerance, clearance)
+    start = np.asarray(start, dtype=float).ravel()
+    goals = np.atleast_2d(np.asarray(goals, dtype=float))
+    usable, why = checks.problem(start, goals)
+    if why is not None:
+        return PathPlan(False, np.zeros((0, len(start))), reason=why), checks
+    lower, upper = checks.box()
+    plan = plan_path(
+        checks.states_free,
+        checks.segment_free,
+        start,
+        goals[usable],
+        lower,
+        upper,
+        seed=seed,
+        timeout=timeout,
+        progress=progress,
+    )
+    if plan.found:
+        plan.goal = int(usable[plan.goal])  # an index of the goals given
+    return plan, checks
+
+
+def sampled_box(limits: np.ndarray) -> np.ndarray:
+    """Joint limits with a turn in place of none (a joint without limits samples +-pi)."""
+    return np.where(np.isfinite(limits), limits, np.sign(limits) * np.pi)
+
+
+def nearest_words(checker, report, k: int) -> str:
+    """State ``k``'s nearest pair of a ``ConfigurationChecker`` report in words: 'link_2 and
+    table 3.1 mm deep'."""
+    i, j = report.pair[k]
+    if i < 0:
+        return "nothing near"
+    bodies = checker.model.bodies
+    d = float(report.distance[k])
+    if report.buried[k]:
+        how = "buried"
+    elif d < 0:
+        how = f"{-d * 1000:.3g} mm deep"
+    else:
+        how = f"{d * 1000:.3g} mm apart"
+    return f"{bodies[i].label} and {bodies[j].label} {how}"

@@ -1,0 +1,359 @@
+"""Collision-free joint paths: the planner on a plane with walls (exact answers), then on the
+Panda and the GP7 scenes of tests/data/motion with the collision room's checks, through the
+API, the program step ``path: free`` and ``rworld plan path``.
+
+Each planned path is re-checked by a checker the planner did not use: a fresh
+``ConfigurationChecker``'s continuous segment check and the states along it; a planned run
+passes ``rworld check`` (collisions with the guarantee between samples).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from rworld_cli.planning.motion import path_length, plan_path
+from tests.conftest import REPO
+
+MOTION = REPO / "tests" / "data" / "motion"
+PROBLEMS = yaml.safe_load((MOTION / "problems.yaml").read_text())["problems"]
+
+# ------------------------------------------------------------------ a plane with two walls
+# walls: x in (-0.05, 0.05) below y = 0.6; x in (0.45, 0.55) above y = -0.6
+
+
+def blocked(Q, margin: float = 0.0) -> np.ndarray:
+    Q = np.atleast_2d(Q)
+    first = (np.abs(Q[:, 0]) < 0.05 + margin) & (Q[:, 1] < 0.6 + margin)
+    second = (np.abs(Q[:, 0] - 0.5) < 0.05 + margin) & (Q[:, 1] > -0.6 - margin)
+    return first | second
+
+
+def segment_hits_box(a, b, lo, hi) -> bool:
+    """Whether the segment a-b meets the open box (lo, hi): slab clipping, exact."""
+    t0, t1 = 0.0, 1.0
+    d = b - a
+    for k in range(len(a)):
+        if abs(d[k]) < 1e-15:
+            if not lo[k] < a[k] < hi[k]:
+                return False
+            continue
+        ta, tb = sorted(((lo[k] - a[k]) / d[k], (hi[k] - a[k]) / d[k]))
+        t0, t1 = max(t0, ta), min(t1, tb)
+        if t0 >= t1:
+            return False
+    return True
+
+
+WALLS = [
+    (np.array([-0.05, -np.inf]), np.array([0.05, 0.6])),
+    (np.array([0.45, -0.6]), np.array([0.55, np.inf])),
+]
+
+
+def exact_segment_free(a, b, walls=WALLS) -> bool:
+    return not any(segment_hits_box(np.asarray(a), np.asarray(b), lo, hi) for lo, hi in walls)
+
+
+def plane_plan(seed=0, **kw):
+    return plan_path(
+        lambda Q: ~blocked(Q, 0.01),
+        exact_segment_free,
+        [-0.8, -0.8],
+        [0.8, 0.8],
+        [-1, -1],
+        [1, 1],
+        seed=seed,
+        **kw,
+    )
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_path_round_two_walls_is_free_inside_the_box_and_shortened(seed):
+    plan = plane_plan(seed)
+    assert plan.found and plan.reason is None
+    way = plan.waypoints
+    assert np.allclose(way[0], [-0.8, -0.8]) and np.allclose(way[-1], [0.8, 0.8])
+    assert all(exact_segment_free(a, b) for a, b in zip(way[:-1], way[1:]))
+    assert (way >= -1).all() and (way <= 1).all()
+    # around both walls: at least 2 + 2 * 1.2 long; shortcuts never lengthen
+    assert 4.4 < plan.length <= plan.raw_length + 1e-12
+    assert plan.length == pytest.approx(path_length(way))
+    assert plan.length < 5.3  # the raw tree paths run 6-8 (loose bound: any sane shortcutting)
+
+
+def test_the_same_seed_gives_the_same_path_and_another_seed_another():
+    a, b, c = plane_plan(3), plane_plan(3), plane_plan(4)
+    assert np.array_equal(a.waypoints, b.waypoints)
+    assert not np.array_equal(a.waypoints, c.waypoints)
+
+
+def test_a_straight_line_that_is_free_is_the_path():
+    plan = plan_path(
+        lambda Q: ~blocked(Q), exact_segment_free, [-0.8, -0.8], [-0.8, 0.8], [-1, -1], [1, 1]
+    )
+    assert plan.found and len(plan.waypoints) == 2 and plan.iterations == 0
+
+
+def test_a_wall_thinner_than_the_state_spacing_is_caught_by_the_continuous_check():
+    """The states 0.05 apart step over a 4 mm wall; the segment check does not, and the
+    segment is planned again between its ends with finer spacing."""
+    thin = [(np.array([0.298, -np.inf]), np.array([0.302, 0.5]))]
+
+    def states_free(Q):
+        Q = np.atleast_2d(Q)
+        return ~((np.abs(Q[:, 0] - 0.3) < 0.002) & (Q[:, 1] < 0.5))
+
+    repaired = 0
+    for seed in range(4):
+        plan = plan_path(
+            states_free,
+            lambda a, b: exact_segment_free(a, b, thin),
+            [0.0, 0.0],
+            [0.6, 0.0],
+            [-1, -1],
+            [1, 1],
+            seed=seed,
+        )
+        assert plan.found
+        way = plan.waypoints
+        assert all(exact_segment_free(a, b, thin) for a, b in zip(way[:-1], way[1:]))
+        assert way[:, 1].max() >= 0.5  # over the wall's end: the only way round
+        repaired += plan.repairs
+    assert repaired > 0
+
+
+def test_failures_say_why():
+    inside = plan_path(
+        lambda Q: ~blocked(Q), exact_segment_free, [0, 0], [0.8, 0.8], [-1, -1], [1, 1]
+    )
+    assert not inside.found and inside.reason == "the start state is not free"
+    goal = plan_path(
+        lambda Q: ~blocked(Q), exact_segment_free, [-0.8, 0], [0.5, 0], [-1, -1], [1, 1]
+    )
+    assert goal.reason == "no goal state is free"
+    # a goal walled in: the search runs out of time
+    ring = [
+        (np.array([0.6, 0.6]), np.array([0.95, 0.65])),
+        (np.array([0.6, 0.95]), np.array([0.95, 1.0])),
+        (np.array([0.6, 0.6]), np.array([0.65, 1.0])),
+        (np.array([0.9, 0.6]), np.array([0.95, 1.0])),
+    ]
+
+    def states_free(Q):
+        Q = np.atleast_2d(Q)
+        return ~np.any([np.all((Q > lo) & (Q < hi), axis=1) for lo, hi in ring], axis=0)
+
+    walled = plan_path(
+        states_free,
+        lambda a, b: exact_segment_free(a, b, ring),
+        [-0.8, -0.8],
+        [0.8, 0.8],
+        [-1, -1],
+        [1, 1],
+        timeout=0.3,
+    )
+    assert not walled.found and walled.reason == "no path found within the time limit"
+    with pytest.raises(ValueError, match="finite"):
+        plan_path(
+            lambda Q: Q[:, 0] == Q[:, 0], exact_segment_free, [0, 0], [1, 1], [-1, -np.inf], [1, 1]
+        )
+
+
+# ------------------------------------------------------------------ the scenes
+
+
+def scene(name: str):
+    from rworld_cli.api import device_context
+
+    device = "motoman_gp7" if name.startswith("gp7") else "panda"
+    return device_context(str(MOTION / name), device)
+
+
+def independent_check(ctx, way: np.ndarray, tolerance=1e-3):
+    """A checker the planner did not build: every segment continuous, and 50 states along
+    each exactly (their nearest pair's signed distance above minus the tolerance)."""
+    from rworld_cli.collision.bodies import collision_model
+    from rworld_cli.collision.configurations import ConfigurationChecker
+
+    checker = ConfigurationChecker(
+        ctx.world, collision_model(ctx.world.cell), ctx.device.name, tolerance=tolerance
+    )
+    for a, b in zip(way[:-1], way[1:]):
+        assert checker.check_segment(a, b).free
+        s = np.linspace(0.0, 1.0, 50)[:, None]
+        report = checker.check(a + s * (b - a))
+        assert report.free.all() and (report.distance > -tolerance).all()
+
+
+@pytest.mark.parametrize(
+    "problem", [p for p in PROBLEMS if p["scene"] in ("panda_fixtures", "gp7_shelf")][::4]
+)
+def test_planned_paths_pass_an_independent_checker(problem):
+    from rworld_cli.collision.bodies import collision_model
+    from rworld_cli.planning.motion import plan_in_world
+
+    ctx = scene(problem["scene"])
+    start, goal = np.array(problem["start"]), np.array(problem["goal"])
+    plan, checks = plan_in_world(
+        ctx.world,
+        collision_model(ctx.world.cell),
+        ctx.device.name,
+        start,
+        goal,
+        tolerance=1e-3,
+        timeout=30.0,
+    )
+    assert plan.found, plan.reason
+    assert np.array_equal(plan.waypoints[0], start) and np.array_equal(plan.waypoints[-1], goal)
+    assert not checks.segment_free(start, goal)  # the straight line was no answer
+    lo, hi = ctx.device.limit_array("lower"), ctx.device.limit_array("upper")
+    assert (plan.waypoints >= lo).all() and (plan.waypoints <= hi).all()
+    independent_check(ctx, plan.waypoints)
+
+
+def test_a_second_robot_is_planned_around_where_it_stands():
+    """panda_pair: the other Panda holds its reaching pose; paths of the first keep clear of
+    it, and a goal inside it is refused naming the pair."""
+    from rworld_cli.api import plan_free_path
+
+    ctx = scene("panda_pair")
+    problem = next(p for p in PROBLEMS if p["scene"] == "panda_pair")
+    planned = plan_free_path(ctx, ",".join(map(repr, problem["goal"])), problem["start"])
+    independent_check(ctx, planned.plan.waypoints)
+
+
+def test_the_path_file_is_the_polyline_checked_and_times(tmp_path):
+    from rworld_cli.api import load_joint_path, plan_free_path, time_optimal_plan
+
+    ctx = scene("panda_fixtures")
+    problem = next(p for p in PROBLEMS if p["scene"] == "panda_fixtures")
+    goal = ",".join(map(repr, problem["goal"]))
+    out = tmp_path / "p.yaml"
+    planned = plan_free_path(ctx, goal, problem["start"], output=str(out))
+    again = tmp_path / "q.yaml"
+    plan_free_path(ctx, goal, problem["start"], output=str(again))
+    assert out.read_bytes() == again.read_bytes()  # same seed, same file
+    path = load_joint_path(str(out), ctx.device)
+    way = planned.plan.waypoints
+    assert np.array_equal(path.waypoints, way)  # rad, written with repr: bit for bit
+    s = np.linspace(0, 1, 2001)
+    q = path.evaluate(s)[0]
+    knots = planned.knots
+    piece = np.clip(np.searchsorted(knots, s, side="right") - 1, 0, len(way) - 2)
+    a, b = way[piece], way[piece + 1]
+    along = np.einsum("ij,ij->i", q - a, b - a) / np.einsum("ij,ij->i", b - a, b - a)
+    assert np.abs(q - (a + along[:, None] * (b - a))).max() < 1e-12  # on the straight lines
+    assert (along > -1e-12).all() and (along < 1 + 1e-12).all()
+    timed = time_optimal_plan(ctx, str(out), samples=200)
+    assert timed.timing.duration > 0 and timed.peak_ratio["velocity"] <= 1 + 1e-9
+
+
+def run_program(tmp_path: Path, steps: list[str], name: str):
+    from rworld_cli.api import simulate_run
+
+    program = tmp_path / f"{name}.yaml"
+    program.write_text(
+        "device: panda\nunits: {length: mm, angle: rad}\nsteps:\n"
+        + "".join(f"  - {s}\n" for s in steps)
+    )
+    return simulate_run(str(MOTION / "panda_fixtures"), str(program))
+
+
+@pytest.mark.parametrize("k", range(5))
+def test_runs_with_free_paths_pass_the_check_where_straight_moves_collide(tmp_path, k):
+    """Seeded problems of the fixtures scene as programs: the straight joint move collides;
+    with ``path: free`` the run passes the collision check with its guarantee between
+    samples, and its events name the via points."""
+    problem = [p for p in PROBLEMS if p["scene"] == "panda_fixtures"][k]
+    start = "[" + ", ".join(map(repr, problem["start"])) + "]"
+    goal = "[" + ", ".join(map(repr, problem["goal"])) + "]"
+    _, straight = run_program(
+        tmp_path, [f"move: {{joints: {start}}}", f"move: {{joints: {goal}}}"], "s"
+    )
+    assert straight.collisions.collisions
+    _, free = run_program(
+        tmp_path,
+        [f"move: {{joints: {start}, path: free}}", f"move: {{joints: {goal}, path: free}}"],
+        "f",
+    )
+    assert not free.collisions.collisions and not free.collisions.clearance_violations
+    moves = [e.detail for e in free.events if e.kind == "move" and e.step == 1]
+    assert len(moves) >= 2 and "via point 1 of" in moves[0]
+    assert np.allclose(free.devices["panda"].q[-1], problem["goal"])
+
+
+def touching_state(ctx) -> np.ndarray:
+    """A Panda state whose hand touches something within the 1 mm tolerance (the divider's
+    top: the open fingers straddle it): the shoulder lowered from home until the nearest pair
+    overlaps by less than 0.9 mm (bisection)."""
+    from rworld_cli.collision.bodies import collision_model
+    from rworld_cli.collision.configurations import ConfigurationChecker
+
+    checker = ConfigurationChecker(ctx.world, collision_model(ctx.world.cell), "panda")
+    home = np.asarray(ctx.device.home, dtype=float)
+    way = np.zeros(7)
+    way[1], way[3] = 1.0, 0.6  # shoulder forward, elbow opened: the hand goes down ahead
+
+    def signed(t):
+        return float(checker.check((home + t * way)[None]).distance[0])
+
+    lo, hi = 0.0, 1.5
+    assert signed(lo) > 0 > signed(hi)
+    for _ in range(60):
+        mid = (lo + hi) / 2
+        d = signed(mid)
+        if -9e-4 < d < 0:
+            return home + mid * way
+        lo, hi = (mid, hi) if d > 0 else (lo, mid)
+    raise AssertionError("no touching state found")
+
+
+def test_a_goal_in_contact_is_refused_with_the_reason(cli):
+    """A goal free only by touching (an overlap within the tolerance): every way into it
+    grazes what it touches, so it is refused before any search, naming the pair."""
+    from rworld_cli.errors import CheckFailed
+
+    ctx = scene("panda_fixtures")
+    goal = touching_state(ctx)
+    from rworld_cli.api import plan_free_path
+
+    with pytest.raises(CheckFailed, match="touches something .*mm deep.*approach from there"):
+        plan_free_path(ctx, ",".join(map(repr, goal.tolist())), "home")
+    r = cli(
+        ["plan", "path", str(MOTION / "panda_fixtures"), "--to", ",".join(map(repr, goal.tolist()))]
+    )
+    assert r.exit_code == 1 and "touches something" in r.stderr
+
+
+def test_path_free_is_refused_on_linear_and_guarded_moves(tmp_path):
+    from rworld_cli.errors import UserError
+
+    with pytest.raises(UserError) as raised:
+        run_program(tmp_path, ["move: {to: home, motion: linear, path: free}"], "l")
+    assert "'path: free' plans a joint move" in str(raised.value.issues[0])
+
+
+def test_plan_path_command(cli, tmp_path):
+    problem = next(p for p in PROBLEMS if p["scene"] == "panda_fixtures")
+    cell = str(MOTION / "panda_fixtures")
+    start = ",".join(map(repr, problem["start"]))
+    goal = ",".join(map(repr, problem["goal"]))
+    out = tmp_path / "p.yaml"
+    r = cli(["plan", "path", cell, "--from", start, "--to", goal, "-o", str(out), "--no-progress"])
+    assert r.exit_code == 0, r.output
+    assert "a free path" in r.stdout and out.is_file()
+    r = cli(["--json", "plan", "path", cell, "--from", start, "--to", goal])
+    doc = json.loads(r.stdout)
+    assert r.exit_code == 0 and doc["found"] and len(doc["waypoints"]) >= 3
+    assert doc["waypoints"][0] == problem["start"] and doc["written"] is None
+    r = cli(["plan", "path", cell, "--to", "nowhere"])
+    assert r.exit_code == 2 and "neither a named position" in r.stderr
+    r = cli(["plan", "path", cell, "--to", "home", "--clearance", "-3mm"])
+    assert r.exit_code == 2
+    r = cli(["plan", "path", "--help"])
+    assert "Examples:" in r.stdout
