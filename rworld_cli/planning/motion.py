@@ -599,11 +599,23 @@ def nearest_words(checker, report, k: int) -> str:
     if i < 0:
         return "nothing near"
     bodies = checker.model.bodies
+    return f"{bodies[i].label} and {bodies[j].label} {_how(report, k)}"
+
+
+def first_contact_words(checker, found) -> str:
+    """Where a segment's check (``check_segment``'s report ``found``) found its first contact,
+    in words: 'link_2 into link_4 at 40 % of the move'."""
+    bodies = checker.model.bodies
+    i, j = found.pair if found.pair is not None else (-1, -1)
+    if i < 0:
+        return "not proved free"
+    return f"{bodies[i].label} into {bodies[j].label} at {100 * found.first:.0f} % of the move"
+
+
+def _how(report, k: int) -> str:
     d = float(report.distance[k])
     if report.buried[k]:
-        how = "buried"
-    elif d < 0:
-        how = f"{-d * 1000:.3g} mm deep"
-    else:
-        how = f"{d * 1000:.3g} mm apart"
-    return f"{bodies[i].label} and {bodies[j].label} {how}"
+        return "buried"
+    if d < 0:
+        return f"{-d * 1000:.3g} mm deep"
+    return f"{d * 1000:.3g} mm apart"

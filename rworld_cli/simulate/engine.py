@@ -488,7 +488,10 @@ class _Scheduler(FeatureSteps):
             best, result = None, None
             Q, ok, order = solve_ik_soonest(dev, T_base, q_now, mount, position_only, seed, accept)
             if ok.any():
-                best = Q[order[0]]
+                reached = [int(k) for k in order if ok[k]]
+                best = Q[reached[0]]
+                if step.goal is not None and not step.touch:  # a free turn: one that is clear
+                    best = Q[self._clear_turn(device, tr, step, q_now, Q, reached)]
             else:  # from the joints now no candidate converged: restarts, nearest turn first
                 for T in T_base:
                     result = solve_ik(dev, T, mount, seed, position_only, accept=accept)
@@ -514,6 +517,64 @@ class _Scheduler(FeatureSteps):
                 result.unreachable(name, tcp, [j.name for j in dev.joints], position_only),
             )
         return self._joint_move(device, tr, step, q_now, best, speed, acceleration)
+
+    def _checker_at(self, device: str, t: float, q):
+        """A ``ConfigurationChecker`` of ``device`` in the world at instant ``t`` (the other
+        devices where their programs have them, the affixments of the moment), the device
+        at ``q``: collisions by the run's tolerance (what a turn or a route is chosen by; a
+        required clearance is the check's to report, not a reason to refuse a step)."""
+        from ..collision.configurations import ConfigurationChecker
+
+        return ConfigurationChecker(
+            self.world,
+            self._world_at(device, t, q),
+            device,
+            tolerance=self.run.collision_tolerance,
+        )
+
+    def _world_at(self, device: str, t: float, q):
+        """The world at instant ``t`` with ``device`` at ``q``; returns the collision model
+        (built by the first caller)."""
+        from ..collision.bodies import collision_model
+
+        if self._collisions is None:
+            self._collisions = collision_model(self.run.cell)
+        self.set_time(t)
+        self.world.set_joints(device, q)
+        return self._collisions
+
+    def _clear_turn(self, device, tr, step, q_now, Q, reached: list[int]) -> int:
+        """Of the free turns reached (``reached``: indices into Q, soonest first), the first
+        whose joint move from ``q_now`` collides with nothing (the continuous segment check;
+        for ``path: free`` its end state alone, free and touching nothing: the planner finds
+        the way).  None clear: the step fails naming each turn tried and its collision."""
+        hits = []
+        for k in reached:
+            hit = self._joint_line_collision(device, tr, step, q_now, Q[k])
+            if hit is None:
+                return k
+            hits.append(f"{self._turn_words(step.goal, [k])[0]}: {hit}")
+        self.unreachable(
+            device,
+            step,
+            f"no turn about {step.goal.feature} is reached without a collision; tried "
+            f"{len(hits)}: " + "; ".join(hits),
+        )
+        raise AssertionError("unreachable() raises")
+
+    def _joint_line_collision(self, device, tr, step, q0, q1) -> str | None:
+        """Whether the joint move q0 -> q1 (its end alone, for ``path: free``) collides in
+        the world at this instant: None, or the collision in words."""
+        from ..planning.motion import first_contact_words, nearest_words
+
+        checker = self._checker_at(device, tr.t, q0)
+        if getattr(step.spec, "path", "straight") == "free":
+            report = checker.check(np.asarray(q1)[None])
+            if report.free[0] and report.distance[0] >= 0.0:
+                return None
+            return nearest_words(checker, report, 0)
+        found = checker.check_segment(q0, q1)
+        return None if found.free else first_contact_words(checker, found)
 
     def _record_move(
         self,
@@ -596,16 +657,11 @@ class _Scheduler(FeatureSteps):
         clearance and collision tolerance; seeded by the step's index), driven as joint moves
         through its via points, each at rest there.  No path: the target is unreachable (exit
         1), with the planner's reason."""
-        from ..collision.bodies import collision_model
         from ..planning.motion import plan_in_world
 
-        if self._collisions is None:
-            self._collisions = collision_model(self.run.cell)
-        self.set_time(tr.t)
-        self.world.set_joints(device, q_now)
         plan, _ = plan_in_world(
             self.world,
-            self._collisions,
+            self._world_at(device, tr.t, q_now),
             device,
             q_now,
             seg.q_end[None],

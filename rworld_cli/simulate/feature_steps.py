@@ -84,13 +84,18 @@ class FeatureSteps:
         tcp = self.world.affixment(f.owner).parent  # held: the frame it is affixed to
         return tcp, self.world.T(tcp, f.owner) @ outward_frame(f)
 
-    def _through(self, device, tr, step, tcp, routes, speeds, until=None):
-        """Run the first route whose moves all work: each route a list of (motion,
-        ``T_world_tcp``); the first move a joint move, the others straight lines at
-        ``speeds[k]``.  A route that fails (no solution, a line out of the workspace) gives
-        way to the next; when all fail, the first's failure is reported."""
+    def _through(self, device, tr, step, tcp, routes, speeds, until=None, turns=None):
+        """Run the first route whose moves all work and collide with nothing: each route a
+        list of (motion, ``T_world_tcp``); the first move a joint move, the others straight
+        lines at ``speeds[k]``.  A route that fails (no solution, a line out of the
+        workspace) or whose moves collide (:meth:`_route_collision`: a link into another, the
+        wrist through the table) gives way to the next, in the order given (soonest reached
+        first).  When all fail: the first's failure if none was reachable, else each turn
+        tried (``turns``: their labels) with what stopped it."""
         first_error = None
-        for route in routes:
+        tried: list[str] = []
+        turns = turns or [f"route {k + 1}" for k in range(len(routes))]
+        for route, turn in zip(routes, turns):
             mark = (tr.t, len(tr.segments), len(self._actions), len(self.events))
             q_mark = self.world.joints(device).copy()
             try:
@@ -109,14 +114,54 @@ class FeatureSteps:
                         until if last else None,
                         step.goal.feature,
                     )
-                return
+                hit = self._route_collision(device, tr.segments[mark[1] :], mark[0], q_mark)
+                if hit is None:
+                    return
+                tried.append(f"{turn}: {hit}")
             except UnreachableTarget as exc:
                 first_error = first_error or exc
-                tr.t = mark[0]
-                del tr.segments[mark[1] :], self._actions[mark[2] :], self.events[mark[3] :]
-                self.set_time(tr.t)
-                self.world.set_joints(device, q_mark)
-        raise first_error
+                tried.append(f"{turn}: unreachable")
+            tr.t = mark[0]
+            del tr.segments[mark[1] :], self._actions[mark[2] :], self.events[mark[3] :]
+            self.set_time(tr.t)
+            self.world.set_joints(device, q_mark)
+        if first_error is not None and all(t.endswith(": unreachable") for t in tried):
+            raise first_error
+        raise UnreachableTarget(
+            f"{step.where}: {device} step {step.index + 1} ({step.describe()}): no turn about "
+            f"the feature works without a collision; tried {len(tried)}: " + "; ".join(tried)
+        )
+
+    def _route_collision(self, device, segments, t0, q0) -> str | None:
+        """Whether a route's moves (``segments``, from ``q0`` at ``t0``) collide in the world
+        as it is at ``t0`` - the rule of ``rworld check`` (no overlap deeper than the run's
+        tolerance, nothing buried; a required clearance is the check's to report): joint
+        moves by the continuous segment check, straight lines at their samples.  None, or
+        the first collision in words ('link_2_l into link_4_r at 40 % of the move')."""
+        from ..motion.trajectory import JointMove
+        from ..planning.motion import first_contact_words
+
+        checker = self._checker_at(device, t0, q0)
+        for n, seg in enumerate(segments):
+            if isinstance(seg, JointMove):
+                report = checker.check_segment(seg.q_start, seg.q_end)
+                if not report.free:
+                    return first_contact_words(checker, report)
+                continue
+            times = np.append(np.arange(seg.t0, seg.t1, self.run.dt), seg.t1)
+            Q = seg.sample(times)[0]
+            free = checker.check(Q, nearest=False).free
+            if not free.all():
+                report = checker.check(Q[int(np.argmin(free))][None])
+                i, j = report.pair[0]
+                bodies = checker.model.bodies
+                return f"{bodies[i].label} into {bodies[j].label} on straight move {n}"
+        return None
+
+    def _turn_words(self, goal, order) -> list[str]:
+        """The turns about the feature, as the messages name them ('spin 45 deg')."""
+        spins = self._spins(goal)
+        return [f"spin {np.degrees(spins[k]):.0f} deg" for k in order]
 
     def _ranked(self, device, step, tcp, T_world_first: np.ndarray) -> list[int]:
         """Spin candidates in the order a joint move reaches their first pose soonest; those
@@ -142,7 +187,8 @@ class FeatureSteps:
         self._within_reach(device, step, tcp, starts)
         order = self._ranked(device, step, tcp, starts)
         routes = [[("joint", starts[k]), ("linear", ends[k])] for k in order]
-        self._through(device, tr, step, tcp, routes, [1.0, speed], until)  # in at speed
+        turns = self._turn_words(step.goal, order) if len(starts) > 1 else None
+        self._through(device, tr, step, tcp, routes, [1.0, speed], until, turns)  # in at speed
 
     def _insert(self, device, tr, step) -> bool:
         goal = step.goal
@@ -219,7 +265,8 @@ class FeatureSteps:
             [("joint", start[k]), ("linear", a[k]), ("linear", b[k]), ("linear", end[k])]
             for k in order
         ]
-        self._through(device, tr, step, tcp, routes, [1.0, 0.25, fraction, 0.25])
+        turns = self._turn_words(goal, order)
+        self._through(device, tr, step, tcp, routes, [1.0, 0.25, fraction, 0.25], turns=turns)
         # the speed held: the line along the edge took its trapezoid's time, no longer
         along_edge = self._actions[-2].move
         length = abs(s1 - s0)

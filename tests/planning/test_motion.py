@@ -253,38 +253,48 @@ def test_the_path_file_is_the_polyline_checked_and_times(tmp_path):
     assert timed.timing.duration > 0 and timed.peak_ratio["velocity"] <= 1 + 1e-9
 
 
-def run_program(tmp_path: Path, steps: list[str], name: str):
+def run_program(tmp_path: Path, steps: list[str], name: str, where="panda_fixtures"):
     from rworld_cli.api import simulate_run
 
+    device = "motoman_gp7" if where.startswith("gp7") else "panda"
     program = tmp_path / f"{name}.yaml"
     program.write_text(
-        "device: panda\nunits: {length: mm, angle: rad}\nsteps:\n"
+        f"device: {device}\nunits: {{length: mm, angle: rad}}\nsteps:\n"
         + "".join(f"  - {s}\n" for s in steps)
     )
-    return simulate_run(str(MOTION / "panda_fixtures"), str(program))
+    return simulate_run(str(MOTION / where), str(program))
 
 
-@pytest.mark.parametrize("k", range(5))
-def test_runs_with_free_paths_pass_the_check_where_straight_moves_collide(tmp_path, k):
-    """Seeded problems of the fixtures scene as programs: the straight joint move collides;
-    with ``path: free`` the run passes the collision check with its guarantee between
-    samples, and its events name the via points."""
-    problem = [p for p in PROBLEMS if p["scene"] == "panda_fixtures"][k]
+SEEDED = [p for p in PROBLEMS if p["scene"] == "panda_fixtures"][:5] + [
+    p for p in PROBLEMS if p["scene"] != "panda_fixtures"
+][::10]  # five of the fixtures scene, then one of each other scene
+
+
+@pytest.mark.parametrize("problem", SEEDED, ids=lambda p: p["scene"])
+def test_runs_with_free_paths_pass_the_check_where_straight_moves_collide(tmp_path, problem):
+    """Seeded problems of the scenes as programs: the straight joint move collides; with
+    ``path: free`` the run passes the collision check with its guarantee between samples
+    (0 failures over the set), and its events name the via points."""
     start = "[" + ", ".join(map(repr, problem["start"])) + "]"
     goal = "[" + ", ".join(map(repr, problem["goal"])) + "]"
+    scene_name = problem["scene"]
     _, straight = run_program(
-        tmp_path, [f"move: {{joints: {start}}}", f"move: {{joints: {goal}}}"], "s"
+        tmp_path,
+        [f"move: {{joints: {start}, path: free}}", f"move: {{joints: {goal}}}"],
+        "s",
+        scene_name,
     )
     assert straight.collisions.collisions
     _, free = run_program(
         tmp_path,
         [f"move: {{joints: {start}, path: free}}", f"move: {{joints: {goal}, path: free}}"],
         "f",
+        scene_name,
     )
     assert not free.collisions.collisions and not free.collisions.clearance_violations
     moves = [e.detail for e in free.events if e.kind == "move" and e.step == 1]
     assert len(moves) >= 2 and "via point 1 of" in moves[0]
-    assert np.allclose(free.devices["panda"].q[-1], problem["goal"])
+    assert np.allclose(free.devices[problem["device"]].q[-1], problem["goal"])
 
 
 def touching_state(ctx) -> np.ndarray:
@@ -357,3 +367,80 @@ def test_plan_path_command(cli, tmp_path):
     assert r.exit_code == 2
     r = cli(["plan", "path", "--help"])
     assert "Examples:" in r.stdout
+
+
+# ------------------------------------------------------------------ free turns chosen clear
+
+
+@pytest.fixture(scope="module")
+def gp7_edges(tmp_path_factory):
+    """The GP7 vendor cell (its meshes, the table, the holed plate) with three edges of the
+    plate as line features, and programs that follow them or move to them from a joint
+    state above the plate."""
+    import shutil
+
+    folder = tmp_path_factory.mktemp("gp7") / "gp7"
+    shutil.copytree(REPO / "tests" / "data" / "vendor_cells" / "gp7", folder)
+    cell = (folder / "cell.yaml").read_text()
+    cell = cell.replace(
+        "    geometry: {mesh: {file: meshes/plate.stl, units: mm}}\n",
+        "    geometry: {mesh: {file: meshes/plate.stl, units: mm}}\n"
+        "    features:\n"
+        "      - {name: far_edge, line: {point: [0.16, 0, 0.015], direction: [0, 1, 0]}}\n"
+        "      - {name: side_edge, line: {point: [0, 0, 0.015], direction: [1, 0, 0]}}\n",
+    )
+    (folder / "cell.yaml").write_text(cell)
+    start = "  - move: {joints: [0, 20, -20, 0, -70, 0]}\n"
+    head = "device: motoman_gp7\nunits: {angle: deg, length: mm}\nsteps:\n" + start
+    follow = "  - follow: {edge: plate.%s, speed: 20mm/s, from: 10, to: 100, approach: 30}\n"
+    for edge in ("far_edge", "side_edge"):
+        (folder / "programs" / f"follow_{edge}.yaml").write_text(head + follow % edge + start)
+    (folder / "programs" / "move_far.yaml").write_text(
+        head + "  - move: {to: {feature: plate.far_edge, standoff: 30}}\n"
+    )
+    return folder
+
+
+def test_a_follow_takes_a_turn_whose_moves_collide_with_nothing(gp7_edges, monkeypatch):
+    """The soonest-reached turn about the far edge drives the wrist into the table (the
+    choice before this rule, had here by switching the route check off); the turn taken now
+    passes the check."""
+    from rworld_cli.api import simulate_run
+    from rworld_cli.simulate.feature_steps import FeatureSteps
+
+    program = str(gp7_edges / "programs" / "follow_far_edge.yaml")
+    _, result = simulate_run(str(gp7_edges), program)
+    assert not result.collisions.collisions
+    monkeypatch.setattr(FeatureSteps, "_route_collision", lambda *args: None)
+    _, blind = simulate_run(str(gp7_edges), program)
+    assert {c.contact.a for c in blind.collisions.collisions} == {"table"}
+
+
+def test_a_follow_no_turn_of_which_is_clear_names_each_turn_and_its_collision(gp7_edges):
+    """The side edge: every reachable turn runs link 2 into link 4 or the wrist into the plate
+    on the way (the issue's GP7 case): refused, each of the 24 turns named."""
+    from rworld_cli.simulate.errors import UnreachableTarget
+
+    folder = gp7_edges
+    with pytest.raises(UnreachableTarget) as raised:
+        from rworld_cli.api import simulate_run
+
+        simulate_run(str(folder), str(folder / "programs" / "follow_side_edge.yaml"))
+    message = str(raised.value)
+    assert "no turn about the feature works without a collision; tried 24" in message
+    assert message.count("spin ") == 24
+    assert "link_2_l into motoman_gp7.link_4_r at" in message and "unreachable" in message
+
+
+def test_a_move_to_a_feature_takes_a_clear_turn(gp7_edges, monkeypatch):
+    """A joint move to a feature target: the soonest turn's move runs the wrist into the
+    table (had by switching the rule off); the turn taken is reached without a collision."""
+    from rworld_cli.api import simulate_run
+    from rworld_cli.simulate.engine import _Scheduler
+
+    program = str(gp7_edges / "programs" / "move_far.yaml")
+    _, result = simulate_run(str(gp7_edges), program)
+    assert not result.collisions.collisions
+    monkeypatch.setattr(_Scheduler, "_joint_line_collision", lambda *args: None)
+    _, blind = simulate_run(str(gp7_edges), program)
+    assert {c.contact.a for c in blind.collisions.collisions} == {"table"}

@@ -58,14 +58,16 @@ def shelf(x: float, width: float, depth: float, levels, prefix="shelf"):
 
 
 def bin_(x: float, inner: float, height: float):
-    """An open bin on the table: a floor and four walls."""
+    """An open bin on the table: a floor and four walls standing on it, meeting face to face
+    (static bodies that overlap would be collisions of the cell itself)."""
     t = 0.01
+    wall, z = height - t, t + (height - t) / 2
     return [
         box("bin_floor", [inner + 2 * t, inner + 2 * t, t], [x, 0, t / 2]),
-        box("bin_near", [t, inner + 2 * t, height], [x - inner / 2 - t / 2, 0, height / 2]),
-        box("bin_far", [t, inner + 2 * t, height], [x + inner / 2 + t / 2, 0, height / 2]),
-        box("bin_left", [inner, t, height], [x, inner / 2 + t / 2, height / 2]),
-        box("bin_right", [inner, t, height], [x, -inner / 2 - t / 2, height / 2]),
+        box("bin_near", [t, inner + 2 * t, wall], [x - inner / 2 - t / 2, 0, z]),
+        box("bin_far", [t, inner + 2 * t, wall], [x + inner / 2 + t / 2, 0, z]),
+        box("bin_left", [inner, t, wall], [x, inner / 2 + t / 2, z]),
+        box("bin_right", [inner, t, wall], [x, -inner / 2 - t / 2, z]),
     ]
 
 
@@ -85,7 +87,7 @@ SCENES = {
     "gp7_fixtures": (
         GP7,
         [
-            box("wall", [0.02, 0.5, 0.5], [0.42, 0.25, 0.55]),
+            box("wall", [0.02, 0.5, 0.5], [0.38, 0.25, 0.55]),
             box("post", [0.08, 0.08, 0.6], [0.35, -0.3, 0.6]),
         ],
     ),
@@ -139,6 +141,8 @@ def write_scene(name: str) -> Path:
         }
         poses["poses"]["table"] = {"xyz": [0.45, 0.0, 0.0]}
         poses["poses"]["table.top"] = {"xyz": [0.0, 0.0, 0.0]}
+    if base == GP7:  # home with the arm drawn back: the shelf and the wall are where it reaches
+        cell["devices"][0]["home"] = [0.0, -0.6, 0.3, 0.0, -0.5, 0.0]
     if name == "gp7_shelf":  # the shelf stands on the floor: no table, no plate
         cell["objects"] = []
         cell.pop("affixments", None)
