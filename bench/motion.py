@@ -21,7 +21,8 @@ rworld asks an edge's states in one batch and checks its final segments continuo
 lengths are Euclidean in joint space [rad].
 
 Reported per robot and overall: success rate, median and 95th-percentile planning time, median
-path length, and each side's median over the problems both solved.
+path length, and each side's median over the problems both solved.  ``--phases``: where
+rworld's time goes on each scene (search, shortcuts, the final continuous checks).
 
 VAMP (``vamp-planner``, the speed anchor the issue names) is not on the package index this
 machine reaches (``vamp`` on PyPI is an unrelated audio package), so it is not run.
@@ -120,6 +121,53 @@ def rworld_plan(world, model, device, checks, start, goal, timeout: float, seed:
     return plan.found, plan.waypoints, time.perf_counter() - t0
 
 
+def phases(scene: str, items: list[dict]) -> None:
+    """Where rworld's time goes on a scene's problems: the search, the shortcuts and the
+    final segments' continuous checks (wall time, states asked), one process."""
+    import rworld_cli.planning.motion as motion
+
+    world, model, checks = scene_checks(scene, items[0]["device"])
+    states = [0, 0.0]
+    states_free = checks.states_free
+
+    def counted(Q):
+        t0 = time.perf_counter()
+        out = states_free(Q)
+        states[0] += len(np.atleast_2d(Q))
+        states[1] += time.perf_counter() - t0
+        return out
+
+    checks.states_free = counted
+    spent = {name: [0, 0.0] for name in ("_connect_trees", "_shortcut", "_validated")}
+    originals = {name: getattr(motion, name) for name in spent}
+    for name, original in originals.items():
+
+        def timed(*args, _original=original, _name=name, **kw):
+            before, t0 = states[0], time.perf_counter()
+            out = _original(*args, **kw)
+            spent[_name][0] += states[0] - before
+            spent[_name][1] += time.perf_counter() - t0
+            return out
+
+        setattr(motion, name, timed)
+    t0 = time.perf_counter()
+    for k, p in enumerate(items):
+        rworld_plan(world, model, p["device"], checks, p["start"], p["goal"], 10.0, seed=k)
+    total = time.perf_counter() - t0
+    for name, original in originals.items():
+        setattr(motion, name, original)
+    print(
+        f"{scene}: {len(items)} problems in {total:.3f} s; states asked {states[0]} in "
+        f"{states[1]:.3f} s ({1e6 * states[1] / max(states[0], 1):.0f} us a state)"
+    )
+    for name, label in (
+        ("_connect_trees", "search"),
+        ("_shortcut", "shortcuts"),
+        ("_validated", "continuous checks of the final segments"),
+    ):
+        print(f"  {label}: {spent[name][1]:.3f} s, {spent[name][0]} states")
+
+
 def length(way: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(way, axis=0), axis=1).sum()) if len(way) > 1 else 0.0
 
@@ -142,6 +190,9 @@ def main() -> None:
     parser.add_argument("--only", nargs="*", default=None, help="scenes to run")
     parser.add_argument("--limit", type=int, default=None, help="problems per scene at most")
     parser.add_argument("--no-ompl", action="store_true", help="rworld alone")
+    parser.add_argument(
+        "--phases", action="store_true", help="where rworld's time goes, per scene (no OMPL)"
+    )
     args = parser.parse_args()
     problems = yaml.safe_load(PROBLEMS.read_text())["problems"]
     scenes: dict[str, list[dict]] = {}
@@ -160,6 +211,11 @@ def main() -> None:
         f"# Motion planning beside OMPL: {cpu}, Python {platform.python_version()}, "
         f"timeout {args.timeout:g} s\n"
     )
+    if args.phases:
+        for scene, items in scenes.items():
+            phases(scene, items[: args.limit] if args.limit else items)
+        sys.stdout.flush()
+        os._exit(0)
     rows = []
     for scene, items in scenes.items():
         items = items[: args.limit] if args.limit else items

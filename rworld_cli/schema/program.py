@@ -161,6 +161,11 @@ class PlaceSpec(Strict):
         "50mm", description="Face on a feature: the approach, straight down the normal."
     )
     speed: Fraction = Field(0.1, description="Face on a feature: the last straight move's speed.")
+    path: Literal["straight", "free"] = Field(
+        "straight",
+        description="The joint move to the approach: 'straight' in joint space, or 'free': a "
+        "collision-free joint path planned when the step runs (docs/planning.md).",
+    )
 
 
 class InsertSpec(Strict):
@@ -180,6 +185,11 @@ class InsertSpec(Strict):
     )
     spin: Angle | None = Field(
         None, description="The turn about the axis; default chosen for reach."
+    )
+    path: Literal["straight", "free"] = Field(
+        "straight",
+        description="The joint move to the approach: 'straight' in joint space, or 'free': a "
+        "collision-free joint path planned when the step runs (docs/planning.md).",
     )
 
 
@@ -207,6 +217,11 @@ class FollowSpec(Strict):
     approach: Length = Field("30mm", description="Into and out of the path, away from the edge.")
     spin: Angle | None = Field(None, description="The turn about the line; default chosen.")
     tcp: FrameRef | None = Field(None, description="The tool frame; default the active TCP.")
+    path: Literal["straight", "free"] = Field(
+        "straight",
+        description="The joint move to the approach: 'straight' in joint space, or 'free': a "
+        "collision-free joint path planned when the step runs (docs/planning.md).",
+    )
 
 
 class ToolSpec(Strict):

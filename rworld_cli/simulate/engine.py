@@ -36,7 +36,7 @@ from ..motion.linear import PathError, linear_move
 from ..motion.trajectory import StoppedMove, UntimedMove, joint_move, sample_track
 from ..units import MAX_SAMPLES
 from ..world.tree import AffixmentError, World
-from .errors import SimulationError, UnreachableTarget
+from .errors import NoFreePath, SimulationError, UnreachableTarget
 from .feature_steps import FeatureSteps
 
 FREE_PATH_TIMEOUT = 10.0  # [s] a 'path: free' move's search gives up after this
@@ -597,7 +597,7 @@ class _Scheduler(FeatureSteps):
         if (
             seg is not None
             and motion == "joint"
-            and step.kind == "move"
+            and step.kind in ("move", "insert", "place", "follow")  # their approach moves
             and getattr(step.spec, "path", "straight") == "free"
             and not self._in_free_path
         ):
@@ -671,7 +671,10 @@ class _Scheduler(FeatureSteps):
             timeout=FREE_PATH_TIMEOUT,
         )
         if not plan.found:
-            self.unreachable(device, step, f"no collision-free path to '{name}': {plan.reason}")
+            raise NoFreePath(
+                f"{step.where}: {device} step {step.index + 1} ({step.describe()}): no "
+                f"collision-free path to '{name}': {plan.reason}"
+            )
         way = plan.waypoints
         self._in_free_path = True
         try:

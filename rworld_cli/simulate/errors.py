@@ -14,3 +14,8 @@ class UnreachableTarget(SimulationError):
     the program is well formed but fails the check - exit 1, with the step."""
 
     exit_code = 1
+
+
+class NoFreePath(UnreachableTarget):
+    """A ``path: free`` move found no collision-free path to its target (exit 1, with the
+    planner's reason)."""

@@ -27,7 +27,7 @@ from ..world.feature_targets import (
     plane_coordinates,
     spun,
 )
-from .errors import UnreachableTarget
+from .errors import NoFreePath, UnreachableTarget
 
 
 class FeatureSteps:
@@ -118,6 +118,9 @@ class FeatureSteps:
                 if hit is None:
                     return
                 tried.append(f"{turn}: {hit}")
+            except NoFreePath as exc:
+                first_error = first_error or exc
+                tried.append(f"{turn}: no free path ({str(exc).split(': ', 3)[-1]})")
             except UnreachableTarget as exc:
                 first_error = first_error or exc
                 tried.append(f"{turn}: unreachable")

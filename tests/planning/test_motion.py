@@ -444,3 +444,24 @@ def test_a_move_to_a_feature_takes_a_clear_turn(gp7_edges, monkeypatch):
     monkeypatch.setattr(_Scheduler, "_joint_line_collision", lambda *args: None)
     _, blind = simulate_run(str(gp7_edges), program)
     assert {c.contact.a for c in blind.collisions.collisions} == {"table"}
+
+
+def test_feature_steps_take_path_free_for_their_approach(gp7_edges):
+    """``follow: {..., path: free}``: the approach planned (the far edge: the run passes);
+    where no turn's approach state is free (the side edge: link 2 into link 4), each turn is
+    named with the planner's reason."""
+    from rworld_cli.api import simulate_run
+    from rworld_cli.simulate.errors import UnreachableTarget
+
+    programs = gp7_edges / "programs"
+    for edge in ("far_edge", "side_edge"):
+        text = (programs / f"follow_{edge}.yaml").read_text()
+        (programs / f"free_{edge}.yaml").write_text(
+            text.replace("approach: 30}", "approach: 30, path: free}")
+        )
+    _, result = simulate_run(str(gp7_edges), str(programs / "free_far_edge.yaml"))
+    assert not result.collisions.collisions
+    with pytest.raises(UnreachableTarget) as raised:
+        simulate_run(str(gp7_edges), str(programs / "free_side_edge.yaml"))
+    message = str(raised.value)
+    assert "spin 0 deg: no free path (no goal state is free (motoman_gp7.link_2_l and" in message
