@@ -12,6 +12,7 @@ from typing import Any
 import click
 
 EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
+EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE: what a shell reports for a writer whose reader left
 
 
 def json_option(fn: Callable) -> Callable:
@@ -134,6 +135,14 @@ def handle_errors(fn: Callable) -> Callable:
         except KeyboardInterrupt:
             click.echo("interrupted", err=True)
             sys.exit(130)
+        except BrokenPipeError:
+            # the reader of stdout went away (`rworld ... | head -1`): no bug, no message; the
+            # command did not finish, so it wrote nothing (its output set was dropped).  Python
+            # would report the pipe again when it flushes stdout at exit: point it at devnull
+            import os
+
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            sys.exit(EXIT_BROKEN_PIPE)
         except Exception as exc:  # a bug: say so plainly
             import os
             import traceback

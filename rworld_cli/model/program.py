@@ -92,6 +92,7 @@ class Step:
     configuration: dict[str, str] = field(default_factory=dict)  # shoulder, elbow, wrist
     near: np.ndarray | None = None  # (n,) joint values to take the solution nearest to (SI)
     joints: np.ndarray | None = None  # (n,) a move's joint goal (``joints:``), SI
+    waypoints: np.ndarray | None = None  # (W, n) a move along a path file's segments, SI
     goal: FeatureGoal | None = None  # a step on features (docs/programs.md)
 
     def describe(self) -> str:
@@ -103,6 +104,8 @@ class Step:
                 + (" (linear)" if s.motion == "linear" else "")
                 + (f" until {s.until}" if s.until else "")
             )
+        if self.kind == "move" and self.waypoints is not None:
+            return f"move along {s.path}"
         if self.kind == "move":
             return (
                 f"move to {s.to if s.to is not None else 'joint values'}"

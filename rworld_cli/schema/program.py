@@ -115,18 +115,37 @@ class MoveSpec(Strict):
         "unit). Deeper is a collision.",
     )
 
-    path: Literal["straight", "free"] = Field(
+    path: str = Field(
         "straight",
         description="A joint move: 'straight' goes along the straight line in joint space; "
         "'free' plans a collision-free joint path when the step runs (in the world as it is "
-        "then: other devices, grasps, calibrated poses) and goes through its via points "
-        "(docs/planning.md).",
+        "then: other devices, grasps, calibrated poses) and goes through its via points; a "
+        "path file (paths/a.yaml, relative to the program; 'boundary: segments', as 'rworld "
+        "plan path' writes it) is driven through its waypoints, from the joints the step "
+        "starts at (docs/planning.md).",
     )
 
     @model_validator(mode="after")
     def _one_goal(self):
+        if self.path not in ("straight", "free"):  # a path file: its last waypoint is the goal
+            if self.to is not None or self.joints is not None:
+                raise ValueError("a move along a path file has its goal there: no 'to' or 'joints'")
+            if (
+                self.motion == "linear"
+                or self.offset is not None
+                or self.config is not None
+                or self.until is not None
+            ):
+                raise ValueError(
+                    "a move along a path file is joint moves through its waypoints: no linear "
+                    "motion, offset, config or guard ('until')"
+                )
+            return self
         if (self.to is None) == (self.joints is None):
-            raise ValueError("give the move one goal: 'to' (a frame or position) or 'joints'")
+            raise ValueError(
+                "give the move one goal: 'to' (a frame or position), 'joints' or a path file "
+                "('path: paths/a.yaml')"
+            )
         if self.joints is not None and (
             self.motion == "linear" or self.offset is not None or self.config is not None
         ):

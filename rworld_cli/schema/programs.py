@@ -83,6 +83,38 @@ def _check_config(doc, path, spec, step, device, named, L, A, issues) -> None:
     step.near = near
 
 
+def _path_goal(doc, path, spec, step, device, issues) -> None:
+    """``move: {path: FILE}``: the path file read against the device (relative to the
+    program's folder), its waypoints the step's; it must be straight segments (``boundary:
+    segments``: the lines 'rworld plan path' checked), its problems located in it."""
+    from .paths import read_path
+
+    if device is None:
+        return
+    where = Path(doc.file).parent / spec.path
+    if not where.is_file():
+        issues.append(doc.issue(path, f"no such path file: {where}"))
+        return
+    try:
+        loaded = read_path(str(where), device)
+    except UserError as exc:
+        issues.append(doc.issue(path, f"the path file is invalid: {exc.message}"))
+        issues.extend(exc.issues)
+        return
+    if loaded.spec.boundary != "segments":
+        issues.append(
+            doc.issue(
+                path,
+                f"{spec.path} is a spline ('boundary: {loaded.spec.boundary}'): a program "
+                "drives a path file's straight segments ('boundary: segments', as 'rworld plan "
+                "path' writes it); time a spline with 'rworld plan time-optimal'",
+            )
+        )
+        return
+    step.waypoints = np.asarray(loaded.spec.waypoints, dtype=float)
+    step.joints = step.waypoints[-1].copy()
+
+
 def _check_move_details(
     doc, path, spec, step, device, named, cell, units, L, A, issues, device_name
 ) -> None:
@@ -453,7 +485,11 @@ def _check_program(
         line = doc.position(("steps", i))[0]
         step = Step(i, raw.kind, spec, f"{doc.file}:{line}")
         after_guard = i > 0 and pf.steps[i - 1].kind == "move" and pf.steps[i - 1].move.until
-        if raw.kind == "move" and spec.joints is not None:
+        if raw.kind == "move" and spec.path not in ("straight", "free"):
+            _path_goal(doc, path + ("path",), spec, step, device, issues)
+            if spec.tcp is not None:
+                frame(path + ("tcp",), spec.tcp)
+        elif raw.kind == "move" and spec.joints is not None:
             _check_joint_goal(doc, path + ("joints",), spec, step, device, L, A, issues)
         elif raw.kind == "move" and isinstance(spec.to, sp.FeatureTarget):
             features.step(path, "move", spec, step, False)

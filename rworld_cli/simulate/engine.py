@@ -39,6 +39,7 @@ from ..world.tree import AffixmentError, World
 from .errors import NoFreePath, SimulationError, UnreachableTarget
 from .feature_steps import FeatureSteps
 
+PATH_START_TOLERANCE = 1e-6  # [rad or m] a path file's first waypoint against the joints
 FREE_PATH_TIMEOUT = 10.0  # [s] a 'path: free' move's search gives up after this
 LATCH_TIME = 1e-9  # [s]: a guarded move's contact instant is found to this (a probe's latch)
 
@@ -349,6 +350,30 @@ class _Scheduler(FeatureSteps):
         spec = step.spec
         dev = self.run.cell.devices[device]
         q_now = self.world.joints(device)
+        if step.waypoints is not None:  # move: {path: FILE}
+            way = step.waypoints
+            off = np.abs(way[0] - q_now)
+            if off.max() > PATH_START_TOLERANCE:
+                j = int(np.argmax(off))
+                self.fail(
+                    device,
+                    step,
+                    f"the path starts with {dev.joints[j].name} at {way[0][j]:.6g}, and the "
+                    f"device is at {q_now[j]:.6g} (SI): a path file is driven from where it "
+                    "starts - plan it from the joints this step starts at ('rworld plan path "
+                    "--from'), or move there first",
+                )
+            self._drive_through(
+                device,
+                tr,
+                step,
+                np.concatenate([q_now[None], way[1:]]),
+                step.spec.path,
+                self._resolve_tcp(device, step.spec.tcp),
+                None,
+                None,
+            )
+            return True
         if step.joints is not None:  # move: {joints: [...]}
             seg = self._joint_move(device, tr, step, q_now, step.joints)
             self._record_move(device, tr, step, q_now, seg, seg, "joint values", until=spec.until)
@@ -675,7 +700,12 @@ class _Scheduler(FeatureSteps):
                 f"{step.where}: {device} step {step.index + 1} ({step.describe()}): no "
                 f"collision-free path to '{name}': {plan.reason}"
             )
-        way = plan.waypoints
+        return self._drive_through(device, tr, step, plan.waypoints, name, tcp, speed, acceleration)
+
+    def _drive_through(self, device, tr, step, way, name, tcp, speed, acceleration):
+        """Joint moves through the states ``way`` (W, n) - a planned path's or a path
+        file's - each at rest, each recorded as a move of the step (its event naming the
+        leg); returns the last."""
         self._in_free_path = True
         try:
             last = None

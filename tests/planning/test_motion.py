@@ -10,6 +10,7 @@ passes ``rworld check`` (collisions with the guarantee between samples).
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -465,3 +466,61 @@ def test_feature_steps_take_path_free_for_their_approach(gp7_edges):
         simulate_run(str(gp7_edges), str(programs / "free_side_edge.yaml"))
     message = str(raised.value)
     assert "spin 0 deg: no free path (no goal state is free (motoman_gp7.link_2_l and" in message
+
+
+def test_a_program_drives_a_planned_path_file(tmp_path):
+    """``rworld plan path -o`` then ``move: {path: FILE}``: the run goes through the file's
+    waypoints and passes the check; a path that does not start where the device is, a spline
+    path file and a path with a goal of its own are refused, located."""
+    from rworld_cli.api import plan_free_path, simulate_run
+    from rworld_cli.errors import UserError
+    from rworld_cli.simulate.errors import SimulationError
+
+    ctx = scene("panda_fixtures")
+    problem = next(p for p in PROBLEMS if p["scene"] == "panda_fixtures")
+    planned = plan_free_path(
+        ctx, ",".join(map(repr, problem["goal"])), "home", output=str(tmp_path / "p.yaml")
+    )
+    cell = str(MOTION / "panda_fixtures")
+
+    def program(name: str, steps: str) -> str:
+        (tmp_path / name).write_text(f"device: panda\nsteps:\n{steps}")
+        return str(tmp_path / name)
+
+    _, result = simulate_run(
+        cell, program("ok.yaml", "  - move: {to: home}\n  - move: {path: p.yaml}\n")
+    )
+    assert not result.collisions.collisions
+    assert np.allclose(result.devices["panda"].q[-1], problem["goal"])
+    legs = [e for e in result.events if e.kind == "move" and e.step == 1]
+    assert len(legs) == len(planned.plan.waypoints) - 1
+    with pytest.raises(SimulationError, match="the path starts with panda_joint2 at -0.785398"):
+        simulate_run(cell, program("off.yaml", "  - move: {to: ready}\n  - move: {path: p.yaml}\n"))
+    (tmp_path / "spline.yaml").write_text((REPO / "workcells/panda/paths/sweep.yaml").read_text())
+    with pytest.raises(UserError) as raised:
+        simulate_run(cell, program("s.yaml", "  - move: {path: spline.yaml}\n"))
+    assert "is a spline ('boundary: clamped')" in str(raised.value.issues[0])
+    with pytest.raises(UserError) as raised:
+        simulate_run(cell, program("b.yaml", "  - move: {path: p.yaml, to: home}\n"))
+    assert "has its goal there" in str(raised.value.issues[0])
+
+
+def test_a_reader_that_leaves_early_is_no_bug():
+    """``rworld plan path ... | head -c 10``: exit 141 (the shell's broken pipe), no 'internal
+    error', nothing written."""
+    import subprocess
+    import sys
+
+    problem = next(p for p in PROBLEMS if p["scene"] == "panda_fixtures")
+    goal = ",".join(map(repr, problem["goal"]))
+    code = (
+        "import sys; from rworld_cli.cli import main; sys.argv = ['rworld'] + sys.argv[1:]; main()"
+    )
+    args = [sys.executable, "-c", code, "plan", "path", str(MOTION / "panda_fixtures"), "--from"]
+    args += ["home", "--to", goal, "--no-progress"]
+    read, write = os.pipe()
+    os.close(read)  # the reader is gone before the first line
+    done = subprocess.run(args, stdout=write, stderr=subprocess.PIPE, text=True, cwd=REPO)
+    os.close(write)
+    assert done.returncode == 141, done.stderr
+    assert "internal error" not in done.stderr
