@@ -342,6 +342,11 @@ def check(
 
     for line in unlimited_notes(result) + collision_notes(result):
         click.echo(f"note: {line}", err=True)
+    for e in result.events:  # what the steps found questionable, where they are
+        if e.kind == "warning":
+            where = result.step_where.get(e.device, [])
+            at = where[e.step] if e.step is not None and e.step < len(where) else e.device
+            click.echo(f"{at}: warning: {e.detail}", err=True)
     report = result.collisions
     if result.ok:
         free = (

@@ -152,6 +152,7 @@ class Run:
     warnings: list[Issue] = field(default_factory=list)
     clearance: float = 0.0  # required distance between bodies that may not touch [m]
     collision_tolerance: float = 1e-3  # contacts shallower may be missed between instants [m]
+    paths: str = "straight"  # the path: of joint moves that give none ('straight' | 'free')
 
 
 @dataclass

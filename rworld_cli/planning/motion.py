@@ -153,18 +153,24 @@ class _Search:
         count = max(1, int(np.ceil(span / resolution)))
         s = np.arange(1, count + 1) / count
         Q = q0 + s[:, None] * (q1 - q0)
-        # in order, in batches that double (8, 16, 32, ...): a line blocked near its start
-        # costs a few states, a free one a few calls more than one batch
+        first = self._first_blocked(Q)
+        if first is None:
+            return 1.0, True
+        return (float(s[first - 1]) if first else 0.0), False
+
+    def _first_blocked(self, Q: np.ndarray) -> int | None:
+        """The first of the states ``Q`` (M, n), in order, that is not free (None: all are),
+        asked in batches that double (8, 16, 32, ...): a line blocked early costs a few
+        states, a free one a few calls more than one batch."""
         done, size = 0, FIRST_BATCH
-        while done < count:
-            part = slice(done, min(count, done + size))
+        while done < len(Q):
+            part = slice(done, min(len(Q), done + size))
             free = np.asarray(self.states_free(Q[part]), dtype=bool)
             self.states_checked += len(free)
             if not free.all():
-                first = done + int(np.argmin(free))
-                return (float(s[first - 1]) if first else 0.0), False
+                return done + int(np.argmin(free))
             done, size = part.stop, 2 * size
-        return 1.0, True
+        return None
 
     def line_free(self, q0, q1, resolution: float | None = None) -> bool:
         """Whether every state along q0 -> q1 at ``resolution`` apart (q0 excluded) is free:
@@ -177,16 +183,7 @@ class _Search:
         k = np.arange(1, count + 1)
         # the largest power of two dividing k, largest first: 1/2, 1/4 and 3/4, ...
         order = k[np.argsort(-(k & -k), kind="stable")]
-        Q = q0 + (order / count)[:, None] * (q1 - q0)
-        done, size = 0, FIRST_BATCH
-        while done < count:
-            part = slice(done, min(count, done + size))
-            free = np.asarray(self.states_free(Q[part]), dtype=bool)
-            self.states_checked += len(free)
-            if not free.all():
-                return False
-            done, size = part.stop, 2 * size
-        return True
+        return self._first_blocked(q0 + (order / count)[:, None] * (q1 - q0)) is None
 
     def segment(self, q0, q1) -> bool:
         self.segments_checked += 1

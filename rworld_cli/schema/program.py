@@ -395,6 +395,12 @@ class RunFile(Strict):
         description="Contacts shallower than this may be missed between two simulated instants "
         "(default 1mm); see docs/collision.md.",
     )
+    paths: Literal["straight", "free"] = Field(
+        "straight",
+        description="The 'path:' of every joint move that gives none (and of insert, place and "
+        "follow's approach; not linear or guarded moves): 'free' plans each around what is in "
+        "the way when it runs (docs/planning.md).",
+    )
 
     @field_validator("clearance", "collision_tolerance")
     @classmethod

@@ -666,6 +666,7 @@ def load_run(
         warnings,
         clearance=lengths.get("clearance", 0.0),
         collision_tolerance=lengths.get("collision_tolerance", COLLISION_TOLERANCE),
+        paths=rf.paths,
     )
 
 

@@ -39,6 +39,7 @@ from ..world.tree import AffixmentError, World
 from .errors import NoFreePath, SimulationError, UnreachableTarget
 from .feature_steps import FeatureSteps
 
+IK_STARTS = 24  # seeded IK starts for a target's other joint solutions (a blocked move)
 PATH_START_TOLERANCE = 1e-6  # [rad or m] a path file's first waypoint against the joints
 FREE_PATH_TIMEOUT = 10.0  # [s] a 'path: free' move's search gives up after this
 LATCH_TIME = 1e-9  # [s]: a guarded move's contact instant is found to this (a probe's latch)
@@ -509,6 +510,10 @@ class _Scheduler(FeatureSteps):
         if len(T_base) == 1:
             result = solve_ik(dev, T_base[0], mount, seed, position_only, accept=accept)
             best = result.q if result.success else None
+            if best is not None and step.kind == "move" and not step.touch and step.near is None:
+                best = self._clear_solution(
+                    device, tr, step, dev, mount, q_now, T_base[0], position_only, best, accept
+                )
         else:
             best, result = None, None
             Q, ok, order = solve_ik_soonest(dev, T_base, q_now, mount, position_only, seed, accept)
@@ -543,6 +548,20 @@ class _Scheduler(FeatureSteps):
             )
         return self._joint_move(device, tr, step, q_now, best, speed, acceleration)
 
+    def _path_of(self, step) -> str:
+        """A step's ``path:``: its own when it gives one (or a path file), else the run's
+        default (``paths:``) - never for a linear or guarded move, nor one that may touch
+        (``touch:``: contact is its point, and the planner avoids it)."""
+        spec = step.spec
+        path = getattr(spec, "path", "straight")
+        if path not in ("straight", "free") or "path" in getattr(spec, "model_fields_set", ()):
+            return path
+        if step.kind == "move" and (
+            spec.motion == "linear" or spec.until is not None or step.touch
+        ):
+            return "straight"
+        return self.run.paths
+
     def _checker_at(self, device: str, t: float, q):
         """A ``ConfigurationChecker`` of ``device`` in the world at instant ``t`` (the other
         devices where their programs have them, the affixments of the moment), the device
@@ -568,24 +587,76 @@ class _Scheduler(FeatureSteps):
         self.world.set_joints(device, q)
         return self._collisions
 
+    def _clear_solution(
+        self, device, tr, step, dev, mount, q_now, T_base, position_only, best, accept
+    ):
+        """The joint solution a move takes: ``best`` (the one IK reached from the seed) when
+        its move collides with nothing, else the soonest reached of the target's other
+        solutions (other arm configurations, found from :data:`IK_STARTS` seeded starts;
+        the configuration asked for, if any) whose move is clear.  None clear: ``best``,
+        with a warning naming each solution tried and its first contact (the check then
+        reports the collision, and the run can be watched)."""
+        from ..kinematics.inverse import solve_ik_many
+
+        hit = self._joint_line_collision(device, tr, step, q_now, best)
+        if hit is None:
+            return best
+        rng = np.random.default_rng(step.index)
+        lo, hi = dev.limit_array("lower"), dev.limit_array("upper")
+        lo, hi = np.where(np.isfinite(lo), lo, -np.pi), np.where(np.isfinite(hi), hi, np.pi)
+        starts = rng.uniform(lo, hi, (IK_STARTS, dev.dof))
+        Q, ok = solve_ik_many(
+            dev, np.repeat(T_base[None], IK_STARTS, 0), starts, mount, position_only
+        )
+        if accept is not None and ok.any():
+            ok = ok & np.asarray(accept(Q), dtype=bool)
+        found = [np.asarray(best, dtype=float)]
+        for q in Q[ok]:
+            if all(np.abs(q - other).max() > 1e-3 for other in found):
+                found.append(q)
+        v = dev.limit_array("velocity")
+        v = np.where(np.isfinite(v) & (v > 0), v, 1.0)
+        others = sorted(found[1:], key=lambda q: float(np.max(np.abs(q - q_now) / v)))
+        tried = [(found[0], hit)]
+        for q in others:
+            hit = self._joint_line_collision(device, tr, step, q_now, q)
+            if hit is None:
+                return q
+            tried.append((q, hit))
+        words = [
+            f"{_said(arm_configurations(dev, q).names()) if is_arm(dev) else f'solution {k + 1}'}"
+            f": {why}"
+            for k, (q, why) in enumerate(tried)
+        ]
+        self.warn(
+            device,
+            tr,
+            step,
+            f"no joint solution for '{step.spec.to}' is reached without a collision (the "
+            f"first is taken, and the check reports it); tried {len(tried)}: " + "; ".join(words),
+        )
+        return best
+
     def _clear_turn(self, device, tr, step, q_now, Q, reached: list[int]) -> int:
         """Of the free turns reached (``reached``: indices into Q, soonest first), the first
         whose joint move from ``q_now`` collides with nothing (the continuous segment check;
         for ``path: free`` its end state alone, free and touching nothing: the planner finds
-        the way).  None clear: the step fails naming each turn tried and its collision."""
+        the way).  None clear: the soonest, with a warning naming each turn tried and its
+        collision (the check reports it)."""
         hits = []
         for k in reached:
             hit = self._joint_line_collision(device, tr, step, q_now, Q[k])
             if hit is None:
                 return k
             hits.append(f"{self._turn_words(step.goal, [k])[0]}: {hit}")
-        self.unreachable(
+        self.warn(
             device,
+            tr,
             step,
-            f"no turn about {step.goal.feature} is reached without a collision; tried "
-            f"{len(hits)}: " + "; ".join(hits),
+            f"no turn about {step.goal.feature} is reached without a collision (the soonest is "
+            f"taken, and the check reports it); tried {len(hits)}: " + "; ".join(hits),
         )
-        raise AssertionError("unreachable() raises")
+        return reached[0]
 
     def _joint_line_collision(self, device, tr, step, q0, q1) -> str | None:
         """Whether the joint move q0 -> q1 (its end alone, for ``path: free``) collides in
@@ -593,7 +664,7 @@ class _Scheduler(FeatureSteps):
         from ..planning.motion import first_contact_words, nearest_words
 
         checker = self._checker_at(device, tr.t, q0)
-        if getattr(step.spec, "path", "straight") == "free":
+        if self._path_of(step) == "free":
             report = checker.check(np.asarray(q1)[None])
             if report.free[0] and report.distance[0] >= 0.0:
                 return None
@@ -623,7 +694,7 @@ class _Scheduler(FeatureSteps):
             seg is not None
             and motion == "joint"
             and step.kind in ("move", "insert", "place", "follow")  # their approach moves
-            and getattr(step.spec, "path", "straight") == "free"
+            and self._path_of(step) == "free"
             and not self._in_free_path
         ):
             return self._free_path(device, tr, step, q_now, seg, name, tcp, speed, acceleration)

@@ -84,16 +84,19 @@ class FeatureSteps:
         tcp = self.world.affixment(f.owner).parent  # held: the frame it is affixed to
         return tcp, self.world.T(tcp, f.owner) @ outward_frame(f)
 
-    def _through(self, device, tr, step, tcp, routes, speeds, until=None, turns=None):
+    def _through(self, device, tr, step, tcp, routes, speeds, until=None, turns=None, clear=True):
         """Run the first route whose moves all work and collide with nothing: each route a
         list of (motion, ``T_world_tcp``); the first move a joint move, the others straight
         lines at ``speeds[k]``.  A route that fails (no solution, a line out of the
         workspace) or whose moves collide (:meth:`_route_collision`: a link into another, the
         wrist through the table) gives way to the next, in the order given (soonest reached
-        first).  When all fail: the first's failure if none was reachable, else each turn
-        tried (``turns``: their labels) with what stopped it."""
+        first).  When none is reachable: the first's failure; when every reachable one
+        collides: the first reachable is driven (``clear`` False: no route check), with a
+        warning naming each turn tried (``turns``: their labels) and what stopped it - the
+        check then reports the collision, and the run can be watched."""
         first_error = None
         tried: list[str] = []
+        reachable = None  # the first route whose moves work, collisions aside
         turns = turns or [f"route {k + 1}" for k in range(len(routes))]
         for route, turn in zip(routes, turns):
             mark = (tr.t, len(tr.segments), len(self._actions), len(self.events))
@@ -114,10 +117,13 @@ class FeatureSteps:
                         until if last else None,
                         step.goal.feature,
                     )
+                if not clear:
+                    return
                 hit = self._route_collision(device, tr.segments[mark[1] :], mark[0], q_mark)
                 if hit is None:
                     return
                 tried.append(f"{turn}: {hit}")
+                reachable = reachable or (route, turn)
             except NoFreePath as exc:
                 first_error = first_error or exc
                 tried.append(f"{turn}: no free path ({str(exc).split(': ', 3)[-1]})")
@@ -128,12 +134,24 @@ class FeatureSteps:
             del tr.segments[mark[1] :], self._actions[mark[2] :], self.events[mark[3] :]
             self.set_time(tr.t)
             self.world.set_joints(device, q_mark)
-        if first_error is not None and all(t.endswith(": unreachable") for t in tried):
-            raise first_error
-        raise UnreachableTarget(
-            f"{step.where}: {device} step {step.index + 1} ({step.describe()}): no turn about "
-            f"the feature works without a collision; tried {len(tried)}: " + "; ".join(tried)
+        if reachable is None:
+            if not any(": no free path (" in t for t in tried):
+                raise first_error if first_error is not None else UnreachableTarget(step.where)
+            raise UnreachableTarget(  # the planner's reason for each turn it could not serve
+                f"{step.where}: {device} step {step.index + 1} ({step.describe()}): no turn "
+                f"about the feature has a collision-free approach; tried {len(tried)}: "
+                + "; ".join(tried)
+            )
+        # every reachable route collides: the first is driven, the check reports it
+        self.warn(
+            device,
+            tr,
+            step,
+            f"no turn about {step.goal.feature} works without a collision (the first reached, "
+            f"{reachable[1]}, is taken, and the check reports it); tried {len(tried)}: "
+            + "; ".join(tried),
         )
+        self._through(device, tr, step, tcp, [reachable[0]], speeds, until, [reachable[1]], False)
 
     def _route_collision(self, device, segments, t0, q0) -> str | None:
         """Whether a route's moves (``segments``, from ``q0`` at ``t0``) collide in the world

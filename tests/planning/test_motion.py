@@ -419,18 +419,79 @@ def test_a_follow_takes_a_turn_whose_moves_collide_with_nothing(gp7_edges, monke
 
 def test_a_follow_no_turn_of_which_is_clear_names_each_turn_and_its_collision(gp7_edges):
     """The side edge: every reachable turn runs link 2 into link 4 or the wrist into the plate
-    on the way (the issue's GP7 case): refused, each of the 24 turns named."""
-    from rworld_cli.simulate.errors import UnreachableTarget
+    on the way (the issue's GP7 case): the first reachable is driven, so that the check
+    reports the collision and the run can be watched, with a warning naming each of the 24
+    turns and what stopped it."""
+    from rworld_cli.api import simulate_run
 
     folder = gp7_edges
-    with pytest.raises(UnreachableTarget) as raised:
-        from rworld_cli.api import simulate_run
+    _, result = simulate_run(str(folder), str(folder / "programs" / "follow_side_edge.yaml"))
+    assert result.collisions.collisions
+    warnings = [e.detail for e in result.events if e.kind == "warning"]
+    assert len(warnings) == 1
+    assert "no turn about plate.side_edge works without a collision" in warnings[0]
+    assert "tried 24" in warnings[0] and warnings[0].count("spin ") == 25  # and the one taken
+    assert "link_2_l into motoman_gp7.link_4_r at" in warnings[0] and "unreachable" in warnings[0]
 
-        simulate_run(str(folder), str(folder / "programs" / "follow_side_edge.yaml"))
-    message = str(raised.value)
-    assert "no turn about the feature works without a collision; tried 24" in message
-    assert message.count("spin ") == 24
-    assert "link_2_l into motoman_gp7.link_4_r at" in message and "unreachable" in message
+
+@pytest.fixture
+def puma_post(tmp_path) -> Path:
+    """The Puma cell with a post in the way of its move from ready to above the workpiece."""
+    import shutil
+
+    cell = tmp_path / "puma"
+    shutil.copytree(REPO / "workcells" / "puma560", cell)
+    text = (cell / "cell.yaml").read_text()
+    (cell / "cell.yaml").write_text(
+        text.replace(
+            "\nsensors:\n",
+            "  - name: post\n    mass: 5.0\n    geometry: {box: [0.12, 0.12, 0.12]}\n\nsensors:\n",
+            1,
+        )
+    )
+    with (cell / "poses.yaml").open("a") as f:
+        f.write("  post: {xyz: [0.72, 0.05, 0.79]}\n")
+    (cell / "programs" / "blocked.yaml").write_text(
+        "device: puma\nunits: {length: mm, angle: deg}\nsteps:\n  - move: {to: ready}\n"
+        "  - move: {to: workpiece.grasp, tcp: probe, offset: {xyz: [0, 0, -100]}}\n"
+        "  - move: {to: home}\n"
+    )
+    return cell
+
+
+def test_a_blocked_frame_target_tries_its_other_joint_solutions(puma_post):
+    """The straight joint move of the solution IK reaches from the joints now runs into the
+    post: the target's other joint solutions are tried (here the second differs by a turn of
+    the wrist, and is blocked too); the first is driven and reported, with a warning naming
+    each solution and its first contact."""
+    from rworld_cli.api import simulate_run
+
+    _, result = simulate_run(str(puma_post), str(puma_post / "programs" / "blocked.yaml"))
+    assert {c.contact.a for c in result.collisions.collisions} == {"post"}
+    (warning,) = [e.detail for e in result.events if e.kind == "warning"]
+    assert "no joint solution for 'workpiece.grasp' is reached without a collision" in warning
+    assert "tried 2: shoulder front, elbow up, wrist noflip: post into puma.link4 at" in warning
+
+
+def test_a_run_makes_free_paths_its_default(puma_post):
+    """``paths: free`` in the run file: every joint move that gives no ``path:`` is planned
+    (the blocked program passes); a move that says ``path: straight`` keeps its line."""
+    from rworld_cli.api import simulate_run
+
+    runs = puma_post / "runs"
+    (runs / "free.yaml").write_text("programs: [../programs/blocked.yaml]\ndt: 0.01\npaths: free\n")
+    _, result = simulate_run(str(puma_post), "free")
+    assert not result.collisions.collisions
+    legs = [e.detail for e in result.events if e.kind == "move" and e.step == 1]
+    assert len(legs) >= 2 and "via point 1 of" in legs[0]
+    program = (puma_post / "programs" / "blocked.yaml").read_text()
+    (puma_post / "programs" / "blocked.yaml").write_text(
+        program.replace(
+            "offset: {xyz: [0, 0, -100]}}", "offset: {xyz: [0, 0, -100]}, path: straight}"
+        )
+    )
+    _, straight = simulate_run(str(puma_post), "free")
+    assert {c.contact.a for c in straight.collisions.collisions} == {"post"}
 
 
 def test_a_move_to_a_feature_takes_a_clear_turn(gp7_edges, monkeypatch):
