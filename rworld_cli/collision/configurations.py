@@ -302,12 +302,19 @@ class ConfigurationChecker:
         if found is None:
             return False
         status, near = found
-        s, c = np.nonzero((status == 0) | (status == 1) | (status == 4))
+        # the common answer, every pair passed (spheres apart, or walked and farther than the
+        # watched distance): free, nothing to tally
+        passed = (status == 3) | ((status == 0) & ~(near <= watch))
+        if passed.all():
+            return True
+        # the pairs that tell: a collision, one within the watched distance, a buried suspect
+        s, c = np.nonzero((status == 1) | (status == 4) | ((status == 0) & (near <= watch)))
         p = fused["pairs"][c]
         value = near[s, c]
         signed = np.where((status[s, c] == 1) | (value <= watch), value, np.inf)
         # a witness point in the other's closed-mesh box (the kernel's 4): the winding number
-        buried_now = self._buried(placed, s, p, status[s, c] == 4)
+        suspects = status[s, c] == 4
+        buried_now = self._buried(placed, s, p, suspects) if suspects.any() else suspects
         self._tally(s, p, signed, buried_now, distance, nearest_pair, free, buried)
         # overlaps the walk could not call deep enough: measured exactly, pair by pair, each
         # at the states still free
