@@ -49,12 +49,14 @@ class PlannedPath:
     tolerance: float
     knots: np.ndarray
     written: str | None = None
+    offset: list[float] | None = None  # [m] a frame target moved along its axes
 
     def as_dict(self) -> dict:
         p = self.plan
         return {
             "device": self.device,
             "target": self.target,
+            "offset": self.offset,
             "found": p.found,
             "reason": p.reason,
             "waypoints": p.waypoints.tolist(),
@@ -98,29 +100,39 @@ def named_state(ctx: DeviceContext, text: str, what: str) -> np.ndarray:
     return q
 
 
-def goal_states(ctx: DeviceContext, to: str, start: np.ndarray, seed: int) -> np.ndarray:
+def goal_states(
+    ctx: DeviceContext, to: str, start: np.ndarray, seed: int, offset=None
+) -> np.ndarray:
     """The goal states for ``to``: a named position or joint values (one state), or a frame of
-    the cell, whose IK solutions within the limits (from the start and from
-    :data:`IK_SEEDS` random starts) are the goals, nearest the start first (G, n)."""
-    from ..kinematics.inverse import solve_ik
+    the cell - moved by ``offset`` (3,) [m] along its own axes (a pre-grasp point above a
+    grasp frame) - whose IK solutions within the limits (from the start and from
+    :data:`IK_SEEDS` random starts, one batch) are the goals, nearest the start first (G, n)."""
+    from ..kinematics.inverse import solve_ik, solve_ik_many
     from ..planning.motion import sampled_box
 
     cell = ctx.world.cell
     if to not in cell.frames:
+        if offset is not None:
+            raise UserError(f"--offset moves a frame; '{to}' is a joint position")
         return named_state(ctx, to, "--to")[None]
     dev = ctx.device
-    T_base = np.linalg.inv(ctx.T_world_base) @ ctx.world.T_world(to)
+    T_world = ctx.world.T_world(to).copy()
+    if offset is not None:
+        T_world[:3, 3] += T_world[:3, :3] @ np.asarray(offset, dtype=float)
+    T_base = np.linalg.inv(ctx.T_world_base) @ T_world
     lower, upper = dev.limit_array("lower"), dev.limit_array("upper")
     rng = np.random.default_rng(seed)
-    seeds = [start] + list(rng.uniform(sampled_box(lower), sampled_box(upper), (IK_SEEDS, dev.dof)))
+    seeds = np.concatenate(
+        [start[None], rng.uniform(sampled_box(lower), sampled_box(upper), (IK_SEEDS, dev.dof))]
+    )
+    Q, ok = solve_ik_many(
+        dev, np.repeat(T_base[None], len(seeds), 0), seeds, ctx.mount, dev.dof < 6
+    )
     found: list[np.ndarray] = []
-    first = None
-    for q_seed in seeds:
-        result = solve_ik(dev, T_base, ctx.mount, q_seed, dev.dof < 6, restarts=0)
-        first = first or result
-        if result.success and all(np.abs(result.q - q).max() > 1e-3 for q in found):
-            found.append(np.asarray(result.q, dtype=float))
-    if not found:
+    for q in Q[ok]:
+        if all(np.abs(q - other).max() > 1e-3 for other in found):
+            found.append(np.asarray(q, dtype=float))
+    if not found:  # with restarts, for the figures of why not
         result = solve_ik(dev, T_base, ctx.mount, start, dev.dof < 6)
         if not result.success:
             raise UserError(
@@ -142,11 +154,13 @@ def plan_free_path(
     tolerance: float = COLLISION_TOLERANCE,
     output: str | None = None,
     progress=None,
+    offset=None,
 ) -> PlannedPath:
     """``rworld plan path``: a collision-free joint path of ``ctx``'s device from ``start``
     (default the joints now) to ``to`` (a frame of the cell for the TCP, a named position,
-    'home', or joint values), in the cell as it is (other devices where the pose files put
-    them; ``planning.motion.plan_in_world``).  Written to ``output`` as a path file
+    'home', or joint values; ``offset`` (3,) [m] moves a frame along its own axes), in the
+    cell as it is (other devices where the pose files put them;
+    ``planning.motion.plan_in_world``).  Written to ``output`` as a path file
     (``boundary: segments``: the straight lines checked) when one was found.
 
     Raises
@@ -177,7 +191,7 @@ def plan_free_path(
             f"the start puts {dev.joints[j].name} at {q0[j]:.6g}, outside its limits "
             f"[{lower[j]:.6g}, {upper[j]:.6g}]"
         )
-    goals = goal_states(ctx, to, q0, seed)
+    goals = goal_states(ctx, to, q0, seed, offset)
     plan, _ = plan_in_world(
         ctx.world,
         collision_model(ctx.world.cell),
@@ -193,6 +207,7 @@ def plan_free_path(
         else lambda rounds, states: progress(rounds, None, f"searching: {states} states"),
     )
     out = PlannedPath(plan, dev.name, to, q0, goals, clearance, tolerance, _knots(plan.waypoints))
+    out.offset = None if offset is None else [float(v) for v in offset]
     if not plan.found:
         raise CheckFailed(f"no path to '{to}': {plan.reason}")
     if output is not None:
@@ -211,10 +226,15 @@ def _knots(waypoints: np.ndarray) -> np.ndarray:
     return lengths / lengths[-1] if lengths[-1] > 0 else np.linspace(0.0, 1.0, len(waypoints))
 
 
+def _moved(offset) -> str:
+    return "" if offset is None else " moved by [" + ", ".join(f"{v:g}" for v in offset) + "] m"
+
+
 def _note(out: PlannedPath) -> str:
     p = out.plan
     return (
-        f"rworld plan path: '{out.device}' to '{out.target}', {len(p.waypoints)} waypoints, "
+        f"rworld plan path: '{out.device}' to '{out.target}'{_moved(out.offset)}, "
+        f"{len(p.waypoints)} waypoints, "
         f"{p.length:.4g} rad of joint travel, clearance {out.clearance * 1000:g} mm, collision "
         f"tolerance {out.tolerance * 1000:g} mm; straight joint segments, each checked "
         "continuously (docs/planning.md)"

@@ -652,6 +652,13 @@ def impulse(
     "position of the device, 'home', or joint values Q1,...,QN (SI).",
 )
 @click.option(
+    "--offset",
+    default=None,
+    metavar="X,Y,Z",
+    help="A frame target moved along its own axes [m], e.g. 0,0,-0.12: 120 mm back from a "
+    "grasp frame whose z points down (a free motion ends clear of what it will touch).",
+)
+@click.option(
     "--from",
     "start",
     default=None,
@@ -699,6 +706,7 @@ def path_cmd(
     other_joints,
     tcp,
     to,
+    offset,
     start,
     clearance,
     collision_tolerance,
@@ -721,7 +729,7 @@ def path_cmd(
 
     \b
     Examples:
-      rworld plan path workcells/panda --to block.grasp -o p.yaml
+      rworld plan path workcells/panda --to block.grasp --offset 0,0,-0.12 -o p.yaml
       rworld plan path workcells/panda --from home --to 0,0,0,-1.5,0,1.5,0.8 --clearance 10mm
       rworld plan time-optimal workcells/panda --path p.yaml
     """
@@ -747,6 +755,7 @@ def path_cmd(
             tolerance=tolerance,
             output=output,
             progress=bar,
+            offset=parse_vector(offset, "--offset", 3) if offset else None,
         ),
         "searching",
     )
@@ -755,7 +764,9 @@ def path_cmd(
         return
     p = planned.plan
     click.echo(
-        f"{planned.device}: a free path to '{to}' through {len(p.waypoints)} waypoints, "
+        f"{planned.device}: a free path to '{to}'"
+        + (f" moved by [{offset}] m" if offset else "")
+        + f" through {len(p.waypoints)} waypoints, "
         f"{p.length:.4g} of joint travel ({p.raw_length:.4g} before shortcuts), found in "
         f"{p.seconds:.3f} s ({p.iterations} rounds, {p.states_checked} states, "
         f"{p.segments_checked} segments checked)"

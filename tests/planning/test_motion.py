@@ -368,6 +368,22 @@ def test_plan_path_command(cli, tmp_path):
     assert r.exit_code == 2
     r = cli(["plan", "path", "--help"])
     assert "Examples:" in r.stdout
+    # a frame target moved back along its own axes: the Panda example's block, approached
+    # from 120 mm above (its grasp frame itself: the fingers touch the block)
+    panda = str(REPO / "workcells" / "panda")
+    r = cli(["--json", "plan", "path", panda, "--to", "block.grasp", "--offset", "0,0,-0.12"])
+    doc = json.loads(r.stdout)
+    assert r.exit_code == 0 and doc["offset"] == [0.0, 0.0, -0.12]
+    from rworld_cli.api import device_context, forward_kinematics
+
+    ctx = device_context(panda, "panda")
+    T = forward_kinematics(ctx, np.array(doc["waypoints"][-1]))
+    T_grasp = ctx.world.T_world("block.grasp")
+    assert np.allclose(T[:3, 3], T_grasp[:3, 3] - 0.12 * T_grasp[:3, 2], atol=1e-6)
+    r = cli(["plan", "path", panda, "--to", "block.grasp", "--no-progress"])
+    assert r.exit_code == 1 and "touches something (block and panda.panda_link7" in r.stderr
+    r = cli(["plan", "path", panda, "--to", "home", "--offset", "0,0,1"])
+    assert r.exit_code == 2 and "--offset moves a frame" in r.stderr
 
 
 # ------------------------------------------------------------------ free turns chosen clear
