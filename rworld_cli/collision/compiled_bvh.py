@@ -879,7 +879,7 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
 BODY_WORDS = 14  # a body's row of the table free_states reads: 6 tree arrays, 8 leaf fields
 
 
-def free_states_ir(symbol: str, contacts_symbol: str) -> str:
+def free_states_ir(symbol: str, contacts_symbol: str, rows: bool = False) -> str:
     """The LLVM IR text of a configuration check of many pairs of bodies at N states:
 
     ``void f(i64 N, i64 P, ptr pairs, i64 B, ptr poses, ptr bodies, ptr spheres, ptr boxes,
@@ -898,7 +898,16 @@ def free_states_ir(symbol: str, contacts_symbol: str) -> str:
     ``status`` (N, P): 0, 1, 2 as there, -1 a tree too deep); after a pair of status 1 the
     state's other pairs are skipped (status -2); a pair of status 0 one of whose witness
     points lies in the other's closed-mesh box is 4 (the caller's winding number decides
-    whether it is buried).  ``witness``: 8 doubles of scratch.
+    whether it is buried).  ``witness``: :data:`WITNESS` doubles of scratch.
+
+    ``rows``: the same for R rows of their own (what a segment check asks: each pair at its
+    own state, exact up to its own limit), no row skipped -
+
+    ``void f(i64 R, ptr rows, i64 B, ptr poses, ptr bodies, ptr spheres, ptr boxes, ptr
+    limits, double deep, i64 max_iterations, ptr status, ptr nearest, ptr witness)``
+
+    ``rows`` (R, 3) int64: the state (a row of ``poses``) and the two bodies; ``limits``
+    (R,); ``status`` and ``nearest`` (R,).
     """
     import llvmlite.ir as ir
 
@@ -915,16 +924,20 @@ def free_states_ir(symbol: str, contacts_symbol: str) -> str:
         ),
         name=contacts_symbol,
     )
+    head = [I64, iptr, I64] if rows else [I64, I64, iptr, I64]
     fn = ir.Function(
         module,
         ir.FunctionType(
             ir.VoidType(),
-            [I64, I64, iptr, I64, dptr, iptr, dptr, dptr, D, D, I64, iptr, dptr, dptr],
+            head + [dptr, iptr, dptr, dptr, dptr if rows else D, D, I64, iptr, dptr, dptr],
         ),
         name=symbol,
     )
-    N, P, pairs, B, poses, bodies, spheres, boxes, limit, deep, max_it = fn.args[:11]
-    status_out, nearest_out, witness = fn.args[11:]
+    if rows:
+        R, row_table, B, poses, bodies, spheres, boxes, limits, deep, max_it = fn.args[:10]
+    else:
+        N, P, pairs, B, poses, bodies, spheres, boxes, limit, deep, max_it = fn.args[:11]
+    status_out, nearest_out, witness = fn.args[-3:]
     entry = fn.append_basic_block("entry")
     b = ir.IRBuilder(entry)
     e = _Emit(b, module)
@@ -936,37 +949,53 @@ def free_states_ir(symbol: str, contacts_symbol: str) -> str:
     t_slot = b.alloca(ir.ArrayType(D, 3), name="t")
     st_slot = b.alloca(I64, name="status")
     near_slot = b.alloca(D, name="nearest")
-    b.store(limit, limit_slot)
     b.store(i(0), n_slot)
-    state_head = fn.append_basic_block("state_head")
-    state_body = fn.append_basic_block("state_body")
-    pair_head = fn.append_basic_block("pair_head")
-    pair_body = fn.append_basic_block("pair_body")
-    pair_next = fn.append_basic_block("pair_next")
-    state_next = fn.append_basic_block("state_next")
-    finished = fn.append_basic_block("finished")
-    b.branch(state_head)
-    b.position_at_end(state_head)
-    b.cbranch(b.icmp_signed("<", b.load(n_slot), N), state_body, finished)
-    b.position_at_end(state_body)
-    b.store(i(0), p_slot)
     b.store(i(0), hit_slot)
-    b.branch(pair_head)
-    b.position_at_end(pair_head)
-    b.cbranch(b.icmp_signed("<", b.load(p_slot), P), pair_body, state_next)
-    b.position_at_end(pair_body)
-    n, p = b.load(n_slot), b.load(p_slot)
-    out_index = b.add(b.mul(n, P), p)
-    skipped = fn.append_basic_block("skipped")
-    looked = fn.append_basic_block("looked")
-    b.cbranch(b.icmp_signed("!=", b.load(hit_slot), i(0)), skipped, looked)
-    b.position_at_end(skipped)  # the state collides already: the rest is not asked
-    b.store(i(-2), b.gep(status_out, [out_index]))
-    b.store(c(np.inf), b.gep(nearest_out, [out_index]))
-    b.branch(pair_next)
-    b.position_at_end(looked)
-    ia = b.load(b.gep(pairs, [b.mul(p, i(2))]))
-    ib = b.load(b.gep(pairs, [b.add(b.mul(p, i(2)), i(1))]))
+    finished = fn.append_basic_block("finished")
+    pair_next = fn.append_basic_block("pair_next")
+    if rows:  # one loop over the rows, each its own state, bodies and limit
+        row_head = fn.append_basic_block("row_head")
+        row_body = fn.append_basic_block("row_body")
+        b.branch(row_head)
+        b.position_at_end(row_head)
+        b.cbranch(b.icmp_signed("<", b.load(n_slot), R), row_body, finished)
+        b.position_at_end(row_body)
+        r = b.load(n_slot)
+        n = b.load(b.gep(row_table, [b.mul(r, i(3))]))
+        ia = b.load(b.gep(row_table, [b.add(b.mul(r, i(3)), i(1))]))
+        ib = b.load(b.gep(row_table, [b.add(b.mul(r, i(3)), i(2))]))
+        out_index = r
+        b.store(b.load(b.gep(limits, [r])), limit_slot)
+    else:  # states, and in each the pairs until one collides
+        b.store(limit, limit_slot)
+        state_head = fn.append_basic_block("state_head")
+        state_body = fn.append_basic_block("state_body")
+        pair_head = fn.append_basic_block("pair_head")
+        pair_body = fn.append_basic_block("pair_body")
+        state_next = fn.append_basic_block("state_next")
+        b.branch(state_head)
+        b.position_at_end(state_head)
+        b.cbranch(b.icmp_signed("<", b.load(n_slot), N), state_body, finished)
+        b.position_at_end(state_body)
+        b.store(i(0), p_slot)
+        b.store(i(0), hit_slot)
+        b.branch(pair_head)
+        b.position_at_end(pair_head)
+        b.cbranch(b.icmp_signed("<", b.load(p_slot), P), pair_body, state_next)
+        b.position_at_end(pair_body)
+        n, p = b.load(n_slot), b.load(p_slot)
+        out_index = b.add(b.mul(n, P), p)
+        skipped = fn.append_basic_block("skipped")
+        looked = fn.append_basic_block("looked")
+        b.cbranch(b.icmp_signed("!=", b.load(hit_slot), i(0)), skipped, looked)
+        b.position_at_end(skipped)  # the state collides already: the rest is not asked
+        b.store(i(-2), b.gep(status_out, [out_index]))
+        b.store(c(np.inf), b.gep(nearest_out, [out_index]))
+        b.branch(pair_next)
+        b.position_at_end(looked)
+        ia = b.load(b.gep(pairs, [b.mul(p, i(2))]))
+        ib = b.load(b.gep(pairs, [b.add(b.mul(p, i(2)), i(1))]))
+    limit_here = b.load(limit_slot)
     pose_a = e.row(poses, b.mul(b.add(b.mul(n, B), ia), i(12)), 12)
     pose_b = e.row(poses, b.mul(b.add(b.mul(n, B), ib), i(12)), 12)
     Ra, ta, Rb, tb = pose_a[:9], pose_a[9:], pose_b[:9], pose_b[9:]
@@ -978,7 +1007,7 @@ def free_states_ir(symbol: str, contacts_symbol: str) -> str:
     apart = b.fsub(b.call(e.sqrt, [e.add(*[b.fmul(g, g) for g in gap])]), b.fadd(sa[3], sb[3]))
     far = fn.append_basic_block("far")
     walk = fn.append_basic_block("walk")
-    b.cbranch(b.fcmp_ordered(">", apart, limit), far, walk)
+    b.cbranch(b.fcmp_ordered(">", apart, limit_here), far, walk)
     b.position_at_end(far)
     b.store(i(3), b.gep(status_out, [out_index]))
     b.store(c(np.inf), b.gep(nearest_out, [out_index]))
@@ -1034,7 +1063,7 @@ def free_states_ir(symbol: str, contacts_symbol: str) -> str:
     )
     status = b.load(st_slot)
     # clear of each other's surfaces: a witness point in the other's closed-mesh box?
-    R = [b.load(b.gep(R_slot, [i(0), i(j)])) for j in range(9)]
+    Rr = [b.load(b.gep(R_slot, [i(0), i(j)])) for j in range(9)]
     t = [b.load(b.gep(t_slot, [i(0), i(j)])) for j in range(3)]
     box_a = e.row(boxes, b.mul(ia, i(9)), 9)
     box_b = e.row(boxes, b.mul(ib, i(9)), 9)
@@ -1049,23 +1078,28 @@ def free_states_ir(symbol: str, contacts_symbol: str) -> str:
         return b.and_(b.and_(flags[0], flags[1]), flags[2])
 
     w_b = box_b[6:9]  # b's witness in a's frame: R w + t
-    in_a = [e.add(*[b.fmul(R[3 * r + m], w_b[m]) for m in range(3)], t[r]) for r in range(3)]
+    in_a = [e.add(*[b.fmul(Rr[3 * r + m], w_b[m]) for m in range(3)], t[r]) for r in range(3)]
     w_a = box_a[6:9]  # a's witness in b's frame: R^T (w - t)
     in_b = [
-        e.add(*[b.fmul(R[3 * m + r], b.fsub(w_a[m], t[m])) for m in range(3)]) for r in range(3)
+        e.add(*[b.fmul(Rr[3 * m + r], b.fsub(w_a[m], t[m])) for m in range(3)]) for r in range(3)
     ]
     boxed = b.or_(inside(in_a, box_a), inside(in_b, box_b))
     status = b.select(b.and_(b.icmp_signed("==", status, i(0)), boxed), i(4), status)
     b.store(status, b.gep(status_out, [out_index]))
     b.store(b.load(near_slot), b.gep(nearest_out, [out_index]))
-    b.store(b.zext(b.icmp_signed("==", status, i(1)), I64), hit_slot)
+    if not rows:
+        b.store(b.zext(b.icmp_signed("==", status, i(1)), I64), hit_slot)
     b.branch(pair_next)
     b.position_at_end(pair_next)
-    b.store(b.add(b.load(p_slot), i(1)), p_slot)
-    b.branch(pair_head)
-    b.position_at_end(state_next)
-    b.store(b.add(b.load(n_slot), i(1)), n_slot)
-    b.branch(state_head)
+    if rows:
+        b.store(b.add(b.load(n_slot), i(1)), n_slot)
+        b.branch(row_head)
+    else:
+        b.store(b.add(b.load(p_slot), i(1)), p_slot)
+        b.branch(pair_head)
+        b.position_at_end(state_next)
+        b.store(b.add(b.load(n_slot), i(1)), n_slot)
+        b.branch(state_head)
     b.position_at_end(finished)
     b.ret_void()
     return str(module)
@@ -1076,8 +1110,9 @@ _FUNCTION: list = []  # [ctypes function or None], built once per process
 
 def _functions():
     """The module's ctypes functions - the bound, the collision-only walk, the descent, the
-    walk with its leaves measured, the free-only check - or five Nones (kernels off, or the
-    compile failed); one module, compiled once per process and cached on disk."""
+    walk with its leaves measured, the free-only check, the same for rows of their own - or
+    six Nones (kernels off, or the compile failed); one module, compiled once per process and
+    cached on disk."""
     if not _FUNCTION:
         import ctypes
 
@@ -1091,6 +1126,7 @@ def _functions():
         contacts_symbol = f"rworld_contacts_{digest}"
         gjk_symbol = f"rworld_contacts_gjk_{digest}"
         free_symbol = f"rworld_free_states_{digest}"
+        rows_symbol = f"rworld_pair_rows_{digest}"
 
         def build() -> str:
             import llvmlite.binding as llvm
@@ -1101,16 +1137,19 @@ def _functions():
             module.link_in(llvm.parse_assembly(compiled.gjk_ir(gjk_symbol, local=True)))
             module.link_in(llvm.parse_assembly(contacts_ir(contacts_symbol, gjk_symbol)))
             module.link_in(llvm.parse_assembly(free_states_ir(free_symbol, contacts_symbol)))
+            module.link_in(
+                llvm.parse_assembly(free_states_ir(rows_symbol, contacts_symbol, rows=True))
+            )
             return str(module)
 
         addresses = kernels.compile_ir(
             "box trees",
             build,
-            [gap_symbol, walk_symbol, descend_symbol, contacts_symbol, free_symbol],
+            [gap_symbol, walk_symbol, descend_symbol, contacts_symbol, free_symbol, rows_symbol],
             source,
         )
         if addresses is None:
-            _FUNCTION.extend([None, None, None, None, None])
+            _FUNCTION.extend([None] * 6)
         else:
             _FUNCTION.append(
                 ctypes.CFUNCTYPE(None, ctypes.c_int64, *[ctypes.c_void_p] * 12)(addresses[0])
@@ -1159,7 +1198,55 @@ def _functions():
                     *[ctypes.c_void_p] * 3,
                 )(addresses[4])
             )
+            _FUNCTION.append(
+                ctypes.CFUNCTYPE(
+                    None,
+                    ctypes.c_int64,
+                    ctypes.c_void_p,
+                    ctypes.c_int64,
+                    *[ctypes.c_void_p] * 5,
+                    ctypes.c_double,
+                    ctypes.c_int64,
+                    *[ctypes.c_void_p] * 3,
+                )(addresses[5])
+            )
     return tuple(_FUNCTION)
+
+
+def pair_rows(rows, poses, table, spheres, boxes, limits, deep, max_iterations: int):
+    """:func:`free_states_ir` with ``rows``: each row (R, 3) int64 - a state (a row of
+    ``poses`` (M, B, 12)) and two bodies of ``table`` - walked up to its own limit (R,):
+    (status (R,), nearest (R,)), or None (no compiled kernel)."""
+    if kernels.backend() != "llvm":
+        return None
+    function = _functions()[5]
+    if function is None:
+        return None
+    # every array is held by a name until the call returns: the kernel reads raw addresses
+    rows = np.ascontiguousarray(rows, dtype=np.int64)
+    poses = np.ascontiguousarray(poses, dtype=float)
+    limits = np.ascontiguousarray(limits, dtype=float)
+    R = len(rows)
+    status = np.zeros(R, dtype=np.int64)
+    nearest = np.full(R, np.inf)
+    witness = np.zeros(WITNESS)
+    if R:
+        function(
+            R,
+            rows.ctypes.data,
+            poses.shape[1],
+            poses.ctypes.data,
+            table.ctypes.data,
+            spheres.ctypes.data,
+            boxes.ctypes.data,
+            limits.ctypes.data,
+            float(deep),
+            int(max_iterations),
+            status.ctypes.data,
+            nearest.ctypes.data,
+            witness.ctypes.data,
+        )
+    return status, nearest
 
 
 def free_states(pairs, poses, table, spheres, boxes, limit, deep, max_iterations: int):

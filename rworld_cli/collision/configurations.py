@@ -149,6 +149,10 @@ class ConfigurationChecker:
         leaves = np.array([len(b.tree.item) for b in bodies], dtype=float)
         self._cost = leaves[self.pairs[:, 0]] * leaves[self.pairs[:, 1]]
         self._fused = self._fuse()
+        # each pair's place in the fused table (-1: not there: a sphere, a cylinder, no kernel)
+        self._fused_row = np.full(len(self.pairs), -1)
+        if self._fused is not None:
+            self._fused_row[self._fused["pairs"]] = np.arange(len(self._fused["pairs"]))
 
     def _fuse(self) -> dict | None:
         """What the free-only check hands to one compiled call (:func:`compiled_bvh.
@@ -427,8 +431,15 @@ class ConfigurationChecker:
         within = np.broadcast_to(np.asarray(within, dtype=float), (len(pair),))
         signed, buried = np.empty(len(pair)), np.zeros(len(pair), dtype=bool)
         left = []  # rows for the exact query
-        for p in np.unique(pair):
-            rows = np.flatnonzero(pair == p)
+        todo = np.ones(len(pair), dtype=bool)  # rows not answered by the one compiled call
+        if self._fused is not None:
+            rows = np.flatnonzero((self._fused_row[pair] >= 0) & np.isfinite(within))
+            undecided = self._rows_walked(T, pair, at, within, rows, signed, buried)
+            if undecided is not None:
+                todo[rows] = False
+                left.append(undecided)
+        for p in np.unique(pair[todo]):
+            rows = np.flatnonzero((pair == p) & todo)
             i, j = self.pairs[p]
             TI, TJ = T[bodies[i].frame][at[rows]], T[bodies[j].frame][at[rows]]
             walked = (
@@ -463,6 +474,44 @@ class ConfigurationChecker:
             )
             signed[rows], buried[rows] = _signed(res), res.buried
         return np.minimum(signed, within), buried
+
+    def _rows_walked(self, T, pair, at, within, rows, signed, buried) -> np.ndarray | None:
+        """Rows ``rows`` of :meth:`_signed` whose pairs are polytopes in the fused table, in
+        one compiled call (:func:`compiled_bvh.pair_rows`: each row's bounding spheres, then
+        its trees walked up to its own limit), into ``signed`` and ``buried``; returns the rows
+        left to the exact query (an overlap not known to be deeper than the tolerance), or
+        None (no kernel: nothing done)."""
+        from .compiled_bvh import pair_rows
+
+        fused = self._fused
+        assert fused is not None
+        if not len(rows):
+            return rows
+        placed = np.stack([T[frame] for frame in fused["frames"]], axis=1)  # (M, U, 4, 4)
+        M = len(placed)
+        poses = np.concatenate([placed[..., :3, :3].reshape(M, -1, 9), placed[..., :3, 3]], axis=2)
+        uv = fused["local"][self._fused_row[pair[rows]]]
+        found = pair_rows(
+            np.column_stack([at[rows], uv]),
+            poses,
+            fused["table"],
+            fused["spheres"],
+            fused["boxes"],
+            within[rows] + 2e-9,
+            self.tolerance,
+            MAX_ITERATIONS,
+        )
+        if found is None:
+            return None
+        status, near = found
+        signed[rows] = np.where((status == 1) | (near <= within[rows]), near, np.inf)
+        suspects = status == 4  # a witness point in the other's closed-mesh box
+        if suspects.any():
+            s = np.flatnonzero(suspects)
+            buried[rows[s]] = self._buried(
+                placed, at[rows[s]], pair[rows[s]], np.ones(len(s), bool)
+            )
+        return rows[(status == 2) | (status == -1)]
 
     def check_segment(self, q0, q1) -> SegmentReport:
         """Check the straight joint-space segment from q0 to q1 (n,) [rad or m], with the

@@ -12,8 +12,9 @@ The planner takes plain data and two questions it may ask as often as it likes:
 
 Why this shape: a state costs tens of microseconds in a batch and a continuous segment check
 milliseconds, so the search asks states - each edge as the states along it at
-``resolution`` apart, all in one batch - and the continuous check is asked only of the
-path's final segments (lazy).  A final segment the states passed but the continuous check
+``resolution`` apart, in batches that double (coarse to fine where only yes or no is asked,
+so that a blocked line is found blocked early) - and the continuous check is asked only of
+the path's final segments (lazy).  A final segment the states passed but the continuous check
 does not (an obstacle thinner than the spacing) is planned again between its ends at a
 quarter of the spacing.
 
@@ -22,7 +23,8 @@ and one from every goal (several IK solutions may be given: the first reached is
 grown in turn towards uniform samples of the joint box; the tree that grew is then
 connected towards the other's new state as far as it is free.  Shortcutting: the path's
 waypoints joined to the farthest one a straight segment reaches (greedy), then straight
-segments between random points of the path kept when free and shorter.  Straight segments
+segments between random points of the path kept when free and shorter, then the greedy pass
+again.  Straight segments
 between states inside the joint box stay inside it, so every path keeps the joint limits.
 
 Deterministic for a seed: the same problem and seed give the same path, unless ``timeout``

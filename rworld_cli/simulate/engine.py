@@ -512,7 +512,17 @@ class _Scheduler(FeatureSteps):
             best = result.q if result.success else None
             if best is not None and step.kind == "move" and not step.touch and step.near is None:
                 best = self._clear_solution(
-                    device, tr, step, dev, mount, q_now, T_base[0], position_only, best, accept
+                    device,
+                    tr,
+                    step,
+                    dev,
+                    mount,
+                    q_now,
+                    T_base[0],
+                    position_only,
+                    best,
+                    accept,
+                    name,
                 )
         else:
             best, result = None, None
@@ -588,7 +598,7 @@ class _Scheduler(FeatureSteps):
         return self._collisions
 
     def _clear_solution(
-        self, device, tr, step, dev, mount, q_now, T_base, position_only, best, accept
+        self, device, tr, step, dev, mount, q_now, T_base, position_only, best, accept, name
     ):
         """The joint solution a move takes: ``best`` (the one IK reached from the seed) when
         its move collides with nothing, else the soonest reached of the target's other
@@ -632,7 +642,7 @@ class _Scheduler(FeatureSteps):
             device,
             tr,
             step,
-            f"no joint solution for '{step.spec.to}' is reached without a collision (the "
+            f"no joint solution for '{name}' is reached without a collision (the "
             f"first is taken, and the check reports it); tried {len(tried)}: " + "; ".join(words),
         )
         return best
@@ -769,7 +779,8 @@ class _Scheduler(FeatureSteps):
         if not plan.found:
             raise NoFreePath(
                 f"{step.where}: {device} step {step.index + 1} ({step.describe()}): no "
-                f"collision-free path to '{name}': {plan.reason}"
+                f"collision-free path to '{name}': {plan.reason}",
+                str(plan.reason),
             )
         return self._drive_through(device, tr, step, plan.waypoints, name, tcp, speed, acceleration)
 

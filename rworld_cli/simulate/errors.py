@@ -18,4 +18,8 @@ class UnreachableTarget(SimulationError):
 
 class NoFreePath(UnreachableTarget):
     """A ``path: free`` move found no collision-free path to its target (exit 1, with the
-    planner's reason)."""
+    planner's reason, also as ``reason``)."""
+
+    def __init__(self, message: str, reason: str = ""):  # default: unpickled in a fleet
+        super().__init__(message)
+        self.reason = reason

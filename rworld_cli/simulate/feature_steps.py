@@ -126,7 +126,7 @@ class FeatureSteps:
                 reachable = reachable or (route, turn)
             except NoFreePath as exc:
                 first_error = first_error or exc
-                tried.append(f"{turn}: no free path ({str(exc).split(': ', 3)[-1]})")
+                tried.append(f"{turn}: no free path ({exc.reason})")
             except UnreachableTarget as exc:
                 first_error = first_error or exc
                 tried.append(f"{turn}: unreachable")
@@ -135,8 +135,9 @@ class FeatureSteps:
             self.set_time(tr.t)
             self.world.set_joints(device, q_mark)
         if reachable is None:
+            assert first_error is not None  # every route raised
             if not any(": no free path (" in t for t in tried):
-                raise first_error if first_error is not None else UnreachableTarget(step.where)
+                raise first_error
             raise UnreachableTarget(  # the planner's reason for each turn it could not serve
                 f"{step.where}: {device} step {step.index + 1} ({step.describe()}): no turn "
                 f"about the feature has a collision-free approach; tried {len(tried)}: "
