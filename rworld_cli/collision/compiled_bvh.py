@@ -1217,36 +1217,21 @@ def pair_rows(rows, poses, table, spheres, boxes, limits, deep, max_iterations: 
     """:func:`free_states_ir` with ``rows``: each row (R, 3) int64 - a state (a row of
     ``poses`` (M, B, 12)) and two bodies of ``table`` - walked up to its own limit (R,):
     (status (R,), nearest (R,)), or None (no compiled kernel)."""
-    if kernels.backend() != "llvm":
-        return None
-    function = _functions()[5]
-    if function is None:
-        return None
-    # every array is held by a name until the call returns: the kernel reads raw addresses
     rows = np.ascontiguousarray(rows, dtype=np.int64)
-    poses = np.ascontiguousarray(poses, dtype=float)
     limits = np.ascontiguousarray(limits, dtype=float)
-    R = len(rows)
-    status = np.zeros(R, dtype=np.int64)
-    nearest = np.full(R, np.inf)
-    witness = np.zeros(WITNESS)
-    if R:
-        function(
-            R,
-            rows.ctypes.data,
-            poses.shape[1],
-            poses.ctypes.data,
-            table.ctypes.data,
-            spheres.ctypes.data,
-            boxes.ctypes.data,
-            limits.ctypes.data,
-            float(deep),
-            int(max_iterations),
-            status.ctypes.data,
-            nearest.ctypes.data,
-            witness.ctypes.data,
-        )
-    return status, nearest
+    head = (len(rows), rows.ctypes.data)
+    return _fused_call(
+        5,
+        head,
+        poses,
+        table,
+        spheres,
+        boxes,
+        limits.ctypes.data,
+        deep,
+        max_iterations,
+        (len(rows),),
+    )
 
 
 def free_states(pairs, poses, table, spheres, boxes, limit, deep, max_iterations: int):
@@ -1254,29 +1239,45 @@ def free_states(pairs, poses, table, spheres, boxes, limit, deep, max_iterations
     :data:`BODY_WORDS`) int64 (:func:`body_table`), ``spheres`` (B, 4) and ``boxes`` (B, 9)
     describe them, at
     ``poses`` (N, B, 12): (status (N, P), nearest (N, P)), or None (no compiled kernel)."""
+    pairs = np.ascontiguousarray(pairs, dtype=np.int64)
+    head = (len(poses), len(pairs), pairs.ctypes.data)
+    return _fused_call(
+        4,
+        head,
+        poses,
+        table,
+        spheres,
+        boxes,
+        float(limit),
+        deep,
+        max_iterations,
+        (len(poses), len(pairs)),
+    )
+
+
+def _fused_call(which, head, poses, table, spheres, boxes, limit, deep, max_iterations, shape):
+    """One call of :func:`free_states_ir`'s kernel ``which`` (4: states, 5: rows): ``head``
+    its leading arguments, ``limit`` its limit (a double, or the address of the rows'), the
+    outputs of ``shape``; the caller holds every array whose address it passes (the kernel
+    reads raw addresses)."""
     if kernels.backend() != "llvm":
         return None
-    function = _functions()[4]
+    function = _functions()[which]
     if function is None:
         return None
-    # every array is held by a name until the call returns: the kernel reads raw addresses
-    pairs = np.ascontiguousarray(pairs, dtype=np.int64)
     poses = np.ascontiguousarray(poses, dtype=float)
-    N, P = len(poses), len(pairs)
-    status = np.zeros((N, P), dtype=np.int64)
-    nearest = np.full((N, P), np.inf)
+    status = np.zeros(shape, dtype=np.int64)
+    nearest = np.full(shape, np.inf)
     witness = np.zeros(WITNESS)
-    if N and P:
+    if status.size:
         function(
-            N,
-            P,
-            pairs.ctypes.data,
+            *head,
             poses.shape[1],
             poses.ctypes.data,
             table.ctypes.data,
             spheres.ctypes.data,
             boxes.ctypes.data,
-            float(limit),
+            limit,
             float(deep),
             int(max_iterations),
             status.ctypes.data,
