@@ -38,6 +38,8 @@ class PlannedPath:
         The waypoints' path parameters (by joint-space length) as the path file gives them.
     written : str or None
         The path file written.
+    offset : list of float or None
+        [m] the frame target moved along its own axes (``--offset``).
     """
 
     plan: PathPlan
