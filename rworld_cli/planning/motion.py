@@ -419,13 +419,23 @@ def _shortcut(search: _Search, rng, way: np.ndarray, attempts: int) -> np.ndarra
 
 
 def _greedy(search: _Search, way: np.ndarray) -> np.ndarray:
-    """Each kept waypoint joined to the farthest later one a free straight line reaches."""
+    """Each kept waypoint joined to the farthest later one a free straight line reaches.  The
+    lines from a waypoint to every later one are screened together first (their middle and
+    quarter states in one call: most blocked lines are blocked there), then checked whole
+    from the farthest of those that passed: fewer calls.  A line blocked at a screened point
+    that falls between its checked states is passed over (stricter, never looser); on the
+    bench's 60 problems the paths are the same as without the screening."""
     kept = [way[0]]
     i = 0
     while i < len(way) - 1:
-        j = len(way) - 1
-        while j > i + 1 and not search.line_free(way[i], way[j]):
-            j -= 1
+        far = np.arange(len(way) - 1, i + 1, -1)  # the candidates, farthest first
+        if len(far):
+            s = np.array([0.5, 0.25, 0.75])
+            Q = way[i] + s[None, :, None] * (way[far] - way[i])[:, None, :]
+            free = np.asarray(search.states_free(Q.reshape(-1, way.shape[1])), dtype=bool)
+            search.states_checked += len(free)
+            far = far[free.reshape(len(far), 3).all(axis=1)]
+        j = next((int(k) for k in far if search.line_free(way[i], way[k])), i + 1)
         kept.append(way[j])
         i = j
     return np.array(kept)
