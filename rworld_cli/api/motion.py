@@ -109,7 +109,7 @@ def goal_states(
     the cell - moved by ``offset`` (3,) [m] along its own axes (a pre-grasp point above a
     grasp frame) - whose IK solutions within the limits (from the start and from
     :data:`IK_SEEDS` random starts, one batch) are the goals, nearest the start first (G, n)."""
-    from ..kinematics.inverse import solve_ik, solve_ik_many
+    from ..kinematics.inverse import distinct_solutions, solve_ik
     from ..planning.motion import sampled_box
 
     cell = ctx.world.cell
@@ -127,21 +127,14 @@ def goal_states(
     seeds = np.concatenate(
         [start[None], rng.uniform(sampled_box(lower), sampled_box(upper), (IK_SEEDS, dev.dof))]
     )
-    Q, ok = solve_ik_many(
-        dev, np.repeat(T_base[None], len(seeds), 0), seeds, ctx.mount, dev.dof < 6
-    )
-    found: list[np.ndarray] = []
-    for q in Q[ok]:
-        if all(np.abs(q - other).max() > 1e-3 for other in found):
-            found.append(np.asarray(q, dtype=float))
-    if not found:  # with restarts, for the figures of why not
+    goals = distinct_solutions(dev, T_base, seeds, ctx.mount, dev.dof < 6)
+    if not len(goals):  # with restarts, for the figures of why not
         result = solve_ik(dev, T_base, ctx.mount, start, dev.dof < 6)
         if not result.success:
             raise UserError(
                 result.unreachable(to, ctx.tcp, [j.name for j in dev.joints], dev.dof < 6)
             )
-        found.append(np.asarray(result.q, dtype=float))
-    goals = np.array(found)
+        goals = np.asarray(result.q, dtype=float)[None]
     return goals[np.argsort(np.linalg.norm(goals - start, axis=1), kind="stable")]
 
 

@@ -228,7 +228,7 @@ class ConfigurationChecker:
         buried = np.zeros(N, dtype=bool)
         subset = np.arange(P)  # the pairs left to the steps below
         if not nearest and self._fused is not None:
-            if self._free_states(T, N, watch, distance, nearest_pair, free, buried):
+            if self._free_states(T, watch, distance, nearest_pair, free, buried):
                 subset = self._fused["rest"]
                 if not len(subset):
                     return ConfigurationReport(free, distance, nearest_pair, buried)
@@ -282,7 +282,7 @@ class ConfigurationChecker:
         )
         self._tally(s, p, _signed(res), res.buried, *report)
 
-    def _free_states(self, T, N, watch, distance, nearest_pair, free, buried) -> bool:
+    def _free_states(self, T, watch, distance, nearest_pair, free, buried) -> bool:
         """The free-only check of the pairs of polytopes (:meth:`_fuse`) in one compiled call,
         into the report's arrays; each state stops at its first pair deeper than the
         tolerance.  Overlaps not known to be that deep go to the exact query, a closed mesh's
@@ -291,8 +291,7 @@ class ConfigurationChecker:
 
         fused = self._fused
         assert fused is not None
-        placed = np.stack([T[frame] for frame in fused["frames"]], axis=1)  # (N, U, 4, 4)
-        poses = np.concatenate([placed[..., :3, :3].reshape(N, -1, 9), placed[..., :3, 3]], axis=2)
+        placed, poses = self._packed(T)
         found = free_states(
             fused["local"],
             poses,
@@ -334,6 +333,15 @@ class ConfigurationChecker:
                     rows, pair, placed[rows, u], placed[rows, v], watch, self.tolerance, report
                 )
         return True
+
+    def _packed(self, T) -> tuple[np.ndarray, np.ndarray]:
+        """The fused table's bodies at the states of ``T`` (:meth:`poses`): their frames
+        (N, U, 4, 4), and as the compiled kernels read them (N, U, 12): R's rows, then t."""
+        assert self._fused is not None
+        placed = np.stack([T[frame] for frame in self._fused["frames"]], axis=1)
+        N = len(placed)
+        poses = np.concatenate([placed[..., :3, :3].reshape(N, -1, 9), placed[..., :3, 3]], axis=2)
+        return placed, poses
 
     def _buried(self, placed, s, p, clear) -> np.ndarray:
         """Whether one body of pair ``p[r]`` lies inside the other's closed mesh at state
@@ -487,9 +495,7 @@ class ConfigurationChecker:
         assert fused is not None
         if not len(rows):
             return rows
-        placed = np.stack([T[frame] for frame in fused["frames"]], axis=1)  # (M, U, 4, 4)
-        M = len(placed)
-        poses = np.concatenate([placed[..., :3, :3].reshape(M, -1, 9), placed[..., :3, 3]], axis=2)
+        placed, poses = self._packed(T)
         uv = fused["local"][self._fused_row[pair[rows]]]
         found = pair_rows(
             np.column_stack([at[rows], uv]),

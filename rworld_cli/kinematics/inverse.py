@@ -285,6 +285,31 @@ def solve_ik_many(
     return Q, np.all(np.abs(err) <= tol, axis=1)
 
 
+def distinct_solutions(
+    device: DeviceModel,
+    T_base_target,
+    starts,
+    mount: ToolMount | None = None,
+    position_only: bool = False,
+    accept=None,
+    apart: float = 1e-3,
+) -> np.ndarray:
+    """The distinct joint solutions of one target reached from ``starts`` (S, n) in one batch
+    (:func:`solve_ik_many`), in the order of their starts: a solution within ``apart`` [rad or
+    m] of an earlier one (largest joint difference) is dropped; ``accept(Q) -> (S,) bool``
+    keeps only those in a configuration asked for.  Shape (M, n), M <= S."""
+    starts = np.atleast_2d(np.asarray(starts, dtype=float))
+    T = np.asarray(T_base_target, dtype=float)
+    Q, ok = solve_ik_many(device, np.repeat(T[None], len(starts), 0), starts, mount, position_only)
+    if accept is not None and ok.any():
+        ok = ok & np.asarray(accept(Q), dtype=bool)
+    found: list[np.ndarray] = []
+    for q in Q[ok]:
+        if all(np.abs(q - other).max() > apart for other in found):
+            found.append(q)
+    return np.array(found).reshape(-1, starts.shape[1])
+
+
 def solve_ik_soonest(
     device: DeviceModel,
     T_base_targets: np.ndarray,

@@ -606,30 +606,26 @@ class _Scheduler(FeatureSteps):
         the configuration asked for, if any) whose move is clear.  None clear: ``best``,
         with a warning naming each solution tried and its first contact (the check then
         reports the collision, and the run can be watched)."""
-        from ..kinematics.inverse import solve_ik_many
+        from ..kinematics.inverse import distinct_solutions
+        from ..planning.motion import sampled_box
 
-        hit = self._joint_line_collision(device, tr, step, q_now, best)
+        checker = self._checker_at(device, tr.t, q_now)  # the world now, for every solution
+        hit = self._joint_line_collision(checker, step, q_now, best)
         if hit is None:
             return best
         rng = np.random.default_rng(step.index)
-        lo, hi = dev.limit_array("lower"), dev.limit_array("upper")
-        lo, hi = np.where(np.isfinite(lo), lo, -np.pi), np.where(np.isfinite(hi), hi, np.pi)
-        starts = rng.uniform(lo, hi, (IK_STARTS, dev.dof))
-        Q, ok = solve_ik_many(
-            dev, np.repeat(T_base[None], IK_STARTS, 0), starts, mount, position_only
+        lo, hi = (sampled_box(dev.limit_array(side)) for side in ("lower", "upper"))
+        starts = np.concatenate(
+            [np.asarray(best, dtype=float)[None], rng.uniform(lo, hi, (IK_STARTS, dev.dof))]
         )
-        if accept is not None and ok.any():
-            ok = ok & np.asarray(accept(Q), dtype=bool)
-        found = [np.asarray(best, dtype=float)]
-        for q in Q[ok]:
-            if all(np.abs(q - other).max() > 1e-3 for other in found):
-                found.append(q)
+        found = distinct_solutions(dev, T_base, starts, mount, position_only, accept)
+        found = found[np.abs(found - best).max(axis=1) > 1e-3]  # best is tried already
         v = dev.limit_array("velocity")
         v = np.where(np.isfinite(v) & (v > 0), v, 1.0)
-        others = sorted(found[1:], key=lambda q: float(np.max(np.abs(q - q_now) / v)))
-        tried = [(found[0], hit)]
+        others = sorted(found, key=lambda q: float(np.max(np.abs(q - q_now) / v)))
+        tried = [(np.asarray(best, dtype=float), hit)]
         for q in others:
-            hit = self._joint_line_collision(device, tr, step, q_now, q)
+            hit = self._joint_line_collision(checker, step, q_now, q)
             if hit is None:
                 return q
             tried.append((q, hit))
@@ -654,8 +650,9 @@ class _Scheduler(FeatureSteps):
         the way).  None clear: the soonest, with a warning naming each turn tried and its
         collision (the check reports it)."""
         hits = []
+        checker = self._checker_at(device, tr.t, q_now)  # the world now, for every turn
         for k in reached:
-            hit = self._joint_line_collision(device, tr, step, q_now, Q[k])
+            hit = self._joint_line_collision(checker, step, q_now, Q[k])
             if hit is None:
                 return k
             hits.append(f"{self._turn_words(step.goal, [k])[0]}: {hit}")
@@ -668,12 +665,11 @@ class _Scheduler(FeatureSteps):
         )
         return reached[0]
 
-    def _joint_line_collision(self, device, tr, step, q0, q1) -> str | None:
-        """Whether the joint move q0 -> q1 (its end alone, for ``path: free``) collides in
-        the world at this instant: None, or the collision in words."""
+    def _joint_line_collision(self, checker, step, q0, q1) -> str | None:
+        """Whether the joint move q0 -> q1 (its end alone, for ``path: free``) collides
+        (``checker``: :meth:`_checker_at` the move's start): None, or the collision in words."""
         from ..planning.motion import first_contact_words, nearest_words
 
-        checker = self._checker_at(device, tr.t, q0)
         if self._path_of(step) == "free":
             report = checker.check(np.asarray(q1)[None])
             if report.free[0] and report.distance[0] >= 0.0:

@@ -97,6 +97,7 @@ class FeatureSteps:
         first_error = None
         tried: list[str] = []
         reachable = None  # the first route whose moves work, collisions aside
+        checker = None  # the world at the routes' start, built by the first route checked
         turns = turns or [f"route {k + 1}" for k in range(len(routes))]
         for route, turn in zip(routes, turns):
             mark = (tr.t, len(tr.segments), len(self._actions), len(self.events))
@@ -119,7 +120,8 @@ class FeatureSteps:
                     )
                 if not clear:
                     return
-                hit = self._route_collision(device, tr.segments[mark[1] :], mark[0], q_mark)
+                checker = checker or self._checker_at(device, mark[0], q_mark)
+                hit = self._route_collision(checker, tr.segments[mark[1] :])
                 if hit is None:
                     return
                 tried.append(f"{turn}: {hit}")
@@ -154,16 +156,16 @@ class FeatureSteps:
         )
         self._through(device, tr, step, tcp, [reachable[0]], speeds, until, [reachable[1]], False)
 
-    def _route_collision(self, device, segments, t0, q0) -> str | None:
-        """Whether a route's moves (``segments``, from ``q0`` at ``t0``) collide in the world
-        as it is at ``t0`` - the rule of ``rworld check`` (no overlap deeper than the run's
-        tolerance, nothing buried; a required clearance is the check's to report): joint
-        moves by the continuous segment check, straight lines at their samples.  None, or
+    def _route_collision(self, checker, segments) -> str | None:
+        """Whether a route's moves (``segments``) collide in the world as it is at their start
+        (``checker``: :meth:`_checker_at` there) - the rule of ``rworld check`` (no overlap
+        deeper than the run's tolerance, nothing buried; a required clearance is the check's
+        to report): joint moves by the continuous segment check, straight lines at their
+        samples.  None, or
         the first collision in words ('link_2_l into link_4_r at 40 % of the move')."""
         from ..motion.trajectory import JointMove
         from ..planning.motion import first_contact_words
 
-        checker = self._checker_at(device, t0, q0)
         for n, seg in enumerate(segments):
             if isinstance(seg, JointMove):
                 report = checker.check_segment(seg.q_start, seg.q_end)
