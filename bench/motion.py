@@ -22,7 +22,10 @@ lengths are Euclidean in joint space [rad].
 
 Reported per robot and overall: success rate, median and 95th-percentile planning time, median
 path length, and each side's median over the problems both solved.  ``--phases``: where
-rworld's time goes on each scene (search, shortcuts, the final continuous checks).
+rworld's time goes on each scene (search, shortcuts, the final continuous checks, the blends).
+Smoothing: each path's corners and how many were blended, and its time-optimal duration
+(velocity and acceleration limits) at rest at every via point and blended; ``--no-blend``
+plans without blending.
 
 VAMP (``vamp-planner``, the speed anchor the issue names) is not on the package index this
 machine reaches (``vamp`` on PyPI is an unrelated audio package), so it is not run.
@@ -111,14 +114,23 @@ def ompl_solve(ctx, model, device, start, goal, timeout: float) -> bool:
     return found and valid
 
 
-def rworld_plan(world, model, device, checks, start, goal, timeout: float, seed: int):
+def rworld_plan(world, model, device, checks, start, goal, timeout: float, seed: int, blend=True):
     from rworld_cli.planning.motion import plan_in_world
 
     t0 = time.perf_counter()
     plan, _ = plan_in_world(
-        world, model, device, start, goal, tolerance=1e-3, seed=seed, timeout=timeout, checks=checks
+        world,
+        model,
+        device,
+        start,
+        goal,
+        tolerance=1e-3,
+        seed=seed,
+        timeout=timeout,
+        checks=checks,
+        blend=blend,
     )
-    return plan.found, plan.waypoints, time.perf_counter() - t0
+    return plan.found, plan.waypoints, time.perf_counter() - t0, plan
 
 
 def phases(scene: str, items: list[dict]) -> None:
@@ -138,7 +150,7 @@ def phases(scene: str, items: list[dict]) -> None:
         return out
 
     checks.states_free = counted
-    spent = {name: [0, 0.0] for name in ("_connect_trees", "_shortcut", "_validated")}
+    spent = {name: [0, 0.0] for name in ("_connect_trees", "_shortcut", "_validated", "_blended")}
     originals = {name: getattr(motion, name) for name in spent}
     for name, original in originals.items():
 
@@ -164,8 +176,27 @@ def phases(scene: str, items: list[dict]) -> None:
         ("_connect_trees", "search"),
         ("_shortcut", "shortcuts"),
         ("_validated", "continuous checks of the final segments"),
+        ("_blended", "blending the corners (screened states, continuous checks)"),
     ):
         print(f"  {label}: {spent[name][1]:.3f} s, {spent[name][0]} states")
+
+
+def durations(device, plan) -> dict:
+    """The path's corners and blends, and its time-optimal duration (velocity and acceleration
+    limits, ``planning.topp``) at rest at every via point and with its corners blended."""
+    from rworld_cli.planning.path import JointPath
+    from rworld_cli.planning.topp import Limits, time_optimal
+
+    limits = Limits(device.limit_array("velocity"), device.limit_array("acceleration"), None)
+    stop = JointPath(plan.waypoints, plan.knots, "segments")
+    t_stop = time_optimal(stop, limits, gridpoints=1000)[0].duration
+    t_blend = time_optimal(plan.joint_path(), limits, gridpoints=1000)[0].duration
+    return {
+        "corners": len(plan.waypoints) - 2,
+        "blended": int((plan.blends > 0).sum()),
+        "stop_s": t_stop,
+        "blend_T": t_blend,
+    }
 
 
 def length(way: np.ndarray) -> float:
@@ -190,6 +221,9 @@ def main() -> None:
     parser.add_argument("--only", nargs="*", default=None, help="scenes to run")
     parser.add_argument("--limit", type=int, default=None, help="problems per scene at most")
     parser.add_argument("--no-ompl", action="store_true", help="rworld alone")
+    parser.add_argument(
+        "--no-blend", action="store_true", help="rworld's corners left at rest (no smoothing)"
+    )
     parser.add_argument(
         "--phases", action="store_true", help="where rworld's time goes, per scene (no OMPL)"
     )
@@ -223,11 +257,14 @@ def main() -> None:
         world, model, checks = scene_checks(scene, device)
         for k, p in enumerate(items):
             start, goal = np.array(p["start"]), np.array(p["goal"])
-            ok, way, seconds = rworld_plan(
-                world, model, device, checks, start, goal, args.timeout, seed=k
+            ok, way, seconds, plan = rworld_plan(
+                world, model, device, checks, start, goal, args.timeout, k, not args.no_blend
             )
             row = {"scene": scene, "robot": device, "rworld_ok": ok, "rworld_s": seconds}
             row["rworld_len"] = length(way)
+            if ok:
+                row.update(durations(checks.device, plan))
+                row["blend_s"] = plan.blend_seconds
             if not args.no_ompl:
                 found, oway, oseconds, valid = ompl_plan(checks, start, goal, args.timeout)
                 row.update(
@@ -240,6 +277,12 @@ def main() -> None:
             print(
                 f"{scene} {k + 1}: rworld {'ok' if ok else 'FAIL'} {seconds:.3f} s "
                 f"{row['rworld_len']:.3f} rad"
+                + (
+                    f" (corners {row['corners']}, blended {row['blended']}, "
+                    f"{row['stop_s']:.2f} -> {row['blend_T']:.2f} s)"
+                    if ok
+                    else ""
+                )
                 + (
                     ""
                     if args.no_ompl
@@ -260,6 +303,17 @@ def main() -> None:
                 f"| {robot} | {side} | {len(subset)} | {100 * rate:.0f} % | {median:.3f} | "
                 f"{p95:.3f} | {med_len:.3f} |"
             )
+    timed = [r for r in rows if r["rworld_ok"] and r["corners"] > 0]
+    if timed:
+        corners = sum(r["corners"] for r in timed)
+        blended = sum(r["blended"] for r in timed)
+        ratio = np.median([r["blend_T"] / r["stop_s"] for r in timed])
+        print(
+            f"\nSmoothing, on the {len(timed)} paths with corners: {blended} of {corners} corners "
+            f"blended; time-optimal duration blended / at rest at every via point, median "
+            f"{ratio:.2f} (min {min(r['blend_T'] / r['stop_s'] for r in timed):.2f}); blending "
+            f"took a median {1000 * np.median([r['blend_s'] for r in timed]):.1f} ms a path"
+        )
     if not args.no_ompl:
         both = [r for r in rows if r["rworld_ok"] and r["ompl_ok"]]
         if both:

@@ -35,7 +35,7 @@ class PlannedPath:
     clearance, tolerance : float
         The clearance kept and the collision tolerance [m].
     knots : ndarray, shape (W,)
-        The waypoints' path parameters (by joint-space length) as the path file gives them.
+        The waypoints' path parameters (by joint-space length).
     written : str or None
         The path file written.
     offset : list of float or None
@@ -63,6 +63,8 @@ class PlannedPath:
             "reason": p.reason,
             "waypoints": p.waypoints.tolist(),
             "knots": self.knots.tolist(),
+            "blends": p.blends.tolist(),
+            "corners_blended": int((p.blends > 0).sum()),
             "goal": p.goal,
             "goals_tried": self.goals.tolist(),
             "length": p.length,
@@ -150,13 +152,15 @@ def plan_free_path(
     output: str | None = None,
     progress=None,
     offset=None,
+    blend: bool = True,
 ) -> PlannedPath:
     """``rworld plan path``: a collision-free joint path of ``ctx``'s device from ``start``
     (default the joints now) to ``to`` (a frame of the cell for the TCP, a named position,
     'home', or joint values; ``offset`` (3,) [m] moves a frame along its own axes), in the
     cell as it is (other devices where the pose files put them;
-    ``planning.motion.plan_in_world``).  Written to ``output`` as a path file
-    (``boundary: segments``: the straight lines checked) when one was found.
+    ``planning.motion.plan_in_world``), its corners blended where the blends' curves are
+    free (``blend``).  Written to ``output`` as a path file (``boundary: blended``: the
+    straight lines and blends checked) when one was found.
 
     Raises
     ------
@@ -200,25 +204,18 @@ def plan_free_path(
         progress=None
         if progress is None
         else lambda rounds, states: progress(rounds, None, f"searching: {states} states"),
+        blend=blend,
     )
-    out = PlannedPath(plan, dev.name, to, q0, goals, clearance, tolerance, _knots(plan.waypoints))
+    out = PlannedPath(plan, dev.name, to, q0, goals, clearance, tolerance, plan.knots)
     out.offset = None if offset is None else [float(v) for v in offset]
     if not plan.found:
         raise CheckFailed(f"no path to '{to}': {plan.reason}")
     if output is not None:
         from ..schema.paths import write_planned_path
 
-        write_planned_path(output, dev, plan.waypoints, out.knots, _note(out))
+        write_planned_path(output, dev, plan.waypoints, plan.blends, _note(out))
         out.written = output
     return out
-
-
-def _knots(waypoints: np.ndarray) -> np.ndarray:
-    """Path parameters by joint-space length, 0 to 1."""
-    if len(waypoints) < 2:
-        return np.zeros(len(waypoints))
-    lengths = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(waypoints, axis=0), axis=1))]
-    return lengths / lengths[-1] if lengths[-1] > 0 else np.linspace(0.0, 1.0, len(waypoints))
 
 
 def _moved(offset) -> str:
@@ -231,6 +228,7 @@ def _note(out: PlannedPath) -> str:
         f"rworld plan path: '{out.device}' to '{out.target}'{_moved(out.offset)}, "
         f"{len(p.waypoints)} waypoints, "
         f"{p.length:.4g} rad of joint travel, clearance {out.clearance * 1000:g} mm, collision "
-        f"tolerance {out.tolerance * 1000:g} mm; straight joint segments, each checked "
-        "continuously (docs/planning.md)"
+        f"tolerance {out.tolerance * 1000:g} mm; straight joint segments, "
+        f"{int((p.blends > 0).sum())} of {max(len(p.waypoints) - 2, 0)} corners blended, each "
+        "line and blend checked continuously (docs/planning.md)"
     )

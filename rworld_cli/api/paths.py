@@ -44,7 +44,7 @@ def joint_path(spec):
     """The :class:`~rworld_cli.planning.path.JointPath` (cubic spline) of a PathSpec."""
     from ..planning.path import JointPath
 
-    return JointPath(spec.waypoints, spec.knots, spec.boundary)
+    return JointPath(spec.waypoints, spec.knots, spec.boundary, spec.blends)
 
 
 def load_joint_path(path_file: str, device, check_range: bool = True):

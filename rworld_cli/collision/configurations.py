@@ -535,21 +535,47 @@ class ConfigurationChecker:
         """
         q0 = np.asarray(q0, dtype=float).ravel()
         q1 = np.asarray(q1, dtype=float).ravel()
+        return self.check_curve(
+            lambda s: q0 + s[:, None] * (q1 - q0), np.abs(q1 - q0), np.stack([q0, q1])
+        )
+
+    def check_blend(self, p0, corner, p2) -> SegmentReport:
+        """Check the quadratic Bezier curve from ``p0`` by ``corner`` to ``p2`` (n,) [rad or
+        m] - a planned path's blend at a corner (``planning.path.blend_corners``) - with the
+        same guarantee as :meth:`check_segment`.  Its dq/ds is linear in s, so each joint's
+        speed in s is at most ``2 max(|corner - p0|, |p2 - corner|)``: that is the travel
+        the motion bound takes (:meth:`check_curve`)."""
+        p0, c, p2 = (np.asarray(v, dtype=float).ravel() for v in (p0, corner, p2))
+
+        def state_at(s):
+            s = s[:, None]
+            return (1 - s) ** 2 * p0 + 2 * s * (1 - s) * c + s**2 * p2
+
+        speed = 2.0 * np.maximum(np.abs(c - p0), np.abs(p2 - c))
+        return self.check_curve(state_at, speed, np.stack([p0, c, p2]))
+
+    def check_curve(self, state_at, speed, hull) -> SegmentReport:
+        """Check the joint-space curve ``state_at(s)`` ((M,) -> (M, n)), s in [0, 1], as
+        :meth:`check_segment` checks a line: ``speed`` (n,) bounds each joint's |dq/ds| on
+        the whole curve, so over [sa, sb] it moves at most ``speed (sb - sa)``; ``hull``
+        (K, n) are states whose convex hull holds the curve (the levers' link lengths are
+        taken over them)."""
+        q0, q1 = state_at(np.array([0.0, 1.0]))
         P = len(self.pairs)
         if not P:
             return SegmentReport(True, None, None, False, 0)
         bodies = self.model.bodies
-        zeros = np.zeros((2, len(q0)))
         # the other devices hold still where the world has them (a two-robot cell)
         held = {}
         for d, dev in self.world.cell.devices.items():
             if d != self.device:
                 still = np.zeros((2, dev.dof))
                 held[d] = (np.tile(self.world.joints(d), (2, 1)), still, still)
-        held[self.device] = (np.stack([q0, q1]), zeros, zeros)
+        hull = np.asarray(hull, dtype=float)
+        held[self.device] = (hull, np.zeros_like(hull), np.zeros_like(hull))
         levers = _Levers.of(self.world, bodies, held)
         travel = np.array(
-            [abs(q1[j] - q0[j]) if d == self.device else 0.0 for d, j in levers.joints]
+            [speed[j] if d == self.device else 0.0 for d, j in levers.joints]
         ).reshape(1, -1)
         reach = levers.pair_weights(self.pairs[:, 0], self.pairs[:, 1]).bound(travel)[:, 0]
         need = 2.0 * (max(self.clearance, 0.0) - self.tolerance)
@@ -593,7 +619,7 @@ class ConfigurationChecker:
             if not len(pair):
                 break
             mid = (sa + sb) / 2
-            states = q0 + mid[:, None] * (q1 - q0)
+            states = state_at(mid)
             # a midpoint farther than this clears both halves with either end at 0 or more:
             # nearer ones are measured exactly, farther ones only known to be farther
             enough = np.maximum(reach[pair] * (sb - sa) / 2 + need, 0.0) + 1e-6

@@ -86,6 +86,12 @@ class Move:
         return r.q_planned if r.guard and r.q_planned is not None else r.q_goal
 
     @property
+    def blend(self):
+        """A via point of a planned path passed without stopping: its
+        :class:`~rworld_cli.model.program.BlendZone` (None: the move ends at rest)."""
+        return self.resolved.blend
+
+    @property
     def T_target(self) -> np.ndarray:
         """The Cartesian target to write (base frame): the search's end for a guarded move."""
         r = self.resolved
@@ -594,3 +600,20 @@ def number(x: float, digits: int = 9) -> str:
     """A number with ``digits`` decimals, trailing zeros dropped (no exponent, no -0)."""
     text = f"{float(x):.{digits}f}".rstrip("0").rstrip(".")
     return "0" if text in ("-0", "") else text
+
+
+RAPID_ZONES = (1, 5, 10, 15, 20, 30, 40, 50, 60, 80, 100, 150, 200)  # ABB's predefined zXX [mm]
+
+
+def blend_percent(blend) -> int:
+    """A blend as the share of the moves around it a KUKA C_PTP or FANUC CNT takes: 100 at
+    half of the shorter (the largest rworld blends), rounded down, at least 1."""
+    return max(1, min(100, int(200 * min(blend.before, blend.after) + 1e-9)))
+
+
+def rapid_zone(blend) -> str:
+    """The largest of ABB's predefined zones within the blend's TCP distance ('fine' below
+    z1): the controller's corner path stays nearer the via point than rworld's blend."""
+    mm = blend.tcp * 1000.0 if blend is not None else 0.0
+    fitting = [z for z in RAPID_ZONES if z <= mm + 1e-9]
+    return f"z{fitting[-1]}" if fitting else "fine"

@@ -20,6 +20,7 @@ from .common import (
     Record,
     Tool,
     Wait,
+    blend_percent,
     fanuc_config,
     kuka_abc,
 )
@@ -138,7 +139,12 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
                     "};",
                 ]
                 speed = max(1, min(100, round(100 * item.speed_fraction)))
-                motion = f"J P[{label}] {speed}% FINE"
+                ending = (
+                    f"CNT{blend_percent(item.blend)}"
+                    if item.blend is not None and not item.guard
+                    else "FINE"
+                )
+                motion = f"J P[{label}] {speed}% {ending}"
             else:
                 x, y, z, w, p, r = wpr(program.in_user(item.T_target))
                 config = fanuc_config(axes, item.configuration)

@@ -17,6 +17,7 @@ from .common import (
     Record,
     Tool,
     Wait,
+    blend_percent,
     contact_fields,
     kuka_abc,
     kuka_status_turn,
@@ -97,7 +98,13 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
                 acceleration = max(1, min(100, round(100 * item.acceleration_fraction)))
                 src.append(f"BAS(#VEL_PTP, {speed})  ; % of the axes' speeds")
                 src.append(f"BAS(#ACC_PTP, {acceleration})  ; % of the axes' accelerations")
-                src.append(f"PTP {label}")
+                if item.blend is not None and not item.guard:
+                    src.append(
+                        f"$APO.CPTP = {blend_percent(item.blend)}  ; % of half the PTP contour"
+                    )
+                    src.append(f"PTP {label} C_PTP")
+                else:
+                    src.append(f"PTP {label}")
             else:
                 label = f"XP{k_target}"
                 position = frame(program.in_user(item.T_target))

@@ -23,6 +23,7 @@ from .common import (
     contact_fields,
     number,
     principal,
+    rapid_zone,
 )
 
 note = RAPID.comment  # every text from a file goes into a comment through this
@@ -133,7 +134,10 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
                     f"{current_tool}\\WObj:={wobj};"
                 )
             elif item.motion == "joint":
-                body.append(f"    MoveAbsJ j{k + 1}, s{k + 1}, fine, {current_tool}\\WObj:={wobj};")
+                zone = rapid_zone(item.blend)
+                body.append(
+                    f"    MoveAbsJ j{k + 1}, s{k + 1}, {zone}, {current_tool}\\WObj:={wobj};"
+                )
             else:
                 body.append(f"    MoveL {label}, s{k + 1}, fine, {current_tool}\\WObj:={wobj};")
         elif isinstance(item, Output):

@@ -66,9 +66,15 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             k = len([i for i in lines if i.startswith("  # ")])
             if item.motion == "joint":
                 q = program.axes(item.q_target)
+                blend = (
+                    f", r={number(item.blend.tcp, 4)}"  # the TCP's blend radius [m]
+                    if item.blend is not None and not item.guard
+                    else ""
+                )
                 motion = (
                     "movej([" + ", ".join(number(x) for x in q) + "], "
-                    f"a={number(item.joint_acceleration, 4)}, v={number(item.joint_speed, 4)})"
+                    f"a={number(item.joint_acceleration, 4)}, v={number(item.joint_speed, 4)}"
+                    f"{blend})"
                 )
             else:
                 T = item.T_target

@@ -93,6 +93,7 @@ class Step:
     near: np.ndarray | None = None  # (n,) joint values to take the solution nearest to (SI)
     joints: np.ndarray | None = None  # (n,) a move's joint goal (``joints:``), SI
     waypoints: np.ndarray | None = None  # (W, n) a move along a path file's segments, SI
+    blends: np.ndarray | None = None  # (W,) its corners' blends (a 'blended' path file)
     goal: FeatureGoal | None = None  # a step on features (docs/programs.md)
 
     def describe(self) -> str:
@@ -183,6 +184,9 @@ class MoveTarget:
         A guarded move's sensor (``until:``): the move searches towards its planned end and
         stops when the sensor senses; ``q_goal`` and ``T_base_tcp`` are where the simulation
         stopped, ``q_planned`` and ``T_base_planned`` where it would have ended.
+    blend : BlendZone or None
+        A via point of a planned path passed without stopping: ``q_goal`` is the via point
+        (what a controller is sent), the motion cuts its corner by this blend.
     """
 
     motion: str
@@ -200,6 +204,34 @@ class MoveTarget:
     guard: str | None = None
     q_planned: np.ndarray | None = None
     T_base_planned: np.ndarray | None = None
+    blend: BlendZone | None = None
+
+
+@dataclass(frozen=True)
+class BlendZone:
+    """How a via point of a path timed as one is blended (SI): the motion leaves the line
+    into the via point and joins the next one without stopping, by the parabolic blend
+    rworld checked (``planning.path.blended_pieces``).
+
+    Attributes
+    ----------
+    fraction : float
+        The blend's half-width as a fraction of the shorter segment beside it (0, 0.5].
+    before, after : float
+        Where the blend leaves the incoming line and joins the outgoing one, as fractions of
+        each (joint-space length): (0, 0.5].
+    joint : float
+        Where the blend leaves or joins the lines, the larger joint change from the via
+        point, on the nearer side [rad or m].
+    tcp : float
+        The same as a TCP distance [m], on the nearer side.
+    """
+
+    fraction: float
+    before: float
+    after: float
+    joint: float
+    tcp: float
 
 
 @dataclass

@@ -6,6 +6,7 @@ on any array of times.  Between segments a device holds still.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -152,6 +153,27 @@ class SampledMove(Segment):
             for a in (self.q, self.qd, self.qdd)
         ]
         return tuple(cols)
+
+
+@dataclass
+class PathLeg(Segment):
+    """One leg of a timed joint path (a planned path driven without stopping at its via
+    points): ``sampler(times)`` gives q, qd, qdd (each (N, n)) of the whole path at absolute
+    times; this leg is its stretch [t0, t1]."""
+
+    t0: float
+    t1: float
+    sampler: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
+
+    def __post_init__(self) -> None:
+        self._q_end = self.sampler(np.array([self.t1]))[0][0]
+
+    @property
+    def q_end(self) -> np.ndarray:
+        return self._q_end
+
+    def sample(self, t):
+        return self.sampler(np.asarray(t, dtype=float))
 
 
 @dataclass

@@ -8,7 +8,9 @@ The planner takes plain data and two questions it may ask as often as it likes:
   tolerance, nothing buried, the clearance kept);
 * ``segment_free(q0, q1)``: the straight joint-space segment free everywhere, between its
   states too (``ConfigurationChecker.check_segment``: the continuous guarantee of
-  ``rworld check``).
+  ``rworld check``);
+* ``blend_free(p0, corner, p2)`` (optional): the same of the quadratic Bezier curve a corner
+  is blended by (``ConfigurationChecker.check_blend``).
 
 Why this shape: a state costs tens of microseconds in a batch and a continuous segment check
 milliseconds, so the search asks states - each edge as the states along it at
@@ -27,6 +29,12 @@ segments between random points of the path kept when free and shorter, then the 
 again.  Straight segments
 between states inside the joint box stay inside it, so every path keeps the joint limits.
 
+Smoothing: each corner of the final path is cut by a parabolic blend (``planning.path``'s
+``blended`` path: the device keeps moving through it instead of stopping) as wide as the
+continuous check allows - half the shorter of its two segments, else a quarter, an eighth,
+a sixteenth; a corner where none passes is passed at rest.  A blend lies in the triangle of
+its corner and its two ends, so inside the joint box too.
+
 Deterministic for a seed: the same problem and seed give the same path, unless ``timeout``
 cuts the search (then it fails).  Probabilistically complete: if a free path with some
 clearance exists, the probability of not finding it falls to zero as the search goes on; a
@@ -41,10 +49,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .path import blend_corners, length_knots
+
 FIRST_BATCH = 8  # states of a line's first batch (then 16, 32, ...)
 SHORTCUT_PATIENCE = 30  # random shortcuts stop after this many in a row that found nothing
+BLEND_TRIALS = (0.5, 0.25, 0.125, 0.0625)  # a corner's blend widths tried, widest first
 StatesFree = Callable[[np.ndarray], np.ndarray]
 SegmentFree = Callable[[np.ndarray, np.ndarray], bool]
+BlendFree = Callable[[np.ndarray, np.ndarray, np.ndarray], bool]
 
 
 @dataclass
@@ -76,6 +88,15 @@ class PathPlan:
         Joint-space length (Euclidean, rad or m) of the path found and after shortcutting.
     repairs : int
         Final segments planned again (the states passed, the continuous check did not).
+    knots : ndarray, shape (W,)
+        The waypoints' path parameters, by joint-space length from 0 to 1
+        (``planning.path.length_knots``).
+    blends : ndarray, shape (W,)
+        Each waypoint's blend (``planning.path.JointPath``'s ``blended`` path with these
+        knots): its half-width as a fraction of the shorter knot interval beside it, 0 at the
+        ends and at corners passed at rest.  All 0 without ``blend_free``.
+    blend_seconds : float
+        Of ``seconds``, the time spent blending the corners.
     """
 
     found: bool
@@ -90,6 +111,16 @@ class PathPlan:
     raw_length: float = float("nan")
     length: float = float("nan")
     repairs: int = 0
+    knots: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    blends: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    blend_seconds: float = 0.0
+
+    def joint_path(self):
+        """The path as a :class:`~rworld_cli.planning.path.JointPath` (``blended``: the
+        segments, their corners blended as :attr:`blends` says)."""
+        from .path import JointPath
+
+        return JointPath(self.waypoints, self.knots, "blended", self.blends)
 
 
 def path_length(waypoints: np.ndarray) -> float:
@@ -191,6 +222,18 @@ class _Search:
         self.segments_checked += 1
         return bool(self.segment_free(q0, q1))
 
+    def bezier_free(self, p0, corner, p2, blend_free) -> bool:
+        """The blend's curve: its states screened (16 along it, one call), then checked
+        continuously by ``blend_free``."""
+        s = (np.arange(1, 17) / 17)[:, None]
+        Q = (1 - s) ** 2 * p0 + 2 * s * (1 - s) * corner + s**2 * p2
+        free = np.asarray(self.states_free(Q), dtype=bool)
+        self.states_checked += len(Q)
+        if not free.all():
+            return False
+        self.segments_checked += 1
+        return bool(blend_free(p0, corner, p2))
+
 
 def plan_path(
     states_free: StatesFree,
@@ -208,6 +251,7 @@ def plan_path(
     max_iterations: int = 100_000,
     progress: Callable[[int, int], None] | None = None,
     clock: Callable[[], float] = time.perf_counter,
+    blend_free: BlendFree | None = None,
 ) -> PathPlan:
     """A collision-free joint path from ``start`` to one of ``goals`` (module docstring).
 
@@ -236,6 +280,9 @@ def plan_path(
         Growth rounds at most.
     progress : callable, optional
         ``progress(iterations, tree_states)`` now and then during the search.
+    blend_free : callable, optional
+        (p0, corner, p2 (n,) each) -> bool: the corner's blend (the quadratic Bezier curve
+        of the three) free everywhere (the continuous check).  None: no blends.
 
     Returns
     -------
@@ -297,6 +344,8 @@ def plan_path(
                 clock() - t0,
                 length,
                 length,
+                knots=length_knots(way),
+                blends=np.zeros(2),
             )
     found = _connect_trees(
         search, rng, start, goals, usable, lower, upper, step, max_iterations, progress
@@ -313,6 +362,11 @@ def plan_path(
             iterations,
             states,
         )
+    knots = length_knots(way)
+    t_blend = clock()
+    blends = np.zeros(len(way))
+    if blend_free is not None:
+        blends = _blended(search, way, knots, blend_free)
     return PathPlan(
         True,
         way,
@@ -326,7 +380,30 @@ def plan_path(
         path_length(raw),
         path_length(way),
         repairs,
+        knots,
+        blends,
+        clock() - t_blend,
     )
+
+
+def _blended(search: _Search, way: np.ndarray, knots: np.ndarray, blend_free) -> np.ndarray:
+    """Each corner's blend: the widest of :data:`BLEND_TRIALS` whose curve is free (0: none;
+    and none once the time is up - the path stays valid, at rest there).  Corners are
+    independent: a blend is at most half of either knot interval beside it, so two never
+    overlap."""
+
+    blends = np.zeros(len(way))
+    for k in range(1, len(way) - 1):
+        for width in BLEND_TRIALS:
+            if search.out_of_time():
+                return blends
+            trial = np.zeros(len(way))
+            trial[k] = width
+            p0, corner, p2 = blend_corners(knots, way, trial)[k]
+            if search.bezier_free(p0, corner, p2, blend_free):
+                blends[k] = width
+                break
+    return blends
 
 
 def _connect_trees(search, rng, start, goals, usable, lower, upper, step, max_iterations, progress):
@@ -548,6 +625,11 @@ class WorldChecks:
         """The straight segment free everywhere, at the clearance asked (continuous)."""
         return bool(self.exact.check_segment(qa, qb).free)
 
+    def blend_free(self, p0, corner, p2) -> bool:
+        """A corner's blend (the quadratic Bezier curve) free everywhere, at the clearance
+        asked (continuous)."""
+        return bool(self.exact.check_blend(p0, corner, p2).free)
+
     def box(self) -> tuple[np.ndarray, np.ndarray]:
         """The joint box sampled (:func:`sampled_box` of the limits)."""
         return sampled_box(self.device.limit_array("lower")), sampled_box(
@@ -568,11 +650,13 @@ def plan_in_world(
     timeout: float = 10.0,
     progress: Callable[[int, int], None] | None = None,
     checks: WorldChecks | None = None,
+    blend: bool = True,
 ) -> tuple[PathPlan, WorldChecks]:
     """:func:`plan_path` for ``device`` in ``world`` as it is now, checked as
-    :class:`WorldChecks` says (``checks``: one built before for this world and device).
-    Goals that are not free or touch something are dropped first; with none left the plan
-    is not found and its reason names the nearest pairs.  Returns (plan, the checks)."""
+    :class:`WorldChecks` says (``checks``: one built before for this world and device), its
+    corners blended where the blends are free (``blend``).  Goals that are not free or touch
+    something are dropped first; with none left the plan is not found and its reason names
+    the nearest pairs.  Returns (plan, the checks)."""
     checks = checks or WorldChecks(world, model, device, tolerance, clearance)
     start = np.asarray(start, dtype=float).ravel()
     goals = np.atleast_2d(np.asarray(goals, dtype=float))
@@ -590,6 +674,7 @@ def plan_in_world(
         seed=seed,
         timeout=timeout,
         progress=progress,
+        blend_free=checks.blend_free if blend else None,
     )
     if plan.found:
         plan.goal = int(usable[plan.goal])  # an index of the goals given

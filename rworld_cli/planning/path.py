@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..model.paths import MAX_BLEND
+
 
 class JointPath:
     """A cubic spline through joint waypoints.
@@ -16,7 +18,7 @@ class JointPath:
         Joint values [rad or m] at the knots.
     knots : array_like, shape (K,), optional
         Path parameters of the waypoints; default equally spaced on [0, 1].
-    boundary : {"clamped", "natural", "not-a-knot"}
+    boundary : {"clamped", "natural", "not-a-knot", "segments", "blended"}
         ``clamped``: dq/ds = 0 at both ends (start and end at rest); ``natural``: d2q/ds2 = 0
         there; ``not-a-knot``: the third derivative is continuous at the second and the
         second-last knot; ``segments``: dq/ds = 0 at every knot, so that each piece runs
@@ -25,14 +27,28 @@ class JointPath:
         on (``rworld plan path``), not a spline through them.  The others are the same
         splines as ``scipy.interpolate.CubicSpline`` with that ``bc_type`` (tested to 1e-12),
         built here: importing scipy's interpolation costs about half a second, more than a
-        whole time-optimal solve.
+        whole time-optimal solve.  ``blended``: the segments' straight lines, with each
+        interior corner whose ``blends`` entry is above 0 cut by a parabolic blend
+        (:func:`blended_pieces`): the path keeps moving through it; a corner at 0 is passed
+        at rest, as under ``segments``.  Its knots follow the joint-space length
+        (:func:`length_knots`), so that the blends' curves - what was checked - are fixed by
+        the waypoints and blends alone: other knots are refused.
+    blends : array_like, shape (K,), optional
+        ``blended`` only: per waypoint, the blend's half-width as a fraction of the shorter
+        of its two knot intervals, in [0, 0.5] (the ends: 0).  Default: all 0 (the
+        segments).
     """
 
-    def __init__(self, waypoints, knots=None, boundary: str = "clamped"):
+    def __init__(self, waypoints, knots=None, boundary: str = "clamped", blends=None):
         self.waypoints = np.asarray(waypoints, dtype=float)
         if self.waypoints.ndim != 2 or len(self.waypoints) < 2:
             raise ValueError("a path needs at least 2 waypoints of n joint values")
         self.boundary = boundary
+        if boundary == "blended":
+            by_length = length_knots(self.waypoints)
+            if knots is not None and not np.allclose(knots, by_length, rtol=0, atol=1e-9):
+                raise ValueError("a blended path's knots follow its joint-space lengths: give none")
+            knots = by_length
         self.knots = (
             np.linspace(0.0, 1.0, len(self.waypoints))
             if knots is None
@@ -45,6 +61,17 @@ class JointPath:
             or self.knots[-1] != 1
         ):
             raise ValueError("knots must rise strictly from 0 to 1, one per waypoint")
+        if boundary == "blended":
+            self.blends = (
+                np.zeros(len(self.waypoints))
+                if blends is None
+                else np.asarray(blends, dtype=float).ravel()
+            )
+            self._set_polynomial(*blended_pieces(self.knots, self.waypoints, self.blends))
+            return
+        if blends is not None:
+            raise ValueError("blends are for boundary 'blended'")
+        self.blends = None
         slopes = spline_slopes(self.knots, self.waypoints, boundary)
         self._set_polynomial(self.knots, hermite_coefficients(self.knots, self.waypoints, slopes))
 
@@ -130,6 +157,92 @@ def range_excursions(
                 RangeExcursion(j, float(s_max[j]), float(q_max[j]), float(upper[j]), "upper")
             )
     return out
+
+
+def length_knots(waypoints) -> np.ndarray:
+    """Path parameters of a polyline's waypoints (W, n) by joint-space length (Euclidean), 0
+    to 1 (W,); equally spaced when it has no length."""
+    waypoints = np.asarray(waypoints, dtype=float)
+    if len(waypoints) < 2:
+        return np.zeros(len(waypoints))
+    lengths = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(waypoints, axis=0), axis=1))]
+    return lengths / lengths[-1] if lengths[-1] > 0 else np.linspace(0.0, 1.0, len(waypoints))
+
+
+def blend_corners(knots: np.ndarray, values: np.ndarray, blends: np.ndarray) -> np.ndarray:
+    """Each waypoint's blend as its three control states: (K, 3, n) - where the blend leaves
+    the incoming segment, the corner, where it joins the outgoing one (all three the corner
+    where there is no blend).  The blend is the quadratic Bezier curve of those three, inside
+    their triangle (so inside the joint box when they are)."""
+    tau, slopes = _blend_widths(knots, values, blends)
+    out = np.repeat(values[:, None, :], 3, axis=1)
+    inner = np.arange(1, len(values) - 1)
+    out[inner, 0] -= tau[inner, None] * slopes[inner - 1]
+    out[inner, 2] += tau[inner, None] * slopes[inner]
+    return out
+
+
+def _blend_widths(knots, values, blends):
+    """(tau (K,): each blend's half-width in s, slopes (K - 1, n): each segment's dq/ds)."""
+    knots, values = np.asarray(knots, dtype=float), np.asarray(values, dtype=float)
+    blends = np.asarray(blends, dtype=float).ravel()
+    K = len(values)
+    if blends.shape != (K,) or not np.all((blends >= 0) & (blends <= MAX_BLEND)):
+        raise ValueError(f"blends: one per waypoint, each in [0, {MAX_BLEND}]")
+    if K > 2 and (blends[0] != 0 or blends[-1] != 0):
+        raise ValueError("the path's ends are not blended (they are at rest)")
+    h = np.diff(knots)
+    tau = np.zeros(K)
+    if K > 2:
+        tau[1:-1] = blends[1:-1] * np.minimum(h[:-1], h[1:])
+    return tau, np.diff(values, axis=0) / h[:, None]
+
+
+def blended_pieces(knots, values, blends) -> tuple[np.ndarray, np.ndarray]:
+    """The pieces of the ``blended`` path: (breaks (P + 1,), coefficients (4, P, n)) in the
+    :attr:`JointPath.pieces` layout.
+
+    Segment i runs along its chord from waypoint i to i + 1 over s in [knots[i],
+    knots[i+1]], slope ``v_i = (q_{i+1} - q_i) / h_i``.  A corner k with half-width
+    ``tau_k = blends[k] min(h_{k-1}, h_k)`` > 0 replaces s in [knots[k] - tau_k, knots[k] +
+    tau_k] by the parabola ``q_k - tau_k v_{k-1} + v_{k-1} t + (v_k - v_{k-1}) t^2 / (4
+    tau_k)``, t from 0 to 2 tau_k: it leaves the incoming line and joins the outgoing one
+    with their slopes (dq/ds continuous; d2q/ds2 steps).  Between blends each segment's
+    remaining piece is the cubic along its chord with slope ``v_i`` at a blended end and 0
+    at an end at rest (``t + t^2 - t^3`` of the piece, or ``3t^2 - 2t^3`` with both at rest:
+    monotone, never off the chord).  All blends 0 gives the ``segments`` path exactly.
+    """
+    knots, values = np.asarray(knots, dtype=float), np.asarray(values, dtype=float)
+    tau, slopes = _blend_widths(knots, values, blends)
+    breaks: list[float] = [0.0]
+    pieces: list[np.ndarray] = []
+    n = values.shape[1]
+    for i in range(len(values) - 1):
+        a, b = knots[i] + tau[i], knots[i + 1] - tau[i + 1]
+        if tau[i] > 0:  # the blend about waypoint i
+            width = 2.0 * tau[i]
+            pieces.append(
+                np.stack(
+                    [
+                        np.zeros(n),
+                        (slopes[i] - slopes[i - 1]) / (2.0 * width),
+                        slopes[i - 1],
+                        values[i] - tau[i] * slopes[i - 1],
+                    ]
+                )
+            )
+            breaks.append(knots[i] + tau[i])
+        if b - a > 1e-15 * max(1.0, abs(b)):  # the line between (none when two blends meet)
+            q0 = values[i] + tau[i] * slopes[i]
+            q1 = values[i + 1] - tau[i + 1] * slopes[i]
+            m0 = slopes[i] if tau[i] > 0 else np.zeros(n)
+            m1 = slopes[i] if tau[i + 1] > 0 else np.zeros(n)
+            pieces.append(
+                hermite_coefficients(np.array([a, b]), np.stack([q0, q1]), np.stack([m0, m1]))[:, 0]
+            )
+            breaks.append(b)
+    breaks[-1] = 1.0
+    return np.array(breaks), np.stack(pieces, axis=1)
 
 
 def quadratic_roots(c0, c1, c2):

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..errors import Issue, UserError
 from ..fileio import atomic_write_text
-from ..model.paths import PathSpec
+from ..model.paths import MAX_BLEND, PathSpec
 from ..units import ANGLE, LENGTH
 from .loader import validate_document
 from .program import PathFile
@@ -66,6 +66,7 @@ def read_path(path_file: str, device) -> LoadedPath:
                     f"knots must rise strictly from 0 to 1, one per waypoint ({len(pf.waypoints)})",
                 )
             )
+    issues += _blend_issues(doc, pf)
     kinds = {j.kind for j in device.joints}
     for kind, unit, example in (("revolute", "angle", "deg"), ("prismatic", "length", "mm")):
         if kind in kinds and getattr(pf.units, unit) is None:
@@ -103,7 +104,38 @@ def read_path(path_file: str, device) -> LoadedPath:
             issues,
         )
     knots = None if pf.knots is None else np.array(pf.knots, dtype=float)
-    return LoadedPath(PathSpec(q, knots, pf.boundary, pf.device), path_file, scale, doc, pf)
+    blends = None if pf.blends is None else np.array(pf.blends, dtype=float)
+    return LoadedPath(PathSpec(q, knots, pf.boundary, pf.device, blends), path_file, scale, doc, pf)
+
+
+def _blend_issues(doc: Marked, pf: PathFile) -> list[Issue]:
+    """Located problems of a path file's ``blends``: only with ``boundary: blended``, one per
+    waypoint, each in [0, 0.5], the ends 0; a blended path gives no knots."""
+    if pf.boundary != "blended":
+        if pf.blends is not None:
+            return [doc.issue(("blends",), "blends are for 'boundary: blended'")]
+        return []
+    out = []
+    if pf.knots is not None:
+        out.append(
+            doc.issue(
+                ("knots",),
+                "a blended path's knots follow its joint-space lengths: remove 'knots'",
+            )
+        )
+    if pf.blends is None:
+        return out
+    b, W = pf.blends, len(pf.waypoints)
+    if len(b) != W:
+        return out + [doc.issue(("blends",), f"{len(b)} blend(s) for {W} waypoints: one each")]
+    for k, value in enumerate(b):
+        if not 0 <= value <= MAX_BLEND:
+            out.append(
+                doc.issue(("blends", k), f"{value} is outside [0, {MAX_BLEND}] (a fraction)")
+            )
+        elif k in (0, W - 1) and value != 0:
+            out.append(doc.issue(("blends", k), "the path's ends are at rest: blend 0"))
+    return out
 
 
 def read_path_file(path_file: str) -> tuple[PathFile, Marked]:
@@ -117,6 +149,11 @@ def write_path_with_knots(path_file: str, knots, output: str, note: str = "") ->
     atomically.
     """
     pf = validate_document(read_yaml(path_file), PathFile)
+    if pf.boundary == "blended":
+        raise UserError(
+            f"{path_file}: a blended path's knots follow its joint-space lengths; it is not "
+            "written with other knots"
+        )
     lines = [
         f"# {comment_text(path_file)} with new knots{': ' + comment_text(note) if note else ''}"
     ]
@@ -131,10 +168,11 @@ def write_path_with_knots(path_file: str, knots, output: str, note: str = "") ->
     atomic_write_text(output, "\n".join(lines) + "\n")
 
 
-def write_planned_path(output: str, device, waypoints, knots, note: str) -> None:
+def write_planned_path(output: str, device, waypoints, blends, note: str) -> None:
     """A planned joint path as a path file, atomically: ``waypoints`` (W, n) in SI written in
-    rad and m (read back bit for bit), ``knots`` (W,), ``boundary: segments`` (the straight
-    joint-space lines between the waypoints, at rest at each: what was checked)."""
+    rad and m (read back bit for bit), ``boundary: blended`` with ``blends`` (W,) (the
+    straight joint-space lines between the waypoints, their corners blended: what was
+    checked; the knots follow the joint-space lengths)."""
     waypoints = np.asarray(waypoints, dtype=float)
     kinds = {j.kind for j in device.joints}
     units = ([("angle", "rad")] if "revolute" in kinds else []) + (
@@ -147,6 +185,6 @@ def write_planned_path(output: str, device, waypoints, knots, note: str) -> None
         "waypoints:",
     ]
     lines += ["  - [" + ", ".join(repr(float(v)) for v in row) + "]" for row in waypoints]
-    lines.append("knots: [" + ", ".join(repr(float(k)) for k in knots) + "]")
-    lines.append("boundary: segments")
+    lines.append("boundary: blended")
+    lines.append("blends: [" + ", ".join(repr(float(b)) for b in blends) + "]")
     atomic_write_text(output, "\n".join(lines) + "\n")

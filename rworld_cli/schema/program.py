@@ -431,9 +431,16 @@ class PathFile(Strict):
         None,
         description="Path parameter of each waypoint, rising from 0 to 1; default equally spaced.",
     )
-    boundary: Literal["clamped", "natural", "not-a-knot", "segments"] = Field(
+    boundary: Literal["clamped", "natural", "not-a-knot", "segments", "blended"] = Field(
         "clamped",
         description="clamped: dq/ds = 0 at both ends. segments: straight joint-space "
-        "segments between the waypoints, at rest at each (a collision-free path from 'rworld "
-        "plan path': the lines it checked).",
+        "segments between the waypoints, at rest at each. blended: those segments with each "
+        "corner cut by a parabolic blend ('blends'), the knots by joint-space length (a "
+        "collision-free path from 'rworld plan path': the lines and blends it checked).",
+    )
+    blends: list[float] | None = Field(
+        None,
+        description="boundary 'blended': per waypoint, the corner's blend half-width as a "
+        "fraction of the shorter segment beside it, in [0, 0.5]; 0 at the ends and at "
+        "corners passed at rest. Default: all 0.",
     )

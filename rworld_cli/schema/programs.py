@@ -86,7 +86,8 @@ def _check_config(doc, path, spec, step, device, named, L, A, issues) -> None:
 def _path_goal(doc, path, spec, step, device, issues) -> None:
     """``move: {path: FILE}``: the path file read against the device (relative to the
     program's folder), its waypoints the step's; it must be straight segments (``boundary:
-    segments``: the lines 'rworld plan path' checked), its problems located in it."""
+    segments`` or ``blended``: the lines and blends 'rworld plan path' checked), its problems
+    located in it."""
     from .paths import read_path
 
     if device is None:
@@ -101,17 +102,19 @@ def _path_goal(doc, path, spec, step, device, issues) -> None:
         issues.append(doc.issue(path, f"the path file is invalid: {exc.message}"))
         issues.extend(exc.issues)
         return
-    if loaded.spec.boundary != "segments":
+    if loaded.spec.boundary not in ("segments", "blended"):
         issues.append(
             doc.issue(
                 path,
                 f"{spec.path} is a spline ('boundary: {loaded.spec.boundary}'): a program "
-                "drives a path file's straight segments ('boundary: segments', as 'rworld plan "
-                "path' writes it); time a spline with 'rworld plan time-optimal'",
+                "drives a path file's straight segments ('boundary: blended' or 'segments', as "
+                "'rworld plan path' writes it); time a spline with 'rworld plan time-optimal'",
             )
         )
         return
     step.waypoints = np.asarray(loaded.spec.waypoints, dtype=float)
+    if loaded.spec.boundary == "blended" and loaded.spec.blends is not None:
+        step.blends = np.asarray(loaded.spec.blends, dtype=float)
     step.joints = step.waypoints[-1].copy()
 
 

@@ -31,7 +31,7 @@ from ..errors import UserError
 from ..kinematics.configuration import arm_configurations, is_arm, vendor_words
 from ..kinematics.inverse import solve_ik, solve_ik_soonest
 from ..kinematics.jacobian import ToolMount, tool_pose
-from ..model.program import MoveTarget, Program, ResolvedStep, Run, Step
+from ..model.program import BlendZone, MoveTarget, Program, ResolvedStep, Run, Step
 from ..motion.linear import PathError, linear_move
 from ..motion.trajectory import StoppedMove, UntimedMove, joint_move, sample_track
 from ..units import MAX_SAMPLES
@@ -373,6 +373,7 @@ class _Scheduler(FeatureSteps):
                 self._resolve_tcp(device, step.spec.tcp),
                 None,
                 None,
+                step.blends,
             )
             return True
         if step.joints is not None:  # move: {joints: [...]}
@@ -692,10 +693,12 @@ class _Scheduler(FeatureSteps):
         motion="joint",
         speed=None,
         acceleration=None,
+        via=None,
     ):
         """Guard, resolve and time a move's segment (None: already there); returns it.  A
         joint move with ``path: free`` goes through the via points of a collision-free path
-        (:meth:`_free_path`), each recorded as a joint move of its own."""
+        (:meth:`_free_path`), each recorded as a joint move of its own (``via``: (the via
+        point, its blend fraction) of a leg of a path timed as one)."""
         if (
             seg is not None
             and motion == "joint"
@@ -729,6 +732,7 @@ class _Scheduler(FeatureSteps):
             spec.speed if speed is None else speed,
             spec.acceleration if acceleration is None else acceleration,
             until,
+            via,
         )
         self._actions.append(ResolvedStep(step, target.t0, target))
         if seg is None:
@@ -756,9 +760,10 @@ class _Scheduler(FeatureSteps):
         """``move: {..., path: free}``: a collision-free joint path from the joints now to the
         move's end (``planning.motion.plan_in_world``: in the world at this instant - other
         devices where their programs have them, grasps, tools, calibrated poses; the run's
-        clearance and collision tolerance; seeded by the step's index), driven as joint moves
-        through its via points, each at rest there.  No path: the target is unreachable (exit
-        1), with the planner's reason."""
+        clearance and collision tolerance; seeded by the step's index; its corners blended
+        where the blends are free), driven through its via points without stopping at the
+        blended ones (:meth:`_drive_through`).  No path: the target is unreachable (exit 1),
+        with the planner's reason."""
         from ..planning.motion import plan_in_world
 
         plan, _ = plan_in_world(
@@ -778,17 +783,28 @@ class _Scheduler(FeatureSteps):
                 f"collision-free path to '{name}': {plan.reason}",
                 str(plan.reason),
             )
-        return self._drive_through(device, tr, step, plan.waypoints, name, tcp, speed, acceleration)
+        return self._drive_through(
+            device, tr, step, plan.waypoints, name, tcp, speed, acceleration, plan.blends
+        )
 
-    def _drive_through(self, device, tr, step, way, name, tcp, speed, acceleration):
-        """Joint moves through the states ``way`` (W, n) - a planned path's or a path
-        file's - each at rest, each recorded as a move of the step (its event naming the
-        leg); returns the last."""
+    def _drive_through(self, device, tr, step, way, name, tcp, speed, acceleration, blends=None):
+        """Drive through the states ``way`` (W, n) - a planned path's or a path file's - each
+        leg (via point to via point) recorded as a move of the step, its event naming the leg;
+        returns the last.  One leg: a joint move.  More: the whole path timed as one
+        (:meth:`_timed_legs`), through each corner ``blends`` (W,) blends without stopping,
+        at rest at the others."""
+        legs = self._timed_legs(device, step, tr.t, way, blends, speed, acceleration)
         self._in_free_path = True
         try:
             last = None
             for k in range(1, len(way)):
-                piece = self._joint_move(device, tr, step, way[k - 1], way[k], speed, acceleration)
+                if legs is None:
+                    piece = self._joint_move(
+                        device, tr, step, way[k - 1], way[k], speed, acceleration
+                    )
+                    via = None
+                else:
+                    piece, via = legs[k - 1]
                 leg = f"via point {k} of {len(way) - 2}" if k < len(way) - 1 else "last leg"
                 leg = leg if len(way) > 2 else ""  # the straight line was free: one move
                 self._free_leg = leg
@@ -806,10 +822,84 @@ class _Scheduler(FeatureSteps):
                     "joint",
                     speed,
                     acceleration,
+                    via,
                 )
         finally:
             self._in_free_path = False
         return last
+
+    def _timed_legs(self, device, step, t0, way, blends, speed, acceleration):
+        """The legs of the path through ``way`` (W > 2 states) timed as one, starting at
+        ``t0``: ``planning.topp``'s time-optimal timing of the ``blended`` path (straight
+        joint lines, corners cut by ``blends``; all 0 or None: at rest at every via point)
+        under the joints' velocity and acceleration limits times the step's speed and
+        acceleration fractions, and their torque limits where the cell gives them (what the
+        device carries now on its links; no friction: the run's overload check sees it).
+        A list of (PathLeg, (via point, blend fraction, the blend's two ends, the fractions of
+        the legs before and after it the blend takes)) - the leg ends
+        where the path passes its via point's knot (the middle of its blend) - or None for a
+        single leg."""
+        if len(way) <= 2:
+            return None
+        from ..motion.trajectory import PathLeg
+        from ..planning.path import JointPath, blend_corners
+        from ..planning.topp import InfeasiblePath, Limits, sample_path, time_optimal
+
+        dev = self.run.cell.devices[device]
+        speed = step.spec.speed if speed is None else speed
+        acceleration = step.spec.acceleration if acceleration is None else acceleration
+        blends = np.zeros(len(way)) if blends is None else np.asarray(blends, dtype=float)
+        path = JointPath(way, None, "blended", blends)
+        effort = dev.limit_array("effort")
+        dynamics = gravity = None
+        if np.isfinite(effort).any():
+            dynamics = DeviceDynamics(
+                dev, friction=False, link_loads=self.world.carried_loads(device)
+            )
+            gravity = self.world.T_world(device)[:3, :3].T @ self.run.cell.gravity
+        limits = Limits(
+            dev.limit_array("velocity") * speed,
+            dev.limit_array("acceleration") * acceleration,
+            effort if dynamics is not None else None,
+        )
+        if not np.isfinite(limits.acceleration).any():
+            names = ", ".join(j.name for j in dev.joints)
+            self.fail(
+                device,
+                step,
+                f"nothing times this path: its joints ({names}) have no acceleration limit; "
+                "add one to the cell",
+            )
+        try:
+            timing, _ = time_optimal(path, limits, dynamics, gravity)
+        except InfeasiblePath as exc:
+            self.fail(device, step, f"no timing of the path keeps the joints' limits: {exc}")
+
+        def sampler(times):
+            rows = sample_path(path, timing, np.asarray(times, dtype=float) - t0)
+            return rows.q, rows.qd, rows.qdd
+
+        # when the path passes each via point's knot (s rises with t: invert by interpolation)
+        at = t0 + np.interp(path.knots, timing.s, timing.t)
+        at[0], at[-1] = t0, t0 + timing.duration
+        controls = blend_corners(path.knots, way, blends)  # (W, 3, n): each blend's ends
+        h = np.diff(path.knots)
+        tau = np.r_[0.0, blends[1:-1] * np.minimum(h[:-1], h[1:]), 0.0]
+        before, after = tau[1:] / h, np.r_[tau[1:-1] / h[1:], 0.0]  # of leg k-1, of leg k
+        return [
+            (
+                PathLeg(float(at[k - 1]), float(at[k]), sampler),
+                (
+                    way[k],
+                    float(blends[k]),
+                    controls[k, 0],
+                    controls[k, 2],
+                    float(before[k - 1]),
+                    float(after[k - 1]),
+                ),
+            )
+            for k in range(1, len(way))
+        ]
 
     def _configuration_taken(self, device: str, q) -> tuple[dict | None, str]:
         """A 6-axis arm's configuration at ``q``: rworld's words, and the text for the move's
@@ -826,15 +916,48 @@ class _Scheduler(FeatureSteps):
         return took, words + (f"; {vendor}" if vendor else "")
 
     def _target(
-        self, device, tr, step, q_now, seg, planned, name, tcp, motion, speed, acceleration, until
+        self,
+        device,
+        tr,
+        step,
+        q_now,
+        seg,
+        planned,
+        name,
+        tcp,
+        motion,
+        speed,
+        acceleration,
+        until,
+        via=None,
     ) -> MoveTarget:
-        """The resolved move, for exporters: the TCP steered, where the joints ended, the TCP
-        pose there in the base frame."""
+        """The resolved move, for exporters: the TCP steered, where the joints ended (a leg
+        of a path timed as one: its via point, ``via``), the TCP pose there in the base
+        frame; a blended via point's blend (the joint and TCP distances from the via point
+        at which its blend leaves and joins the lines, the smaller side)."""
         dev = self.run.cell.devices[device]
         link, T_link_tcp = self.world.mount_of(device, tcp)
         q_goal = np.array(q_now if seg is None else seg.q_end, dtype=float)
         q_planned = np.array(q_now if planned is None else planned.q_end, dtype=float)
         mount = ToolMount(link, T_link_tcp)
+        blend = None
+        if via is not None:
+            q_goal = q_planned = np.array(via[0], dtype=float)
+            corner, fraction, p0, p2, before, after = via
+            if fraction > 0:
+                tcp_at = tool_pose(dev, np.stack([p0, corner, p2]), mount)[..., :3, 3]
+                blend = BlendZone(
+                    fraction,
+                    before,
+                    after,
+                    float(min(np.abs(corner - p0).max(), np.abs(p2 - corner).max())),
+                    float(
+                        min(
+                            np.linalg.norm(tcp_at[1] - tcp_at[0]),
+                            np.linalg.norm(tcp_at[2] - tcp_at[1]),
+                        )
+                    ),
+                )
         T_base_tcp = tool_pose(dev, q_goal, mount)
         return MoveTarget(
             motion,
@@ -852,6 +975,7 @@ class _Scheduler(FeatureSteps):
             until,
             q_planned,
             tool_pose(dev, q_planned, mount),
+            blend,
         )
 
     def _joint_move(

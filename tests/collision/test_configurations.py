@@ -138,6 +138,37 @@ def test_a_segment_is_free_exactly_when_dense_samples_find_no_contact():
     assert colliding >= 4
 
 
+def test_a_blend_is_free_exactly_when_dense_samples_on_its_curve_find_no_contact():
+    """Random corners of the Puma in its cell blended by quadratic Bezier curves (a planned
+    path's blends): the blend check against 2 001 states along each curve, as the segment
+    check is tested.  And a blend whose corner lies on its chord is that straight segment:
+    the two checks decide alike."""
+    _, _, _, limits, check = checker(REPO / "workcells/puma560/cell.yaml")
+    rng = np.random.default_rng(2)
+    s = np.linspace(0.0, 1.0, 2001)[:, None]
+    colliding = free = 0
+    for _ in range(60):
+        p0, corner, p2 = rng.uniform(limits[:, 0], limits[:, 1], (3, len(limits)))
+        corner = p0 + (corner - p0) * 0.6 + (p2 - p0) * 0.2  # a corner, not far off the chord
+        blend = check.check_blend(p0, corner, p2)
+        curve = (1 - s) ** 2 * p0 + 2 * s * (1 - s) * corner + s**2 * p2
+        dense = check.check(curve, nearest=False)
+        assert not blend.unresolved
+        if dense.free.all():
+            free += blend.free
+            if not blend.free:  # a contact between the dense states: it is one
+                u = blend.first
+                at = (1 - u) ** 2 * p0 + 2 * u * (1 - u) * corner + u**2 * p2
+                assert not check.check(at[None], nearest=False).free[0]
+        else:
+            colliding += 1
+            assert not blend.free
+            assert blend.first <= s[~dense.free, 0].min() + 1e-12
+        mid = (p0 + p2) / 2  # on the chord: the segment itself
+        assert check.check_blend(p0, mid, p2).free == check.check_segment(p0, p2).free
+    assert colliding >= 4 and free >= 4
+
+
 def test_a_segment_through_the_plate_stops_at_it():
     _, model, _, _, check = checker(REPO / "tests/data/vendor_cells/iiwa14/cell.yaml")
     down = np.radians([[0, 40, 0, -80, 0, 50, 0], [0, 40, 0, -90, 0, 50, 0]])

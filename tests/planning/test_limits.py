@@ -301,6 +301,32 @@ def test_validate_checks_path_files_against_their_cell(cli, tmp_path):
             "0]\nknots: [0, 0.7, 0.3]\nunits: {angle: rad}\n",
             "p.yaml:5:8: knots: knots must rise strictly from 0 to 1",
         ),
+        (
+            "waypoints:\n  - [0, 0, 0, 0, 0, 0]\n  - [1, 1, 1, 1, 1, 1]\n  - [0, 1, 0, 0, 0, "
+            "0]\nboundary: blended\nblends: [0, 0.7, 0]\nunits: {angle: rad}\n",
+            "p.yaml:6:13: blends[1]: 0.7 is outside [0, 0.5] (a fraction)",
+        ),
+        (
+            "waypoints:\n  - [0, 0, 0, 0, 0, 0]\n  - [1, 1, 1, 1, 1, 1]\n  - [0, 1, 0, 0, 0, "
+            "0]\nboundary: blended\nblends: [0.1, 0.2, 0]\nunits: {angle: rad}\n",
+            "p.yaml:6:10: blends[0]: the path's ends are at rest: blend 0",
+        ),
+        (
+            "waypoints:\n  - [0, 0, 0, 0, 0, 0]\n  - [1, 1, 1, 1, 1, 1]\n  - [0, 1, 0, 0, 0, "
+            "0]\nboundary: blended\nblends: [0, 0.2]\nunits: {angle: rad}\n",
+            "p.yaml:6:9: blends: 2 blend(s) for 3 waypoints: one each",
+        ),
+        (
+            "waypoints:\n  - [0, 0, 0, 0, 0, 0]\n  - [1, 1, 1, 1, 1, 1]\n  - [0, 1, 0, 0, 0, "
+            "0]\nboundary: blended\nknots: [0, 0.5, 1]\nunits: {angle: rad}\n",
+            "p.yaml:6:8: knots: a blended path's knots follow its joint-space lengths: remove "
+            "'knots'",
+        ),
+        (
+            "waypoints:\n  - [0, 0, 0, 0, 0, 0]\n  - [1, 1, 1, 1, 1, 1]\nblends: [0, 0]\n"
+            "units: {angle: rad}\n",
+            "p.yaml:4:9: blends: blends are for 'boundary: blended'",
+        ),
     ],
 )
 def test_bad_waypoints_and_knots_exit_2_located_and_write_nothing(cli, tmp_path, text, located):

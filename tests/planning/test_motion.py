@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -175,20 +176,27 @@ def scene(name: str):
     return device_context(str(MOTION / name), device)
 
 
-def independent_check(ctx, way: np.ndarray, tolerance=1e-3):
-    """A checker the planner did not build: every segment continuous, and 50 states along
-    each exactly (their nearest pair's signed distance above minus the tolerance)."""
+def independent_check(ctx, way: np.ndarray, tolerance=1e-3, blends=None):
+    """A checker the planner did not build: every segment and every corner's blend
+    continuous, and 50 states along each piece of the path driven (the ``blended`` path:
+    lines and blends) exactly (their nearest pair's signed distance above minus the
+    tolerance)."""
     from rworld_cli.collision.bodies import collision_model
     from rworld_cli.collision.configurations import ConfigurationChecker
+    from rworld_cli.planning.path import JointPath, blend_corners, length_knots
 
     checker = ConfigurationChecker(
         ctx.world, collision_model(ctx.world.cell), ctx.device.name, tolerance=tolerance
     )
+    blends = np.zeros(len(way)) if blends is None else blends
     for a, b in zip(way[:-1], way[1:]):
         assert checker.check_segment(a, b).free
-        s = np.linspace(0.0, 1.0, 50)[:, None]
-        report = checker.check(a + s * (b - a))
-        assert report.free.all() and (report.distance > -tolerance).all()
+    for k in np.flatnonzero(blends):
+        assert checker.check_blend(*blend_corners(length_knots(way), way, blends)[k]).free
+    breaks = JointPath(way, None, "blended", blends).pieces[0]
+    s = (breaks[:-1, None] + np.linspace(0.0, 1.0, 50)[None] * np.diff(breaks)[:, None]).ravel()
+    report = checker.check(JointPath(way, None, "blended", blends).evaluate(s)[0])
+    assert report.free.all() and (report.distance > -tolerance).all()
 
 
 @pytest.mark.parametrize(
@@ -214,7 +222,11 @@ def test_planned_paths_pass_an_independent_checker(problem):
     assert not checks.segment_free(start, goal)  # the straight line was no answer
     lo, hi = ctx.device.limit_array("lower"), ctx.device.limit_array("upper")
     assert (plan.waypoints >= lo).all() and (plan.waypoints <= hi).all()
-    independent_check(ctx, plan.waypoints)
+    path = plan.joint_path()
+    q_min, _, q_max, _ = path.extrema()  # the blends too
+    assert (q_min >= lo).all() and (q_max <= hi).all()
+    assert plan.blends.any()  # corners blended (every one of these problems has some)
+    independent_check(ctx, plan.waypoints, blends=plan.blends)
 
 
 def test_a_second_robot_is_planned_around_where_it_stands():
@@ -225,11 +237,12 @@ def test_a_second_robot_is_planned_around_where_it_stands():
     ctx = scene("panda_pair")
     problem = next(p for p in PROBLEMS if p["scene"] == "panda_pair")
     planned = plan_free_path(ctx, ",".join(map(repr, problem["goal"])), problem["start"])
-    independent_check(ctx, planned.plan.waypoints)
+    independent_check(ctx, planned.plan.waypoints, blends=planned.plan.blends)
 
 
-def test_the_path_file_is_the_polyline_checked_and_times(tmp_path):
+def test_the_path_file_is_the_polyline_and_blends_checked_and_times(tmp_path):
     from rworld_cli.api import load_joint_path, plan_free_path, time_optimal_plan
+    from rworld_cli.planning.path import blend_corners
 
     ctx = scene("panda_fixtures")
     problem = next(p for p in PROBLEMS if p["scene"] == "panda_fixtures")
@@ -239,17 +252,31 @@ def test_the_path_file_is_the_polyline_checked_and_times(tmp_path):
     again = tmp_path / "q.yaml"
     plan_free_path(ctx, goal, problem["start"], output=str(again))
     assert out.read_bytes() == again.read_bytes()  # same seed, same file
+    assert "boundary: blended" in out.read_text()
     path = load_joint_path(str(out), ctx.device)
-    way = planned.plan.waypoints
+    way, blends = planned.plan.waypoints, planned.plan.blends
     assert np.array_equal(path.waypoints, way)  # rad, written with repr: bit for bit
-    s = np.linspace(0, 1, 2001)
+    assert np.array_equal(path.blends, blends) and blends.any()
+    s = np.linspace(0, 1, 4001)
     q = path.evaluate(s)[0]
     knots = planned.knots
+    h = np.diff(knots)
+    tau = np.r_[0.0, blends[1:-1] * np.minimum(h[:-1], h[1:]), 0.0]  # each blend's half-width
+    corner = np.argmin(np.abs(s[:, None] - knots[None]), axis=1)
+    inside = np.abs(s - knots[corner]) < tau[corner]
+    # outside the blends: on the straight lines between the waypoints
     piece = np.clip(np.searchsorted(knots, s, side="right") - 1, 0, len(way) - 2)
     a, b = way[piece], way[piece + 1]
     along = np.einsum("ij,ij->i", q - a, b - a) / np.einsum("ij,ij->i", b - a, b - a)
-    assert np.abs(q - (a + along[:, None] * (b - a))).max() < 1e-12  # on the straight lines
-    assert (along > -1e-12).all() and (along < 1 + 1e-12).all()
+    off_line = np.abs(q - (a + along[:, None] * (b - a))).max(axis=1)
+    assert off_line[~inside].max() < 1e-12
+    assert (along[~inside] > -1e-12).all() and (along[~inside] < 1 + 1e-12).all()
+    # inside: the quadratic Bezier curve of the blend's ends and corner (what was checked)
+    ends = blend_corners(knots, way, blends)
+    k = corner[inside]
+    u = ((s[inside] - (knots[k] - tau[k])) / (2 * tau[k]))[:, None]
+    bezier = (1 - u) ** 2 * ends[k, 0] + 2 * u * (1 - u) * ends[k, 1] + u**2 * ends[k, 2]
+    assert np.abs(q[inside] - bezier).max() < 1e-12
     timed = time_optimal_plan(ctx, str(out), samples=200)
     assert timed.timing.duration > 0 and timed.peak_ratio["velocity"] <= 1 + 1e-9
 
@@ -549,7 +576,7 @@ def test_a_program_drives_a_planned_path_file(tmp_path):
     """``rworld plan path -o`` then ``move: {path: FILE}``: the run goes through the file's
     waypoints and passes the check; a path that does not start where the device is, a spline
     path file and a path with a goal of its own are refused, located."""
-    from rworld_cli.api import plan_free_path, simulate_run
+    from rworld_cli.api import plan_free_path, simulate_run, time_optimal_plan
     from rworld_cli.errors import UserError
     from rworld_cli.simulate.errors import SimulationError
 
@@ -571,6 +598,22 @@ def test_a_program_drives_a_planned_path_file(tmp_path):
     assert np.allclose(result.devices["panda"].q[-1], problem["goal"])
     legs = [e for e in result.events if e.kind == "move" and e.step == 1]
     assert len(legs) == len(planned.plan.waypoints) - 1
+    # the path timed as one: the time-optimal timing of the file's path (the same limits),
+    # through its blended via points without stopping, at rest at the others
+    timed = time_optimal_plan(ctx, str(tmp_path / "p.yaml"), samples=50)
+    run, t = result.devices["panda"], result.times
+    first_leg = result.events.index(legs[0])
+    t0 = result.events[first_leg].t  # the path starts when its first leg does
+    end = t0 + timed.timing.duration
+    assert np.abs(run.qd[t >= end + 1e-9]).max(initial=0.0) < 1e-12  # at rest after
+    if planned.plan.blends[1:-1].all():  # every corner blended: never still on the way
+        assert np.abs(run.qd[(t > t0) & (t < end - 0.05)]).max(axis=1).min() > 0
+    assert np.nanmax(run.ratios["velocity"]) <= 1 + 1e-9
+    assert np.nanmax(run.ratios["acceleration"]) <= 1 + 1e-6
+    for k, blend in enumerate(planned.plan.blends[1:-1]):  # at each via point's knot
+        at = np.argmin(np.abs(t - legs[k + 1].t))
+        speed = np.abs(run.qd[at]).max()
+        assert (speed > 1e-3) if blend > 0 else (speed < 1e-2), (k, blend, speed)
     with pytest.raises(SimulationError, match="the path starts with panda_joint2 at -0.785398"):
         simulate_run(cell, program("off.yaml", "  - move: {to: ready}\n  - move: {path: p.yaml}\n"))
     (tmp_path / "spline.yaml").write_text((REPO / "workcells/panda/paths/sweep.yaml").read_text())
@@ -580,6 +623,44 @@ def test_a_program_drives_a_planned_path_file(tmp_path):
     with pytest.raises(UserError) as raised:
         simulate_run(cell, program("b.yaml", "  - move: {path: p.yaml, to: home}\n"))
     assert "has its goal there" in str(raised.value.issues[0])
+
+
+def test_blended_via_points_are_exported_as_the_controllers_blends(tmp_path):
+    """A planned path driven by a GP7 program and exported: each blended via point is the
+    controller's blended joint move (URScript ``r=`` the TCP distance, KRL ``C_PTP`` with
+    ``$APO.CPTP``, RAPID's largest predefined zone within it, FANUC ``CNT``), the corners
+    at rest and the last leg end exactly (``fine``, ``FINE``, no ``r``)."""
+    from rworld_cli.api import export_program, plan_free_path
+
+    ctx = scene("gp7_shelf")
+    problem = [p for p in PROBLEMS if p["scene"] == "gp7_shelf"][3]
+    planned = plan_free_path(
+        ctx, ",".join(map(repr, problem["goal"])), problem["start"], output=str(tmp_path / "p.yaml")
+    )
+    blends = planned.plan.blends[1:-1]
+    assert (blends > 0).sum() >= 2
+    start = "[" + ", ".join(map(repr, problem["start"])) + "]"
+    program = tmp_path / "gp7.yaml"
+    program.write_text(
+        "device: motoman_gp7\nunits: {length: mm, angle: rad}\nsteps:\n"
+        f"  - move: {{joints: {start}, path: free}}\n  - move: {{path: p.yaml}}\n"
+    )
+    cell = str(MOTION / "gp7_shelf")
+    texts = {}
+    for fmt in ("urscript", "krl", "rapid", "fanuc"):
+        out = tmp_path / fmt
+        export_program(cell, str(program), fmt, str(out))
+        texts[fmt] = "\n".join(f.read_text() for f in sorted(out.rglob("*")) if f.is_file())
+    blended = int((blends > 0).sum())
+    assert len(re.findall(r"movej\(\[[^]]*\], a=[^,]*, v=[^,)]*, r=", texts["urscript"])) == blended
+    assert texts["krl"].count(" C_PTP") == blended
+    assert len(re.findall(r"\$APO\.CPTP = \d+", texts["krl"])) == blended
+    zones = re.findall(r"MoveAbsJ j\d+, s\d+, (\w+),", texts["rapid"])
+    assert zones[-1] == "fine" and sum(z != "fine" for z in zones) <= blended
+    assert len(re.findall(r"J P\[\d+\] \d+% CNT\d+", texts["fanuc"])) == blended
+    # URScript's radius is the TCP's distance from the via point where rworld's blend starts
+    radii = [float(r) for r in re.findall(r", r=([0-9.e-]+)\)", texts["urscript"])]
+    assert all(0 < r < 2.0 for r in radii)
 
 
 def test_a_reader_that_leaves_early_is_no_bug():

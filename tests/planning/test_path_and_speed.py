@@ -64,6 +64,90 @@ def test_spline_pieces_interpolate_and_join_smoothly():
         assert np.allclose(left, right, atol=1e-6), order  # C2 across the knots
 
 
+def _polyline(rng, count: int, n: int = 4):
+    return np.cumsum(rng.normal(size=(count, n)), axis=0)
+
+
+def test_a_blended_path_without_blends_is_the_segments_path():
+    rng = np.random.default_rng(5)
+    way = _polyline(rng, 6)
+    from rworld_cli.planning.path import length_knots
+
+    blended = JointPath(way, None, "blended")
+    segments = JointPath(way, length_knots(way), "segments")
+    s = np.linspace(0, 1, 1001)
+    for got, ref in zip(blended.evaluate(s), segments.evaluate(s)):
+        assert np.array_equal(got, ref)
+
+
+def test_blends_are_the_bezier_curves_joining_the_lines_with_their_slopes():
+    """Random polylines and blends: each blend is the quadratic Bezier curve of its ends and
+    corner (what the planner checks), dq/ds is continuous everywhere (the device moves
+    through blended corners) and zero at the corners at rest, and every joint stays within
+    the range of the waypoints (the blends lie in their corners' triangles)."""
+    from rworld_cli.planning.path import blend_corners
+
+    rng = np.random.default_rng(6)
+    for _ in range(40):
+        way = _polyline(rng, int(rng.integers(3, 8)))
+        blends = np.r_[0.0, rng.choice([0.0, 0.1, 0.3, 0.5], len(way) - 2), 0.0]
+        path = JointPath(way, None, "blended", blends)
+        knots = path.knots
+        h = np.diff(knots)
+        tau = np.r_[0.0, blends[1:-1] * np.minimum(h[:-1], h[1:]), 0.0]
+        ends = blend_corners(knots, way, blends)
+        for k in np.flatnonzero(blends):
+            u = np.linspace(0, 1, 51)
+            q = path.evaluate(knots[k] - tau[k] + 2 * tau[k] * u)[0]
+            u = u[:, None]
+            bezier = (1 - u) ** 2 * ends[k, 0] + 2 * u * (1 - u) * ends[k, 1] + u**2 * ends[k, 2]
+            assert np.abs(q - bezier).max() < 1e-12
+        breaks, c = path.pieces
+        inner = breaks[1:-1]
+        eps = 1e-9
+        left, right = path.evaluate(inner - eps), path.evaluate(inner + eps)
+        assert np.abs(left[0] - right[0]).max() < 1e-7
+        assert np.abs(left[1] - right[1]).max() < 1e-5 * max(1.0, np.abs(c[2]).max())
+        dq_at_knots = path.evaluate(knots)[1]
+        rest = blends == 0
+        assert np.abs(dq_at_knots[rest]).max() < 1e-9
+        q_min, _, q_max, _ = path.extrema()
+        assert (q_min >= way.min(axis=0) - 1e-12).all()
+        assert (q_max <= way.max(axis=0) + 1e-12).all()
+
+
+def test_a_blended_corner_is_timed_without_stopping_and_sooner():
+    """The time-optimal timing of a path blended at every corner is shorter than at rest at
+    every via point, within the same limits (the exact between-grid check)."""
+    from rworld_cli.planning.topp import Limits
+
+    rng = np.random.default_rng(7)
+    way = _polyline(rng, 5, 3)
+    limits = Limits(np.full(3, 2.0), np.full(3, 5.0), None)
+    at_rest = time_optimal(JointPath(way, None, "blended"), limits)[0]
+    blended = JointPath(way, None, "blended", np.r_[0, 0.5, 0.5, 0.5, 0])
+    fast, info = time_optimal(blended, limits)
+    assert fast.duration < 0.95 * at_rest.duration
+    t, q, qd, qdd = sample_trajectory(blended, fast, 4001)
+    ratios = limit_ratios(q, qd, qdd, limits)
+    assert ratios["velocity"].max() <= 1 + 1e-9 and ratios["acceleration"].max() <= 1 + 1e-6
+    s_knots = blended.knots[1:-1]
+    speed = np.interp(s_knots, fast.s, np.sqrt(np.maximum(fast.x, 0)))
+    assert (speed > 0.05).all()  # sdot at the via points: moving
+
+
+def test_bad_blends_are_refused():
+    way = np.eye(3)
+    with pytest.raises(ValueError, match="one per waypoint"):
+        JointPath(way, None, "blended", [0, 0.6, 0])
+    with pytest.raises(ValueError, match="ends are not blended"):
+        JointPath(way, None, "blended", [0.1, 0.2, 0])
+    with pytest.raises(ValueError, match="knots follow its joint-space lengths"):
+        JointPath(way, [0, 0.2, 1], "blended")
+    with pytest.raises(ValueError, match="blends are for boundary 'blended'"):
+        JointPath(way, None, "segments", [0, 0, 0])
+
+
 def test_unknown_boundary_is_refused():
     with pytest.raises(ValueError, match="boundary"):
         JointPath(np.zeros((3, 2)), None, "periodic")
