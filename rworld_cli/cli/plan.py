@@ -697,6 +697,13 @@ def impulse(
     type=click.Path(dir_okay=False),
     help="Write the path file (YAML, atomically): 'plan time-optimal --path' takes it.",
 )
+@click.option(
+    "--blend/--no-blend",
+    default=True,
+    show_default=True,
+    help="Cut the path's corners by blends the continuous check passes (the device moves "
+    "through them); --no-blend: at rest at every via point.",
+)
 @click.option("--progress/--no-progress", default=True, help="A progress bar on stderr.")
 @json_option
 @handle_errors
@@ -713,6 +720,7 @@ def path_cmd(
     seed,
     timeout,
     output,
+    blend,
     progress,
     json_output,
 ):
@@ -723,9 +731,11 @@ def path_cmd(
     every segment of the path checked continuously, as 'rworld check' checks
     a run (no contact deeper than the collision tolerance between states
     either).  The path is straight joint-space segments between its
-    waypoints, at rest at each (the file's 'boundary: segments'), inside the
-    joint limits.  The same cell, target and seed give the same path.
-    Exit 1 with the reason when none is found within --timeout.
+    waypoints, each corner cut by a parabolic blend as wide as the
+    continuous check allows (at rest where none passes; the file's
+    'boundary: blended'), inside the joint limits.  The same cell, target
+    and seed give the same path.  Exit 1 with the reason when none is found
+    within --timeout.
 
     \b
     Examples:
@@ -756,6 +766,7 @@ def path_cmd(
             output=output,
             progress=bar,
             offset=parse_vector(offset, "--offset", 3) if offset else None,
+            blend=blend,
         ),
         "searching",
     )
@@ -771,7 +782,14 @@ def path_cmd(
         f"{p.seconds:.3f} s ({p.iterations} rounds, {p.states_checked} states, "
         f"{p.segments_checked} segments checked)"
     )
+    corners = len(p.waypoints) - 2
+    if corners > 0:
+        click.echo(
+            f"  corners blended: {int((p.blends > 0).sum())} of {corners}"
+            + ("" if blend else " (--no-blend)")
+        )
     for k, q in enumerate(p.waypoints):
-        click.echo(f"  {k}: [" + ", ".join(f"{v:.6g}" for v in q) + "]")
+        blended = f"  blend {p.blends[k]:g}" if p.blends[k] > 0 else ""
+        click.echo(f"  {k}: [" + ", ".join(f"{v:.6g}" for v in q) + "]" + blended)
     if planned.written:
         click.echo(f"wrote {planned.written}", err=True)

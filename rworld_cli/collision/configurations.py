@@ -132,6 +132,7 @@ class ConfigurationChecker:
             for k in self.pairs.ravel()
             if not self.moving[k]
         }
+        self._chain = self._chain_of()
         self._centre = np.array([b.center for b in bodies]).reshape(-1, 3)
         self._radius = np.array([b.radius for b in bodies])
         # every body's root box, as one tree's nodes (node i: body i), for one bound call
@@ -197,12 +198,58 @@ class ConfigurationChecker:
         }
 
     def poses(self, q: np.ndarray) -> dict[str, np.ndarray]:
-        """``T_world_frame`` (N, 4, 4) of every body frame in a pair, at joint states q (N, n)."""
-        N = len(q)
-        out = self.world.T_world_frames(self._frames, {self.device: q}) if self._frames else {}
-        for frame, T in self._static.items():
-            out[frame] = np.broadcast_to(T, (N, 4, 4))
+        """``T_world_frame`` (N, 4, 4) of every body frame in a pair, at joint states q (N, n);
+        the fixed frames' broadcast when first read.
+
+        The moving frames by the device's chain (:meth:`_chain_of`): ``T_world_base A_1 ...
+        A_i T_link_frame``, the products of fixed frames taken once; where a frame's path is
+        not that shape, through the world tree."""
+        q = np.asarray(q, dtype=float)
+        out = _FixedPoses(self._static, len(q))
+        if self._chain is None:
+            if self._frames:
+                out.update(self.world.T_world_frames(self._frames, {self.device: q}))
+            return out
+        base, deepest, offsets = self._chain
+        A = self.world.cell.devices[self.device].joint_transforms(q)  # (N, n, 4, 4)
+        link = [base @ A[:, 0]]
+        for i in range(1, deepest + 1):
+            link.append(link[-1] @ A[:, i])
+        for frame, (i, T_link_frame) in offsets.items():
+            out[frame] = link[i] if T_link_frame is None else link[i] @ T_link_frame
         return out
+
+    def _chain_of(self):
+        """(T_world_base (4, 4), the deepest link index used, frame -> (its link's index, the
+        frame in that link's frame (4, 4), None: the link frame itself)) for the moving body
+        frames - or None when one's path to world is not fixed frames, then the device's links
+        from the base in order, then fixed frames (as in a cell the world tree builds)."""
+        world, dev = self.world, self.world.cell.devices[self.device]
+        index = {f: i for i, f in enumerate(dev.link_frames)}
+        if not dev.link_frames:
+            return None
+        base = world.parent(dev.link_frames[0])
+        for i in range(1, len(dev.link_frames)):
+            if world.parent(dev.link_frames[i]) != dev.link_frames[i - 1]:
+                return None
+        offsets = {}
+        for frame in self._frames:
+            below = []
+            node: str | None = frame
+            while node is not None and node not in index:
+                below.append(node)
+                node = world.parent(node)
+            if node is None:
+                return None
+            T = None
+            for fixed in reversed(below):
+                T = world.T_parent(fixed) if T is None else T @ world.T_parent(fixed)
+            offsets[frame] = (index[node], T)
+        if base is None:
+            return None
+        T_world_base = world.T_world(base)
+        deepest = max((i for i, _ in offsets.values()), default=0)
+        return T_world_base, deepest, offsets
 
     def check(self, q, nearest: bool = True) -> ConfigurationReport:
         """Check N joint states q (N, n) [rad or m] of the device (module docstring).
@@ -211,7 +258,9 @@ class ConfigurationChecker:
         apart than the clearance are not measured, and ``distance`` is then exact only where
         it is within the clearance (inf elsewhere: farther), ``pair`` -1 there; a state is
         done at its first pair found deeper than the tolerance, whose depth is then only
-        known to be deeper (``distance`` at most ``-tolerance``, the pair one that collides).
+        known to be deeper (``distance`` at most ``-tolerance``, the pair one that collides);
+        with a clearance, at its first pair found overlapping at all (``distance`` at most
+        0).
         """
         q = np.atleast_2d(np.asarray(q, dtype=float))
         N, P = len(q), len(self.pairs)
@@ -319,9 +368,20 @@ class ConfigurationChecker:
         suspects = status[s, c] == 4
         buried_now = self._buried(placed, s, p, suspects) if suspects.any() else suspects
         self._tally(s, p, signed, buried_now, distance, nearest_pair, free, buried)
-        # overlaps the walk could not call deep enough: measured exactly, pair by pair, each
-        # at the states still free
-        s, c = np.nonzero((status == 2) | (status == -1))
+        # overlaps the walk could not call deep enough: with a clearance asked, an overlap of
+        # any depth is nearer than it - not free, its depth not measured (distance 0: at
+        # most); without one, measured exactly, pair by pair, each at the states still free
+        if self.clearance > 0:
+            s, c = np.nonzero(status == 2)
+            s_free = free[s]
+            s, c = s[s_free], c[s_free]
+            zero = np.zeros(len(s))
+            self._tally(
+                s, fused["pairs"][c], zero, zero.astype(bool), distance, nearest_pair, free, buried
+            )
+            s, c = np.nonzero(status == -1)
+        else:
+            s, c = np.nonzero((status == 2) | (status == -1))
         for column in np.unique(c):
             rows = s[c == column]
             rows = rows[free[rows]]
@@ -338,8 +398,11 @@ class ConfigurationChecker:
         """The fused table's bodies at the states of ``T`` (:meth:`poses`): their frames
         (N, U, 4, 4), and as the compiled kernels read them (N, U, 12): R's rows, then t."""
         assert self._fused is not None
-        placed = np.stack([T[frame] for frame in self._fused["frames"]], axis=1)
-        N = len(placed)
+        frames = self._fused["frames"]
+        N = T._count if isinstance(T, _FixedPoses) else len(next(iter(T.values())))
+        placed = np.empty((N, len(frames), 4, 4))
+        for u, frame in enumerate(frames):  # a fixed frame's pose broadcast on assignment
+            placed[:, u] = self._static[frame] if frame in self._static else T[frame]
         poses = np.concatenate([placed[..., :3, :3].reshape(N, -1, 9), placed[..., :3, 3]], axis=2)
         return placed, poses
 
@@ -638,6 +701,21 @@ class ConfigurationChecker:
         if not np.isfinite(first):
             return SegmentReport(True, None, None, False, queries)
         return SegmentReport(False, first, first_pair, unresolved, queries)
+
+
+class _FixedPoses(dict):
+    """Body frames' poses at N states: the moving frames set, the fixed ones (``static``:
+    frame -> (4, 4)) broadcast to (N, 4, 4) when first read (a batch every pair of which
+    passes reads none)."""
+
+    def __init__(self, static: dict, count: int):
+        super().__init__()
+        self._static_poses, self._count = static, count
+
+    def __missing__(self, frame):
+        T = np.broadcast_to(self._static_poses[frame], (self._count, 4, 4))
+        self[frame] = T
+        return T
 
 
 def _pair(row) -> tuple[int, int]:

@@ -138,6 +138,29 @@ def test_a_segment_is_free_exactly_when_dense_samples_find_no_contact():
     assert colliding >= 4
 
 
+@pytest.mark.parametrize(
+    "cell_file",
+    [
+        REPO / "workcells/puma560/cell.yaml",
+        REPO / "tests/data/vendor_cells/gp7/cell.yaml",
+        REPO / "tests/data/motion/panda_pair/cell.yaml",
+    ],
+)
+def test_the_chains_poses_are_the_world_trees(cell_file):
+    """The checker's poses by the device's chain (fixed products taken once) against the world
+    tree's, every body frame in a pair, at random states: to 1e-12 m (the products' order
+    differs in rounding only); the Panda pair's hand and fingers hang off its last link."""
+    world, _, device, limits, check = checker(cell_file)
+    assert check._chain is not None
+    q = np.random.default_rng(4).uniform(limits[:, 0], limits[:, 1], (16, len(limits)))
+    ours = check.poses(q)
+    frames = sorted({check.model.bodies[k].frame for k in check.pairs.ravel()})
+    theirs = world.T_world_frames(frames, {device: q})
+    assert len(frames) > len(check._frames) > 3
+    for frame in frames:
+        assert np.abs(ours[frame] - theirs[frame]).max() < 1e-12, frame
+
+
 def test_a_blend_is_free_exactly_when_dense_samples_on_its_curve_find_no_contact():
     """Random corners of the Puma in its cell blended by quadratic Bezier curves (a planned
     path's blends): the blend check against 2 001 states along each curve, as the segment
