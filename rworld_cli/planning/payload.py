@@ -381,7 +381,8 @@ def load_optimal(
     timing is stretched to take exactly ``duration``.  With ``shape=True`` the waypoints' path
     parameters are optimised as well (:func:`optimise_knots`, ``evaluations`` shapes at a coarser
     grid), the spline still passing through every waypoint; the result keeps the given shape
-    when no other carries more.  ``link_loads`` (``DeviceDynamics``) ride on the links throughout.
+    when no other carries more (a ``blended`` path's knots follow its lengths: kept).
+    ``link_loads`` (``DeviceDynamics``) ride on the links throughout.
     """
     from .path import JointPath
     from .topp import Limits, Timing, _times, sample_trajectory, time_optimal
@@ -400,7 +401,7 @@ def load_optimal(
         link_loads=link_loads,
     )
     given_mass = None
-    if shape and len(path.waypoints) > 2:
+    if shape and len(path.waypoints) > 2 and path.boundary != "blended":  # knots by length
         knots, _ = optimise_knots(
             device,
             path,
