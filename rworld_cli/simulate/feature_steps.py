@@ -161,12 +161,15 @@ class FeatureSteps:
         (``checker``: :meth:`_checker_at` there) - the rule of ``rworld check`` (no overlap
         deeper than the run's tolerance, nothing buried; a required clearance is the check's
         to report): joint moves by the continuous segment check, straight lines at their
-        samples.  None, or
+        samples; a planned path's legs were proved free by the planner in this world (its
+        continuous checks of lines and blends).  None, or
         the first collision in words ('link_2_l into link_4_r at 40 % of the move')."""
-        from ..motion.trajectory import JointMove
+        from ..motion.trajectory import JointMove, PathLeg
         from ..planning.motion import first_contact_words
 
         for n, seg in enumerate(segments):
+            if isinstance(seg, PathLeg):
+                continue
             if isinstance(seg, JointMove):
                 report = checker.check_segment(seg.q_start, seg.q_end)
                 if not report.free:
