@@ -391,7 +391,6 @@ def _blended(search: _Search, way: np.ndarray, knots: np.ndarray, blend_free) ->
     and none once the time is up - the path stays valid, at rest there).  Corners are
     independent: a blend is at most half of either knot interval beside it, so two never
     overlap."""
-
     blends = np.zeros(len(way))
     for k in range(1, len(way) - 1):
         for width in BLEND_TRIALS:

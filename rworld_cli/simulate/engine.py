@@ -697,8 +697,8 @@ class _Scheduler(FeatureSteps):
     ):
         """Guard, resolve and time a move's segment (None: already there); returns it.  A
         joint move with ``path: free`` goes through the via points of a collision-free path
-        (:meth:`_free_path`), each recorded as a joint move of its own (``via``: (the via
-        point, its blend fraction) of a leg of a path timed as one)."""
+        (:meth:`_free_path`), each recorded as a joint move of its own (``via``: a leg of a
+        path timed as one, its via point and blend as :meth:`_timed_legs` gives them)."""
         if (
             seg is not None
             and motion == "joint"
