@@ -27,8 +27,10 @@ Smoothing: each path's corners and how many were blended, and its time-optimal d
 (velocity and acceleration limits) at rest at every via point and blended; ``--no-blend``
 plans without blending.
 
-VAMP (``vamp-planner``, the speed anchor the issue names) is not on the package index this
-machine reaches (``vamp`` on PyPI is an unrelated audio package), so it is not run.
+VAMP (``vamp-planner``, the speed anchor the issue names) is not run: the package index this
+machine reaches has its 0.6.4 as a source archive only, no wheel for any Python, and building
+it fetches three of its dependencies (nigh, pdqsort, SIMDxorshift) from GitHub at configure
+time (CPM), which this machine cannot reach.
 """
 
 from __future__ import annotations
