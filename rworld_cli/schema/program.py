@@ -266,6 +266,12 @@ class ProbeSpec(Strict):
     )
     tcp: FrameRef | None = Field(None, description="The probing moves: the probe's TCP.")
     sensor: Name | None = Field(None, description="The probing moves: the touch sensor.")
+    path: Literal["straight", "free"] = Field(
+        "straight",
+        description="The probing moves: the joint move to the first point's lift, 'straight' "
+        "in joint space or 'free': a collision-free joint path planned when the step runs "
+        "(docs/planning.md).",
+    )
 
 
 class WaitSpec(Strict):
@@ -397,9 +403,9 @@ class RunFile(Strict):
     )
     paths: Literal["straight", "free"] = Field(
         "straight",
-        description="The 'path:' of every joint move that gives none (and of insert, place and "
-        "follow's approach; not linear or guarded moves): 'free' plans each around what is in "
-        "the way when it runs (docs/planning.md).",
+        description="The 'path:' of every joint move that gives none (and of insert, place, "
+        "follow and probe's approach; not linear or guarded moves): 'free' plans each around "
+        "what is in the way when it runs (docs/planning.md).",
     )
 
     @field_validator("clearance", "collision_tolerance")

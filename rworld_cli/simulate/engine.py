@@ -702,7 +702,7 @@ class _Scheduler(FeatureSteps):
         if (
             seg is not None
             and motion == "joint"
-            and step.kind in ("move", "insert", "place", "follow")  # their approach moves
+            and step.kind in ("move", "insert", "place", "follow", "probe")  # approach moves
             and self._path_of(step) == "free"
             and not self._in_free_path
         ):

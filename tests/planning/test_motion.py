@@ -572,6 +572,41 @@ def test_feature_steps_take_path_free_for_their_approach(gp7_edges):
     assert "spin 0 deg: no free path (no goal state is free (motoman_gp7.link_2_l and" in message
 
 
+def test_a_probe_steps_move_to_its_first_point_takes_path_free(tmp_path, monkeypatch):
+    """``probe: {feature, path: free}``: the joint move to the first point's lift is planned
+    (the real planner, its calls counted), the run passes the collision check and records
+    its contacts; without ``path:`` the planner is not asked."""
+    import shutil
+
+    import rworld_cli.planning.motion as motion
+    from rworld_cli.api import simulate_run
+
+    cell = tmp_path / "probing"
+    shutil.copytree(REPO / "workcells" / "probing", cell)
+    asked = []
+    real = motion.plan_in_world
+
+    def counted(*args, **kwargs):
+        asked.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(motion, "plan_in_world", counted)
+    program = cell / "programs" / "free.yaml"
+    program.write_text(
+        "device: puma\nsteps:\n  - move: {to: ready}\n"
+        "  - probe: {feature: plate.top, points: 3, path: free}\n"
+    )
+    _, result = simulate_run(str(cell), str(program))
+    assert len(asked) == 1
+    assert not result.collisions.collisions
+    assert sum(e.kind == "probe" for e in result.events) == 3
+    program.write_text(
+        "device: puma\nsteps:\n  - move: {to: ready}\n  - probe: {feature: plate.top, points: 3}\n"
+    )
+    simulate_run(str(cell), str(program))
+    assert len(asked) == 1
+
+
 def test_a_program_drives_a_planned_path_file(tmp_path):
     """``rworld plan path -o`` then ``move: {path: FILE}``: the run goes through the file's
     waypoints and passes the check; a path that does not start where the device is, a spline
