@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CheckFailed, UserError, did_you_mean
-from ..export import FORMATS, VENDOR_FORMATS, Signals
+from ..export import FORMATS, VENDOR_FORMATS, VENDOR_WITHOUT_FORMAT, Signals
 from ..units import ARCSEC
 
 # the languages that drive 6-axis arms; csv streams any device
@@ -18,6 +18,8 @@ ARM_FORMATS = {
     "krl": "KUKA KRL",
     "rapid": "ABB RAPID",
     "fanuc": "FANUC TP",
+    "inform": "Yaskawa INFORM",
+    "val3": "Staubli VAL3",
 }
 
 
@@ -138,7 +140,7 @@ def export_program(
     UserError
         Unknown format or device, a device the format cannot drive (exit 2).
     """
-    from ..export import csv_trajectory, fanuc, krl, rapid, urscript
+    from ..export import csv_trajectory, fanuc, inform, krl, rapid, urscript
     from .planning import parse_period
 
     loaded_format = fmt is None
@@ -226,7 +228,13 @@ def export_program(
             moved = _compensate(cell, loaded.cell, name, program, fmt, holding)
             compensated.extend(moved)
         moves += len(program.moves)
-        writer = {"urscript": urscript, "krl": krl, "rapid": rapid, "fanuc": fanuc}[fmt]
+        writer = {
+            "urscript": urscript,
+            "krl": krl,
+            "rapid": rapid,
+            "fanuc": fanuc,
+            "inform": inform,
+        }[fmt]
         for file_name, text in writer.write(program, signals).items():
             if file_name in files:
                 file_name = f"{name}_{file_name}"
@@ -417,6 +425,12 @@ def _vendor_format(cell: str, run: str, device: str | None) -> str:
     for name in names:
         profile = loaded.cell.devices[name].controller
         vendors[name] = profile.vendor if profile is not None else None
+    for name, vendor in vendors.items():
+        if vendor in VENDOR_WITHOUT_FORMAT:
+            raise UserError(
+                f"'{name}' has a {vendor} controller (controller.vendor): "
+                f"{VENDOR_WITHOUT_FORMAT[vendor]}"
+            )
     languages = {VENDOR_FORMATS.get(v or "") for v in vendors.values()}
     if len(languages) == 1 and None not in languages:
         return languages.pop()  # type: ignore[return-value]
@@ -611,7 +625,7 @@ def measure_from_log(
     if fmt is None:
         profile = loaded.cell.devices[device].controller
         vendor = profile.vendor if profile is not None else None
-        if vendor not in VENDOR_FORMATS:
+        if vendor not in VENDOR_FORMATS or VENDOR_FORMATS[vendor] not in LANGUAGES:
             raise UserError(
                 f"give --format ({', '.join(LANGUAGES)}): '{device}' names no controller vendor "
                 "(controller.vendor) whose log rworld reads"

@@ -589,11 +589,17 @@ end if then else endif select for endfor to downto skip offset tool_offset utool
 utool_num uframe_num payload lpos jpos fine cnt acc on off and or not pulse run pause abort
 main""".split()
 
+_INFORM_WORDS = """nop end movj movl movc mows imov refp speed dout din wait timer call jump
+label pause hold clear set add sub mul div inc dec and or not xor until ret if then else endif
+while endwhile for next""".split()
+
 URSCRIPT = Language("URScript", "#", 60, frozenset(_URSCRIPT_WORDS), lower=True)
 # program names: 36 characters on R-30iA and later; ';' ends a TP line, so not in comments
 FANUC = Language("FANUC TP", "!", 36, frozenset(_FANUC_WORDS), upper=True, escaped=";")
 KRL = Language("KRL", ";", 24, frozenset(_KRL_WORDS))
 RAPID = Language("RAPID", "!", 32, frozenset(_RAPID_WORDS))
+# job names: 32 characters on DX100 and later (8 on the NX100); a comment line starts with '
+INFORM = Language("INFORM", "'", 32, frozenset(_INFORM_WORDS), upper=True)
 
 
 def number(x: float, digits: int = 9) -> str:

@@ -190,7 +190,9 @@ class ControllerProfile:
     coupling : ndarray, shape (n, n)
         ... ``+ coupling @ q``: parallel linkages (ABB's and FANUC's J2-J3), zero diagonal.
     vendor : str or None
-        abb, fanuc, kuka, ur, franka or generic.
+        abb, fanuc, kuka, kuka_sunrise, ur, yaskawa, staubli, doosan, franka or generic.
+    pulses_per_degree, zero_pulse : list or None
+        Yaskawa: each axis' encoder pulses per degree and pulse count at zero.
     """
 
     flange: str | None
@@ -199,6 +201,8 @@ class ControllerProfile:
     offset: np.ndarray
     coupling: np.ndarray | None = None
     vendor: str | None = None
+    pulses_per_degree: list[float] | None = None
+    zero_pulse: list[int] | None = None
 
     def axes(self, q) -> np.ndarray:
         """The controller's axis values of joint values ``q`` (..., n), SI."""

@@ -954,8 +954,21 @@ class _Builder:
                         self.err(at, "a coupling joins two revolute or two prismatic joints")
                     else:
                         coupling[i, other] = a.coupling.factor
+        for key in ("pulses_per_degree", "zero_pulse"):
+            values = getattr(spec, key)
+            if values is not None and len(values) != n:
+                self.err(path + (key,), f"{len(values)} value(s) for {n} joint(s): one per axis")
+        if spec.zero_pulse is not None and spec.pulses_per_degree is None:
+            self.err(path + ("zero_pulse",), "zero_pulse goes with pulses_per_degree")
         return wm.ControllerProfile(
-            found.get("flange"), found.get("base"), sign, offset, coupling, spec.vendor
+            found.get("flange"),
+            found.get("base"),
+            sign,
+            offset,
+            coupling,
+            spec.vendor,
+            spec.pulses_per_degree,
+            spec.zero_pulse,
         )
 
     def _positions(self, path, d: sm.Device, joints: list[wm.Joint], local_names: dict) -> dict:

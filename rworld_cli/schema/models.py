@@ -437,10 +437,26 @@ class Controller(Strict):
     """How the robot's controller sees the device: the frames its tool data and Cartesian
     targets are given in, and its axis values (``docs/export.md``)."""
 
-    vendor: Literal["abb", "fanuc", "kuka", "ur", "franka", "generic"] | None = Field(
+    vendor: (
+        Literal[
+            "abb",
+            "fanuc",
+            "kuka",
+            "kuka_sunrise",
+            "ur",
+            "yaskawa",
+            "staubli",
+            "doosan",
+            "franka",
+            "generic",
+        ]
+        | None
+    ) = Field(
         None,
         description="Whose controller: 'export program' writes its language when no --format "
-        "is given (abb: RAPID, fanuc: TP, kuka: KRL, ur: URScript).",
+        "is given (abb: RAPID, fanuc: TP, kuka: KRL, ur: URScript, yaskawa: INFORM, staubli: "
+        "VAL3; kuka_sunrise (LBR iiwa, Med), doosan and franka: no format yet, refused with "
+        "the reason).",
     )
     flange: Name | None = Field(
         None,
@@ -458,6 +474,17 @@ class Controller(Strict):
         None,
         description="Per joint, the controller's axis value from the cell's joint value; default "
         "the same.",
+    )
+    pulses_per_degree: list[Annotated[float, Field(gt=0)]] | None = Field(
+        None,
+        description="Yaskawa: each axis' encoder pulses per degree (robot parameters, read off "
+        "the controller): INFORM jobs then give joint targets in pulses; without them, as "
+        "Cartesian positions with their manipulator type (RCONF).",
+    )
+    zero_pulse: list[int] | None = Field(
+        None,
+        description="Yaskawa: each axis' pulse count at its zero (default 0); with "
+        "pulses_per_degree.",
     )
 
 

@@ -855,8 +855,18 @@ _FANUC_PLUS = ("m430ia",)  # J23_factor -1: the streamer adds joint 2
 def vendor_conventions(robot_name: str) -> tuple[str | None, float | None]:
     """(vendor, J2-J3 coupling factor or None) of a robot from the vendors' ROS description
     packages, by its URDF name (``abb_irb2400``, ``fanuc_lrmate200id``, ``kuka_kr16_2``,
-    ``ur5``, ``panda``); (None, None) when the name says nothing."""
+    ``ur5``, ``panda``, ``motoman_gp7``, ``staubli_tx2_60``, ``kuka_lbr_iiwa_14_r820``,
+    ``m1013``); (None, None) when the name says nothing.  KUKA's 7-axis LBR family (iiwa,
+    Med) runs Sunrise, not KRL: ``kuka_sunrise``."""
     name = robot_name.lower()
+    if re.match(r"^(kuka_)?(lbr|iiwa|med\d)", name):
+        return "kuka_sunrise", None
+    if re.match(r"^(motoman_|yaskawa_|gp\d|mh\d|hc\d|ma\d|mpx?\d|sia\d)", name):
+        return "yaskawa", None
+    if re.match(r"^(staubli_|tx2?_?\d|rx\d|ts2?_?\d)", name):
+        return "staubli", None
+    if re.match(r"^(doosan_|[mh]\d{4}|a\d{4}|e\d{4})", name):
+        return "doosan", None
     if re.match(r"^(abb_)?irb", name):
         model = re.sub(r"^abb_", "", name)
         return "abb", (1.0 if model.startswith(_ABB_COUPLED) else None)

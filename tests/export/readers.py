@@ -168,6 +168,79 @@ def fanuc_configurations(text: str) -> list[str]:
     return re.findall(r"CONFIG : '(.*?)'", text)
 
 
+def _rxyz(values) -> np.ndarray:
+    """X, Y, Z [mm], Rx, Ry, Rz [deg] -> pose (m): rotations about the fixed x, y, z axes in
+    that order (R = Rz Ry Rx)."""
+    x, y, z, rx, ry, rz = values
+    R = Rotation.from_euler("xyz", [rx, ry, rz], degrees=True).as_matrix()  # extrinsic
+    return _pose(np.array([x, y, z]) / 1000, R)
+
+
+def _inform_frames(text: str, kind: str) -> dict[int, np.ndarray]:
+    """The TOOL / USER frames an INFORM job states in its comments, one value a line."""
+    values: dict[int, dict[str, float]] = {}
+    pattern = rf"^'{kind} (\d+) (X|Y|Z|Rx|Ry|Rz) ({NUM})\r?$"
+    for number, key, value in re.findall(pattern, text, re.M):
+        values.setdefault(int(number), {})[key] = float(value)
+    return {
+        k: _rxyz([v[key] for key in ("X", "Y", "Z", "Rx", "Ry", "Rz")]) for k, v in values.items()
+    }
+
+
+def inform_tools(text: str) -> list[np.ndarray]:
+    return [T for _, T in sorted(_inform_frames(text, "TOOL").items())]
+
+
+def _inform_positions(text: str, pulses=None, zero=None) -> tuple[dict, dict]:
+    """The //POS section: label -> q [rad] (a pulse position) or T_base_tcp (USER 1 applied
+    under ``///POSTYPE USER``), and label -> the RCONF in force."""
+    users = _inform_frames(text, "USER")
+    positions: dict[str, np.ndarray] = {}
+    configs: dict[str, str] = {}
+    postype, rconf = "", ""
+    for line in text.split("//INST")[0].splitlines():
+        line = line.strip()
+        if line.startswith("///POSTYPE"):
+            postype = line.split()[1]
+        elif line.startswith("///RCONF"):
+            rconf = line.split()[1]
+        elif re.match(r"^C\d{5}=", line):
+            label, body = line.split("=")
+            values = [float(v) for v in body.split(",")]
+            if postype == "PULSE":
+                counts = np.array(values) - np.asarray(zero if zero is not None else 0.0)
+                positions[label] = np.radians(counts / np.asarray(pulses))
+            else:
+                T = _rxyz(values)
+                positions[label] = users[1] @ T if postype == "USER" else T
+                configs[label] = rconf
+    return positions, configs
+
+
+def _inform_moves(text: str) -> list[tuple[str, str]]:
+    return re.findall(r"^(MOVJ|MOVL) (C\d{5})", text, re.M)
+
+
+def inform(text: str, pulses=None, zero=None) -> list[tuple[str, np.ndarray]]:
+    """MOVJ / MOVL to C positions in order: ("joint", q [rad]) for a pulse position
+    (``pulses`` per degree, ``zero`` pulse), else (kind, T_base_tcp) - a MOVJ to a Cartesian
+    position gives ("joint", a 4 x 4 pose)."""
+    positions, _ = _inform_positions(text, pulses, zero)
+    return [
+        ("joint" if kind == "MOVJ" else "linear", positions[label])
+        for kind, label in _inform_moves(text)
+    ]
+
+
+def inform_configurations(text: str) -> list[list[int]]:
+    """The RCONF of each move's Cartesian position, in order ([] for a pulse position)."""
+    _, configs = _inform_positions(text, 1.0)
+    return [
+        [int(v) for v in configs[label].split(",")] if label in configs else []
+        for _, label in _inform_moves(text)
+    ]
+
+
 def read(folder: Path, fmt: str, stem: str) -> list[tuple[str, np.ndarray]]:
     if fmt == "urscript":
         return urscript((folder / f"{stem}.script").read_text())

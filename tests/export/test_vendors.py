@@ -63,7 +63,14 @@ VENDORS = {
         "fanuc",
         {"xyz": [0.45, 0.1, 0.25], "rpy": [3.0, 0.1, 0.3]},
     ),
+    "gp7": (  # the vendor's xacro, expanded as import does (ros-industrial/motoman)
+        DATA / "motoman" / "motoman_gp7_support" / "urdf" / "gp7.xacro",
+        "inform",
+        "yaskawa",
+        {"xyz": [0.5, 0.1, 0.3], "rpy": [3.0, 0.1, 0.3]},
+    ),
 }
+PACKAGES = {"gp7": DATA / "motoman"}  # the ROS packages a xacro finds
 TIP = {"xyz": [0.01, -0.02, 0.12], "rpy": [0.0, 0.2, 0.1]}  # the tool on tool0 [m, rad]
 USER = {"xyz": [0.3, -0.2, 0.1], "rpy": [0.0, 0.0, 0.5]}  # the user frame "fixture"
 PROGRAM = """\
@@ -92,6 +99,12 @@ def vendor_cell(request, tmp_path_factory):
     key = request.param
     urdf_path, fmt, vendor, target = VENDORS[key]
     folder = tmp_path_factory.mktemp(key)
+    if urdf_path.suffix == ".xacro":  # expanded to URDF, for Pinocchio and for import
+        from rworld_cli.schema.urdf import expand_xacro
+
+        expanded = folder / (urdf_path.stem + "_expanded.urdf")
+        expanded.write_bytes(expand_xacro(urdf_path, urdf_path.name, [PACKAGES[key]]))
+        urdf_path = expanded
     urdf = urdf_without_meshes(urdf_path, folder / urdf_path.name)
     root = folder / "cell"
     imported = import_urdf(str(urdf), str(root))
@@ -111,7 +124,7 @@ def vendor_cell(request, tmp_path_factory):
     (root / "poses.yaml").write_text(yaml.safe_dump(poses, sort_keys=False))
     (root / "programs").mkdir()
     (root / "programs" / "pick.yaml").write_text(PROGRAM.format(device=imported.device))
-    return key, root, imported.device
+    return key, root, imported.device, urdf
 
 
 def _pinocchio(urdf: Path, q: np.ndarray) -> np.ndarray:
@@ -147,13 +160,16 @@ def _read(fmt: str, out: Path) -> tuple[list, list]:
     if fmt == "rapid":
         text = (out / "pick.mod").read_text()
         return readers.rapid(text), readers.rapid_tools(text)
+    if fmt == "inform":
+        text = (out / "PICK.JBI").read_text()
+        return readers.inform(text), readers.inform_tools(text)
     text = (out / "PICK.ls").read_text()
     return readers.fanuc(text), readers.fanuc_tools(text)
 
 
 def test_every_target_is_the_robots_own(vendor_cell, tmp_path):
-    key, root, device = vendor_cell
-    urdf, fmt, vendor, _ = VENDORS[key]
+    key, root, device, urdf = vendor_cell
+    _, fmt, vendor, _ = VENDORS[key]
     out = tmp_path / "out"
     result_export = export_program(
         str(root), str(root / "programs" / "pick.yaml"), None, str(out), frame="fixture"
@@ -166,7 +182,9 @@ def test_every_target_is_the_robots_own(vendor_cell, tmp_path):
     assert [kind for kind, _ in read] == ["joint", "linear", "linear", "joint", "linear"]
     worst = {"mm": 0.0, "deg": 0.0, "joint deg": 0.0}
     for (kind, value), move in zip(read, moves):
-        if kind == "joint":  # the controller's axes, back through the driver's linkage
+        if kind == "joint" and value.shape == (4, 4):
+            pass  # a joint move to a Cartesian position (INFORM without pulses): the pose
+        elif kind == "joint":  # the controller's axes, back through the driver's linkage
             q = _undo_linkage(value, vendor)
             worst["joint deg"] = max(worst["joint deg"], np.degrees(np.abs(q - move.q_goal)).max())
             value = _pinocchio(urdf, q)
@@ -182,8 +200,8 @@ def test_configuration_data_is_the_solutions(vendor_cell, tmp_path):
     """RAPID confdata, KRL Status and Turn, FANUC CONFIG: consistent with the joint solution
     each target was reached with (Pinocchio's geometry, the controller's axis values); the
     step's config (elbow up, then wrist flip) is the solution taken."""
-    key, root, device = vendor_cell
-    urdf, fmt, vendor, _ = VENDORS[key]
+    key, root, device, urdf = vendor_cell
+    _, fmt, vendor, _ = VENDORS[key]
     out = tmp_path / "out"
     export_program(str(root), str(root / "programs" / "pick.yaml"), fmt, str(out))
     result = simulate(load_run(str(root), str(root / "programs" / "pick.yaml")), collisions=False)
@@ -199,7 +217,7 @@ def test_configuration_data_is_the_solutions(vendor_cell, tmp_path):
     assert geometry[0][1]  # config: {elbow: up}
     # config: {wrist: flip}: axis 5 turned against the noflip sense (KUKA A5 < 0, ABB axis 5 < 0,
     # FANUC J5 > 0: the tool bent up from a forearm reaching forward)
-    flip_sign = {"kuka": -1, "abb": -1, "fanuc": 1, "ur": None}[vendor]
+    flip_sign = {"kuka": -1, "abb": -1, "fanuc": 1, "ur": None, "yaskawa": 1}[vendor]
     if flip_sign is not None:
         assert np.sign(axes[3][4]) == flip_sign
     if fmt == "rapid":
@@ -218,6 +236,15 @@ def test_configuration_data_is_the_solutions(vendor_cell, tmp_path):
         for (status, turn), (a, (front, up)) in zip(found, linear):
             assert status == (not front) + 2 * up + 4 * (a[4] <= 0)
             assert turn == sum(1 << i for i in range(6) if a[i] < 0)
+    elif fmt == "inform":
+        text = (out / "PICK.JBI").read_text()
+        configs = readers.inform_configurations(text)
+        assert len(configs) == len(moves) == 5
+        for config, a, (front, up) in zip(configs, axes, geometry):
+            flip, lower, rear, r180, t180, s180, *_ = config
+            assert flip == int(a[4] < 0)  # 0: flip (B > 0, as config wrist: flip gives it)
+            assert lower == int(not up) and rear == int(not front)
+            assert [r180, t180, s180] == [int(abs(a[i]) >= 180) for i in (3, 5, 0)]
     elif fmt == "fanuc":
         text = (out / "PICK.ls").read_text()
         linear = [(a, g) for a, g, m in zip(axes, geometry, moves) if m.motion == "linear"]
@@ -282,3 +309,39 @@ def test_a_configuration_that_cannot_be_is_located(tmp_path, cli, step, code, me
     out = cli(["check", str(cell), str(program)])
     assert out.exit_code == code, out.output
     assert message in out.output and "config.yaml:5" in out.output, out.output
+
+
+def test_inform_writes_joint_targets_in_pulses_when_the_cell_gives_them(vendor_cell, tmp_path):
+    """With ``controller.pulses_per_degree`` and ``zero_pulse`` (robot parameters read off
+    the controller; here plausible values), an INFORM job's joint moves go to pulse
+    positions: read back through those parameters, each is the simulation's joint solution to
+    half a pulse, and Pinocchio puts the tool where the Cartesian moves say."""
+    import shutil
+
+    key, root, device, urdf = vendor_cell
+    if key != "gp7":
+        pytest.skip("INFORM: the Yaskawa robot")
+    cell_root = tmp_path / "cell"
+    shutil.copytree(root, cell_root)
+    cell = yaml.safe_load((cell_root / "cell.yaml").read_text())
+    pulses = [1456.0, 1456.0, 1210.0, 820.0, 820.0, 520.0]
+    zero = [0, 0, 0, 12000, 0, -3000]
+    cell["devices"][0]["controller"]["pulses_per_degree"] = pulses
+    cell["devices"][0]["controller"]["zero_pulse"] = zero
+    (cell_root / "cell.yaml").write_text(yaml.safe_dump(cell, sort_keys=False))
+    out = tmp_path / "out"
+    program = str(cell_root / "programs" / "pick.yaml")
+    export_program(str(cell_root), program, None, str(out), frame="fixture")
+    text = (out / "PICK.JBI").read_text()
+    assert "///POSTYPE PULSE" in text
+    read = readers.inform(text, pulses, zero)
+    result = simulate(load_run(str(cell_root), program), collisions=False)
+    moves = [r.move for r in result.resolved[device] if r.move is not None]
+    assert [kind for kind, _ in read] == ["joint", "linear", "linear", "joint", "linear"]
+    for (kind, value), move in zip(read, moves):
+        if kind == "joint":
+            assert value.shape == (6,)
+            assert np.degrees(np.abs(value - move.q_goal)).max() <= 0.5 / min(pulses) + 1e-12
+            value = _pinocchio(urdf, value)
+        expected = _pinocchio(urdf, move.q_goal)
+        assert 1000 * np.abs(value[:3, 3] - expected[:3, 3]).max() < 0.01

@@ -1,0 +1,193 @@
+"""Yaskawa INFORM as a job file (``.JBI``, ASCII, the controller's job format: NX100, DX100,
+DX200, YRC1000): the positions in ``//POS``, the instructions in ``//INST``.
+
+Joint targets are pulse counts when the cell gives the controller's ``pulses_per_degree`` (and
+``zero_pulse``): robot parameters Yaskawa does not publish, read off the controller.  Without
+them every target is a Cartesian position in the base frame (``///POSTYPE BASE``) or the user
+frame (``///POSTYPE USER``, ``///USER 1``), X, Y, Z in mm, Rx, Ry, Rz in degrees (``R =
+Rz(Rz) Ry(Ry) Rx(Rx)``, the angles about the fixed axes), with the manipulator type
+(``///RCONF``) of the joint solution the simulation took: a joint move is then ``MOVJ`` to that
+position with that type.  Tool and user frame values are given in comments, for the
+controller's tool and user frame files (a job cannot set them).  ``MOVJ ... VJ=`` (% of the
+joints' top speed), ``MOVL ... V=`` (mm/s), ``DOUT OT#()``, ``TIMER T=``; a guarded move is a
+``MOVL ... UNTIL IN#()=ON`` (the move stops where the input closes).
+"""
+
+from __future__ import annotations
+
+import textwrap
+
+import numpy as np
+
+from . import Signals
+from .common import (
+    INFORM,
+    Comment,
+    DeviceProgram,
+    Load,
+    Move,
+    Output,
+    Record,
+    Tool,
+    Wait,
+    kuka_abc,
+)
+
+note = INFORM.comment  # every text from a file goes into a comment through this
+COMMENT_WIDTH = 32  # the pendant's comment length
+FIXED_DATE = "2000/01/01 00:00"  # the job's ///DATE
+
+
+def _f(x: float, digits: int = 4) -> str:
+    text = f"{float(x):.{digits}f}"
+    return f"{0.0:.{digits}f}" if float(text) == 0 else text
+
+
+def xyz_rxyz(T) -> tuple[float, ...]:
+    """X, Y, Z [mm], Rx, Ry, Rz [deg] of a pose: ``R = Rz(Rz) Ry(Ry) Rx(Rx)``."""
+    rz, ry, rx = kuka_abc(T[:3, :3])
+    x, y, z = T[:3, 3] * 1000
+    return (x, y, z, rx, ry, rz)
+
+
+def rconf(axes: np.ndarray, configuration: dict[str, str] | None) -> str:
+    """The manipulator type ``///RCONF l,m,n,o,p,q,0,0`` of a joint solution (the controller's
+    axis values [rad]): l 0 flip / 1 no flip, m 0 upper arm (elbow up) / 1 lower arm, n 0
+    front / 1 rear (the wrist centre against the S axis), o, p, q: the R, T and S axes at
+    180 deg or more in magnitude (1) or not (0), as the NX100 manual's job format gives them."""
+    c = configuration or {"shoulder": "front", "elbow": "up", "wrist": "noflip"}
+    degrees = np.abs(np.degrees(np.asarray(axes, dtype=float)))
+    bits = [
+        int(c["wrist"] == "noflip"),
+        int(c["elbow"] == "down"),
+        int(c["shoulder"] == "back"),
+        int(degrees[3] >= 180.0),
+        int(degrees[5] >= 180.0),
+        int(degrees[0] >= 180.0),
+    ]
+    return ",".join(str(b) for b in bits) + ",0,0"
+
+
+def _comments(text: str) -> list[str]:
+    """``'`` lines of at most 32 characters."""
+    lines = textwrap.wrap(note(text), COMMENT_WIDTH, break_on_hyphens=False) or [""]
+    return [f"'{line}" for line in lines]
+
+
+def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
+    used: set[str] = set()
+    name = INFORM.identifier(program.name, used)
+    tools = {t.name: k + 1 for k, t in enumerate(program.tools)}
+    profile = program.controller
+    pulses = profile.pulses_per_degree if profile is not None else None
+    zero = profile.zero_pulse if profile is not None else None
+    head = [
+        f"{program.name}: device '{program.device}', from {program.source}",
+        "written by 'rworld export program': targets resolved with the cell's current pose files",
+        f"outputs: gripper OT#({signals.gripper}) (ON = closed), tool changer "
+        f"OT#({signals.tool_changer}) (ON = locked); searches stop on IN#({signals.sensor})",
+        *([f"job '{name}' is program '{program.name}'"] if name != program.name else []),
+        *program.conventions(),
+        "linear speeds V= in mm/s (the controller's V unit set to mm/s)",
+        (
+            "joint targets in pulses (controller.pulses_per_degree, zero_pulse)"
+            if pulses is not None
+            else "joint targets as Cartesian positions with their RCONF (no pulses per degree "
+            "given: controller.pulses_per_degree)"
+        ),
+    ]
+    user_line = "///POSTYPE BASE"
+    frames: list[tuple[str, int, str, np.ndarray]] = []  # for the tool and user frame files
+    if program.user_frame:
+        user_line = "///USER 1\n///POSTYPE USER"
+        frames.append(("USER", 1, program.user_frame, program.T_controller_user))
+    for tool in program.tools:
+        frames.append(("TOOL", tools[tool.name], tool.name, tool.T_flange_tcp))
+    positions: list[str] = []
+    body: list[str] = []
+    for text in head:
+        body += _comments(text)
+    for kind, number, frame_name, T in frames:  # one value a line: each within 32 characters
+        body += _comments(f"{kind} {number} is {frame_name} (mm, deg):")
+        for key, value in zip(("X", "Y", "Z", "Rx", "Ry", "Rz"), xyz_rxyz(T)):
+            body.append(f"'{kind} {number} {key} {_f(value)}")
+    tool = 0
+    kind_now, tool_now, type_now = "", -1, ""
+    count = 0
+    for item in program.instructions:
+        if isinstance(item, Tool):
+            tool = tools[item.name]
+            body += _comments(f"TOOL {tool}: {item.name}")
+        elif isinstance(item, Load):
+            total = item.total
+            body += _comments(item.describe())
+            body += _comments(
+                f"load for the tool file: {_f(total.mass, 3)} kg at "
+                + ", ".join(_f(v * 1000, 3) for v in total.com)
+                + " mm (flange axes)"
+            )
+        elif isinstance(item, Move):
+            label = f"C{count:05d}"
+            count += 1
+            body += _comments(f"{item.where}: {item.text}")
+            axes = program.axes(item.q_target)
+            joint = item.motion == "joint" and not item.guard
+            if joint and pulses is not None:
+                if kind_now != "pulse":
+                    positions += ["///POSTYPE PULSE", "///PULSE"]
+                    kind_now, tool_now, type_now = "pulse", -1, ""
+                counts = np.rint(
+                    np.degrees(axes) * np.asarray(pulses) + np.asarray(zero or [0] * len(axes))
+                ).astype(int)
+                positions.append(f"{label}=" + ",".join(str(int(c)) for c in counts))
+            else:
+                if kind_now != "rectan":
+                    positions += [*user_line.split("\n"), "///RECTAN"]
+                    kind_now, type_now = "rectan", ""
+                if tool != tool_now:
+                    positions.append(f"///TOOL {tool}")
+                    tool_now = tool
+                kind = rconf(axes, item.configuration)
+                if kind != type_now:
+                    positions.append(f"///RCONF {kind}")
+                    type_now = kind
+                values = xyz_rxyz(program.in_user(item.T_target))
+                positions.append(f"{label}=" + ",".join(_f(v) for v in values))
+            if item.motion == "joint":
+                speed = max(0.01, min(100.0, 100.0 * item.speed_fraction))
+                body.append(f"MOVJ {label} VJ={speed:.2f}")
+            else:
+                speed = max(0.1, item.tool_speed * 1000)
+                until = f" UNTIL IN#({signals.sensor})=ON" if item.guard else ""
+                body.append(f"MOVL {label} V={speed:.1f}{until}")
+        elif isinstance(item, Output):
+            index = signals.output(item.signal)
+            body += _comments(f"{item.where}: {item.text}")
+            body.append(f"DOUT OT#({index}) {'ON' if item.value else 'OFF'}")
+        elif isinstance(item, Wait):
+            body += _comments(f"{item.where}: {item.text}")
+            body.append(f"TIMER T={item.seconds:.2f}")
+        elif isinstance(item, Comment):
+            body += _comments(f"{item.where}: {item.text}")
+        elif isinstance(item, Record):
+            body += _comments(
+                f"{item.where}: {item.text} (contact {item.number}/{item.total} of "
+                f"{item.feature}: not recorded in INFORM, read it on the pendant)"
+            )
+    lines = [
+        "/JOB",
+        f"//NAME {name}",
+        "//POS",
+        f"///NPOS {count},0,0,0,0,0",
+        *positions,
+        "//INST",
+        f"///DATE {FIXED_DATE}",  # fixed: the same run exports the same bytes
+        f"///COMM {note(program.name)[:COMMENT_WIDTH]}",
+        "///ATTR SC,RW",
+        "///GROUP1 RB1",
+        "NOP",
+        *body,
+        "END",
+        "",
+    ]
+    return {f"{name}.JBI": "\r\n".join(lines)}
