@@ -140,7 +140,7 @@ def export_program(
     UserError
         Unknown format or device, a device the format cannot drive (exit 2).
     """
-    from ..export import csv_trajectory, fanuc, inform, krl, rapid, urscript
+    from ..export import csv_trajectory, fanuc, inform, krl, rapid, urscript, val3
     from .planning import parse_period
 
     loaded_format = fmt is None
@@ -234,6 +234,7 @@ def export_program(
             "rapid": rapid,
             "fanuc": fanuc,
             "inform": inform,
+            "val3": val3,
         }[fmt]
         for file_name, text in writer.write(program, signals).items():
             if file_name in files:

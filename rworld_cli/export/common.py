@@ -593,6 +593,11 @@ _INFORM_WORDS = """nop end movj movl movc mows imov refp speed dout din wait tim
 label pause hold clear set add sub mul div inc dec and or not xor until ret if then else endif
 while endwhile for next""".split()
 
+_VAL3_WORDS = """begin end if else endif while endwhile do until for to step endfor switch case
+default endswitch return call true false and or not xor movej movel movec waitendmove stopmove
+resetmotion restartmove watch delay wait herepoint herejoint tool frame point pointrx jointrx
+mdesc dio aio num bool string world flange start stop""".split()
+
 URSCRIPT = Language("URScript", "#", 60, frozenset(_URSCRIPT_WORDS), lower=True)
 # program names: 36 characters on R-30iA and later; ';' ends a TP line, so not in comments
 FANUC = Language("FANUC TP", "!", 36, frozenset(_FANUC_WORDS), upper=True, escaped=";")
@@ -600,6 +605,8 @@ KRL = Language("KRL", ";", 24, frozenset(_KRL_WORDS))
 RAPID = Language("RAPID", "!", 32, frozenset(_RAPID_WORDS))
 # job names: 32 characters on DX100 and later (8 on the NX100); a comment line starts with '
 INFORM = Language("INFORM", "'", 32, frozenset(_INFORM_WORDS), upper=True)
+# application names: 15 characters in the controller's file manager; // starts a comment
+VAL3 = Language("VAL3", "//", 15, frozenset(_VAL3_WORDS))
 
 
 def number(x: float, digits: int = 9) -> str:

@@ -101,8 +101,8 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
     if program.user_frame:
         user_line = "///USER 1\n///POSTYPE USER"
         frames.append(("USER", 1, program.user_frame, program.T_controller_user))
-    for tool in program.tools:
-        frames.append(("TOOL", tools[tool.name], tool.name, tool.T_flange_tcp))
+    for used_tool in program.tools:
+        frames.append(("TOOL", tools[used_tool.name], used_tool.name, used_tool.T_flange_tcp))
     positions: list[str] = []
     body: list[str] = []
     for text in head:

@@ -865,8 +865,6 @@ def vendor_conventions(robot_name: str) -> tuple[str | None, float | None]:
         return "yaskawa", None
     if re.match(r"^(staubli_|tx2?_?\d|rx\d|ts2?_?\d)", name):
         return "staubli", None
-    if re.match(r"^(doosan_|[mh]\d{4}|a\d{4}|e\d{4})", name):
-        return "doosan", None
     if re.match(r"^(abb_)?irb", name):
         model = re.sub(r"^abb_", "", name)
         return "abb", (1.0 if model.startswith(_ABB_COUPLED) else None)
@@ -879,4 +877,6 @@ def vendor_conventions(robot_name: str) -> tuple[str | None, float | None]:
         return "ur", None
     if re.match(r"^(panda|fr3|franka)", name):
         return "franka", None
+    if re.match(r"^(doosan_|[mh]\d{4}|a\d{4}|e\d{4})", name):  # after FANUC's M-2000iA
+        return "doosan", None
     return None, None

@@ -241,6 +241,56 @@ def inform_configurations(text: str) -> list[list[int]]:
     ]
 
 
+def _val3_pose(value) -> np.ndarray:
+    """x, y, z [mm], rx, ry, rz [deg] -> pose (m): about x, then the new y, then the new z."""
+    x, y, z, rx, ry, rz = (float(value.get(k)) for k in ("x", "y", "z", "rx", "ry", "rz"))
+    R = Rotation.from_euler("XYZ", [rx, ry, rz], degrees=True).as_matrix()  # intrinsic
+    return _pose(np.array([x, y, z]) / 1000, R)
+
+
+def _val3_data(dtx: str) -> dict[str, list]:
+    import xml.etree.ElementTree as ET
+
+    root = ET.fromstring(dtx)
+    out = {}
+    for data in root.iter():
+        if data.tag.endswith("}Data") and data.get("name"):
+            values = sorted(
+                (v for v in data if v.tag.endswith("}Value")), key=lambda v: int(v.get("key"))
+            )
+            out[data.get("name")] = values
+    return out
+
+
+def val3_tools(dtx: str) -> list[np.ndarray]:
+    return [_val3_pose(v) for v in _val3_data(dtx)["tTool"]]
+
+
+def val3(dtx: str, pgx: str) -> list[tuple[str, np.ndarray]]:
+    """movej to jTarget (deg) and movel to pTarget (mm, deg; on fUser[0] or world[0]), in the
+    order of the code."""
+    data = _val3_data(dtx)
+    user = _val3_pose(data["fUser"][0]) if "fUser" in data else np.eye(4)
+    out = []
+    for kind, name, k in re.findall(r"^\s*(movej|movel)\((\w+)\[(\d+)\]", pgx, re.M):
+        value = data[name][int(k)]
+        if name == "jTarget":
+            out.append(("joint", np.radians([float(value.get(f"j{i}")) for i in range(1, 7)])))
+        else:
+            T = _val3_pose(value)
+            out.append(("linear", user @ T if value.get("fatherId") == "fUser[0]" else T))
+    return out
+
+
+def val3_configurations(dtx: str, pgx: str) -> list[dict[str, str]]:
+    """The shoulder, elbow and wrist of each point moved to, in the order of the code."""
+    data = _val3_data(dtx)
+    return [
+        {k: data["pTarget"][int(i)].get(k) for k in ("shoulder", "elbow", "wrist")}
+        for i in re.findall(r"^\s*movel\(pTarget\[(\d+)\]", pgx, re.M)
+    ]
+
+
 def read(folder: Path, fmt: str, stem: str) -> list[tuple[str, np.ndarray]]:
     if fmt == "urscript":
         return urscript((folder / f"{stem}.script").read_text())

@@ -226,12 +226,12 @@ def test_bad_format_and_undrivable_device_exit_2_and_write_nothing(tmp_path, cli
             str(WORKCELLS / "puma560"),
             "pick_place",
             "--format",
-            "val3",
+            "melfa",
             "-o",
             str(out),
         ]
     )
-    assert bad.exit_code == 2 and "val3" in bad.stderr
+    assert bad.exit_code == 2 and "melfa" in bad.stderr
     conveyor = cli(
         [
             "export",

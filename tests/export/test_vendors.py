@@ -69,8 +69,14 @@ VENDORS = {
         "yaskawa",
         {"xyz": [0.5, 0.1, 0.3], "rpy": [3.0, 0.1, 0.3]},
     ),
+    "tx2_60": (  # ros-industrial/staubli_experimental
+        DATA / "staubli" / "staubli_tx2_60_support" / "urdf" / "tx2_60.xacro",
+        "val3",
+        "staubli",
+        {"xyz": [0.45, 0.1, 0.25], "rpy": [3.0, 0.1, 0.3]},
+    ),
 }
-PACKAGES = {"gp7": DATA / "motoman"}  # the ROS packages a xacro finds
+PACKAGES = {"gp7": DATA / "motoman", "tx2_60": DATA / "staubli"}  # what a xacro finds
 TIP = {"xyz": [0.01, -0.02, 0.12], "rpy": [0.0, 0.2, 0.1]}  # the tool on tool0 [m, rad]
 USER = {"xyz": [0.3, -0.2, 0.1], "rpy": [0.0, 0.0, 0.5]}  # the user frame "fixture"
 PROGRAM = """\
@@ -163,6 +169,9 @@ def _read(fmt: str, out: Path) -> tuple[list, list]:
     if fmt == "inform":
         text = (out / "PICK.JBI").read_text()
         return readers.inform(text), readers.inform_tools(text)
+    if fmt == "val3":
+        dtx, pgx = (out / "pick" / "pick.dtx").read_text(), (out / "pick" / "start.pgx").read_text()
+        return readers.val3(dtx, pgx), readers.val3_tools(dtx)
     text = (out / "PICK.ls").read_text()
     return readers.fanuc(text), readers.fanuc_tools(text)
 
@@ -217,7 +226,9 @@ def test_configuration_data_is_the_solutions(vendor_cell, tmp_path):
     assert geometry[0][1]  # config: {elbow: up}
     # config: {wrist: flip}: axis 5 turned against the noflip sense (KUKA A5 < 0, ABB axis 5 < 0,
     # FANUC J5 > 0: the tool bent up from a forearm reaching forward)
-    flip_sign = {"kuka": -1, "abb": -1, "fanuc": 1, "ur": None, "yaskawa": 1}[vendor]
+    flip_sign = {"kuka": -1, "abb": -1, "fanuc": 1, "ur": None, "yaskawa": 1, "staubli": None}[
+        vendor
+    ]
     if flip_sign is not None:
         assert np.sign(axes[3][4]) == flip_sign
     if fmt == "rapid":
@@ -245,6 +256,15 @@ def test_configuration_data_is_the_solutions(vendor_cell, tmp_path):
             assert flip == int(a[4] < 0)  # 0: flip (B > 0, as config wrist: flip gives it)
             assert lower == int(not up) and rear == int(not front)
             assert [r180, t180, s180] == [int(abs(a[i]) >= 180) for i in (3, 5, 0)]
+    elif fmt == "val3":
+        dtx, pgx = (out / "pick" / "pick.dtx").read_text(), (out / "pick" / "start.pgx").read_text()
+        linear = [(a, g) for a, g, m in zip(axes, geometry, moves) if m.motion == "linear"]
+        shapes = readers.val3_configurations(dtx, pgx)
+        assert len(shapes) == len(linear) == 3
+        for shape, (a, (front, up)) in zip(shapes, linear):
+            assert shape["shoulder"] == ("righty" if front else "lefty")
+            assert shape["elbow"] == ("epositive" if a[2] >= 0 else "enegative")
+            assert shape["wrist"] == ("wpositive" if a[4] >= 0 else "wnegative")
     elif fmt == "fanuc":
         text = (out / "PICK.ls").read_text()
         linear = [(a, g) for a, g, m in zip(axes, geometry, moves) if m.motion == "linear"]
@@ -345,3 +365,53 @@ def test_inform_writes_joint_targets_in_pulses_when_the_cell_gives_them(vendor_c
             value = _pinocchio(urdf, value)
         expected = _pinocchio(urdf, move.q_goal)
         assert 1000 * np.abs(value[:3, 3] - expected[:3, 3]).max() < 0.01
+
+
+@pytest.mark.parametrize(
+    "name, vendor",
+    [
+        ("motoman_gp7", "yaskawa"),
+        ("motoman_mh5", "yaskawa"),
+        ("staubli_tx2_60", "staubli"),
+        ("tx60l", "staubli"),
+        ("kuka_lbr_iiwa_14_r820", "kuka_sunrise"),
+        ("lbr_med7", "kuka_sunrise"),
+        ("kuka_kr16_2", "kuka"),
+        ("m1013", "doosan"),
+        ("fanuc_m2000ia", "fanuc"),
+        ("m2000ia", "fanuc"),
+        ("abb_irb2400", "abb"),
+        ("my_robot", None),
+    ],
+)
+def test_import_names_the_vendor_families(name, vendor):
+    from rworld_cli.schema.urdf_cell import vendor_conventions
+
+    assert vendor_conventions(name)[0] == vendor
+
+
+def test_a_vendor_without_a_language_is_refused_with_the_reason(tmp_path, cli):
+    """The LBR iiwa (7 axes, KUKA Sunrise) exported without --format: exit 2, saying Sunrise is
+    not written and csv streams it; nothing written."""
+    cell = DATA / "vendor_cells" / "iiwa14"
+    out = tmp_path / "out"
+    result = cli(["export", "program", str(cell), "tour", "-o", str(out)])
+    assert result.exit_code == 2
+    assert "kuka_sunrise controller" in result.stderr and "--format csv" in result.stderr
+    assert not out.exists()
+
+
+def test_pulses_per_axis_are_one_per_joint(tmp_path, cli):
+    import shutil
+
+    cell = tmp_path / "gp7"
+    shutil.copytree(DATA / "vendor_cells" / "gp7", cell)
+    text = (cell / "cell.yaml").read_text()
+    (cell / "cell.yaml").write_text(
+        text.replace(
+            "    vendor: yaskawa\n", "    vendor: yaskawa\n    pulses_per_degree: [1, 2]\n"
+        )
+    )
+    result = cli(["validate", str(cell)])
+    assert result.exit_code == 2
+    assert "pulses_per_degree: 2 value(s) for 6 joint(s): one per axis" in result.output

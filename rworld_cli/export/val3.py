@@ -1,0 +1,241 @@
+"""Staubli VAL3 as an application folder: the project (``.pjx``), the data (``.dtx``: the
+joint targets ``jointRx``, the Cartesian targets ``pointRx`` with their configuration, the tools
+``tool`` on ``flange``, the user frame ``frame`` on ``world``, the motion descriptors ``mdesc``,
+the outputs ``dio``) and the programs (``start.pgx``, ``stop.pgx``).
+
+Lengths in mm, angles in degrees; a pose's ``rx, ry, rz`` turn about x, then the new y, then
+the new z (``R = Rx(rx) Ry(ry) Rz(rz)``).  ``movej`` to joint targets, ``movel`` to points,
+``waitEndMove()`` before every output and wait; a guarded move is a ``movel`` watched by
+``watch(dSensor == true, ...)`` and stopped (``stopMove()``, ``resetMotion()``).
+"""
+
+from __future__ import annotations
+
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from . import Signals
+from .common import (
+    VAL3,
+    Comment,
+    DeviceProgram,
+    Load,
+    Move,
+    Output,
+    Record,
+    Tool,
+    Wait,
+)
+
+note = VAL3.comment  # every text from a file goes into a comment through this
+SEARCH_TIMEOUT = 60.0  # [s] a search's watch gives up after this
+
+
+def _f(x: float, digits: int = 6) -> str:
+    text = f"{float(x):.{digits}f}".rstrip("0").rstrip(".")
+    return "0" if text in ("-0", "") else text
+
+
+def xyz_rxyz(T) -> tuple[float, ...]:
+    """x, y, z [mm], rx, ry, rz [deg] of a pose: ``R = Rx(rx) Ry(ry) Rz(rz)`` (intrinsic x,
+    y', z'')."""
+    R = np.asarray(T, dtype=float)[:3, :3]
+    ry = np.arcsin(np.clip(R[0, 2], -1.0, 1.0))
+    if abs(R[0, 2]) < 1.0 - 1e-12:
+        rx = np.arctan2(-R[1, 2], R[2, 2])
+        rz = np.arctan2(-R[0, 1], R[0, 0])
+    else:  # gimbal lock: rz = 0, rx takes the turn
+        rx = np.arctan2(R[2, 1], R[1, 1])
+        rz = 0.0
+    x, y, z = np.asarray(T, dtype=float)[:3, 3] * 1000
+    return (x, y, z, float(np.degrees(rx)), float(np.degrees(ry)), float(np.degrees(rz)))
+
+
+def config(axes: np.ndarray, configuration: dict[str, str] | None) -> dict[str, str]:
+    """A 6-axis solution's VAL3 configuration (the controller's axis values [rad]): shoulder
+    righty with the wrist centre in front of axis 1 (rworld's shoulder 'front'), lefty
+    behind; elbow epositive when axis 3 is positive or zero; wrist wpositive when axis 5 is."""
+    front = configuration is None or configuration["shoulder"] == "front"
+    return {
+        "shoulder": "righty" if front else "lefty",
+        "elbow": "epositive" if axes[2] >= 0 else "enegative",
+        "wrist": "wpositive" if axes[4] >= 0 else "wnegative",
+    }
+
+
+def _pose_attributes(T) -> str:
+    return " ".join(f'{k}="{_f(v)}"' for k, v in zip(("x", "y", "z", "rx", "ry", "rz"), T))
+
+
+def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
+    used: set[str] = set()
+    app = VAL3.identifier(program.name, used)
+    tools = {t.name: k for k, t in enumerate(program.tools)}
+    joints: list[str] = []  # Value elements of jTarget
+    points: list[str] = []  # of pTarget
+    speeds: list[str] = []  # of mSpeed
+    code: list[str] = []
+    head = [
+        f"{program.name}: device '{program.device}', from {program.source}",
+        "written by 'rworld export program': targets resolved with the cell's current pose files",
+        f"outputs: dGripper (true = closed) and dToolChanger (true = locked): link them to "
+        f"outputs {signals.gripper} and {signals.tool_changer}; dSensor (searches) to input "
+        f"{signals.sensor}",
+        *([f"application '{app}' is program '{program.name}'"] if app != program.name else []),
+        *program.conventions(),
+        "rx, ry, rz: about x, then the new y, then the new z (R = Rx Ry Rz), degrees; mm",
+    ]
+    code += [f"  // {note(line)}" for line in head]
+    father = "fUser[0]" if program.user_frame else "world[0]"
+    tool = 0
+    for item in program.instructions:
+        if isinstance(item, Tool):
+            tool = tools[item.name]
+            code.append(f"  // tTool[{tool}] is {note(item.name)}")
+        elif isinstance(item, Load):
+            code.append(f"  // {note(item.describe())} (the tool's and arm's load: the cell)")
+        elif isinstance(item, Move):
+            code.append(f"  // {note(item.where)}: {note(item.text)}")
+            axes = program.axes(item.q_target)
+            speed = len(speeds)
+            percent = max(0.01, min(100.0, 100.0 * item.speed_fraction))
+            acceleration = max(0.01, min(100.0, 100.0 * item.acceleration_fraction))
+            tvel = max(0.1, item.tool_speed * 1000)
+            speeds.append(
+                f'<Value key="{speed}" accel="{_f(acceleration, 2)}" vel="{_f(percent, 2)}" '
+                f'decel="{_f(acceleration, 2)}" tmax="{_f(tvel, 1)}" rmax="99999" blend="off" '
+                'leave="50" reach="50" />'
+            )
+            if item.motion == "joint" and not item.guard:
+                k = len(joints)
+                values = " ".join(f'j{i + 1}="{_f(np.degrees(a))}"' for i, a in enumerate(axes))
+                joints.append(f'<Value key="{k}" {values} />')
+                code.append(f"  movej(jTarget[{k}], tTool[{tool}], mSpeed[{speed}])")
+                continue
+            k = len(points)
+            shape = config(axes, item.configuration)
+            pose = _pose_attributes(xyz_rxyz(program.in_user(item.T_target)))
+            points.append(
+                f'<Value key="{k}" {pose} shoulder="{shape["shoulder"]}" '
+                f'elbow="{shape["elbow"]}" wrist="{shape["wrist"]}" fatherId="{father}" />'
+            )
+            code.append(f"  movel(pTarget[{k}], tTool[{tool}], mSpeed[{speed}])")
+            if item.guard:
+                code += [
+                    f"  // a search until {note(item.guard)}: stops where dSensor closes",
+                    f"  if watch(dSensor == true, {_f(SEARCH_TIMEOUT)})",
+                    "    stopMove()",
+                    "  endIf",
+                    "  resetMotion()",
+                ]
+        elif isinstance(item, Output):
+            name = "dGripper" if item.signal == "gripper" else "dToolChanger"
+            code += [
+                f"  // {note(item.where)}: {note(item.text)}",
+                "  waitEndMove()",
+                f"  {name} = {'true' if item.value else 'false'}",
+            ]
+        elif isinstance(item, Wait):
+            code += [
+                f"  // {note(item.where)}: {note(item.text)}",
+                "  waitEndMove()",
+                f"  delay({_f(item.seconds)})",
+            ]
+        elif isinstance(item, Comment):
+            code.append(f"  // {note(item.where)}: {note(item.text)}")
+        elif isinstance(item, Record):
+            code.append(
+                f"  // {note(item.where)}: {note(item.text)} (contact {item.number}/"
+                f"{item.total} of {note(item.feature)}: not recorded in VAL3, read "
+                "herePoint(tTool) on the pendant)"
+            )
+    code.append("  waitEndMove()")
+    tool_values = [
+        f'<Value key="{k}" {_pose_attributes(xyz_rxyz(t.T_flange_tcp))} fatherId="flange[0]" '
+        'ioLink="valve1" open="0" close="0" />'
+        for k, t in enumerate(program.tools)
+    ] or ['<Value key="0" x="0" y="0" z="0" rx="0" ry="0" rz="0" fatherId="flange[0]" />']
+    datas = [
+        _array("jTarget", "jointRx", joints),
+        _array("pTarget", "pointRx", points),
+        _array("tTool", "tool", tool_values),
+        _array("mSpeed", "mdesc", speeds),
+        _array("dGripper", "dio", ['<Value key="0" link="" />']),
+        _array("dToolChanger", "dio", ['<Value key="0" link="" />']),
+        _array("dSensor", "dio", ['<Value key="0" link="" />']),
+    ]
+    if program.user_frame:
+        user = _pose_attributes(xyz_rxyz(program.T_controller_user))
+        datas.append(_array("fUser", "frame", [f'<Value key="0" {user} fatherId="world[0]" />']))
+    dtx = "\n".join(
+        [
+            '<?xml version="1.0" encoding="utf-8"?>',
+            '<Database xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" '
+            'xmlns="http://www.staubli.com/robotics/VAL3/Data/2">',
+            "  <Datas>",
+            *datas,
+            "  </Datas>",
+            "</Database>",
+            "",
+        ]
+    )
+    start = _program_file("start", ["begin", *code, "end"])
+    stop = _program_file("stop", ["begin", "end"])
+    pjx = "\n".join(
+        [
+            '<?xml version="1.0" encoding="utf-8"?>',
+            '<Project xmlns="http://www.staubli.com/robotics/VAL3/Project/3">',
+            '  <Parameters version="s7.3" stackSize="5000" millimeterUnit="true" />',
+            "  <Programs>",
+            '    <Program file="start.pgx" />',
+            '    <Program file="stop.pgx" />',
+            "  </Programs>",
+            "  <Database>",
+            f"    <Data file={quoteattr(app + '.dtx')} />",
+            "  </Database>",
+            "  <Libraries />",
+            "</Project>",
+            "",
+        ]
+    )
+    return {
+        f"{app}/{app}.pjx": pjx,
+        f"{app}/{app}.dtx": dtx,
+        f"{app}/start.pgx": start,
+        f"{app}/stop.pgx": stop,
+    }
+
+
+EMPTY = {  # an array the program does not use still holds one value
+    "jointRx": '<Value key="0" j1="0" j2="0" j3="0" j4="0" j5="0" j6="0" />',
+    "pointRx": '<Value key="0" x="0" y="0" z="0" rx="0" ry="0" rz="0" shoulder="righty" '
+    'elbow="epositive" wrist="wpositive" fatherId="world[0]" />',
+    "mdesc": '<Value key="0" accel="100" vel="100" decel="100" tmax="99999" rmax="99999" '
+    'blend="off" leave="50" reach="50" />',
+}
+
+
+def _array(name: str, kind: str, values: list[str]) -> str:
+    """One ``Data`` element: an array of ``values`` (``Value`` elements)."""
+    values = values or [EMPTY[kind]]
+    inner = "\n".join(f"      {v}" for v in values)
+    return (
+        f'    <Data name="{name}" access="private" xsi:type="array" type="{kind}" '
+        f'size="{len(values)}">\n{inner}\n    </Data>'
+    )
+
+
+def _program_file(name: str, lines: list[str]) -> str:
+    """A ``.pgx`` with one program, its code in CDATA (no line can end it early)."""
+    return "\n".join(
+        [
+            '<?xml version="1.0" encoding="utf-8"?>',
+            '<Programs xmlns="http://www.staubli.com/robotics/VAL3/Program/2">',
+            f'  <Program name="{name}" access="private">',
+            "    <Code><![CDATA[" + "\n".join(lines).replace("]]>", "]] >") + "]]></Code>",
+            "  </Program>",
+            "</Programs>",
+            "",
+        ]
+    )
