@@ -20,6 +20,7 @@ ARM_FORMATS = {
     "fanuc": "FANUC TP",
     "inform": "Yaskawa INFORM",
     "val3": "Staubli VAL3",
+    "drl": "Doosan DRL",
 }
 
 
@@ -140,7 +141,7 @@ def export_program(
     UserError
         Unknown format or device, a device the format cannot drive (exit 2).
     """
-    from ..export import csv_trajectory, fanuc, inform, krl, rapid, urscript, val3
+    from ..export import csv_trajectory, drl, fanuc, inform, krl, rapid, urscript, val3
     from .planning import parse_period
 
     loaded_format = fmt is None
@@ -235,6 +236,7 @@ def export_program(
             "fanuc": fanuc,
             "inform": inform,
             "val3": val3,
+            "drl": drl,
         }[fmt]
         for file_name, text in writer.write(program, signals).items():
             if file_name in files:

@@ -230,10 +230,10 @@ def export_group():
     "--format",
     "fmt",
     default=None,
-    type=click.Choice(["urscript", "krl", "rapid", "fanuc", "inform", "val3", "csv"]),
+    type=click.Choice(["urscript", "krl", "rapid", "fanuc", "inform", "val3", "drl", "csv"]),
     help="Robot language (fanuc: TP as .ls; inform: a Yaskawa .JBI job; val3: a Staubli "
-    "application folder), or csv for a timed joint trajectory; default the language of the "
-    "device's controller.vendor.",
+    "application folder; drl: Doosan), or csv for a timed joint trajectory; default the "
+    "language of the device's controller.vendor.",
 )
 @click.option("-o", "--output", required=True, metavar="DIR", help="The folder to write.")
 @click.option("--device", default=None, metavar="NAME", help="Only this device's program.")

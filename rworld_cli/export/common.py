@@ -593,6 +593,12 @@ _INFORM_WORDS = """nop end movj movl movc mows imov refp speed dout din wait tim
 label pause hold clear set add sub mul div inc dec and or not xor until ret if then else endif
 while endwhile for next""".split()
 
+_DRL_WORDS = """and as assert break class continue def del elif else except false finally for
+from global if import in is lambda none nonlocal not or pass raise return true try while with
+yield movej movel movejx amovel amovej posj posx set_tcp add_tcp set_tool set_user_cart_coord
+set_digital_output get_digital_input wait stop check_motion on off dr_base dr_sstop dr_qstop
+tp_log print""".split()
+
 _VAL3_WORDS = """begin end if else endif while endwhile do until for to step endfor switch case
 default endswitch return call true false and or not xor movej movel movec waitendmove stopmove
 resetmotion restartmove watch delay wait herepoint herejoint tool frame point pointrx jointrx
@@ -605,6 +611,7 @@ KRL = Language("KRL", ";", 24, frozenset(_KRL_WORDS))
 RAPID = Language("RAPID", "!", 32, frozenset(_RAPID_WORDS))
 # job names: 32 characters on DX100 and later (8 on the NX100); a comment line starts with '
 INFORM = Language("INFORM", "'", 32, frozenset(_INFORM_WORDS), upper=True)
+DRL = Language("DRL", "#", 31, frozenset(_DRL_WORDS))
 # application names: 15 characters in the controller's file manager; // starts a comment
 VAL3 = Language("VAL3", "//", 15, frozenset(_VAL3_WORDS))
 

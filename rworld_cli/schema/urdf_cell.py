@@ -540,7 +540,7 @@ def cell_from_urdf(
     if "base" in placed and placed["base"][0] == 0 and base != "base":
         controller["base"] = names("base")
     vendor, j23 = vendor_conventions(robot.name)
-    if controller and vendor is not None:
+    if vendor is not None:  # named even where the URDF has no tool0 or base (Doosan's)
         controller = {"vendor": vendor, **controller}
         moving_revolute = [j for j in moving if j.type in ("revolute", "continuous")]
         if j23 and len(moving) == 6 and len(moving_revolute) == 6:
@@ -557,6 +557,10 @@ def cell_from_urdf(
                 f", and axis 3 counting {j23:+g} x joint 2 (the parallel linkage, as "
                 "ROS-Industrial's driver for this robot does)"
             )
+        if "flange" not in controller:
+            said += " (no 'tool0' link: tool data in the last link's frame)"
+        if "base" not in controller and base != "base":
+            said += " (no 'base' link: targets in the device's natural frame)"
         warnings.append(
             Issue(
                 robot.file,

@@ -291,6 +291,36 @@ def val3_configurations(dtx: str, pgx: str) -> list[dict[str, str]]:
     ]
 
 
+def _drl_posx(body: str) -> np.ndarray:
+    """posx(x, y, z, rx, ry, rz): mm, and the ZYZ Euler angles (deg, intrinsic z, y', z'')."""
+    x, y, z, a, b, c = (float(v) for v in re.findall(NUM, body))
+    R = Rotation.from_euler("ZYZ", [a, b, c], degrees=True).as_matrix()
+    return _pose(np.array([x, y, z]) / 1000, R)
+
+
+def drl_tools(text: str) -> list[np.ndarray]:
+    return [_drl_posx(b) for b in re.findall(r'^add_tcp\("\w+", posx\((.*?)\)\)', text, re.M)]
+
+
+def drl(text: str) -> list[tuple[str, np.ndarray]]:
+    """movej(posj) (deg) and movel / amovel(posx, ..., ref=R) in DR_BASE or the user frame
+    ``R = set_user_cart_coord(posx(...), DR_BASE)``."""
+    frames = {"DR_BASE": np.eye(4)}
+    for name, body in re.findall(
+        r"^(\w+) = set_user_cart_coord\(posx\((.*?)\), DR_BASE\)", text, re.M
+    ):
+        frames[name] = _drl_posx(body)
+    out = []
+    pattern = r"^(movej|movel|amovel)\((posj|posx)\((.*?)\)(.*)$"
+    for kind, _, body, rest in re.findall(pattern, text, re.M):
+        if kind == "movej":
+            out.append(("joint", np.radians([float(v) for v in re.findall(NUM, body)])))
+        else:
+            ref = re.search(r"ref=(\w+)", rest).group(1)
+            out.append(("linear", frames[ref] @ _drl_posx(body)))
+    return out
+
+
 def read(folder: Path, fmt: str, stem: str) -> list[tuple[str, np.ndarray]]:
     if fmt == "urscript":
         return urscript((folder / f"{stem}.script").read_text())

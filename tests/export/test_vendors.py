@@ -69,6 +69,12 @@ VENDORS = {
         "yaskawa",
         {"xyz": [0.5, 0.1, 0.3], "rpy": [3.0, 0.1, 0.3]},
     ),
+    "m1013": (  # doosan-robotics/doosan-robot2: no tool0, the flange is link6
+        DATA / "doosan" / "dsr_description2" / "urdf" / "m1013.white.urdf",
+        "drl",
+        "doosan",
+        {"xyz": [0.7065, 0.1407, 0.1154], "rpy": [-3.1412, -0.2002, -3.0673]},
+    ),
     "tx2_60": (  # ros-industrial/staubli_experimental
         DATA / "staubli" / "staubli_tx2_60_support" / "urdf" / "tx2_60.xacro",
         "val3",
@@ -77,6 +83,8 @@ VENDORS = {
     ),
 }
 PACKAGES = {"gp7": DATA / "motoman", "tx2_60": DATA / "staubli"}  # what a xacro finds
+FLANGE = {"m1013": "link6"}  # the controller's flange where the URDF has no tool0
+HOME = {"m1013": [0.0, 0.35, 1.75, 0.0, 1.05, 0.0]}  # its zero pose is straight up: singular
 TIP = {"xyz": [0.01, -0.02, 0.12], "rpy": [0.0, 0.2, 0.1]}  # the tool on tool0 [m, rad]
 USER = {"xyz": [0.3, -0.2, 0.1], "rpy": [0.0, 0.0, 0.5]}  # the user frame "fixture"
 PROGRAM = """\
@@ -117,10 +125,17 @@ def vendor_cell(request, tmp_path_factory):
     cell = yaml.safe_load((root / "cell.yaml").read_text())
     [device] = cell["devices"]
     assert device["controller"]["vendor"] == vendor
-    assert device["controller"]["flange"] == "tool0" and device["controller"]["base"] == "base"
+    if key not in FLANGE:
+        assert device["controller"]["flange"] == "tool0"
+        assert device["controller"]["base"] == "base"
     for joint in device["joints"]:
         joint["limits"]["acceleration"] = 10.0
-    device["tcps"].append({"name": "tip", "parent": "tool0"})
+    device["tcps"].append({"name": "tip", "parent": FLANGE.get(key, "tool0")})
+    if key in HOME:
+        device["home"] = HOME[key]
+    if key == "m1013":  # the URDF gives every joint +-150 deg; axes 4 and 6 turn a full turn
+        for j in (3, 5):  # and more, which the wrist flip the program asks for needs
+            device["joints"][j]["limits"]["position"] = [-6.283, 6.283]
     cell["frames"] = [{"name": "target"}, {"name": "fixture"}]
     (root / "cell.yaml").write_text(yaml.safe_dump(cell, sort_keys=False))
     poses = yaml.safe_load((root / "poses.yaml").read_text())
@@ -139,7 +154,8 @@ def _pinocchio(urdf: Path, q: np.ndarray) -> np.ndarray:
     data = model.createData()
     pin.framesForwardKinematics(model, data, q)
     base = data.oMf[model.getFrameId("base")].homogeneous
-    flange = data.oMf[model.getFrameId("tool0")].homogeneous
+    flange_frame = "tool0" if model.existFrame("tool0") else "link6"
+    flange = data.oMf[model.getFrameId(flange_frame)].homogeneous
     return np.linalg.solve(base, flange @ _T(TIP))
 
 
@@ -172,6 +188,9 @@ def _read(fmt: str, out: Path) -> tuple[list, list]:
     if fmt == "val3":
         dtx, pgx = (out / "pick" / "pick.dtx").read_text(), (out / "pick" / "start.pgx").read_text()
         return readers.val3(dtx, pgx), readers.val3_tools(dtx)
+    if fmt == "drl":
+        text = (out / "pick.drl").read_text()
+        return readers.drl(text), readers.drl_tools(text)
     text = (out / "PICK.ls").read_text()
     return readers.fanuc(text), readers.fanuc_tools(text)
 
@@ -226,9 +245,15 @@ def test_configuration_data_is_the_solutions(vendor_cell, tmp_path):
     assert geometry[0][1]  # config: {elbow: up}
     # config: {wrist: flip}: axis 5 turned against the noflip sense (KUKA A5 < 0, ABB axis 5 < 0,
     # FANUC J5 > 0: the tool bent up from a forearm reaching forward)
-    flip_sign = {"kuka": -1, "abb": -1, "fanuc": 1, "ur": None, "yaskawa": 1, "staubli": None}[
-        vendor
-    ]
+    flip_sign = {
+        "kuka": -1,
+        "abb": -1,
+        "fanuc": 1,
+        "ur": None,
+        "yaskawa": 1,
+        "staubli": None,
+        "doosan": None,
+    }[vendor]
     if flip_sign is not None:
         assert np.sign(axes[3][4]) == flip_sign
     if fmt == "rapid":
@@ -265,6 +290,19 @@ def test_configuration_data_is_the_solutions(vendor_cell, tmp_path):
             assert shape["shoulder"] == ("righty" if front else "lefty")
             assert shape["elbow"] == ("epositive" if a[2] >= 0 else "enegative")
             assert shape["wrist"] == ("wpositive" if a[4] >= 0 else "wnegative")
+    elif fmt == "drl":
+        import re
+
+        text = (out / "pick.drl").read_text()
+        sols = [int(k) for k in re.findall(r"# sol (\d)$", text, re.M)]
+        linear = [(a, g) for a, g, m in zip(axes, geometry, moves) if m.motion == "linear"]
+        assert len(sols) == len(linear) == 3
+        for sol, (a, (front, up)) in zip(sols, linear):
+            assert sol >> 2 == int(not front) and (sol >> 1) & 1 == int(not up)
+        # the wrist bit: the linear moves keep the joint move's before them - not flipped
+        # after the first, flipped after 'config: {wrist: flip}' (with axis 4 free over a
+        # turn, axis 5's sign alone does not tell)
+        assert [sol & 1 for sol in sols] == [0, 0, 1]
     elif fmt == "fanuc":
         text = (out / "PICK.ls").read_text()
         linear = [(a, g) for a, g, m in zip(axes, geometry, moves) if m.motion == "linear"]
