@@ -21,6 +21,7 @@ ARM_FORMATS = {
     "inform": "Yaskawa INFORM",
     "val3": "Staubli VAL3",
     "drl": "Doosan DRL",
+    "sunrise": "KUKA Sunrise",
 }
 
 
@@ -141,7 +142,17 @@ def export_program(
     UserError
         Unknown format or device, a device the format cannot drive (exit 2).
     """
-    from ..export import csv_trajectory, drl, fanuc, inform, krl, rapid, urscript, val3
+    from ..export import (
+        csv_trajectory,
+        drl,
+        fanuc,
+        inform,
+        krl,
+        rapid,
+        sunrise,
+        urscript,
+        val3,
+    )
     from .planning import parse_period
 
     loaded_format = fmt is None
@@ -208,12 +219,15 @@ def export_program(
                 )
             )
             continue
-        if not _six_axis_arm(dev):
+        drivable = _seven_axis_arm if fmt == "sunrise" else _six_axis_arm
+        if not drivable(dev):
             kinds = "".join("R" if j.kind == "revolute" else "P" for j in dev.joints)
-            arms = [d for d in devices if d != name and _six_axis_arm(loaded.cell.devices[d])]
+            arms = [d for d in devices if d != name and drivable(loaded.cell.devices[d])]
+            size = "7" if fmt == "sunrise" else "6"
             raise UserError(
-                f"{ARM_FORMATS[fmt]} drives 6-axis arms; '{name}' has {dev.dof} joint(s) "
+                f"{ARM_FORMATS[fmt]} drives {size}-axis arms; '{name}' has {dev.dof} joint(s) "
                 f"({kinds}): export it with --format csv"
+                + (" or --format sunrise (a 7-axis KUKA LBR)" if _seven_axis_arm(dev) else "")
                 + (f", or choose the arm with --device {' or '.join(arms)}" if arms else "")
             )
         profile = dev.controller
@@ -237,6 +251,7 @@ def export_program(
             "inform": inform,
             "val3": val3,
             "drl": drl,
+            "sunrise": sunrise,
         }[fmt]
         for file_name, text in writer.write(program, signals).items():
             if file_name in files:
@@ -475,6 +490,10 @@ def _flange_loads(world, result, device: str, T_link_flange):
 
 def _six_axis_arm(device) -> bool:
     return device.dof == 6 and all(j.kind == "revolute" for j in device.joints)
+
+
+def _seven_axis_arm(device) -> bool:
+    return device.dof == 7 and all(j.kind == "revolute" for j in device.joints)
 
 
 def _changes(cell, run, dt, against, loaded, result, devices) -> list[TargetChange]:

@@ -230,9 +230,11 @@ def export_group():
     "--format",
     "fmt",
     default=None,
-    type=click.Choice(["urscript", "krl", "rapid", "fanuc", "inform", "val3", "drl", "csv"]),
+    type=click.Choice(
+        ["urscript", "krl", "rapid", "fanuc", "inform", "val3", "drl", "sunrise", "csv"]
+    ),
     help="Robot language (fanuc: TP as .ls; inform: a Yaskawa .JBI job; val3: a Staubli "
-    "application folder; drl: Doosan), or csv for a timed joint trajectory; default the "
+    "application folder; drl: Doosan; sunrise: a KUKA LBR's Java class), or csv for a timed joint trajectory; default the "
     "language of the device's controller.vendor.",
 )
 @click.option("-o", "--output", required=True, metavar="DIR", help="The folder to write.")

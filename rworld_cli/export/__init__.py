@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-FORMATS = ("urscript", "krl", "rapid", "fanuc", "inform", "val3", "drl", "csv")
+FORMATS = ("urscript", "krl", "rapid", "fanuc", "inform", "val3", "drl", "sunrise", "csv")
 # the language of each vendor's controller (a device's controller.vendor)
 VENDOR_FORMATS = {
     "ur": "urscript",
@@ -15,11 +15,10 @@ VENDOR_FORMATS = {
     "yaskawa": "inform",
     "staubli": "val3",
     "doosan": "drl",
+    "kuka_sunrise": "sunrise",
 }
 # vendors rworld knows and writes no language for yet: why, for the message
 VENDOR_WITHOUT_FORMAT = {
-    "kuka_sunrise": "KUKA Sunrise (Java, LBR iiwa / Med) is not written yet: export with "
-    "--format csv (joint values at the controller's period)",
     "franka": "Franka's controllers take no program file rworld writes (the robot is driven "
     "through libfranka / franka_ros at 1 kHz): export with --format csv",
 }

@@ -599,6 +599,12 @@ yield movej movel movejx amovel amovej posj posx set_tcp add_tcp set_tool set_us
 set_digital_output get_digital_input wait stop check_motion on off dr_base dr_sstop dr_qstop
 tp_log print""".split()
 
+_JAVA_WORDS = """abstract assert boolean break byte case catch char class const continue default
+do double else enum extends final finally float for goto if implements import instanceof int
+interface long native new package private protected public return short static strictfp super
+switch synchronized this throw throws transient try void volatile while true false null var
+record yield robot run initialize target userframe frame tool jointposition""".split()
+
 _VAL3_WORDS = """begin end if else endif while endwhile do until for to step endfor switch case
 default endswitch return call true false and or not xor movej movel movec waitendmove stopmove
 resetmotion restartmove watch delay wait herepoint herejoint tool frame point pointrx jointrx
@@ -612,6 +618,7 @@ RAPID = Language("RAPID", "!", 32, frozenset(_RAPID_WORDS))
 # job names: 32 characters on DX100 and later (8 on the NX100); a comment line starts with '
 INFORM = Language("INFORM", "'", 32, frozenset(_INFORM_WORDS), upper=True)
 DRL = Language("DRL", "#", 31, frozenset(_DRL_WORDS))
+SUNRISE = Language("Java (KUKA Sunrise)", "//", 64, frozenset(_JAVA_WORDS))
 # application names: 15 characters in the controller's file manager; // starts a comment
 VAL3 = Language("VAL3", "//", 15, frozenset(_VAL3_WORDS))
 

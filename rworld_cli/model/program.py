@@ -91,6 +91,7 @@ class Step:
     touch: dict[str, float | None] = field(default_factory=dict)
     configuration: dict[str, str] = field(default_factory=dict)  # shoulder, elbow, wrist
     near: np.ndarray | None = None  # (n,) joint values to take the solution nearest to (SI)
+    arm_angle: float | None = None  # [rad] a 7-axis arm's arm angle (config: {arm_angle})
     joints: np.ndarray | None = None  # (n,) a move's joint goal (``joints:``), SI
     waypoints: np.ndarray | None = None  # (W, n) a move along a path file's segments, SI
     blends: np.ndarray | None = None  # (W,) its corners' blends (a 'blended' path file)

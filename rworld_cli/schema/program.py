@@ -39,6 +39,12 @@ class ConfigSpec(Strict):
         description="Joint values (the file's units) to take the solution nearest to, instead "
         "of the joints' values before the move.",
     )
+    arm_angle: float | str | None = Field(
+        None,
+        description="A 7-axis arm (shoulder, elbow, wrist: the LBR iiwa, Med): the turn of the "
+        "plane through shoulder, elbow and wrist about the shoulder-wrist line, from the "
+        "vertical plane through it ('30deg', or the file's angle unit; docs/programs.md).",
+    )
 
 
 Length = float | str  # a bare number in the file's length unit, or '20mm'

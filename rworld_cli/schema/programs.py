@@ -44,6 +44,43 @@ def _check_joint_goal(doc, path, spec, step, device, L, A, issues) -> None:
     _timed(doc, path, device, issues)
 
 
+def _arm_angle(doc, path, spec, step, device, value, A, issues) -> None:
+    """``config: {arm_angle}``: a 7-axis arm's arm angle [rad], for a joint move."""
+    from ..kinematics.redundancy import is_seven_axis_arm
+
+    if not is_seven_axis_arm(device):
+        issues.append(
+            doc.issue(
+                path,
+                f"arm_angle is a 7-axis arm's; '{device.name}' has {device.dof} joint(s): "
+                "give shoulder, elbow and wrist (a 6-axis arm) or 'near:' joint values",
+            )
+        )
+        return
+    if spec.motion == "linear":
+        issues.append(
+            doc.issue(
+                path,
+                "a linear move keeps the arm angle its line starts with: 'arm_angle' is for "
+                "joint moves",
+            )
+        )
+        return
+    try:
+        if isinstance(value, str):
+            angle = parse_angle_value(value, "arm_angle", "")
+        elif A is None:
+            raise ValueError(
+                f"arm_angle {value} has no unit: write e.g. 30deg, or give units.angle"
+            )
+        else:
+            angle = float(value) * A
+    except ValueError as exc:
+        issues.append(doc.issue(path, str(exc)))
+        return
+    step.arm_angle = angle
+
+
 def _check_config(doc, path, spec, step, device, named, L, A, issues) -> None:
     """A move's ``config:``: an arm's configuration, joint values to be near (SI)."""
     config = spec.config
@@ -57,6 +94,8 @@ def _check_config(doc, path, spec, step, device, named, L, A, issues) -> None:
     if device is None:
         return
     arm = device.dof == 6 and all(j.kind == "revolute" for j in device.joints)
+    if config.arm_angle is not None:
+        _arm_angle(doc, path + ("arm_angle",), spec, step, device, config.arm_angle, A, issues)
     if step.configuration and not arm:
         issues.append(
             doc.issue(

@@ -508,6 +508,19 @@ class _Scheduler(FeatureSteps):
                 return arm_configurations(dev, Q).matches(wanted)
 
         seed = q_now if step.near is None else step.near
+        if step.arm_angle is not None:  # a 7-axis arm's arm angle (config: {arm_angle})
+            from ..kinematics.redundancy import solve_ik_arm_angle
+
+            for T in T_base:  # the candidates in their order (a free turn: the first that is)
+                held = solve_ik_arm_angle(dev, T, step.arm_angle, mount, seed)
+                if held is not None:
+                    return self._joint_move(device, tr, step, q_now, held, speed, acceleration)
+            self.unreachable(
+                device,
+                step,
+                f"no joint solution within the limits reaches '{name}' with the arm angle "
+                f"{np.degrees(step.arm_angle):.6g} deg",
+            )
         if len(T_base) == 1:
             result = solve_ik(dev, T_base[0], mount, seed, position_only, accept=accept)
             best = result.q if result.success else None
@@ -906,6 +919,11 @@ class _Scheduler(FeatureSteps):
         event - those words and the controller's (KUKA S/T, ABB confdata, FANUC CONFIG)."""
         dev = self.run.cell.devices[device]
         if not is_arm(dev):
+            from ..kinematics.redundancy import arm_angle, is_seven_axis_arm
+
+            if is_seven_axis_arm(dev):
+                psi = float(np.degrees(arm_angle(dev, np.asarray(q)[None])[0]))
+                return {"arm_angle_deg": psi}, f"; arm angle {psi:.2f} deg"
             return None, ""
         names = arm_configurations(dev, q).names()
         profile = dev.controller

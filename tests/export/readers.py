@@ -321,6 +321,43 @@ def drl(text: str) -> list[tuple[str, np.ndarray]]:
     return out
 
 
+def _sunrise_frame(args: str) -> np.ndarray:
+    """x, y, z [mm], A, B, C [rad]: R = Rz(A) Ry(B) Rx(C)."""
+    x, y, z, a, b, c = (float(v) for v in re.findall(NUM, args))
+    R = Rotation.from_euler("ZYX", [a, b, c]).as_matrix()  # intrinsic z, y', x''
+    return _pose(np.array([x, y, z]) / 1000, R)
+
+
+def sunrise_tools(text: str) -> list[np.ndarray]:
+    return [_sunrise_frame(a) for a in re.findall(r"Transformation\.ofRad\((.*?)\)", text)]
+
+
+def sunrise(text: str) -> list[tuple[str, np.ndarray]]:
+    """ptp(new JointPosition(...)) [rad] and lin(target) to ``new Frame(parent, ...)`` on the
+    root frame or ``userFrame``, in the order of the code."""
+    user = np.eye(4)
+    found = re.search(r"userFrame = new Frame\(robot\.getRootFrame\(\), (.*?)\);", text)
+    if found:
+        user = _sunrise_frame(found.group(1))
+    out = []
+    pattern = r"new JointPosition\((.*?)\)|Frame target = new Frame\((\w+(?:\(\))?(?:\.\w+\(\))?), (.*?)\);"
+    for joints, parent, args in re.findall(pattern, text):
+        if joints:
+            out.append(("joint", np.array([float(v) for v in joints.split(",")])))
+        else:
+            T = _sunrise_frame(args)
+            out.append(("linear", user @ T if parent == "userFrame" else T))
+    return out
+
+
+def sunrise_redundancy(text: str) -> list[tuple[float, int, int]]:
+    """(E1 [rad], Status, Turn) of each frame moved to, in order."""
+    return [
+        (float(e1), int(status), int(turn))
+        for e1, status, turn in re.findall(rf"new LBRE1Redundancy\(({NUM}), (\d+), (\d+)\)", text)
+    ]
+
+
 def read(folder: Path, fmt: str, stem: str) -> list[tuple[str, np.ndarray]]:
     if fmt == "urscript":
         return urscript((folder / f"{stem}.script").read_text())

@@ -24,6 +24,7 @@ from tests.conftest import urdf_without_meshes
 from tests.export import readers
 
 DATA = Path(__file__).parents[1] / "data"
+REPO = Path(__file__).parents[2]
 SHARE = Path(str(distribution("example-robot-data").locate_file("cmeel.prefix/share")))
 
 
@@ -75,6 +76,12 @@ VENDORS = {
         "doosan",
         {"xyz": [0.7065, 0.1407, 0.1154], "rpy": [-3.1412, -0.2002, -3.0673]},
     ),
+    "iiwa14": (  # ros-industrial/kuka_experimental: the 7-axis LBR, KUKA Sunrise
+        DATA / "kuka_iiwa" / "kuka_lbr_iiwa_support" / "urdf" / "lbr_iiwa_14_r820.xacro",
+        "sunrise",
+        "kuka_sunrise",
+        {"xyz": [0.55, 0.1, 0.3], "rpy": [3.0, 0.1, 0.3]},
+    ),
     "tx2_60": (  # ros-industrial/staubli_experimental
         DATA / "staubli" / "staubli_tx2_60_support" / "urdf" / "tx2_60.xacro",
         "val3",
@@ -82,7 +89,11 @@ VENDORS = {
         {"xyz": [0.45, 0.1, 0.25], "rpy": [3.0, 0.1, 0.3]},
     ),
 }
-PACKAGES = {"gp7": DATA / "motoman", "tx2_60": DATA / "staubli"}  # what a xacro finds
+PACKAGES = {  # what a xacro finds
+    "gp7": DATA / "motoman",
+    "tx2_60": DATA / "staubli",
+    "iiwa14": DATA / "kuka_iiwa",
+}
 FLANGE = {"m1013": "link6"}  # the controller's flange where the URDF has no tool0
 HOME = {"m1013": [0.0, 0.35, 1.75, 0.0, 1.05, 0.0]}  # its zero pose is straight up: singular
 TIP = {"xyz": [0.01, -0.02, 0.12], "rpy": [0.0, 0.2, 0.1]}  # the tool on tool0 [m, rad]
@@ -97,6 +108,10 @@ steps:
   - move: {{to: target, tcp: tip, offset: {{xyz: [0, 0, -100]}}, config: {{wrist: flip}}}}
   - move: {{to: target, tcp: tip, offset: {{xyz: [0, 30, -100]}}, motion: linear}}
 """
+PROGRAM_7 = PROGRAM.replace("config: {{elbow: up}}", "config: {{arm_angle: 30deg}}").replace(
+    "config: {{wrist: flip}}", "config: {{arm_angle: -45deg}}"
+)  # a 7-axis arm: its arm angle (shoulder, elbow and wrist name a 6-axis arm's solutions)
+ARM_ANGLES = [30.0, None, None, -45.0, None]  # [deg] asked of each move
 
 
 def _T(pose: dict) -> np.ndarray:
@@ -144,7 +159,8 @@ def vendor_cell(request, tmp_path_factory):
     poses["poses"]["fixture"] = USER
     (root / "poses.yaml").write_text(yaml.safe_dump(poses, sort_keys=False))
     (root / "programs").mkdir()
-    (root / "programs" / "pick.yaml").write_text(PROGRAM.format(device=imported.device))
+    text = PROGRAM_7 if fmt == "sunrise" else PROGRAM
+    (root / "programs" / "pick.yaml").write_text(text.format(device=imported.device))
     return key, root, imported.device, urdf
 
 
@@ -191,6 +207,9 @@ def _read(fmt: str, out: Path) -> tuple[list, list]:
     if fmt == "drl":
         text = (out / "pick.drl").read_text()
         return readers.drl(text), readers.drl_tools(text)
+    if fmt == "sunrise":
+        text = (out / "Pick.java").read_text()
+        return readers.sunrise(text), readers.sunrise_tools(text)
     text = (out / "PICK.ls").read_text()
     return readers.fanuc(text), readers.fanuc_tools(text)
 
@@ -234,6 +253,9 @@ def test_configuration_data_is_the_solutions(vendor_cell, tmp_path):
     export_program(str(root), str(root / "programs" / "pick.yaml"), fmt, str(out))
     result = simulate(load_run(str(root), str(root / "programs" / "pick.yaml")), collisions=False)
     moves = [r.move for r in result.resolved[device] if r.move is not None]
+    if fmt == "sunrise":  # the 7-axis LBR: its arm angle, E1, Status and Turn
+        _check_lbr(urdf, out, moves)
+        return
     # the controller's axes [deg]: the inverse of the driver's relay
     factor = {"abb": 1.0, "fanuc": -1.0}.get(vendor, 0.0)
     axes = []
@@ -315,6 +337,38 @@ def test_configuration_data_is_the_solutions(vendor_cell, tmp_path):
             assert elbow == ("U" if up else "D") and side == ("T" if front else "B")
             # the turn number k: -180 < angle - 360 k <= 180
             assert [int(t) for t in turns] == [int(np.ceil((a[i] - 180) / 360)) for i in (3, 4, 5)]
+
+
+def _arm_angle_by_pinocchio(urdf: Path, q: np.ndarray) -> float:
+    """The arm angle of an LBR state by Pinocchio's joint placements alone: S at joint 2's
+    origin, E at joint 4's, W at joint 6's (where the LBR's axes meet); the turn of the plane
+    S, E, W about S -> W from the vertical plane through S -> W [deg]."""
+    model = pin.buildModelFromUrdf(str(urdf))
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    S, E, W = (data.oMi[k].translation for k in (2, 4, 6))
+    axis = (W - S) / np.linalg.norm(W - S)
+    up = np.array([0.0, 0.0, 1.0]) - axis[2] * axis
+    elbow = (E - S) - ((E - S) @ axis) * axis
+    return float(np.degrees(np.arctan2(np.cross(up, elbow) @ axis, up @ elbow)))
+
+
+def _check_lbr(urdf: Path, out: Path, moves) -> None:
+    """The joint moves took the arm angles asked (Pinocchio's geometry); each Cartesian
+    frame's E1 is axis A3, its Status and Turn the solution's (A4 < 0, A6 <= 0, the axes'
+    signs)."""
+    for asked, move in zip(ARM_ANGLES, moves):
+        if asked is not None:
+            assert abs(_arm_angle_by_pinocchio(urdf, move.q_goal) - asked) < 1e-6
+    text = (out / "Pick.java").read_text()
+    linear = [m for m in moves if m.motion == "linear"]
+    redundancy = readers.sunrise_redundancy(text)
+    assert len(redundancy) == len(linear) == 3
+    for (e1, status, turn), move in zip(redundancy, linear):
+        q = move.q_goal
+        assert abs(e1 - q[2]) < 1e-9
+        assert (status >> 1) & 1 == int(q[3] < 0) and (status >> 2) & 1 == int(q[5] <= 0)
+        assert turn == sum(1 << i for i in range(7) if q[i] < 0)
 
 
 def test_import_states_the_vendors_linkage():
@@ -429,13 +483,24 @@ def test_import_names_the_vendor_families(name, vendor):
 
 
 def test_a_vendor_without_a_language_is_refused_with_the_reason(tmp_path, cli):
-    """The LBR iiwa (7 axes, KUKA Sunrise) exported without --format: exit 2, saying Sunrise is
-    not written and csv streams it; nothing written."""
-    cell = DATA / "vendor_cells" / "iiwa14"
+    """A Franka Panda (driven through libfranka: no program file) exported without --format:
+    exit 2, saying so and that csv streams it; nothing written.  With --format krl: the
+    7-axis arm is refused, pointing at csv and at Sunrise."""
+    import shutil
+
+    cell = tmp_path / "panda"
+    shutil.copytree(REPO / "workcells" / "panda", cell)
+    text = (cell / "cell.yaml").read_text()
+    assert "controller:" not in text
+    doc = yaml.safe_load(text)
+    doc["devices"][0]["controller"] = {"vendor": "franka"}
+    (cell / "cell.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))
     out = tmp_path / "out"
-    result = cli(["export", "program", str(cell), "tour", "-o", str(out)])
+    result = cli(["export", "program", str(cell), "pick_place", "-o", str(out)])
     assert result.exit_code == 2
-    assert "kuka_sunrise controller" in result.stderr and "--format csv" in result.stderr
+    assert "franka controller" in result.stderr and "--format csv" in result.stderr
+    krl = cli(["export", "program", str(cell), "pick_place", "--format", "krl", "-o", str(out)])
+    assert krl.exit_code == 2 and "--format sunrise (a 7-axis KUKA LBR)" in krl.stderr
     assert not out.exists()
 
 
@@ -453,3 +518,40 @@ def test_pulses_per_axis_are_one_per_joint(tmp_path, cli):
     result = cli(["validate", str(cell)])
     assert result.exit_code == 2
     assert "pulses_per_degree: 2 value(s) for 6 joint(s): one per axis" in result.output
+
+
+@pytest.mark.parametrize(
+    "cell, target, config, message",
+    [
+        (
+            "workcells/puma560",
+            "workpiece.grasp, tcp: probe",
+            "{arm_angle: 30deg}",
+            "arm_angle is a 7-axis arm's; 'puma' has 6 joint(s)",
+        ),
+        ("tests/data/vendor_cells/iiwa14", "table.top_center", "{arm_angle: 30}", "no unit"),
+        (
+            "tests/data/vendor_cells/iiwa14",
+            "table.top_center",
+            "{arm_angle: 30 parsecs}",
+            "is not an angle",
+        ),
+        (
+            "tests/data/vendor_cells/iiwa14",
+            "table.top_center, motion: linear",
+            "{arm_angle: 30deg}",
+            "'arm_angle' is for joint moves",
+        ),
+    ],
+)
+def test_an_arm_angle_that_cannot_be_is_located(tmp_path, cli, cell, target, config, message):
+    import shutil
+
+    folder = tmp_path / "cell"
+    shutil.copytree(REPO / cell, folder)
+    device = yaml.safe_load((folder / "cell.yaml").read_text())["devices"][0]["name"]
+    program = folder / "programs" / "angle.yaml"
+    program.write_text(f"device: {device}\nsteps:\n  - move: {{to: {target}, config: {config}}}\n")
+    result = cli(["check", str(folder), str(program)])
+    assert result.exit_code == 2, result.output
+    assert "angle.yaml:3" in result.output and message in result.output, result.output
