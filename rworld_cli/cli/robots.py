@@ -234,8 +234,8 @@ def export_group():
         ["urscript", "krl", "rapid", "fanuc", "inform", "val3", "drl", "sunrise", "csv"]
     ),
     help="Robot language (fanuc: TP as .ls; inform: a Yaskawa .JBI job; val3: a Staubli "
-    "application folder; drl: Doosan; sunrise: a KUKA LBR's Java class), or csv for a timed joint trajectory; default the "
-    "language of the device's controller.vendor.",
+    "application folder; drl: Doosan; sunrise: a KUKA LBR's Java class), or csv for a timed "
+    "joint trajectory; default the language of the device's controller.vendor.",
 )
 @click.option("-o", "--output", required=True, metavar="DIR", help="The folder to write.")
 @click.option("--device", default=None, metavar="NAME", help="Only this device's program.")

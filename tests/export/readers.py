@@ -340,7 +340,10 @@ def sunrise(text: str) -> list[tuple[str, np.ndarray]]:
     if found:
         user = _sunrise_frame(found.group(1))
     out = []
-    pattern = r"new JointPosition\((.*?)\)|Frame target = new Frame\((\w+(?:\(\))?(?:\.\w+\(\))?), (.*?)\);"
+    pattern = (
+        r"new JointPosition\((.*?)\)"
+        r"|Frame target = new Frame\((\w+(?:\(\))?(?:\.\w+\(\))?), (.*?)\);"
+    )
     for joints, parent, args in re.findall(pattern, text):
         if joints:
             out.append(("joint", np.array([float(v) for v in joints.split(",")])))
