@@ -46,9 +46,7 @@ def _check_joint_goal(doc, path, spec, step, device, L, A, issues) -> None:
 
 def _arm_angle(doc, path, spec, step, device, value, A, issues) -> None:
     """``config: {arm_angle}``: a 7-axis arm's arm angle [rad], for a joint move."""
-    from ..kinematics.redundancy import is_seven_axis_arm
-
-    if not is_seven_axis_arm(device):
+    if not (device.dof == 7 and all(j.kind == "revolute" for j in device.joints)):
         issues.append(
             doc.issue(
                 path,
