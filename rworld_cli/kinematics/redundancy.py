@@ -18,7 +18,7 @@ import numpy as np
 
 from ..model.cell import DeviceModel
 from .configuration import _nearest_on, joint_axes
-from .inverse import _errors, nearest_turns
+from .inverse import _errors, nearest_turns, solve_ik
 from .jacobian import ToolMount, tool_pose
 
 
@@ -70,9 +70,9 @@ def solve_ik_arm_angle(
 
     Damped least squares (Levenberg-Marquardt) on seven equations - the pose's six
     (``inverse._errors``) and the arm angle's - in seven unknowns, the Jacobian by central
-    differences; from ``seed`` (default the home pose), then from ``restarts`` random starts
-    within the limits.  The solution taken is the one nearest the seed (wide-range joints
-    compared modulo a turn).
+    differences; from ``seed`` (default the home pose), then from the pose's own IK solution
+    nearest it (six equations), then from ``restarts`` random starts within the limits.  The
+    solution taken is the one nearest the seed (wide-range joints compared modulo a turn).
     """
     target = np.asarray(T_base_target, dtype=float)
     lower, upper = device.limit_array("lower"), device.limit_array("upper")
@@ -82,7 +82,13 @@ def solve_ik_arm_angle(
     )
     seed = np.asarray(device.home if seed is None else seed, dtype=float)
     rng = np.random.default_rng(random_seed)
-    starts = np.vstack([seed, rng.uniform(box_lo, box_hi, (restarts, device.dof))])
+    starts = [seed]
+    # the pose alone first (the six equations, batched): from there only the turn about
+    # S -> W is left to find, a few iterations
+    posed = solve_ik(device, target, mount, seed, restarts=4)
+    if posed.success:
+        starts.append(np.asarray(posed.q, dtype=float))
+    starts += list(rng.uniform(box_lo, box_hi, (restarts, device.dof)))
 
     def residuals(Q):  # (K, 7) -> (K, 7): the pose's six errors and the arm angle's
         Q = np.atleast_2d(Q)
