@@ -4,7 +4,9 @@ Euler angles in degrees: ``R = Rz(rx) Ry(ry) Rz(rz)``), in ``DR_BASE`` or a user
 ``set_user_cart_coord``; the tool as ``add_tcp`` / ``set_tcp`` (the TCP in the flange, a posx),
 ``set_digital_output``, ``wait``; a guarded move is an ``amovel`` watched for the sensor's input
 and stopped there (``stop(DR_SSTOP)``).  Linear moves carry the joint solution's solution space
-(``sol``) in a comment, for ``movejx`` if the program is edited into one.
+(``sol``) in a comment, for ``movejx`` if the program is edited into one.  A blended via point
+of a planned path is a ``movej`` with ``radius=`` (mm: the TCP's distance from it where
+rworld's blend starts).
 """
 
 from __future__ import annotations
@@ -87,9 +89,14 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
                 q = np.degrees(program.axes(item.q_target))
                 speed = max(np.degrees(item.joint_speed), 0.1)
                 acceleration = max(np.degrees(item.joint_acceleration), 0.1)
+                radius = (
+                    f", radius={number(np.floor(item.blend.tcp * 1e4) / 10, 1)}"  # mm
+                    if item.blend is not None
+                    else ""
+                )
                 lines.append(
                     "movej(posj(" + ", ".join(number(v, 6) for v in q) + f"), "
-                    f"vel={number(speed, 3)}, acc={number(acceleration, 3)})"
+                    f"vel={number(speed, 3)}, acc={number(acceleration, 3)}{radius})"
                 )
                 continue
             target = _posx(program.in_user(item.T_target))

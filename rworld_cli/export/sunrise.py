@@ -4,7 +4,9 @@
 frame or a user frame, each with its redundancy - ``LBRE1Redundancy(E1, status, turn)``, E1 the
 value of axis A3 (the LBR's redundancy angle) - so that the controller takes the joint solution
 the simulation took; speeds ``setJointVelocityRel`` / ``setCartVelocity``; the tool as a
-``Tool`` whose default motion frame is the TCP in the flange.
+``Tool`` whose default motion frame is the TCP in the flange; a blended via point of a planned
+path is a ``moveAsync`` with ``setBlendingCart`` (mm: the TCP's distance from it where rworld's
+blend starts; Sunrise blends asynchronous motions only).
 
 A Sunrise project's I/O groups are classes its own I/O configuration generates, which rworld
 cannot name: a program with outputs or searches is written ``abstract``, with one method per
@@ -105,10 +107,16 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             axes = program.axes(item.q_target)
             if item.motion == "joint" and not item.guard:
                 relative = max(0.01, min(1.0, item.speed_fraction))
+                blend = (  # a planned path's blended via point: the TCP's mm from it
+                    f".setBlendingCart({number(np.floor(item.blend.tcp * 1e4) / 10, 1)})"
+                    if item.blend is not None
+                    else ""
+                )
+                call = "moveAsync" if blend else "move"  # Sunrise blends asynchronous motions
                 body.append(
-                    f"        {mover}.move(ptp(new JointPosition("
+                    f"        {mover}.{call}(ptp(new JointPosition("
                     + ", ".join(number(v, 9) for v in axes)
-                    + f")).setJointVelocityRel({number(relative, 4)}));"
+                    + f")).setJointVelocityRel({number(relative, 4)}){blend});"
                 )
                 continue
             status, turn = lbr_status_turn(axes, item.configuration)

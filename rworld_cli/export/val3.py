@@ -6,7 +6,9 @@ the outputs ``dio``) and the programs (``start.pgx``, ``stop.pgx``).
 Lengths in mm, angles in degrees; a pose's ``rx, ry, rz`` turn about x, then the new y, then
 the new z (``R = Rx(rx) Ry(ry) Rz(rz)``).  ``movej`` to joint targets, ``movel`` to points,
 ``waitEndMove()`` before every output and wait; a guarded move is a ``movel`` watched by
-``watch(dSensor == true, ...)`` and stopped (``stopMove()``, ``resetMotion()``).
+``watch(dSensor == true, ...)`` and stopped (``stopMove()``, ``resetMotion()``); a blended via
+point of a planned path has its ``mdesc`` blended (``blend="joint"``, ``leave`` and ``reach``
+the TCP's distance from it where rworld's blend starts).
 """
 
 from __future__ import annotations
@@ -102,10 +104,13 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
             percent = max(0.01, min(100.0, 100.0 * item.speed_fraction))
             acceleration = max(0.01, min(100.0, 100.0 * item.acceleration_fraction))
             tvel = max(0.1, item.tool_speed * 1000)
+            blend = 'blend="off" leave="50" reach="50"'
+            if item.blend is not None and not item.guard:  # leave and reach: the TCP's mm
+                mm = _f(np.floor(item.blend.tcp * 1e4) / 10, 1)  # rounded down to 0.1 mm
+                blend = f'blend="joint" leave="{mm}" reach="{mm}"'
             speeds.append(
                 f'<Value key="{speed}" accel="{_f(acceleration, 2)}" vel="{_f(percent, 2)}" '
-                f'decel="{_f(acceleration, 2)}" tmax="{_f(tvel, 1)}" rmax="99999" blend="off" '
-                'leave="50" reach="50" />'
+                f'decel="{_f(acceleration, 2)}" tmax="{_f(tvel, 1)}" rmax="99999" {blend} />'
             )
             if item.motion == "joint" and not item.guard:
                 k = len(joints)

@@ -682,7 +682,7 @@ def test_blended_via_points_are_exported_as_the_controllers_blends(tmp_path):
     )
     cell = str(MOTION / "gp7_shelf")
     texts = {}
-    for fmt in ("urscript", "krl", "rapid", "fanuc"):
+    for fmt in ("urscript", "krl", "rapid", "fanuc", "val3", "drl"):
         out = tmp_path / fmt
         export_program(cell, str(program), fmt, str(out))
         texts[fmt] = "\n".join(f.read_text() for f in sorted(out.rglob("*")) if f.is_file())
@@ -693,9 +693,32 @@ def test_blended_via_points_are_exported_as_the_controllers_blends(tmp_path):
     zones = re.findall(r"MoveAbsJ j\d+, s\d+, (\w+),", texts["rapid"])
     assert zones[-1] == "fine" and sum(z != "fine" for z in zones) <= blended
     assert len(re.findall(r"J P\[\d+\] \d+% CNT\d+", texts["fanuc"])) == blended
+    assert texts["val3"].count('blend="joint"') == blended
+    assert len(re.findall(r"^movej\(posj\(.*radius=", texts["drl"], re.M)) == blended
     # URScript's radius is the TCP's distance from the via point where rworld's blend starts
     radii = [float(r) for r in re.findall(r", r=([0-9.e-]+)\)", texts["urscript"])]
     assert all(0 < r < 2.0 for r in radii)
+
+
+def test_a_7_axis_arms_blended_via_points_are_sunrise_blends(tmp_path):
+    """A planned Panda path exported as KUKA Sunrise (a 7-axis arm's language): each blended
+    via point an asynchronous ``ptp`` with ``setBlendingCart`` (Sunrise blends asynchronous
+    motions only), the last leg a synchronous move."""
+    from rworld_cli.api import export_program, plan_free_path
+
+    ctx = scene("panda_fixtures")
+    problem = next(p for p in PROBLEMS if p["scene"] == "panda_fixtures")
+    planned = plan_free_path(
+        ctx, ",".join(map(repr, problem["goal"])), "home", output=str(tmp_path / "p.yaml")
+    )
+    blended = int((planned.plan.blends[1:-1] > 0).sum())
+    assert blended >= 1
+    program = tmp_path / "arm.yaml"
+    program.write_text("device: panda\nsteps:\n  - move: {to: home}\n  - move: {path: p.yaml}\n")
+    export_program(str(MOTION / "panda_fixtures"), str(program), "sunrise", str(tmp_path / "out"))
+    text = (tmp_path / "out" / "Arm.java").read_text()
+    assert len(re.findall(r"\.moveAsync\(ptp\(.*\.setBlendingCart\([0-9.]+\)\);", text)) == blended
+    assert re.findall(r"^\s+\w+\.(move|moveAsync)\(", text, re.M)[-1] == "move"  # the end: waits
 
 
 def test_a_reader_that_leaves_early_is_no_bug():
