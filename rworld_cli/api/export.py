@@ -12,7 +12,7 @@ from ..errors import CheckFailed, UserError, did_you_mean
 from ..export import FORMATS, VENDOR_FORMATS, VENDOR_WITHOUT_FORMAT, Signals
 from ..units import ARCSEC
 
-# the languages that drive 6-axis arms; csv streams any device
+# the languages that drive arms (Sunrise: 7-axis, the others 6-axis); csv streams any device
 ARM_FORMATS = {
     "urscript": "URScript",
     "krl": "KUKA KRL",
@@ -113,7 +113,7 @@ def export_program(
 
     Parameters
     ----------
-    fmt : {"urscript", "krl", "rapid", "fanuc", "csv"} or None
+    fmt : {"urscript", "krl", "rapid", "fanuc", "inform", "val3", "drl", "sunrise", "csv"} or None
         None: the language of the devices' controller vendor (``controller.vendor``).
     output : str
         The folder to write; its files appear together or not at all.
@@ -367,9 +367,15 @@ def _compensate(cell_path: str, cell, device: str, program, fmt: str, holding) -
         turn = float(np.linalg.norm(spatial.rotation_vector(before[:3, :3].T @ after[:3, :3])))
         joints = float(np.abs(item.q_target - q_before).max(initial=0.0))
         # only what the program writes: a joint move's target is its joint values (RAPID's
-        # search alone goes to a robtarget, whatever the move's motion)
-        if item.motion == "joint" and not (item.guard and fmt == "rapid"):
+        # search alone goes to a robtarget, whatever the move's motion; an INFORM job without
+        # the controller's pulses per degree gives every target as a Cartesian position)
+        cartesian_joints = fmt == "inform" and (
+            calibrated.controller is None or calibrated.controller.pulses_per_degree is None
+        )
+        if item.motion == "joint" and not (item.guard and fmt == "rapid") and not cartesian_joints:
             shift = turn = 0.0
+        elif item.motion == "joint" and cartesian_joints:
+            joints = 0.0
         if max(shift, turn, joints) <= 1e-12:
             continue
         out.append(
