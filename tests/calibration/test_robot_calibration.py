@@ -346,6 +346,16 @@ def test_compensated_targets_take_a_nominal_controller_to_the_true_pose(cells, t
     # (issue 44: listing it as moved was wrong)
     assert len(moved) == 1 and 0.3 < moved[0]["moved_mm"] < 20, moved
     assert "(linear)" in moved[0]["step"]
+    # an INFORM job without the controller's pulses per degree writes the joint move as a
+    # Cartesian position too: both targets moved, by their Cartesian shifts
+    inform = cli(
+        ["export", "program", str(calibrated), str(program), "--format", "inform"]
+        + ["-o", str(tmp_path / "jobs"), "--compensate", "--json"]
+    )
+    assert inform.exit_code == 0, inform.output
+    shifts = json.loads(inform.output)["compensated"]
+    assert len(shifts) == 2 and all(0.3 < m["moved_mm"] < 20 for m in shifts), shifts
+    assert all(m["joints_deg"] == 0.0 for m in shifts)
     [(_, q), (_, target)] = readers.urscript((out / "pick.script").read_text())
     model = pin.buildModelFromUrdf(str(UR5))
     data = model.createData()
