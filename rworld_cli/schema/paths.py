@@ -123,6 +123,15 @@ def _blend_issues(doc: Marked, pf: PathFile) -> list[Issue]:
                 "a blended path's knots follow its joint-space lengths: remove 'knots'",
             )
         )
+    for k in range(1, len(pf.waypoints)):
+        if pf.waypoints[k] == pf.waypoints[k - 1]:
+            out.append(
+                doc.issue(
+                    ("waypoints", k),
+                    f"waypoint {k + 1} repeats waypoint {k}: a blended path's knots follow its "
+                    "lengths, so each waypoint must differ from the one before",
+                )
+            )
     if pf.blends is None:
         return out
     b, W = pf.blends, len(pf.waypoints)

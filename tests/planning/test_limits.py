@@ -323,6 +323,11 @@ def test_validate_checks_path_files_against_their_cell(cli, tmp_path):
             "'knots'",
         ),
         (
+            "waypoints:\n  - [0, 0, 0, 0, 0, 0]\n  - [0, 0, 0, 0, 0, 0]\n  - [1, 1, 1, 1, 1, 1]\n"
+            "boundary: blended\nunits: {angle: rad}\n",
+            "p.yaml:3:5: waypoints[1]: waypoint 2 repeats waypoint 1",
+        ),
+        (
             "waypoints:\n  - [0, 0, 0, 0, 0, 0]\n  - [1, 1, 1, 1, 1, 1]\nblends: [0, 0]\n"
             "units: {angle: rad}\n",
             "p.yaml:4:9: blends: blends are for 'boundary: blended'",
