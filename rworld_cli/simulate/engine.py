@@ -805,7 +805,17 @@ class _Scheduler(FeatureSteps):
         leg (via point to via point) recorded as a move of the step, its event naming the leg;
         returns the last.  One leg: a joint move.  More: the whole path timed as one
         (:meth:`_timed_legs`), through each corner ``blends`` (W,) blends without stopping,
-        at rest at the others."""
+        at rest at the others.  A via point that repeats the one before (a path file driven
+        from where the device already is) is dropped with its blend."""
+        way = np.asarray(way, dtype=float)
+        keep = np.r_[True, np.abs(np.diff(way, axis=0)).max(axis=1) > 1e-12]
+        if not keep.all():
+            way = way[keep]
+            blends = None if blends is None else np.asarray(blends, dtype=float)[keep]
+            if blends is not None:
+                blends[[0, -1]] = 0.0  # the ends are at rest
+            if len(way) == 1:  # already at the path's end
+                way = np.stack([way[0], way[0]])
         legs = self._timed_legs(device, step, tr.t, way, blends, speed, acceleration)
         self._in_free_path = True
         try:
