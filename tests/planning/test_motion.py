@@ -740,3 +740,22 @@ def test_a_reader_that_leaves_early_is_no_bug():
     os.close(write)
     assert done.returncode == 141, done.stderr
     assert "internal error" not in done.stderr
+
+
+def test_a_path_file_whose_first_via_point_is_where_the_device_is_runs(tmp_path):
+    """A 'segments' path file whose second waypoint repeats its first (the device's home):
+    the repeat is dropped and the run ends at the file's last waypoint (a joint move), not an
+    internal error."""
+    from rworld_cli.api import simulate_run
+
+    home = "[0, -0.785398163397, 0, -2.356194490192, 0, 1.570796326795, 0.785398163397]"
+    (tmp_path / "path.yaml").write_text(
+        "device: panda\nunits: {angle: rad}\nwaypoints:\n"
+        f"  - {home}\n  - {home}\n  - [0.3, -0.6, 0, -2.2, 0, 1.6, 0.8]\nboundary: segments\n"
+    )
+    program = tmp_path / "p.yaml"
+    program.write_text("device: panda\nsteps:\n  - move: {to: home}\n  - move: {path: path.yaml}\n")
+    _, result = simulate_run(str(MOTION / "panda_fixtures"), str(program))
+    assert np.allclose(result.devices["panda"].q[-1], [0.3, -0.6, 0, -2.2, 0, 1.6, 0.8])
+    legs = [e for e in result.events if e.kind == "move" and e.step == 1]
+    assert len(legs) == 1  # one joint move once the repeat is gone
