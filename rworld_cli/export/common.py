@@ -481,6 +481,14 @@ def kuka_abc(R: np.ndarray) -> np.ndarray:
     return np.degrees([yaw, pitch, roll])
 
 
+def xyz_wpr(T) -> tuple[float, ...]:
+    """X, Y, Z [mm] and the angles about the fixed x, y, z axes [deg] of a pose (``R = Rz Ry
+    Rx``): FANUC's W, P, R and Yaskawa's Rx, Ry, Rz alike."""
+    r, p, w = kuka_abc(np.asarray(T)[:3, :3])
+    x, y, z = np.asarray(T)[:3, 3] * 1000
+    return (x, y, z, w, p, r)
+
+
 def abb_quaternion(R: np.ndarray) -> np.ndarray:
     """ABB's orientation quaternion ``[q1, q2, q3, q4] = (w, x, y, z)``, ``q1 >= 0``."""
     return spatial.matrix_to_quat(R)

@@ -22,7 +22,7 @@ from .common import (
     Wait,
     blend_percent,
     fanuc_config,
-    kuka_abc,
+    xyz_wpr,
 )
 
 note = FANUC.comment  # every text from a file goes into a comment through this
@@ -36,13 +36,6 @@ def _f(x: float, digits: int = 6) -> str:
     return "0." + "0" * digits if float(text) == 0 else text
 
 
-def wpr(T) -> tuple[float, ...]:
-    """X, Y, Z [mm], W, P, R [deg] of a pose (R = Rz(R) Ry(P) Rx(W))."""
-    r, p, w = kuka_abc(T[:3, :3])
-    x, y, z = T[:3, 3] * 1000
-    return (x, y, z, w, p, r)
-
-
 def _comments(text: str) -> list[str]:
     """``!`` lines of at most 32 characters (the pendant's comment length)."""
     import textwrap
@@ -54,7 +47,7 @@ def _comments(text: str) -> list[str]:
 def _frame_set(kind: str, number: int, T, lines: list[str]) -> None:
     """UTOOL[n] / UFRAME[n] = the pose T, through the scratch position register."""
     lines.append(f"PR[{SCRATCH_PR}]=LPOS-LPOS")  # a Cartesian register of zeros
-    for k, value in enumerate(wpr(T), start=1):
+    for k, value in enumerate(xyz_wpr(T), start=1):
         lines.append(f"PR[{SCRATCH_PR},{k}]={_f(value)}")
     lines.append(f"{kind}[{number}]=PR[{SCRATCH_PR}]")
     lines.append(f"{kind}_NUM={number}")
@@ -146,7 +139,7 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
                 )
                 motion = f"J P[{label}] {speed}% {ending}"
             else:
-                x, y, z, w, p, r = wpr(program.in_user(item.T_target))
+                x, y, z, w, p, r = xyz_wpr(program.in_user(item.T_target))
                 config = fanuc_config(axes, item.configuration)
                 positions += [
                     f"P[{label}]{{",

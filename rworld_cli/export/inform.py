@@ -30,7 +30,7 @@ from .common import (
     Record,
     Tool,
     Wait,
-    kuka_abc,
+    xyz_wpr,
 )
 
 note = INFORM.comment  # every text from a file goes into a comment through this
@@ -41,13 +41,6 @@ FIXED_DATE = "2000/01/01 00:00"  # the job's ///DATE
 def _f(x: float, digits: int = 4) -> str:
     text = f"{float(x):.{digits}f}"
     return f"{0.0:.{digits}f}" if float(text) == 0 else text
-
-
-def xyz_rxyz(T) -> tuple[float, ...]:
-    """X, Y, Z [mm], Rx, Ry, Rz [deg] of a pose: ``R = Rz(Rz) Ry(Ry) Rx(Rx)``."""
-    rz, ry, rx = kuka_abc(T[:3, :3])
-    x, y, z = T[:3, 3] * 1000
-    return (x, y, z, rx, ry, rz)
 
 
 def rconf(axes: np.ndarray, configuration: dict[str, str] | None) -> str:
@@ -109,7 +102,7 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
         body += _comments(text)
     for kind, number, frame_name, T in frames:  # one value a line: each within 32 characters
         body += _comments(f"{kind} {number} is {frame_name} (mm, deg):")
-        for key, value in zip(("X", "Y", "Z", "Rx", "Ry", "Rz"), xyz_rxyz(T)):
+        for key, value in zip(("X", "Y", "Z", "Rx", "Ry", "Rz"), xyz_wpr(T)):
             body.append(f"'{kind} {number} {key} {_f(value)}")
     tool = 0
     kind_now, tool_now, type_now = "", -1, ""
@@ -151,7 +144,7 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
                 if kind != type_now:
                     positions.append(f"///RCONF {kind}")
                     type_now = kind
-                values = xyz_rxyz(program.in_user(item.T_target))
+                values = xyz_wpr(program.in_user(item.T_target))
                 positions.append(f"{label}=" + ",".join(_f(v) for v in values))
             if item.motion == "joint":
                 speed = max(0.01, min(100.0, 100.0 * item.speed_fraction))
