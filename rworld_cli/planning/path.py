@@ -182,11 +182,12 @@ def blend_corners(knots: np.ndarray, values: np.ndarray, blends: np.ndarray) -> 
     return out
 
 
-def _blend_widths(knots, values, blends):
-    """(tau (K,): each blend's half-width in s, slopes (K - 1, n): each segment's dq/ds)."""
-    knots, values = np.asarray(knots, dtype=float), np.asarray(values, dtype=float)
+def blend_half_widths(knots, blends) -> np.ndarray:
+    """Each waypoint's blend half-width in s (K,): its ``blends`` fraction (K,) of the shorter
+    knot interval beside it (0 at the ends)."""
+    knots = np.asarray(knots, dtype=float)
     blends = np.asarray(blends, dtype=float).ravel()
-    K = len(values)
+    K = len(knots)
     if blends.shape != (K,) or not np.all((blends >= 0) & (blends <= MAX_BLEND)):
         raise ValueError(f"blends: one per waypoint, each in [0, {MAX_BLEND}]")
     if K > 2 and (blends[0] != 0 or blends[-1] != 0):
@@ -195,7 +196,15 @@ def _blend_widths(knots, values, blends):
     tau = np.zeros(K)
     if K > 2:
         tau[1:-1] = blends[1:-1] * np.minimum(h[:-1], h[1:])
-    return tau, np.diff(values, axis=0) / h[:, None]
+    return tau
+
+
+def _blend_widths(knots, values, blends):
+    """(tau (K,): each blend's half-width in s, slopes (K - 1, n): each segment's dq/ds)."""
+    knots, values = np.asarray(knots, dtype=float), np.asarray(values, dtype=float)
+    if len(values) != len(knots):
+        raise ValueError("blends: one per waypoint")
+    return blend_half_widths(knots, blends), np.diff(values, axis=0) / np.diff(knots)[:, None]
 
 
 def blended_pieces(knots, values, blends) -> tuple[np.ndarray, np.ndarray]:

@@ -865,7 +865,7 @@ class _Scheduler(FeatureSteps):
         if len(way) <= 2:
             return None
         from ..motion.trajectory import PathLeg
-        from ..planning.path import JointPath, blend_corners
+        from ..planning.path import JointPath, blend_corners, blend_half_widths
         from ..planning.topp import InfeasiblePath, Limits, sample_path, time_optimal
 
         dev = self.run.cell.devices[device]
@@ -907,7 +907,7 @@ class _Scheduler(FeatureSteps):
         at[0], at[-1] = t0, t0 + timing.duration
         controls = blend_corners(path.knots, way, blends)  # (W, 3, n): each blend's ends
         h = np.diff(path.knots)
-        tau = np.r_[0.0, blends[1:-1] * np.minimum(h[:-1], h[1:]), 0.0]
+        tau = blend_half_widths(path.knots, blends)
         before, after = tau[1:] / h, np.r_[tau[1:-1] / h[1:], 0.0]  # of leg k-1, of leg k
         return [
             (
