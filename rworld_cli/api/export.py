@@ -153,6 +153,8 @@ def export_program(
         urscript,
         val3,
     )
+    from ..kinematics.configuration import is_arm
+    from ..kinematics.redundancy import is_seven_axis_arm
     from .planning import parse_period
 
     loaded_format = fmt is None
@@ -219,7 +221,7 @@ def export_program(
                 )
             )
             continue
-        drivable = _seven_axis_arm if fmt == "sunrise" else _six_axis_arm
+        drivable = is_seven_axis_arm if fmt == "sunrise" else is_arm
         if not drivable(dev):
             kinds = "".join("R" if j.kind == "revolute" else "P" for j in dev.joints)
             arms = [d for d in devices if d != name and drivable(loaded.cell.devices[d])]
@@ -227,7 +229,7 @@ def export_program(
             raise UserError(
                 f"{ARM_FORMATS[fmt]} drives {size}-axis arms; '{name}' has {dev.dof} joint(s) "
                 f"({kinds}): export it with --format csv"
-                + (" or --format sunrise (a 7-axis KUKA LBR)" if _seven_axis_arm(dev) else "")
+                + (" or --format sunrise (a 7-axis KUKA LBR)" if is_seven_axis_arm(dev) else "")
                 + (f", or choose the arm with --device {' or '.join(arms)}" if arms else "")
             )
         profile = dev.controller
@@ -492,14 +494,6 @@ def _flange_loads(world, result, device: str, T_link_flange):
         return Load(tool, payload, names["tool"], names["payload"])
 
     return loads
-
-
-def _six_axis_arm(device) -> bool:
-    return device.dof == 6 and all(j.kind == "revolute" for j in device.joints)
-
-
-def _seven_axis_arm(device) -> bool:
-    return device.dof == 7 and all(j.kind == "revolute" for j in device.joints)
 
 
 def _changes(cell, run, dt, against, loaded, result, devices) -> list[TargetChange]:
