@@ -34,8 +34,6 @@ class PlannedPath:
         those not free or touching something are dropped there).
     clearance, tolerance : float
         The clearance kept and the collision tolerance [m].
-    knots : ndarray, shape (W,)
-        The waypoints' path parameters (by joint-space length).
     written : str or None
         The path file written.
     offset : list of float or None
@@ -49,9 +47,13 @@ class PlannedPath:
     goals: np.ndarray
     clearance: float
     tolerance: float
-    knots: np.ndarray
     written: str | None = None
     offset: list[float] | None = None  # [m] a frame target moved along its axes
+
+    @property
+    def knots(self) -> np.ndarray:
+        """The waypoints' path parameters (W,), by joint-space length (the plan's)."""
+        return self.plan.knots
 
     def as_dict(self) -> dict:
         p = self.plan
@@ -62,7 +64,7 @@ class PlannedPath:
             "found": p.found,
             "reason": p.reason,
             "waypoints": p.waypoints.tolist(),
-            "knots": self.knots.tolist(),
+            "knots": p.knots.tolist(),
             "blends": p.blends.tolist(),
             "corners_blended": int((p.blends > 0).sum()),
             "goal": p.goal,
@@ -206,7 +208,7 @@ def plan_free_path(
         else lambda rounds, states: progress(rounds, None, f"searching: {states} states"),
         blend=blend,
     )
-    out = PlannedPath(plan, dev.name, to, q0, goals, clearance, tolerance, plan.knots)
+    out = PlannedPath(plan, dev.name, to, q0, goals, clearance, tolerance)
     out.offset = None if offset is None else [float(v) for v in offset]
     if not plan.found:
         raise CheckFailed(f"no path to '{to}': {plan.reason}")

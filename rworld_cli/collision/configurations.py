@@ -197,7 +197,7 @@ class ConfigurationChecker:
             "first": first,
         }
 
-    def poses(self, q: np.ndarray) -> dict[str, np.ndarray]:
+    def poses(self, q: np.ndarray) -> _FixedPoses:
         """``T_world_frame`` (N, 4, 4) of every body frame in a pair, at joint states q (N, n);
         the fixed frames' broadcast when first read.
 
@@ -394,12 +394,12 @@ class ConfigurationChecker:
                 )
         return True
 
-    def _packed(self, T) -> tuple[np.ndarray, np.ndarray]:
+    def _packed(self, T: _FixedPoses) -> tuple[np.ndarray, np.ndarray]:
         """The fused table's bodies at the states of ``T`` (:meth:`poses`): their frames
         (N, U, 4, 4), and as the compiled kernels read them (N, U, 12): R's rows, then t."""
         assert self._fused is not None
         frames = self._fused["frames"]
-        N = T._count if isinstance(T, _FixedPoses) else len(next(iter(T.values())))
+        N = T.count
         placed = np.empty((N, len(frames), 4, 4))
         for u, frame in enumerate(frames):  # a fixed frame's pose broadcast on assignment
             placed[:, u] = self._static[frame] if frame in self._static else T[frame]
@@ -710,10 +710,10 @@ class _FixedPoses(dict):
 
     def __init__(self, static: dict, count: int):
         super().__init__()
-        self._static_poses, self._count = static, count
+        self._static_poses, self.count = static, count
 
     def __missing__(self, frame):
-        T = np.broadcast_to(self._static_poses[frame], (self._count, 4, 4))
+        T = np.broadcast_to(self._static_poses[frame], (self.count, 4, 4))
         self[frame] = T
         return T
 

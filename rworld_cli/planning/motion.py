@@ -49,7 +49,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .path import blend_corners, length_knots
+from .path import JointPath, blend_corners, length_knots
 
 FIRST_BATCH = 8  # states of a line's first batch (then 16, 32, ...)
 SHORTCUT_PATIENCE = 30  # random shortcuts stop after this many in a row that found nothing
@@ -118,8 +118,6 @@ class PathPlan:
     def joint_path(self):
         """The path as a :class:`~rworld_cli.planning.path.JointPath` (``blended``: the
         segments, their corners blended as :attr:`blends` says)."""
-        from .path import JointPath
-
         return JointPath(self.waypoints, self.knots, "blended", self.blends)
 
 
