@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import Issue, UserError
+from .xmlsafe import xml_parser
 
 
 @dataclass(frozen=True)
@@ -39,7 +40,7 @@ def read_srdf(path: str | Path) -> list[DisabledPair]:
     except OSError as exc:
         raise UserError(f"{shown}: cannot read the SRDF ({exc.strerror})") from None
     try:
-        root = etree.fromstring(data, etree.XMLParser(remove_comments=True))
+        root = etree.fromstring(data, xml_parser())
     except etree.XMLSyntaxError as exc:
         line, column = exc.position if exc.position else (0, 0)
         raise UserError(

@@ -25,6 +25,8 @@ from ..errors import Issue, UserError, did_you_mean
 from ..fileio import atomic_write_text
 from ..model.cell import Inertial
 from .loader import INERTIA_ENTRIES, inertia_entries, inertia_matrix, inertia_problem
+from .xacro import expand_xacro_file
+from .xmlsafe import xml_parser
 from .yamlio import comment_text
 
 JOINT_TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating", "planar")
@@ -392,66 +394,19 @@ class _Reader:
         )
 
 
-def find_package(name: str, package_paths: Sequence[Path]) -> Path | None:
-    """A ROS package's folder under the package paths: the path itself when it is the package
-    (its ``package.xml`` names it, or the folder has its name), a folder of that name in it, or
-    one level deeper (a repository of several packages)."""
-    for root in package_paths:
-        candidates = [root, root / name, *sorted(root.glob(f"*/{name}"))]
-        for folder in candidates:
-            if folder != root and folder.name != name:
-                continue
-            manifest = folder / "package.xml"
-            if folder.is_dir() and (folder.name == name or _package_name(manifest) == name):
-                return folder
-    return None
-
-
-def _package_name(manifest: Path) -> str | None:
-    try:
-        found = re.search(r"<name>\s*([^<\s]+)\s*</name>", manifest.read_text(errors="replace"))
-    except OSError:
-        return None
-    return found.group(1) if found else None
-
-
 def expand_xacro(
     path: Path, shown: str, package_paths: Sequence[Path], args: dict[str, str] | None = None
 ) -> bytes:
-    """A xacro file expanded to URDF by the ``xacro`` package (the ROS tool's own code), with
-    ``$(find PKG)`` resolved from ``package_paths`` - no ROS installation needed - and
-    ``$(arg NAME)`` from ``args``.
+    """A xacro file expanded to URDF as data, never as code (:mod:`.xacro`): ``$(find PKG)``
+    from ``package_paths``, ``$(arg NAME)`` / ``$(env NAME)`` from ``args``, includes and YAML
+    files only from the package paths and the xacro's own package.
 
     Raises
     ------
     UserError
-        A package not found under the package paths, or xacro's own error, naming the file.
+        Anything refused or wrong, at the file and line of its element.
     """
-    import xacro
-    from xacro import substitution_args
-
-    def find(package: str) -> str:
-        folder = find_package(package, package_paths)
-        if folder is None:
-            where = ", ".join(str(p) for p in package_paths) or "no --package-path given"
-            raise UserError(
-                f"{shown}: $(find {package}): no ROS package '{package}' under the package paths "
-                f"({where}); give the folder that holds it with --package-path DIR"
-            )
-        # absolute: xacro resolves includes against its own working folder
-        return str(Path(folder).resolve())
-
-    original = substitution_args._eval_find
-    substitution_args._eval_find = find  # ROS's package index, from the package paths
-    try:
-        document = xacro.process_file(str(path), mappings=dict(args or {}))
-    except UserError:
-        raise
-    except Exception as exc:  # xacro's errors: a missing argument, a macro, a file
-        raise UserError(f"{shown}: xacro: {exc}") from None
-    finally:
-        substitution_args._eval_find = original
-    return document.toprettyxml(indent="  ", encoding="utf-8")
+    return expand_xacro_file(path, shown, package_paths, args)[0]
 
 
 def read_urdf(
@@ -492,7 +447,7 @@ def read_urdf(
         data = expand_xacro(path, shown, [Path(p) for p in package_paths or []], xacro_args)
         shown = f"{shown} (as xacro expands it)"
     try:  # the bytes as they are: the XML declaration's encoding holds (UTF-8 without one)
-        root = etree.fromstring(data, etree.XMLParser(remove_comments=False))
+        root = etree.fromstring(data, xml_parser(remove_comments=False))
     except etree.XMLSyntaxError as exc:
         line, column = exc.position if exc.position else (0, 0)
         message = re.sub(r", line \d+, column \d+$", "", str(exc.msg))

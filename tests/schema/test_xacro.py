@@ -73,7 +73,8 @@ def test_xacro_errors_are_clear(cli, tmp_path):
         '<link name="$(arg missing)"/></robot>'
     )
     result = cli(["import", "urdf", str(bad), "-o", str(tmp_path / "y")])
-    assert result.exit_code == 2 and "bad.xacro: xacro:" in result.output
+    expected = "bad.xacro:1:57: <link>: xacro: $(arg missing): undefined; give it with "
+    assert result.exit_code == 2 and expected + "--xacro-arg missing:=VALUE" in result.output
     result = cli(["import", "urdf", str(bad), "-o", str(tmp_path / "y"), "--xacro-arg", "missing"])
     assert result.exit_code == 2 and "write NAME:=VALUE" in result.output
 

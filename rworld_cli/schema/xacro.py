@@ -1,0 +1,1225 @@
+"""xacro without code: a vendor's robot description expanded as data, never run.
+
+xacro files are other people's files.  The ROS tool evaluates ``${...}`` and ``$(eval ...)``
+with Python's ``eval`` (a name filter in front of it, which attribute walks such as
+``python.vars(python.type)`` step round), reads ``$(env ...)`` from the environment and includes
+any file a path names.  This module expands the same language with none of that:
+
+- expressions are parsed by :mod:`ast` and walked by :class:`_Evaluator`, which knows numbers,
+  strings, lists and dicts, properties, arithmetic, comparisons, ``x if c else y``, math
+  functions and a short list of built-ins (``len``, ``float``, ``str``, ``min``, ...); no
+  attribute of a Python object is ever looked up (only keys of YAML data and of xacro's name
+  spaces), nothing is imported, no callable that is not on the list can be called;
+- ``$(env NAME)`` and ``$(optenv NAME ...)`` read ``--xacro-arg NAME:=VALUE``, never the
+  environment; ``$(eval ...)`` goes through the same walker;
+- includes and ``xacro.load_yaml`` read only files that resolve (links followed) inside the
+  package paths or the xacro's own package;
+- the work is bounded (:class:`XacroLimits`): file sizes, files, expanded elements, output
+  characters, the length of any one value, macro calls and nesting, and time;
+- every refusal names the file and line of the element that asked for it.
+
+It follows the semantics of xacro 2 (in-order processing, lazy properties, dynamic scoping of
+macro bodies, block parameters, ``^`` forwarding, name spaces of includes, ``scope="parent"``
+and ``"global"``); the tests expand vendor packages with both and compare the robots.
+"""
+
+from __future__ import annotations
+
+import ast
+import glob
+import math
+import operator
+import os
+import re
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+from xml.sax.saxutils import escape, quoteattr
+
+from ..errors import Issue, UserError
+from .xmlsafe import xml_parser
+
+__all__ = ["XacroLimits", "expand_xacro_file", "find_package"]
+
+
+@dataclass(frozen=True)
+class XacroLimits:
+    """How much work a xacro expansion may do; past any of these it is refused, located.
+
+    The defaults are two orders of magnitude above the largest vendor packages (a UR, a dual-arm
+    ABB YuMi: under 2 000 elements, 300 macro calls, 60 files, well under a second).
+    """
+
+    file_bytes: int = 8_000_000  # one xacro or YAML file
+    files: int = 2_000  # files read (includes and YAML)
+    elements: int = 200_000  # elements in the expanded document
+    output_chars: int = 64_000_000  # attribute values and text of the expanded document
+    value_chars: int = 1_000_000  # one string, list or dict in an expression
+    macro_calls: int = 50_000
+    macro_depth: int = 40
+    seconds: float = 10.0
+
+
+_XACRO_URIS = frozenset(
+    {"http://www.ros.org/wiki/xacro", "http://ros.org/wiki/xacro", "http://wiki.ros.org/xacro"}
+)
+
+
+class _Refused(Exception):
+    """A problem in the xacro; :class:`_Expander` adds the element (file and line) it was
+    raised in, and the macro calls that led there."""
+
+    element: _El | None = None
+    macros: list[str] = []
+
+
+# --- the document ---------------------------------------------------------------------------
+
+
+@dataclass
+class _El:
+    """An element: ``tag`` as written (``xacro:property``, ``link``), attributes in order."""
+
+    tag: str
+    attrs: list[tuple[str, Any]]
+    children: list[Any]
+    file: str = ""
+    line: int = 0
+    column: int = 0
+
+    def get(self, name: str) -> Any:
+        for key, value in self.attrs:
+            if key == name:
+                return value
+        return None
+
+
+@dataclass
+class _Text:
+    data: str
+
+
+@dataclass
+class _SetAttribute:
+    """``xacro:attribute``: an attribute for the enclosing element."""
+
+    name: str
+    value: Any
+
+
+def _qualified(name: str, prefixes: dict[str, str]) -> str:
+    if name.startswith("{"):
+        uri, local = name[1:].split("}", 1)
+        prefix = prefixes.get(uri)
+        return f"{prefix}:{local}" if prefix else local
+    return name
+
+
+def _parse(path: Path, shown: str, limits: XacroLimits) -> tuple[_El, dict[str, str]]:
+    """The file as a tree of :class:`_El`, and its root's name spaces other than xacro's."""
+    from lxml import etree
+
+    size = path.stat().st_size
+    if size > limits.file_bytes:
+        raise _Refused(
+            f"{shown} has {size} bytes; rworld reads xacro files up to {limits.file_bytes}"
+        )
+    data = path.read_bytes()
+    parser = xml_parser()
+    try:
+        root = etree.fromstring(data, parser)
+    except etree.XMLSyntaxError as exc:
+        line = exc.position[0] if exc.position else 0
+        message = re.sub(r" \(.*, line \d+\)$|, line \d+, column \d+$", "", str(exc.msg))
+        raise _Refused(f"{shown}:{line}: malformed XML: {message}") from None
+    lines = data.decode(root.getroottree().docinfo.encoding or "utf-8", "replace").splitlines()
+
+    namespaces: dict[str, str] = {}
+
+    def convert(el) -> _El:
+        prefixes = {uri: prefix for prefix, uri in el.nsmap.items() if prefix}
+        namespaces.update((p, u) for p, u in el.nsmap.items()
+                          if p and p != "xacro" and u not in _XACRO_URIS)  # fmt: skip
+        tag = _qualified(el.tag, prefixes)  # a default name space's elements by local name
+        line = el.sourceline or 0
+        text = lines[line - 1] if 0 < line <= len(lines) else ""
+        column = text.find("<" + tag) + 1 or 1
+        node = _El(tag, [(_qualified(k, prefixes), v) for k, v in el.attrib.items()], [],
+                   shown, line, column)  # fmt: skip
+        if el.text:
+            node.children.append(_Text(el.text))
+        for child in el:
+            if isinstance(child, etree._Entity):
+                raise _Refused(f"{shown}:{child.sourceline}: the entity {child.text} is not "
+                               "expanded (rworld reads no DTD)")  # fmt: skip
+            if isinstance(child.tag, str):
+                node.children.append(convert(child))
+            if child.tail:
+                node.children.append(_Text(child.tail))
+        return node
+
+    return convert(root), namespaces
+
+
+# --- names and values -----------------------------------------------------------------------
+
+
+class _Scope:
+    """A table of properties with a parent: xacro's ``Table`` (and ``NameSpace`` when
+    ``namespace``).  Values given as text are evaluated lazily, on first use, in this scope."""
+
+    def __init__(self, parent: _Scope | None = None, namespace: bool = False):
+        self.parent = parent
+        self.namespace = namespace
+        self.values: dict[str, Any] = {}
+        self.lazy: set[str] = set()
+        self.resolving: list[str] = []
+
+    def has(self, name: str) -> bool:
+        scope: _Scope | None = self
+        while scope is not None:
+            if name in scope.values:
+                return True
+            scope = scope.parent
+        return False
+
+    def top(self) -> _Scope:
+        scope = self
+        while scope.parent is not None:
+            scope = scope.parent
+        return scope
+
+
+def _literal(value: Any) -> Any:
+    """xacro's ``_eval_literal``: quoted text unquoted, else a number or boolean if it reads as
+    one (text with '_' stays text), else the text."""
+    if not isinstance(value, str):
+        return value
+    if len(value) >= 2 and value[0] == "'" and value[-1] == "'":
+        return value[1:-1]
+    if "_" in value:
+        return value
+    for convert in (int, float):
+        try:
+            return convert(value)
+        except ValueError:
+            pass
+    if value in ("true", "True"):
+        return True
+    if value in ("false", "False"):
+        return False
+    return value
+
+
+def _boolean(value: Any, condition: str) -> bool:
+    if isinstance(value, str):
+        if value in ("true", "True"):
+            return True
+        if value in ("false", "False"):
+            return False
+        try:
+            return bool(int(value))
+        except ValueError:
+            pass
+        raise _Refused(f"the condition {condition!r} is {value!r}, not true or false")
+    return bool(value)
+
+
+class _YamlDict(dict):
+    """A mapping from ``xacro.load_yaml``: keys by ``d['k']`` or ``d.k``."""
+
+
+class _YamlList(list):
+    pass
+
+
+def _wrap(value: Any, budget: list[int] | None = None) -> Any:
+    """YAML data as xacro's wrappers; at most ``budget[0]`` nodes (YAML's aliases share one
+    object, which a copy would multiply: a 'billion laughs' file)."""
+    budget = [1_000_000] if budget is None else budget
+    budget[0] -= 1
+    if budget[0] < 0:
+        raise _Refused("the YAML data has over 1000000 nodes (aliases counted each time)")
+    if isinstance(value, dict):
+        return _YamlDict({k: _wrap(v, budget) for k, v in value.items()})
+    if isinstance(value, list):
+        return _YamlList(_wrap(v, budget) for v in value)
+    return value
+
+
+@dataclass(frozen=True)
+class _Function:
+    """A callable an expression may call: one of rworld's, never an arbitrary Python object."""
+
+    name: str
+    call: Callable[..., Any]
+
+
+class _Names(dict):
+    """A fixed name space of functions and constants (``math``, ``python``, ``xacro``)."""
+
+
+_MATH_FUNCTIONS = (
+    "sin cos tan asin acos atan atan2 sinh cosh tanh asinh acosh atanh sqrt exp log log10 log2 "
+    "fabs floor ceil trunc radians degrees hypot copysign fmod isclose isfinite isinf isnan pow"
+).split()
+_MATH_CONSTANTS = {"pi": math.pi, "e": math.e, "tau": math.tau, "inf": math.inf, "nan": math.nan}
+_STRING_METHODS = frozenset(
+    "lower upper strip lstrip rstrip split startswith endswith replace join count find".split()
+)
+_DICT_METHODS = frozenset({"get", "keys", "values", "items"})
+
+
+# --- expressions ----------------------------------------------------------------------------
+
+_BINARY = {
+    ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul,
+    ast.Div: operator.truediv, ast.FloorDiv: operator.floordiv, ast.Mod: operator.mod,
+    ast.Pow: operator.pow,
+}  # fmt: skip
+_COMPARE = {
+    ast.Eq: operator.eq, ast.NotEq: operator.ne, ast.Lt: operator.lt, ast.LtE: operator.le,
+    ast.Gt: operator.gt, ast.GtE: operator.ge, ast.In: lambda a, b: a in b,
+    ast.NotIn: lambda a, b: a not in b, ast.Is: operator.is_, ast.IsNot: operator.is_not,
+}  # fmt: skip
+_UNARY: dict[type, Callable[[Any], Any]] = {
+    ast.USub: operator.neg,
+    ast.UAdd: operator.pos,
+    ast.Not: operator.not_,
+}
+_SEQUENCES = (str, list, tuple)
+MAX_EXPRESSION_CHARS = 20_000  # vendors' longest: under 300
+
+
+class _Evaluator:
+    """Evaluates one xacro expression on the AST: the operations listed above and nothing else."""
+
+    def __init__(self, expander: _Expander, lookup: Callable[[str], Any]):
+        self.expander = expander
+        self.lookup = lookup
+        self.limit = expander.limits.value_chars
+
+    def __call__(self, source: str) -> Any:
+        source = source.strip()
+        if len(source) > MAX_EXPRESSION_CHARS:
+            raise _Refused(f"an expression of {len(source)} characters (at most "
+                           f"{MAX_EXPRESSION_CHARS})")  # fmt: skip
+        try:
+            tree = ast.parse(source, mode="eval")
+        except SyntaxError as exc:
+            raise _Refused(f"invalid expression {_short(source)}: {exc.msg}") from None
+        except (MemoryError, RecursionError):  # the parser's own stack
+            raise _Refused(f"the expression {_short(source)} is nested too deeply") from None
+        try:
+            return self.eval(tree.body)
+        except RecursionError:
+            raise _Refused(f"the expression {_short(source)} is nested too deeply") from None
+        except _Refused:
+            raise
+        except (ArithmeticError, TypeError, ValueError, KeyError, IndexError) as exc:
+            kind = type(exc).__name__
+            raise _Refused(f"{kind} in {_short(source)}: {exc}") from None
+
+    def sized(self, value: Any) -> Any:
+        if isinstance(value, str | list | tuple | dict | set) and len(value) > self.limit:
+            raise _Refused(f"a value of {len(value)} items or characters (at most {self.limit})")
+        return value
+
+    def eval(self, node: ast.AST) -> Any:
+        self.expander.tick()
+        method = getattr(self, "_" + type(node).__name__, None)
+        if method is None:
+            raise _Refused(
+                f"{type(node).__name__} is not allowed in a xacro expression: rworld evaluates "
+                "numbers, text, properties, arithmetic, comparisons and math functions only"
+            )
+        return method(node)
+
+    def _Constant(self, node: ast.Constant) -> Any:
+        if not isinstance(node.value, int | float | str | bool | type(None)):
+            raise _Refused(f"the constant {node.value!r} is not allowed")
+        return self.sized(node.value)
+
+    def _Name(self, node: ast.Name) -> Any:
+        if node.id.startswith("_"):
+            raise _Refused(f"the name {node.id!r} is not allowed (names starting with '_')")
+        return self.lookup(node.id)
+
+    def _Attribute(self, node: ast.Attribute) -> Any:
+        name = node.attr
+        if name.startswith("_"):
+            raise _Refused(f"the attribute .{name} is not allowed (names starting with '_')")
+        value = self.eval(node.value)
+        if isinstance(value, _Scope) and value.namespace:
+            return self.expander.get(value, name)
+        if isinstance(value, _Names | _YamlDict) and name in value:
+            return value[name]
+        if isinstance(value, _Names):
+            raise _Refused(f"no {name!r} in {_describe(value)}")
+        if isinstance(value, str) and name in _STRING_METHODS:
+            return _Function(f"str.{name}", self._string_method(value, name))
+        if isinstance(value, dict) and name in _DICT_METHODS:
+            method = getattr(value, name)
+            return _Function(f"dict.{name}", lambda *a: _listed(method(*a)))
+        raise _Refused(f"the attribute .{name} of {_describe(value)} is not allowed")
+
+    def _string_method(self, text: str, name: str) -> Callable[..., Any]:
+        method = getattr(text, name)
+
+        def call(*args: Any) -> Any:
+            if name == "replace" and len(args) >= 2 and isinstance(args[1], str):
+                grows = (text.count(args[0]) + 1) * len(args[1]) if args[0] != "" else (
+                    (len(text) + 1) * len(args[1]))  # fmt: skip
+                if len(text) + grows > self.limit:
+                    raise _Refused(f"str.replace would make over {self.limit} characters")
+            if name == "join" and len(args) == 1:
+                parts = list(args[0])
+                if sum(len(str(p)) for p in parts) + len(text) * len(parts) > self.limit:
+                    raise _Refused(f"str.join would make over {self.limit} characters")
+                return method(parts)
+            return _listed(method(*args))
+
+        return call
+
+    def _Subscript(self, node: ast.Subscript) -> Any:
+        value = self.eval(node.value)
+        if not isinstance(value, str | list | tuple | dict):
+            raise _Refused(f"{_describe(value)} cannot be indexed")
+        if isinstance(node.slice, ast.Slice):
+            parts = [None if p is None else self.eval(p)
+                     for p in (node.slice.lower, node.slice.upper, node.slice.step)]  # fmt: skip
+            if any(p is not None and not isinstance(p, int) for p in parts):
+                raise _Refused("slice bounds must be whole numbers")
+            return value[slice(*parts)]  # type: ignore[index]
+        key = self.eval(node.slice)
+        if isinstance(value, dict):
+            if key not in value:
+                raise _Refused(f"no key {key!r} in {_describe(value)}")
+            return value[key]
+        if not isinstance(key, int) or isinstance(key, bool):
+            raise _Refused(f"an index must be a whole number, not {key!r}")
+        return value[key]
+
+    def _Call(self, node: ast.Call) -> Any:
+        function = self.eval(node.func)
+        if not isinstance(function, _Function):
+            raise _Refused(f"{_describe(function)} cannot be called")
+        if any(isinstance(a, ast.Starred) for a in node.args) or any(
+            k.arg is None for k in node.keywords
+        ):
+            raise _Refused("*args and **kwargs are not allowed")
+        args = [self.eval(a) for a in node.args]
+        kwargs = {str(k.arg): self.eval(k.value) for k in node.keywords}
+        return self.sized(function.call(*args, **kwargs))
+
+    def _BinOp(self, node: ast.BinOp) -> Any:
+        kind = type(node.op)
+        if kind not in _BINARY:
+            raise _Refused(f"the operator {kind.__name__} is not allowed")
+        left, right = self.eval(node.left), self.eval(node.right)
+        if kind is ast.Mult:
+            for seq, count in ((left, right), (right, left)):
+                if isinstance(seq, _SEQUENCES) and isinstance(count, int):
+                    if len(seq) * max(count, 0) > self.limit:
+                        raise _Refused(f"a repetition of {len(seq)} x {count} items or "
+                                       f"characters (at most {self.limit})")  # fmt: skip
+        if kind is ast.Add and isinstance(left, _SEQUENCES) and isinstance(right, _SEQUENCES):
+            if len(left) + len(right) > self.limit:
+                raise _Refused(f"a value of over {self.limit} items or characters")
+        if kind is ast.Mod and isinstance(left, str):
+            raise _Refused("text formatting with '%' is not allowed")
+        if kind is ast.Pow and isinstance(left, int) and isinstance(right, int) and right > 0:
+            if abs(left) > 1 and right * abs(left).bit_length() > 4096:
+                raise _Refused(f"{left} ** {right} is too large a number")
+        return self.sized(_BINARY[kind](left, right))
+
+    def _UnaryOp(self, node: ast.UnaryOp) -> Any:
+        kind = type(node.op)
+        if kind not in _UNARY:
+            raise _Refused(f"the operator {kind.__name__} is not allowed")
+        return _UNARY[kind](self.eval(node.operand))
+
+    def _BoolOp(self, node: ast.BoolOp) -> Any:
+        value: Any = None
+        for operand in node.values:
+            value = self.eval(operand)
+            if isinstance(node.op, ast.And) and not value:
+                return value
+            if isinstance(node.op, ast.Or) and value:
+                return value
+        return value
+
+    def _Compare(self, node: ast.Compare) -> Any:
+        left = self.eval(node.left)
+        for op, operand in zip(node.ops, node.comparators, strict=True):
+            right = self.eval(operand)
+            if not _COMPARE[type(op)](left, right):
+                return False
+            left = right
+        return True
+
+    def _IfExp(self, node: ast.IfExp) -> Any:
+        return self.eval(node.body) if self.eval(node.test) else self.eval(node.orelse)
+
+    def _List(self, node: ast.List) -> Any:
+        return self.sized([self.eval(e) for e in node.elts])
+
+    def _Tuple(self, node: ast.Tuple) -> Any:
+        return self.sized(tuple(self.eval(e) for e in node.elts))
+
+    def _Dict(self, node: ast.Dict) -> Any:
+        if any(k is None for k in node.keys):
+            raise _Refused("**mapping in a dict is not allowed")
+        pairs = zip(node.keys, node.values, strict=True)
+        return self.sized({self.eval(k): self.eval(v) for k, v in pairs})  # type: ignore[arg-type]
+
+
+_DICT_VIEWS: tuple[type, ...] = (type({}.keys()), type({}.values()), type({}.items()))
+
+
+def _listed(value: Any) -> Any:
+    if isinstance(value, _DICT_VIEWS):
+        return list(value)  # type: ignore[call-overload]
+    return value
+
+
+def _short(source: str) -> str:
+    return repr(source if len(source) <= 80 else source[:77] + "...")
+
+
+def _describe(value: Any) -> str:
+    if isinstance(value, _Function):
+        return f"the function {value.name}"
+    if isinstance(value, _Scope):
+        return "a name space"
+    if isinstance(value, _Names):
+        return "a name space of functions"
+    if isinstance(value, _El):
+        return f"the block <{value.tag}>"
+    return f"a {type(value).__name__.lstrip('_').replace('Yaml', 'YAML ').lower()}"
+
+
+# --- the expansion --------------------------------------------------------------------------
+
+_LEXER = re.compile(
+    r"(?P<dollars>\$\$+[{(])|(?P<expr>\$\{[^}]*\})|(?P<ext>\$\([^)]*\))|"
+    r"(?P<text>[^$]+|\$[^{($]+|\$$)"
+)  # xacro's QuickLexer, token by token
+_MACRO_PARAM = re.compile(
+    r"^\s*([^\s:=]+?)\s*:?=\s*(\^\|?)?(\$\{.*?\}|\$\(.*?\)|(?:'.*?'|\".*?\"|[^\s'\"]+)+|)"
+    r"(?:\s+|$)(.*)"
+)
+_UNITS = {"!radians": 1.0, "!degrees": math.pi / 180, "!meters": 1.0, "!millimeters": 1e-3,
+          "!foot": 0.3048, "!inches": 0.0254}  # fmt: skip
+
+
+@dataclass
+class _Macro:
+    name: str
+    body: _El
+    params: list[str]
+    defaults: dict[str, tuple[str | None, str | None]]
+
+
+class _Macros:
+    def __init__(self, parent: _Macros | None = None):
+        self.parent = parent
+        self.table: dict[str, Any] = {}  # name -> _Macro, or a name space's _Macros
+
+    def find(self, name: str) -> Any:
+        macros: _Macros | None = self
+        while macros is not None:
+            if name in macros.table:
+                return macros.table[name]
+            macros = macros.parent
+        raise KeyError(name)
+
+
+@dataclass
+class _Expander:
+    package_paths: Sequence[Path]
+    args: dict[str, str]
+    roots: list[Path]
+    limits: XacroLimits
+    warnings: list[Issue] = field(default_factory=list)
+    files: int = 0
+    elements: int = 0
+    chars: int = 0
+    calls: int = 0
+    depth: int = 0
+    ticks: int = 0
+    deadline: float = 0.0
+    where: list[_El] = field(default_factory=list)
+    macro_stack: list[str] = field(default_factory=list)
+    builtins: dict[str, Any] = field(default_factory=dict)
+    namespaces: dict[str, str] = field(default_factory=dict)
+
+    # bounds
+
+    def tick(self) -> None:
+        self.ticks += 1
+        if self.ticks % 256 == 0 and time.monotonic() > self.deadline:
+            raise _Refused(f"the expansion took over {self.limits.seconds:g} s; rworld stops there")
+
+    def count_output(self, value: str) -> str:
+        self.chars += len(value)
+        if self.chars > self.limits.output_chars:
+            raise _Refused(f"the expanded document is over {self.limits.output_chars} characters")
+        if _XML_INVALID.search(value):
+            raise _Refused(f"a value holds a control character XML cannot carry: {value[:60]!r}")
+        return value
+
+    # files
+
+    def confined(self, name: str, what: str) -> Path:
+        """``name`` (relative to the current file) as a file inside the package paths or the
+        xacro's own package, links resolved; else refused."""
+        current = Path(self.where[-1].file).parent if self.where else Path(".")
+        path = Path(name) if os.path.isabs(name) else current / name
+        real = Path(os.path.realpath(path))
+        if not any(real == root or root in real.parents for root in self.roots):
+            shown = ", ".join(str(r) for r in self.roots)
+            raise _Refused(
+                f"{what} {name!r} resolves to {real}, outside the package paths and "
+                f"the xacro's own package ({shown}); rworld reads no other file"
+            )
+        if not real.is_file():
+            raise _Refused(f"{what} {name!r}: no such file ({real})")
+        self.files += 1
+        if self.files > self.limits.files:
+            raise _Refused(f"over {self.limits.files} files read")
+        return real
+
+    def load_yaml(self, name: Any) -> Any:
+        import yaml
+
+        path = self.confined(str(name), "xacro.load_yaml of")
+        if path.stat().st_size > self.limits.file_bytes:
+            raise _Refused(f"{path} is over {self.limits.file_bytes} bytes")
+        expander = self
+
+        class Loader(yaml.SafeLoader):
+            pass
+
+        for tag, factor in _UNITS.items():
+
+            def construct(loader, node, factor=factor, tag=tag):
+                text = loader.construct_scalar(node)
+                value = expander.evaluate(str(text), lambda n: expander.global_name(n))
+                if not isinstance(value, int | float) or isinstance(value, bool):
+                    raise _Refused(f"{tag} {text!r} is not a number")
+                return float(value) * factor
+
+            Loader.add_constructor(tag, construct)
+        try:
+            with path.open("rb") as stream:
+                data = yaml.load(stream, Loader=Loader)  # noqa: S506 - a SafeLoader subclass
+        except yaml.YAMLError as exc:
+            raise _Refused(f"{path}: invalid YAML: {exc}") from None
+        return _wrap(data)
+
+    def find(self, package: str) -> str:
+        folder = find_package(package, self.package_paths)
+        if folder is None:
+            where = ", ".join(str(p) for p in self.package_paths) or "no --package-path given"
+            raise _Refused(
+                f"$(find {package}): no ROS package '{package}' under the package paths "
+                f"({where}); give the folder that holds it with --package-path DIR"
+            )
+        return os.path.realpath(folder)
+
+    # names
+
+    def global_name(self, name: str) -> Any:
+        if name in _GLOBALS:
+            return _GLOBALS[name]
+        if name in self.builtins:
+            return self.builtins[name]
+        raise _Refused(f"name {name!r} is not defined")
+
+    def get(self, scope: _Scope, name: str) -> Any:
+        """A property's value through the scope chain, evaluating a lazy one in its scope."""
+        s: _Scope | None = scope
+        while s is not None:
+            if name in s.values:
+                if name in s.lazy:
+                    if name in s.resolving:
+                        chain = " -> ".join([*s.resolving, name])
+                        raise _Refused(f"circular property definition: {chain}")
+                    s.resolving.append(name)
+                    try:
+                        s.values[name] = _literal(self.text(s.values[name], s))
+                    finally:
+                        s.resolving.remove(name)
+                    s.lazy.discard(name)
+                return s.values[name]
+            s = s.parent
+        return self.global_name(name)
+
+    def set(self, scope: _Scope, name: str, value: Any, lazy: bool) -> None:
+        value = _literal(value)
+        scope.values[name] = value
+        if lazy and isinstance(value, str):
+            scope.lazy.add(name)
+        else:
+            scope.lazy.discard(name)
+
+    # text
+
+    def evaluate(self, source: str, lookup: Callable[[str], Any]) -> Any:
+        return _Evaluator(self, lookup)(source)
+
+    def text(self, text: Any, scope: _Scope) -> Any:
+        """xacro's ``eval_text``: ``${...}`` and ``$(...)`` replaced; one piece keeps its type."""
+        if not isinstance(text, str):
+            return text
+        results: list[Any] = []
+        position = 0
+        while position < len(text):
+            match = _LEXER.match(text, position)
+            if match is None:
+                raise _Refused(f"invalid expression: {_short(text[position:])} (no closing brace)")
+            position = match.end()
+            kind, piece = match.lastgroup, match.group()
+            if kind == "expr":
+                inner = self.text(piece[2:-1], scope)
+                results.append(self.evaluate(as_text(inner), lambda n: self.get(scope, n)))
+            elif kind == "ext":
+                results.append(self.extension(as_text(self.text(piece[2:-1], scope))))
+            elif kind == "dollars":
+                results.append(piece[1:])
+            else:
+                results.append(piece)
+        if len(results) == 1:
+            return results[0]
+        joined = "".join(as_text(r, self.limits.value_chars) for r in results)
+        if len(joined) > self.limits.value_chars:
+            raise _Refused(f"a value of {len(joined)} characters (at most "
+                           f"{self.limits.value_chars})")  # fmt: skip
+        return joined
+
+    def extension(self, text: str) -> str:
+        """``$(command ...)``: find, arg, env and optenv (from the --xacro-arg values), eval
+        (the same walker), dirname."""
+        words = text.split()
+        command, rest = (words[0], words[1:]) if words else ("", [])
+        if command == "eval":
+            value = self.evaluate(text.strip()[4:], self.eval_name)
+            return str(value)
+        if command == "find" and len(rest) == 1:
+            return self.find(rest[0])
+        if command == "arg" and len(rest) == 1:
+            if rest[0] not in self.args:
+                raise _Refused(f"$(arg {rest[0]}): undefined; give it with "
+                               f"--xacro-arg {rest[0]}:=VALUE")  # fmt: skip
+            return self.args[rest[0]]
+        if command == "env" and len(rest) == 1:
+            if rest[0] not in self.args:
+                raise _Refused(
+                    f"$(env {rest[0]}): rworld reads no environment variable for a xacro; give "
+                    f"the value with --xacro-arg {rest[0]}:=VALUE"
+                )
+            return self.args[rest[0]]
+        if command == "optenv" and rest:
+            return self.args.get(rest[0], " ".join(rest[1:]))
+        if command == "dirname" and not rest:
+            return os.path.dirname(os.path.realpath(self.where[-1].file)) if self.where else "."
+        raise _Refused(
+            f"$({_short(text)[1:-1]}): rworld expands $(find PKG), $(arg NAME), "
+            "$(env NAME), $(optenv NAME [DEFAULT]), $(eval EXPR) and $(dirname)"
+        )
+
+    def eval_name(self, name: str) -> Any:
+        """A name in ``$(eval ...)``: an argument (typed), or arg/find/env/optenv/dirname."""
+        if name in self.args:
+            return _literal(self.args[name])
+        functions: dict[str, Callable[..., Any]] = {
+            "arg": lambda n: _literal(self.extension(f"arg {n}")),
+            "find": lambda p: self.find(str(p)),
+            "env": lambda n: self.extension(f"env {n}"),
+            "optenv": lambda n, d="": self.args.get(str(n), d),
+            "dirname": lambda: self.extension("dirname"),
+        }
+        if name in functions:
+            return _Function(name, functions[name])
+        return self.global_name(name)
+
+    # elements
+
+    def nodes(self, children: list[Any], scope: _Scope, macros: _Macros) -> list[Any]:
+        out: list[Any] = []
+        for child in children:
+            if isinstance(child, _Text):
+                out.append(_Text(self.count_output(as_text(self.text(child.data, scope)))))
+            elif isinstance(child, _El):
+                out.extend(self.element(child, scope, macros))
+        return out
+
+    def element(self, el: _El, scope: _Scope, macros: _Macros) -> list[Any]:
+        self.where.append(el)
+        try:
+            return self._element(el, scope, macros)
+        except _Refused as exc:
+            if exc.element is None:  # the innermost element is where it happened
+                exc.element, exc.macros = el, list(self.macro_stack)
+            raise
+        finally:
+            self.where.pop()
+
+    def _element(self, el: _El, scope: _Scope, macros: _Macros) -> list[Any]:
+        self.tick()
+        tag = el.tag
+        if not tag.startswith("xacro:"):
+            return [self.plain(el, scope, macros)]
+        kind = tag[6:]
+        if kind == "property":
+            self.property(el, scope)
+        elif kind == "macro":
+            self.macro(el, macros)
+        elif kind == "arg":
+            name, default = self.required(el, "name"), el.get("default")
+            if default is None:
+                raise _Refused("xacro:arg needs a default")
+            if name not in self.args:
+                self.args[name] = as_text(self.text(default, scope))
+        elif kind == "include":
+            return self.include(el, scope, macros)
+        elif kind in ("if", "unless"):
+            condition = self.required(el, "value")
+            keep = _boolean(self.text(condition, scope), condition)
+            if keep == (kind == "if"):
+                return self.nodes(el.children, scope, macros)
+        elif kind == "insert_block":
+            name = self.required(el, "name")
+            if scope.has("**" + name):
+                block = self.get(scope, "**" + name)
+                return self.nodes(block.children, scope, macros)
+            if scope.has("*" + name):
+                return self.element(self.get(scope, "*" + name), scope, macros)
+            raise _Refused(f"undefined block {name!r}")
+        elif kind == "element":
+            name = as_text(self.text(self.required(el, "xacro:name"), scope))
+            if not name:
+                raise _Refused("xacro:element with an empty name")
+            renamed = _El(name, [a for a in el.attrs if a[0] != "xacro:name"], el.children,
+                          el.file, el.line, el.column)  # fmt: skip
+            return self.element(renamed, scope, macros)
+        elif kind == "attribute":
+            name = as_text(self.text(self.required(el, "name"), scope))
+            value = self.text(self.required(el, "value"), scope)
+            return [_SetAttribute(name, value)]
+        elif kind == "call":
+            name = as_text(self.text(self.required(el, "macro"), scope))
+            attrs = [a for a in el.attrs if a[0] != "macro"]
+            return self.call(_El("xacro:" + name, attrs, el.children, el.file, el.line,
+                                 el.column), scope, macros)  # fmt: skip
+        else:
+            return self.call(el, scope, macros)
+        return []
+
+    def required(self, el: _El, name: str) -> str:
+        value = el.get(name)
+        if value is None:
+            raise _Refused(f"<{el.tag}> needs the attribute {name!r}")
+        return value
+
+    def plain(self, el: _El, scope: _Scope, macros: _Macros) -> _El:
+        self.elements += 1
+        if self.elements > self.limits.elements:
+            raise _Refused(f"the expanded document has over {self.limits.elements} elements")
+        attrs = [(k, self.count_output(as_text(self.text(v, scope))))
+                 for k, v in el.attrs if not k.startswith(("xacro:", "xmlns"))]  # fmt: skip
+        children = []
+        for node in self.nodes(el.children, scope, macros):
+            if isinstance(node, _SetAttribute):
+                attrs = [a for a in attrs if a[0] != node.name]
+                attrs.append((node.name, self.count_output(as_text(node.value))))
+            else:
+                children.append(node)
+        return _El(el.tag, attrs, children, el.file, el.line, el.column)
+
+    def property(self, el: _El, scope: _Scope) -> None:
+        name = as_text(self.text(self.required(el, "name"), scope))
+        if not name.isidentifier() or name.startswith("__"):
+            raise _Refused(f"the property name {name!r} is not a plain identifier")
+        value, default = el.get("value"), el.get("default")
+        remove = _boolean(self.text(el.get("remove") or "false", scope), "remove")
+        if sum([value is not None, default is not None, remove]) > 1:
+            raise _Refused(f"property {name}: value, default and remove exclude each other")
+        if remove:
+            s: _Scope | None = scope
+            while s is not None:
+                s.values.pop(name, None)
+                s = s.parent
+            return
+        if default is not None:
+            if scope.has(name):
+                return
+            value = default
+        content: Any = value
+        if value is None:
+            name, content = "**" + name, el  # a block property
+        lazy = _boolean(self.text(el.get("lazy_eval") or "true", scope), "lazy_eval")
+        target, where = scope, el.get("scope")
+        if where == "global":
+            target, lazy = scope.top(), False
+        elif where == "parent":
+            if scope.parent is None:
+                return
+            target, lazy = scope.parent, False
+            if not scope.namespace:
+                while target.namespace and target.parent is not None:
+                    target = target.parent
+        if not lazy and isinstance(content, str):
+            content = self.text(content, scope)
+        self.set(target, name, content, lazy)
+
+    def macro(self, el: _El, macros: _Macros) -> None:
+        name = self.required(el, "name").removeprefix("xacro:")
+        if name == "call" or "." in name:
+            raise _Refused(f"the macro name {name!r} is not allowed")
+        params, defaults = [], {}
+        rest = el.get("params") or ""
+        while rest.strip():
+            match = _MACRO_PARAM.match(rest)
+            if match:
+                param, forward, default, rest = match.groups()
+                defaults[param] = (param if forward else None, default or None)
+            else:
+                param, *more = rest.split(None, 1)
+                rest = more[0] if more else ""
+            params.append(param)
+        macros.table[name] = _Macro(name, el, params, defaults)
+
+    def call(self, el: _El, scope: _Scope, macros: _Macros) -> list[Any]:
+        name = el.tag[6:]
+        macro, macro_scope, found = self.resolve_macro(name, scope, macros)
+        self.calls += 1
+        if self.calls > self.limits.macro_calls:
+            raise _Refused(f"over {self.limits.macro_calls} macro calls")
+        if self.depth >= self.limits.macro_depth:
+            raise _Refused(f"macros nested over {self.limits.macro_depth} deep "
+                           f"({' > '.join(self.macro_stack[-5:])} > ...)")  # fmt: skip
+        local = _Scope(macro_scope)
+        params = list(macro.params)
+        for key, value in el.attrs:
+            if key.startswith("xmlns"):
+                continue
+            if key not in params:
+                raise _Refused(f"xacro:{name} has no parameter {key!r} (it takes "
+                               f"{', '.join(macro.params) or 'none'})")  # fmt: skip
+            params.remove(key)
+            self.set(local, key, self.text(value, scope), lazy=False)
+        blocks = [n for n in self.nodes(el.children, scope, macros) if isinstance(n, _El)]
+        for param in [p for p in params if p.startswith("*")]:
+            if not blocks:
+                raise _Refused(f"xacro:{name}: not enough blocks for {param}")
+            params.remove(param)
+            local.values[param] = blocks.pop(0)
+        if blocks:
+            raise _Refused(f"xacro:{name}: an unused block <{blocks[0].tag}>")
+        for param in list(params):
+            forward, default = macro.defaults.get(param, (None, None))
+            if forward is None and default is None:
+                continue
+            params.remove(param)
+            if forward is not None and scope.has(forward):
+                value = self.get(scope, forward)
+            elif default is not None:
+                value = self.text(default, scope)
+            else:
+                raise _Refused(f"xacro:{name}: no property {forward!r} to forward (^)")
+            self.set(local, param, value, lazy=False)
+        if params:
+            raise _Refused(f"xacro:{name}: parameters not given: {', '.join(params)}")
+        self.depth += 1
+        self.macro_stack.append(f"xacro:{name} ({el.file}:{el.line})")
+        try:
+            return self.nodes(macro.body.children, local, _Macros(found))
+        finally:
+            self.depth -= 1
+            self.macro_stack.pop()
+
+    def resolve_macro(
+        self, name: str, scope: _Scope, macros: _Macros
+    ) -> tuple[_Macro, _Scope, _Macros]:
+        try:
+            found = macros.find(name)
+            if isinstance(found, _Macro):
+                return found, scope, macros
+        except KeyError:
+            pass
+        *spaces, last = name.split(".")
+        table: Any = macros
+        symbols: Any = scope
+        try:
+            for space in spaces:
+                table = table.find(space)
+                symbols = self.get(symbols, space)
+            found = table.find(last)
+        except (KeyError, _Refused):
+            raise _Refused(f"unknown macro xacro:{name}") from None
+        if not isinstance(found, _Macro) or not isinstance(symbols, _Scope):
+            raise _Refused(f"unknown macro xacro:{name}")
+        return found, symbols, table
+
+    def include(self, el: _El, scope: _Scope, macros: _Macros) -> list[Any]:
+        spec = as_text(self.text(self.required(el, "filename"), scope))
+        optional = _boolean(el.get("optional") or "false", "optional")
+        namespace = el.get("ns")
+        if namespace is not None:
+            namespace = as_text(self.text(namespace, scope))
+            ns_macros = _Macros()
+            macros.table[namespace] = ns_macros
+            ns_scope = _Scope(scope, namespace=True)
+            scope.values[namespace] = ns_scope
+            macros, scope = ns_macros, ns_scope
+        current = Path(el.file).parent
+        if re.search(r"[*[?]", spec):
+            pattern = spec if os.path.isabs(spec) else str(current / spec)
+            names = sorted(glob.glob(pattern))[: self.limits.files]
+        else:
+            names = [spec]
+        out: list[Any] = []
+        for name in names:
+            try:
+                path = self.confined(name, "xacro:include of")
+            except _Refused:
+                if (
+                    optional
+                    and not (Path(name) if os.path.isabs(name) else current / name).exists()
+                ):
+                    continue
+                raise
+            root, namespaces = _parse(path, str(path), self.limits)
+            self.namespaces.update(namespaces)
+            out.extend(self.nodes(root.children, scope, macros))
+        return out
+
+
+_XML_INVALID = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\ufffe\uffff]")
+
+
+def _range(*args: Any) -> list[int]:
+    values = range(*args)
+    if len(values) > 100_000:
+        raise _Refused(f"range of {len(values)} numbers (at most 100000)")
+    return list(values)
+
+
+def _round(number: Any, digits: Any = None) -> Any:
+    if digits is not None and (not isinstance(digits, int) or abs(digits) > 300):
+        raise _Refused(f"round to {digits!r} digits")
+    return round(number) if digits is None else round(number, digits)
+
+
+def _tokenize(text: str, sep: str = ",; ", skip_empty: bool = True) -> list[str]:
+    parts = re.split(f"[{re.escape(sep)}]", text)
+    return [p for p in parts if p] if skip_empty else parts
+
+
+def as_text(value: Any, limit: int = 1_000_000) -> str:
+    """``str(value)``, refused when it would be longer than ``limit`` characters (a list can
+    hold one long text a million times without holding its characters)."""
+    if isinstance(value, str | int | float | bool | type(None)):
+        text = str(value)
+    else:
+        budget = [limit]
+
+        def measure(v: Any) -> None:
+            budget[0] -= len(v) + 4 if isinstance(v, str) else 8
+            if budget[0] < 0:
+                raise _Refused(f"a value whose text is over {limit} characters")
+            if isinstance(v, dict):
+                for k, item in v.items():
+                    measure(k)
+                    measure(item)
+            elif isinstance(v, list | tuple | set):
+                for item in v:
+                    measure(item)
+
+        measure(value)
+        text = str(value)
+    if len(text) > limit:
+        raise _Refused(f"a value whose text is over {limit} characters")
+    return text
+
+
+def _sum(values: Any, start: Any = 0) -> Any:
+    values = list(values)
+    if not all(isinstance(v, int | float) for v in [*values, start]):
+        raise _Refused("sum() adds numbers only")
+    return sum(values, start)
+
+
+_PYTHON: dict[str, Callable[..., Any]] = {
+    "list": list, "dict": dict, "len": len, "str": as_text, "float": float, "int": int,
+    "bool": bool, "min": min, "max": max, "round": _round, "abs": abs, "sum": _sum,
+    "sorted": sorted, "range": _range, "any": any, "all": all, "tuple": tuple, "set": set,
+    "zip": lambda *a: list(zip(*a, strict=False)), "enumerate": lambda *a: list(enumerate(*a)),
+    "reversed": lambda a: list(reversed(a)), "divmod": divmod,
+}  # fmt: skip
+_GLOBALS: dict[str, Any] = {name: _Function(name, f) for name, f in _PYTHON.items()}
+_GLOBALS.update({"True": True, "False": False, "None": None})
+_MATH = _Names({name: _Function(f"math.{name}", getattr(math, name)) for name in _MATH_FUNCTIONS})
+_MATH.update(_MATH_CONSTANTS)
+_GLOBALS.update(_MATH)
+_GLOBALS["math"] = _MATH
+_GLOBALS["python"] = _Names({k: v for k, v in _GLOBALS.items() if k in _PYTHON})
+
+
+def _xacro_names(expander: _Expander) -> _Names:
+    def note(*args: Any, **kwargs: Any) -> str:
+        where = expander.where[-1] if expander.where else None
+        expander.warnings.append(Issue(where.file if where else "", where.line if where else 0,
+                                       where.column if where else 0, "xacro",
+                                       " ".join(map(str, args)), "warning"))  # fmt: skip
+        return ""
+
+    def fatal(*args: Any) -> str:
+        raise _Refused("xacro.fatal: " + " ".join(map(str, args)))
+
+    def abs_filename(name: str) -> str:
+        current = Path(expander.where[-1].file).parent if expander.where else Path(".")
+        return str(name) if os.path.isabs(name) else str(current / name)
+
+    def arg(name: str) -> str:
+        return expander.extension(f"arg {name}")
+
+    functions: dict[str, Callable[..., Any]] = {
+        "load_yaml": expander.load_yaml, "dotify": lambda d: _wrap(dict(d)), "arg": arg,
+        "tokenize": _tokenize, "message": note, "warning": note, "error": note,
+        "print_location": lambda *a, **k: "", "fatal": fatal, "abs_filename": abs_filename,
+    }  # fmt: skip
+    return _Names({name: _Function(f"xacro.{name}", f) for name, f in functions.items()})
+
+
+def _package_root(path: Path) -> Path:
+    """The ROS package a file is in (the nearest folder above it with a package.xml), else
+    its own folder."""
+    for folder in path.parents:
+        if (folder / "package.xml").is_file():
+            return folder
+    return path.parent
+
+
+def _serialise(root: _El, namespaces: dict[str, str]) -> str:
+    out = ['<?xml version="1.0" encoding="utf-8"?>\n']
+
+    def write(el: _El, indent: str, declarations: str = "") -> None:
+        attrs = "".join(f" {k}={quoteattr(str(v))}" for k, v in el.attrs)
+        children = [c for c in el.children if isinstance(c, _El) or c.data.strip()]
+        if not children:
+            out.append(f"{indent}<{el.tag}{declarations}{attrs}/>\n")
+            return
+        out.append(f"{indent}<{el.tag}{declarations}{attrs}>")
+        if all(isinstance(c, _Text) for c in children):
+            out.append(escape("".join(c.data for c in children).strip()))
+            out.append(f"</{el.tag}>\n")
+            return
+        out.append("\n")
+        for child in children:
+            if isinstance(child, _El):
+                write(child, indent + "  ")
+            else:
+                out.append(f"{indent}  {escape(child.data.strip())}\n")
+        out.append(f"{indent}</{el.tag}>\n")
+
+    declared = "".join(f" xmlns:{p}={quoteattr(u)}" for p, u in namespaces.items())
+    write(root, "", declared)
+    return "".join(out)
+
+
+def find_package(name: str, package_paths: Sequence[Path]) -> Path | None:
+    """A ROS package's folder under the package paths: the path itself when it is the package
+    (its ``package.xml`` names it, or the folder has its name), a folder of that name in it, or
+    one level deeper (a repository of several packages)."""
+    for root in package_paths:
+        candidates = [root, root / name, *sorted(root.glob(f"*/{name}"))]
+        for folder in candidates:
+            if folder != root and folder.name != name:
+                continue
+            manifest = folder / "package.xml"
+            if folder.is_dir() and (folder.name == name or _package_name(manifest) == name):
+                return folder
+    return None
+
+
+def _package_name(manifest: Path) -> str | None:
+    try:
+        if manifest.stat().st_size > 1_000_000:
+            return None
+        found = re.search(r"<name>\s*([^<\s]+)\s*</name>", manifest.read_text(errors="replace"))
+    except OSError:
+        return None
+    return found.group(1) if found else None
+
+
+def expand_xacro_file(
+    path: Path,
+    shown: str,
+    package_paths: Sequence[Path],
+    args: dict[str, str] | None = None,
+    limits: XacroLimits | None = None,
+) -> tuple[bytes, list[Issue]]:
+    """A xacro file expanded to URDF, as data (module docstring).
+
+    Parameters
+    ----------
+    path : Path
+        The xacro file.
+    shown : str
+        Its name as the user typed it (for messages).
+    package_paths : list of Path
+        Folders holding ROS packages: ``$(find PKG)``, and the only places (with the xacro's
+        own package) from which includes and YAML files are read.
+    args : dict, optional
+        ``$(arg NAME)`` values, and the values of ``$(env NAME)`` / ``$(optenv NAME)``.
+    limits : XacroLimits, optional
+
+    Returns
+    -------
+    urdf : bytes
+        The expanded document (UTF-8 XML).
+    warnings : list of Issue
+        ``xacro.warning(...)`` / ``xacro.message(...)`` calls, located.
+
+    Raises
+    ------
+    UserError
+        Anything refused or wrong, located at the file and line of its element.
+    """
+    limits = limits or XacroLimits()
+    paths = [Path(os.path.realpath(p)) for p in package_paths]
+    own = Path(os.path.realpath(path))
+    expander = _Expander(paths, dict(args or {}), [*paths, _package_root(own)], limits)
+    names = _xacro_names(expander)
+    expander.builtins = {"xacro": names, **{k: names[k] for k in ("load_yaml", "dotify")}}
+    expander.deadline = time.monotonic() + limits.seconds
+    try:
+        if own.stat().st_size > limits.file_bytes:
+            raise _Refused(f"{shown} has {own.stat().st_size} bytes; rworld reads xacro files "
+                           f"up to {limits.file_bytes}")  # fmt: skip
+        root, expander.namespaces = _parse(own, shown, limits)
+        root = _El(root.tag, root.attrs, root.children, shown, root.line, root.column)
+        expanded = expander.element(root, _Scope(), _Macros())
+    except _Refused as exc:
+        raise _located(exc, shown) from None
+    except RecursionError:
+        raise _located(_Refused("the xacro nests too deeply"), shown) from None
+    documents = [e for e in expanded if isinstance(e, _El)]
+    if len(documents) != 1:
+        raise UserError(f"{shown}: xacro: the root element expanded to nothing")
+    document = documents[0]
+    return _serialise(document, expander.namespaces).encode("utf-8"), expander.warnings
+
+
+def _located(exc: _Refused, shown: str) -> UserError:
+    message, el = str(exc), exc.element
+    if el is None:
+        return UserError(f"{shown}: xacro: {message}")
+    chain = "".join(f"; in {m}" for m in reversed(exc.macros[-3:]))
+    issue = Issue(el.file, el.line, el.column, f"<{el.tag}>", f"xacro: {message}{chain}")
+    return UserError(f"{shown}: xacro: {message}", [issue])
