@@ -522,6 +522,12 @@ class Language:
     lower: bool = False
     upper: bool = False  # names in upper case (FANUC's)
     escaped: str = ""  # printable characters a comment may not hold either
+    # Java translates \uXXXX anywhere in the source before it tokenizes (JLS 3.3), comments too:
+    # every backslash of a comment is doubled, so none can begin an escape
+    unicode_escapes: bool = False
+    # lines every file starts with, fixed text: Python reads a coding cookie (PEP 263) from a
+    # comment on line 1 or 2, so nothing from a file may stand there
+    first_lines: tuple[str, ...] = ()
 
     def identifier(self, name: str, used: set[str]) -> str:
         """A name the language holds: letters, digits and '_', starting with a letter, at most
@@ -554,7 +560,8 @@ class Language:
                 return f"\\x{ord(ch):02x}"
             return ch if " " <= ch <= "~" else ascii(ch)[1:-1]
 
-        return "".join(safe(ch) for ch in str(text))
+        written = "".join(safe(ch) for ch in str(text))
+        return written.replace("\\", "\\\\") if self.unicode_escapes else written
 
     def renamed(self, identifier: str, original: str) -> list[str]:
         """The comment line that gives a renamed program's original name (none when equal)."""
@@ -625,8 +632,13 @@ KRL = Language("KRL", ";", 24, frozenset(_KRL_WORDS))
 RAPID = Language("RAPID", "!", 32, frozenset(_RAPID_WORDS))
 # job names: 32 characters on DX100 and later (8 on the NX100); a comment line starts with '
 INFORM = Language("INFORM", "'", 32, frozenset(_INFORM_WORDS), upper=True)
-DRL = Language("DRL", "#", 31, frozenset(_DRL_WORDS))
-SUNRISE = Language("Java (KUKA Sunrise)", "//", 64, frozenset(_JAVA_WORDS))
+# DRL is Python: its first line fixes the encoding, before any name from a file
+DRL = Language(
+    "DRL", "#", 31, frozenset(_DRL_WORDS), first_lines=("# -*- coding: utf-8 -*-",)
+)
+SUNRISE = Language(
+    "Java (KUKA Sunrise)", "//", 64, frozenset(_JAVA_WORDS), unicode_escapes=True
+)
 # application names: 15 characters in the controller's file manager; // starts a comment
 VAL3 = Language("VAL3", "//", 15, frozenset(_VAL3_WORDS))
 

@@ -63,6 +63,7 @@ def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
     name = DRL.identifier(program.name, used)
     tools = {t.name: DRL.identifier(f"rworld_{t.name}", used) for t in program.tools}
     lines = [
+        *DRL.first_lines,
         f"# {note(program.name)}: device '{note(program.device)}', from {note(program.source)}",
         "# written by 'rworld export program': targets resolved with the cell's current pose files",
         f"# outputs: gripper {signals.gripper} (ON = closed), tool changer "
