@@ -633,12 +633,8 @@ RAPID = Language("RAPID", "!", 32, frozenset(_RAPID_WORDS))
 # job names: 32 characters on DX100 and later (8 on the NX100); a comment line starts with '
 INFORM = Language("INFORM", "'", 32, frozenset(_INFORM_WORDS), upper=True)
 # DRL is Python: its first line fixes the encoding, before any name from a file
-DRL = Language(
-    "DRL", "#", 31, frozenset(_DRL_WORDS), first_lines=("# -*- coding: utf-8 -*-",)
-)
-SUNRISE = Language(
-    "Java (KUKA Sunrise)", "//", 64, frozenset(_JAVA_WORDS), unicode_escapes=True
-)
+DRL = Language("DRL", "#", 31, frozenset(_DRL_WORDS), first_lines=("# -*- coding: utf-8 -*-",))
+SUNRISE = Language("Java (KUKA Sunrise)", "//", 64, frozenset(_JAVA_WORDS), unicode_escapes=True)
 # application names: 15 characters in the controller's file manager; // starts a comment
 VAL3 = Language("VAL3", "//", 15, frozenset(_VAL3_WORDS))
 

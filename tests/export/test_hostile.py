@@ -179,9 +179,9 @@ def code_words(data: bytes, language: str) -> list[str]:
                          for line in code.split("\n"))  # fmt: skip
         return re.findall(r"[A-Za-z0-9_]+", code)
     if language == "inform":  # a line starting with ' is a comment; "..." is text
+        lines = text.replace("\r\n", "\n").split("\n")
         code = "\n".join(
-            re.sub(r'"[^"\n]*"', "", line) for line in text.split("\r\n" if "\r\n" in text else "\n")
-            if not line.lstrip().startswith("'")
+            re.sub(r'"[^"\n]*"', "", line) for line in lines if not line.lstrip().startswith("'")
         )
         return re.findall(r"[A-Za-z0-9_]+", code)
     return re.findall(r"[A-Za-z0-9_]+", code_outside_comments_and_strings(text, language))
