@@ -18,13 +18,14 @@ Metres and radians, as ROS gives them; each group is a joint's ``origin`` in
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
 
 from .. import spatial
 from ..errors import UserError
-from .yamlio import read_yaml, yaml_value
+from .yamlio import comment_text, read_yaml, yaml_value
 
 GROUPS = ("shoulder", "upper_arm", "forearm", "wrist_1", "wrist_2", "wrist_3")
 KEYS = ("x", "y", "z", "roll", "pitch", "yaw")
@@ -68,10 +69,16 @@ def read_ur_calibration(path: str) -> tuple[list[np.ndarray], str | None]:
             numbers.append(float(value))
         if len(numbers) == 6:
             origins.append(spatial.make_transform(spatial.rpy_to_matrix(numbers[3:]), numbers[:3]))
+    label = kinematics.get("hash")
+    if label is not None and not (isinstance(label, str) and _HASH.fullmatch(label)):
+        problem = f"the hash {str(label)[:60]!r} is not a plain token (letters, digits, '_-.')"
+        issues.append(doc.issue(("kinematics", "hash"), problem))
     if issues:
         raise UserError(issues[0].format(), issues)
-    label = kinematics.get("hash")
-    return origins, None if label is None else str(label)
+    return origins, label
+
+
+_HASH = re.compile(r"[A-Za-z0-9_.\-]{1,128}")  # ur_calibration's: calib_12788084448423163542
 
 
 def joint_overlay_text(device: str, origins: dict[str, np.ndarray], comments: list[str]) -> str:
@@ -82,7 +89,10 @@ def joint_overlay_text(device: str, origins: dict[str, np.ndarray], comments: li
         rpy = ", ".join(repr(float(x)) for x in np.degrees(spatial.matrix_to_rpy(T[:3, :3])))
         return f"{{xyz: [{xyz}], rpy: [{rpy}]}}"
 
-    lines = [f"# {c}" for c in comments] + ["units: {length: mm, angle: deg}", "joints:"]
+    lines = [f"# {comment_text(c)}" for c in comments] + [
+        "units: {length: mm, angle: deg}",
+        "joints:",
+    ]
     lines += [f"  {yaml_value(f'{device}.{name}')}: {pose(T)}" for name, T in origins.items()]
     return "\n".join(lines) + "\n"
 

@@ -179,3 +179,20 @@ def test_a_hand_copied_calibration_is_named_and_a_wrong_file_refused(cli, ur5e, 
     _calibration_file(other, far)
     result = cli(["import", "ur-calibration", str(other), "--cell", str(cell)])
     assert result.exit_code == 2 and "'elbow_joint' frame of the calibration is 18" in result.output
+
+
+def test_a_hash_that_is_not_a_plain_token_is_refused(cli, ur5e, tmp_path):
+    """The outside report's file: a hash with newlines that, written raw into the overlay's
+    comment, added a 'poses:' section moving a fixture 250 mm (issue 58)."""
+    root, cell, device = ur5e
+    hostile = tmp_path / "hostile.yaml"
+    _calibration_file(hostile, _calibrated())
+    text = hostile.read_text().replace(
+        "hash: calib_1234567890", "hash: \"calib_1\\nposes:\\n  fixture: {xyz: [0.25, 0, 0]}\""
+    )
+    hostile.write_text(text)
+    out = tmp_path / "overlay.yaml"
+    result = cli(["import", "ur-calibration", str(hostile), "--cell", str(cell), "-o", str(out)])
+    assert result.exit_code == 2, result.output
+    assert "hostile.yaml:" in result.output and "kinematics.hash" in result.output
+    assert "is not a plain token" in result.output and not out.exists()
