@@ -27,7 +27,7 @@ import pickle
 from pathlib import Path
 from typing import Any
 
-FORMAT = 2  # bump when an entry's layout changes
+FORMAT = 3  # bump when an entry's layout changes
 KIND = "cells"  # the cache's folder (rworld_cli.cache)
 MAX_ENTRIES = 256  # the least recently used beyond this are removed when one is added
 
@@ -58,27 +58,30 @@ def _digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-def entry(real: Path, shown: str, pose_files: list[str] | None) -> str | None:
-    """The name of this load's entry, or None (cache off, the cell file unreadable)."""
+def entry(real: Path, shown: str, pose_files: list[str] | None) -> tuple[str, str] | None:
+    """The name of this load's entry and the digest of the cell file's bytes it was named by,
+    or None (cache off, the cell file unreadable)."""
     if not enabled():
         return None
     try:
         h = hashlib.sha256(_fingerprint().encode())
         for part in (real.resolve(), shown, repr(pose_files)):  # names as bytes, whatever
             h.update(b"|" + os.fsencode(part))  # their encoding (a folder named in latin-1)
-        h.update(b"|" + real.read_bytes())
-        return f"{h.hexdigest()[:40]}.pickle"
+        data = real.read_bytes()
+        h.update(b"|" + data)
+        return f"{h.hexdigest()[:40]}.pickle", hashlib.sha256(data).hexdigest()
     except (OSError, ValueError):  # unreadable; a name no file system can hold
         return None
 
 
-def lookup(name: str | None) -> Any:
+def lookup(key: tuple[str, str] | None) -> Any:
     """The ``LoadedCell`` kept under ``name`` (:func:`entry`) when its entry authenticates and
     every file it read is unchanged, else None."""
-    if name is None:
+    if key is None:
         return None
     from .. import cache
 
+    name = key[0]
     data = cache.read(KIND, name)  # authenticated: only then unpickled
     if data is None:
         return None
@@ -93,16 +96,25 @@ def lookup(name: str | None) -> Any:
         return None
 
 
-def store(name: str | None, loaded: Any, read: list[Path]) -> None:
-    """Keep ``loaded`` (a cell that loaded without errors) under ``name`` (:func:`entry`) with
-    the digests of the files it read."""
-    if name is None:
+def store(key: tuple[str, str] | None, loaded: Any, read: list[tuple[Path, str]]) -> None:
+    """Keep ``loaded`` (a cell that loaded without errors) under ``key`` (:func:`entry`) with
+    the digests of the bytes it parsed (``read``: each file with the digest taken when it was
+    read, the cell file first).  Nothing is kept when the cell file parsed is not the one the
+    key was made from, or any file has changed since it was read: an editor's save, a
+    ``calibrate -o`` or a ``git checkout`` under a running command must not leave the model of
+    the old bytes under the new bytes' name."""
+    if key is None:
         return
     from .. import cache
 
+    name, cell_digest = key
     try:
+        if not read or read[0][1] != cell_digest:
+            return
+        if any(_digest(path) != digest for path, digest in read):
+            return
         data = pickle.dumps(
-            {"read": [(str(p.resolve()), _digest(p)) for p in read], "loaded": loaded},
+            {"read": [(str(p.resolve()), d) for p, d in read[1:]], "loaded": loaded},
             protocol=pickle.HIGHEST_PROTOCOL,
         )
     except Exception:  # a cache: whatever cannot be kept is loaded afresh next time

@@ -181,8 +181,14 @@ def load_cell(
     if errors:
         raise UserError(f"{shown}: {len(errors)} error(s)", ordered)
     loaded = LoadedCell(cell, [i for i in ordered if i.severity == "warning"])
-    cellcache.store(where, loaded, builder.read)
+    cellcache.store(where, loaded, [(real, doc.digest), *builder.read])
     return loaded
+
+
+def _file_digest(path: Path) -> str:
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 ANGLE_KEYS = {"alpha", "theta", "rpy"}  # keys whose numbers are angles in the file's unit
@@ -404,7 +410,9 @@ class _Builder:
         self.features: dict[str, wm.Feature] = {}
         self.feature_paths: dict[str, tuple] = {}
         self.fixed_poses: dict[str, np.ndarray] = {}  # frames of fixed joints' links: T_parent
-        self.read: list[Path] = []  # files read besides the cell file: pose files, meshes
+        # files read besides the cell file (pose files, meshes), each with the digest of its
+        # bytes when read: what the cell cache records (cellcache.store)
+        self.read: list[tuple[Path, str]] = []
 
     # ------------------------------------------------------------------ helpers
     def err(self, path, message, prefer="value", doc: Marked | None = None):
@@ -600,7 +608,8 @@ class _Builder:
             )
             return None
         stat = file.stat()
-        self.read.append(file)
+        self.read.append((file, _file_digest(file)))  # before the facts are read: a later
+        # change of the file then never matches, and the entry is not used
         facts = _mesh_facts(str(file.resolve()), stat.st_mtime_ns, stat.st_size)
         if isinstance(facts, str):
             self.err(path + ("file",), facts)
@@ -1413,7 +1422,7 @@ class _Builder:
                 self.issues.extend(exc.issues)
                 complete = False
                 continue
-            self.read.append(real)
+            self.read.append((real, doc.digest))
             files.append(real)
             self.issues.extend(implausible_values(doc, pf.units))
             L, A = LENGTH[pf.units.length], ANGLE[pf.units.angle]

@@ -12,6 +12,7 @@ keep the last of duplicated keys; both are wrong for a validator.
 
 from __future__ import annotations
 
+import hashlib
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -59,12 +60,16 @@ class Marked:
         Path tuple -> (line, column) of the value's first character (1-based).
     key_marks : dict
         Path tuple -> (line, column) of the mapping key that leads to it.
+    digest : str
+        SHA-256 of the bytes parsed ('' for text not read from a file): what a cache entry
+        records, so that it describes the bytes this parse saw, not the file as it is later.
     """
 
     data: Any
     file: str
     value_marks: dict[PathKey, tuple[int, int]] = field(default_factory=dict)
     key_marks: dict[PathKey, tuple[int, int]] = field(default_factory=dict)
+    digest: str = ""
 
     def position(self, path: PathKey, prefer: str = "value") -> tuple[int, int]:
         """Best position for ``path``: its value (or key), else the nearest ancestor."""
@@ -292,7 +297,8 @@ def read_yaml(path: str | Path, display: str | None = None) -> Marked:
     """
     shown = display if display is not None else str(path)
     try:
-        text = Path(path).read_bytes().decode("utf-8")
+        data = Path(path).read_bytes()
+        text = data.decode("utf-8")
     except FileNotFoundError:
         raise UserError(
             f"{shown}: no such file", [Issue(shown, 0, 0, "(file)", "no such file")]
@@ -311,4 +317,6 @@ def read_yaml(path: str | Path, display: str | None = None) -> Marked:
         raise UserError(
             f"{shown}: cannot read", [Issue(shown, 0, 0, "(file)", f"cannot read: {exc.strerror}")]
         ) from None
-    return parse_yaml_text(text, shown)
+    marked = parse_yaml_text(text, shown)
+    marked.digest = hashlib.sha256(data).hexdigest()
+    return marked

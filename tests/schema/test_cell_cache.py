@@ -130,7 +130,7 @@ def test_the_folder_keeps_the_most_recently_used_entries(tmp_path, monkeypatch):
         cell = tmp_path / f"cell{k}"
         shutil.copytree(WORKCELLS / "puma560", cell)
         cells.append(cell)
-        name = cellcache.entry(*resolve_cell_path(cell), None)
+        name, _ = cellcache.entry(*resolve_cell_path(cell), None)
         entries.append(tmp_path / "cache" / "cells" / name)
     load_cell(cells[0])
     load_cell(cells[1])
@@ -139,3 +139,80 @@ def test_the_folder_keeps_the_most_recently_used_entries(tmp_path, monkeypatch):
     load_cell(cells[0])  # used again now
     load_cell(cells[2])  # a third entry: the least recently used (the second) goes
     assert entries[0].exists() and entries[2].exists() and not entries[1].exists()
+
+
+def _table_x(loaded) -> float:
+    from rworld_cli.world.tree import World
+
+    return float(World(loaded.cell).T_world("table")[0, 3])
+
+
+def test_a_file_rewritten_while_the_cell_loads_is_never_kept_as_the_new_bytes(
+    tmp_path, monkeypatch
+):
+    """The outside report's race (issue 58): a pose file saved while a command loads the cell
+    stored the model of the old bytes under the new bytes' digest; every later command used
+    poses 100 mm out.  Each file's digest is now taken when it is read."""
+    monkeypatch.setenv("RWORLD_CACHE_DIR", str(tmp_path / "cache"))
+    cell = tmp_path / "cell"
+    shutil.copytree(WORKCELLS / "puma560", cell)
+    poses = cell / "poses.yaml"
+    new = poses.read_text().replace("[0.7, 0, 0.4]", "[0.8, 0, 0.4]")
+    store = cellcache.store
+
+    def save_in_the_window(*args):  # the editor saves after the load read the file
+        poses.write_text(new)
+        store(*args)
+
+    monkeypatch.setattr(cellcache, "store", save_in_the_window)
+    assert _table_x(load_cell(cell)) == pytest.approx(0.7)  # this load read the old bytes
+    monkeypatch.setattr(cellcache, "store", store)
+    assert _table_x(load_cell(cell)) == pytest.approx(0.8)  # never the old model
+    assert _table_x(load_cell(cell)) == pytest.approx(0.8)  # now from the cache
+    # the cell file itself changed between naming the entry and parsing it
+    text = (cell / "cell.yaml").read_text()
+    entry = cellcache.entry
+
+    def edit_after_naming(*args):
+        key = entry(*args)
+        (cell / "cell.yaml").write_text(text.replace("mass: 17.4", "mass: 18.4"))
+        return key
+
+    monkeypatch.setattr(cellcache, "entry", edit_after_naming)
+    load_cell(cell)
+    monkeypatch.setattr(cellcache, "entry", entry)
+    (cell / "cell.yaml").write_text(text)  # back to the bytes the entry was named by
+    masses = [link.inertial.mass for d in load_cell(cell).cell.devices.values() for link in d.links]
+    assert 17.4 in masses and 18.4 not in masses
+
+
+def test_fifty_rounds_of_the_race_load_nothing_stale(tmp_path, monkeypatch):
+    import threading
+
+    from rworld_cli.fileio import atomic_write_text
+
+    monkeypatch.setenv("RWORLD_CACHE_DIR", str(tmp_path / "cache"))
+    cell = tmp_path / "cell"
+    shutil.copytree(WORKCELLS / "puma560", cell)
+    poses = cell / "poses.yaml"
+    texts = {x: poses.read_text().replace("[0.7, 0, 0.4]", f"[{x}, 0, 0.4]") for x in (0.7, 0.8)}
+    rng = np.random.default_rng(58)
+    stale = 0
+    for _ in range(50):
+        stop = threading.Event()
+
+        def flip():
+            k = 0
+            while not stop.is_set():  # saved as editors and calibrate -o save: by rename
+                atomic_write_text(poses, texts[(0.7, 0.8)[k % 2]])
+                k += 1
+
+        writer = threading.Thread(target=flip)
+        writer.start()
+        load_cell(cell)  # races the writer
+        stop.set()
+        writer.join()
+        final = float(rng.choice([0.7, 0.8]))
+        poses.write_text(texts[final])
+        stale += abs(_table_x(load_cell(cell)) - final) > 1e-12
+    assert stale == 0
