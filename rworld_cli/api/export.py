@@ -737,7 +737,8 @@ def measure_from_log(
         length = float(np.linalg.norm(line))
         along = float((at - start) @ line / length)
         off = float(np.linalg.norm(at - start - along * line / length))
-        if off > tolerance or along < -tolerance or along > length + tolerance:
+        # written so that a NaN anywhere is outside (every comparison with NaN is False)
+        if not (off <= tolerance and -tolerance <= along <= length + tolerance):
             raise UserError(
                 f"{contact.where}: contact {contact.number} ({record.feature}, step "
                 f"{record.step}) lies {off * 1000:.3f} mm off its search's line and "

@@ -25,6 +25,13 @@ The reports carry the same fields in every language::
 
 Several runs in one log (a UR log, an appended RAPID file): the last complete run is taken
 (a report ``1/N`` starts a run) and the earlier ones named in :attr:`ContactLog.notes`.
+
+**A log cannot lie** (issue 58): every value is the whole token up to its delimiter (a space,
+``,`` in a list, ``]`` or ``}``) and must be an ASCII decimal number as the controller writes
+it, finite and of a plausible size - ``417,775`` (a decimal comma), ``0x10``, ``1_000``,
+``nan``, ``1e999`` or Arabic-Indic digits are refused, never read as their first digits; a key
+given twice is refused; a report's ``K/N`` must count from 1 to N; the file is read up to
+:data:`MAX_LOG_BYTES`.  Every refusal names the file, line and column.
 """
 
 from __future__ import annotations
@@ -40,7 +47,10 @@ from ..errors import Issue, UserError
 
 LANGUAGES = ("urscript", "rapid", "krl", "fanuc")
 MARK = "rworld contact"
-NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?", re.ASCII)  # a whole token
+MAX_LOG_BYTES = 64 * 1024 * 1024  # a UR log of months; larger: trim it to the run
+MAX_VALUE = 1e7  # |coordinate| in mm (10 km) or |angle| in deg; a log value past it is a fault
+MAX_CONTACTS = 100_000
 UNITS = {"m": 1.0, "mm": 1e-3}
 FIELDS = ("program", "step", "line", "feature", "tcp", "frame", "unit", "dir")
 
@@ -92,23 +102,48 @@ def _euler_zyx(z: float, y: float, x: float) -> np.ndarray:
     return spatial.rpy_to_matrix(np.radians([x, y, z]))
 
 
+def _number(token: str, path: str, line: int, what: str) -> float:
+    """One value: the whole token, an ASCII decimal number, finite, |x| <= MAX_VALUE."""
+    token = token.strip()
+    if not NUMBER.fullmatch(token):
+        _fail(path, line, f"{what}: '{token[:40]}' is not a decimal number (as the controller "
+              "writes one: digits, one '.', an exponent; no ',' '_' or hex)")  # fmt: skip
+    value = float(token)
+    if not abs(value) <= MAX_VALUE:  # written so that NaN fails too
+        _fail(path, line, f"{what}: {token[:40]} is not a plausible value (|x| <= {MAX_VALUE:g})")
+    return value
+
+
 def _numbers(text: str, count: int, path: str, line: int, what: str) -> np.ndarray:
-    values = re.findall(NUM, text)
-    if len(values) != count:
-        _fail(path, line, f"{what}: {count} numbers expected, found {len(values)} ('{text}')")
-    out = np.array([float(v) for v in values])
-    if not np.all(np.isfinite(out)):
-        _fail(path, line, f"{what}: not a finite number ('{text}')")
+    """``count`` values separated by commas, each a whole token (:func:`_number`)."""
+    tokens = text.split(",")
+    if len(tokens) != count:
+        _fail(path, line, f"{what}: {count} numbers expected, found {len(tokens)} ('{text[:80]}')")
+    return np.array([_number(t, path, line, f"{what}[{i}]") for i, t in enumerate(tokens)])
+
+
+def _pairs(items: list[tuple[str, str]], path: str, line: int, what: str) -> dict[str, str]:
+    """``key=value`` pairs as a dict, each key once."""
+    out: dict[str, str] = {}
+    for key, value in items:
+        if key in out:
+            _fail(path, line, f"{what}: '{key}' given twice")
+        out[key] = value
     return out
 
 
 def _report(text: str, path: str, line: int) -> tuple[int, int, dict[str, str], str]:
     """(K, N, fields, the rest after the fields) of a report line from its mark on."""
     start = text.index(MARK)
-    head = re.match(rf"{MARK} (\d+)/(\d+)\s", text[start:])
+    head = re.match(rf"{MARK} (\d{{1,6}})/(\d{{1,6}})\s", text[start:], re.ASCII)
     if head is None:
         _fail(path, line, f"'{MARK}' without its 'K/N' count", start + 1)
-    fields = dict(re.findall(r"(\w+)=(\S+)", text[start + head.end() :]))
+    k, total = int(head.group(1)), int(head.group(2))
+    if not 1 <= k <= total <= MAX_CONTACTS:
+        _fail(path, line, f"contact {k}/{total}: a report counts 1 to N", start + 1)
+    fields = _pairs(
+        re.findall(r"(\w+)=(\S+)", text[start + head.end() :], re.ASCII), path, line, "report"
+    )
     missing = [f for f in FIELDS if f not in fields]
     if missing:
         _fail(path, line, f"contact report without {', '.join(missing)}", start + 1)
@@ -116,7 +151,7 @@ def _report(text: str, path: str, line: int) -> tuple[int, int, dict[str, str], 
         _fail(
             path, line, f"unit={fields['unit']}: the reports give m or mm", text.index("unit=") + 1
         )
-    return int(head.group(1)), int(head.group(2)), fields, text[start + head.end() :]
+    return k, total, fields, text[start + head.end() :]
 
 
 def _urscript(lines: list[str], path: str) -> list[LoggedContact]:
@@ -130,6 +165,9 @@ def _urscript(lines: list[str], path: str) -> list[LoggedContact]:
             _fail(path, n, "a URScript contact report ends in 'pose=p[x, y, z, rx, ry, rz]'")
         v = _numbers(found.group(1), 6, path, n, "the pose")
         scale = UNITS[fields["unit"]]
+        if not np.linalg.norm(v[3:]) <= 2 * np.pi:
+            _fail(path, n, f"the pose's rotation vector is {np.linalg.norm(v[3:]):.6g} rad long "
+                  "(a controller reports at most pi)")  # fmt: skip
         R = _rotvec(v[3:])
         out.append(
             LoggedContact(k, total, spatial.make_transform(R, v[:3] * scale), fields, f"{path}:{n}")
@@ -143,15 +181,15 @@ def _rapid(lines: list[str], path: str) -> list[LoggedContact]:
         if MARK not in text:
             continue
         k, total, fields, rest = _report(text, path, n)
-        xyz = re.search(rf"x=({NUM}) y=({NUM}) z=({NUM})", rest)
-        quat = re.search(rf"q=({NUM}),({NUM}),({NUM}),({NUM})", rest)
-        if xyz is None or quat is None:
+        values = fields  # x=, y=, z= and q= are fields of the report like the others
+        absent = [key for key in ("x", "y", "z", "q") if key not in values]
+        if absent:
             _fail(path, n, "a RAPID contact report ends in 'x= y= z=' (mm) and 'q=q1,q2,q3,q4'")
-        p = np.array([float(v) for v in xyz.groups()]) * UNITS[fields["unit"]]
-        q = np.array([float(v) for v in quat.groups()])
+        p = np.array([_number(values[c], path, n, c) for c in "xyz"]) * UNITS[fields["unit"]]
+        q = _numbers(values["q"], 4, path, n, "q")
         norm = float(np.linalg.norm(q))
         if not np.isfinite(norm) or abs(norm - 1.0) > 1e-3:
-            _fail(path, n, f"q={quat.group(0)[2:]} is not a unit quaternion (norm {norm:.6g})")
+            _fail(path, n, f"q={values['q']} is not a unit quaternion (norm {norm:.6g})")
         T = spatial.make_transform(spatial.quat_to_matrix(q / norm), p)
         out.append(LoggedContact(k, total, T, fields, f"{path}:{n}"))
     return out
@@ -164,21 +202,32 @@ def _krl(lines: list[str], path: str) -> tuple[list[LoggedContact], int | None]:
         if stripped.startswith(";") and MARK in stripped:
             report = (n, *_report(stripped, path, n))
             continue
-        found = re.match(r"DECL\s+INT\s+RWC_COUNT\s*=\s*(-?\d+)", stripped, re.I)
+        found = re.match(r"DECL\s+INT\s+RWC_COUNT\s*=\s*(\S+)\s*$", stripped, re.I | re.ASCII)
         if found:
-            count = int(found.group(1))
+            value = _number(found.group(1), path, n, "RWC_COUNT")
+            if not (value == int(value) and 0 <= value <= MAX_CONTACTS):
+                _fail(path, n, f"RWC_COUNT = {found.group(1)}: not a count of contacts")
+            count = int(value)
             continue
-        found = re.match(r"DECL\s+E6POS\s+RWC_(\d+)\s*=\s*\{(.*)\}", stripped, re.I)
+        found = re.match(r"DECL\s+E6POS\s+RWC_(\d{1,6})\s*=\s*\{(.*)\}\s*$", stripped,
+                         re.I | re.ASCII)  # fmt: skip
         if not found:
             continue
         k = int(found.group(1))
         if report is None or report[1] != k:
             _fail(path, n, f"RWC_{k} without its '; {MARK} {k}/N' line above it")
-        values = dict(re.findall(rf"\b([A-Z]\d?)\s+({NUM})", found.group(2), re.I))
-        absent = [c for c in "XYZABC" if c not in {key.upper() for key in values}]
+        items = []
+        for item in found.group(2).split(","):
+            parts = item.split()
+            if len(parts) != 2 or not re.fullmatch(r"[A-Z]\d?", parts[0], re.I | re.ASCII):
+                _fail(path, n, f"RWC_{k}: '{item.strip()[:40]}' is not 'NAME value' (an E6POS "
+                      "component)")  # fmt: skip
+            items.append((parts[0].upper(), parts[1]))
+        values = _pairs(items, path, n, f"RWC_{k}")
+        absent = [c for c in "XYZABC" if c not in values]
         if absent:
             _fail(path, n, f"RWC_{k} has no {', '.join(absent)}")
-        v = {key.upper(): float(value) for key, value in values.items()}
+        v = {c: _number(x, path, n, f"RWC_{k}.{c}") for c, x in values.items()}  # all of them
         _, _, total, fields, _ = report
         scale = UNITS[fields["unit"]]
         xyz = np.array([v["X"], v["Y"], v["Z"]]) * scale
@@ -195,12 +244,14 @@ def _fanuc(lines: list[str], path: str, first: int) -> list[LoggedContact]:
     registers: dict[int, tuple[int, dict[str, float] | str]] = {}
     current: int | None = None
     for n, text in enumerate(lines, start=1):
-        head = re.match(r"\s*\[(\d+),(\d+)\]\s*=", text)
+        head = re.match(r"\s*\[(\d{1,6}),(\d{1,6})\]\s*=", text, re.ASCII)
         if head:
             if int(head.group(1)) != 1:
                 current = None  # another motion group
                 continue
             current = int(head.group(2))
+            if current in registers:
+                _fail(path, n, f"PR[{current}] listed twice")
             registers[current] = (n, "Uninitialized" if "Uninitialized" in text else {})
             continue
         if current is None or isinstance(registers[current][1], str):
@@ -210,8 +261,10 @@ def _fanuc(lines: list[str], path: str, first: int) -> list[LoggedContact]:
         if re.search(r"\bJ1\s*=", text):
             registers[current] = (registers[current][0], "joint")
             continue
-        for key, value in re.findall(rf"\b([XYZWPR])\s*:\s*({NUM})", text):
-            values[key] = float(value)
+        for key, value in re.findall(r"\b([XYZWPR])\s*:\s*(\S*)", text, re.ASCII):
+            if key in values:
+                _fail(path, n, f"PR[{current}]: '{key}' given twice")
+            values[key] = _number(value, path, n, f"PR[{current}].{key}")
     if not registers:
         _fail(path, 1, "no position registers: POSREG.VA lists '[*POSREG*]$POSREG' entries")
     out = []
@@ -252,7 +305,13 @@ def read_contact_log(path: str, language: str, first_register: int = 101) -> Con
     if language not in LANGUAGES:
         raise UserError(f"--format: contact logs are read for {', '.join(LANGUAGES)}")
     try:
-        raw = Path(path).read_bytes()
+        with Path(path).open("rb") as stream:
+            raw = stream.read(MAX_LOG_BYTES + 1)
+        if len(raw) > MAX_LOG_BYTES:
+            raise UserError(
+                f"{path}: over {MAX_LOG_BYTES} bytes; give the part of the log with the "
+                "run (from its 'rworld contact 1/N' report on)"
+            )
     except OSError as exc:
         raise UserError(f"cannot read {path}: {exc.strerror or exc}") from None
     text = raw.decode("utf-8", errors="replace")

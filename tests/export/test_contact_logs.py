@@ -14,6 +14,7 @@ import pytest
 
 from rworld_cli.calibration.pipeline import calibrate
 from rworld_cli.calibration.probing import probe_run
+from rworld_cli.errors import UserError
 from rworld_cli.schema.loader import load_cell
 from rworld_cli.schema.measurements import load_measurements
 from rworld_cli.schema.programs import load_run
@@ -423,3 +424,126 @@ def test_a_condition_naming_an_unmeasured_feature_uses_the_measured_ones(cli, lo
     assert "measure bracket.base_top" in said and "leave bracket out (--frames)" in said
     only = cli(["calibrate", str(edited), str(simulated), "--frames", "plate", "--dry-run"])
     assert only.exit_code == 0, only.output
+
+
+# --- a log cannot lie (issue 58) ----------------------------------------------------------------
+
+# a numeric token's mutations: those the reader must refuse (never read as another number), and
+# those that keep the number (the reader must read the same pose)
+REFUSED = {
+    "decimal comma": lambda t: t.replace(".", ",", 1) if "." in t else t + ",5",
+    "hex": lambda t: "0x10",
+    "underscore": lambda t: t[:1] + "_" + t[1:] if len(t) > 1 else "1_0",
+    "nan": lambda t: "nan",
+    "inf": lambda t: "inf",
+    "overflow": lambda t: "1e999",
+    "huge": lambda t: "1e300",
+    "arabic-indic digits": lambda t: t.translate(str.maketrans("0123456789", "٠١٢٣٤٥٦٧٨٩")),
+    "trailing text": lambda t: t + "abc",
+    "empty": lambda t: "",
+    "two numbers": lambda t: t + "-1",
+}
+KEPT = {
+    "plus sign": lambda t: t if t.startswith(("-", "+")) else "+" + t,
+    "trailing zero": lambda t: t + "0" if "." in t and "e" not in t.lower() else t,
+}
+NUMERIC = re.compile(r"(?<![\w.])[-+]?\d+\.\d+(?![\w.])")  # the pose values the writers print
+POSE_REGION = {  # where each language's log holds the pose
+    "urscript": r"p\[[^\]]*\]",
+    "rapid": r" x=.*$",
+    "krl": r"RWC_\d+=\{[^}]*\}",
+    "fanuc": r"\b[XYZWPR]:\s*\S+",
+}
+
+
+def _reads(log, fmt):
+    from rworld_cli.schema.contactlog import read_contact_log
+
+    return read_contact_log(str(log), fmt)
+
+
+def test_a_log_fuzz_refuses_every_lie_and_keeps_every_truth(cli, loop, tmp_path):
+    """At least 300 mutations of real logs in the four languages: each numeric token of a pose
+    replaced as a controller never writes it, or as one may; a key given twice; a count that
+    does not count.  The counts are printed for the closing note."""
+    rng = np.random.default_rng(58)
+    counts = {"mutations": 0, "refused": 0, "kept": 0, "wrong": 0}
+    for fmt, frame in [("urscript", None), ("rapid", "plate"), ("krl", "table"),
+                       ("fanuc", "plate")]:  # fmt: skip
+        log = _write_log(cli, loop, fmt, frame, tmp_path / fmt)
+        text = log.read_text()
+        truth = [c.T_frame_tcp for c in _reads(log, fmt).contacts]
+        spans = [(r.start() + m.start(), r.start() + m.end())
+                 for r in re.finditer(POSE_REGION[fmt], text, re.MULTILINE)
+                 for m in NUMERIC.finditer(r.group())]  # fmt: skip
+        assert len(spans) >= 50
+        picks = rng.choice(len(spans), size=min(len(spans), 90), replace=False)
+        for k, pick in enumerate(picks):
+            start, end = spans[pick]
+            token = text[start:end]
+            kinds = list(REFUSED) + list(KEPT)
+            kind = kinds[k % len(kinds)]
+            new = (REFUSED | KEPT)[kind](token)
+            mutated = tmp_path / fmt / f"m{k}{log.suffix}"
+            mutated.write_text(text[:start] + new + text[end:], encoding="utf-8")
+            counts["mutations"] += 1
+            try:
+                read = [c.T_frame_tcp for c in _reads(mutated, fmt).contacts]
+            except UserError as exc:
+                assert exc.issues and exc.issues[0].line > 0, exc  # located
+                counts["refused" if kind in REFUSED else "wrong"] += 1
+                continue
+            same = len(read) == len(truth) and all(np.allclose(a, b, atol=1e-12, rtol=0)
+                                                   for a, b in zip(read, truth))  # fmt: skip
+            unchanged = new == token
+            ok = kind in KEPT or unchanged
+            counts["kept" if ok and same else "wrong"] += 1
+            assert ok and same, (fmt, kind, token, new)
+            assert all(np.all(np.isfinite(T)) for T in read)
+    print("log fuzz:", counts)
+    assert counts["mutations"] >= 300 and counts["wrong"] == 0
+
+
+@pytest.mark.parametrize(
+    "fmt, frame, edit, message",
+    [
+        ("rapid", "plate", lambda t: t.replace(" x=", " x=1 x=", 1), "'x' given twice"),
+        ("krl", "table", lambda t: re.sub(r"(RWC_1=\{)X ", r"\1X 1,X ", t), "'X' given twice"),
+        ("urscript", None, lambda t: t.replace("contact 1/12", "contact 13/12", 1),
+         "a report counts 1 to N"),
+        ("urscript", None, lambda t: t.replace("pose=p[", "pose=p[1e300, 0, 0, 0, 0, 0] p[", 1),
+         "not a plausible value"),
+        ("fanuc", "plate", lambda t: re.sub(r"X:\s*(\S+)", r"X: \1 X: 1.0", t, count=1),
+         "'X' given twice"),
+    ],
+)  # fmt: skip
+def test_keys_counts_and_sizes_are_checked(cli, loop, tmp_path, fmt, frame, edit, message):
+    log = _write_log(cli, loop, fmt, frame, tmp_path)
+    log.write_text(edit(log.read_text()))
+    with pytest.raises(UserError) as caught:
+        _reads(log, fmt)
+    assert message in str(caught.value), caught.value
+
+
+def test_a_decimal_comma_never_reaches_calibrate(cli, loop, tmp_path):
+    """The outside report's case: 'Z 417,775' read as 417.0 stayed inside the 2 mm line
+    tolerance and put the plate 0.82 mm off; now the log is refused and nothing written."""
+    cell = loop[0]
+    log = _write_log(cli, loop, "krl", "table", tmp_path)
+    text = log.read_text()
+    z = re.search(r"RWC_1=\{[^}]*?Z (-?\d+)\.(\d+)", text)
+    log.write_text(text[: z.start(1)] + f"{z.group(1)},{z.group(2)}" + text[z.end(2) :])
+    out = tmp_path / "m.yaml"
+    result = _read_back(cli, cell, log, "krl", out)
+    assert result.exit_code == 2 and not out.exists(), result.output
+    assert "is not 'NAME value'" in result.output and f"{log}:" in result.output
+
+
+def test_a_log_over_the_size_bound_is_refused_at_once(tmp_path, monkeypatch):
+    from rworld_cli.schema import contactlog
+
+    monkeypatch.setattr(contactlog, "MAX_LOG_BYTES", 1000)
+    log = tmp_path / "big.log"
+    log.write_text("x" * 2000)
+    with pytest.raises(UserError, match="over 1000 bytes"):
+        contactlog.read_contact_log(str(log), "urscript")
