@@ -260,7 +260,7 @@ def _render(run) -> None:
     help="Probing noise, 1 sigma (mm, um or m; a bare number is mm): --simulate adds it "
     "(default 0.05mm), --from-log states it in the file.",
 )
-@click.option("--seed", default=0, show_default=True, type=int)
+@click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0))
 @click.option(
     "--points",
     default=10,

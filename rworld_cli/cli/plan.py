@@ -681,12 +681,18 @@ def impulse(
     metavar="LENGTH",
     help="Overlaps shallower than this are touches (as in 'rworld check').",
 )
-@click.option("--seed", default=0, show_default=True, type=int, help="The search's random seed.")
+@click.option(
+    "--seed",
+    default=0,
+    show_default=True,
+    type=click.IntRange(min=0),
+    help="The search's random seed.",
+)
 @click.option(
     "--timeout",
     default=10.0,
     show_default=True,
-    type=FiniteFloat(min=0),
+    type=FiniteFloat(min=0, min_open=True),
     metavar="S",
     help="Give up after this many seconds of search (exit 1).",
 )

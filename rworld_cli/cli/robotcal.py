@@ -242,7 +242,7 @@ def calibrate_robot(
 )
 @click.option("--sigma", default="0.02mm", show_default=True, help="The instrument's 1 sigma.")
 @click.option("--candidates", default=2000, show_default=True, type=click.IntRange(min=1))
-@click.option("--seed", default=0, show_default=True, type=int)
+@click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0))
 @click.option(
     "--program",
     default=None,

@@ -109,7 +109,12 @@ def solve_ik_arm_angle(
                 break
             around = residuals(q + steps)  # central differences, one batch
             J = ((around[: device.dof] - around[device.dof :]) / (2 * h)).T
-            dq = -np.linalg.solve(J.T @ J + damping * np.eye(device.dof), J.T @ r)
+            if not (np.all(np.isfinite(J)) and np.all(np.isfinite(r))):
+                break  # the arm angle is undefined here (shoulder, elbow and wrist in line)
+            try:
+                dq = -np.linalg.solve(J.T @ J + damping * np.eye(device.dof), J.T @ r)
+            except np.linalg.LinAlgError:
+                break  # this start leads nowhere; the next one is tried
             trial = np.clip(q + dq, lower, upper)
             r_trial = residuals(trial)[0]
             if np.linalg.norm(r_trial) < np.linalg.norm(r):

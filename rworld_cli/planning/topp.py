@@ -50,6 +50,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import UserError
+from ..units import MAX_SAMPLES
 from .constraints import (  # noqa: F401  (Constraint: the protocol, re-exported)
     BetweenGridPoints,
     Constraint,
@@ -697,6 +699,11 @@ def sample_instants(timing: Timing, samples=None, period: float | None = None) -
     ``period`` seconds from 0 until the end is covered (the last row at or after it, at rest).
     """
     if period is not None:
+        if not timing.duration / period <= MAX_SAMPLES:  # bounded before anything is allocated
+            raise UserError(
+                f"the trajectory takes {timing.duration:.4g} s: {timing.duration / period:.3g} "
+                f"rows at a period of {period:g} s, above the bound of {MAX_SAMPLES:,}"
+            )
         count = int(np.ceil(timing.duration / period - 1e-9)) + 1
         return np.arange(count) * period
     if np.isscalar(samples):

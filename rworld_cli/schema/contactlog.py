@@ -106,8 +106,12 @@ def _number(token: str, path: str, line: int, what: str) -> float:
     """One value: the whole token, an ASCII decimal number, finite, |x| <= MAX_VALUE."""
     token = token.strip()
     if not NUMBER.fullmatch(token):
-        _fail(path, line, f"{what}: '{token[:40]}' is not a decimal number (as the controller "
-              "writes one: digits, one '.', an exponent; no ',' '_' or hex)")  # fmt: skip
+        _fail(
+            path,
+            line,
+            f"{what}: '{token[:40]}' is not a decimal number (as the controller "
+            "writes one: digits, one '.', an exponent; no ',' '_' or hex)",
+        )
     value = float(token)
     if not abs(value) <= MAX_VALUE:  # written so that NaN fails too
         _fail(path, line, f"{what}: {token[:40]} is not a plausible value (|x| <= {MAX_VALUE:g})")
@@ -166,8 +170,12 @@ def _urscript(lines: list[str], path: str) -> list[LoggedContact]:
         v = _numbers(found.group(1), 6, path, n, "the pose")
         scale = UNITS[fields["unit"]]
         if not np.linalg.norm(v[3:]) <= 2 * np.pi:
-            _fail(path, n, f"the pose's rotation vector is {np.linalg.norm(v[3:]):.6g} rad long "
-                  "(a controller reports at most pi)")  # fmt: skip
+            _fail(
+                path,
+                n,
+                f"the pose's rotation vector is {np.linalg.norm(v[3:]):.6g} rad long "
+                "(a controller reports at most pi)",
+            )
         R = _rotvec(v[3:])
         out.append(
             LoggedContact(k, total, spatial.make_transform(R, v[:3] * scale), fields, f"{path}:{n}")
@@ -209,8 +217,9 @@ def _krl(lines: list[str], path: str) -> tuple[list[LoggedContact], int | None]:
                 _fail(path, n, f"RWC_COUNT = {found.group(1)}: not a count of contacts")
             count = int(value)
             continue
-        found = re.match(r"DECL\s+E6POS\s+RWC_(\d{1,6})\s*=\s*\{(.*)\}\s*$", stripped,
-                         re.I | re.ASCII)  # fmt: skip
+        found = re.match(
+            r"DECL\s+E6POS\s+RWC_(\d{1,6})\s*=\s*\{(.*)\}\s*$", stripped, re.I | re.ASCII
+        )
         if not found:
             continue
         k = int(found.group(1))
@@ -220,8 +229,11 @@ def _krl(lines: list[str], path: str) -> tuple[list[LoggedContact], int | None]:
         for item in found.group(2).split(","):
             parts = item.split()
             if len(parts) != 2 or not re.fullmatch(r"[A-Z]\d?", parts[0], re.I | re.ASCII):
-                _fail(path, n, f"RWC_{k}: '{item.strip()[:40]}' is not 'NAME value' (an E6POS "
-                      "component)")  # fmt: skip
+                _fail(
+                    path,
+                    n,
+                    f"RWC_{k}: '{item.strip()[:40]}' is not 'NAME value' (an E6POS component)",
+                )
             items.append((parts[0].upper(), parts[1]))
         values = _pairs(items, path, n, f"RWC_{k}")
         absent = [c for c in "XYZABC" if c not in values]

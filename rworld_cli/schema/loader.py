@@ -191,6 +191,7 @@ def _file_digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+PULSES_PER_DEGREE = (10.0, 100_000.0)  # Yaskawa encoders: a GP7's axes about 1 000 to 2 000
 ANGLE_KEYS = {"alpha", "theta", "rpy"}  # keys whose numbers are angles in the file's unit
 LENGTH_KEYS = {"a", "d", "xyz", "box", "radius", "length", "point", "center", "size", "com"}
 LARGEST_LENGTH = 100.0  # m: a cell is a room; longer is a unit read wrongly
@@ -969,6 +970,17 @@ class _Builder:
                 self.err(path + (key,), f"{len(values)} value(s) for {n} joint(s): one per axis")
         if spec.zero_pulse is not None and spec.pulses_per_degree is None:
             self.err(path + ("zero_pulse",), "zero_pulse goes with pulses_per_degree")
+        for k, value in enumerate(spec.pulses_per_degree or []):
+            if not PULSES_PER_DEGREE[0] <= value <= PULSES_PER_DEGREE[1]:  # NaN fails too
+                self.err(
+                    path + ("pulses_per_degree", k),
+                    f"{value:g} pulses per degree is not "
+                    f"an encoder's (Yaskawa's lie within {PULSES_PER_DEGREE[0]:g} to "
+                    f"{PULSES_PER_DEGREE[1]:g}); read it off the robot parameters",
+                )
+        for k, value in enumerate(spec.zero_pulse or []):
+            if not abs(value) < 2**31:
+                self.err(path + ("zero_pulse", k), f"{value} is not a pulse count (32 bits)")
         return wm.ControllerProfile(
             found.get("flange"),
             found.get("base"),

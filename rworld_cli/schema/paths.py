@@ -5,6 +5,7 @@ knots.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -15,6 +16,10 @@ from ..units import ANGLE, LENGTH
 from .loader import validate_document
 from .program import PathFile
 from .yamlio import Marked, comment_text, read_yaml, yaml_value
+
+MAX_WAYPOINTS = 20_000  # a planned path has tens; a taught spline a few thousand
+MAX_PATH_FILE_BYTES = 4_000_000  # 20 000 waypoints of 7 full-precision values: 2.8 MB
+MIN_KNOT_STEP = 1e-9  # knots closer than this make the spline's speeds overflow
 
 
 @dataclass
@@ -41,10 +46,24 @@ def read_path(path_file: str, device) -> LoadedPath:
         Located problems: syntax and types, waypoints of the wrong length, knots that do not
         rise from 0 to 1, waypoints outside their joint's position limits.
     """
-    doc = read_yaml(path_file)
-    pf = validate_document(doc, PathFile)
+    doc, pf = read_path_file(path_file)
     n = device.dof
     issues = []
+    if len(pf.waypoints) > MAX_WAYPOINTS:
+        issues.append(
+            doc.issue(
+                ("waypoints",),
+                f"{len(pf.waypoints)} waypoints; a path file holds at most {MAX_WAYPOINTS:,}",
+            )
+        )
+    if pf.device is not None and pf.device != device.name:
+        issues.append(
+            doc.issue(
+                ("device",),
+                f"the path is for '{pf.device}', not for "
+                f"'{device.name}': its joint values are another robot's",
+            )
+        )
     for k, row in enumerate(pf.waypoints):
         if len(row) != n:
             issues.append(
@@ -54,16 +73,18 @@ def read_path(path_file: str, device) -> LoadedPath:
             )
     if pf.knots is not None:
         kn = pf.knots
+        # written so that NaN fails: each step must be a number of at least MIN_KNOT_STEP
         if (
             len(kn) != len(pf.waypoints)
             or kn[0] != 0
             or kn[-1] != 1
-            or any(b <= a for a, b in zip(kn, kn[1:]))
+            or not all(b - a >= MIN_KNOT_STEP for a, b in zip(kn, kn[1:]))
         ):
             issues.append(
                 doc.issue(
                     ("knots",),
-                    f"knots must rise strictly from 0 to 1, one per waypoint ({len(pf.waypoints)})",
+                    f"knots must rise strictly from 0 to 1 (each step at least {MIN_KNOT_STEP:g}), "
+                    f"one per waypoint ({len(pf.waypoints)})",
                 )
             )
     issues += _blend_issues(doc, pf)
@@ -87,7 +108,7 @@ def read_path(path_file: str, device) -> LoadedPath:
     )
     q = np.array(pf.waypoints, dtype=float) * scale
     lo, hi = device.limit_array("lower"), device.limit_array("upper")
-    bad = np.argwhere((q < lo) | (q > hi))
+    bad = np.argwhere(~((q >= lo) & (q <= hi)))  # NaN is outside too
     if len(bad):
         issues = [
             doc.issue(
@@ -147,10 +168,20 @@ def _blend_issues(doc: Marked, pf: PathFile) -> list[Issue]:
     return out
 
 
-def read_path_file(path_file: str) -> tuple[PathFile, Marked]:
-    """The path file's form alone (no device): (PathFile, its document)."""
+def read_path_file(path_file: str) -> tuple[Marked, PathFile]:
+    """The path file's form alone (no device): (its document, PathFile); a file over
+    MAX_PATH_FILE_BYTES is refused before it is parsed."""
+    try:
+        size = Path(path_file).stat().st_size
+    except OSError:
+        size = 0  # read_yaml names what is wrong
+    if size > MAX_PATH_FILE_BYTES:
+        raise UserError(
+            f"{path_file}: {size:,} bytes; a path file holds at most "
+            f"{MAX_PATH_FILE_BYTES:,} ({MAX_WAYPOINTS:,} waypoints)"
+        )
     doc = read_yaml(path_file)
-    return validate_document(doc, PathFile), doc
+    return doc, validate_document(doc, PathFile)
 
 
 def write_path_with_knots(path_file: str, knots, output: str, note: str = "") -> None:

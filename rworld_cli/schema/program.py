@@ -431,7 +431,7 @@ class PathFile(Strict):
     """A joint-space path: a cubic spline through waypoints (for 'rworld plan')."""
 
     device: Name | None = Field(
-        None, description="The device the path is for (informative; --device wins)."
+        None, description="The device the path is for; read for another device it is refused."
     )
     units: PartUnits = Field(
         description="Units of the joint values (angle for revolute, length for prismatic joints)."

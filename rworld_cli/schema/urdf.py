@@ -271,6 +271,8 @@ class _Reader:
                 return None
             scale = self.numbers(shape, "scale", 3, loc + ".mesh", default=[1.0, 1.0, 1.0])
             path, problem = self.resolve(filename)
+            if problem.startswith("mesh file name"):  # malformed, said even where unused
+                self.err(shape, loc + ".mesh", problem, "warning")
             return UrdfGeometry(
                 "mesh",
                 T,
@@ -290,6 +292,11 @@ class _Reader:
         if filename.startswith("package://"):
             rest = filename[len("package://") :]
             package, _, inner = rest.partition("/")
+            if not package or not inner or ".." in Path(inner).parts:
+                return None, (
+                    f"mesh file name '{filename[:120]}': a package:// URL names a package and a "
+                    "file inside it (package://PKG/meshes/link.stl), with no '..'"
+                )
             tried = []
             for root in self.package_paths:
                 for candidate in (root / package / inner, root / inner):

@@ -188,7 +188,7 @@ def test_a_hash_that_is_not_a_plain_token_is_refused(cli, ur5e, tmp_path):
     hostile = tmp_path / "hostile.yaml"
     _calibration_file(hostile, _calibrated())
     text = hostile.read_text().replace(
-        "hash: calib_1234567890", "hash: \"calib_1\\nposes:\\n  fixture: {xyz: [0.25, 0, 0]}\""
+        "hash: calib_1234567890", 'hash: "calib_1\\nposes:\\n  fixture: {xyz: [0.25, 0, 0]}"'
     )
     hostile.write_text(text)
     out = tmp_path / "overlay.yaml"

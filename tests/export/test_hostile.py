@@ -242,3 +242,19 @@ def test_no_name_slot_injects_a_statement_in_any_language(tmp_path, lbr_cell, la
         assert MARKER not in words, (path.name, data.decode("latin-1")[:600])
         if language == "drl":
             assert data.startswith(b"# -*- coding: utf-8 -*-\n")
+
+
+@pytest.mark.parametrize("angle", ["30deg", "-120deg", "0deg", "179deg"])
+def test_an_arm_angle_the_ik_cannot_hold_is_unreachable_not_a_crash(cli, lbr_cell, tmp_path, angle):
+    """The outside report: a plain joint move of the LBR from its stretched zero pose with
+    config: {arm_angle} crashed (LinAlgError, exit 3) for every value tried (issue 58)."""
+    cell = tmp_path / "cell"
+    shutil.copytree(lbr_cell, cell)
+    device = next(iter(__import__("yaml").safe_load((cell / "cell.yaml").read_text())["devices"]))
+    program = cell / "programs" / "plain.yaml"
+    program.write_text(f"device: {device['name']}\nsteps:\n"
+                       f"  - move: {{to: target, config: {{arm_angle: {angle}}}}}\n")  # fmt: skip
+    result = cli(["simulate", str(cell), str(program)])
+    assert result.exit_code in (0, 1), result.output
+    if result.exit_code == 1:
+        assert "with the arm angle" in result.output, result.output

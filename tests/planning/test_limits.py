@@ -332,6 +332,20 @@ def test_validate_checks_path_files_against_their_cell(cli, tmp_path):
             "units: {angle: rad}\n",
             "p.yaml:4:9: blends: blends are for 'boundary: blended'",
         ),
+        (  # issue 58: knots 1e-300 apart made NaN pass and a 2e300 s "time-optimal" duration
+            "waypoints:\n  - [0, 0, 0, 0, 0, 0]\n  - [1, 1, 1, 1, 1, 1]\n  - [0, 1, 0, 0, 0, "
+            "0]\nknots: [0, 1.0e-300, 1]\nunits: {angle: rad}\n",
+            "p.yaml:5:8: knots: knots must rise strictly from 0 to 1 (each step at least 1e-09)",
+        ),
+        (
+            "waypoints:\n  - [0, 0, 0, 0, 0, 0]\n  - [1, .nan, 1, 1, 1, 1]\nunits: {angle: rad}\n",
+            "p.yaml:3:9: waypoints[1][1]: expected a finite number, got nan",
+        ),
+        (
+            "device: ur5\nwaypoints:\n  - [0, 0, 0, 0, 0, 0]\n  - [1, 1, 1, 1, 1, 1]\n"
+            "units: {angle: rad}\n",
+            "p.yaml:1:9: device: the path is for 'ur5', not for 'puma'",
+        ),
     ],
 )
 def test_bad_waypoints_and_knots_exit_2_located_and_write_nothing(cli, tmp_path, text, located):

@@ -269,3 +269,18 @@ def test_refusals_stay_within_bounds_of_memory(tmp_path):
     refused, peak_kib = map(int, out.stdout.split())
     assert refused == len(BOUNDS)
     assert peak_kib < 500 * 1024
+
+
+@pytest.mark.parametrize("url", ["package://", "package:///meshes/a.stl", "package://pkg/../x.stl"])
+def test_a_malformed_package_url_is_said_even_where_the_import_drops_the_link(tmp_path, url):
+    from rworld_cli.schema.urdf import read_urdf
+
+    path = tmp_path / "r.urdf"
+    path.write_text(
+        '<robot name="r"><link name="a"/><link name="b"><visual><geometry>'
+        f'<mesh filename="{url}"/></geometry></visual></link>'
+        '<joint name="j" type="fixed"><parent link="a"/><child link="b"/></joint></robot>'
+    )
+    _, warnings = read_urdf(path, [tmp_path])
+    [warning] = [w for w in warnings if "package:// URL" in w.message]
+    assert warning.line == 1 and warning.severity == "warning"
