@@ -130,9 +130,12 @@ def import_urdf(
         from ..schema.srdf import read_srdf
 
         disabled = read_srdf(srdf)
-    imported = cell_from_urdf(
-        robot, name, base, tip, tcp, device_name, locks, disabled, joint_limits=stated
-    )
+    try:
+        imported = cell_from_urdf(
+            robot, name, base, tip, tcp, device_name, locks, disabled, joint_limits=stated
+        )
+    except UserError as exc:  # a xacro's robot: each problem at the vendor's file and line
+        raise UserError(str(exc), robot.located(exc.issues)) from None
     files = {"cell.yaml": imported.cell_text.encode(), "poses.yaml": imported.poses_text.encode()}
     files.update(imported.meshes)
     # the cell is written as a unit: the folder is swapped whole (its other files, programs and
@@ -189,7 +192,7 @@ def import_urdf(
         imported.tcp,
         imported.merged,
         imported.renamed,
-        warnings + imported.warnings + load_warnings,
+        warnings + robot.located(imported.warnings) + load_warnings,
         imported.renamed_where,
     )
 

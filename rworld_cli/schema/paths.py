@@ -61,7 +61,8 @@ def read_path(path_file: str, device) -> LoadedPath:
             doc.issue(
                 ("device",),
                 f"the path is for '{pf.device}', not for "
-                f"'{device.name}': its joint values are another robot's",
+                f"'{device.name}': its joint values are another robot's (name '{device.name}' "
+                "there if they are meant for it)",
             )
         )
     for k, row in enumerate(pf.waypoints):

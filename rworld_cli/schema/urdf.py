@@ -12,6 +12,7 @@ of every element (``sourceline``), which the standard library's ElementTree does
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 from collections.abc import Sequence
@@ -25,7 +26,7 @@ from ..errors import Issue, UserError, did_you_mean
 from ..fileio import atomic_write_text
 from ..model.cell import Inertial
 from .loader import INERTIA_ENTRIES, inertia_entries, inertia_matrix, inertia_problem
-from .xacro import expand_xacro_file
+from .xacro import XacroExpansion, expand_xacro_file
 from .xmlsafe import xml_parser
 from .yamlio import comment_text
 
@@ -118,6 +119,14 @@ class UrdfRobot:
     joints: dict[str, UrdfJoint]
     root: str
     comment: str = ""
+    expansion: XacroExpansion | None = None  # a xacro's: where each element came from
+
+    def located(self, issues: Sequence[Issue]) -> list[Issue]:
+        """``issues`` about this robot moved from its xacro expansion to the vendor's file and
+        line the element came from (as they are for a URDF file)."""
+        if self.expansion is None:
+            return list(issues)
+        return [self.expansion.source_of(i, self.file) for i in issues]
 
     def child_joints(self, link: str) -> list[UrdfJoint]:
         return [j for j in self.joints.values() if j.parent == link]
@@ -413,7 +422,7 @@ def expand_xacro(
     UserError
         Anything refused or wrong, at the file and line of its element.
     """
-    return expand_xacro_file(path, shown, package_paths, args)[0]
+    return expand_xacro_file(path, shown, package_paths, args).urdf
 
 
 def read_urdf(
@@ -443,16 +452,28 @@ def read_urdf(
     UserError
         Every problem found, located (file:line:col), at once.
     """
-    from lxml import etree
-
     shown = str(path)
     path = Path(path)
     if not path.is_file():
         raise UserError(f"no such URDF file: {shown}")
-    data = path.read_bytes()
-    if path.suffix == ".xacro" or ".xacro" in path.suffixes:
-        data = expand_xacro(path, shown, [Path(p) for p in package_paths or []], xacro_args)
-        shown = f"{shown} (as xacro expands it)"
+    if not (path.suffix == ".xacro" or ".xacro" in path.suffixes):
+        return _read_document(path.read_bytes(), shown, path, package_paths)
+    packages = [Path(p) for p in package_paths or []]
+    expansion = expand_xacro_file(path, shown, packages, xacro_args)
+    shown = f"{shown} (as xacro expands it)"
+    try:
+        robot, issues = _read_document(expansion.urdf, shown, path, package_paths)
+    except UserError as exc:  # each problem at the vendor's file and line
+        raise UserError(str(exc), [expansion.source_of(i, shown) for i in exc.issues]) from None
+    robot = dataclasses.replace(robot, expansion=expansion)
+    return robot, robot.located(issues) + list(expansion.warnings)
+
+
+def _read_document(
+    data: bytes, shown: str, path: Path, package_paths: Sequence[str | Path] | None
+) -> tuple[UrdfRobot, list[Issue]]:
+    from lxml import etree
+
     try:  # the bytes as they are: the XML declaration's encoding holds (UTF-8 without one)
         root = etree.fromstring(data, xml_parser(remove_comments=False))
     except etree.XMLSyntaxError as exc:

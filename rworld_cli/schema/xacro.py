@@ -41,7 +41,7 @@ from xml.sax.saxutils import escape, quoteattr
 from ..errors import Issue, UserError
 from .xmlsafe import xml_parser
 
-__all__ = ["XacroLimits", "expand_xacro_file", "find_package"]
+__all__ = ["XacroExpansion", "XacroLimits", "expand_xacro_file", "find_package"]
 
 
 @dataclass(frozen=True)
@@ -65,6 +65,35 @@ class XacroLimits:
 _XACRO_URIS = frozenset(
     {"http://www.ros.org/wiki/xacro", "http://ros.org/wiki/xacro", "http://wiki.ros.org/xacro"}
 )
+
+
+@dataclass(frozen=True)
+class XacroExpansion:
+    """A xacro file expanded.
+
+    Attributes
+    ----------
+    urdf : bytes
+        The expanded document (UTF-8 XML).
+    warnings : list of Issue
+        ``xacro.warning(...)`` / ``xacro.message(...)`` calls, located.
+    origins : dict
+        Line of the expanded document -> (file, line, column) of the xacro element written on
+        it: messages about the robot then name the vendor's file, not the expansion.
+    """
+
+    urdf: bytes
+    warnings: list[Issue]
+    origins: dict[int, tuple[str, int, int]]
+
+    def source_of(self, issue: Issue, expanded: str) -> Issue:
+        """``issue`` moved from the expansion (named ``expanded``) to the xacro element it
+        came from; as it is when it names another file or a line without an element."""
+        origin = self.origins.get(issue.line) if issue.file == expanded else None
+        if origin is None:
+            return issue
+        file, line, column = origin
+        return Issue(file, line, column, issue.location, issue.message, issue.severity)
 
 
 class _Refused(Exception):
@@ -143,11 +172,16 @@ def _parse(path: Path, shown: str, limits: XacroLimits) -> tuple[_El, dict[str, 
         namespaces.update((p, u) for p, u in el.nsmap.items()
                           if p and p != "xacro" and u not in _XACRO_URIS)  # fmt: skip
         tag = _qualified(el.tag, prefixes)  # a default name space's elements by local name
-        line = el.sourceline or 0
-        text = lines[line - 1] if 0 < line <= len(lines) else ""
-        column = text.find("<" + tag) + 1 or 1
+        # libxml2 gives the line where a start tag ends: its start is the last '<tag' at or
+        # above it (a tag spread over lines, as the vendors write inertias)
+        line, column = el.sourceline or 0, 0
+        for back in range(line, max(line - 200, 0), -1):
+            found = lines[back - 1].rfind("<" + tag) if back <= len(lines) else -1
+            if found >= 0:
+                line, column = back, found + 1
+                break
         node = _El(tag, [(_qualified(k, prefixes), v) for k, v in el.attrib.items()], [],
-                   shown, line, column)  # fmt: skip
+                   shown, line, column or 1)  # fmt: skip
         if el.text:
             node.children.append(_Text(el.text))
         for child in el:
@@ -628,7 +662,7 @@ class _Expander:
                 f"$(find {package}): no ROS package '{package}' under the package paths "
                 f"({where}); give the folder that holds it with --package-path DIR"
             )
-        return os.path.realpath(folder)
+        return os.path.abspath(folder)  # as given (links kept): what messages then show
 
     # names
 
@@ -993,7 +1027,8 @@ class _Expander:
                 ):
                     continue
                 raise
-            root, namespaces = _parse(path, str(path), self.limits)
+            wanted = Path(name) if os.path.isabs(name) else current / name
+            root, namespaces = _parse(path, _shown(wanted), self.limits)
             self.namespaces.update(namespaces)
             out.extend(self.nodes(root.children, scope, macros))
         return out
@@ -1096,6 +1131,14 @@ def _xacro_names(expander: _Expander) -> _Names:
     return _Names({name: _Function(f"xacro.{name}", f) for name, f in functions.items()})
 
 
+def _shown(path: Path) -> str:
+    """An included file's name for messages: relative to the working folder when it is below
+    it (as the user names files; links in the way kept as the user sees them), else absolute."""
+    absolute = os.path.abspath(path)
+    relative = os.path.relpath(absolute)
+    return absolute if relative.startswith("..") else relative
+
+
 def _package_root(path: Path) -> Path:
     """The ROS package a file is in (the nearest folder above it with a package.xml), else
     its own folder."""
@@ -1105,31 +1148,40 @@ def _package_root(path: Path) -> Path:
     return path.parent
 
 
-def _serialise(root: _El, namespaces: dict[str, str]) -> str:
+def _serialise(root: _El, namespaces: dict[str, str]) -> tuple[str, dict[int, tuple]]:
+    """The document's text, and for each line that starts an element the (file, line, column)
+    of the xacro element it was expanded from."""
     out = ['<?xml version="1.0" encoding="utf-8"?>\n']
+    origins: dict[int, tuple[str, int, int]] = {}
+    line = [2]  # the line the next piece starts on
+
+    def put(text: str) -> None:
+        out.append(text)
+        line[0] += text.count("\n")
 
     def write(el: _El, indent: str, declarations: str = "") -> None:
+        origins[line[0]] = (el.file, el.line, el.column)
         attrs = "".join(f" {k}={quoteattr(str(v))}" for k, v in el.attrs)
         children = [c for c in el.children if isinstance(c, _El) or c.data.strip()]
         if not children:
-            out.append(f"{indent}<{el.tag}{declarations}{attrs}/>\n")
+            put(f"{indent}<{el.tag}{declarations}{attrs}/>\n")
             return
-        out.append(f"{indent}<{el.tag}{declarations}{attrs}>")
+        put(f"{indent}<{el.tag}{declarations}{attrs}>")
         if all(isinstance(c, _Text) for c in children):
-            out.append(escape("".join(c.data for c in children).strip()))
-            out.append(f"</{el.tag}>\n")
+            put(escape("".join(c.data for c in children).strip()))
+            put(f"</{el.tag}>\n")
             return
-        out.append("\n")
+        put("\n")
         for child in children:
             if isinstance(child, _El):
                 write(child, indent + "  ")
             else:
-                out.append(f"{indent}  {escape(child.data.strip())}\n")
-        out.append(f"{indent}</{el.tag}>\n")
+                put(f"{indent}  {escape(child.data.strip())}\n")
+        put(f"{indent}</{el.tag}>\n")
 
     declared = "".join(f" xmlns:{p}={quoteattr(u)}" for p, u in namespaces.items())
     write(root, "", declared)
-    return "".join(out)
+    return "".join(out), origins
 
 
 def find_package(name: str, package_paths: Sequence[Path]) -> Path | None:
@@ -1163,7 +1215,7 @@ def expand_xacro_file(
     package_paths: Sequence[Path],
     args: dict[str, str] | None = None,
     limits: XacroLimits | None = None,
-) -> tuple[bytes, list[Issue]]:
+) -> XacroExpansion:
     """A xacro file expanded to URDF, as data (module docstring).
 
     Parameters
@@ -1181,10 +1233,7 @@ def expand_xacro_file(
 
     Returns
     -------
-    urdf : bytes
-        The expanded document (UTF-8 XML).
-    warnings : list of Issue
-        ``xacro.warning(...)`` / ``xacro.message(...)`` calls, located.
+    XacroExpansion
 
     Raises
     ------
@@ -1192,9 +1241,10 @@ def expand_xacro_file(
         Anything refused or wrong, located at the file and line of its element.
     """
     limits = limits or XacroLimits()
-    paths = [Path(os.path.realpath(p)) for p in package_paths]
+    given = [Path(os.path.abspath(p)) for p in package_paths]  # $(find): as the user sees them
+    roots = [Path(os.path.realpath(p)) for p in package_paths]  # what a file must resolve into
     own = Path(os.path.realpath(path))
-    expander = _Expander(paths, dict(args or {}), [*paths, _package_root(own)], limits)
+    expander = _Expander(given, dict(args or {}), [*roots, _package_root(own)], limits)
     names = _xacro_names(expander)
     expander.builtins = {"xacro": names, **{k: names[k] for k in ("load_yaml", "dotify")}}
     expander.deadline = time.monotonic() + limits.seconds
@@ -1213,7 +1263,8 @@ def expand_xacro_file(
     if len(documents) != 1:
         raise UserError(f"{shown}: xacro: the root element expanded to nothing")
     document = documents[0]
-    return _serialise(document, expander.namespaces).encode("utf-8"), expander.warnings
+    text, origins = _serialise(document, expander.namespaces)
+    return XacroExpansion(text.encode("utf-8"), expander.warnings, origins)
 
 
 def _located(exc: _Refused, shown: str) -> UserError:

@@ -521,7 +521,7 @@ def test_uniform_slowdown_when_the_local_repairs_do_not_settle():
     assert max(np.max(v) for v in limit_ratios(q, qd, qdd, limits, DYN, G).values()) <= 1.0
 
 
-def test_what_the_cell_puts_on_the_links_is_carried_by_dynamics_and_planning(cli):
+def test_what_the_cell_puts_on_the_links_is_carried_by_dynamics_and_planning(cli, tmp_path):
     """paper_fig9's robot holds two hands, a part and an assembly (2.02 kg on link 6): every
     torque includes them.
     """
@@ -561,6 +561,13 @@ def test_what_the_cell_puts_on_the_links_is_carried_by_dynamics_and_planning(cli
             ctx.device, None, mount6, False, False
         ).inverse(q, qd, qdd, ctx.gravity_base)
     np.testing.assert_allclose(with_loads, by_payloads, atol=1e-10)
+    # the puma560's reference path, for paper_fig9's PUMA (a path file names its device)
+    path_for_robot = tmp_path / "reference.yaml"
+    path_for_robot.write_text(
+        (WORKCELLS / "puma560" / "paths" / "reference.yaml")
+        .read_text()
+        .replace("device: puma", "device: robot")
+    )
     out = json.loads(
         cli(
             [
@@ -570,7 +577,7 @@ def test_what_the_cell_puts_on_the_links_is_carried_by_dynamics_and_planning(cli
                 "-d",
                 "robot",
                 "--path",
-                "workcells/puma560/paths/reference.yaml",
+                str(path_for_robot),
                 "--timing",
                 "quintic",
                 "--duration",

@@ -56,11 +56,21 @@ def test_vendor_packages_expand_exactly_as_the_ros_tool_does(relative, packages,
         reference = xacro.process_file(str(path), mappings=dict(args)).toxml(encoding="utf-8")
     finally:
         substitution_args._eval_find = original
-    ours, warnings = expand_xacro_file(path, str(path), roots, args)
-    assert warnings == []
+    ours = expand_xacro_file(path, str(path), roots, args)
+    assert ours.warnings == []
     expected = _canonical(reference)
-    assert _canonical(ours) == expected
-    assert sum(1 for _ in etree.fromstring(ours).iter()) > 100
+    assert _canonical(ours.urdf) == expected
+    assert sum(1 for _ in etree.fromstring(ours.urdf).iter()) > 100
+    # every element of the expansion knows the vendor's file and line it came from
+    lines = ours.urdf.decode().splitlines()
+    starts = [k + 1 for k, text in enumerate(lines) if text.lstrip().startswith("<") and not
+              text.lstrip().startswith(("</", "<?"))]  # fmt: skip
+    assert set(starts) == set(ours.origins)
+    for k in starts:
+        file, line, _ = ours.origins[k]
+        tag = lines[k - 1].lstrip()[1:].split()[0].rstrip("/>")
+        source = Path(file).read_text().splitlines()[line - 1]
+        assert f"<{tag}" in source or "<xacro:element" in source, (k, tag, file, line)
 
 
 def _write(tmp_path: Path, body: str, name: str = "robot.xacro") -> Path:
@@ -72,7 +82,7 @@ def _write(tmp_path: Path, body: str, name: str = "robot.xacro") -> Path:
 
 
 def _expand(path: Path, args=None, limits=None) -> bytes:
-    return expand_xacro_file(path, str(path), [path.parents[2]], args, limits)[0]
+    return expand_xacro_file(path, str(path), [path.parents[2]], args, limits).urdf
 
 
 MARKER = "rworld_xacro_ran_code"
