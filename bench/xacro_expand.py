@@ -1,6 +1,6 @@
 """rworld's xacro expander against the ROS tool (the ``xacro`` package) on vendor packages.
 
-Run:  .venv/bin/python bench/xacro.py [--repeats 20]
+Run:  .venv/bin/python bench/xacro_expand.py [--repeats 20]
 
 The same files (tests/data: Yaskawa GP7, Staubli TX2-60, KUKA LBR iiwa 14, Universal Robots
 UR5e and UR20), expanded by both in one process, alternately; the median of ``--repeats``
