@@ -33,15 +33,26 @@ CASES = [
 ]  # fmt: skip
 
 
+def _canonical(data: bytes):
+    """The document as nested tuples (tag, sorted attributes, text, children), comments out."""
+    from lxml import etree
+
+    root = etree.fromstring(data, etree.XMLParser(remove_comments=True, remove_blank_text=True))
+
+    def walk(el):
+        attrs = tuple(sorted((etree.QName(k).localname, v) for k, v in el.attrib.items()))
+        children = tuple(walk(c) for c in el if isinstance(c.tag, str))
+        return etree.QName(el).localname, attrs, (el.text or "").strip(), children
+
+    return walk(root)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=20)
     repeats = parser.parse_args().repeats
     import xacro
     from xacro import substitution_args
-
-    sys.path.insert(0, str(REPO))
-    from tests.schema.test_xacro_safety import _canonical
 
     print(f"{'robot':<12} {'elements':>8} {'rworld ms':>10} {'ROS xacro ms':>13} {'ratio':>6}")
     for name, relative, packages, args in CASES:

@@ -9,8 +9,10 @@ renders that list in its language; none resolves a target itself.
 
 from __future__ import annotations
 
+import abc
 import re
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
@@ -18,6 +20,9 @@ from .. import spatial
 from ..kinematics.configuration import abb_confdata, fanuc_config, kuka_status_turn  # noqa: F401
 from ..model.cell import ControllerProfile, Inertial
 from ..model.program import MoveTarget, ResolvedStep
+
+if TYPE_CHECKING:
+    from . import Signals
 
 
 @dataclass
@@ -492,6 +497,74 @@ def xyz_wpr(T) -> tuple[float, ...]:
 def abb_quaternion(R: np.ndarray) -> np.ndarray:
     """ABB's orientation quaternion ``[q1, q2, q3, q4] = (w, x, y, z)``, ``q1 >= 0``."""
     return spatial.matrix_to_quat(R)
+
+
+class Writer(abc.ABC):
+    """One robot language's formatter over a resolved program: a method per instruction kind
+    behind one walk (:func:`walk`) - the shape of the field's post-processors (RoboDK's: a
+    class per controller with MoveJ, MoveL, setTool, setDO, ...).
+
+    A language subclasses it, sets ``language`` (its text rules: every name and text from a
+    file reaches the program through ``self.language``, :meth:`note`), starts its files in
+    ``__init__`` and writes every method; a kind it leaves out fails at once (abstract), never
+    as a silent gap in a program.
+
+    Attributes
+    ----------
+    program : DeviceProgram
+    signals : Signals
+    used : set of str
+        The identifiers taken so far (:meth:`Language.identifier`).
+    index : int
+        The place of the instruction being written in ``program.instructions`` (0-based).
+    """
+
+    language: ClassVar[Language]
+
+    def __init__(self, program: DeviceProgram, signals: Signals):
+        self.program, self.signals = program, signals
+        self.used: set[str] = set()
+        self.index = -1
+
+    def note(self, text: object) -> str:
+        """``text`` (from a file) as this language's comment text."""
+        return self.language.comment(text)
+
+    @abc.abstractmethod
+    def tool(self, item: Tool) -> None: ...
+
+    @abc.abstractmethod
+    def load(self, item: Load) -> None: ...
+
+    @abc.abstractmethod
+    def move(self, item: Move) -> None: ...
+
+    @abc.abstractmethod
+    def output(self, item: Output) -> None: ...
+
+    @abc.abstractmethod
+    def wait(self, item: Wait) -> None: ...
+
+    @abc.abstractmethod
+    def comment(self, item: Comment) -> None: ...
+
+    @abc.abstractmethod
+    def record(self, item: Record) -> None: ...
+
+    @abc.abstractmethod
+    def files(self) -> dict[str, str]:
+        """The program's files, ``{file name: text}``, once every instruction is written."""
+
+
+_METHODS = {Tool: "tool", Load: "load", Move: "move", Output: "output", Wait: "wait",
+            Comment: "comment", Record: "record"}  # fmt: skip
+
+
+def walk(writer: Writer) -> dict[str, str]:
+    """The one walk over a program's instructions: each to its writer's method, in order."""
+    for writer.index, item in enumerate(writer.program.instructions):
+        getattr(writer, _METHODS[type(item)])(item)
+    return writer.files()
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,9 @@ from .common import (
     Record,
     Tool,
     Wait,
+    Writer,
     number,
+    walk,
 )
 
 note = DRL.comment  # every text from a file goes into a comment through this
@@ -58,77 +60,99 @@ def _posx(T) -> str:
     return "posx(" + ", ".join(number(v, 6) for v in posx(T)) + ")"
 
 
+class DRLWriter(Writer):
+    language = DRL
+
+    def __init__(self, program: DeviceProgram, signals: Signals):
+        super().__init__(program, signals)
+        used = self.used
+        self.name = name = DRL.identifier(program.name, used)
+        self.tools = tools = {
+            t.name: DRL.identifier(f"rworld_{t.name}", used) for t in program.tools
+        }
+        self.lines = lines = [
+            *DRL.first_lines,
+            f"# {note(program.name)}: device '{note(program.device)}', from {note(program.source)}",
+            "# written by 'rworld export program': targets resolved with the cell's current pose "
+            "files",
+            f"# outputs: gripper {signals.gripper} (ON = closed), tool changer "
+            f"{signals.tool_changer} (ON = locked); searches stop on input {signals.sensor}",
+            *DRL.renamed(name, program.name),
+            *(f"# {note(line)}" for line in program.conventions()),
+            "# posx: mm and the ZYZ Euler angles rx, ry, rz (deg); posj: deg",
+        ]
+        for tool in program.tools:  # the TCPs in the flange, registered once
+            lines.append(f'add_tcp("{tools[tool.name]}", {_posx(tool.T_flange_tcp)})')
+        self.ref = "DR_BASE"
+        if program.user_frame:
+            self.ref = DRL.identifier("user_frame", used)
+            lines.append(f"# {note(program.user_frame)}")
+            lines.append(
+                f"{self.ref} = set_user_cart_coord({_posx(program.T_controller_user)}, DR_BASE)"
+            )
+
+    def tool(self, item: Tool) -> None:
+        self.lines.append(f'set_tcp("{self.tools[item.name]}")  # {note(item.name)}')
+
+    def load(self, item: Load) -> None:
+        self.lines.append(f"# {note(item.describe())} (set the tool weight on the pendant)")
+
+    def move(self, item: Move) -> None:
+        program, lines = self.program, self.lines
+        lines.append(f"# {note(item.where)}: {note(item.text)}")
+        if item.motion == "joint" and not item.guard:
+            q = np.degrees(program.axes(item.q_target))
+            speed = max(np.degrees(item.joint_speed), 0.1)
+            acceleration = max(np.degrees(item.joint_acceleration), 0.1)
+            radius = (
+                f", radius={number(np.floor(item.blend.tcp * 1e4) / 10, 1)}"  # mm
+                if item.blend is not None
+                else ""
+            )
+            lines.append(
+                "movej(posj(" + ", ".join(number(v, 6) for v in q) + f"), "
+                f"vel={number(speed, 3)}, acc={number(acceleration, 3)}{radius})"
+            )
+            return
+        target = _posx(program.in_user(item.T_target))
+        speed = max(item.tool_speed * 1000, 0.1)
+        acceleration = max(item.tool_acceleration * 1000, 0.1)
+        sol = solution_space(item.configuration)
+        motion = "amovel" if item.guard else "movel"
+        lines.append(
+            f"{motion}({target}, vel={number(speed, 3)}, acc={number(acceleration, 3)}, "
+            f"ref={self.ref})  # sol {sol}"
+        )
+        if item.guard:
+            lines += [
+                f"# a search until {note(item.guard)}: stops where the input closes",
+                "while check_motion() != 0:",
+                f"    if get_digital_input({self.signals.sensor}) == ON:",
+                "        stop(DR_SSTOP)",
+                "        break",
+            ]
+
+    def output(self, item: Output) -> None:
+        index = self.signals.output(item.signal)
+        self.lines.append(f"# {note(item.where)}: {note(item.text)}")
+        self.lines.append(f"set_digital_output({index}, {'ON' if item.value else 'OFF'})")
+
+    def wait(self, item: Wait) -> None:
+        self.lines.append(f"# {note(item.where)}: {note(item.text)}")
+        self.lines.append(f"wait({number(item.seconds, 6)})")
+
+    def comment(self, item: Comment) -> None:
+        self.lines.append(f"# {note(item.where)}: {note(item.text)}")
+
+    def record(self, item: Record) -> None:
+        self.lines.append(
+            f"# {note(item.where)}: {note(item.text)} (contact {item.number}/{item.total} of "
+            f"{note(item.feature)}: not recorded in DRL, read get_current_posx())"
+        )
+
+    def files(self) -> dict[str, str]:
+        return {f"{self.name}.drl": "\n".join(self.lines) + "\n"}
+
+
 def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
-    used: set[str] = set()
-    name = DRL.identifier(program.name, used)
-    tools = {t.name: DRL.identifier(f"rworld_{t.name}", used) for t in program.tools}
-    lines = [
-        *DRL.first_lines,
-        f"# {note(program.name)}: device '{note(program.device)}', from {note(program.source)}",
-        "# written by 'rworld export program': targets resolved with the cell's current pose files",
-        f"# outputs: gripper {signals.gripper} (ON = closed), tool changer "
-        f"{signals.tool_changer} (ON = locked); searches stop on input {signals.sensor}",
-        *DRL.renamed(name, program.name),
-        *(f"# {note(line)}" for line in program.conventions()),
-        "# posx: mm and the ZYZ Euler angles rx, ry, rz (deg); posj: deg",
-    ]
-    for tool in program.tools:  # the TCPs in the flange, registered once
-        lines.append(f'add_tcp("{tools[tool.name]}", {_posx(tool.T_flange_tcp)})')
-    ref = "DR_BASE"
-    if program.user_frame:
-        ref = DRL.identifier("user_frame", used)
-        lines.append(f"# {note(program.user_frame)}")
-        lines.append(f"{ref} = set_user_cart_coord({_posx(program.T_controller_user)}, DR_BASE)")
-    for item in program.instructions:
-        if isinstance(item, Tool):
-            lines.append(f'set_tcp("{tools[item.name]}")  # {note(item.name)}')
-        elif isinstance(item, Load):
-            lines.append(f"# {note(item.describe())} (set the tool weight on the pendant)")
-        elif isinstance(item, Move):
-            lines.append(f"# {note(item.where)}: {note(item.text)}")
-            if item.motion == "joint" and not item.guard:
-                q = np.degrees(program.axes(item.q_target))
-                speed = max(np.degrees(item.joint_speed), 0.1)
-                acceleration = max(np.degrees(item.joint_acceleration), 0.1)
-                radius = (
-                    f", radius={number(np.floor(item.blend.tcp * 1e4) / 10, 1)}"  # mm
-                    if item.blend is not None
-                    else ""
-                )
-                lines.append(
-                    "movej(posj(" + ", ".join(number(v, 6) for v in q) + f"), "
-                    f"vel={number(speed, 3)}, acc={number(acceleration, 3)}{radius})"
-                )
-                continue
-            target = _posx(program.in_user(item.T_target))
-            speed = max(item.tool_speed * 1000, 0.1)
-            acceleration = max(item.tool_acceleration * 1000, 0.1)
-            sol = solution_space(item.configuration)
-            motion = "amovel" if item.guard else "movel"
-            lines.append(
-                f"{motion}({target}, vel={number(speed, 3)}, acc={number(acceleration, 3)}, "
-                f"ref={ref})  # sol {sol}"
-            )
-            if item.guard:
-                lines += [
-                    f"# a search until {note(item.guard)}: stops where the input closes",
-                    "while check_motion() != 0:",
-                    f"    if get_digital_input({signals.sensor}) == ON:",
-                    "        stop(DR_SSTOP)",
-                    "        break",
-                ]
-        elif isinstance(item, Output):
-            index = signals.output(item.signal)
-            lines.append(f"# {note(item.where)}: {note(item.text)}")
-            lines.append(f"set_digital_output({index}, {'ON' if item.value else 'OFF'})")
-        elif isinstance(item, Wait):
-            lines.append(f"# {note(item.where)}: {note(item.text)}")
-            lines.append(f"wait({number(item.seconds, 6)})")
-        elif isinstance(item, Comment):
-            lines.append(f"# {note(item.where)}: {note(item.text)}")
-        elif isinstance(item, Record):
-            lines.append(
-                f"# {note(item.where)}: {note(item.text)} (contact {item.number}/{item.total} of "
-                f"{note(item.feature)}: not recorded in DRL, read get_current_posx())"
-            )
-    return {f"{name}.drl": "\n".join(lines) + "\n"}
+    return walk(DRLWriter(program, signals))

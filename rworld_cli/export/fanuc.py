@@ -20,8 +20,10 @@ from .common import (
     Record,
     Tool,
     Wait,
+    Writer,
     blend_percent,
     fanuc_config,
+    walk,
     xyz_wpr,
 )
 
@@ -53,157 +55,178 @@ def _frame_set(kind: str, number: int, T, lines: list[str]) -> None:
     lines.append(f"{kind}_NUM={number}")
 
 
+class FanucWriter(Writer):
+    language = FANUC
+
+    def __init__(self, program: DeviceProgram, signals: Signals):
+        super().__init__(program, signals)
+        self.name = name = FANUC.identifier(program.name, self.used)
+        self.tools = {t.name: k + 1 for k, t in enumerate(program.tools)}
+        self.body: list[str] = []
+        body = self.body
+        head = [
+            f"{program.name}: device '{program.device}', from {program.source}",
+            "written by 'rworld export program': targets resolved with the cell's current pose "
+            "files",
+            f"outputs: gripper DO[{signals.gripper}] (ON = closed), tool changer "
+            f"DO[{signals.tool_changer}] (ON = locked), searches skip on DI[{signals.sensor}]",
+            *([f"'{name}' is program '{program.name}'"] if name != program.name else []),
+            *program.conventions(),
+            "CONFIG: F when J5 > 0, U elbow up, T wrist centre in front of J1, then the turns "
+            "of J4, J5, J6",
+            f"PR[{SCRATCH_PR}] carries tool and user frame values",
+        ]
+        records = program.records
+        if records:
+            last = signals.contact_register + len(records) - 1
+            head.append(
+                f"contacts: PR[{signals.contact_register}] to PR[{last}], one a probe (cleared "
+                "first)"
+            )
+        for text in head:
+            body += _comments(text)
+        for k in range(len(records)):  # a register the program did not reach reads zero
+            body.append(f"PR[{signals.contact_register + k}]=LPOS-LPOS")
+        self.uframe = 0
+        if program.user_frame:
+            self.uframe = 1
+            body += _comments(f"UFRAME[1] is {program.user_frame}")
+            _frame_set("UFRAME", 1, program.T_controller_user, body)
+        else:
+            body += _comments("UFRAME 0: the world frame (the robot's base)")
+            body.append("UFRAME_NUM=0")
+        self.positions: list[str] = []
+        self.current_tool = 0
+        self.label = 0
+
+    def tool(self, item: Tool) -> None:
+        self.current_tool = tool = self.tools[item.name]
+        self.body += _comments(f"UTOOL[{tool}] is {item.name}")
+        _frame_set("UTOOL", tool, item.T_flange_tcp, self.body)
+
+    def load(self, item: Load) -> None:
+        body = self.body
+        total = item.total
+        body += _comments(item.describe())
+        inertia = total.inertia / KGF_CM_S2
+        if np.abs(inertia - np.diag(np.diag(inertia))).max() > 1e-6 * max(
+            1.0, np.abs(inertia).max()
+        ):
+            body += _comments("products of inertia dropped: FANUC takes IX, IY, IZ only")
+        fields = {
+            "$PAYLOAD": total.mass,
+            "$PAYLOAD_X": total.com[0] * 100,
+            "$PAYLOAD_Y": total.com[1] * 100,
+            "$PAYLOAD_Z": total.com[2] * 100,
+            "$PAYLOAD_IX": inertia[0, 0],
+            "$PAYLOAD_IY": inertia[1, 1],
+            "$PAYLOAD_IZ": inertia[2, 2],
+        }
+        body += _comments("kg, cm, kgf cm s^2, flange axes")
+        for key, value in fields.items():
+            body.append(f"$PLST_GRP1[1].{key}={_f(value)}")
+        body.append("PAYLOAD[1]")
+
+    def move(self, item: Move) -> None:
+        program, body, sensor = self.program, self.body, self.signals.sensor
+        self.label += 1
+        label = self.label
+        body += _comments(f"{item.where}: {item.text}")
+        axes = program.axes(item.q_target)
+        where = f"\tUF : {self.uframe}, UT : {self.current_tool},"
+        if item.motion == "joint":
+            values = [f"J{i + 1}={_f(np.degrees(v)):>12} deg" for i, v in enumerate(axes)]
+            self.positions += [
+                f"P[{label}]{{",
+                "   GP1:",
+                where,
+                "\t" + ",\t".join(values[:3]) + ",",
+                "\t" + ",\t".join(values[3:]),
+                "};",
+            ]
+            speed = max(1, min(100, round(100 * item.speed_fraction)))
+            ending = (
+                f"CNT{blend_percent(item.blend)}"
+                if item.blend is not None and not item.guard
+                else "FINE"
+            )
+            motion = f"J P[{label}] {speed}% {ending}"
+        else:
+            x, y, z, w, p, r = xyz_wpr(program.in_user(item.T_target))
+            config = fanuc_config(axes, item.configuration)
+            self.positions += [
+                f"P[{label}]{{",
+                "   GP1:",
+                f"{where}\t\tCONFIG : '{config}',",
+                f"\tX = {_f(x):>12}  mm,\tY = {_f(y):>12}  mm,\tZ = {_f(z):>12}  mm,",
+                f"\tW = {_f(w):>12} deg,\tP = {_f(p):>12} deg,\tR = {_f(r):>12} deg",
+                "};",
+            ]
+            speed = max(1, round(item.tool_speed * 1000))
+            motion = f"L P[{label}] {speed}mm/sec FINE"
+        if item.guard:
+            body += _comments(f"a search until {item.guard}: skips on DI[{sensor}]")
+            body.append(f"SKIP CONDITION DI[{sensor}]=ON")
+            body.append(f"{motion} Skip,LBL[{label}]")
+            body.append(f"LBL[{label}]")
+        else:
+            body.append(motion)
+
+    def output(self, item: Output) -> None:
+        self.body += _comments(f"{item.where}: {item.text}")
+        state = "ON" if item.value else "OFF"
+        self.body.append(f"DO[{self.signals.output(item.signal)}]={state}")
+
+    def wait(self, item: Wait) -> None:
+        self.body += _comments(f"{item.where}: {item.text}")
+        self.body.append(f"WAIT {item.seconds:.2f}(sec)")
+
+    def comment(self, item: Comment) -> None:
+        self.body += _comments(f"{item.where}: {item.text}")
+
+    def record(self, item: Record) -> None:
+        # where the skip stopped (LPOS: the active UFRAME and UTOOL), one register a contact,
+        # read back from POSREG.VA by 'rworld measure --from-log'
+        register = self.signals.contact_register + item.number - 1
+        self.body += _comments(f"{item.where}: {item.text}")
+        self.body += _comments(f"contact {item.number}/{item.total} {item.feature}: PR[{register}]")
+        self.body.append(f"PR[{register}]=LPOS")
+
+    def files(self) -> dict[str, str]:
+        numbered = []
+        for k, line in enumerate(self.body, start=1):
+            moves = line[:2] in ("J ", "L ")  # a motion line has its type after the number
+            numbered.append(f"{k:4d}:{line[0]} {line[2:]} ;" if moves else f"{k:4d}:  {line} ;")
+        lines = [
+            f"/PROG  {self.name}",
+            "/ATTR",
+            "OWNER\t\t= MNEDITOR;",
+            'COMMENT\t\t= "rworld";',
+            "PROG_SIZE\t= 0;",
+            "CREATE\t\t= DATE 00-01-01  TIME 00:00:00;",
+            "MODIFIED\t= DATE 00-01-01  TIME 00:00:00;",
+            "FILE_NAME\t= ;",
+            "VERSION\t\t= 0;",
+            f"LINE_COUNT\t= {len(numbered)};",
+            "MEMORY_SIZE\t= 0;",
+            "PROTECT\t\t= READ_WRITE;",
+            "TCD:  STACK_SIZE\t= 0,",
+            "      TASK_PRIORITY\t= 50,",
+            "      TIME_SLICE\t= 0,",
+            "      BUSY_LAMP_OFF\t= 0,",
+            "      ABORT_REQUEST\t= 0,",
+            "      PAUSE_REQUEST\t= 0;",
+            "DEFAULT_GROUP\t= 1,*,*,*,*;",
+            "CONTROL_CODE\t= 00000000 00000000;",
+            "/MN",
+            *numbered,
+            "/POS",
+            *self.positions,
+            "/END",
+            "",
+        ]
+        return {f"{self.name}.ls": "\n".join(lines)}
+
+
 def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
-    used: set[str] = set()
-    name = FANUC.identifier(program.name, used)
-    tools = {t.name: k + 1 for k, t in enumerate(program.tools)}
-    body: list[str] = []
-    head = [
-        f"{program.name}: device '{program.device}', from {program.source}",
-        "written by 'rworld export program': targets resolved with the cell's current pose files",
-        f"outputs: gripper DO[{signals.gripper}] (ON = closed), tool changer "
-        f"DO[{signals.tool_changer}] (ON = locked), searches skip on DI[{signals.sensor}]",
-        *([f"'{name}' is program '{program.name}'"] if name != program.name else []),
-        *program.conventions(),
-        "CONFIG: F when J5 > 0, U elbow up, T wrist centre in front of J1, then the turns of "
-        "J4, J5, J6",
-        f"PR[{SCRATCH_PR}] carries tool and user frame values",
-    ]
-    records = program.records
-    if records:
-        last = signals.contact_register + len(records) - 1
-        head.append(
-            f"contacts: PR[{signals.contact_register}] to PR[{last}], one a probe (cleared first)"
-        )
-    for text in head:
-        body += _comments(text)
-    for k in range(len(records)):  # a register the program did not reach reads zero
-        body.append(f"PR[{signals.contact_register + k}]=LPOS-LPOS")
-    uframe = 0
-    if program.user_frame:
-        uframe = 1
-        body += _comments(f"UFRAME[1] is {program.user_frame}")
-        _frame_set("UFRAME", 1, program.T_controller_user, body)
-    else:
-        body += _comments("UFRAME 0: the world frame (the robot's base)")
-        body.append("UFRAME_NUM=0")
-    positions: list[str] = []
-    tool = 0
-    label = 0
-    for item in program.instructions:
-        if isinstance(item, Tool):
-            tool = tools[item.name]
-            body += _comments(f"UTOOL[{tool}] is {item.name}")
-            _frame_set("UTOOL", tool, item.T_flange_tcp, body)
-        elif isinstance(item, Load):
-            total = item.total
-            body += _comments(item.describe())
-            inertia = total.inertia / KGF_CM_S2
-            if np.abs(inertia - np.diag(np.diag(inertia))).max() > 1e-6 * max(
-                1.0, np.abs(inertia).max()
-            ):
-                body += _comments("products of inertia dropped: FANUC takes IX, IY, IZ only")
-            fields = {
-                "$PAYLOAD": total.mass,
-                "$PAYLOAD_X": total.com[0] * 100,
-                "$PAYLOAD_Y": total.com[1] * 100,
-                "$PAYLOAD_Z": total.com[2] * 100,
-                "$PAYLOAD_IX": inertia[0, 0],
-                "$PAYLOAD_IY": inertia[1, 1],
-                "$PAYLOAD_IZ": inertia[2, 2],
-            }
-            body += _comments("kg, cm, kgf cm s^2, flange axes")
-            for key, value in fields.items():
-                body.append(f"$PLST_GRP1[1].{key}={_f(value)}")
-            body.append("PAYLOAD[1]")
-        elif isinstance(item, Move):
-            label += 1
-            body += _comments(f"{item.where}: {item.text}")
-            axes = program.axes(item.q_target)
-            where = f"\tUF : {uframe}, UT : {tool},"
-            if item.motion == "joint":
-                values = [f"J{i + 1}={_f(np.degrees(v)):>12} deg" for i, v in enumerate(axes)]
-                positions += [
-                    f"P[{label}]{{",
-                    "   GP1:",
-                    where,
-                    "\t" + ",\t".join(values[:3]) + ",",
-                    "\t" + ",\t".join(values[3:]),
-                    "};",
-                ]
-                speed = max(1, min(100, round(100 * item.speed_fraction)))
-                ending = (
-                    f"CNT{blend_percent(item.blend)}"
-                    if item.blend is not None and not item.guard
-                    else "FINE"
-                )
-                motion = f"J P[{label}] {speed}% {ending}"
-            else:
-                x, y, z, w, p, r = xyz_wpr(program.in_user(item.T_target))
-                config = fanuc_config(axes, item.configuration)
-                positions += [
-                    f"P[{label}]{{",
-                    "   GP1:",
-                    f"{where}\t\tCONFIG : '{config}',",
-                    f"\tX = {_f(x):>12}  mm,\tY = {_f(y):>12}  mm,\tZ = {_f(z):>12}  mm,",
-                    f"\tW = {_f(w):>12} deg,\tP = {_f(p):>12} deg,\tR = {_f(r):>12} deg",
-                    "};",
-                ]
-                speed = max(1, round(item.tool_speed * 1000))
-                motion = f"L P[{label}] {speed}mm/sec FINE"
-            if item.guard:
-                body += _comments(f"a search until {item.guard}: skips on DI[{signals.sensor}]")
-                body.append(f"SKIP CONDITION DI[{signals.sensor}]=ON")
-                body.append(f"{motion} Skip,LBL[{label}]")
-                body.append(f"LBL[{label}]")
-            else:
-                body.append(motion)
-        elif isinstance(item, Output):
-            body += _comments(f"{item.where}: {item.text}")
-            state = "ON" if item.value else "OFF"
-            body.append(f"DO[{signals.output(item.signal)}]={state}")
-        elif isinstance(item, Wait):
-            body += _comments(f"{item.where}: {item.text}")
-            body.append(f"WAIT {item.seconds:.2f}(sec)")
-        elif isinstance(item, Comment):
-            body += _comments(f"{item.where}: {item.text}")
-        elif isinstance(item, Record):
-            # where the skip stopped (LPOS: the active UFRAME and UTOOL), one register a
-            # contact, read back from POSREG.VA by 'rworld measure --from-log'
-            register = signals.contact_register + item.number - 1
-            body += _comments(f"{item.where}: {item.text}")
-            body += _comments(f"contact {item.number}/{item.total} {item.feature}: PR[{register}]")
-            body.append(f"PR[{register}]=LPOS")
-    numbered = []
-    for k, line in enumerate(body, start=1):
-        moves = line[:2] in ("J ", "L ")  # a motion line has its type after the number
-        numbered.append(f"{k:4d}:{line[0]} {line[2:]} ;" if moves else f"{k:4d}:  {line} ;")
-    lines = [
-        f"/PROG  {name}",
-        "/ATTR",
-        "OWNER\t\t= MNEDITOR;",
-        'COMMENT\t\t= "rworld";',
-        "PROG_SIZE\t= 0;",
-        "CREATE\t\t= DATE 00-01-01  TIME 00:00:00;",
-        "MODIFIED\t= DATE 00-01-01  TIME 00:00:00;",
-        "FILE_NAME\t= ;",
-        "VERSION\t\t= 0;",
-        f"LINE_COUNT\t= {len(numbered)};",
-        "MEMORY_SIZE\t= 0;",
-        "PROTECT\t\t= READ_WRITE;",
-        "TCD:  STACK_SIZE\t= 0,",
-        "      TASK_PRIORITY\t= 50,",
-        "      TIME_SLICE\t= 0,",
-        "      BUSY_LAMP_OFF\t= 0,",
-        "      ABORT_REQUEST\t= 0,",
-        "      PAUSE_REQUEST\t= 0;",
-        "DEFAULT_GROUP\t= 1,*,*,*,*;",
-        "CONTROL_CODE\t= 00000000 00000000;",
-        "/MN",
-        *numbered,
-        "/POS",
-        *positions,
-        "/END",
-        "",
-    ]
-    return {f"{name}.ls": "\n".join(lines)}
+    return walk(FanucWriter(program, signals))

@@ -30,6 +30,8 @@ from .common import (
     Record,
     Tool,
     Wait,
+    Writer,
+    walk,
     xyz_wpr,
 )
 
@@ -67,120 +69,140 @@ def _comments(text: str) -> list[str]:
     return [f"'{line}" for line in lines]
 
 
+class InformWriter(Writer):
+    language = INFORM
+
+    def __init__(self, program: DeviceProgram, signals: Signals):
+        super().__init__(program, signals)
+        self.name = name = INFORM.identifier(program.name, self.used)
+        tools = {t.name: k + 1 for k, t in enumerate(program.tools)}
+        profile = program.controller
+        pulses = profile.pulses_per_degree if profile is not None else None
+        zero = profile.zero_pulse if profile is not None else None
+        head = [
+            f"{program.name}: device '{program.device}', from {program.source}",
+            "written by 'rworld export program': targets resolved with the cell's current pose "
+            "files",
+            f"outputs: gripper OT#({signals.gripper}) (ON = closed), tool changer "
+            f"OT#({signals.tool_changer}) (ON = locked); searches stop on IN#({signals.sensor})",
+            *([f"job '{name}' is program '{program.name}'"] if name != program.name else []),
+            *program.conventions(),
+            "linear speeds V= in mm/s (the controller's V unit set to mm/s)",
+            (
+                "joint targets in pulses (controller.pulses_per_degree, zero_pulse)"
+                if pulses is not None
+                else "joint targets as Cartesian positions with their RCONF (no pulses per degree "
+                "given: controller.pulses_per_degree)"
+            ),
+        ]
+        user_line = "///POSTYPE BASE"
+        frames: list[tuple[str, int, str, np.ndarray]] = []  # for the tool and user frame files
+        if program.user_frame:
+            user_line = "///USER 1\n///POSTYPE USER"
+            frames.append(("USER", 1, program.user_frame, program.T_controller_user))
+        for used_tool in program.tools:
+            frames.append(("TOOL", tools[used_tool.name], used_tool.name, used_tool.T_flange_tcp))
+        positions: list[str] = []
+        body: list[str] = []
+        for text in head:
+            body += _comments(text)
+        for kind, number, frame_name, T in frames:  # one value a line: each within 32 characters
+            body += _comments(f"{kind} {number} is {frame_name} (mm, deg):")
+            for key, value in zip(("X", "Y", "Z", "Rx", "Ry", "Rz"), xyz_wpr(T)):
+                body.append(f"'{kind} {number} {key} {_f(value)}")
+        self.tools, self.pulses, self.zero = tools, pulses, zero
+        self.user_line, self.positions, self.body = user_line, positions, body
+        self.current_tool = 0
+        self.kind_now, self.tool_now, self.type_now = "", -1, ""
+        self.count = 0
+
+    def tool(self, item: Tool) -> None:
+        self.current_tool = self.tools[item.name]
+        self.body += _comments(f"TOOL {self.current_tool}: {item.name}")
+
+    def load(self, item: Load) -> None:
+        total = item.total
+        self.body += _comments(item.describe())
+        self.body += _comments(
+            f"load for the tool file: {_f(total.mass, 3)} kg at "
+            + ", ".join(_f(v * 1000, 3) for v in total.com)
+            + " mm (flange axes)"
+        )
+
+    def move(self, item: Move) -> None:
+        program, body, positions = self.program, self.body, self.positions
+        label = f"C{self.count:05d}"
+        self.count += 1
+        body += _comments(f"{item.where}: {item.text}")
+        axes = program.axes(item.q_target)
+        joint = item.motion == "joint" and not item.guard
+        if joint and self.pulses is not None:
+            if self.kind_now != "pulse":
+                positions += ["///POSTYPE PULSE", "///PULSE"]
+                self.kind_now, self.tool_now, self.type_now = "pulse", -1, ""
+            counts = np.rint(
+                np.degrees(axes) * np.asarray(self.pulses)
+                + np.asarray(self.zero or [0] * len(axes))
+            ).astype(int)
+            positions.append(f"{label}=" + ",".join(str(int(c)) for c in counts))
+        else:
+            if self.kind_now != "rectan":
+                positions += [*self.user_line.split("\n"), "///RECTAN"]
+                self.kind_now, self.type_now = "rectan", ""
+            if self.current_tool != self.tool_now:
+                positions.append(f"///TOOL {self.current_tool}")
+                self.tool_now = self.current_tool
+            kind = rconf(axes, item.configuration)
+            if kind != self.type_now:
+                positions.append(f"///RCONF {kind}")
+                self.type_now = kind
+            values = xyz_wpr(program.in_user(item.T_target))
+            positions.append(f"{label}=" + ",".join(_f(v) for v in values))
+        if item.motion == "joint":
+            speed = max(0.01, min(100.0, 100.0 * item.speed_fraction))
+            body.append(f"MOVJ {label} VJ={speed:.2f}")
+        else:
+            speed = max(0.1, item.tool_speed * 1000)
+            until = f" UNTIL IN#({self.signals.sensor})=ON" if item.guard else ""
+            body.append(f"MOVL {label} V={speed:.1f}{until}")
+
+    def output(self, item: Output) -> None:
+        index = self.signals.output(item.signal)
+        self.body += _comments(f"{item.where}: {item.text}")
+        self.body.append(f"DOUT OT#({index}) {'ON' if item.value else 'OFF'}")
+
+    def wait(self, item: Wait) -> None:
+        self.body += _comments(f"{item.where}: {item.text}")
+        self.body.append(f"TIMER T={item.seconds:.2f}")
+
+    def comment(self, item: Comment) -> None:
+        self.body += _comments(f"{item.where}: {item.text}")
+
+    def record(self, item: Record) -> None:
+        self.body += _comments(
+            f"{item.where}: {item.text} (contact {item.number}/{item.total} of "
+            f"{item.feature}: not recorded in INFORM, read it on the pendant)"
+        )
+
+    def files(self) -> dict[str, str]:
+        lines = [
+            "/JOB",
+            f"//NAME {self.name}",
+            "//POS",
+            f"///NPOS {self.count},0,0,0,0,0",
+            *self.positions,
+            "//INST",
+            f"///DATE {FIXED_DATE}",  # fixed: the same run exports the same bytes
+            f"///COMM {note(self.program.name)[:COMMENT_WIDTH]}",
+            "///ATTR SC,RW",
+            "///GROUP1 RB1",
+            "NOP",
+            *self.body,
+            "END",
+            "",
+        ]
+        return {f"{self.name}.JBI": "\r\n".join(lines)}
+
+
 def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
-    used: set[str] = set()
-    name = INFORM.identifier(program.name, used)
-    tools = {t.name: k + 1 for k, t in enumerate(program.tools)}
-    profile = program.controller
-    pulses = profile.pulses_per_degree if profile is not None else None
-    zero = profile.zero_pulse if profile is not None else None
-    head = [
-        f"{program.name}: device '{program.device}', from {program.source}",
-        "written by 'rworld export program': targets resolved with the cell's current pose files",
-        f"outputs: gripper OT#({signals.gripper}) (ON = closed), tool changer "
-        f"OT#({signals.tool_changer}) (ON = locked); searches stop on IN#({signals.sensor})",
-        *([f"job '{name}' is program '{program.name}'"] if name != program.name else []),
-        *program.conventions(),
-        "linear speeds V= in mm/s (the controller's V unit set to mm/s)",
-        (
-            "joint targets in pulses (controller.pulses_per_degree, zero_pulse)"
-            if pulses is not None
-            else "joint targets as Cartesian positions with their RCONF (no pulses per degree "
-            "given: controller.pulses_per_degree)"
-        ),
-    ]
-    user_line = "///POSTYPE BASE"
-    frames: list[tuple[str, int, str, np.ndarray]] = []  # for the tool and user frame files
-    if program.user_frame:
-        user_line = "///USER 1\n///POSTYPE USER"
-        frames.append(("USER", 1, program.user_frame, program.T_controller_user))
-    for used_tool in program.tools:
-        frames.append(("TOOL", tools[used_tool.name], used_tool.name, used_tool.T_flange_tcp))
-    positions: list[str] = []
-    body: list[str] = []
-    for text in head:
-        body += _comments(text)
-    for kind, number, frame_name, T in frames:  # one value a line: each within 32 characters
-        body += _comments(f"{kind} {number} is {frame_name} (mm, deg):")
-        for key, value in zip(("X", "Y", "Z", "Rx", "Ry", "Rz"), xyz_wpr(T)):
-            body.append(f"'{kind} {number} {key} {_f(value)}")
-    tool = 0
-    kind_now, tool_now, type_now = "", -1, ""
-    count = 0
-    for item in program.instructions:
-        if isinstance(item, Tool):
-            tool = tools[item.name]
-            body += _comments(f"TOOL {tool}: {item.name}")
-        elif isinstance(item, Load):
-            total = item.total
-            body += _comments(item.describe())
-            body += _comments(
-                f"load for the tool file: {_f(total.mass, 3)} kg at "
-                + ", ".join(_f(v * 1000, 3) for v in total.com)
-                + " mm (flange axes)"
-            )
-        elif isinstance(item, Move):
-            label = f"C{count:05d}"
-            count += 1
-            body += _comments(f"{item.where}: {item.text}")
-            axes = program.axes(item.q_target)
-            joint = item.motion == "joint" and not item.guard
-            if joint and pulses is not None:
-                if kind_now != "pulse":
-                    positions += ["///POSTYPE PULSE", "///PULSE"]
-                    kind_now, tool_now, type_now = "pulse", -1, ""
-                counts = np.rint(
-                    np.degrees(axes) * np.asarray(pulses) + np.asarray(zero or [0] * len(axes))
-                ).astype(int)
-                positions.append(f"{label}=" + ",".join(str(int(c)) for c in counts))
-            else:
-                if kind_now != "rectan":
-                    positions += [*user_line.split("\n"), "///RECTAN"]
-                    kind_now, type_now = "rectan", ""
-                if tool != tool_now:
-                    positions.append(f"///TOOL {tool}")
-                    tool_now = tool
-                kind = rconf(axes, item.configuration)
-                if kind != type_now:
-                    positions.append(f"///RCONF {kind}")
-                    type_now = kind
-                values = xyz_wpr(program.in_user(item.T_target))
-                positions.append(f"{label}=" + ",".join(_f(v) for v in values))
-            if item.motion == "joint":
-                speed = max(0.01, min(100.0, 100.0 * item.speed_fraction))
-                body.append(f"MOVJ {label} VJ={speed:.2f}")
-            else:
-                speed = max(0.1, item.tool_speed * 1000)
-                until = f" UNTIL IN#({signals.sensor})=ON" if item.guard else ""
-                body.append(f"MOVL {label} V={speed:.1f}{until}")
-        elif isinstance(item, Output):
-            index = signals.output(item.signal)
-            body += _comments(f"{item.where}: {item.text}")
-            body.append(f"DOUT OT#({index}) {'ON' if item.value else 'OFF'}")
-        elif isinstance(item, Wait):
-            body += _comments(f"{item.where}: {item.text}")
-            body.append(f"TIMER T={item.seconds:.2f}")
-        elif isinstance(item, Comment):
-            body += _comments(f"{item.where}: {item.text}")
-        elif isinstance(item, Record):
-            body += _comments(
-                f"{item.where}: {item.text} (contact {item.number}/{item.total} of "
-                f"{item.feature}: not recorded in INFORM, read it on the pendant)"
-            )
-    lines = [
-        "/JOB",
-        f"//NAME {name}",
-        "//POS",
-        f"///NPOS {count},0,0,0,0,0",
-        *positions,
-        "//INST",
-        f"///DATE {FIXED_DATE}",  # fixed: the same run exports the same bytes
-        f"///COMM {note(program.name)[:COMMENT_WIDTH]}",
-        "///ATTR SC,RW",
-        "///GROUP1 RB1",
-        "NOP",
-        *body,
-        "END",
-        "",
-    ]
-    return {f"{name}.JBI": "\r\n".join(lines)}
+    return walk(InformWriter(program, signals))

@@ -29,8 +29,10 @@ from .common import (
     Record,
     Tool,
     Wait,
+    Writer,
     kuka_abc,
     number,
+    walk,
 )
 
 note = SUNRISE.comment  # every text from a file goes into a comment through this
@@ -54,146 +56,168 @@ def frame_args(T) -> str:
     return ", ".join(number(v, 9) for v in (x, y, z, a, b, c))
 
 
-def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
-    used: set[str] = set()
-    name = SUNRISE.identifier(program.name[:1].upper() + program.name[1:], used)
-    tools = {t.name: SUNRISE.identifier(f"tool_{t.name}", used) for t in program.tools}
-    outputs = {i.signal for i in program.instructions if isinstance(i, Output)}
-    searches = any(m.guard for m in program.moves)
-    abstract = bool(outputs) or searches
-    head = [
-        f"{program.name}: device '{program.device}', from {program.source}",
-        "written by 'rworld export program': targets resolved with the cell's current pose files",
-        *([f"class '{name}' is program '{program.name}'"] if name != program.name else []),
-        *program.conventions(),
-        "frames: mm and A, B, C in rad (R = Rz(A) Ry(B) Rx(C)); joint positions in rad; each "
-        "frame carries E1 (axis A3), Status and Turn of the simulation's solution",
-    ]
-    if abstract:
-        head.append(
-            "abstract: implement the I/O methods below in a subclass with the project's I/O "
-            f"group (gripper output {signals.gripper}, tool changer output "
-            f"{signals.tool_changer}, search input {signals.sensor})"
-        )
-    body: list[str] = []
-    members: list[str] = []
-    base = "robot.getRootFrame()"
-    if program.user_frame:
-        members.append(f"    private Frame userFrame; // {note(program.user_frame)}")
-        body.append(
-            f"        userFrame = new Frame(robot.getRootFrame(), "
-            f"{frame_args(program.T_controller_user)});"
-        )
-        base = "userFrame"
-    for tool in program.tools:
-        field = tools[tool.name]
-        members.append(f"    private Tool {field}; // {note(tool.name)}")
-        body += [
-            f'        {field} = new Tool("{field}");',
-            f'        {field}.setDefaultMotionFrame({field}.addChildFrame("tcp", '
-            f"Transformation.ofRad({frame_args(tool.T_flange_tcp)})));",
-            f"        {field}.attachTo(robot.getFlange());",
+class SunriseWriter(Writer):
+    language = SUNRISE
+
+    def __init__(self, program: DeviceProgram, signals: Signals):
+        super().__init__(program, signals)
+        used = self.used
+        self.name = name = SUNRISE.identifier(program.name[:1].upper() + program.name[1:], used)
+        self.tools = tools = {
+            t.name: SUNRISE.identifier(f"tool_{t.name}", used) for t in program.tools
+        }
+        self.outputs = {i.signal for i in program.instructions if isinstance(i, Output)}
+        self.searches = any(m.guard for m in program.moves)
+        self.abstract = bool(self.outputs) or self.searches
+        self.head = head = [
+            f"{program.name}: device '{program.device}', from {program.source}",
+            "written by 'rworld export program': targets resolved with the cell's current pose "
+            "files",
+            *([f"class '{name}' is program '{program.name}'"] if name != program.name else []),
+            *program.conventions(),
+            "frames: mm and A, B, C in rad (R = Rz(A) Ry(B) Rx(C)); joint positions in rad; "
+            "each frame carries E1 (axis A3), Status and Turn of the simulation's solution",
         ]
-    current = None
-    for item in program.instructions:
-        if isinstance(item, Tool):
-            current = tools[item.name]
-            body.append(f"        // {note(item.name)}")
-        elif isinstance(item, Load):
-            body.append(f"        // {note(item.describe())} (the tool's load data: the project)")
-        elif isinstance(item, Move):
-            body.append(f"        // {note(item.where)}: {note(item.text)}")
-            mover = current or "robot"
-            axes = program.axes(item.q_target)
-            if item.motion == "joint" and not item.guard:
-                relative = max(0.01, min(1.0, item.speed_fraction))
-                blend = (  # a planned path's blended via point: the TCP's mm from it
-                    f".setBlendingCart({number(np.floor(item.blend.tcp * 1e4) / 10, 1)})"
-                    if item.blend is not None
-                    else ""
-                )
-                call = "moveAsync" if blend else "move"  # Sunrise blends asynchronous motions
-                body.append(
-                    f"        {mover}.{call}(ptp(new JointPosition("
-                    + ", ".join(number(v, 9) for v in axes)
-                    + f")).setJointVelocityRel({number(relative, 4)}){blend});"
-                )
-                continue
-            status, turn = lbr_status_turn(axes, item.configuration)
-            target = program.in_user(item.T_target)
-            body += [
-                "        {",
-                f"            Frame target = new Frame({base}, {frame_args(target)});",
-                "            target.setRedundancyInformation(robot, new LBRE1Redundancy("
-                f"{number(axes[2], 9)}, {status}, {turn}));",
-                f"            {mover}.move(lin(target).setCartVelocity("
-                f"{number(max(item.tool_speed * 1000, 0.1), 3)})"
-                + (".breakWhen(searchCondition())" if item.guard else "")
-                + ");",
-                "        }",
-            ]
-        elif isinstance(item, Output):
-            method = "setGripper" if item.signal == "gripper" else "setToolChanger"
-            body.append(f"        // {note(item.where)}: {note(item.text)}")
-            body.append(f"        {method}({'true' if item.value else 'false'});")
-        elif isinstance(item, Wait):
-            body.append(f"        // {note(item.where)}: {note(item.text)}")
-            body.append(f"        ThreadUtil.milliSleep({int(round(item.seconds * 1000))});")
-        elif isinstance(item, Comment):
-            body.append(f"        // {note(item.where)}: {note(item.text)}")
-        elif isinstance(item, Record):
-            body.append(
-                f"        // {note(item.where)}: {note(item.text)} (contact {item.number}/"
-                f"{item.total} of {note(item.feature)}: not recorded, read "
-                "robot.getCurrentCartesianPosition(...))"
+        if self.abstract:
+            head.append(
+                "abstract: implement the I/O methods below in a subclass with the project's I/O "
+                f"group (gripper output {signals.gripper}, tool changer output "
+                f"{signals.tool_changer}, search input {signals.sensor})"
             )
-    io_methods: list[str] = []
-    if "gripper" in outputs:
-        io_methods.append(
-            f"    /** Output {signals.gripper}: the gripper, true = closed. */\n"
-            "    protected abstract void setGripper(boolean closed);"
+        self.body: list[str] = []
+        self.members: list[str] = []
+        self.base = "robot.getRootFrame()"
+        if program.user_frame:
+            self.members.append(f"    private Frame userFrame; // {note(program.user_frame)}")
+            self.body.append(
+                f"        userFrame = new Frame(robot.getRootFrame(), "
+                f"{frame_args(program.T_controller_user)});"
+            )
+            self.base = "userFrame"
+        for tool in program.tools:
+            field = tools[tool.name]
+            self.members.append(f"    private Tool {field}; // {note(tool.name)}")
+            self.body += [
+                f'        {field} = new Tool("{field}");',
+                f'        {field}.setDefaultMotionFrame({field}.addChildFrame("tcp", '
+                f"Transformation.ofRad({frame_args(tool.T_flange_tcp)})));",
+                f"        {field}.attachTo(robot.getFlange());",
+            ]
+        self.current: str | None = None
+
+    def tool(self, item: Tool) -> None:
+        self.current = self.tools[item.name]
+        self.body.append(f"        // {note(item.name)}")
+
+    def load(self, item: Load) -> None:
+        self.body.append(f"        // {note(item.describe())} (the tool's load data: the project)")
+
+    def move(self, item: Move) -> None:
+        program, body = self.program, self.body
+        body.append(f"        // {note(item.where)}: {note(item.text)}")
+        mover = self.current or "robot"
+        axes = program.axes(item.q_target)
+        if item.motion == "joint" and not item.guard:
+            relative = max(0.01, min(1.0, item.speed_fraction))
+            blend = (  # a planned path's blended via point: the TCP's mm from it
+                f".setBlendingCart({number(np.floor(item.blend.tcp * 1e4) / 10, 1)})"
+                if item.blend is not None
+                else ""
+            )
+            call = "moveAsync" if blend else "move"  # Sunrise blends asynchronous motions
+            body.append(
+                f"        {mover}.{call}(ptp(new JointPosition("
+                + ", ".join(number(v, 9) for v in axes)
+                + f")).setJointVelocityRel({number(relative, 4)}){blend});"
+            )
+            return
+        status, turn = lbr_status_turn(axes, item.configuration)
+        target = program.in_user(item.T_target)
+        body += [
+            "        {",
+            f"            Frame target = new Frame({self.base}, {frame_args(target)});",
+            "            target.setRedundancyInformation(robot, new LBRE1Redundancy("
+            f"{number(axes[2], 9)}, {status}, {turn}));",
+            f"            {mover}.move(lin(target).setCartVelocity("
+            f"{number(max(item.tool_speed * 1000, 0.1), 3)})"
+            + (".breakWhen(searchCondition())" if item.guard else "")
+            + ");",
+            "        }",
+        ]
+
+    def output(self, item: Output) -> None:
+        method = "setGripper" if item.signal == "gripper" else "setToolChanger"
+        self.body.append(f"        // {note(item.where)}: {note(item.text)}")
+        self.body.append(f"        {method}({'true' if item.value else 'false'});")
+
+    def wait(self, item: Wait) -> None:
+        self.body.append(f"        // {note(item.where)}: {note(item.text)}")
+        self.body.append(f"        ThreadUtil.milliSleep({int(round(item.seconds * 1000))});")
+
+    def comment(self, item: Comment) -> None:
+        self.body.append(f"        // {note(item.where)}: {note(item.text)}")
+
+    def record(self, item: Record) -> None:
+        self.body.append(
+            f"        // {note(item.where)}: {note(item.text)} (contact {item.number}/"
+            f"{item.total} of {note(item.feature)}: not recorded, read "
+            "robot.getCurrentCartesianPosition(...))"
         )
-    if "tool_changer" in outputs:
-        io_methods.append(
-            f"    /** Output {signals.tool_changer}: the tool changer, true = locked. */\n"
-            "    protected abstract void setToolChanger(boolean locked);"
-        )
-    if searches:
-        io_methods.append(
-            f"    /** Input {signals.sensor} closed: where a search stops. */\n"
-            "    protected abstract ICondition searchCondition();"
-        )
-    lines = [
-        "package application;",
-        "",
-        *(f"// {note(line)}" for line in head),
-        "",
-        "import javax.inject.Inject;",
-        "",
-        "import com.kuka.common.ThreadUtil;",
-        "import com.kuka.roboticsAPI.applicationModel.RoboticsAPIApplication;",
-        "import com.kuka.roboticsAPI.conditionModel.ICondition;",
-        "import com.kuka.roboticsAPI.deviceModel.JointPosition;",
-        "import com.kuka.roboticsAPI.deviceModel.LBR;",
-        "import com.kuka.roboticsAPI.deviceModel.LBRE1Redundancy;",
-        "import com.kuka.roboticsAPI.geometricModel.Frame;",
-        "import com.kuka.roboticsAPI.geometricModel.Tool;",
-        "import com.kuka.roboticsAPI.geometricModel.math.Transformation;",
-        "",
-        "import static com.kuka.roboticsAPI.motionModel.BasicMotions.*;",
-        "",
-        f"public {'abstract ' if abstract else ''}class {name} extends RoboticsAPIApplication {{",
-        "    @Inject",
-        "    private LBR robot;",
-        *members,
-        "",
-        *io_methods,
-        *([""] if io_methods else []),
-        "    @Override",
-        "    public void run() {",
-        *body,
-        "    }",
-        "}",
-        "",
-    ]
-    return {f"{name}.java": "\n".join(lines)}
+
+    def files(self) -> dict[str, str]:
+        signals, name = self.signals, self.name
+        io_methods: list[str] = []
+        if "gripper" in self.outputs:
+            io_methods.append(
+                f"    /** Output {signals.gripper}: the gripper, true = closed. */\n"
+                "    protected abstract void setGripper(boolean closed);"
+            )
+        if "tool_changer" in self.outputs:
+            io_methods.append(
+                f"    /** Output {signals.tool_changer}: the tool changer, true = locked. */\n"
+                "    protected abstract void setToolChanger(boolean locked);"
+            )
+        if self.searches:
+            io_methods.append(
+                f"    /** Input {signals.sensor} closed: where a search stops. */\n"
+                "    protected abstract ICondition searchCondition();"
+            )
+        lines = [
+            "package application;",
+            "",
+            *(f"// {note(line)}" for line in self.head),
+            "",
+            "import javax.inject.Inject;",
+            "",
+            "import com.kuka.common.ThreadUtil;",
+            "import com.kuka.roboticsAPI.applicationModel.RoboticsAPIApplication;",
+            "import com.kuka.roboticsAPI.conditionModel.ICondition;",
+            "import com.kuka.roboticsAPI.deviceModel.JointPosition;",
+            "import com.kuka.roboticsAPI.deviceModel.LBR;",
+            "import com.kuka.roboticsAPI.deviceModel.LBRE1Redundancy;",
+            "import com.kuka.roboticsAPI.geometricModel.Frame;",
+            "import com.kuka.roboticsAPI.geometricModel.Tool;",
+            "import com.kuka.roboticsAPI.geometricModel.math.Transformation;",
+            "",
+            "import static com.kuka.roboticsAPI.motionModel.BasicMotions.*;",
+            "",
+            f"public {'abstract ' if self.abstract else ''}class {name} extends "
+            "RoboticsAPIApplication {",
+            "    @Inject",
+            "    private LBR robot;",
+            *self.members,
+            "",
+            *io_methods,
+            *([""] if io_methods else []),
+            "    @Override",
+            "    public void run() {",
+            *self.body,
+            "    }",
+            "}",
+            "",
+        ]
+        return {f"{name}.java": "\n".join(lines)}
+
+
+def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
+    return walk(SunriseWriter(program, signals))

@@ -28,6 +28,8 @@ from .common import (
     Record,
     Tool,
     Wait,
+    Writer,
+    walk,
 )
 
 note = VAL3.comment  # every text from a file goes into a comment through this
@@ -70,146 +72,165 @@ def _pose_attributes(T) -> str:
     return " ".join(f'{k}="{_f(v)}"' for k, v in zip(("x", "y", "z", "rx", "ry", "rz"), T))
 
 
+class VAL3Writer(Writer):
+    language = VAL3
+
+    def __init__(self, program: DeviceProgram, signals: Signals):
+        super().__init__(program, signals)
+        self.app = app = VAL3.identifier(program.name, self.used)
+        self.tools = {t.name: k for k, t in enumerate(program.tools)}
+        self.joints: list[str] = []  # Value elements of jTarget
+        self.points: list[str] = []  # of pTarget
+        self.speeds: list[str] = []  # of mSpeed
+        head = [
+            f"{program.name}: device '{program.device}', from {program.source}",
+            "written by 'rworld export program': targets resolved with the cell's current pose "
+            "files",
+            f"outputs: dGripper (true = closed) and dToolChanger (true = locked): link them to "
+            f"outputs {signals.gripper} and {signals.tool_changer}; dSensor (searches) to input "
+            f"{signals.sensor}",
+            *([f"application '{app}' is program '{program.name}'"] if app != program.name else []),
+            *program.conventions(),
+            "rx, ry, rz: about x, then the new y, then the new z (R = Rx Ry Rz), degrees; mm",
+        ]
+        self.code = [f"  // {note(line)}" for line in head]
+        self.father = "fUser[0]" if program.user_frame else "world[0]"
+        self.current_tool = 0
+
+    def tool(self, item: Tool) -> None:
+        self.current_tool = self.tools[item.name]
+        self.code.append(f"  // tTool[{self.current_tool}] is {note(item.name)}")
+
+    def load(self, item: Load) -> None:
+        self.code.append(f"  // {note(item.describe())} (the tool's and arm's load: the cell)")
+
+    def move(self, item: Move) -> None:
+        program, code, tool = self.program, self.code, self.current_tool
+        code.append(f"  // {note(item.where)}: {note(item.text)}")
+        axes = program.axes(item.q_target)
+        speed = len(self.speeds)
+        percent = max(0.01, min(100.0, 100.0 * item.speed_fraction))
+        acceleration = max(0.01, min(100.0, 100.0 * item.acceleration_fraction))
+        tvel = max(0.1, item.tool_speed * 1000)
+        blend = 'blend="off" leave="50" reach="50"'
+        if item.blend is not None and not item.guard:  # leave and reach: the TCP's mm
+            mm = _f(np.floor(item.blend.tcp * 1e4) / 10, 1)  # rounded down to 0.1 mm
+            blend = f'blend="joint" leave="{mm}" reach="{mm}"'
+        self.speeds.append(
+            f'<Value key="{speed}" accel="{_f(acceleration, 2)}" vel="{_f(percent, 2)}" '
+            f'decel="{_f(acceleration, 2)}" tmax="{_f(tvel, 1)}" rmax="99999" {blend} />'
+        )
+        if item.motion == "joint" and not item.guard:
+            k = len(self.joints)
+            values = " ".join(f'j{i + 1}="{_f(np.degrees(a))}"' for i, a in enumerate(axes))
+            self.joints.append(f'<Value key="{k}" {values} />')
+            code.append(f"  movej(jTarget[{k}], tTool[{tool}], mSpeed[{speed}])")
+            return
+        k = len(self.points)
+        shape = config(axes, item.configuration)
+        pose = _pose_attributes(xyz_rxyz(program.in_user(item.T_target)))
+        self.points.append(
+            f'<Value key="{k}" {pose} shoulder="{shape["shoulder"]}" '
+            f'elbow="{shape["elbow"]}" wrist="{shape["wrist"]}" fatherId="{self.father}" />'
+        )
+        code.append(f"  movel(pTarget[{k}], tTool[{tool}], mSpeed[{speed}])")
+        if item.guard:
+            code += [
+                f"  // a search until {note(item.guard)}: stops where dSensor closes",
+                f"  if watch(dSensor == true, {_f(SEARCH_TIMEOUT)})",
+                "    stopMove()",
+                "  endIf",
+                "  resetMotion()",
+            ]
+
+    def output(self, item: Output) -> None:
+        name = "dGripper" if item.signal == "gripper" else "dToolChanger"
+        self.code += [
+            f"  // {note(item.where)}: {note(item.text)}",
+            "  waitEndMove()",
+            f"  {name} = {'true' if item.value else 'false'}",
+        ]
+
+    def wait(self, item: Wait) -> None:
+        self.code += [
+            f"  // {note(item.where)}: {note(item.text)}",
+            "  waitEndMove()",
+            f"  delay({_f(item.seconds)})",
+        ]
+
+    def comment(self, item: Comment) -> None:
+        self.code.append(f"  // {note(item.where)}: {note(item.text)}")
+
+    def record(self, item: Record) -> None:
+        self.code.append(
+            f"  // {note(item.where)}: {note(item.text)} (contact {item.number}/"
+            f"{item.total} of {note(item.feature)}: not recorded in VAL3, read "
+            "herePoint(tTool) on the pendant)"
+        )
+
+    def files(self) -> dict[str, str]:
+        program, app = self.program, self.app
+        code = [*self.code, "  waitEndMove()"]
+        tool_values = [
+            f'<Value key="{k}" {_pose_attributes(xyz_rxyz(t.T_flange_tcp))} fatherId="flange[0]" '
+            'ioLink="valve1" open="0" close="0" />'
+            for k, t in enumerate(program.tools)
+        ] or ['<Value key="0" x="0" y="0" z="0" rx="0" ry="0" rz="0" fatherId="flange[0]" />']
+        datas = [
+            _array("jTarget", "jointRx", self.joints),
+            _array("pTarget", "pointRx", self.points),
+            _array("tTool", "tool", tool_values),
+            _array("mSpeed", "mdesc", self.speeds),
+            _array("dGripper", "dio", ['<Value key="0" link="" />']),
+            _array("dToolChanger", "dio", ['<Value key="0" link="" />']),
+            _array("dSensor", "dio", ['<Value key="0" link="" />']),
+        ]
+        if program.user_frame:
+            user = _pose_attributes(xyz_rxyz(program.T_controller_user))
+            datas.append(
+                _array("fUser", "frame", [f'<Value key="0" {user} fatherId="world[0]" />'])
+            )
+        dtx = "\n".join(
+            [
+                '<?xml version="1.0" encoding="utf-8"?>',
+                '<Database xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" '
+                'xmlns="http://www.staubli.com/robotics/VAL3/Data/2">',
+                "  <Datas>",
+                *datas,
+                "  </Datas>",
+                "</Database>",
+                "",
+            ]
+        )
+        start = _program_file("start", ["begin", *code, "end"])
+        stop = _program_file("stop", ["begin", "end"])
+        pjx = "\n".join(
+            [
+                '<?xml version="1.0" encoding="utf-8"?>',
+                '<Project xmlns="http://www.staubli.com/robotics/VAL3/Project/3">',
+                '  <Parameters version="s7.3" stackSize="5000" millimeterUnit="true" />',
+                "  <Programs>",
+                '    <Program file="start.pgx" />',
+                '    <Program file="stop.pgx" />',
+                "  </Programs>",
+                "  <Database>",
+                f"    <Data file={quoteattr(app + '.dtx')} />",
+                "  </Database>",
+                "  <Libraries />",
+                "</Project>",
+                "",
+            ]
+        )
+        return {
+            f"{app}/{app}.pjx": pjx,
+            f"{app}/{app}.dtx": dtx,
+            f"{app}/start.pgx": start,
+            f"{app}/stop.pgx": stop,
+        }
+
+
 def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:
-    used: set[str] = set()
-    app = VAL3.identifier(program.name, used)
-    tools = {t.name: k for k, t in enumerate(program.tools)}
-    joints: list[str] = []  # Value elements of jTarget
-    points: list[str] = []  # of pTarget
-    speeds: list[str] = []  # of mSpeed
-    code: list[str] = []
-    head = [
-        f"{program.name}: device '{program.device}', from {program.source}",
-        "written by 'rworld export program': targets resolved with the cell's current pose files",
-        f"outputs: dGripper (true = closed) and dToolChanger (true = locked): link them to "
-        f"outputs {signals.gripper} and {signals.tool_changer}; dSensor (searches) to input "
-        f"{signals.sensor}",
-        *([f"application '{app}' is program '{program.name}'"] if app != program.name else []),
-        *program.conventions(),
-        "rx, ry, rz: about x, then the new y, then the new z (R = Rx Ry Rz), degrees; mm",
-    ]
-    code += [f"  // {note(line)}" for line in head]
-    father = "fUser[0]" if program.user_frame else "world[0]"
-    tool = 0
-    for item in program.instructions:
-        if isinstance(item, Tool):
-            tool = tools[item.name]
-            code.append(f"  // tTool[{tool}] is {note(item.name)}")
-        elif isinstance(item, Load):
-            code.append(f"  // {note(item.describe())} (the tool's and arm's load: the cell)")
-        elif isinstance(item, Move):
-            code.append(f"  // {note(item.where)}: {note(item.text)}")
-            axes = program.axes(item.q_target)
-            speed = len(speeds)
-            percent = max(0.01, min(100.0, 100.0 * item.speed_fraction))
-            acceleration = max(0.01, min(100.0, 100.0 * item.acceleration_fraction))
-            tvel = max(0.1, item.tool_speed * 1000)
-            blend = 'blend="off" leave="50" reach="50"'
-            if item.blend is not None and not item.guard:  # leave and reach: the TCP's mm
-                mm = _f(np.floor(item.blend.tcp * 1e4) / 10, 1)  # rounded down to 0.1 mm
-                blend = f'blend="joint" leave="{mm}" reach="{mm}"'
-            speeds.append(
-                f'<Value key="{speed}" accel="{_f(acceleration, 2)}" vel="{_f(percent, 2)}" '
-                f'decel="{_f(acceleration, 2)}" tmax="{_f(tvel, 1)}" rmax="99999" {blend} />'
-            )
-            if item.motion == "joint" and not item.guard:
-                k = len(joints)
-                values = " ".join(f'j{i + 1}="{_f(np.degrees(a))}"' for i, a in enumerate(axes))
-                joints.append(f'<Value key="{k}" {values} />')
-                code.append(f"  movej(jTarget[{k}], tTool[{tool}], mSpeed[{speed}])")
-                continue
-            k = len(points)
-            shape = config(axes, item.configuration)
-            pose = _pose_attributes(xyz_rxyz(program.in_user(item.T_target)))
-            points.append(
-                f'<Value key="{k}" {pose} shoulder="{shape["shoulder"]}" '
-                f'elbow="{shape["elbow"]}" wrist="{shape["wrist"]}" fatherId="{father}" />'
-            )
-            code.append(f"  movel(pTarget[{k}], tTool[{tool}], mSpeed[{speed}])")
-            if item.guard:
-                code += [
-                    f"  // a search until {note(item.guard)}: stops where dSensor closes",
-                    f"  if watch(dSensor == true, {_f(SEARCH_TIMEOUT)})",
-                    "    stopMove()",
-                    "  endIf",
-                    "  resetMotion()",
-                ]
-        elif isinstance(item, Output):
-            name = "dGripper" if item.signal == "gripper" else "dToolChanger"
-            code += [
-                f"  // {note(item.where)}: {note(item.text)}",
-                "  waitEndMove()",
-                f"  {name} = {'true' if item.value else 'false'}",
-            ]
-        elif isinstance(item, Wait):
-            code += [
-                f"  // {note(item.where)}: {note(item.text)}",
-                "  waitEndMove()",
-                f"  delay({_f(item.seconds)})",
-            ]
-        elif isinstance(item, Comment):
-            code.append(f"  // {note(item.where)}: {note(item.text)}")
-        elif isinstance(item, Record):
-            code.append(
-                f"  // {note(item.where)}: {note(item.text)} (contact {item.number}/"
-                f"{item.total} of {note(item.feature)}: not recorded in VAL3, read "
-                "herePoint(tTool) on the pendant)"
-            )
-    code.append("  waitEndMove()")
-    tool_values = [
-        f'<Value key="{k}" {_pose_attributes(xyz_rxyz(t.T_flange_tcp))} fatherId="flange[0]" '
-        'ioLink="valve1" open="0" close="0" />'
-        for k, t in enumerate(program.tools)
-    ] or ['<Value key="0" x="0" y="0" z="0" rx="0" ry="0" rz="0" fatherId="flange[0]" />']
-    datas = [
-        _array("jTarget", "jointRx", joints),
-        _array("pTarget", "pointRx", points),
-        _array("tTool", "tool", tool_values),
-        _array("mSpeed", "mdesc", speeds),
-        _array("dGripper", "dio", ['<Value key="0" link="" />']),
-        _array("dToolChanger", "dio", ['<Value key="0" link="" />']),
-        _array("dSensor", "dio", ['<Value key="0" link="" />']),
-    ]
-    if program.user_frame:
-        user = _pose_attributes(xyz_rxyz(program.T_controller_user))
-        datas.append(_array("fUser", "frame", [f'<Value key="0" {user} fatherId="world[0]" />']))
-    dtx = "\n".join(
-        [
-            '<?xml version="1.0" encoding="utf-8"?>',
-            '<Database xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" '
-            'xmlns="http://www.staubli.com/robotics/VAL3/Data/2">',
-            "  <Datas>",
-            *datas,
-            "  </Datas>",
-            "</Database>",
-            "",
-        ]
-    )
-    start = _program_file("start", ["begin", *code, "end"])
-    stop = _program_file("stop", ["begin", "end"])
-    pjx = "\n".join(
-        [
-            '<?xml version="1.0" encoding="utf-8"?>',
-            '<Project xmlns="http://www.staubli.com/robotics/VAL3/Project/3">',
-            '  <Parameters version="s7.3" stackSize="5000" millimeterUnit="true" />',
-            "  <Programs>",
-            '    <Program file="start.pgx" />',
-            '    <Program file="stop.pgx" />',
-            "  </Programs>",
-            "  <Database>",
-            f"    <Data file={quoteattr(app + '.dtx')} />",
-            "  </Database>",
-            "  <Libraries />",
-            "</Project>",
-            "",
-        ]
-    )
-    return {
-        f"{app}/{app}.pjx": pjx,
-        f"{app}/{app}.dtx": dtx,
-        f"{app}/start.pgx": start,
-        f"{app}/stop.pgx": stop,
-    }
+    return walk(VAL3Writer(program, signals))
 
 
 EMPTY = {  # an array the program does not use still holds one value
