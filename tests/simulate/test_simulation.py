@@ -454,3 +454,13 @@ def test_step_numbers_are_one_based_in_json_and_whole_in_csv(cli, tmp_path):
         and f"step {first['step']} "
         in cli(["check", str(WORKCELLS / "puma560"), "through_table"]).output
     )
+
+
+def test_every_step_kind_of_the_program_format_has_its_method():
+    """The scheduler's table (simulate.engine.STEP_METHODS) against the program format's step
+    kinds: a kind the files accept and nothing runs would be a silent gap."""
+    from rworld_cli.schema.program import STEP_KINDS
+    from rworld_cli.simulate.engine import STEP_METHODS
+
+    assert set(STEP_METHODS) == set(STEP_KINDS)
+    assert all(callable(method) for method in STEP_METHODS.values())
