@@ -4,21 +4,16 @@ frame tree at its instant - as the scheduler's methods (a mixin: ``self`` is an
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from ..model.program import ResolvedStep, Step
 from ..world.tree import AffixmentError
-from .timeline import Event
-
-if TYPE_CHECKING:
-    from .engine import _Track
+from .timeline import Event, Track
 
 
 class AffixmentSteps:
     """The affixment steps of the scheduler."""
 
     def _tree_change(
-        self, device: str, tr: _Track, step: Step, kind: str, child: str, action
+        self, device: str, tr: Track, step: Step, kind: str, child: str, action
     ) -> bool:
         try:
             aff = action()

@@ -3,25 +3,19 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from ..model.program import ResolvedStep, Step
 from ..motion.trajectory import StoppedMove
-from .timeline import Event
+from .timeline import Event, Track
 
 LATCH_TIME = 1e-9  # [s]: a guarded move's contact instant is found to this (a probe's latch)
-
-
-if TYPE_CHECKING:
-    from .engine import _Track
 
 
 class ContactSteps:
     """The contact steps of the scheduler."""
 
-    def _guard(self, device: str, tr: _Track, step: Step, seg, sensor: str):
+    def _guard(self, device: str, tr: Track, step: Step, seg, sensor: str):
         """Cut a guarded move where its sensor first senses something: the first clock sample
         that senses, then bisection between it and the sample before down to ``LATCH_TIME``, as
         a touch-trigger probe latches the position at contact."""

@@ -21,12 +21,10 @@ Two phases:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
 from ..errors import UserError
-from ..model.program import Program, ResolvedStep, Run, Step
+from ..model.program import ResolvedStep, Run, Step
 from ..world.tree import World
 from .affixment_steps import AffixmentSteps
 from .contact_steps import ContactSteps
@@ -35,7 +33,7 @@ from .errors import SimulationError, UnreachableTarget
 from .feature_steps import FeatureSteps
 from .motion_steps import MotionSteps
 from .sampling import _sample
-from .timeline import DeviceTimeline, Event, SimulationResult, Violation
+from .timeline import DeviceTimeline, Event, SimulationResult, Track, Violation
 
 __all__ = [
     "DeviceTimeline",
@@ -47,29 +45,13 @@ __all__ = [
 ]
 
 
-@dataclass
-class _Track:
-    program: Program
-    segments: list = field(default_factory=list)
-    q_init: np.ndarray | None = None
-    step_starts: list = field(default_factory=list)  # (t, step index)
-    t: float = 0.0
-    pc: int = 0
-    status: str = "running"  # running | waiting | done
-    waiting_on: object = None
-    sync_counts: dict = field(default_factory=dict)
-    end: float | None = None
-
-
 class _Scheduler(MotionSteps, ContactSteps, AffixmentSteps, CoordinationSteps, FeatureSteps):
     def __init__(self, run: Run):
         self.run = run
         self.world = World(run.cell)
         self.order = [p.device for p in run.programs]
         self.rank = {d: n for n, d in enumerate(self.order)}  # ties go to the run file's order
-        self.tracks = {
-            p.device: _Track(p, q_init=self.world.joints(p.device)) for p in run.programs
-        }
+        self.tracks = {p.device: Track(p, q_init=self.world.joints(p.device)) for p in run.programs}
         self.events: list[Event] = []
         self.resolved: dict[str, list[ResolvedStep]] = {d: [] for d in self.order}
         self._actions: list[ResolvedStep] = []  # what the running step did, in order

@@ -4,8 +4,6 @@ solutions and turns, ``path: free`` and path files timed as legs) as the schedul
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from ..dynamics import DeviceDynamics
@@ -18,21 +16,17 @@ from ..motion.linear import PathError, linear_move
 from ..motion.trajectory import UntimedMove, joint_move
 from ..units import MAX_SAMPLES
 from .errors import NoFreePath
-from .timeline import Event
+from .timeline import Event, Track
 
 IK_STARTS = 24  # seeded IK starts for a target's other joint solutions (a blocked move)
 PATH_START_TOLERANCE = 1e-6  # [rad or m] a path file's first waypoint against the joints
 FREE_PATH_TIMEOUT = 10.0  # [s] a 'path: free' move's search gives up after this
 
 
-if TYPE_CHECKING:
-    from .engine import _Track
-
-
 class MotionSteps:
     """The move steps of the scheduler."""
 
-    def _move(self, device: str, tr: _Track, step: Step) -> bool:
+    def _move(self, device: str, tr: Track, step: Step) -> bool:
         spec = step.spec
         dev = self.run.cell.devices[device]
         q_now = self.world.joints(device)
@@ -94,7 +88,7 @@ class MotionSteps:
     def _go(
         self,
         device: str,
-        tr: _Track,
+        tr: Track,
         step: Step,
         tcp: str,
         T_world_targets: np.ndarray,
@@ -692,7 +686,7 @@ class MotionSteps:
         )
 
     def _joint_move(
-        self, device: str, tr: _Track, step: Step, q_now, q_goal, speed=None, acceleration=None
+        self, device: str, tr: Track, step: Step, q_now, q_goal, speed=None, acceleration=None
     ):
         """A synchronised joint move; a joint with no velocity or acceleration limit is
         unlimited in it, alone.

@@ -3,8 +3,6 @@ batched Newton-Euler torques - and the limit checks (the report's section 5, pha
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from ..dynamics import DeviceDynamics, Payload
@@ -15,9 +13,6 @@ from ..motion.trajectory import sample_track
 from ..units import MAX_SAMPLES
 from .timeline import DeviceTimeline, SimulationResult, Violation
 
-if TYPE_CHECKING:
-    from .engine import _Scheduler
-
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     """[start, stop) index ranges where ``mask`` is True."""
@@ -26,9 +21,7 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(edges[::2], edges[1::2]))
 
 
-def _sample(
-    run: Run, sched: _Scheduler, progress, payload: bool = False
-) -> tuple[SimulationResult, dict]:
+def _sample(run: Run, sched, progress, payload: bool = False) -> tuple[SimulationResult, dict]:
     """The run on its clock, and every device's (q, qd, qdd) at the clock's instants."""
     cell = run.cell
     end = max((tr.end for tr in sched.tracks.values()), default=0.0)

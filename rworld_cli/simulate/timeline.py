@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model.program import ResolvedStep
+from ..model.program import Program, ResolvedStep
 
 
 @dataclass
@@ -160,3 +160,20 @@ class SimulationResult:
         without ``payload=True``, or no joint with a torque limit feels a payload.
         """
         return self.devices[device].payload
+
+
+@dataclass
+class Track:
+    """A device's program as the scheduler runs it: its motion segments so far, where it is
+    in the program, whether it runs, waits or is done."""
+
+    program: Program
+    segments: list = field(default_factory=list)
+    q_init: np.ndarray | None = None
+    step_starts: list = field(default_factory=list)  # (t, step index)
+    t: float = 0.0
+    pc: int = 0
+    status: str = "running"  # running | waiting | done
+    waiting_on: object = None
+    sync_counts: dict = field(default_factory=dict)
+    end: float | None = None
