@@ -95,14 +95,15 @@ from .planning import (  # noqa: F401
     unlimited_joints,
     write_path_with_knots,
 )
-from .robotcal import (  # noqa: F401
-    RobotCalibrationRun,
-    RobotPosePlanRun,
-    calibrate_robot,
+from .robotcal import RobotCalibrationRun, calibrate_robot  # noqa: F401
+from .robotplan import RobotPosePlanRun, plan_robot_calibration  # noqa: F401
+from .robots import (  # noqa: F401
+    UrdfExport,
+    UrdfImport,
+    export_urdf,
     import_ur_calibration,
-    plan_robot_calibration,
+    import_urdf,
 )
-from .robots import UrdfExport, UrdfImport, export_urdf, import_urdf  # noqa: F401
 from .sensing import (  # noqa: F401
     describe_reading,
     render_scene,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -291,3 +292,106 @@ def export_urdf(cell_path: str, output: str, device: str | None = None) -> UrdfE
     robot, mesh_names = urdf_from_cell(cell, device, output, carried)
     write_urdf(output, robot, mesh_names)
     return UrdfExport(output, device, list(robot.links), list(robot.joints), robot.comment)
+
+
+# --------------------------------------------------------------------------- UR factory calibration
+
+UR_JOINT_TOLERANCE = (0.02, math.radians(5.0))  # a calibrated UR joint within this of nominal
+
+
+def import_ur_calibration(
+    calibration: str, cell_path: str, output: str, device: str | None = None
+) -> dict:
+    """A UR robot's factory calibration (``ur_calibration``'s ``kinematics:`` file) as a
+    pose-file overlay of the cell's joint frames (``rworld import ur-calibration``).
+
+    The cell's UR is imported from ``ur_description`` (joint frames): each calibration group is
+    its joint's ``origin`` in ``ur_macro.xacro``.  What ``rworld import urdf`` merged before a
+    joint stays: before the shoulder, the fixed joints from the device's base to
+    ``base_link_inertia`` (``base_link`` turned by pi about z), found from the cell's joint 1
+    frame - a turn about z and a height, as the default kinematics' shoulder is on the base's
+    axis; before the other joints nothing (their parents are the previous joints' links), which
+    is checked: each frame within 20 mm and 5 deg of the calibration's.
+
+    Returns
+    -------
+    dict
+        ``written``, ``device``, ``hash`` and per joint how far the calibration moves its frame
+        from the cell's (``moved_mm``, ``turned_deg``).
+
+    Raises
+    ------
+    UserError
+        A malformed file (located), no 6-joint joint-frame device, a cell whose frames are not
+        ur_description's.
+    """
+    import numpy as np
+
+    from .. import spatial
+    from ..schema.loader import load_cell
+    from ..schema.urcal import read_ur_calibration, write_joint_overlay
+    from .calibration import overlay_output
+
+    origins, label = read_ur_calibration(calibration)
+    cell = load_cell(cell_path).cell
+    candidates = [
+        d
+        for d in cell.devices.values()
+        if d.convention == "frames" and d.dof == 6 and all(j.kind == "revolute" for j in d.joints)
+    ]
+    if device is not None:
+        candidates = [d for d in candidates if d.name == device]
+    if len(candidates) != 1:
+        raise UserError(
+            f"{cell_path}: "
+            + (
+                f"no 6-axis arm given by joint frames{f' named {device}' if device else ''} (a UR "
+                "imported from ur_description)"
+                if not candidates
+                else "several 6-axis arms: choose one with --device"
+            )
+        )
+    dev = candidates[0]
+    out = overlay_output(cell_path, cell, output, "ur_calibration.yaml", "the UR calibration")
+    nominal = [np.asarray(j.origin) for j in dev.joints]
+    # before the shoulder: the merged fixed joints, a turn about z (and the shoulder's height)
+    first = nominal[0]
+    R = first[:3, :3]
+    about_z = abs(R[2, 2] - 1.0) < 1e-9 and np.abs(R[:2, 2]).max() < 1e-9
+    if not about_z or np.abs(first[:2, 3]).max() > 1e-9:
+        raise UserError(
+            f"{dev.name}.{dev.joints[0].name}'s frame is not ur_description's (a turn about z "
+            "and a height above the base): import the robot from ur_description with its base "
+            "at base_link or base"
+        )
+    before_shoulder = spatial.make_transform(R, np.zeros(3))
+    calibrated = {dev.joints[0].name: before_shoulder @ origins[0]}
+    report = []
+    for i, (j, T_nom) in enumerate(zip(dev.joints, nominal)):
+        T_cal = calibrated[j.name] if i == 0 else origins[i]
+        if i > 0:
+            calibrated[j.name] = T_cal
+        moved = np.linalg.solve(T_nom, T_cal)
+        shift = float(np.linalg.norm(moved[:3, 3]))
+        turn = float(np.arccos(np.clip((np.trace(moved[:3, :3]) - 1) / 2, -1.0, 1.0)))
+        if shift > UR_JOINT_TOLERANCE[0] or turn > UR_JOINT_TOLERANCE[1]:
+            raise UserError(
+                f"{calibration}: the '{j.name}' frame of the calibration is {shift * 1000:.1f} mm "
+                f"and {np.degrees(turn):.2f} deg from {dev.name}'s: not this robot's calibration, "
+                "or a cell not imported from ur_description (joints in its order: "
+                "shoulder_pan, shoulder_lift, elbow, wrist_1, wrist_2, wrist_3)"
+            )
+        report.append(
+            {"joint": j.name, "moved_mm": shift * 1000, "turned_deg": float(np.degrees(turn))}
+        )
+    write_joint_overlay(
+        out,
+        dev.name,
+        calibrated,
+        [
+            f"UR factory calibration of '{dev.name}' (rworld import ur-calibration), from "
+            f"{calibration}" + (f", hash {label}" if label else ""),
+            "List it last in the cell's pose_files; the nominal joint frames stay where they are.",
+        ],
+    )
+    return {"written": str(out), "device": dev.name, "hash": label, "joints": report}

@@ -353,3 +353,111 @@ def touch_candidates(
         T_end[keep],
     )
     return touches, M
+
+
+# --------------------------------------------------------------------------- candidates
+
+
+def collision_free_states(cell, device: str, Q: np.ndarray) -> np.ndarray:
+    """Which joint states (K, n) of ``device`` touch nothing it may not touch (K,) bool: the
+    collision room's configuration check, with no overlap tolerated."""
+    from ..collision.bodies import collision_model
+    from ..collision.configurations import ConfigurationChecker
+    from ..world.tree import World
+
+    checker = ConfigurationChecker(World(cell), collision_model(cell), device, tolerance=0.0)
+    return checker.check(Q, nearest=False).free
+
+
+SIGHT_CLEARANCE = 0.01  # [m]: the line of sight's radius: no robot body within it
+SIGHT_START = 0.03  # [m]: from this far out from the target (its own mount is not in the way)
+
+
+def tracker_visible(cell, device, target, Q, floor, instrument_at, acceptance, world):
+    """Which tracker candidates (M, n) the instrument can measure: the target above the floor
+    (world z) or the robot's mounting plane, facing the instrument within the acceptance angle
+    of its z axis, the line of sight clear of every robot body by :data:`SIGHT_CLEARANCE`.
+    Returns (kept (M,) bool, {reason: count lost})."""
+    from ..collision.bodies import ball_body, collision_model, distances
+
+    link, T_link_target = world.mount_of(device, target)
+    T_world_base = world.T_world(device)
+    from ..kinematics.jacobian import ToolMount, tool_pose
+
+    T = T_world_base @ tool_pose(cell.devices[device], Q, ToolMount(link, T_link_target))
+    p = T[:, :3, 3]
+    lost: dict[str, int] = {}
+    if floor is not None:
+        keep = p[:, 2] > floor
+        lost["below the floor"] = int((~keep).sum())
+    else:
+        height = (p - T_world_base[:3, 3]) @ T_world_base[:3, 2]
+        keep = height > 0
+        lost["below the robot's mounting plane"] = int((~keep).sum())
+    if instrument_at is None:
+        return keep, lost
+    to = instrument_at - p
+    distance = np.linalg.norm(to, axis=1)
+    if acceptance is not None:
+        facing = np.einsum("ij,ij->i", to / distance[:, None], T[:, :3, 2])
+        inside = facing >= np.cos(acceptance)
+        lost["outside the reflector's acceptance angle"] = int((keep & ~inside).sum())
+        keep &= inside
+    # the line of sight: balls of the clearance's radius along it, against the robot's bodies
+    model = collision_model(cell)
+    bodies = list(model.bodies)
+    robot = [i for i, b in enumerate(bodies) if b.owner == device]
+    if not robot:
+        return keep, lost
+    ball = len(bodies)
+    bodies.append(ball_body("line of sight", SIGHT_CLEARANCE))
+    reach = max(float(np.linalg.norm(p - T_world_base[:3, 3], axis=1).max()), 0.1) + 0.3
+    # every kept candidate's beam samples at once: SIGHT_START, + clearance, ... to its end
+    kept = np.flatnonzero(keep)
+    length = np.minimum(distance[kept], reach)  # beyond the reach nothing is in the way
+    counts = np.maximum(np.ceil((length - SIGHT_START) / SIGHT_CLEARANCE).astype(int), 0)
+    owner = np.repeat(kept, counts)
+    if not len(owner):
+        return keep, lost
+    step = np.arange(len(owner)) - np.repeat(np.cumsum(counts) - counts, counts)
+    along = SIGHT_START + step * SIGHT_CLEARANCE
+    C = p[owner] + along[:, None] * (to[owner] / distance[owner][:, None])
+    frames = sorted({bodies[i].frame for i in robot})
+    T_bodies = world.T_world_frames(frames, {device: Q})  # per candidate, not per sample
+    hidden = np.zeros(len(Q), dtype=bool)
+    for i in robot:
+        b = bodies[i]
+        Tb = T_bodies[b.frame]
+        centre = np.einsum("kij,j->ki", Tb[:, :3, :3], b.center) + Tb[:, :3, 3]
+        near = np.flatnonzero(
+            np.linalg.norm(centre[owner] - C, axis=1) <= b.radius + SIGHT_CLEARANCE
+        )
+        near = near[~hidden[owner[near]]]
+        if not len(near):
+            continue
+        Tc = np.broadcast_to(np.eye(4), (len(near), 4, 4)).copy()
+        Tc[:, :3, 3] = C[near]
+        result = distances(
+            bodies, np.full(len(near), i), np.full(len(near), ball), Tb[owner[near]], Tc
+        )
+        hidden[owner[near[result.overlap]]] = True
+    lost["with the arm in the line of sight"] = int((keep & hidden).sum())
+    return keep & ~hidden, lost
+
+
+@dataclass
+class CandidatePool:
+    """Candidates of one instrument: the states to choose from and how a program visits them."""
+
+    q: np.ndarray  # (M, n) where the instrument measures
+    q_path: np.ndarray  # (M, n) reached from home by a joint move (touches: the approach)
+    normals: np.ndarray | None = None  # touches: (M, 3) world
+    touches: Touches | None = None
+
+
+def tracker_pool(dev, rng, candidates: int) -> CandidatePool:
+    lower, upper = dev.limit_array("lower"), dev.limit_array("upper")
+    lo = np.where(np.isfinite(lower), lower, -np.pi)
+    hi = np.where(np.isfinite(upper), upper, np.pi)
+    q = rng.uniform(lo, hi, (candidates, dev.dof))
+    return CandidatePool(q, q)
