@@ -12,6 +12,7 @@ from .common import (
     frames_option,
     handle_errors,
     json_option,
+    output_option,
     with_progress,
 )
 
@@ -45,13 +46,7 @@ def _solution_dict(sol) -> dict:
 @click.command()
 @click.argument("cell", metavar="CELL")
 @click.argument("measurements", nargs=-1, required=True, metavar="MEASUREMENTS...")
-@click.option(
-    "-o",
-    "--output",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Overlay pose file to write (default: calibrated.yaml beside cell.yaml).",
-)
+@output_option("Overlay pose file to write (default: calibrated.yaml beside cell.yaml).")
 @frames_option
 @click.option(
     "--csv-units",
@@ -286,13 +281,7 @@ def _render(run) -> None:
     metavar="ANGLE",
     help="--program: joint-encoder noise, 1 sigma, with its unit (0.001deg, 2e-5rad).",
 )
-@click.option(
-    "-o",
-    "--output",
-    required=True,
-    type=click.Path(dir_okay=False),
-    help="Measurement file to write (YAML).",
-)
+@output_option("Measurement file to write (YAML).", required=True)
 @json_option
 @handle_errors
 def measure(

@@ -161,6 +161,28 @@ def handle_errors(fn: Callable) -> Callable:
 
 
 # --frames F1,F2,...: the calibration commands' choice of conditioned frames
+def output_option(
+    help: str,
+    *,
+    folder: bool = False,
+    required: bool = False,
+    name: str | None = None,
+    default: str | None = None,
+) -> Callable:
+    """``-o/--output``: the file (or, with ``folder``, the folder) a command writes; each
+    command says in ``help`` what it writes there."""
+    return click.option(
+        "-o",
+        "--output",
+        *([name] if name else []),
+        default=default,
+        show_default=default is not None,
+        required=required,
+        type=click.Path(file_okay=False) if folder else click.Path(dir_okay=False),
+        help=help,
+    )
+
+
 frames_option = click.option(
     "--frames",
     default=None,

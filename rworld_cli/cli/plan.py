@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import FiniteFloat, emit_json, handle_errors, json_option
+from .common import FiniteFloat, emit_json, handle_errors, json_option, output_option
 from .physics_common import context, device_options, output_options, parse_vector
 
 GRID_HELP = "Grid points on the path (N points, N - 1 intervals), as toppra counts them."
@@ -696,13 +696,7 @@ def impulse(
     metavar="S",
     help="Give up after this many seconds of search (exit 1).",
 )
-@click.option(
-    "-o",
-    "--output",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Write the path file (YAML, atomically): 'plan time-optimal --path' takes it.",
-)
+@output_option("Write the path file (YAML, atomically): 'plan time-optimal --path' takes it.")
 @click.option(
     "--blend/--no-blend",
     default=True,

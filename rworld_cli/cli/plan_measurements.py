@@ -13,6 +13,7 @@ from .common import (
     frames_option,
     handle_errors,
     json_option,
+    output_option,
     with_progress,
 )
 
@@ -115,13 +116,7 @@ def _plan_dict(plan) -> dict:
     show_default=True,
     help="Required distance of the robot from what it may not touch.",
 )
-@click.option(
-    "-o",
-    "--output",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Write the probe targets as a measurement-file template.",
-)
+@output_option("Write the probe targets as a measurement-file template.")
 @json_option
 @handle_errors
 def plan_measurements(

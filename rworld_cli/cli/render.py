@@ -10,19 +10,14 @@ from .common import (
     handle_errors,
     joints_option,
     json_option,
+    output_option,
     parse_joint_assignments,
 )
 
 
 @click.command()
 @click.argument("cell", metavar="CELL")
-@click.option(
-    "-o",
-    "--output",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="A .png picture, a .glb glTF scene or an .html viewer page.",
-)
+@output_option("A .png picture, a .glb glTF scene or an .html viewer page.")
 @click.option(
     "--html",
     "html_path",

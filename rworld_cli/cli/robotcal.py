@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import FiniteFloat, emit_json, handle_errors, json_option
+from .common import FiniteFloat, emit_json, handle_errors, json_option, output_option
 
 
 @click.command("calibrate-robot")
@@ -13,13 +13,7 @@ from .common import FiniteFloat, emit_json, handle_errors, json_option
 @click.option(
     "--device", default=None, metavar="NAME", help="The device (checked against the files)."
 )
-@click.option(
-    "-o",
-    "--output",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="The overlay pose file to write (default: robot_calibrated.yaml beside cell.yaml).",
-)
+@output_option("The overlay pose file to write (default: robot_calibrated.yaml beside cell.yaml).")
 @click.option("--dry-run", is_flag=True, help="Identify and report; write nothing.")
 @click.option(
     "--validate",
@@ -249,14 +243,10 @@ def calibrate_robot(
     type=click.Path(dir_okay=False),
     help="Write a program that visits the poses (joint moves, a pause at each), checked.",
 )
-@click.option(
-    "-o",
-    "--output",
-    "template",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="Write an observation file of the poses with the nominal points (a probe: the "
+@output_option(
+    "Write an observation file of the poses with the nominal points (a probe: the "
     "contacts with the nominal joints), to fill in.",
+    name="template",
 )
 @click.option(
     "--floor",

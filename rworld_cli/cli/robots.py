@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import emit_json, handle_errors, json_option
+from .common import emit_json, handle_errors, json_option, output_option
 
 
 @click.group("import")
@@ -179,13 +179,7 @@ def _assignments(texts, sep: str, form: str, option: str) -> dict[str, str]:
 @click.argument("calibration", metavar="FILE.yaml")
 @click.option("--cell", "cell", required=True, metavar="CELL", help="The cell with the UR.")
 @click.option("--device", default=None, metavar="NAME", help="The UR (default: the cell's arm).")
-@click.option(
-    "-o",
-    "--output",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="The overlay pose file to write (default: ur_calibration.yaml beside cell.yaml).",
-)
+@output_option("The overlay pose file to write (default: ur_calibration.yaml beside cell.yaml).")
 @json_option
 @handle_errors
 def import_ur_calibration(calibration, cell, device, output, json_output):

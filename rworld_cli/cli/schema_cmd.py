@@ -6,18 +6,12 @@ import sys
 
 import click
 
-from .common import EXIT_CHECK_FAILED, emit_json, handle_errors, json_option
+from .common import EXIT_CHECK_FAILED, emit_json, handle_errors, json_option, output_option
 
 
 @click.command()
-@click.option(
-    "-o",
-    "--output",
-    "output",
-    default="schemas",
-    show_default=True,
-    type=click.Path(file_okay=False),
-    help="Directory to write the schemas into.",
+@output_option(
+    "Directory to write the schemas into.", folder=True, name="output", default="schemas"
 )
 @click.option(
     "--check",

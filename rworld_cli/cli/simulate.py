@@ -14,6 +14,7 @@ from .common import (
     emit_json,
     handle_errors,
     json_option,
+    output_option,
     with_progress,
 )
 
@@ -64,13 +65,7 @@ def _checks(clearance, collision_tolerance, no_collisions) -> dict:
 @click.command()
 @click.argument("cell", metavar="CELL")
 @click.argument("run", metavar="RUN")
-@click.option(
-    "-o",
-    "--output",
-    default=None,
-    type=click.Path(file_okay=False),
-    help="Write timelines (CSV), events.json, summary.json here.",
-)
+@output_option("Write timelines (CSV), events.json, summary.json here.", folder=True)
 @click.option(
     "--dt",
     type=FiniteFloat(1e-4, 1.0),
@@ -180,13 +175,7 @@ def _write_view(loaded, result, directory, glb_path, view_path, show_progress) -
 
 @click.command()
 @click.argument("directory", metavar="RUN_OUTPUT_DIR", type=click.Path(file_okay=False))
-@click.option(
-    "-o",
-    "--output",
-    default=None,
-    type=click.Path(dir_okay=False),
-    help="The HTML file to write (default RUN_OUTPUT_DIR/view.html).",
-)
+@output_option("The HTML file to write (default RUN_OUTPUT_DIR/view.html).")
 @json_option
 @handle_errors
 def view(directory, output, json_output):
