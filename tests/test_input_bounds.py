@@ -16,8 +16,9 @@ from tests.conftest import WORKCELLS
 def test_a_path_file_over_its_bounds_is_refused_before_it_is_parsed(cli, tmp_path):
     """200 000 waypoints validated in 93 s and 1.83 GB; the file is now refused by its size,
     and a count over 20 000 by the count."""
-    rows = "".join("  - [0.0000000, 0.0000000, 0.0000000, 0.0000000, 0.0000000, 0.0]\n"
-                   for _ in range(200_000))  # fmt: skip
+    rows = "".join(
+        "  - [0.0000000, 0.0000000, 0.0000000, 0.0000000, 0.0000000, 0.0]\n" for _ in range(200_000)
+    )
     big = tmp_path / "big.yaml"
     big.write_text("units: {angle: rad}\nwaypoints:\n" + rows)
     out = tmp_path / "t.csv"
@@ -43,13 +44,16 @@ def test_rows_at_a_period_are_bounded_before_they_are_allocated():
 
 @pytest.mark.parametrize(
     "option, message",
-    [(["--seed", "-1"], "-1 is not in the range x>=0"),
-     (["--timeout", "0"], "0.0 is not in the range x>0")],
-)  # fmt: skip
+    [
+        (["--seed", "-1"], "-1 is not in the range x>=0"),
+        (["--timeout", "0"], "0.0 is not in the range x>0"),
+    ],
+)
 def test_plan_path_checks_its_seed_and_timeout(cli, tmp_path, option, message):
     out = tmp_path / "p.yaml"
-    result = cli(["plan", "path", str(WORKCELLS / "puma560"), "--to", "home", "-o", str(out),
-                  *option])  # fmt: skip
+    result = cli(
+        ["plan", "path", str(WORKCELLS / "puma560"), "--to", "home", "-o", str(out), *option]
+    )
     assert result.exit_code == 2 and message in result.output, result.output
     assert not out.exists()
 

@@ -74,7 +74,7 @@ class RAPIDWriter(Writer):
                 ]
                 if program.records
                 else []
-            ),  # fmt: skip
+            ),
             *("  " + line for line in RAPID.renamed(name, program.name)),
             *(f"  ! {note(line)}" for line in program.conventions()),
         ]
@@ -195,8 +195,9 @@ class RAPIDWriter(Writer):
         lines, body = list(self.lines), list(self.body)
         if self.program.records:  # the contact log: a file on the controller, appended to
             lines.append(f"  VAR iodev {self.log};")
-            body.insert(1, f'    Open "HOME:" \\File:="rworld_{self.name}.log", {self.log} '
-                        "\\Append;")  # fmt: skip
+            body.insert(
+                1, f'    Open "HOME:" \\File:="rworld_{self.name}.log", {self.log} \\Append;'
+            )
             body.append(f"    Close {self.log};")
         lines += body + ["  ENDPROC", "ENDMODULE", ""]
         return {f"{self.name}.mod": "\n".join(lines)}

@@ -34,9 +34,18 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
-from xml.sax.saxutils import escape, quoteattr
 
 from ..errors import Issue, UserError
+from .xacro_doc import (
+    _El,
+    _package_root,
+    _parse,
+    _serialise,
+    _SetAttribute,
+    _shown,
+    _Text,
+    find_package,
+)
 from .xacro_eval import (
     _GLOBALS,
     _MATH,
@@ -53,7 +62,6 @@ from .xacro_eval import (
     _wrap,
     as_text,
 )
-from .xmlsafe import xml_parser
 
 __all__ = ["XacroExpansion", "XacroLimits", "expand_xacro_file", "find_package"]
 
@@ -74,11 +82,6 @@ class XacroLimits:
     macro_calls: int = 50_000
     macro_depth: int = 40
     seconds: float = 10.0
-
-
-_XACRO_URIS = frozenset(
-    {"http://www.ros.org/wiki/xacro", "http://ros.org/wiki/xacro", "http://wiki.ros.org/xacro"}
-)
 
 
 @dataclass(frozen=True)
@@ -111,96 +114,6 @@ class XacroExpansion:
 
 
 # --- the document ---------------------------------------------------------------------------
-
-
-@dataclass
-class _El:
-    """An element: ``tag`` as written (``xacro:property``, ``link``), attributes in order."""
-
-    tag: str
-    attrs: list[tuple[str, Any]]
-    children: list[Any]
-    file: str = ""
-    line: int = 0
-    column: int = 0
-
-    def get(self, name: str) -> Any:
-        for key, value in self.attrs:
-            if key == name:
-                return value
-        return None
-
-
-@dataclass
-class _Text:
-    data: str
-
-
-@dataclass
-class _SetAttribute:
-    """``xacro:attribute``: an attribute for the enclosing element."""
-
-    name: str
-    value: Any
-
-
-def _qualified(name: str, prefixes: dict[str, str]) -> str:
-    if name.startswith("{"):
-        uri, local = name[1:].split("}", 1)
-        prefix = prefixes.get(uri)
-        return f"{prefix}:{local}" if prefix else local
-    return name
-
-
-def _parse(path: Path, shown: str, limits: XacroLimits) -> tuple[_El, dict[str, str]]:
-    """The file as a tree of :class:`_El`, and its root's name spaces other than xacro's."""
-    from lxml import etree
-
-    size = path.stat().st_size
-    if size > limits.file_bytes:
-        raise _Refused(
-            f"{shown} has {size} bytes; rworld reads xacro files up to {limits.file_bytes}"
-        )
-    data = path.read_bytes()
-    parser = xml_parser()
-    try:
-        root = etree.fromstring(data, parser)
-    except etree.XMLSyntaxError as exc:
-        line = exc.position[0] if exc.position else 0
-        message = re.sub(r" \(.*, line \d+\)$|, line \d+, column \d+$", "", str(exc.msg))
-        raise _Refused(f"{shown}:{line}: malformed XML: {message}") from None
-    lines = data.decode(root.getroottree().docinfo.encoding or "utf-8", "replace").splitlines()
-
-    namespaces: dict[str, str] = {}
-
-    def convert(el) -> _El:
-        prefixes = {uri: prefix for prefix, uri in el.nsmap.items() if prefix}
-        namespaces.update((p, u) for p, u in el.nsmap.items()
-                          if p and p != "xacro" and u not in _XACRO_URIS)  # fmt: skip
-        tag = _qualified(el.tag, prefixes)  # a default name space's elements by local name
-        # libxml2 gives the line where a start tag ends: its start is the last '<tag' at or
-        # above it (a tag spread over lines, as the vendors write inertias)
-        line, column = el.sourceline or 0, 0
-        for back in range(line, max(line - 200, 0), -1):
-            found = lines[back - 1].rfind("<" + tag) if back <= len(lines) else -1
-            if found >= 0:
-                line, column = back, found + 1
-                break
-        node = _El(tag, [(_qualified(k, prefixes), v) for k, v in el.attrib.items()], [],
-                   shown, line, column or 1)  # fmt: skip
-        if el.text:
-            node.children.append(_Text(el.text))
-        for child in el:
-            if isinstance(child, etree._Entity):
-                raise _Refused(f"{shown}:{child.sourceline}: the entity {child.text} is not "
-                               "expanded (rworld reads no DTD)")  # fmt: skip
-            if isinstance(child.tag, str):
-                node.children.append(convert(child))
-            if child.tail:
-                node.children.append(_Text(child.tail))
-        return node
-
-    return convert(root), namespaces
 
 
 # --- names and values -----------------------------------------------------------------------
@@ -404,8 +317,9 @@ class _Expander:
             return results[0]
         joined = "".join(as_text(r, self.limits.value_chars) for r in results)
         if len(joined) > self.limits.value_chars:
-            raise _Refused(f"a value of {len(joined)} characters (at most "
-                           f"{self.limits.value_chars})")  # fmt: skip
+            raise _Refused(
+                f"a value of {len(joined)} characters (at most {self.limits.value_chars})"
+            )
         return joined
 
     def extension(self, text: str) -> str:
@@ -420,8 +334,9 @@ class _Expander:
             return self.find(rest[0])
         if command == "arg" and len(rest) == 1:
             if rest[0] not in self.args:
-                raise _Refused(f"$(arg {rest[0]}): undefined; give it with "
-                               f"--xacro-arg {rest[0]}:=VALUE")  # fmt: skip
+                raise _Refused(
+                    f"$(arg {rest[0]}): undefined; give it with --xacro-arg {rest[0]}:=VALUE"
+                )
             return self.args[rest[0]]
         if command == "env" and len(rest) == 1:
             if rest[0] not in self.args:
@@ -511,8 +426,14 @@ class _Expander:
             name = as_text(self.text(self.required(el, "xacro:name"), scope))
             if not name:
                 raise _Refused("xacro:element with an empty name")
-            renamed = _El(name, [a for a in el.attrs if a[0] != "xacro:name"], el.children,
-                          el.file, el.line, el.column)  # fmt: skip
+            renamed = _El(
+                name,
+                [a for a in el.attrs if a[0] != "xacro:name"],
+                el.children,
+                el.file,
+                el.line,
+                el.column,
+            )
             return self.element(renamed, scope, macros)
         elif kind == "attribute":
             name = as_text(self.text(self.required(el, "name"), scope))
@@ -521,8 +442,9 @@ class _Expander:
         elif kind == "call":
             name = as_text(self.text(self.required(el, "macro"), scope))
             attrs = [a for a in el.attrs if a[0] != "macro"]
-            return self.call(_El("xacro:" + name, attrs, el.children, el.file, el.line,
-                                 el.column), scope, macros)  # fmt: skip
+            return self.call(
+                _El("xacro:" + name, attrs, el.children, el.file, el.line, el.column), scope, macros
+            )
         else:
             return self.call(el, scope, macros)
         return []
@@ -537,8 +459,11 @@ class _Expander:
         self.elements += 1
         if self.elements > self.limits.elements:
             raise _Refused(f"the expanded document has over {self.limits.elements} elements")
-        attrs = [(k, self.count_output(as_text(self.text(v, scope))))
-                 for k, v in el.attrs if not k.startswith(("xacro:", "xmlns"))]  # fmt: skip
+        attrs = [
+            (k, self.count_output(as_text(self.text(v, scope))))
+            for k, v in el.attrs
+            if not k.startswith(("xacro:", "xmlns"))
+        ]
         children = []
         for node in self.nodes(el.children, scope, macros):
             if isinstance(node, _SetAttribute):
@@ -608,16 +533,20 @@ class _Expander:
         if self.calls > self.limits.macro_calls:
             raise _Refused(f"over {self.limits.macro_calls} macro calls")
         if self.depth >= self.limits.macro_depth:
-            raise _Refused(f"macros nested over {self.limits.macro_depth} deep "
-                           f"({' > '.join(self.macro_stack[-5:])} > ...)")  # fmt: skip
+            raise _Refused(
+                f"macros nested over {self.limits.macro_depth} deep "
+                f"({' > '.join(self.macro_stack[-5:])} > ...)"
+            )
         local = _Scope(macro_scope)
         params = list(macro.params)
         for key, value in el.attrs:
             if key.startswith("xmlns"):
                 continue
             if key not in params:
-                raise _Refused(f"xacro:{name} has no parameter {key!r} (it takes "
-                               f"{', '.join(macro.params) or 'none'})")  # fmt: skip
+                raise _Refused(
+                    f"xacro:{name} has no parameter {key!r} (it takes "
+                    f"{', '.join(macro.params) or 'none'})"
+                )
             params.remove(key)
             self.set(local, key, self.text(value, scope), lazy=False)
         blocks = [n for n in self.nodes(el.children, scope, macros) if isinstance(n, _El)]
@@ -702,7 +631,7 @@ class _Expander:
                     continue
                 raise
             wanted = Path(name) if os.path.isabs(name) else current / name
-            root, namespaces = _parse(path, _shown(wanted), self.limits)
+            root, namespaces = _parse(path, _shown(wanted), self.limits.file_bytes)
             self.namespaces.update(namespaces)
             out.extend(self.nodes(root.children, scope, macros))
         return out
@@ -718,9 +647,16 @@ _GLOBALS["python"] = _Names({k: v for k, v in _GLOBALS.items() if k in _PYTHON})
 def _xacro_names(expander: _Expander) -> _Names:
     def note(*args: Any, **kwargs: Any) -> str:
         where = expander.where[-1] if expander.where else None
-        expander.warnings.append(Issue(where.file if where else "", where.line if where else 0,
-                                       where.column if where else 0, "xacro",
-                                       " ".join(map(str, args)), "warning"))  # fmt: skip
+        expander.warnings.append(
+            Issue(
+                where.file if where else "",
+                where.line if where else 0,
+                where.column if where else 0,
+                "xacro",
+                " ".join(map(str, args)),
+                "warning",
+            )
+        )
         return ""
 
     def fatal(*args: Any) -> str:
@@ -739,84 +675,6 @@ def _xacro_names(expander: _Expander) -> _Names:
         "print_location": lambda *a, **k: "", "fatal": fatal, "abs_filename": abs_filename,
     }  # fmt: skip
     return _Names({name: _Function(f"xacro.{name}", f) for name, f in functions.items()})
-
-
-def _shown(path: Path) -> str:
-    """An included file's name for messages: relative to the working folder when it is below
-    it (as the user names files; links in the way kept as the user sees them), else absolute."""
-    absolute = os.path.abspath(path)
-    relative = os.path.relpath(absolute)
-    return absolute if relative.startswith("..") else relative
-
-
-def _package_root(path: Path) -> Path:
-    """The ROS package a file is in (the nearest folder above it with a package.xml), else
-    its own folder."""
-    for folder in path.parents:
-        if (folder / "package.xml").is_file():
-            return folder
-    return path.parent
-
-
-def _serialise(root: _El, namespaces: dict[str, str]) -> tuple[str, dict[int, tuple]]:
-    """The document's text, and for each line that starts an element the (file, line, column)
-    of the xacro element it was expanded from."""
-    out = ['<?xml version="1.0" encoding="utf-8"?>\n']
-    origins: dict[int, tuple[str, int, int]] = {}
-    line = [2]  # the line the next piece starts on
-
-    def put(text: str) -> None:
-        out.append(text)
-        line[0] += text.count("\n")
-
-    def write(el: _El, indent: str, declarations: str = "") -> None:
-        origins[line[0]] = (el.file, el.line, el.column)
-        attrs = "".join(f" {k}={quoteattr(str(v))}" for k, v in el.attrs)
-        children = [c for c in el.children if isinstance(c, _El) or c.data.strip()]
-        if not children:
-            put(f"{indent}<{el.tag}{declarations}{attrs}/>\n")
-            return
-        put(f"{indent}<{el.tag}{declarations}{attrs}>")
-        if all(isinstance(c, _Text) for c in children):
-            put(escape("".join(c.data for c in children).strip()))
-            put(f"</{el.tag}>\n")
-            return
-        put("\n")
-        for child in children:
-            if isinstance(child, _El):
-                write(child, indent + "  ")
-            else:
-                put(f"{indent}  {escape(child.data.strip())}\n")
-        put(f"{indent}</{el.tag}>\n")
-
-    declared = "".join(f" xmlns:{p}={quoteattr(u)}" for p, u in namespaces.items())
-    write(root, "", declared)
-    return "".join(out), origins
-
-
-def find_package(name: str, package_paths: Sequence[Path]) -> Path | None:
-    """A ROS package's folder under the package paths: the path itself when it is the package
-    (its ``package.xml`` names it, or the folder has its name), a folder of that name in it, or
-    one level deeper (a repository of several packages)."""
-    for root in package_paths:
-        candidates = [root, root / name, *sorted(root.glob(f"*/{name}"))]
-        for folder in candidates:
-            if folder != root and folder.name != name:
-                continue
-            manifest = folder / "package.xml"
-            if folder.is_dir() and (folder.name == name or _package_name(manifest) == name):
-                return folder
-    return None
-
-
-def _package_name(manifest: Path) -> str | None:
-    try:
-        if manifest.stat().st_size > 1_000_000:
-            return None
-        found = re.search(r"<name>\s*([^<\s]+)\s*</name>", manifest.read_text(errors="replace"))
-    except OSError:
-        return None
-    return found.group(1) if found else None
 
 
 def expand_xacro_file(
@@ -860,9 +718,11 @@ def expand_xacro_file(
     expander.deadline = time.monotonic() + limits.seconds
     try:
         if own.stat().st_size > limits.file_bytes:
-            raise _Refused(f"{shown} has {own.stat().st_size} bytes; rworld reads xacro files "
-                           f"up to {limits.file_bytes}")  # fmt: skip
-        root, expander.namespaces = _parse(own, shown, limits)
+            raise _Refused(
+                f"{shown} has {own.stat().st_size} bytes; rworld reads xacro files "
+                f"up to {limits.file_bytes}"
+            )
+        root, expander.namespaces = _parse(own, shown, limits.file_bytes)
         root = _El(root.tag, root.attrs, root.children, shown, root.line, root.column)
         expanded = expander.element(root, _Scope(), _Macros())
     except _Refused as exc:

@@ -185,8 +185,9 @@ class _Evaluator:
     def __call__(self, source: str) -> Any:
         source = source.strip()
         if len(source) > MAX_EXPRESSION_CHARS:
-            raise _Refused(f"an expression of {len(source)} characters (at most "
-                           f"{MAX_EXPRESSION_CHARS})")  # fmt: skip
+            raise _Refused(
+                f"an expression of {len(source)} characters (at most {MAX_EXPRESSION_CHARS})"
+            )
         try:
             tree = ast.parse(source, mode="eval")
         except SyntaxError as exc:
@@ -251,8 +252,11 @@ class _Evaluator:
 
         def call(*args: Any) -> Any:
             if name == "replace" and len(args) >= 2 and isinstance(args[1], str):
-                grows = (text.count(args[0]) + 1) * len(args[1]) if args[0] != "" else (
-                    (len(text) + 1) * len(args[1]))  # fmt: skip
+                grows = (
+                    (text.count(args[0]) + 1) * len(args[1])
+                    if args[0] != ""
+                    else ((len(text) + 1) * len(args[1]))
+                )
                 if len(text) + grows > self.limit:
                     raise _Refused(f"str.replace would make over {self.limit} characters")
             if name == "join" and len(args) == 1:
@@ -269,8 +273,10 @@ class _Evaluator:
         if not isinstance(value, str | list | tuple | dict):
             raise _Refused(f"{_describe(value)} cannot be indexed")
         if isinstance(node.slice, ast.Slice):
-            parts = [None if p is None else self.eval(p)
-                     for p in (node.slice.lower, node.slice.upper, node.slice.step)]  # fmt: skip
+            parts = [
+                None if p is None else self.eval(p)
+                for p in (node.slice.lower, node.slice.upper, node.slice.step)
+            ]
             if any(p is not None and not isinstance(p, int) for p in parts):
                 raise _Refused("slice bounds must be whole numbers")
             return value[slice(*parts)]  # type: ignore[index]
@@ -304,8 +310,10 @@ class _Evaluator:
             for seq, count in ((left, right), (right, left)):
                 if isinstance(seq, _SEQUENCES) and isinstance(count, int):
                     if len(seq) * max(count, 0) > self.limit:
-                        raise _Refused(f"a repetition of {len(seq)} x {count} items or "
-                                       f"characters (at most {self.limit})")  # fmt: skip
+                        raise _Refused(
+                            f"a repetition of {len(seq)} x {count} items or "
+                            f"characters (at most {self.limit})"
+                        )
         if kind is ast.Add and isinstance(left, _SEQUENCES) and isinstance(right, _SEQUENCES):
             if len(left) + len(right) > self.limit:
                 raise _Refused(f"a value of over {self.limit} items or characters")

@@ -468,8 +468,12 @@ def test_a_log_fuzz_refuses_every_lie_and_keeps_every_truth(cli, loop, tmp_path)
     does not count.  The counts are printed for the closing note."""
     rng = np.random.default_rng(58)
     counts = {"mutations": 0, "refused": 0, "kept": 0, "wrong": 0}
-    for fmt, frame in [("urscript", None), ("rapid", "plate"), ("krl", "table"),
-                       ("fanuc", "plate")]:  # fmt: skip
+    for fmt, frame in [
+        ("urscript", None),
+        ("rapid", "plate"),
+        ("krl", "table"),
+        ("fanuc", "plate"),
+    ]:
         log = _write_log(cli, loop, fmt, frame, tmp_path / fmt)
         text = log.read_text()
         truth = [c.T_frame_tcp for c in _reads(log, fmt).contacts]
@@ -493,8 +497,9 @@ def test_a_log_fuzz_refuses_every_lie_and_keeps_every_truth(cli, loop, tmp_path)
                 assert exc.issues and exc.issues[0].line > 0, exc  # located
                 counts["refused" if kind in REFUSED else "wrong"] += 1
                 continue
-            same = len(read) == len(truth) and all(np.allclose(a, b, atol=1e-12, rtol=0)
-                                                   for a, b in zip(read, truth))  # fmt: skip
+            same = len(read) == len(truth) and all(
+                np.allclose(a, b, atol=1e-12, rtol=0) for a, b in zip(read, truth)
+            )
             unchanged = new == token
             ok = kind in KEPT or unchanged
             counts["kept" if ok and same else "wrong"] += 1
@@ -509,14 +514,26 @@ def test_a_log_fuzz_refuses_every_lie_and_keeps_every_truth(cli, loop, tmp_path)
     [
         ("rapid", "plate", lambda t: t.replace(" x=", " x=1 x=", 1), "'x' given twice"),
         ("krl", "table", lambda t: re.sub(r"(RWC_1=\{)X ", r"\1X 1,X ", t), "'X' given twice"),
-        ("urscript", None, lambda t: t.replace("contact 1/12", "contact 13/12", 1),
-         "a report counts 1 to N"),
-        ("urscript", None, lambda t: t.replace("pose=p[", "pose=p[1e300, 0, 0, 0, 0, 0] p[", 1),
-         "not a plausible value"),
-        ("fanuc", "plate", lambda t: re.sub(r"X:\s*(\S+)", r"X: \1 X: 1.0", t, count=1),
-         "'X' given twice"),
+        (
+            "urscript",
+            None,
+            lambda t: t.replace("contact 1/12", "contact 13/12", 1),
+            "a report counts 1 to N",
+        ),
+        (
+            "urscript",
+            None,
+            lambda t: t.replace("pose=p[", "pose=p[1e300, 0, 0, 0, 0, 0] p[", 1),
+            "not a plausible value",
+        ),
+        (
+            "fanuc",
+            "plate",
+            lambda t: re.sub(r"X:\s*(\S+)", r"X: \1 X: 1.0", t, count=1),
+            "'X' given twice",
+        ),
     ],
-)  # fmt: skip
+)
 def test_keys_counts_and_sizes_are_checked(cli, loop, tmp_path, fmt, frame, edit, message):
     log = _write_log(cli, loop, fmt, frame, tmp_path)
     log.write_text(edit(log.read_text()))

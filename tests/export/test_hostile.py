@@ -175,8 +175,9 @@ def code_words(data: bytes, language: str) -> list[str]:
 
         root = etree.fromstring(data)
         code = "\n".join(el.text or "" for el in root.iter("{*}Code"))
-        code = "\n".join(re.sub(r'"[^"\n]*"', "", line.split("//", 1)[0])
-                         for line in code.split("\n"))  # fmt: skip
+        code = "\n".join(
+            re.sub(r'"[^"\n]*"', "", line.split("//", 1)[0]) for line in code.split("\n")
+        )
         return re.findall(r"[A-Za-z0-9_]+", code)
     if language == "inform":  # a line starting with ' is a comment; "..." is text
         lines = text.replace("\r\n", "\n").split("\n")
@@ -252,8 +253,10 @@ def test_an_arm_angle_the_ik_cannot_hold_is_unreachable_not_a_crash(cli, lbr_cel
     shutil.copytree(lbr_cell, cell)
     device = next(iter(__import__("yaml").safe_load((cell / "cell.yaml").read_text())["devices"]))
     program = cell / "programs" / "plain.yaml"
-    program.write_text(f"device: {device['name']}\nsteps:\n"
-                       f"  - move: {{to: target, config: {{arm_angle: {angle}}}}}\n")  # fmt: skip
+    program.write_text(
+        f"device: {device['name']}\nsteps:\n"
+        f"  - move: {{to: target, config: {{arm_angle: {angle}}}}}\n"
+    )
     result = cli(["simulate", str(cell), str(program)])
     assert result.exit_code in (0, 1), result.output
     if result.exit_code == 1:

@@ -124,12 +124,12 @@ def test_ordinary_expressions_evaluate(tmp_path):
     path = _write(
         tmp_path,
         '<xacro:property name="r" value="0.05"/>'
-        '<xacro:property name="names" value="${[\'a\', \'b\']}"/>'
+        "<xacro:property name=\"names\" value=\"${['a', 'b']}\"/>"
         '<link name="l_${names[1].upper()}_${len(names)}">'
         '<inertial><mass value="${2 * pi * r ** 2 if r > 0 else 0}"/>'
         '<origin xyz="${radians(90)} ${math.atan2(1, 1)} ${-r}" rpy="0 0 ${max(1, 2) // 2}"/>'
         "</inertial></link>",
-    )  # fmt: skip
+    )
     link = etree.fromstring(_expand(path)).find("link")
     assert link.get("name") == "l_B_2"
     assert float(link.find("inertial/mass").get("value")) == pytest.approx(
@@ -166,7 +166,7 @@ def test_env_comes_only_from_xacro_args(tmp_path, monkeypatch):
         '<xacro:property name="y" value="${xacro.load_yaml(\'linked.yaml\')}"/><link name="${y}"/>',
         '<xacro:include filename="/etc/*"/>',
     ],
-)  # fmt: skip
+)
 def test_files_are_read_only_inside_the_package_paths(tmp_path, body):
     (tmp_path / "secret.yaml").write_text("key: hunter2\n")
     (tmp_path / "outside.xacro").write_text(f'<robot {XACRO_NS}><link name="hunter2"/></robot>')
@@ -181,9 +181,12 @@ def test_files_are_read_only_inside_the_package_paths(tmp_path, body):
 
 
 def test_files_inside_the_package_are_read(tmp_path):
-    path = _write(tmp_path, '<xacro:include filename="part.xacro"/>'
-                  '<xacro:property name="y" value="${xacro.load_yaml(\'../config/l.yaml\')}"/>'
-                  '<joint name="${y.name}"><limit upper="${y[\'upper\']}"/></joint>')  # fmt: skip
+    path = _write(
+        tmp_path,
+        '<xacro:include filename="part.xacro"/>'
+        '<xacro:property name="y" value="${xacro.load_yaml(\'../config/l.yaml\')}"/>'
+        '<joint name="${y.name}"><limit upper="${y[\'upper\']}"/></joint>',
+    )
     (path.parent / "part.xacro").write_text(f'<robot {XACRO_NS}><link name="part"/></robot>')
     (path.parents[1] / "config").mkdir()
     (path.parents[1] / "config" / "l.yaml").write_text("name: j1\nupper: !degrees 90\n")
@@ -276,8 +279,14 @@ def test_refusals_stay_within_bounds_of_memory(tmp_path):
         "print(refused, peak.split()[1])\n"
     )
     environment = {**os.environ, "PYTHONPATH": str(REPO)}
-    out = subprocess.run([sys.executable, "-c", script, *paths], capture_output=True, text=True,
-                         cwd=REPO, env=environment, check=True)  # fmt: skip
+    out = subprocess.run(
+        [sys.executable, "-c", script, *paths],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        env=environment,
+        check=True,
+    )
     refused, peak_kib = map(int, out.stdout.split())
     assert refused == len(BOUNDS)
     assert peak_kib < 500 * 1024
