@@ -28,7 +28,7 @@ ROOMS = {
         2.4,
         3.6,
         "schema/  - every file format:\ncells, poses, programs, runs, paths,\n"
-        "measurements, tables, results,\nURDF, JSON Schemas",
+        "measurements, tables, results,\nlogs, URDF, xacro (as data),\nJSON Schemas",
         "#fdd0a2",
     ),
     "calc": (
@@ -37,7 +37,7 @@ ROOMS = {
         7.6,
         "calculation rooms (plain SI data in, results out):\nworld (frame tree), kinematics, "
         "dynamics, motion, sensing (types/),\ncollision, calibration, planning (constraints), "
-        "simulate;\nexport (robot-language writers)",
+        "simulate (a module per step family);\nexport (one walk, a Writer per language)",
         "#c7e9c0",
     ),
     "model": (
