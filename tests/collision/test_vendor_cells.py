@@ -55,12 +55,12 @@ def test_a_second_check_reads_meshes_parts_and_trees_from_the_cache(tmp_path):
 
     probe = (
         "import json, sys\n"
-        "from rworld_cli.collision import bvh, bodies\n"
+        "from rworld_cli.collision import bvh, parts\n"
         "fitted = []\n"
-        "build, hulls = bvh._build, bodies._hull_parts\n"
+        "build, hulls = bvh._build, parts._hull_parts\n"
         "bvh._build = lambda p: (len(p) >= bvh.CACHED_LEAVES and fitted.append('tree'))"
         " or build(p)\n"
-        "bodies._hull_parts = lambda *a: fitted.append('hull') or hulls(*a)\n"
+        "parts._hull_parts = lambda *a: fitted.append('hull') or hulls(*a)\n"
         "from rworld_cli.cli import main\n"
         "sys.argv = ['rworld', 'check', sys.argv[1], 'tour', '--json']\n"
         "try:\n"
