@@ -28,7 +28,8 @@ from . import bvh
 from .allowed import allowed_pairs
 from .bodies import CollisionModel, buried_in, distances
 from .convex import MAX_ITERATIONS
-from .sweep import _Levers, _signed
+from .levers import _Levers
+from .sweep import _signed
 
 
 @dataclass
@@ -589,7 +590,7 @@ class ConfigurationChecker:
 
         For each pair, a point of either body moves, while s runs over [sa, sb], by at most
         ``M (sb - sa)``: ``M`` the sum over the device's joints of ``|q1_j - q0_j|`` times
-        the joint's lever on the pair (``sweep._Levers``: its axis' distance to the body;
+        the joint's lever on the pair (``levers._Levers``: its axis' distance to the body;
         a joint that moves both bodies does not count).  The distance is 1-Lipschitz in that
         motion, so an interval whose end distances satisfy ``da + db - M (sb - sa) >= 2 (c -
         tol)`` is clear; other intervals are halved, their midpoints measured, until every

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from rworld_cli.collision import levers as lever_arms
 from rworld_cli.collision import sweep
 from rworld_cli.collision.bodies import collision_model, distances
 from rworld_cli.schema.loader import load_cell
@@ -26,7 +27,7 @@ def _setup(name: str):
         d: (np.tile(dev.home, (2, 1)), np.zeros((2, dev.dof)), np.zeros((2, dev.dof)))
         for d, dev in cell.devices.items()
     }
-    levers = sweep._Levers.of(world, model.bodies, joints)
+    levers = lever_arms._Levers.of(world, model.bodies, joints)
     return cell, world, model, levers
 
 
@@ -128,7 +129,7 @@ def test_joint_axis_lines_are_what_each_turn_turns_about(convention, kinds):
     devices[1] = next(iter(devices[1].values()))
     rng = np.random.default_rng(5)
     for dev in devices:
-        lines = sweep._joint_axis_lines(dev)
+        lines = lever_arms._joint_axis_lines(dev)
         for i, joint in enumerate(dev.joints):
             if joint.kind != "revolute":
                 assert lines[i] is None
