@@ -269,9 +269,9 @@ def export_urdf(cell_path: str, output: str, device: str | None = None) -> UrdfE
     device : str, optional
         Needed when the cell has more than one device.
     """
+    from ..schema.cell_to_urdf import urdf_from_cell
     from ..schema.loader import load_cell
     from ..schema.urdf import write_urdf
-    from ..schema.urdf_cell import urdf_from_cell
 
     cell = load_cell(cell_path).cell
     if device is None:

@@ -374,7 +374,7 @@ def _check_lbr(urdf: Path, out: Path, moves) -> None:
 def test_import_states_the_vendors_linkage():
     """What import assumed, per ROS-Industrial's drivers: ABB's coupled IRB 2400 adds joint 2 to
     axis 3, FANUC subtracts it; KUKA and UR are uncoupled."""
-    from rworld_cli.schema.urdf_cell import vendor_conventions
+    from rworld_cli.schema.urdf_vendors import vendor_conventions
 
     assert vendor_conventions("abb_irb2400") == ("abb", 1.0)
     assert vendor_conventions("abb_irb4600_60_205") == ("abb", None)
@@ -477,7 +477,7 @@ def test_inform_writes_joint_targets_in_pulses_when_the_cell_gives_them(vendor_c
     ],
 )
 def test_import_names_the_vendor_families(name, vendor):
-    from rworld_cli.schema.urdf_cell import vendor_conventions
+    from rworld_cli.schema.urdf_vendors import vendor_conventions
 
     assert vendor_conventions(name)[0] == vendor
 

@@ -142,8 +142,9 @@ def test_unit_axes_and_zero_offsets_cost_nothing(tmp_path):
     """The generated kernels fold constants: a joint-frame chain costs no more than its DH form."""
     from rworld_cli.dynamics.rnea import generate_rnea
     from rworld_cli.kinematics.jacobian import generated
+    from rworld_cli.schema.cell_to_urdf import urdf_from_cell
     from rworld_cli.schema.urdf import read_urdf, urdf_text
-    from rworld_cli.schema.urdf_cell import cell_from_urdf, urdf_from_cell
+    from rworld_cli.schema.urdf_cell import cell_from_urdf
     from tests.conftest import WORKCELLS
 
     puma = load_cell(WORKCELLS / "puma560").cell
