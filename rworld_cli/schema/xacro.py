@@ -5,7 +5,7 @@ with Python's ``eval`` (a name filter in front of it, which attribute walks such
 ``python.vars(python.type)`` step round), reads ``$(env ...)`` from the environment and includes
 any file a path names.  This module expands the same language with none of that:
 
-- expressions are parsed by :mod:`ast` and walked by :class:`_Evaluator`, which knows numbers,
+- expressions are parsed by :mod:`ast` and walked (:mod:`.xacro_eval`), which knows numbers,
   strings, lists and dicts, properties, arithmetic, comparisons, ``x if c else y``, math
   functions and a short list of built-ins (``len``, ``float``, ``str``, ``min``, ...); no
   attribute of a Python object is ever looked up (only keys of YAML data and of xacro's name
@@ -70,8 +70,8 @@ __all__ = ["XacroExpansion", "XacroLimits", "expand_xacro_file", "find_package"]
 class XacroLimits:
     """How much work a xacro expansion may do; past any of these it is refused, located.
 
-    The defaults are two orders of magnitude above the largest vendor packages (a UR, a dual-arm
-    ABB YuMi: under 2 000 elements, 300 macro calls, 60 files, well under a second).
+    The defaults are far above the vendor packages tried (Universal Robots' ``ur.urdf.xacro``
+    with its four YAML files: 219 elements in 25 ms, ``bench/xacro_expand.py``).
     """
 
     file_bytes: int = 8_000_000  # one xacro or YAML file
@@ -111,15 +111,6 @@ class XacroExpansion:
             return issue
         file, line, column = origin
         return Issue(file, line, column, issue.location, issue.message, issue.severity)
-
-
-# --- the document ---------------------------------------------------------------------------
-
-
-# --- names and values -----------------------------------------------------------------------
-
-
-# --- expressions ----------------------------------------------------------------------------
 
 
 # --- the expansion --------------------------------------------------------------------------
