@@ -173,8 +173,8 @@ def _urscript(lines: list[str], path: str) -> list[LoggedContact]:
             _fail(
                 path,
                 n,
-                f"the pose's rotation vector is {np.linalg.norm(v[3:]):.6g} rad long "
-                "(a controller reports at most pi)",
+                f"the pose's rotation vector is {np.linalg.norm(v[3:]):.6g} rad long: no "
+                "controller reports a turn of over 2 pi",
             )
         R = _rotvec(v[3:])
         out.append(
