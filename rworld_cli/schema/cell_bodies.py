@@ -13,8 +13,8 @@ from ..units import LENGTH
 if TYPE_CHECKING:  # pydantic, the file models and YAML load when a file is checked
     from . import models as sm
 
+from .cellcache import file_digest
 from .cellparts import (
-    _file_digest,
     _mesh_facts,
     inertia_matrix,
     inertia_problem,
@@ -78,7 +78,7 @@ class BodiesMixin:
             )
             return None
         stat = file.stat()
-        self.read.append((file, _file_digest(file)))  # before the facts are read: a later
+        self.read.append((file, file_digest(file)))  # before the facts are read: a later
         # change of the file then never matches, and the entry is not used
         facts = _mesh_facts(str(file.resolve()), stat.st_mtime_ns, stat.st_size)
         if isinstance(facts, str):

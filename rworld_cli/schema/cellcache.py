@@ -54,7 +54,8 @@ def _fingerprint() -> str:
     return _FINGERPRINT[0]
 
 
-def _digest(path: Path) -> str:
+def file_digest(path: Path) -> str:
+    """SHA-256 of a file's bytes (what an entry records of each file a load read)."""
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
@@ -88,7 +89,7 @@ def lookup(key: tuple[str, str] | None) -> Any:
     try:
         kept = pickle.loads(data)
         for file, digest in kept["read"]:
-            if _digest(Path(file)) != digest:
+            if file_digest(Path(file)) != digest:
                 return None
         cache.touch(KIND, name)  # recently used: kept when the cache is pruned
         return kept["loaded"]
@@ -111,7 +112,7 @@ def store(key: tuple[str, str] | None, loaded: Any, read: list[tuple[Path, str]]
     try:
         if not read or read[0][1] != cell_digest:
             return
-        if any(_digest(path) != digest for path, digest in read):
+        if any(file_digest(path) != digest for path, digest in read):
             return
         data = pickle.dumps(
             {"read": [(str(p.resolve()), d) for p, d in read[1:]], "loaded": loaded},

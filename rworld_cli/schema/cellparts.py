@@ -103,12 +103,6 @@ def validate_document(doc: Marked, model: type[BaseModel]):
     return result
 
 
-def _file_digest(path: Path) -> str:
-    import hashlib
-
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
 PULSES_PER_DEGREE = (10.0, 100_000.0)  # Yaskawa encoders: a GP7's axes about 1 000 to 2 000
 ANGLE_KEYS = {"alpha", "theta", "rpy"}  # keys whose numbers are angles in the file's unit
 LENGTH_KEYS = {"a", "d", "xyz", "box", "radius", "length", "point", "center", "size", "com"}

@@ -189,15 +189,15 @@ def _rapid(lines: list[str], path: str) -> list[LoggedContact]:
         if MARK not in text:
             continue
         k, total, fields, rest = _report(text, path, n)
-        values = fields  # x=, y=, z= and q= are fields of the report like the others
-        absent = [key for key in ("x", "y", "z", "q") if key not in values]
+        # x=, y=, z= and q= are fields of the report like the others
+        absent = [key for key in ("x", "y", "z", "q") if key not in fields]
         if absent:
             _fail(path, n, "a RAPID contact report ends in 'x= y= z=' (mm) and 'q=q1,q2,q3,q4'")
-        p = np.array([_number(values[c], path, n, c) for c in "xyz"]) * UNITS[fields["unit"]]
-        q = _numbers(values["q"], 4, path, n, "q")
+        p = np.array([_number(fields[c], path, n, c) for c in "xyz"]) * UNITS[fields["unit"]]
+        q = _numbers(fields["q"], 4, path, n, "q")
         norm = float(np.linalg.norm(q))
         if not np.isfinite(norm) or abs(norm - 1.0) > 1e-3:
-            _fail(path, n, f"q={values['q']} is not a unit quaternion (norm {norm:.6g})")
+            _fail(path, n, f"q={fields['q']} is not a unit quaternion (norm {norm:.6g})")
         T = spatial.make_transform(spatial.quat_to_matrix(q / norm), p)
         out.append(LoggedContact(k, total, T, fields, f"{path}:{n}"))
     return out

@@ -43,7 +43,6 @@ from .cellparts import (  # noqa: F401 - re-exported: the loader's public pieces
     MAX_MAGNITUDE,
     MESH_FACTS_FORMAT,
     PULSES_PER_DEGREE,
-    _file_digest,
     _implausible_numbers,
     _mesh_facts,
     _moved_shape,

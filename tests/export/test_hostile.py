@@ -251,7 +251,9 @@ def test_an_arm_angle_the_ik_cannot_hold_is_unreachable_not_a_crash(cli, lbr_cel
     config: {arm_angle} crashed (LinAlgError, exit 3) for every value tried (issue 58)."""
     cell = tmp_path / "cell"
     shutil.copytree(lbr_cell, cell)
-    device = next(iter(__import__("yaml").safe_load((cell / "cell.yaml").read_text())["devices"]))
+    import yaml
+
+    device = yaml.safe_load((cell / "cell.yaml").read_text())["devices"][0]
     program = cell / "programs" / "plain.yaml"
     program.write_text(
         f"device: {device['name']}\nsteps:\n"
