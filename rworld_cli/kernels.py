@@ -385,7 +385,9 @@ def compile_ir(name: str, build, symbols: list[str], source: str) -> list[int] |
             addresses = _load(llvm, key, symbols, build)
         except Exception as error:  # a failed compile must not stop the caller: it falls back
             warnings.warn(
-                f"compiling the {name} kernel failed ({error}); using numpy", stacklevel=3
+                f"compiling the {name} kernel failed ({type(error).__name__}: {error}); "
+                "using numpy",
+                stacklevel=3,
             )
             return None
         _COMPILED_IR[key] = addresses

@@ -34,8 +34,15 @@ from pathlib import Path
 import numpy as np
 
 from .. import kernels
+from . import kernel_ir
+from .kernel_ir import DPTR, I64, IPTR, prototype
 from .simplex import ABSOLUTE_TOLERANCE, RELATIVE_TOLERANCE
 from .simplex import FACES as _FACES
+
+# (P, VA, VB, vertices a, vertices b, shape a, shape b, out, max_iterations)
+GJK = (I64, I64, I64, DPTR, DPTR, DPTR, DPTR, DPTR, I64)
+# and, local: (rows a, rows b, pose a, pose b, neighbours a, neighbours b, DA, DB)
+GJK_LOCAL = GJK + (IPTR, IPTR, DPTR, DPTR, IPTR, IPTR, I64, I64)
 
 SHAPE_COLUMNS = 9
 OUT_COLUMNS = 12
@@ -54,55 +61,32 @@ def gjk_ir(symbol: str, local: bool = False) -> str:
     """
     import llvmlite.ir as ir
 
-    D, I64, I1 = ir.DoubleType(), ir.IntType(64), ir.IntType(1)
-    ptr = ir.PointerType(D)
-    iptr = ir.PointerType(I64)
-    module = ir.Module(name="collision")
-    extra = [iptr, iptr, ptr, ptr, iptr, iptr, I64, I64] if local else []
-    fn = ir.Function(
-        module,
-        ir.FunctionType(ir.VoidType(), [I64, I64, I64, ptr, ptr, ptr, ptr, ptr, I64] + extra),
-        name=symbol,
-    )
+    from .kernel_ir import F64, Kernel
+
+    kernel = Kernel("collision", symbol, GJK_LOCAL if local else GJK)
+    fn, b, c, i, sqrt, fabs = kernel.fn, kernel.b, kernel.c, kernel.i, kernel.sqrt, kernel.fabs
     P, VA, VB, verts_a, verts_b, shape_a, shape_b, out, max_it = fn.args[:9]
     for arg in (verts_a, verts_b, shape_a, shape_b, out):
         arg.add_attribute("noalias")
     if local:
         rows_a, rows_b, pose_a, pose_b, nbr_a, nbr_b, DA, DB = fn.args[9:]
-    sqrt = module.declare_intrinsic("llvm.sqrt", [D])
-    fabs = module.declare_intrinsic("llvm.fabs", [D])
-
-    entry = fn.append_basic_block("entry")
-    b = ir.IRBuilder(entry)
-
-    def c(x: float):
-        return ir.Constant(D, float(x))
-
-    def i(x: int):
-        return ir.Constant(I64, int(x))
+    D, I1 = kernel.D, ir.IntType(1)
 
     # ------------------------------------------------------------------ stack slots
     def slots(count: int, name: str):
-        return b.alloca(ir.ArrayType(D, count), name=name)
+        return kernel.array(F64, count, name)
 
     simplex, from_a, from_b = slots(12, "W"), slots(12, "SA"), slots(12, "SB")
     weights, v_slot = slots(4, "weights"), slots(3, "v")
     sa_slot, sb_slot = slots(3, "sa"), slots(3, "sb")
     scratch = [slots(12, f"tmp{j}") for j in range(3)]  # compaction buffers
     scratch_w = slots(4, "tmpw")
-    count_slot = b.alloca(I64, name="count")
-    it_slot = b.alloca(I64, name="it")
-    k_slot = b.alloca(I64, name="k")
-    lower_slot = b.alloca(D, name="lower")
-    overlap_slot = b.alloca(D, name="overlap")
-    unfinished_slot = b.alloca(D, name="unfinished")
-    best_slot = b.alloca(D, name="best")
-    scan_slot = b.alloca(I64, name="scan")
-    iterations_slot = b.alloca(I64, name="iterations")
-    start_slots = [b.alloca(I64, name="start_a"), b.alloca(I64, name="start_b")]
-    cur_slot = b.alloca(I64, name="cur")
-    m_slot = b.alloca(I64, name="m")
-    best_index_slot = b.alloca(I64, name="best_index")
+    count_slot, it_slot = kernel.slot(I64, "count"), kernel.slot(I64, "it")
+    lower_slot, overlap_slot = kernel.slot(F64, "lower"), kernel.slot(F64, "overlap")
+    unfinished_slot, best_slot = kernel.slot(F64, "unfinished"), kernel.slot(F64, "best")
+    iterations_slot = kernel.slot(I64, "iterations")
+    start_slots = [kernel.slot(I64, "start_a"), kernel.slot(I64, "start_b")]
+    cur_slot, best_index_slot = kernel.slot(I64, "cur"), kernel.slot(I64, "best_index")
 
     def at(array, index):
         return b.gep(array, [i(0), index if not isinstance(index, int) else i(index)])
@@ -136,15 +120,9 @@ def gjk_ir(symbol: str, local: bool = False) -> str:
         return [load(array, slot * 3 + j) for j in range(3)]
 
     # ------------------------------------------------------------------ the pair loop
-    b.store(i(0), k_slot)
-    pair_head = fn.append_basic_block("pair_head")
-    pair_body = fn.append_basic_block("pair_body")
     done_all = fn.append_basic_block("done_all")
-    b.branch(pair_head)
-    b.position_at_end(pair_head)
+    k_slot, pair_next = kernel.for_each(P, "pair", done_all)
     k = b.load(k_slot)
-    b.cbranch(b.icmp_signed("<", k, P), pair_body, done_all)
-    b.position_at_end(pair_body)
 
     def shape(pointer):
         base = b.mul(k, i(SHAPE_COLUMNS))
@@ -201,35 +179,21 @@ def gjk_ir(symbol: str, local: bool = False) -> str:
         b.position_at_end(scan_all)
         b.store(i(0), cur_slot)
         b.store(dot(vertex(i(0)), dl), best_slot)
-        b.store(i(1), m_slot)
-        all_head = fn.append_basic_block("all_head")
-        all_body = fn.append_basic_block("all_body")
-        b.branch(all_head)
-        b.position_at_end(all_head)
+        m_slot, all_next = kernel.for_each(V, "all", place, start=1)
         m = b.load(m_slot)
-        b.cbranch(b.icmp_signed("<", m, V), all_body, place)
-        b.position_at_end(all_body)
         value = dot(vertex(m), dl)
         better = b.fcmp_ordered(">", value, b.load(best_slot))
         b.store(select(better, value, b.load(best_slot)), best_slot)
         b.store(b.select(better, m, b.load(cur_slot)), cur_slot)
-        b.store(b.add(m, i(1)), m_slot)
-        b.branch(all_head)
+        b.branch(all_next)
         # climbing: to the best neighbour while it is better
         b.position_at_end(climb_head)
         cur = b.load(cur_slot)
         b.store(dot(vertex(cur), dl), best_slot)
         b.store(cur, best_index_slot)
-        b.store(i(0), m_slot)
-        nb_head = fn.append_basic_block("nb_head")
-        nb_body = fn.append_basic_block("nb_body")
         nb_done = fn.append_basic_block("nb_done")
-        b.branch(nb_head)
-        b.position_at_end(nb_head)
-        m = b.load(m_slot)
-        b.cbranch(b.icmp_signed("<", m, degree), nb_body, nb_done)
-        b.position_at_end(nb_body)
-        n = neighbour(cur, m)
+        m_slot, nb_next = kernel.for_each(degree, "nb", nb_done)
+        n = neighbour(cur, b.load(m_slot))
         nb_work = fn.append_basic_block("nb_work")
         b.cbranch(b.icmp_signed(">=", n, i(0)), nb_work, nb_done)  # -1: the list has ended
         b.position_at_end(nb_work)
@@ -237,8 +201,7 @@ def gjk_ir(symbol: str, local: bool = False) -> str:
         better = b.fcmp_ordered(">", value, b.load(best_slot))
         b.store(select(better, value, b.load(best_slot)), best_slot)
         b.store(b.select(better, n, b.load(best_index_slot)), best_index_slot)
-        b.store(b.add(m, i(1)), m_slot)
-        b.branch(nb_head)
+        b.branch(nb_next)
         b.position_at_end(nb_done)
         moved = b.icmp_signed("!=", b.load(best_index_slot), cur)
         b.store(b.load(best_index_slot), cur_slot)
@@ -294,14 +257,8 @@ def gjk_ir(symbol: str, local: bool = False) -> str:
         b.store(dot(first, d), best_slot)
         for j in range(3):
             store(first[j], target, j)
-        scan_head = fn.append_basic_block("scan_head")
-        scan_body = fn.append_basic_block("scan_body")
-        b.store(i(1), scan_slot)
-        b.branch(scan_head)
-        b.position_at_end(scan_head)
+        scan_slot, scan_next = kernel.for_each(V, "scan", merge, start=1)
         m = b.load(scan_slot)
-        b.cbranch(b.icmp_signed("<", m, V), scan_body, merge)
-        b.position_at_end(scan_body)
         offset = b.add(base, b.mul(m, i(3)))
         x = [row(vertices, b.add(offset, i(j))) for j in range(3)]
         value = dot(x, d)
@@ -309,8 +266,7 @@ def gjk_ir(symbol: str, local: bool = False) -> str:
         b.store(select(better, value, b.load(best_slot)), best_slot)
         for j in range(3):
             store(select(better, x[j], load(target, j)), target, j)
-        b.store(b.add(m, i(1)), scan_slot)
-        b.branch(scan_head)
+        b.branch(scan_next)
         b.position_at_end(merge)
 
     # ------------------------------------------------------------------ one pair's GJK
@@ -439,7 +395,7 @@ def gjk_ir(symbol: str, local: bool = False) -> str:
             for j in range(3):
                 store(load(array, s * 3 + j), buffer, b.add(b.mul(target, i(3)), i(j)))
         store(weight, scratch_w, target)
-        kept = b.add(kept, b.zext(positive, I64))
+        kept = b.add(kept, b.zext(positive, kernel.I64))
     for array, buffer in zip((simplex, from_a, from_b), scratch):
         for j in range(12):
             store(load(buffer, j), array, j)
@@ -493,12 +449,11 @@ def gjk_ir(symbol: str, local: bool = False) -> str:
     values.append(select(full, nearest_face, c(0.0)))
     for j, value in enumerate(values):
         b.store(value, b.gep(out, [b.add(base, i(j))]))
-    b.store(b.add(k, i(1)), k_slot)
-    b.branch(pair_head)
+    b.branch(pair_next)
 
     b.position_at_end(done_all)
     b.ret_void()
-    return str(module)
+    return kernel.text()
 
 
 def _affine_nearest(b, c, pts, dot, sub, cross, select):
@@ -549,63 +504,36 @@ def _affine_nearest(b, c, pts, dot, sub, cross, select):
     return lam, valid
 
 
-_FUNCTION: list = []  # [ctypes function or None], built once per process
+_FUNCTIONS: dict[bool, object] = {}  # local -> ctypes function or None, built once per process
+
+
+def _compiled_gjk(local: bool):
+    """The compiled GJK (``local``: :func:`gjk_ir`'s local-frame variant) as a ctypes function,
+    or None (kernels off, or the compile failed)."""
+    if local not in _FUNCTIONS:
+        # what the IR depends on: the files that write it and the tolerances it reads
+        # (building the IR costs about 80 ms, so a cached kernel is looked up by these, not
+        # by its IR)
+        text = Path(__file__).read_text() + Path(kernel_ir.__file__).read_text()
+        source = f"{text}|{RELATIVE_TOLERANCE!r}|{ABSOLUTE_TOLERANCE!r}|{'local' if local else ''}"
+        name = "rworld_gjk_local" if local else "rworld_gjk"
+        symbol = f"{name}_{hashlib.sha256(source.encode()).hexdigest()[:20]}"
+        addresses = kernels.compile_ir(
+            "GJK (local)" if local else "GJK", lambda: gjk_ir(symbol, local), [symbol], source
+        )
+        signature = GJK_LOCAL if local else GJK
+        _FUNCTIONS[local] = None if addresses is None else prototype(signature)(addresses[0])
+    return _FUNCTIONS[local]
 
 
 def gjk_function():
     """The compiled GJK as a ctypes function, or None (kernels off, or the compile failed)."""
-    if not _FUNCTION:
-        import ctypes
-
-        # what the IR depends on: this file and the tolerances it reads (building the IR costs
-        # about 80 ms, so a cached kernel is looked up by these, not by its IR)
-        source = f"{Path(__file__).read_text()}|{RELATIVE_TOLERANCE!r}|{ABSOLUTE_TOLERANCE!r}"
-        symbol = f"rworld_gjk_{hashlib.sha256(source.encode()).hexdigest()[:20]}"
-        addresses = kernels.compile_ir("GJK", lambda: gjk_ir(symbol), [symbol], source)
-        _FUNCTION.append(
-            None
-            if addresses is None
-            else ctypes.CFUNCTYPE(
-                None,
-                ctypes.c_int64,
-                ctypes.c_int64,
-                ctypes.c_int64,
-                *[ctypes.c_void_p] * 5,
-                ctypes.c_int64,
-            )(addresses[0])
-        )
-    return _FUNCTION[0]
-
-
-_LOCAL: list = []  # [ctypes function or None]: the local-frame variant
+    return _compiled_gjk(False)
 
 
 def gjk_local_function():
     """The compiled local-frame GJK (``gjk_ir(..., local=True)``) as a ctypes function, or None."""
-    if not _LOCAL:
-        import ctypes
-
-        source = f"{Path(__file__).read_text()}|{RELATIVE_TOLERANCE!r}|{ABSOLUTE_TOLERANCE!r}|local"
-        symbol = f"rworld_gjk_local_{hashlib.sha256(source.encode()).hexdigest()[:20]}"
-        addresses = kernels.compile_ir(
-            "GJK (local)", lambda: gjk_ir(symbol, local=True), [symbol], source
-        )
-        _LOCAL.append(
-            None
-            if addresses is None
-            else ctypes.CFUNCTYPE(
-                None,
-                ctypes.c_int64,
-                ctypes.c_int64,
-                ctypes.c_int64,
-                *[ctypes.c_void_p] * 5,
-                ctypes.c_int64,
-                *[ctypes.c_void_p] * 6,
-                ctypes.c_int64,
-                ctypes.c_int64,
-            )(addresses[0])
-        )
-    return _LOCAL[0]
+    return _compiled_gjk(True)
 
 
 def gjk_local(table_a, table_b, shape_a, shape_b, max_iterations: int) -> np.ndarray | None:

@@ -505,9 +505,11 @@ class Writer(abc.ABC):
     class per controller with MoveJ, MoveL, setTool, setDO, ...).
 
     A language subclasses it, sets ``language`` (its text rules: every name and text from a
-    file reaches the program through ``self.language``, :meth:`note`), starts its files in
-    ``__init__`` and writes every method; a kind it leaves out fails at once (abstract), never
-    as a silent gap in a program.
+    file reaches the program through ``self.language``, :meth:`note`) and ``indent``, starts
+    its files in ``__init__`` with its statements in ``body``, and writes every abstract method;
+    a kind it leaves out fails at once, never as a silent gap in a program.  Comments, outputs
+    and waits are written here: the instruction's place and text as a comment
+    (:meth:`remark`), then the language's statements (:meth:`set_output`, :meth:`pause`).
 
     Attributes
     ----------
@@ -517,18 +519,46 @@ class Writer(abc.ABC):
         The identifiers taken so far (:meth:`Language.identifier`).
     index : int
         The place of the instruction being written in ``program.instructions`` (0-based).
+    body : list of str
+        The program's statements so far, each line with its indent.
     """
 
     language: ClassVar[Language]
+    indent: ClassVar[str]  # of a statement in the program's body
 
     def __init__(self, program: DeviceProgram, signals: Signals):
         self.program, self.signals = program, signals
         self.used: set[str] = set()
         self.index = -1
+        self.body: list[str] = []
 
     def note(self, text: object) -> str:
         """``text`` (from a file) as this language's comment text."""
         return self.language.comment(text)
+
+    def remark(self, where: object, text: object) -> list[str]:
+        """An instruction's place in its file and its text as comment lines of the body."""
+        prefix = self.language.comment_prefix
+        return [f"{self.indent}{prefix} {self.note(where)}: {self.note(text)}"]
+
+    def comment(self, item: Comment) -> None:
+        self.body += self.remark(item.where, item.text)
+
+    def output(self, item: Output) -> None:
+        self.body += self.remark(item.where, item.text)
+        self.body += [self.indent + line for line in self.set_output(item)]
+
+    def wait(self, item: Wait) -> None:
+        self.body += self.remark(item.where, item.text)
+        self.body += [self.indent + line for line in self.pause(item.seconds)]
+
+    @abc.abstractmethod
+    def set_output(self, item: Output) -> list[str]:
+        """The statements (without the indent) that set a digital output."""
+
+    @abc.abstractmethod
+    def pause(self, seconds: float) -> list[str]:
+        """The statements (without the indent) that wait ``seconds`` [s]."""
 
     @abc.abstractmethod
     def tool(self, item: Tool) -> None: ...
@@ -538,15 +568,6 @@ class Writer(abc.ABC):
 
     @abc.abstractmethod
     def move(self, item: Move) -> None: ...
-
-    @abc.abstractmethod
-    def output(self, item: Output) -> None: ...
-
-    @abc.abstractmethod
-    def wait(self, item: Wait) -> None: ...
-
-    @abc.abstractmethod
-    def comment(self, item: Comment) -> None: ...
 
     @abc.abstractmethod
     def record(self, item: Record) -> None: ...

@@ -16,14 +16,12 @@ import numpy as np
 from . import Signals
 from .common import (
     DRL,
-    Comment,
     DeviceProgram,
     Load,
     Move,
     Output,
     Record,
     Tool,
-    Wait,
     Writer,
     number,
     walk,
@@ -62,6 +60,7 @@ def _posx(T) -> str:
 
 class DRLWriter(Writer):
     language = DRL
+    indent = ""
 
     def __init__(self, program: DeviceProgram, signals: Signals):
         super().__init__(program, signals)
@@ -70,7 +69,7 @@ class DRLWriter(Writer):
         self.tools = tools = {
             t.name: DRL.identifier(f"rworld_{t.name}", used) for t in program.tools
         }
-        self.lines = lines = [
+        self.body = lines = [
             *DRL.first_lines,
             f"# {note(program.name)}: device '{note(program.device)}', from {note(program.source)}",
             "# written by 'rworld export program': targets resolved with the cell's current pose "
@@ -92,13 +91,13 @@ class DRLWriter(Writer):
             )
 
     def tool(self, item: Tool) -> None:
-        self.lines.append(f'set_tcp("{self.tools[item.name]}")  # {note(item.name)}')
+        self.body.append(f'set_tcp("{self.tools[item.name]}")  # {note(item.name)}')
 
     def load(self, item: Load) -> None:
-        self.lines.append(f"# {note(item.describe())} (set the tool weight on the pendant)")
+        self.body.append(f"# {note(item.describe())} (set the tool weight on the pendant)")
 
     def move(self, item: Move) -> None:
-        program, lines = self.program, self.lines
+        program, lines = self.program, self.body
         lines.append(f"# {note(item.where)}: {note(item.text)}")
         if item.motion == "joint" and not item.guard:
             q = np.degrees(program.axes(item.q_target))
@@ -132,26 +131,21 @@ class DRLWriter(Writer):
                 "        break",
             ]
 
-    def output(self, item: Output) -> None:
+    def set_output(self, item: Output) -> list[str]:
         index = self.signals.output(item.signal)
-        self.lines.append(f"# {note(item.where)}: {note(item.text)}")
-        self.lines.append(f"set_digital_output({index}, {'ON' if item.value else 'OFF'})")
+        return [f"set_digital_output({index}, {'ON' if item.value else 'OFF'})"]
 
-    def wait(self, item: Wait) -> None:
-        self.lines.append(f"# {note(item.where)}: {note(item.text)}")
-        self.lines.append(f"wait({number(item.seconds, 6)})")
-
-    def comment(self, item: Comment) -> None:
-        self.lines.append(f"# {note(item.where)}: {note(item.text)}")
+    def pause(self, seconds: float) -> list[str]:
+        return [f"wait({number(seconds, 6)})"]
 
     def record(self, item: Record) -> None:
-        self.lines.append(
+        self.body.append(
             f"# {note(item.where)}: {note(item.text)} (contact {item.number}/{item.total} of "
             f"{note(item.feature)}: not recorded in DRL, read get_current_posx())"
         )
 
     def files(self) -> dict[str, str]:
-        return {f"{self.name}.drl": "\n".join(self.lines) + "\n"}
+        return {f"{self.name}.drl": "\n".join(self.body) + "\n"}
 
 
 def write(program: DeviceProgram, signals: Signals) -> dict[str, str]:

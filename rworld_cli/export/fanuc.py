@@ -12,14 +12,12 @@ import numpy as np
 from . import Signals
 from .common import (
     FANUC,
-    Comment,
     DeviceProgram,
     Load,
     Move,
     Output,
     Record,
     Tool,
-    Wait,
     Writer,
     blend_percent,
     fanuc_config,
@@ -57,12 +55,12 @@ def _frame_set(kind: str, number: int, T, lines: list[str]) -> None:
 
 class FanucWriter(Writer):
     language = FANUC
+    indent = ""
 
     def __init__(self, program: DeviceProgram, signals: Signals):
         super().__init__(program, signals)
         self.name = name = FANUC.identifier(program.name, self.used)
         self.tools = {t.name: k + 1 for k, t in enumerate(program.tools)}
-        self.body: list[str] = []
         body = self.body
         head = [
             f"{program.name}: device '{program.device}', from {program.source}",
@@ -172,17 +170,15 @@ class FanucWriter(Writer):
         else:
             body.append(motion)
 
-    def output(self, item: Output) -> None:
-        self.body += _comments(f"{item.where}: {item.text}")
+    def remark(self, where: object, text: object) -> list[str]:
+        return _comments(f"{where}: {text}")
+
+    def set_output(self, item: Output) -> list[str]:
         state = "ON" if item.value else "OFF"
-        self.body.append(f"DO[{self.signals.output(item.signal)}]={state}")
+        return [f"DO[{self.signals.output(item.signal)}]={state}"]
 
-    def wait(self, item: Wait) -> None:
-        self.body += _comments(f"{item.where}: {item.text}")
-        self.body.append(f"WAIT {item.seconds:.2f}(sec)")
-
-    def comment(self, item: Comment) -> None:
-        self.body += _comments(f"{item.where}: {item.text}")
+    def pause(self, seconds: float) -> list[str]:
+        return [f"WAIT {seconds:.2f}(sec)"]
 
     def record(self, item: Record) -> None:
         # where the skip stopped (LPOS: the active UFRAME and UTOOL), one register a contact,

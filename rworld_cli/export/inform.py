@@ -22,14 +22,12 @@ import numpy as np
 from . import Signals
 from .common import (
     INFORM,
-    Comment,
     DeviceProgram,
     Load,
     Move,
     Output,
     Record,
     Tool,
-    Wait,
     Writer,
     walk,
     xyz_wpr,
@@ -71,6 +69,7 @@ def _comments(text: str) -> list[str]:
 
 class InformWriter(Writer):
     language = INFORM
+    indent = ""
 
     def __init__(self, program: DeviceProgram, signals: Signals):
         super().__init__(program, signals)
@@ -166,17 +165,15 @@ class InformWriter(Writer):
             until = f" UNTIL IN#({self.signals.sensor})=ON" if item.guard else ""
             body.append(f"MOVL {label} V={speed:.1f}{until}")
 
-    def output(self, item: Output) -> None:
+    def remark(self, where: object, text: object) -> list[str]:
+        return _comments(f"{where}: {text}")
+
+    def set_output(self, item: Output) -> list[str]:
         index = self.signals.output(item.signal)
-        self.body += _comments(f"{item.where}: {item.text}")
-        self.body.append(f"DOUT OT#({index}) {'ON' if item.value else 'OFF'}")
+        return [f"DOUT OT#({index}) {'ON' if item.value else 'OFF'}"]
 
-    def wait(self, item: Wait) -> None:
-        self.body += _comments(f"{item.where}: {item.text}")
-        self.body.append(f"TIMER T={item.seconds:.2f}")
-
-    def comment(self, item: Comment) -> None:
-        self.body += _comments(f"{item.where}: {item.text}")
+    def pause(self, seconds: float) -> list[str]:
+        return [f"TIMER T={seconds:.2f}"]
 
     def record(self, item: Record) -> None:
         self.body += _comments(

@@ -9,14 +9,12 @@ import numpy as np
 from . import Signals
 from .common import (
     KRL,
-    Comment,
     DeviceProgram,
     Load,
     Move,
     Output,
     Record,
     Tool,
-    Wait,
     Writer,
     blend_percent,
     contact_fields,
@@ -38,13 +36,14 @@ def frame(T) -> str:
 
 class KRLWriter(Writer):
     language = KRL
+    indent = ""
 
     def __init__(self, program: DeviceProgram, signals: Signals):
         super().__init__(program, signals)
         used = self.used
         self.name = name = KRL.identifier(program.name, used)
         self.tools = {t.name: k + 1 for k, t in enumerate(program.tools)}
-        self.src = src = [
+        self.body = src = [
             "&ACCESS RVP",
             f"DEF {name}( )",
             f"; {note(program.name)}: device '{note(program.device)}', from {note(program.source)}",
@@ -81,17 +80,17 @@ class KRLWriter(Writer):
         x, y, z = total.com * 1000
         cm = ", ".join(f"{k} {number(v, 6)}" for k, v in zip("XYZABC", (x, y, z, a, b, c)))
         j = ", ".join(f"{k} {number(v, 6)}" for k, v in zip("XYZ", moments))
-        self.src.append(f"; {note(item.describe())}")
-        self.src.append(f"LOAD_DATA[1] = {{M {number(total.mass, 4)}, CM {{{cm}}}, J {{{j}}}}}")
-        self.src.append("$LOAD = LOAD_DATA[1]")
+        self.body.append(f"; {note(item.describe())}")
+        self.body.append(f"LOAD_DATA[1] = {{M {number(total.mass, 4)}, CM {{{cm}}}, J {{{j}}}}}")
+        self.body.append("$LOAD = LOAD_DATA[1]")
 
     def tool(self, item: Tool) -> None:
         k = self.tools[item.name]
-        self.src.append(f"TOOL_DATA[{k}] = {{{frame(item.T_flange_tcp)}}}  ; {note(item.name)}")
-        self.src.append(f"$TOOL = TOOL_DATA[{k}]")
+        self.body.append(f"TOOL_DATA[{k}] = {{{frame(item.T_flange_tcp)}}}  ; {note(item.name)}")
+        self.body.append(f"$TOOL = TOOL_DATA[{k}]")
 
     def move(self, item: Move) -> None:
-        program, src, dat = self.program, self.src, self.dat
+        program, src, dat = self.program, self.body, self.dat
         self.targets += 1
         src.append(f"; {note(item.where)}: {note(item.text)}")
         if item.guard:
@@ -127,26 +126,21 @@ class KRLWriter(Writer):
             src.append("INTERRUPT OFF 10")
         dat.append(f"; {label}: {note(item.where)} {note(item.text)}")
 
-    def output(self, item: Output) -> None:
+    def set_output(self, item: Output) -> list[str]:
         index = self.signals.output(item.signal)
-        self.src.append(f"; {note(item.where)}: {note(item.text)}")
-        self.src.append(f"$OUT[{index}] = {'TRUE' if item.value else 'FALSE'}")
+        return [f"$OUT[{index}] = {'TRUE' if item.value else 'FALSE'}"]
 
-    def wait(self, item: Wait) -> None:
-        self.src.append(f"; {note(item.where)}: {note(item.text)}")
-        self.src.append(f"WAIT SEC {number(item.seconds, 6)}")
-
-    def comment(self, item: Comment) -> None:
-        self.src.append(f"; {note(item.where)}: {note(item.text)}")
+    def pause(self, seconds: float) -> list[str]:
+        return [f"WAIT SEC {number(seconds, 6)}"]
 
     def record(self, item: Record) -> None:
         # the contact ($POS_INT: where the search's interrupt latched, in $BASE with $TOOL)
         # kept in the .dat, whose values the controller saves: read back by 'rworld measure
         # --from-log' (docs/export.md: contact reports)
         variable = f"{self.contact}_{item.number}"
-        self.src.append(f"; {note(item.where)}: {note(item.text)}")
-        self.src.append(f"{variable} = $POS_INT")
-        self.src.append(f"{self.count} = {item.number}")
+        self.body += self.remark(item.where, item.text)
+        self.body.append(f"{variable} = $POS_INT")
+        self.body.append(f"{self.count} = {item.number}")
         self.dat.append(f"; {contact_fields(self.program, item, 'mm')}")
         self.dat.append(
             f"DECL E6POS {variable}={{X 0.0,Y 0.0,Z 0.0,A 0.0,B 0.0,C 0.0,S 0,T 0,E1 0.0,"
@@ -154,7 +148,7 @@ class KRLWriter(Writer):
         )
 
     def files(self) -> dict[str, str]:
-        src, dat = [*self.src, "END", ""], [*self.dat, "ENDDAT", ""]
+        src, dat = [*self.body, "END", ""], [*self.dat, "ENDDAT", ""]
         return {f"{self.name}.src": "\n".join(src), f"{self.name}.dat": "\n".join(dat)}
 
 

@@ -10,14 +10,12 @@ import numpy as np
 from . import Signals
 from .common import (
     RAPID,
-    Comment,
     DeviceProgram,
     Load,
     Move,
     Output,
     Record,
     Tool,
-    Wait,
     Writer,
     abb_confdata,
     abb_quaternion,
@@ -51,6 +49,7 @@ def pose(T) -> str:
 
 class RAPIDWriter(Writer):
     language = RAPID
+    indent = "    "
 
     def __init__(self, program: DeviceProgram, signals: Signals):
         super().__init__(program, signals)
@@ -158,17 +157,12 @@ class RAPIDWriter(Writer):
         else:
             body.append(f"    MoveL {label}, s{k + 1}, fine, {tool}\\WObj:={wobj};")
 
-    def output(self, item: Output) -> None:
+    def set_output(self, item: Output) -> list[str]:
         index = self.signals.output(item.signal)
-        self.body.append(f"    ! {note(item.where)}: {note(item.text)}")
-        self.body.append(f"    SetDO do_{index}, {1 if item.value else 0};")
+        return [f"SetDO do_{index}, {1 if item.value else 0};"]
 
-    def wait(self, item: Wait) -> None:
-        self.body.append(f"    ! {note(item.where)}: {note(item.text)}")
-        self.body.append(f"    WaitTime {number(item.seconds, 6)};")
-
-    def comment(self, item: Comment) -> None:
-        self.body.append(f"    ! {note(item.where)}: {note(item.text)}")
+    def pause(self, seconds: float) -> list[str]:
+        return [f"WaitTime {number(seconds, 6)};"]
 
     def record(self, item: Record) -> None:
         # SearchL's search point (where the input closed), in the work object, one line of the
@@ -177,7 +171,7 @@ class RAPIDWriter(Writer):
         if self.last_hit is None:
             return
         body, log = self.body, self.log
-        body.append(f"    ! {note(item.where)}: {note(item.text)}")
+        body += self.remark(item.where, item.text)
         text = contact_fields(self.program, item, "mm") + " "
         for k in range(0, len(text), 80):
             body.append(f'    Write {log}, "{text[k : k + 80]}"\\NoNewLine;')

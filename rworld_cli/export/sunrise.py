@@ -21,14 +21,12 @@ import numpy as np
 from . import Signals
 from .common import (
     SUNRISE,
-    Comment,
     DeviceProgram,
     Load,
     Move,
     Output,
     Record,
     Tool,
-    Wait,
     Writer,
     kuka_abc,
     number,
@@ -58,6 +56,7 @@ def frame_args(T) -> str:
 
 class SunriseWriter(Writer):
     language = SUNRISE
+    indent = "        "
 
     def __init__(self, program: DeviceProgram, signals: Signals):
         super().__init__(program, signals)
@@ -84,7 +83,6 @@ class SunriseWriter(Writer):
                 f"group (gripper output {signals.gripper}, tool changer output "
                 f"{signals.tool_changer}, search input {signals.sensor})"
             )
-        self.body: list[str] = []
         self.members: list[str] = []
         self.base = "robot.getRootFrame()"
         if program.user_frame:
@@ -145,17 +143,12 @@ class SunriseWriter(Writer):
             "        }",
         ]
 
-    def output(self, item: Output) -> None:
+    def set_output(self, item: Output) -> list[str]:
         method = "setGripper" if item.signal == "gripper" else "setToolChanger"
-        self.body.append(f"        // {note(item.where)}: {note(item.text)}")
-        self.body.append(f"        {method}({'true' if item.value else 'false'});")
+        return [f"{method}({'true' if item.value else 'false'});"]
 
-    def wait(self, item: Wait) -> None:
-        self.body.append(f"        // {note(item.where)}: {note(item.text)}")
-        self.body.append(f"        ThreadUtil.milliSleep({int(round(item.seconds * 1000))});")
-
-    def comment(self, item: Comment) -> None:
-        self.body.append(f"        // {note(item.where)}: {note(item.text)}")
+    def pause(self, seconds: float) -> list[str]:
+        return [f"ThreadUtil.milliSleep({int(round(seconds * 1000))});"]
 
     def record(self, item: Record) -> None:
         self.body.append(

@@ -6,14 +6,12 @@ from __future__ import annotations
 from . import Signals
 from .common import (
     URSCRIPT,
-    Comment,
     DeviceProgram,
     Load,
     Move,
     Output,
     Record,
     Tool,
-    Wait,
     Writer,
     contact_fields,
     number,
@@ -31,11 +29,12 @@ def pose(T) -> str:
 
 class URScriptWriter(Writer):
     language = URSCRIPT
+    indent = "  "
 
     def __init__(self, program: DeviceProgram, signals: Signals):
         super().__init__(program, signals)
         self.name = name = URSCRIPT.identifier(program.name, self.used)
-        self.lines = lines = [
+        self.body = lines = [
             f"# {note(program.name)}: device '{note(program.device)}', from {note(program.source)}",
             "# written by 'rworld export program': targets resolved with the cell's current pose "
             "files",
@@ -51,27 +50,27 @@ class URScriptWriter(Writer):
             lines.append(f"  user = {pose(program.T_controller_user)}")
 
     def tool(self, item: Tool) -> None:
-        self.lines.append(f"  # tool: {note(item.name)}")
-        self.lines.append(f"  set_tcp({pose(item.T_flange_tcp)})")
+        self.body.append(f"  # tool: {note(item.name)}")
+        self.body.append(f"  set_tcp({pose(item.T_flange_tcp)})")
 
     def load(self, item: Load) -> None:
         total = item.total
         inertia = total.inertia
         six = [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[0, 1], inertia[0, 2]]
         six.append(inertia[1, 2])
-        self.lines.append(f"  # {note(item.describe())}")
-        self.lines.append(
+        self.body.append(f"  # {note(item.describe())}")
+        self.body.append(
             f"  # inertia about the centre of gravity, flange axes (Ixx, Iyy, Izz, Ixy, Ixz, "
             f"Iyz): [{', '.join(number(x, 6) for x in six)}] kg m^2"
         )
-        self.lines.append(
+        self.body.append(
             f"  set_payload({number(total.mass, 4)}, ["
             + ", ".join(number(x, 6) for x in total.com)
             + "])"
         )
 
     def move(self, item: Move) -> None:
-        program, lines = self.program, self.lines
+        program, lines = self.program, self.body
         lines.append(f"  # {note(item.where)}: {note(item.text)}")
         k = len([i for i in lines if i.startswith("  # ")])
         if item.motion == "joint":
@@ -116,28 +115,23 @@ class URScriptWriter(Writer):
             f"  stop{'j' if item.motion == 'joint' else 'l'}({brake})",
         ]
 
-    def output(self, item: Output) -> None:
+    def set_output(self, item: Output) -> list[str]:
         index = self.signals.output(item.signal)
-        self.lines.append(f"  # {note(item.where)}: {note(item.text)}")
-        self.lines.append(f"  set_digital_out({index}, {'True' if item.value else 'False'})")
+        return [f"set_digital_out({index}, {'True' if item.value else 'False'})"]
 
-    def wait(self, item: Wait) -> None:
-        self.lines.append(f"  # {note(item.where)}: {note(item.text)}")
-        self.lines.append(f"  sleep({number(item.seconds, 6)})")
-
-    def comment(self, item: Comment) -> None:
-        self.lines.append(f"  # {note(item.where)}: {note(item.text)}")
+    def pause(self, seconds: float) -> list[str]:
+        return [f"sleep({number(seconds, 6)})"]
 
     def record(self, item: Record) -> None:
         # where the search stopped (after its stopping distance): the TCP pose in the base
         # frame as the controller logs a pose: p[x, y, z, rx, ry, rz], m and rotation vector
         # (docs/export.md: contact reports)
-        self.lines.append(f"  # {note(item.where)}: {note(item.text)}")
+        self.body += self.remark(item.where, item.text)
         fields = contact_fields(self.program, item, "m", user=False)
-        self.lines.append(f'  textmsg("{fields} pose=", get_actual_tcp_pose())')
+        self.body.append(f'  textmsg("{fields} pose=", get_actual_tcp_pose())')
 
     def files(self) -> dict[str, str]:
-        lines = [*self.lines, "end", f"{self.name}()", ""]
+        lines = [*self.body, "end", f"{self.name}()", ""]
         return {f"{self.name}.script": "\n".join(lines)}
 
 

@@ -20,14 +20,12 @@ import numpy as np
 from . import Signals
 from .common import (
     VAL3,
-    Comment,
     DeviceProgram,
     Load,
     Move,
     Output,
     Record,
     Tool,
-    Wait,
     Writer,
     walk,
 )
@@ -74,6 +72,7 @@ def _pose_attributes(T) -> str:
 
 class VAL3Writer(Writer):
     language = VAL3
+    indent = "  "
 
     def __init__(self, program: DeviceProgram, signals: Signals):
         super().__init__(program, signals)
@@ -93,19 +92,19 @@ class VAL3Writer(Writer):
             *program.conventions(),
             "rx, ry, rz: about x, then the new y, then the new z (R = Rx Ry Rz), degrees; mm",
         ]
-        self.code = [f"  // {note(line)}" for line in head]
+        self.body = [f"  // {note(line)}" for line in head]
         self.father = "fUser[0]" if program.user_frame else "world[0]"
         self.current_tool = 0
 
     def tool(self, item: Tool) -> None:
         self.current_tool = self.tools[item.name]
-        self.code.append(f"  // tTool[{self.current_tool}] is {note(item.name)}")
+        self.body.append(f"  // tTool[{self.current_tool}] is {note(item.name)}")
 
     def load(self, item: Load) -> None:
-        self.code.append(f"  // {note(item.describe())} (the tool's and arm's load: the cell)")
+        self.body.append(f"  // {note(item.describe())} (the tool's and arm's load: the cell)")
 
     def move(self, item: Move) -> None:
-        program, code, tool = self.program, self.code, self.current_tool
+        program, code, tool = self.program, self.body, self.current_tool
         code.append(f"  // {note(item.where)}: {note(item.text)}")
         axes = program.axes(item.q_target)
         speed = len(self.speeds)
@@ -143,26 +142,18 @@ class VAL3Writer(Writer):
                 "  resetMotion()",
             ]
 
-    def output(self, item: Output) -> None:
+    def set_output(self, item: Output) -> list[str]:
         name = "dGripper" if item.signal == "gripper" else "dToolChanger"
-        self.code += [
-            f"  // {note(item.where)}: {note(item.text)}",
-            "  waitEndMove()",
-            f"  {name} = {'true' if item.value else 'false'}",
+        return [
+            "waitEndMove()",
+            f"{name} = {'true' if item.value else 'false'}",
         ]
 
-    def wait(self, item: Wait) -> None:
-        self.code += [
-            f"  // {note(item.where)}: {note(item.text)}",
-            "  waitEndMove()",
-            f"  delay({_f(item.seconds)})",
-        ]
-
-    def comment(self, item: Comment) -> None:
-        self.code.append(f"  // {note(item.where)}: {note(item.text)}")
+    def pause(self, seconds: float) -> list[str]:
+        return ["waitEndMove()", f"delay({_f(seconds)})"]
 
     def record(self, item: Record) -> None:
-        self.code.append(
+        self.body.append(
             f"  // {note(item.where)}: {note(item.text)} (contact {item.number}/"
             f"{item.total} of {note(item.feature)}: not recorded in VAL3, read "
             "herePoint(tTool) on the pendant)"
@@ -170,7 +161,7 @@ class VAL3Writer(Writer):
 
     def files(self) -> dict[str, str]:
         program, app = self.program, self.app
-        code = [*self.code, "  waitEndMove()"]
+        code = [*self.body, "  waitEndMove()"]
         tool_values = [
             f'<Value key="{k}" {_pose_attributes(xyz_rxyz(t.T_flange_tcp))} fatherId="flange[0]" '
             'ioLink="valve1" open="0" close="0" />'

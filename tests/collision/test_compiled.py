@@ -135,3 +135,48 @@ def test_the_compiled_box_bound_equals_the_numpy_one():
     numpy_ = bvh.box_gap(tree_a, a, tree_b, b, R[k], t[k])
     assert (numpy_ > 0).any() and (numpy_ <= 0).any()
     np.testing.assert_allclose(compiled, numpy_, rtol=0, atol=1e-12)
+
+
+def test_every_kernels_ir_builds_and_verifies():
+    """A kernel whose IR does not build falls back to numpy with a warning - right for a user,
+    a bug here (the suite's answers would not change, only their speed): every kernel's IR text
+    parses and passes LLVM's verifier, and the module the box-tree walks link is one whole."""
+    pytest.importorskip("llvmlite")
+    import llvmlite.binding as llvm
+
+    from rworld_cli.collision import bvh_ir, compiled, free_states_ir
+
+    texts = {
+        "gjk": compiled.gjk_ir("k_gjk"),
+        "gjk local": compiled.gjk_ir("k_gjk_local", local=True),
+        "box gap": bvh_ir.box_gap_ir("k_gap"),
+        "descend": bvh_ir.descend_ir("k_descend"),
+        "touching": bvh_ir.touching_ir("k_touching"),
+        "contacts": bvh_ir.contacts_ir("k_contacts", "k_gjk_local"),
+        "free states": free_states_ir.free_states_ir("k_free", "k_contacts"),
+        "pair rows": free_states_ir.free_states_ir("k_rows", "k_contacts", rows=True),
+    }
+    modules = {}
+    for name, text in texts.items():
+        modules[name] = llvm.parse_assembly(text)
+        modules[name].verify()
+    linked = modules["gjk local"]
+    for name in ("contacts", "free states", "pair rows"):
+        linked.link_in(modules[name])
+    linked.verify()
+    for symbol in ("k_gjk_local", "k_contacts", "k_free", "k_rows"):
+        assert not linked.get_function(symbol).is_declaration, symbol
+
+
+@pytest.mark.filterwarnings("error")
+def test_the_compiled_kernels_are_built_where_llvm_is_the_backend():
+    """Where the machine compiles kernels, every kernel rworld asks for is there (no silent
+    fallback: a failed build warns, and a warning fails this test)."""
+    from rworld_cli import kernels
+    from rworld_cli.collision import compiled, compiled_bvh
+
+    if kernels.backend() != "llvm":
+        pytest.skip("no compiled kernels on this machine")
+    assert compiled.gjk_function() is not None
+    assert compiled.gjk_local_function() is not None
+    assert all(function is not None for function in compiled_bvh._functions())
