@@ -6,16 +6,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..calibration.robotplan import (
-    CandidatePool,
-    collision_free_states,
-    tracker_pool,
-    tracker_visible,
-)
 from ..errors import UserError
+
+if TYPE_CHECKING:  # imported where used: the api package is read by every command
+    from ..calibration.robotplan import CandidatePool
 
 
 @dataclass
@@ -139,7 +137,14 @@ def plan_robot_calibration(
     import time
 
     from ..calibration.robot import RobotModel
-    from ..calibration.robotplan import select_poses, touch_candidates
+    from ..calibration.robotplan import (
+        CandidatePool,
+        collision_free_states,
+        select_poses,
+        touch_candidates,
+        tracker_pool,
+        tracker_visible,
+    )
     from ..errors import CheckFailed, did_you_mean
     from ..fileio import atomic_write_text, output_set
     from ..schema.loader import load_cell

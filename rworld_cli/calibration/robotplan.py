@@ -21,10 +21,12 @@ be judged against the best possible, not only against random poses.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .robot import RobotModel
+if TYPE_CHECKING:  # the model is built by the caller; importing it here would load kinematics
+    from .robot import RobotModel
 
 
 def _predicted(G_set: np.ndarray, G_check: np.ndarray, sigma: float) -> float:

@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from .common import emit_json, handle_errors, json_option, with_progress
+from .common import emit_json, handle_errors, json_option, seed_option, with_progress
 
 
 @click.command()
@@ -19,7 +19,7 @@ from .common import emit_json, handle_errors, json_option, with_progress
     type=click.IntRange(4, 1000),
     help="Random planes per trial.",
 )
-@click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0))
+@seed_option()
 @click.option(
     "--workers",
     type=click.IntRange(min=1),

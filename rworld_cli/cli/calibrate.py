@@ -8,11 +8,13 @@ import click
 
 from .common import (
     EXIT_CHECK_FAILED,
+    device_option,
     emit_json,
     frames_option,
     handle_errors,
     json_option,
     output_option,
+    seed_option,
     with_progress,
 )
 
@@ -222,7 +224,7 @@ def _render(run) -> None:
     type=click.Choice(["urscript", "rapid", "krl", "fanuc"]),
     help="--from-log: the log's language (default: the device's controller.vendor's).",
 )
-@click.option("--device", default=None, metavar="NAME", help="--from-log: the probing device.")
+@device_option("--from-log: the probing device.")
 @click.option(
     "--frame",
     "user_frame",
@@ -255,7 +257,7 @@ def _render(run) -> None:
     help="Probing noise, 1 sigma (mm, um or m; a bare number is mm): --simulate adds it "
     "(default 0.05mm), --from-log states it in the file.",
 )
-@click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0))
+@seed_option()
 @click.option(
     "--points",
     default=10,

@@ -183,6 +183,19 @@ def output_option(
     )
 
 
+def device_option(help: str, *, required: bool = False) -> Callable:
+    """``--device NAME``: which device of the cell a command acts on; each command says in
+    ``help`` what it does with it and what it takes by default."""
+    return click.option("--device", default=None, required=required, metavar="NAME", help=help)
+
+
+def seed_option(help: str | None = None) -> Callable:
+    """``--seed N``: a random search's seed (0 or more), so that a run repeats."""
+    return click.option(
+        "--seed", default=0, show_default=True, type=click.IntRange(min=0), help=help
+    )
+
+
 frames_option = click.option(
     "--frames",
     default=None,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import FiniteFloat, emit_json, handle_errors, json_option, output_option
+from .common import FiniteFloat, emit_json, handle_errors, json_option, output_option, seed_option
 from .physics_common import context, device_options, output_options, parse_vector
 
 GRID_HELP = "Grid points on the path (N points, N - 1 intervals), as toppra counts them."
@@ -681,13 +681,7 @@ def impulse(
     metavar="LENGTH",
     help="Overlaps shallower than this are touches (as in 'rworld check').",
 )
-@click.option(
-    "--seed",
-    default=0,
-    show_default=True,
-    type=click.IntRange(min=0),
-    help="The search's random seed.",
-)
+@seed_option("The search's random seed.")
 @click.option(
     "--timeout",
     default=10.0,

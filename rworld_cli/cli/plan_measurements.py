@@ -9,6 +9,7 @@ import click
 from ..units import ARCSEC
 from .common import (
     EXIT_CHECK_FAILED,
+    device_option,
     emit_json,
     frames_option,
     handle_errors,
@@ -77,11 +78,7 @@ def _plan_dict(plan) -> dict:
     type=click.Path(dir_okay=False),
     help="Write a probe program for the robot (checked in simulation first).",
 )
-@click.option(
-    "--device",
-    default=None,
-    help="The device that probes (default: the one with a ball-tip probe).",
-)
+@device_option("The device that probes (default: the one with a ball-tip probe).")
 @click.option(
     "--tcp", default=None, help="The probe's TCP (default: the frame the probe sensor is on)."
 )

@@ -4,15 +4,21 @@ from __future__ import annotations
 
 import click
 
-from .common import FiniteFloat, emit_json, handle_errors, json_option, output_option
+from .common import (
+    FiniteFloat,
+    device_option,
+    emit_json,
+    handle_errors,
+    json_option,
+    output_option,
+    seed_option,
+)
 
 
 @click.command("calibrate-robot")
 @click.argument("cell", metavar="CELL")
 @click.argument("observations", nargs=-1, required=True, metavar="OBSERVATIONS...")
-@click.option(
-    "--device", default=None, metavar="NAME", help="The device (checked against the files)."
-)
+@device_option("The device (checked against the files).")
 @output_option("The overlay pose file to write (default: robot_calibrated.yaml beside cell.yaml).")
 @click.option("--dry-run", is_flag=True, help="Identify and report; write nothing.")
 @click.option(
@@ -211,7 +217,7 @@ def calibrate_robot(
 
 @click.command("plan-robot-calibration")
 @click.argument("cell", metavar="CELL")
-@click.option("--device", required=True, metavar="NAME", help="The robot to calibrate.")
+@device_option("The robot to calibrate.", required=True)
 @click.option("--poses", "count", required=True, type=click.IntRange(min=1), help="How many.")
 @click.option(
     "--target",
@@ -236,7 +242,7 @@ def calibrate_robot(
 )
 @click.option("--sigma", default="0.02mm", show_default=True, help="The instrument's 1 sigma.")
 @click.option("--candidates", default=2000, show_default=True, type=click.IntRange(min=1))
-@click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0))
+@seed_option()
 @click.option(
     "--program",
     default=None,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import emit_json, handle_errors, json_option, output_option
+from .common import device_option, emit_json, handle_errors, json_option, output_option
 
 
 @click.group("import")
@@ -178,7 +178,7 @@ def _assignments(texts, sep: str, form: str, option: str) -> dict[str, str]:
 @import_group.command("ur-calibration")
 @click.argument("calibration", metavar="FILE.yaml")
 @click.option("--cell", "cell", required=True, metavar="CELL", help="The cell with the UR.")
-@click.option("--device", default=None, metavar="NAME", help="The UR (default: the cell's arm).")
+@device_option("The UR (default: the cell's arm).")
 @output_option("The overlay pose file to write (default: ur_calibration.yaml beside cell.yaml).")
 @json_option
 @handle_errors
@@ -232,7 +232,7 @@ def export_group():
     "joint trajectory; default the language of the device's controller.vendor.",
 )
 @click.option("-o", "--output", required=True, metavar="DIR", help="The folder to write.")
-@click.option("--device", default=None, metavar="NAME", help="Only this device's program.")
+@device_option("Only this device's program.")
 @click.option(
     "--period", default=None, metavar="DT", help="csv: the controller period, e.g. 8ms (default)."
 )
@@ -368,9 +368,7 @@ def export_program(
 @export_group.command("urdf")
 @click.argument("cell", metavar="CELL")
 @click.option("-o", "--output", required=True, metavar="FILE.urdf", help="The URDF file to write.")
-@click.option(
-    "--device", default=None, metavar="NAME", help="The device (needed when the cell has several)."
-)
+@device_option("The device (needed when the cell has several).")
 @json_option
 @handle_errors
 def export_urdf(cell, output, device, json_output):

@@ -6,6 +6,7 @@ import click
 
 from .common import (
     FiniteFloat,
+    device_option,
     emit_json,
     handle_errors,
     joints_option,
@@ -17,12 +18,7 @@ from .common import (
 @click.command()
 @click.argument("cell", metavar="CELL")
 @joints_option
-@click.option(
-    "--device",
-    default=None,
-    metavar="NAME",
-    help="With --q: the device whose joint values --q gives.",
-)
+@device_option("With --q: the device whose joint values --q gives.")
 @click.option("--q", default=None, metavar="Q1,...,QN", help="Joint values (SI) of --device.")
 @click.option(
     "--sensor",
