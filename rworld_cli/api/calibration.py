@@ -376,24 +376,39 @@ def _write_probe_program(
         write_scratch(trial, text.encode("utf-8"))
         run = load_run(cell_path, str(trial))
         run.clearance = rig.clearance
-        result = simulate(run, progress)
-        untouched = [e for e in result.events if e.kind == "guard" and "did not" in e.detail]
-        if not result.ok or untouched:
-            report = result.collisions
-            first = (
-                [v.describe() for v in result.violations]
-                + ([c.describe() for c in report.contacts] if report is not None else [])
-                + ([h.describe() for h in report.handling] if report is not None else [])
-                + [f"{e.detail} (step {(e.step or 0) + 1})" for e in untouched]
-            )
+        try:
+            result = simulate(run, progress)
+        except UserError as exc:  # said of the file it would have been: the trial is gone
+            kind = CheckFailed if exc.exit_code == 1 else UserError
+            raise kind(
+                f"cannot plan the probe program: {exc.message.replace(str(trial), str(out))}; "
+                f"nothing written to {out}"
+            ) from None
+        first = _run_problems(result)
+        if first:
+            # said of the file it would have been: the trial file is gone by now
+            first = [line.replace(str(trial), str(out)) for line in first]
             raise CheckFailed(
                 f"cannot plan the probe program: the program does not pass the check "
-                f"({len(first)} problem(s)); the first: {first[0]}"
+                f"({len(first)} problem(s)); the first: {first[0]}; nothing written to {out}"
             )
         atomic_write_text(out, text)
     finally:
         trial.unlink(missing_ok=True)
     return out, stops, result.cycle_time, doc["touches"]
+
+
+def _run_problems(result) -> list[str]:
+    """A probe run's problems in words, as ``rworld check`` reports them: limit violations,
+    collisions, handling errors, guarded moves that touched nothing."""
+    untouched = [e for e in result.events if e.kind == "guard" and "did not" in e.detail]
+    report = result.collisions
+    return (
+        [v.describe() for v in result.violations]
+        + ([c.describe() for c in report.contacts] if report is not None else [])
+        + ([h.describe() for h in report.handling] if report is not None else [])
+        + [f"{e.detail} (step {(e.step or 0) + 1})" for e in untouched]
+    )
 
 
 def simulate_probe_measurements(
@@ -405,9 +420,14 @@ def simulate_probe_measurements(
     seed: int = 0,
     progress=None,
     joint_sigma: float = 0.0,
+    allow_collisions: bool = False,
 ) -> dict:
     """Run a probe program against a 'true' cell and write the probed points as a measurement
     file (``rworld measure --simulate --program``).
+
+    The program is checked as ``rworld check`` checks it (on the nominal cell): one that
+    collides or breaks a limit is refused and nothing written, unless ``allow_collisions``
+    (then the problems are the result's first warnings).
 
     The program runs on the nominal cell (its targets are where the robot believes the parts
     are); the same joint values move the truth cell's device (its own DH rows or joint frames,
@@ -421,8 +441,9 @@ def simulate_probe_measurements(
     UserError
         Bad input; the truth cell differs in its features or probe.
     CheckFailed
-        A guarded move touches nothing on the truth cell (the part is farther from its nominal
-        place than the move's overtravel); nothing written.
+        The program collides or breaks a limit (without ``allow_collisions``); a guarded move
+        touches nothing on the truth cell (the part is farther from its nominal place than
+        the move's overtravel); nothing written.
     """
     from ..calibration.probing import measurement_features, probe_run
     from ..errors import CheckFailed
@@ -442,7 +463,14 @@ def simulate_probe_measurements(
         )
     if not (joint_sigma >= 0 and np.isfinite(joint_sigma)):
         raise UserError(f"the joint sigma must be a finite angle >= 0, got {joint_sigma}")
-    result = simulate(run, progress, collisions=False)
+    result = simulate(run, progress)
+    problems = _run_problems(result)
+    if problems and not allow_collisions:
+        raise CheckFailed(
+            f"{program_path} does not pass the check ({len(problems)} problem(s); 'rworld "
+            f"check' lists them): the first: {problems[0]}; nothing written (--allow-collisions "
+            "writes the measurements anyway)"
+        )
     probed = probe_run(result, run, truth, joint_sigma, seed)
     if not probed:
         raise UserError(f"{program_path} has no 'probe:' steps: nothing is measured")
@@ -476,7 +504,14 @@ def simulate_probe_measurements(
         for p in probed
         if p.reported is not None and p.true is not None
     )
-    warnings = []
+    warnings = (
+        [
+            f"{program_path} does not pass the check ({len(problems)} problem(s)); the first: "
+            f"{problems[0]}"
+        ]
+        if problems
+        else []
+    )
     off = [p for p in probed if p.off_edge]
     if off:
         warnings.append(

@@ -44,6 +44,8 @@ from ..world.tree import World
 from .targets import Candidates
 
 SPINS = np.radians([0, 60, -60, 120, -120, 180])  # the probe's turns about its stylus
+RESTARTS = 16  # seeded random IK starts of a contact that no seed reaches clear
+THOROUGH = 3  # the orientations tried with them (the first: what worked last, or upright)
 TILTS = np.radians([0, 30, 50])  # the stylus tilted down from the normal, for side faces
 
 
@@ -91,6 +93,7 @@ class ProbeRig:
     clearance: float = 0.0
     start: str = "home"
     lift: float = 0.03  # [m]: transits between targets pass this far above the parts
+    seeds: list = field(default_factory=list)  # joints to start IK from first (the arm's now)
     world: World = field(init=False)
     solved: dict = field(init=False, default_factory=dict)
 
@@ -139,6 +142,7 @@ class ProbeRig:
         self.radii = np.array([b.radius for b in self.bodies])
         self._hole_spin: dict[str, tuple] = {}
         self._last: dict[str, tuple] = {}  # per feature: stylus, spin, joints of the last success
+        self._recent = None  # the joints of the last success of any feature
         self.reach = _reach_bound(dev, self.mount, self.T_tcp_sensor)
         self.T_world_base = self.world.T_world(self.device)
         self.vmax = np.where(
@@ -271,54 +275,32 @@ class ProbeRig:
             orientations.sort(
                 key=lambda o: abs(o[1] - last[1]) + float(np.linalg.norm(o[0] - last[0]))
             )
-        seed = self.q_start if last is None else last[2]
-        for stylus_k, spin in orientations:
-            poses = [self.tcp_pose(p, stylus_k, spin) for p in (centre, start, end)]
-            target = f"{f.name} target {k + 1}"
-            # the contact first (most targets fail there), then the approach, the end, the entry
-            q_contact, why_k = self._at(poses[0], seed, 1, target, target)
-            if q_contact is None:
-                why = why_k
-                continue
-            q_start, why_k = self._at(poses[1], q_contact, 0, f"{f.name} approach {k + 1}", target)
-            if q_start is None:
-                why = why_k
-                continue
-            q_end, why_k = self._at(poses[2], q_contact, 0, f"{f.name} guarded end {k + 1}")
-            if q_end is None:
-                why = why_k
-                continue
-            q_entry = None
-            if entry is not None:
-                T_entry = self.tcp_pose(entry, stylus_k, spin)
-                q_entry, why_k = self._at(T_entry, q_start, 0, f"{f.name} entry", target)
-                if q_entry is None:
-                    why = why_k
-                    continue
-            way_in = self.tcp_pose(entry if entry is not None else start, stylus_k, spin)
-            q_in = q_entry if q_entry is not None else q_start
-            T_lift, q_lift = way_in, q_in
-            if self._ball_z(way_in) < self.safe_z:  # transits go in and out from above
-                T_lift = way_in.copy()
-                T_lift[2, 3] += self.safe_z - self._ball_z(way_in)
-                q_lift, why_k = self._at(
-                    T_lift, q_in, 0, f"{f.name} way in {k + 1}", f"{target}, above it"
+        # where the search starts: the feature's last success, the joints given (where the arm
+        # is at this step), the start position; then, for a target none of them reaches
+        # clear, every IK branch from seeded restarts (the second pass)
+        recent = self._recent  # the last target solved, of any feature: where the arm will be
+        seeds = [None if last is None else last[2], recent, *self.seeds, self.q_start]
+        seeds = _distinct([np.asarray(q, dtype=float) for q in seeds if q is not None])
+        for thorough in (False, True):  # the second pass: the preferred orientations only
+            for stylus_k, spin in orientations[:THOROUGH] if thorough else orientations:
+                best, why_k = self._orientation(
+                    f.name, k, stylus_k, spin, (centre, start, end, entry), seeds, thorough
                 )
-                if q_lift is None:
-                    why = why_k
-                    continue
-            best = (
-                spin,
-                stylus_k,
-                [poses[1], poses[0], poses[2]],
-                [q_start, q_contact, q_end, q_entry],
-                (T_lift, q_lift),
+                if best is not None:
+                    break
+                why = why_k
+            if best is not None:
+                break
+        if best is None and why is not None:
+            why += (
+                f" (IK from {len(seeds)} seed(s), then {RESTARTS} seeded restarts in the first "
+                f"{min(THOROUGH, len(orientations))} of {len(orientations)} orientations)"
             )
-            break
         if best is None:
             return why
         spin, stylus, poses, qs, (T_lift, q_lift) = best
         self._last[f.name] = (stylus, spin, qs[1])
+        self._recent = qs[1]
         if f.kind == "circle":
             self._hole_spin.setdefault(f.name, (spin, stylus))
         T_owner_world = np.linalg.inv(T_world_owner)
@@ -336,6 +318,140 @@ class ProbeRig:
             q_lift,
         )
         return None
+
+    def _orientation(self, feature, k, stylus, spin, points, seeds, thorough: bool):
+        """The poses and joints of target ``k`` with the stylus along ``stylus`` turned by
+        ``spin``: (best, None) as :meth:`solve` keeps it, or (None, why not).  The contact from
+        ``seeds`` in turn (``thorough``: every IK branch found from seeded restarts, nearest the
+        first seed first), each collision-free; the approach, end and entry from the contact's
+        joints; the straight lines the program drives (the way in, the entry to the approach,
+        the guarded line) followed by IK from their start and checked collision-free, so that
+        the program passes its own check."""
+        centre, start, end, entry = points
+        poses = [self.tcp_pose(p, stylus, spin) for p in (centre, start, end)]
+        target = f"{feature} target {k + 1}"
+        # the contact first (most targets fail there), then the approach, the end, the entry
+        q_contact, why = self._contact(poses[0], seeds, target, thorough)
+        if q_contact is None:
+            return None, why
+        q_start, why = self._at(poses[1], q_contact, 0, f"{feature} approach {k + 1}", target)
+        if q_start is None:
+            return None, why
+        q_end, why = self._at(poses[2], q_contact, 0, f"{feature} guarded end {k + 1}")
+        if q_end is None:
+            return None, why
+        q_entry, T_entry = None, None
+        if entry is not None:
+            T_entry = self.tcp_pose(entry, stylus, spin)
+            q_entry, why = self._at(T_entry, q_start, 0, f"{feature} entry", target)
+            if q_entry is None:
+                return None, why
+        way_in = T_entry if T_entry is not None else poses[1]
+        q_in = q_entry if q_entry is not None else q_start
+        T_lift, q_lift = way_in, q_in
+        if self._ball_z(way_in) < self.safe_z:  # transits go in and out from above
+            T_lift = way_in.copy()
+            T_lift[2, 3] += self.safe_z - self._ball_z(way_in)
+            q_lift, why = self._at(
+                T_lift, q_in, 0, f"{feature} way in {k + 1}", f"{target}, above it"
+            )
+            if q_lift is None:
+                return None, why
+        # the lines as the program drives them: down to the way in, (a hole: down its axis to
+        # the approach,) the guarded line through the contact to its end; the contact's own
+        # overlap is the touch, so the guarded line is checked up to the contact
+        lines = [(T_lift, way_in, q_lift, "the way in", True)]
+        if T_entry is not None:
+            lines.append((T_entry, poses[1], q_entry, "the way down the axis", True))
+        lines.append((poses[1], poses[0], q_start, "the approach", True))
+        lines.append((poses[0], poses[2], q_contact, "the guarded line", False))
+        for T_a, T_b, q_a, what, checked in lines:
+            why = self._line(T_a, T_b, q_a, f"{target}: {what}", checked)
+            if why is not None:
+                return None, why
+        return (
+            spin,
+            stylus,
+            [poses[1], poses[0], poses[2]],
+            [q_start, q_contact, q_end, q_entry],
+            (T_lift, q_lift),
+        ), None
+
+    def _contact(self, T_world_tcp, seeds, target: str, thorough: bool):
+        """Joints at the contact pose, collision-free: (q, None) or (None, why not).  IK from
+        the seeds in one batch (their order kept); ``thorough``: with :data:`RESTARTS` seeded
+        random starts besides, every branch found tried, the soonest reached first."""
+        from ..kinematics.inverse import distinct_solutions
+
+        starts = np.asarray(seeds, dtype=float)
+        if thorough:
+            lower, upper = self.dev.limit_array("lower"), self.dev.limit_array("upper")
+            lo = np.where(np.isfinite(lower), lower, -np.pi)
+            hi = np.where(np.isfinite(upper), upper, np.pi)
+            rng = np.random.default_rng(len(self.solved))
+            starts = np.vstack([starts, rng.uniform(lo, hi, (RESTARTS, self.dev.dof))])
+        found = distinct_solutions(self.dev, self.T_base_world @ T_world_tcp, starts, self.mount)
+        if not len(found):  # the figures of the closest pose: from the first seed, once
+            if not thorough:
+                return None, f"'{target}' is unreachable for {self.tcp} from the joints tried"
+            return self._reach(T_world_tcp, seeds[0], 0, target)
+        if thorough:
+            found = sorted(found, key=lambda q: self.travel_time(seeds[0], q))
+        why = None
+        for q in found:
+            hit = self.collision(q)
+            if hit is None:
+                return q, None
+            why = f"{target}: {hit}" + (
+                f" (each of its {len(found)} IK solutions collides)" if len(found) > 1 else ""
+            )
+        return None, why
+
+    @functools.cached_property
+    def checker(self):
+        """The collision room's configuration check of the device in the nominal cell, at the
+        rig's clearance and no overlap tolerated (what :meth:`collision` decides, for many
+        states in one call)."""
+        from ..collision.bodies import collision_model
+        from ..collision.configurations import ConfigurationChecker
+
+        return ConfigurationChecker(
+            self.world, collision_model(self.cell), self.device, 0.0, self.clearance
+        )
+
+    def _line(self, T_a, T_b, q_a, what: str, checked: bool) -> str | None:
+        """Whether the straight TCP line ``T_a`` -> ``T_b`` (world) can be driven from
+        ``q_a``: IK followed along it every 4 mm (each solution seeding the next, as the
+        simulator follows a line), and with ``checked`` those states collision-free (one
+        batch); None, or why not."""
+        from ..kinematics.inverse import track
+        from ..motion.trajectory import interpolate_poses
+        from ..planning.motion import nearest_words
+
+        length = float(np.linalg.norm(T_b[:3, 3] - T_a[:3, 3]))
+        if length < 1e-9:
+            return None
+        s = np.linspace(0.0, 1.0, max(2, int(np.ceil(length / 0.004)) + 1))
+        targets = self.T_base_world @ interpolate_poses(T_a, T_b, s)
+        found = track(self.dev, targets, q_a, self.mount)
+        if found.failed_at is not None:
+            where = float(s[found.failed_at])
+            return f"{what} leaves the workspace at {where:.0%} ({found.reason})"
+        if checked:  # free or not in one compiled call; the nearest pair for the message only
+            bad = np.flatnonzero(~self.checker.check(found.q[1:], nearest=False).free)
+            if len(bad):
+                report = self.checker.check(found.q[1 + int(bad[0])][None])
+                return f"{what}: {nearest_words(self.checker, report, 0)}"
+        return None
+
+    def transit_collides(self, q0, q1) -> bool:
+        """Whether the straight joint move q0 -> q1 comes closer than the clearance to what it
+        may not touch at one of its states 0.02 rad apart (largest joint change; one compiled
+        call - the program's check is the continuous one)."""
+        q0, q1 = np.asarray(q0, dtype=float), np.asarray(q1, dtype=float)
+        count = max(2, int(np.ceil(np.abs(q1 - q0).max() / 0.02)) + 1)
+        Q = q0 + np.linspace(0.0, 1.0, count)[:, None] * (q1 - q0)
+        return not self.checker.check(Q, nearest=False).free.all()
 
     @functools.cached_property
     def _ball(self):
@@ -402,6 +518,15 @@ class ProbeRig:
     # ------------------------------------------------------------------ order
     def travel_time(self, qa: np.ndarray, qb: np.ndarray) -> float:
         return float(np.max(np.abs(qa - qb) / self.vmax))
+
+
+def _distinct(qs: list) -> list:
+    """Joint states without repeats (the same to 1e-9), in their order."""
+    out: list = []
+    for q in qs:
+        if all(np.abs(q - other).max() > 1e-9 for other in out):
+            out.append(q)
+    return out
 
 
 def _reach_bound(dev, mount: ToolMount, T_tcp_sensor: np.ndarray) -> float:
@@ -499,19 +624,38 @@ def probe_program(
     tcp = rig.tcp.split(".", 1)[1] if rig.tcp.startswith(rig.device + ".") else rig.tcp
     steps: list[tuple[dict, str | None]] = [({"move": {"to": rig.start}}, None)]
 
-    def move(o: str, T: np.ndarray, linear: bool = True, comment: str | None = None) -> None:
+    def move(o: str, T, linear: bool = True, comment=None, near=None, free: bool = False):
         spec: dict = {"to": o, "tcp": tcp, "offset": _offset(T)}
         if linear:
             spec["motion"] = "linear"
+        if free:  # a transit the straight joint move would collide on: planned around it
+            spec["path"] = "free"
+        if near is not None:  # the joints the plan checked there (deg; mm for prismatic)
+            prismatic = np.array([j.kind == "prismatic" for j in rig.dev.joints], dtype=bool)
+            values = np.where(prismatic, 1000.0 * near, np.degrees(near))
+            spec["config"] = {"near": [round(float(v), 4) for v in values]}
         if steps and steps[-1][0] == {"move": spec}:
             return  # already there (inside a hole: back at its centre, then off to the next)
         steps.append(({"move": spec}, comment))
 
-    for name, solved in stops:
+    q_here = rig.q_start  # where the arm is before each transit (as planned)
+    for k, (name, solved) in enumerate(stops):
         o = owner[name]
         first = solved[0]
         label = name + (f" target {first.index + 1}" if first.T_owner_entry is None else "")
-        move(o, first.T_owner_lift, linear=False, comment=label)
+        # from the start position the nearest solution is arbitrary (a UR stretched out at its
+        # zero pose reaches the plate elbow down, nowhere to go): the one planned, by a free
+        # path; later stops take the one nearest where the arm is (one configuration for the
+        # whole tour), by a free path where the straight joint move collides
+        move(
+            o,
+            first.T_owner_lift,
+            linear=False,
+            comment=label,
+            near=first.q_lift if k == 0 else None,
+            free=k == 0 or rig.transit_collides(q_here, first.q_lift),
+        )
+        q_here = first.q_lift
         way_in = first.T_owner_entry if first.T_owner_entry is not None else first.T_owner_approach
         if not np.allclose(first.T_owner_lift, way_in):
             move(o, way_in)
@@ -529,7 +673,7 @@ def probe_program(
             move(o, first.T_owner_entry)
         if not np.allclose(first.T_owner_lift, way_in):
             move(o, first.T_owner_lift)
-    steps.append(({"move": {"to": rig.start}}, None))
+    steps.append(({"move": {"to": rig.start, "path": "free"}}, None))
     header = [
         "Probe program written by 'rworld plan-measurements --program': each target is",
         "approached along its surface normal, touched by a guarded move that stops when the",

@@ -283,6 +283,12 @@ def _render(run) -> None:
     metavar="ANGLE",
     help="--program: joint-encoder noise, 1 sigma, with its unit (0.001deg, 2e-5rad).",
 )
+@click.option(
+    "--allow-collisions",
+    is_flag=True,
+    help="--program: write the measurements of a program that collides or breaks a limit "
+    "(said at the top), instead of refusing it.",
+)
 @output_option("Measurement file to write (YAML).", required=True)
 @json_option
 @handle_errors
@@ -304,6 +310,7 @@ def measure(
     frames,
     program,
     joint_sigma,
+    allow_collisions,
     output,
     json_output,
 ):
@@ -417,12 +424,22 @@ def measure(
     sigma = "0.05mm" if sigma is None else sigma
     if joint_sigma is not None and program is None:
         raise click.UsageError("--joint-sigma is for --program: encoders of the probing robot")
+    if allow_collisions and program is None:
+        raise click.UsageError("--allow-collisions is for --program: a probe program's run")
     if program is not None:
         encoder = parse_angle(joint_sigma, "--joint-sigma") if joint_sigma is not None else 0.0
         info = with_progress(
             not json_output and sys.stderr.isatty(),
             lambda progress: simulate_probe_measurements(
-                cell, truth, program, output, parse_length(sigma), seed, progress, encoder
+                cell,
+                truth,
+                program,
+                output,
+                parse_length(sigma),
+                seed,
+                progress,
+                encoder,
+                allow_collisions,
             ),
             "running the probe program",
         )
@@ -439,9 +456,9 @@ def measure(
     if json_output:
         emit_json(info)
     else:
+        for line in info.get("warnings", []):  # first: a colliding program's is the news
+            click.echo(f"warning: {line}", err=True)
         click.echo(
             f"wrote {output}: {len(info['features'])} feature(s), {sum(info['points'].values())} "
             "point(s)"
         )
-        for line in info.get("warnings", []):
-            click.echo(f"warning: {line}", err=True)

@@ -95,6 +95,10 @@ class ConfigurationChecker:
         Collision tolerance [m]: overlaps shallower than this are touches, not collisions.
     clearance : float
         Required clearance [m] (0: none).
+    only, skip : set of (int, int), optional
+        Check only these pairs of bodies (indices of ``model.bodies``, lower first) of those it
+        would check, or all but these (a planner's search margin relaxed for the pairs already
+        inside it at the start).
     """
 
     def __init__(
@@ -104,6 +108,8 @@ class ConfigurationChecker:
         device: str,
         tolerance: float = COLLISION_TOLERANCE,
         clearance: float = 0.0,
+        only: set | None = None,
+        skip: set | None = None,
     ) -> None:
         self.world, self.model, self.device = world, model, device
         self.tolerance, self.clearance = float(tolerance), float(clearance)
@@ -124,7 +130,10 @@ class ConfigurationChecker:
             (i, j)
             for i in range(len(bodies))
             for j in range(i + 1, len(bodies))
-            if (self.moving[i] or self.moving[j]) and (i, j) not in allowed
+            if (self.moving[i] or self.moving[j])
+            and (i, j) not in allowed
+            and (only is None or (i, j) in only)
+            and (skip is None or (i, j) not in skip)
         ]
         self.pairs = np.array(pairs, dtype=int).reshape(-1, 2)
         self._frames = sorted({bodies[k].frame for k in self.pairs.ravel() if self.moving[k]})

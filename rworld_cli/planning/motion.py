@@ -565,19 +565,23 @@ class WorldChecks:
     state is free by ``ConfigurationChecker.check`` at the clearance plus
     :data:`SEARCH_MARGIN`, except within :data:`NEAR_END` of the start and the goals, where
     the rule asked decides (a goal just above a table is reached); a segment by
-    ``check_segment`` at the clearance asked (``exact``).  Built once per world and device
-    (the pairs, the trees); :meth:`problem` sets the ends."""
+    ``check_segment`` at the clearance asked (``exact``).  A pair already inside the margin
+    at the start or a goal (a probe's stylus 0.7 mm from the wrist it is mounted beside, at
+    every state) keeps only the clearance asked everywhere (``tight``): with the margin, no
+    state near it would be free and no path found.  Built once per world and device (the
+    pairs, the trees); :meth:`problem` sets the ends."""
 
     def __init__(self, world, model, device: str, tolerance: float, clearance: float = 0.0):
         from ..collision.configurations import ConfigurationChecker
 
         self.device = world.cell.devices[device]
-        self.search = ConfigurationChecker(
-            world, model, device, tolerance=tolerance, clearance=clearance + SEARCH_MARGIN
+        self._make = lambda extra, **pairs: ConfigurationChecker(
+            world, model, device, tolerance=tolerance, clearance=clearance + extra, **pairs
         )
-        self.exact = ConfigurationChecker(
-            world, model, device, tolerance=tolerance, clearance=clearance
-        )
+        self.search = self._make(SEARCH_MARGIN)
+        self.exact = self._make(0.0)
+        self.tight: set[tuple[int, int]] = set()  # pairs searched without the margin
+        self._tight_check = None
         self.ends = np.zeros((0, self.device.dof))
 
     def problem(self, start, goals) -> tuple[np.ndarray, str | None]:
@@ -605,7 +609,25 @@ class WorldChecks:
                 )
             return usable, f"no goal state is free ({words})"
         self.ends = np.concatenate([start[None], goals[usable]])
+        self._relax_margin()
         return usable, None
+
+    def _relax_margin(self) -> None:
+        """The pairs inside the search margin at an end (free at the clearance asked) move to
+        ``tight``: searched at the clearance asked, the others with the margin."""
+        for _ in range(8):  # a pair a round: few are that close
+            report = self.search.check(self.ends)
+            inside = np.flatnonzero(~report.free)
+            if not len(inside):
+                return
+            added = {
+                tuple(int(x) for x in report.pair[k]) for k in inside if report.pair[k][0] >= 0
+            }
+            if not added - self.tight:
+                return
+            self.tight |= added
+            self.search = self._make(SEARCH_MARGIN, skip=self.tight)
+            self._tight_check = self._make(0.0, only=self.tight)
 
     def states_free(self, Q) -> np.ndarray:
         """(N, n) joint states -> (N,) bool (the class docstring's rule)."""
@@ -613,7 +635,11 @@ class WorldChecks:
         near = (np.abs(Q[:, None, :] - self.ends[None]).max(axis=2) < NEAR_END).any(axis=1)
         out = np.zeros(len(Q), dtype=bool)
         if (~near).any():
-            out[~near] = self.search.check(Q[~near], nearest=False).free
+            far = Q[~near]
+            free = self.search.check(far, nearest=False).free
+            if self._tight_check is not None and free.any():
+                free[free] = self._tight_check.check(far[free], nearest=False).free
+            out[~near] = free
         if near.any():
             out[near] = self.exact.check(Q[near], nearest=False).free
         return out
@@ -657,10 +683,22 @@ def plan_in_world(
     checks = checks or WorldChecks(world, model, device, tolerance, clearance)
     start = np.asarray(start, dtype=float).ravel()
     goals = np.atleast_2d(np.asarray(goals, dtype=float))
+    # a continuous joint (no limits) is an angle: each goal the turn nearest the start, and
+    # the box sampled a turn around the start (a state at 244 deg is -116 deg)
+    endless = ~np.isfinite(checks.device.limit_array("lower")) & ~np.isfinite(
+        checks.device.limit_array("upper")
+    )
+    endless &= np.array([j.kind == "revolute" for j in checks.device.joints], dtype=bool)
+    if endless.any():
+        turn = np.remainder(goals[:, endless] - start[endless] + np.pi, 2 * np.pi) - np.pi
+        goals = goals.copy()
+        goals[:, endless] = start[endless] + turn
     usable, why = checks.problem(start, goals)
     if why is not None:
         return PathPlan(False, np.zeros((0, len(start))), reason=why), checks
     lower, upper = checks.box()
+    lower = np.where(endless, start - np.pi, lower)
+    upper = np.where(endless, start + np.pi, upper)
     plan = plan_path(
         checks.states_free,
         checks.segment_free,

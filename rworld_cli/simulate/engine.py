@@ -58,6 +58,8 @@ class _Scheduler(MotionSteps, ContactSteps, AffixmentSteps, CoordinationSteps, F
         self._latched: dict[str, dict | None] = {}  # per device: the last guarded contact
         self._collisions = None  # the collision model, built by the first 'path: free' move
         self._in_free_path = False  # recording a free path's via moves
+        self._transit = False  # a feature step's transit: planned around what is in the way
+        self._transit_near = None  # its goal's joints, as the step planned them
         self._free_leg = ""  # the leg recorded (for its event)
         self.snapshots: list[tuple[float, dict]] = [(0.0, self.world.snapshot())]
         self.barriers: dict[tuple[str, int], dict[str, float]] = {}

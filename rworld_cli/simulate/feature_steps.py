@@ -336,6 +336,7 @@ class FeatureSteps:
         if (tcp, sensor) not in rigs:
             rigs[tcp, sensor] = ProbeRig(self.run.cell, device, tcp, sensor)
         rig = rigs[tcp, sensor]
+        rig.seeds = [self.world.joints(device)]  # every search starts from where the arm is
         geometry = ProbeGeometry(radius=rig.radius)
         try:
             cand = feature_candidates(self.run.cell, f, rig.radius, geometry.edge_margin)
@@ -384,15 +385,28 @@ class FeatureSteps:
                 device, tr, step, tcp, (T_world @ T_owner)[None], motion, speed, 1.0, until, f.name
             )
 
-        go(first.T_owner_lift, "joint")
+        def transit(T_owner, q_near):
+            # to the joints the rig solved (and checked the lines from): the straight joint
+            # move where its states are clear, else a free path around what is in the way
+            blocked = rig.transit_collides(self.world.joints(device), q_near)
+            self._transit, self._transit_near = blocked, q_near
+            try:
+                go(T_owner, "joint")
+            finally:
+                self._transit, self._transit_near = False, None
+
+        transit(first.T_owner_lift, first.q_lift)
         way_in = first.T_owner_entry if first.T_owner_entry is not None else first.T_owner_approach
         if not np.allclose(first.T_owner_lift, way_in):
             go(way_in)
         if first.T_owner_entry is not None:
             go(first.T_owner_approach)
         for s in solved:
-            if s is not first:
-                go(s.T_owner_approach)
+            if s is not first:  # inside a hole: along its axis; else from point to point
+                if first.T_owner_entry is not None:
+                    go(s.T_owner_approach)
+                else:
+                    transit(s.T_owner_approach, s.q_approach)
             go(s.T_owner_end, until=sensor, speed=rig.speed)
             self._record_probe(device, tr, step, f.name)
             go(s.T_owner_approach)

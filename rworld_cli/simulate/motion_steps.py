@@ -187,6 +187,8 @@ class MotionSteps:
                 return arm_configurations(dev, Q).matches(wanted)
 
         seed = q_now if step.near is None else step.near
+        if self._transit_near is not None:  # a feature step's transit: the joints it planned
+            seed = self._transit_near
         if step.arm_angle is not None:  # a 7-axis arm's arm angle (config: {arm_angle})
             from ..kinematics.redundancy import solve_ik_arm_angle
 
@@ -256,6 +258,9 @@ class MotionSteps:
         default (``paths:``) - never for a linear or guarded move, nor one that may touch
         (``touch:``: contact is its point, and the planner avoids it)."""
         spec = step.spec
+        if self._transit:  # a feature step's transit: planned unless the step says straight
+            explicit = "path" in getattr(spec, "model_fields_set", ())
+            return "straight" if explicit and spec.path == "straight" else "free"
         path = getattr(spec, "path", "straight")
         if path not in ("straight", "free") or "path" in getattr(spec, "model_fields_set", ()):
             return path

@@ -364,6 +364,34 @@ def test_a_guarded_move_that_touches_nothing_on_the_truth_exits_1(cli, tmp_path)
     assert not out.exists()
 
 
+def test_measure_refuses_a_probe_program_that_collides(cli, tmp_path):
+    """``measure --simulate --program`` checks the program as ``check`` does: a move through
+    the bracket is refused with the collision's place, nothing written; --allow-collisions
+    writes the measurements with the problem said first (issue 60)."""
+    program = tmp_path / "through.yaml"
+    program.write_text(
+        SHORT.replace(
+            "  - move: {to: ready}\n",
+            "  - move: {to: ready}\n"
+            "  - move: {to: bracket, tcp: probe, offset: {xyz: [6, 40, -30], rpy: [180, 0, -90]}}\n"
+            "  - move: {to: ready}\n",
+        )
+    )
+    truth = tmp_path / "truth"
+    shutil.copytree(CELL, truth)
+    out = tmp_path / "m.yaml"
+    args = ["measure", "--simulate", str(CELL), "--truth", str(truth), "--program", str(program)]
+    refused = cli([*args, "-o", str(out)])
+    assert refused.exit_code == 1, refused.output
+    assert "does not pass the check" in refused.output and "bracket" in refused.output
+    assert "through.yaml:5" in refused.output and "nothing written" in refused.output
+    assert not out.exists()
+    allowed = cli([*args, "-o", str(out), "--allow-collisions"])
+    assert allowed.exit_code == 0, allowed.output
+    assert allowed.output.index("warning:") < allowed.output.index("wrote")
+    assert out.exists()
+
+
 # ---------------------------------------------------------------- pieces
 
 

@@ -573,9 +573,11 @@ def test_feature_steps_take_path_free_for_their_approach(gp7_edges):
 
 
 def test_a_probe_steps_move_to_its_first_point_takes_path_free(tmp_path, monkeypatch):
-    """``probe: {feature, path: free}``: the joint move to the first point's lift is planned
-    (the real planner, its calls counted), the run passes the collision check and records
-    its contacts; without ``path:`` the planner is not asked."""
+    """``probe: {feature, path: free}``: its transits - to the first point's lift, and from
+    point to point (joint moves since issue 60) - are planned (the real planner, its calls
+    counted), the run passes the collision check and records its contacts; without ``path:``
+    the planner is asked only for a transit whose straight move collides (none here), and
+    never with ``path: straight``."""
     import shutil
 
     import rworld_cli.planning.motion as motion
@@ -597,14 +599,20 @@ def test_a_probe_steps_move_to_its_first_point_takes_path_free(tmp_path, monkeyp
         "  - probe: {feature: plate.top, points: 3, path: free}\n"
     )
     _, result = simulate_run(str(cell), str(program))
-    assert len(asked) == 1
+    assert len(asked) == 3  # to the first point, then to each of the two others
     assert not result.collisions.collisions
     assert sum(e.kind == "probe" for e in result.events) == 3
     program.write_text(
         "device: puma\nsteps:\n  - move: {to: ready}\n  - probe: {feature: plate.top, points: 3}\n"
     )
     simulate_run(str(cell), str(program))
-    assert len(asked) == 1
+    assert len(asked) == 3
+    program.write_text(
+        "device: puma\nsteps:\n  - move: {to: ready}\n"
+        "  - probe: {feature: plate.top, points: 3, path: straight}\n"
+    )
+    simulate_run(str(cell), str(program))
+    assert len(asked) == 3
 
 
 def test_a_program_drives_a_planned_path_file(tmp_path):
@@ -668,7 +676,7 @@ def test_blended_via_points_are_exported_as_the_controllers_blends(tmp_path):
     from rworld_cli.api import export_program, plan_free_path
 
     ctx = scene("gp7_shelf")
-    problem = [p for p in PROBLEMS if p["scene"] == "gp7_shelf"][3]
+    problem = [p for p in PROBLEMS if p["scene"] == "gp7_shelf"][1]  # a path of 4 blends
     planned = plan_free_path(
         ctx, ",".join(map(repr, problem["goal"])), problem["start"], output=str(tmp_path / "p.yaml")
     )
