@@ -39,11 +39,8 @@ sys.path.insert(0, str(REPO))
 from rworld_cli import spatial  # noqa: E402
 from rworld_cli.api import plan_cell_measurements  # noqa: E402
 from rworld_cli.calibration.pipeline import calibrate  # noqa: E402
-from rworld_cli.calibration.probing import (  # noqa: E402
-    measurement_features,
-    probe_program,
-    probe_run,
-)
+from rworld_cli.calibration.probe_run import measurement_features, probe_run  # noqa: E402
+from rworld_cli.calibration.probing import probe_program  # noqa: E402
 from rworld_cli.calibration.solve import _jacobian  # noqa: E402
 from rworld_cli.collision.bodies import point_triangle_distance  # noqa: E402
 from rworld_cli.geometry import shape_mesh, winding_number  # noqa: E402

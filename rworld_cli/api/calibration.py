@@ -433,7 +433,7 @@ def simulate_probe_measurements(
     are); the same joint values move the truth cell's device (its own DH rows or joint frames,
     base and TCP), each guarded move's contact is found on the truth cell's parts, and the
     point recorded is what the controller reports: its nominal forward kinematics at the
-    contact's joint values (:func:`~rworld_cli.calibration.probing.probe_run`), with
+    contact's joint values (:func:`~rworld_cli.calibration.probe_run.probe_run`), with
     joint-encoder noise ``joint_sigma`` [rad] and Gaussian noise ``sigma`` [m].
 
     Raises
@@ -445,7 +445,7 @@ def simulate_probe_measurements(
         touches nothing on the truth cell (the part is farther from its nominal place than
         the move's overtravel); nothing written.
     """
-    from ..calibration.probing import measurement_features, probe_run
+    from ..calibration.probe_run import measurement_features, probe_run
     from ..errors import CheckFailed
     from ..schema.loader import load_cell
     from ..schema.measurements import today, write_measurements

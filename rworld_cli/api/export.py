@@ -610,7 +610,7 @@ def measure_from_log(
         A malformed log (at its line), a count or a field that does not match the program's
         searches, a contact off its search's line (at its line); nothing written.
     """
-    from ..calibration.probing import ProbedPoint, measurement_features
+    from ..calibration.probe_run import ProbedPoint, measurement_features
     from ..export.common import field_value
     from ..kinematics.jacobian import ToolMount, tool_pose
     from ..schema.contactlog import LANGUAGES, read_contact_log

@@ -109,10 +109,11 @@ def import_urdf(
     (or at their --lock value), with a warning.  Mimic joints on the chain, floating and
     planar joints are refused.  A .xacro file is expanded first, as data (rworld's own
     expander: no code in it runs), its $(find PKG) found under --package-path and its $(arg
-    NAME) from --xacro-arg: no ROS needed.  --joint-limits takes the vendor's joint_limits.yaml (acceleration limits, which
-    URDF lacks).  Link pairs whose meshes overlap at every joint state sampled
-    (--overlap-states) are written to allowed_contacts with a warning, as MoveIt disables its
-    'Always' pairs; --srdf takes a MoveIt SRDF's disabled pairs.
+    NAME) from --xacro-arg: no ROS needed.  --joint-limits takes the vendor's
+    joint_limits.yaml (acceleration limits, which URDF lacks).  Link pairs whose meshes
+    overlap at every joint state sampled (--overlap-states) are written to allowed_contacts
+    with a warning, as MoveIt disables its 'Always' pairs; --srdf takes a MoveIt SRDF's
+    disabled pairs.
     Nothing is written unless the whole import succeeds.
 
     \b

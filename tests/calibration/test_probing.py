@@ -12,7 +12,8 @@ from rworld_cli import spatial
 from rworld_cli.api import plan_cell_measurements, simulate_probe_measurements
 from rworld_cli.calibration.pipeline import calibrate
 from rworld_cli.calibration.plan import ProbeGeometry, plan_measurements
-from rworld_cli.calibration.probing import measurement_features, probe_run, tour
+from rworld_cli.calibration.probe_run import measurement_features, probe_run
+from rworld_cli.calibration.probing import tour
 from rworld_cli.calibration.solve import _jacobian
 from rworld_cli.calibration.targets import d_optimal, feature_candidates
 from rworld_cli.collision.bodies import point_triangle_distance

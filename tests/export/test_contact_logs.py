@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from rworld_cli.calibration.pipeline import calibrate
-from rworld_cli.calibration.probing import probe_run
+from rworld_cli.calibration.probe_run import probe_run
 from rworld_cli.errors import UserError
 from rworld_cli.schema.loader import load_cell
 from rworld_cli.schema.measurements import load_measurements
