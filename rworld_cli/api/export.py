@@ -37,6 +37,7 @@ class TargetChange:
     rotation: float  # [rad]
     joints: float  # largest joint change [rad or m]
     frames: list[str]  # calibrated frames on the way from world to the target or the TCP
+    cause: str = ""  # what moved it, in words (:func:`change_cause`)
 
     def as_dict(self) -> dict:
         return {
@@ -48,7 +49,22 @@ class TargetChange:
             "rotation_arcsec": self.rotation / ARCSEC,
             "joints_max": self.joints,
             "frames": self.frames,
+            "cause": self.cause,
         }
+
+
+def change_cause(frames: list[str], replanned: bool, joints: float, translation: float) -> str:
+    """What moved a target, in words: the calibrated frames on its way; else a free path the
+    planner found anew in the calibrated cell (its via points are no frame); else a joint
+    solution on another branch (joints turned more than 0.05 rad for under a millimetre);
+    else the move's start (a move before it ended elsewhere)."""
+    if frames:
+        return f"calibrated frame{'s' if len(frames) > 1 else ''} {', '.join(frames)}"
+    if replanned:
+        return "a re-planned free path (no calibrated frame on the way)"
+    if joints > 0.05 and translation < 1e-3:
+        return "another joint solution (no calibrated frame on the way)"
+    return "where the move before it ended (no calibrated frame on the way)"
 
 
 @dataclass
@@ -535,6 +551,10 @@ def _changes(cell, run, dt, against, loaded, result, devices) -> list[TargetChan
             path = ancestors(target) if target in loaded.cell.frames else []
             path += ancestors(now.move.tcp) + ancestors(name)
             frames = [f for f in dict.fromkeys(path) if f in moved]
+            replanned = getattr(now.step.spec, "path", None) == "free" or (
+                now.move.target not in loaded.cell.frames and feature is None
+            )
+            joints = float(np.abs(now.move.q_goal - then.move.q_goal).max())
             changes.append(
                 TargetChange(
                     name,
@@ -543,8 +563,9 @@ def _changes(cell, run, dt, against, loaded, result, devices) -> list[TargetChan
                     now.move.target,
                     dp,
                     dr,
-                    float(np.abs(now.move.q_goal - then.move.q_goal).max()),
+                    joints,
                     frames,
+                    change_cause(frames, replanned, joints, dp),
                 )
             )
     return changes

@@ -353,7 +353,7 @@ def export_program(
         for c in result.changes:
             click.echo(
                 f"  {c.where}: {c.step}: moved {c.translation * 1000:.3f} mm, "
-                f"{c.rotation / 4.84813681109536e-06:.1f} arcsec by {', '.join(c.frames) or '?'}"
+                f"{c.rotation / 4.84813681109536e-06:.1f} arcsec by {c.cause}"
             )
     if result.compensated is not None:
         click.echo("compensated for the nominal controller (target moved by):")

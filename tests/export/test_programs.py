@@ -185,8 +185,19 @@ def test_a_calibration_gets_through_and_programs_stay_as_they_are(tmp_path, cli)
     changed = {c.where.rsplit(":", 1)[1]: c for c in result.changes}
     assert set(changed) == {"10", "11"}  # the two moves to the workpiece
     assert all(c.frames == ["workpiece"] for c in changed.values())
+    assert all(c.cause == "calibrated frame workpiece" for c in changed.values())
     assert changed["11"].translation == pytest.approx(np.linalg.norm([1.5, 2.0, 0.3]) * 1e-3)
     assert changed["11"].rotation == pytest.approx(np.radians(0.05), abs=1e-9)
+
+
+def test_against_names_what_moved_a_target_without_a_calibrated_frame():
+    """Issue 60: a re-planned via point said 'by ?'; each cause in words now."""
+    from rworld_cli.api.export import change_cause
+
+    assert change_cause(["plate", "table"], True, 0.0, 1e-3) == "calibrated frames plate, table"
+    assert change_cause([], True, 0.01, 3.4e-4).startswith("a re-planned free path")
+    assert change_cause([], False, 0.8, 1e-5).startswith("another joint solution")
+    assert change_cause([], False, 0.001, 2e-3).startswith("where the move before it ended")
 
 
 @pytest.mark.parametrize("case", list(CASES))
