@@ -382,12 +382,11 @@ class ProbeRig:
         the seeds in one batch (their order kept); ``thorough``: with :data:`RESTARTS` seeded
         random starts besides, every branch found tried, the soonest reached first."""
         from ..kinematics.inverse import distinct_solutions
+        from ..planning.motion import sampled_box
 
         starts = np.asarray(seeds, dtype=float)
         if thorough:
-            lower, upper = self.dev.limit_array("lower"), self.dev.limit_array("upper")
-            lo = np.where(np.isfinite(lower), lower, -np.pi)
-            hi = np.where(np.isfinite(upper), upper, np.pi)
+            lo, hi = (sampled_box(self.dev.limit_array(side)) for side in ("lower", "upper"))
             rng = np.random.default_rng(len(self.solved))
             starts = np.vstack([starts, rng.uniform(lo, hi, (RESTARTS, self.dev.dof))])
         found = distinct_solutions(self.dev, self.T_base_world @ T_world_tcp, starts, self.mount)

@@ -46,7 +46,7 @@ def _functions():
         gjk_symbol = f"rworld_contacts_gjk_{digest}"
         contacts_symbol = f"rworld_contacts_{digest}"
         # (symbol, signature, IR text) in the order of the tuple returned
-        kernels_ = [
+        table = [
             ("box_gap", bvh_ir.BOX_GAP, bvh_ir.box_gap_ir),
             ("touching", bvh_ir.TOUCHING, bvh_ir.touching_ir),
             ("descend", bvh_ir.DESCEND, bvh_ir.descend_ir),
@@ -62,21 +62,21 @@ def _functions():
                 lambda s: free_states_ir.free_states_ir(s, contacts_symbol, rows=True),
             ),
         ]
-        symbols = [f"rworld_{name}_{digest}" for name, _, _ in kernels_]
+        symbols = [f"rworld_{name}_{digest}" for name, _, _ in table]
 
         def build() -> str:
             import llvmlite.binding as llvm
 
             module = llvm.parse_assembly(compiled.gjk_ir(gjk_symbol, local=True))
-            for symbol, (_, _, text) in zip(symbols, kernels_):
+            for symbol, (_, _, text) in zip(symbols, table):
                 module.link_in(llvm.parse_assembly(text(symbol)))
             return str(module)
 
         addresses = kernels.compile_ir("box trees", build, symbols, source)
         if addresses is None:
-            _FUNCTION.extend([None] * len(kernels_))
+            _FUNCTION.extend([None] * len(table))
         else:
-            for address, (_, signature, _) in zip(addresses, kernels_):
+            for address, (_, signature, _) in zip(addresses, table):
                 _FUNCTION.append(kernel_ir.prototype(signature)(address))
     return tuple(_FUNCTION)
 

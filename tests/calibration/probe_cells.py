@@ -168,13 +168,13 @@ def _reach(out: Path, name: str) -> float:
     bound by the chain's offsets overstates it for a small arm: the VS060's by 70 %)."""
     from rworld_cli.calibration.probing import ProbeRig
     from rworld_cli.kinematics.jacobian import tool_pose
+    from rworld_cli.planning.motion import sampled_box
     from rworld_cli.schema.loader import load_cell
 
     model = load_cell(out / "cell.yaml").cell
     rig = ProbeRig(model, name, f"{name}.probe", "probe_ball")
     dev = model.devices[name]
-    lower, upper = dev.limit_array("lower"), dev.limit_array("upper")
-    lo, hi = np.where(np.isfinite(lower), lower, -np.pi), np.where(np.isfinite(upper), upper, np.pi)
+    lo, hi = (sampled_box(dev.limit_array(side)) for side in ("lower", "upper"))
     Q = np.random.default_rng(0).uniform(lo, hi, (40_000, dev.dof))
     T = rig.T_world_base @ tool_pose(dev, Q, rig.mount) @ rig.T_tcp_sensor
     down = T[:, 2, 2] < -np.cos(np.radians(15))
