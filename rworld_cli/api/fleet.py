@@ -265,6 +265,27 @@ def scheduler_address(text: str) -> str:
     return text.strip()
 
 
+def _refuses(address: str) -> str | None:
+    """Why nothing listens at a tcp:// scheduler ``address`` when the host says so at once
+    (connection refused, unknown host); None when it may be there.  Dask's client retries a
+    refused connection until its timeout: ten seconds of waiting for an answer already given."""
+    import socket
+
+    match = _ADDRESS.match(address)
+    if match is None or (match["scheme"] or "tcp") != "tcp":
+        return None
+    host = match["host"].strip("[]")
+    try:
+        socket.create_connection((host, int(match["port"])), timeout=2.0).close()
+    except ConnectionRefusedError:
+        return "connection refused"
+    except socket.gaierror as exc:
+        return f"unknown host '{host}' ({exc.strerror})"
+    except OSError:  # timed out, unreachable: left to Dask's own wait
+        return None
+    return None
+
+
 def _workers(client) -> int:
     try:
         return len(client.scheduler_info().get("workers", {}))
@@ -284,6 +305,9 @@ def _executor(workers: int | None, scheduler: str | None):
                 "--scheduler needs Dask's distributed scheduler client: pip install "
                 "'rworld[cluster]' (or distributed)"
             ) from None
+        refused = _refuses(address)
+        if refused is not None:
+            raise UserError(f"no Dask scheduler answers at {address}: {refused}")
         try:
             client = Client(address, timeout="10s")
         except Exception as exc:  # refused, timed out, an address Dask cannot parse

@@ -209,3 +209,8 @@ def test_a_scheduler_nobody_runs_is_a_clear_error(cli):
     assert result.exit_code == 2 and "no Dask scheduler answers at tcp://127.0.0.1:9" in (
         result.output
     )
+    assert "connection refused" in result.output  # said at once, not after Dask's 10 s wait
+    unknown = cli(
+        ["check", str(WORKCELLS / "puma560"), "--all-runs", "--scheduler", "tcp://nohost.invalid:1"]
+    )
+    assert unknown.exit_code == 2 and "unknown host 'nohost.invalid'" in unknown.output

@@ -99,27 +99,52 @@ def test_every_leaf_lies_in_every_box_above_it():
         assert (tree.item >= 0).sum() == len(points)  # every leaf once
 
 
-def exhaustive(a, b, Ta, Tb):
-    """GJK over every leaf pair at each state: (distance, deepest penetration) per state."""
+def _spheres(pieces) -> tuple[np.ndarray, np.ndarray]:
+    """A ball around each piece: (centres (P, 3), radii (P,)) [m], from its placed vertices (a
+    cylinder's from its radius and half length), grown by its margin."""
+    points = pieces.points
+    centre = points.mean(axis=1)
+    radius = np.linalg.norm(points - centre[:, None], axis=2).max(axis=1)
+    cyl = pieces.cylinder
+    centre[cyl] = pieces.center[cyl]
+    radius[cyl] = np.hypot(pieces.radius[cyl], pieces.half_length[cyl])
+    return centre, radius + pieces.margin
+
+
+def exhaustive(a, b, Ta, Tb, chunk: int = 200_000):
+    """GJK over every leaf pair at each state: (distance, deepest penetration) per state.
+
+    Pairs go to GJK in the order of a lower bound of their distance (their balls' gap), and the
+    rest are left once the bound passes the least distance measured: every pair that could
+    overlap or be the closest is measured (exact, and independent of the tree's box bound)."""
     na, nb = (int((body.tree.item >= 0).sum()) for body in (a, b))
-    ia, ib = (x.ravel() for x in np.meshgrid(np.arange(na), np.arange(nb), indexing="ij"))
     dist, depth = [], []
     for k in range(len(Ta)):
-        pa = a.leaf_pieces(ia, np.repeat(Ta[k : k + 1], len(ia), 0))
-        pb = b.leaf_pieces(ib, np.repeat(Tb[k : k + 1], len(ib), 0))
-        res = cv.distance(pa, pb)
-        dist.append(res.distance.min())
-        over = np.flatnonzero(res.overlap)
-        depth.append(
-            max(0.0, cv.penetration(pa.take(over), pb.take(over))[0].max()) if len(over) else 0.0
-        )
+        pa = a.leaf_pieces(np.arange(na), np.repeat(Ta[k : k + 1], na, 0))
+        pb = b.leaf_pieces(np.arange(nb), np.repeat(Tb[k : k + 1], nb, 0))
+        (ca, ra), (cb, rb) = _spheres(pa), _spheres(pb)
+        bound = np.linalg.norm(ca[:, None] - cb[None], axis=2) - ra[:, None] - rb[None]
+        order = np.argsort(bound, axis=None)
+        best, deepest = np.inf, 0.0
+        for start in range(0, order.size, chunk):
+            if bound.flat[order[start]] > max(best, 0.0):
+                break
+            ia, ib = np.unravel_index(order[start : start + chunk], bound.shape)
+            res = cv.distance(pa.take(ia), pb.take(ib))
+            best = min(best, res.distance.min())
+            over = np.flatnonzero(res.overlap)
+            if len(over):
+                pen = cv.penetration(pa.take(ia[over]), pb.take(ib[over]))[0].max()
+                deepest = max(deepest, pen)
+        dist.append(best)
+        depth.append(deepest)
     return np.array(dist), np.array(depth)
 
 
 PAIRS = [  # (cell, a, b, random states): mesh x mesh, fixture x link mesh, hulls x mesh,
-    # open x closed mesh (the fixture's pair has 2.4 M leaf pairs a state to measure), a
-    # single large hull (the flange, 198 vertices) over the plate's triangles: the walk's
-    # leaf-against-box bound
+    # open x closed mesh (the fixture's pair: 2.4 M leaf pairs a state, most passed over by
+    # the balls' bound), a single large hull (the flange, 198 vertices) over the plate's
+    # triangles: the walk's leaf-against-box bound
     ("iiwa14", "kuka_lbr_iiwa_14_r820.link_2", "kuka_lbr_iiwa_14_r820.link_4", 3),
     ("iiwa14", "plate", "kuka_lbr_iiwa_14_r820.link_6", 1),
     ("iiwa14", "plate", "kuka_lbr_iiwa_14_r820.link_7", 4),

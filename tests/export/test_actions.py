@@ -8,6 +8,7 @@ expected sequence comes from the simulation's events."""
 
 from __future__ import annotations
 
+import functools
 import re
 import shutil
 
@@ -67,6 +68,7 @@ def cases(tmp_path_factory):
     ]
 
 
+@functools.cache  # the same simulation for every language
 def _expected(cell, run, device) -> tuple[list[tuple], set[int]]:
     """The simulated actions of ``device`` in order: gripper and tool-changer outputs, contact
     reports; and the indices after which the flange's load changes before a move follows."""
