@@ -528,6 +528,10 @@ class CellModel:
         Frame -> ``T_parent_frame`` (4, 4) for every frame that is not a link frame.
     pose_sources : dict
         Frame -> the pose file that gave its pose.
+    calibrated : dict
+        Frame -> (the calibrated pose file that moved it, how far [m], how much [rad]): the
+        frames an overlay written by ``rworld calibrate`` (one with provenance) gives another
+        pose than the files before it.
     """
 
     name: str
@@ -543,6 +547,7 @@ class CellModel:
     poses: dict[str, np.ndarray]
     pose_files: list[Path] = field(default_factory=list)
     pose_sources: dict[str, Path] = field(default_factory=dict)
+    calibrated: dict[str, tuple[Path, float, float]] = field(default_factory=dict)
     description: str | None = None
     allowed_contacts: tuple[AllowedContactDecl, ...] = ()
 

@@ -155,6 +155,8 @@ class Run:
     clearance: float = 0.0  # required distance between bodies that may not touch [m]
     collision_tolerance: float = 1e-3  # contacts shallower may be missed between instants [m]
     paths: str = "straight"  # the path: of joint moves that give none ('straight' | 'free')
+    seed: int = 0  # the planner's seed of each free path: this plus the step's index
+    timeout: float = 10.0  # [s] each free path's search gives up after this
 
 
 @dataclass

@@ -97,6 +97,14 @@ class PathPlan:
         ends and at corners passed at rest.  All 0 without ``blend_free``.
     blend_seconds : float
         Of ``seconds``, the time spent blending the corners.
+    attempts : int
+        Tree searches run: a path whose states passed but a segment of which failed the
+        continuous check (and its repair) is dropped and the search starts again, while time
+        is left.
+    blocked : ndarray, shape (2, n), or None
+        The ends of the last segment that failed the continuous check (None: none failed).
+    bodies : list of str
+        The labels of the bodies that segment met (``plan_in_world`` names them).
     """
 
     found: bool
@@ -114,6 +122,9 @@ class PathPlan:
     knots: np.ndarray = field(default_factory=lambda: np.zeros(0))
     blends: np.ndarray = field(default_factory=lambda: np.zeros(0))
     blend_seconds: float = 0.0
+    attempts: int = 0
+    blocked: np.ndarray | None = None
+    bodies: list[str] = field(default_factory=list)
 
     def joint_path(self):
         """The path as a :class:`~rworld_cli.planning.path.JointPath` (``blended``: the
@@ -299,6 +310,8 @@ def plan_path(
     search = _Search(states_free, segment_free, resolution, t0 + timeout, clock)
     empty = np.zeros((0, n))
 
+    attempts, iterations, blocked = 0, 0, None
+
     def failed(reason: str, iterations: int = 0, states: int = 0) -> PathPlan:
         return PathPlan(
             False,
@@ -309,6 +322,8 @@ def plan_path(
             states_checked=search.states_checked,
             segments_checked=search.segments_checked,
             seconds=clock() - t0,
+            attempts=attempts,
+            blocked=blocked,
         )
 
     inside = np.all((goals >= lower - 1e-12) & (goals <= upper + 1e-12), axis=1)
@@ -345,21 +360,35 @@ def plan_path(
                 knots=length_knots(way),
                 blends=np.zeros(2),
             )
-    found = _connect_trees(
-        search, rng, start, goals, usable, lower, upper, step, max_iterations, progress
-    )
-    if isinstance(found, str):
-        return failed(found, search.iterations, search.tree_states)
-    raw, goal, iterations, states = found
-    way = _shortcut(search, rng, raw, shortcuts)
-    way, repairs = _validated(search, rng, way, lower, upper, step)
-    if way is None:
-        return failed(
-            "a segment the states passed failed the continuous check and could not be "
-            "planned around",
-            iterations,
-            states,
+    # trees grown until a path passes the continuous check whole: one that does not (its
+    # states free, a segment between them not, and no repair found) is dropped and the
+    # search starts again with the generator where it is, while time is left
+    while True:
+        attempts += 1
+        found = _connect_trees(
+            search, rng, start, goals, usable, lower, upper, step, max_iterations, progress
         )
+        if isinstance(found, str):
+            if blocked is not None:
+                found += (
+                    f" ({attempts - 1} path(s) found before failed the continuous check "
+                    "and could not be planned around)"
+                )
+            return failed(found, iterations + search.iterations, search.tree_states)
+        raw, goal, its, states = found
+        iterations += its
+        way = _shortcut(search, rng, raw, shortcuts)
+        way, repairs, bad = _validated(search, rng, way, lower, upper, step)
+        if way is not None:
+            break
+        blocked = np.stack(bad)
+        if search.out_of_time():
+            return failed(
+                f"{attempts} path(s) whose states passed failed the continuous check and could "
+                "not be planned around within the time limit",
+                iterations,
+                states,
+            )
     knots = length_knots(way)
     t_blend = clock()
     blends = np.zeros(len(way))
@@ -381,6 +410,8 @@ def plan_path(
         knots,
         blends,
         clock() - t_blend,
+        attempts,
+        blocked,
     )
 
 
@@ -522,7 +553,8 @@ def _without_repeats(way: np.ndarray) -> np.ndarray:
 
 def _validated(search: _Search, rng, way, lower, upper, step, depth: int = 0):
     """Every segment checked continuously; one that fails is planned again between its ends
-    with a quarter of the spacing (three times at most).  (path, repairs), or (None, repairs)."""
+    with a quarter of the spacing (three times at most).  (path, repairs, None), or (None,
+    repairs, (q0, q1)): the segment of ``way`` that failed and could not be repaired."""
     out = [way[0]]
     repairs = 0
     for q0, q1 in zip(way[:-1], way[1:]):
@@ -530,8 +562,8 @@ def _validated(search: _Search, rng, way, lower, upper, step, depth: int = 0):
             out.append(q1)
             continue
         repairs += 1
-        if depth >= 3 or search.out_of_time():
-            return None, repairs
+        if depth >= REPAIR_DEPTH or search.out_of_time():
+            return None, repairs, (q0, q1)
         finer = _Search(
             search.states_free,
             search.segment_free,
@@ -545,16 +577,17 @@ def _validated(search: _Search, rng, way, lower, upper, step, depth: int = 0):
         piece, more = None, 0
         if not isinstance(found, str):
             piece = _shortcut(finer, rng, found[0], 20)
-            piece, more = _validated(finer, rng, piece, lower, upper, step, depth + 1)
+            piece, more, _ = _validated(finer, rng, piece, lower, upper, step, depth + 1)
         search.states_checked += finer.states_checked
         search.segments_checked += finer.segments_checked
         repairs += more
         if piece is None:
-            return None, repairs
+            return None, repairs, (q0, q1)
         out.extend(piece[1:])
-    return np.array(out), repairs
+    return np.array(out), repairs, None
 
 
+REPAIR_DEPTH = 2  # a failing segment re-planned finer at most twice deep; then a new search
 SEARCH_MARGIN = 0.005  # [m] the search's states keep this much more than the clearance asked
 NEAR_END = 0.1  # [rad or m] states this near the start or a goal: searched without the margin
 
@@ -713,7 +746,41 @@ def plan_in_world(
     )
     if plan.found:
         plan.goal = int(usable[plan.goal])  # an index of the goals given
+    elif plan.blocked is not None:
+        words, plan.bodies = segment_words(checks, plan.blocked)
+        plan.reason = f"{plan.reason}; {words}"
     return plan, checks
+
+
+def joint_words(device, q) -> str:
+    """Joint values in words: '(12.5, -40, 90) deg', a prismatic joint's in mm."""
+    values = []
+    for joint, value in zip(device.joints, np.asarray(q, dtype=float)):
+        prismatic = joint.kind == "prismatic"
+        values.append(f"{value * 1000:.4g} mm" if prismatic else f"{np.degrees(value):.4g}")
+    return "(" + ", ".join(values) + ") deg"
+
+
+def segment_words(checks: WorldChecks, segment: np.ndarray) -> tuple[str, list[str]]:
+    """A segment ``(2, n)`` the continuous check refused, in words: its ends, the first
+    contact found and the deepest of its states measured (the pair and how deep); and the
+    bodies named (their labels)."""
+    q0, q1 = np.asarray(segment, dtype=float)
+    exact = checks.exact
+    found = exact.check_segment(q0, q1)
+    s = np.linspace(0.0, 1.0, 65)
+    report = exact.check(q0 + s[:, None] * (q1 - q0), nearest=True)
+    k = int(np.argmin(report.distance))
+    deepest = ""
+    pairs = [found.pair] if found.pair is not None else []
+    if report.pair[k][0] >= 0:
+        deepest = f"; nearest along it: {nearest_words(exact, report, k)} at {100 * s[k]:.0f} %"
+        pairs.append(tuple(report.pair[k]))
+    bodies = list(dict.fromkeys(exact.model.bodies[i].label for pair in pairs for i in pair))
+    return (
+        f"the segment that failed was from {joint_words(checks.device, q0)} to "
+        f"{joint_words(checks.device, q1)}: {first_contact_words(exact, found)}{deepest}"
+    ), bodies
 
 
 def sampled_box(limits: np.ndarray) -> np.ndarray:

@@ -23,6 +23,12 @@ from .cellparts import (
 )
 
 
+def _shift_and_turn(T: np.ndarray) -> tuple[float, float]:
+    """How far a relative pose (4, 4) moves: (its translation [m], its rotation angle [rad])."""
+    turn = float(np.arccos(np.clip((np.trace(T[:3, :3]) - 1) / 2, -1.0, 1.0)))
+    return float(np.linalg.norm(T[:3, 3])), turn
+
+
 class PosesMixin:
     """The pose-file checks of the loader's builder (a mixin of ``loader._Builder``)."""
 
@@ -88,6 +94,9 @@ class PosesMixin:
                     continue
                 if warning:
                     self.warn(ppath, warning, doc=doc)
+                if pf.provenance is not None and name in poses:  # 'rworld calibrate' wrote it
+                    moved = np.linalg.solve(poses[name], T)
+                    self.calibrated[name] = (real, *_shift_and_turn(moved))
                 poses[name] = T
                 sources[name] = real
             entries = [("joints", n, p) for n, p in pf.joints.items()]
@@ -119,8 +128,7 @@ class PosesMixin:
                     self.warn(jpath, warning, doc=doc)
                 nominal = next(j for j in dev.joints if j.name == joint)
                 moved = np.linalg.solve(nominal.origin, T) if frames else T
-                shift = float(np.linalg.norm(moved[:3, 3]))
-                turn = float(np.arccos(np.clip((np.trace(moved[:3, :3]) - 1) / 2, -1.0, 1.0)))
+                shift, turn = _shift_and_turn(moved)
                 if shift > CALIBRATION_SHIFT or turn > CALIBRATION_TURN:
                     self.warn(
                         jpath,

@@ -152,6 +152,7 @@ class _Builder(BodiesMixin, DevicesMixin, RulesMixin, PosesMixin):
         # files read besides the cell file (pose files, meshes), each with the digest of its
         # bytes when read: what the cell cache records (cellcache.store)
         self.read: list[tuple[Path, str]] = []
+        self.calibrated: dict[str, tuple[Path, float, float]] = {}  # frame -> (overlay, m, rad)
 
     # ------------------------------------------------------------------ helpers
     def err(self, path, message, prefer="value", doc: Marked | None = None):
@@ -246,6 +247,7 @@ class _Builder(BodiesMixin, DevicesMixin, RulesMixin, PosesMixin):
             poses=poses,
             pose_files=files,
             pose_sources=sources,
+            calibrated=self.calibrated,
             description=cf.description,
             allowed_contacts=allowed,
         )

@@ -14,7 +14,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from ..units import parse_length
+from ..units import parse_duration, parse_length
 from .models import FrameRef, Name, PartUnits, Pose, Strict
 
 Fraction = Annotated[float, Field(gt=0, le=1)]
@@ -130,6 +130,21 @@ class MoveSpec(Strict):
         "plan path' writes it) is driven through its waypoints, from the joints the step "
         "starts at (docs/planning.md).",
     )
+    seed: Annotated[int, Field(ge=0)] | None = Field(
+        None,
+        description="'path: free': the planner's random seed (the same world, start and seed "
+        "give the same path). Default: the run's seed plus the step's position in its program.",
+    )
+    timeout: float | str | None = Field(
+        None,
+        description="'path: free': how long the planner may search, e.g. '30s' (a bare number "
+        "is seconds). Default: the run's 'timeout'.",
+    )
+
+    @field_validator("timeout")
+    @classmethod
+    def _a_duration(cls, value):
+        return None if value is None else parse_duration(value, "timeout")
 
     @model_validator(mode="after")
     def _one_goal(self):
@@ -159,6 +174,15 @@ class MoveSpec(Strict):
         if self.path == "free" and (self.motion == "linear" or self.until is not None):
             raise ValueError(
                 "'path: free' plans a joint move: no linear motion, no guarded move ('until')"
+            )
+        steering = [k for k in ("seed", "timeout") if getattr(self, k) is not None]
+        planned = self.path == "free" or (
+            "path" not in self.model_fields_set and self.motion != "linear" and self.until is None
+        )
+        if steering and not planned:
+            raise ValueError(
+                f"'{' and '.join(steering)}' steer the planner of a 'path: free' move; this "
+                "move is not planned (give 'path: free', or drop them)"
             )
         return self
 
@@ -413,6 +437,21 @@ class RunFile(Strict):
         "follow and probe's approach; not linear or guarded moves): 'free' plans each around "
         "what is in the way when it runs (docs/planning.md).",
     )
+    seed: Annotated[int, Field(ge=0)] = Field(
+        0,
+        description="The planner's seed for the run's free paths: each planned move uses this "
+        "plus its step's position in its program (a step's own 'seed' instead).",
+    )
+    timeout: float | str = Field(
+        10.0,
+        description="How long the planner may search for each free path, e.g. '30s' (a bare "
+        "number is seconds); a step's own 'timeout' instead.",
+    )
+
+    @field_validator("timeout")
+    @classmethod
+    def _a_duration(cls, value):
+        return parse_duration(value, "timeout")
 
     @field_validator("clearance", "collision_tolerance")
     @classmethod

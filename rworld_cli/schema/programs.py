@@ -707,6 +707,8 @@ def load_run(
         clearance=lengths.get("clearance", 0.0),
         collision_tolerance=lengths.get("collision_tolerance", COLLISION_TOLERANCE),
         paths=rf.paths,
+        seed=rf.seed,
+        timeout=float(rf.timeout),
     )
 
 

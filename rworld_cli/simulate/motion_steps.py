@@ -20,7 +20,6 @@ from .timeline import Event, Track
 
 IK_STARTS = 24  # seeded IK starts for a target's other joint solutions (a blocked move)
 PATH_START_TOLERANCE = 1e-6  # [rad or m] a path file's first waypoint against the joints
-FREE_PATH_TIMEOUT = 10.0  # [s] a 'path: free' move's search gives up after this
 
 
 class MotionSteps:
@@ -457,12 +456,14 @@ class MotionSteps:
         """``move: {..., path: free}``: a collision-free joint path from the joints now to the
         move's end (``planning.motion.plan_in_world``: in the world at this instant - other
         devices where their programs have them, grasps, tools, calibrated poses; the run's
-        clearance and collision tolerance; seeded by the step's index; its corners blended
+        clearance and collision tolerance; the step's or the run's seed and timeout
+        (:meth:`_planner_settings`); its corners blended
         where the blends are free), driven through its via points without stopping at the
         blended ones (:meth:`_drive_through`).  No path: the target is unreachable (exit 1),
         with the planner's reason."""
         from ..planning.motion import plan_in_world
 
+        seed, timeout = self._planner_settings(step)
         plan, _ = plan_in_world(
             self.world,
             self._world_at(device, tr.t, q_now),
@@ -471,17 +472,61 @@ class MotionSteps:
             seg.q_end[None],
             tolerance=self.run.collision_tolerance,
             clearance=self.run.clearance,
-            seed=step.index,
-            timeout=FREE_PATH_TIMEOUT,
+            seed=seed,
+            timeout=timeout,
         )
         if not plan.found:
+            hint = ""
+            if "time limit" in str(plan.reason):
+                hint = f" ({timeout:g} s; 'timeout:' on the step or the run gives it longer)"
             raise NoFreePath(
                 f"{step.where}: {device} step {step.index + 1} ({step.describe()}): no "
-                f"collision-free path to '{name}': {plan.reason}",
+                f"collision-free path to '{name}': {plan.reason}{hint}"
+                f"{self._calibrated_near(plan.bodies)}",
                 str(plan.reason),
             )
         return self._drive_through(
             device, tr, step, plan.waypoints, name, tcp, speed, acceleration, plan.blends
+        )
+
+    def _calibrated_near(self, bodies: list[str]) -> str:
+        """What a calibration moved that bears on a failed plan, in words ('' when the cell
+        has no calibrated pose): the calibrated frames that carry a body the failing segment
+        met first, then the others by how far they moved (five at most), with the overlay."""
+        moved = self.run.cell.calibrated
+        if not moved:
+            return ""
+        known = set(self.world.frames)
+
+        def carried_by(label: str) -> set[str]:
+            frame = label if label in known else label.split(".")[0]
+            chain = set()
+            while frame is not None and frame in known:
+                chain.add(frame)
+                frame = self.world.parent(frame)
+            return chain
+
+        carries = {f: [b for b in bodies if f in carried_by(b)] for f in moved}
+        order = sorted(moved, key=lambda f: (not carries[f], -moved[f][1]))
+        said = []
+        for frame in order[:5]:
+            _, shift, turn = moved[frame]
+            words = f"{frame} by {shift * 1000:.3g} mm, {np.degrees(turn):.3g} deg"
+            if carries[frame]:
+                words += f" (it carries {', '.join(carries[frame])}, met here)"
+            said.append(words)
+        more = f" and {len(order) - 5} more" if len(order) > 5 else ""
+        files = ", ".join(sorted({str(source.name) for source, _, _ in moved.values()}))
+        return f"; the calibration ({files}) moved {'; '.join(said)}{more}"
+
+    def _planner_settings(self, step) -> tuple[int, float]:
+        """(seed, timeout [s]) of a step's planned path: the step's own (``seed:``,
+        ``timeout:``), else the run's seed plus the step's index and the run's timeout."""
+        seed = getattr(step.spec, "seed", None)
+        timeout = getattr(step.spec, "timeout", None)
+        return (
+            self.run.seed + step.index if seed is None else int(seed),
+            self.run.timeout if timeout is None else float(timeout),
         )
 
     def _drive_through(self, device, tr, step, way, name, tcp, speed, acceleration, blends=None):

@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -129,6 +130,62 @@ def test_a_wall_thinner_than_the_state_spacing_is_caught_by_the_continuous_check
     assert repaired > 0
 
 
+def _behind_a_thin_wall(gap: float | None):
+    """A block the paths go over (|x| < 0.2, y < 0.3) and a wall 20 mm thick across their way
+    (x = 0, up to y = ``gap``; None: to the box's top), thin beside the states' 0.05 spacing:
+    the trees step over it, the continuous check does not."""
+
+    def states_free(Q):
+        Q = np.atleast_2d(Q)
+        block = (np.abs(Q[:, 0]) < 0.2) & (Q[:, 1] < 0.3)
+        wall = (np.abs(Q[:, 0]) < 0.01) & (Q[:, 1] < (np.inf if gap is None else gap))
+        return ~(block | wall)
+
+    def segment_free(a, b):
+        s = np.linspace(0.0, 1.0, 4001)[:, None]
+        return bool(states_free(a + s * (b - a)).all())
+
+    return states_free, segment_free
+
+
+@pytest.mark.parametrize("seed", [0, 2, 4, 12])
+def test_a_path_refused_by_the_continuous_check_starts_the_search_again(seed):
+    """Seeds whose first path crosses the wall where the states step over it and whose repair
+    fails: that path is dropped and the trees grown again (the planner gave up here before,
+    with most of its time left); the path found passes the continuous check whole."""
+    states_free, segment_free = _behind_a_thin_wall(0.8)
+    plan = plan_path(
+        states_free,
+        segment_free,
+        [-0.5, -0.5],
+        [0.5, -0.5],
+        [-1, -1],
+        [1, 1],
+        seed=seed,
+        timeout=60.0,
+    )
+    assert plan.found and plan.attempts >= 2, (plan.attempts, plan.reason)
+    assert plan.blocked is not None and not segment_free(*plan.blocked)
+    way = plan.waypoints
+    assert all(segment_free(a, b) for a, b in zip(way[:-1], way[1:]))
+    assert way[:, 1].max() >= 0.8  # over the wall's end
+
+
+def test_a_wall_with_no_way_round_ends_at_the_time_limit_naming_the_failed_paths():
+    states_free, segment_free = _behind_a_thin_wall(None)
+    plan = plan_path(
+        states_free, segment_free, [-0.5, -0.5], [0.5, -0.5], [-1, -1], [1, 1], timeout=0.5
+    )
+    assert not plan.found and plan.attempts >= 1 and plan.seconds < 2.0
+    assert re.fullmatch(
+        r"\d+ path\(s\) whose states passed failed the continuous check and could not be "
+        r"planned around within the time limit|no path found within the time limit \(\d+ "
+        r"path\(s\) found before failed the continuous check and could not be planned around\)",
+        plan.reason,
+    ), plan.reason
+    assert not segment_free(*plan.blocked)
+
+
 def test_failures_say_why():
     inside = plan_path(
         lambda Q: ~blocked(Q), exact_segment_free, [0, 0], [0.8, 0.8], [-1, -1], [1, 1]
@@ -229,6 +286,33 @@ def test_planned_paths_pass_an_independent_checker(problem):
     independent_check(ctx, plan.waypoints, blends=plan.blends)
 
 
+def test_a_segment_that_failed_is_named_with_its_pair_and_depth():
+    """What a failed plan says of the segment the continuous check refused: its ends in
+    degrees, the first contact (the pair, where along it) and the deepest state measured."""
+    from rworld_cli.collision.bodies import collision_model
+    from rworld_cli.planning.motion import WorldChecks, segment_words
+
+    problem = next(p for p in PROBLEMS if p["scene"] == "gp7_shelf")
+    ctx = scene("gp7_shelf")
+    checks = WorldChecks(ctx.world, collision_model(ctx.world.cell), ctx.device.name, 1e-3)
+    start, goal = np.array(problem["start"]), np.array(problem["goal"])
+    words, bodies = segment_words(checks, np.stack([start, goal]))
+    first = f"{np.degrees(start[0]):.4g}, {np.degrees(start[1]):.4g}"
+    assert words.startswith(f"the segment that failed was from ({first}, "), words
+    found = re.search(
+        r": (\S+) into (\S+) at (\d+) % of the move; nearest along it: (\S+) "
+        r"and (\S+) ([\d.]+) mm deep at (\d+) %$",
+        words,
+    )
+    assert found, words
+    assert {found[1], found[2], found[4], found[5]} == set(bodies)
+    assert set(bodies) <= {b.label for b in checks.exact.model.bodies}
+    # the depth said is the deepest of the states along it, measured again here
+    s = np.linspace(0.0, 1.0, 65)[:, None]
+    report = checks.exact.check(start + s * (goal - start), nearest=True)
+    assert float(found[6]) == pytest.approx(-report.distance.min() * 1000, rel=1e-3)
+
+
 def test_a_second_robot_is_planned_around_where_it_stands():
     """panda_pair: the other Panda holds its reaching pose; paths of the first keep clear of
     it, and a goal inside it is refused naming the pair."""
@@ -323,6 +407,100 @@ def test_runs_with_free_paths_pass_the_check_where_straight_moves_collide(tmp_pa
     moves = [e.detail for e in free.events if e.kind == "move" and e.step == 1]
     assert len(moves) >= 2 and "via point 1 of" in moves[0]
     assert np.allclose(free.devices[problem["device"]].q[-1], problem["goal"])
+
+
+def _shelf_with_a_calibration(tmp_path: Path) -> Path:
+    """The gp7 shelf scene copied, with a calibrated overlay (provenance: written by
+    'rworld calibrate') that moves the right-hand board 1 mm along x."""
+    cell = tmp_path / "gp7_shelf"
+    shutil.copytree(MOTION / "gp7_shelf", cell)
+    text = (
+        (cell / "cell.yaml").read_text().replace("../../../../tests/data", str(REPO / "tests/data"))
+    )
+    (cell / "cell.yaml").write_text(
+        text.replace("- poses.yaml\n", "- poses.yaml\n- calibrated.yaml\n")
+    )
+    (cell / "calibrated.yaml").write_text(
+        "units: {length: mm, angle: deg}\n"
+        "poses:\n  shelf_right: {xyz: [651, -360, 425]}\n"
+        "provenance: {date: '2026-11-29T00:00:00', measurements: [], frames: {}}\n"
+    )
+    return cell
+
+
+def test_a_program_sets_the_planners_seed_and_time(tmp_path, cli):
+    """'seed:' and 'timeout:' on a 'path: free' move and in the run: another seed another
+    path, the same seed the same; a search out of time says how long it had and how to give it
+    longer, and what the cell's calibration moved."""
+    problem = next(p for p in PROBLEMS if p["scene"] == "gp7_shelf")
+    start = "[" + ", ".join(map(repr, problem["start"])) + "]"
+    goal = "[" + ", ".join(map(repr, problem["goal"])) + "]"
+
+    def planned(extra: str, run_extra: str = "", first: str = ""):
+        program = tmp_path / "p.yaml"
+        program.write_text(
+            "device: motoman_gp7\nunits: {length: mm, angle: rad}\nsteps:\n"
+            f"  - move: {{joints: {start}, path: free{first}}}\n"
+            f"  - move: {{joints: {goal}, path: free{extra}}}\n"
+        )
+        run = tmp_path / "r.yaml"
+        run.write_text(f"programs: [p.yaml]\n{run_extra}")
+        from rworld_cli.api import simulate_run
+
+        _, result = simulate_run(str(MOTION / "gp7_shelf"), str(run))
+        return result.devices["motoman_gp7"].q
+
+    default = planned("")
+    assert np.array_equal(planned(", seed: 1"), default)  # the step's index is its default seed
+    other = planned(", seed: 7")
+    assert not np.array_equal(other, default) and np.allclose(other[-1], default[-1])
+    # the run's seed plus the index (the first move kept on its default, 0)
+    assert np.array_equal(planned("", "seed: 6\n", ", seed: 0"), other)
+    # out of time, in a calibrated cell: the timeout said, and what the calibration moved
+    cell = _shelf_with_a_calibration(tmp_path)
+    (cell / "p.yaml").write_text(
+        "device: motoman_gp7\nunits: {length: mm, angle: rad}\nsteps:\n"
+        f"  - move: {{joints: {start}, path: free}}\n"
+        f"  - move: {{joints: {goal}, path: free, timeout: 1ms}}\n"
+    )
+    r = cli(["simulate", str(cell), str(cell / "p.yaml")])
+    assert r.exit_code == 1
+    assert re.search(
+        r"p\.yaml:5: motoman_gp7 step 2 .*no path found within the time limit \(0\.001 s; "
+        r"'timeout:' on the step or the run gives it longer\); the calibration "
+        r"\(calibrated\.yaml\) moved shelf_right by 1 mm, 0 deg",
+        r.stderr,
+    ), r.stderr
+
+
+def test_seed_and_timeout_belong_to_planned_moves(tmp_path, cli):
+    program = tmp_path / "p.yaml"
+    program.write_text(
+        "device: motoman_gp7\nunits: {length: mm, angle: rad}\nsteps:\n"
+        "  - move: {joints: [0, 0, 0, 0, 0, 0], path: straight, seed: 3}\n"
+        "  - move: {joints: [0, 0, 0, 0, 0, 0], path: free, timeout: -2s}\n"
+    )
+    r = cli(["validate", str(MOTION / "gp7_shelf"), str(program)])
+    assert r.exit_code == 2
+    assert re.search(r"p\.yaml:4:\d+: .*'seed' steer the planner of a 'path: free' move", r.stderr)
+    assert re.search(r"p\.yaml:5:\d+: .*timeout '-2s' is not a positive duration", r.stderr)
+
+
+def test_the_calibrated_frames_carrying_a_failed_segments_bodies_come_first(tmp_path):
+    from rworld_cli.schema.programs import load_run
+    from rworld_cli.simulate.engine import _Scheduler
+
+    cell = _shelf_with_a_calibration(tmp_path)
+    (cell / "p.yaml").write_text("device: motoman_gp7\nsteps:\n  - move: {to: home}\n")
+    run = load_run(str(cell), str(cell / "p.yaml"))
+    assert set(run.cell.calibrated) == {"shelf_right"}
+    _, shift, turn = run.cell.calibrated["shelf_right"]
+    assert shift == pytest.approx(1e-3, abs=1e-12) and turn == 0.0
+    words = _Scheduler(run)._calibrated_near(["motoman_gp7.link_4_r", "shelf_right"])
+    assert words == (
+        "; the calibration (calibrated.yaml) moved shelf_right by 1 mm, 0 deg (it carries "
+        "shelf_right, met here)"
+    )
 
 
 def touching_state(ctx) -> np.ndarray:
