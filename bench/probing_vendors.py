@@ -29,7 +29,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from tests.calibration.probe_cells import NAMES, probe_cell  # noqa: E402
+from tests.calibration.probe_cells import NAMES, calibrated_copy, probe_cell  # noqa: E402
 
 
 def run(args: list[str]) -> tuple[int, float, str]:
@@ -42,32 +42,6 @@ def run(args: list[str]) -> tuple[int, float, str]:
     elapsed = time.perf_counter() - t0
     lines = [line for line in (done.stdout + done.stderr).splitlines() if "watertight" not in line]
     return done.returncode, elapsed, (lines[-1] if lines else "")
-
-
-def _calibrated(cell: Path) -> Path:
-    """A copy of ``cell`` whose plate a calibration moved: an overlay pose file after the
-    nominal one, the programs the same files (``programs/`` shared by path)."""
-    import shutil
-
-    import yaml
-
-    moved = cell.with_name(cell.name + "_calibrated")
-    shutil.copytree(cell, moved, dirs_exist_ok=True)
-    poses = yaml.safe_load((moved / "poses.yaml").read_text())
-    xyz = [float(v) for v in poses["poses"]["plate"]["xyz"]]
-    overlay = {
-        "units": {"length": "m", "angle": "deg"},
-        "poses": {
-            "plate": {"xyz": [xyz[0] + 0.0008, xyz[1] - 0.00075, xyz[2]], "rpy": [0, 0, 0.3]}
-        },
-    }
-    (moved / "calibrated.yaml").write_text(yaml.safe_dump(overlay, sort_keys=False))
-    text = (moved / "cell.yaml").read_text()
-    (moved / "cell.yaml").write_text(
-        text.replace("pose_files:\n- poses.yaml", "pose_files:\n- poses.yaml\n- calibrated.yaml")
-    )
-    assert "calibrated.yaml" in (moved / "cell.yaml").read_text(), "the cell's pose_files"
-    return moved
 
 
 def main() -> None:
@@ -91,7 +65,7 @@ def main() -> None:
             results.append(
                 run(["check", str(cell), planned]) if Path(planned).exists() else (None, 0.0, "")
             )
-            moved = _calibrated(cell)
+            moved = calibrated_copy(cell)
             results.append(run(["check", str(moved), features]))
             results.append(
                 run(["check", str(moved), planned]) if Path(planned).exists() else (None, 0.0, "")

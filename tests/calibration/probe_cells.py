@@ -155,6 +155,30 @@ def probe_cell(robot: str, out: Path, home: str = "zero") -> Path:
     return out
 
 
+def calibrated_copy(cell: Path) -> Path:
+    """A copy of ``cell`` whose plate a calibration moved (0.8 and 0.75 mm in the table's plane,
+    0.3 deg about its normal): an overlay pose file after the nominal one, with provenance as
+    ``rworld calibrate`` writes it; the programs the same files (copied)."""
+    moved = cell.with_name(cell.name + "_calibrated")
+    shutil.copytree(cell, moved, dirs_exist_ok=True)
+    poses = yaml.safe_load((moved / "poses.yaml").read_text())
+    xyz = [float(v) for v in poses["poses"]["plate"]["xyz"]]
+    overlay = {
+        "units": {"length": "m", "angle": "deg"},
+        "poses": {
+            "plate": {"xyz": [xyz[0] + 0.0008, xyz[1] - 0.00075, xyz[2]], "rpy": [0, 0, 0.3]}
+        },
+        "provenance": {"date": "2026-11-29T00:00:00", "measurements": [], "frames": {}},
+    }
+    (moved / "calibrated.yaml").write_text(yaml.safe_dump(overlay, sort_keys=False))
+    text = (moved / "cell.yaml").read_text()
+    (moved / "cell.yaml").write_text(
+        text.replace("pose_files:\n- poses.yaml", "pose_files:\n- poses.yaml\n- calibrated.yaml")
+    )
+    assert "calibrated.yaml" in (moved / "cell.yaml").read_text(), "the cell's pose_files"
+    return moved
+
+
 def _write(out: Path, cell: dict, poses: dict) -> None:
     head = "# yaml-language-server: $schema=../../schemas/cell.schema.json\n"
     (out / "cell.yaml").write_text(head + yaml.safe_dump(cell, sort_keys=False))

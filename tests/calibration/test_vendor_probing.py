@@ -3,9 +3,11 @@ from its vendor's ROS package as it ships (``tests/data/probe_robots``, SOURCE.m
 cell with a table, the holed plate, a wall and a ball probe on a stem
 (:mod:`tests.calibration.probe_cells`).  A program of feature steps (probes of the plate's
 top, front face and two holes, then home by a free path) passes ``rworld check``, from the
-vendor's zero pose and from a folded home; ``plan-measurements --program`` writes a program
-that passes its own check.  The other robots and homes run in ``bench/probing_vendors.py``
-(the figures: docs/performance.md) - the suite keeps to its six minutes.
+vendor's zero pose and from a folded home, before and after a calibration that moves the
+plate; ``plan-measurements --program`` writes a program that passes its own check.  Each robot
+once here (one home each); every robot from both homes, and the planned programs before and
+after the calibration, in ``bench/probing_vendors.py`` (the figures: docs/performance.md) -
+the suite keeps to its six minutes.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.calibration.probe_cells import probe_cell
+from tests.calibration.probe_cells import calibrated_copy, probe_cell
 
 
 @pytest.fixture(scope="module")
@@ -34,6 +36,24 @@ def test_feature_steps_pass_their_own_check(cli, cells):
     result = cli(["check", str(cell), str(cell / "programs" / "features.yaml")])
     assert result.exit_code == 0, result.output
     assert "no collisions" in result.output
+
+
+@pytest.mark.parametrize(
+    "robot, home",
+    [("kr6r900sixx", "folded"), ("cr7ial", "zero"), ("vs060", "folded"), ("gen3", "zero")],
+)
+def test_each_robots_feature_steps_pass_check_before_and_after_a_calibration(
+    cli, tmp_path, robot, home
+):
+    """A test per robot (the UR10e's is above): the program of feature steps passes its
+    check in the nominal cell and in the cell whose plate a calibration moved - the same
+    program, its targets moved with the plate (the re-planned transits too)."""
+    cell = probe_cell(robot, tmp_path / robot, home)
+    features = str(cell / "programs" / "features.yaml")
+    for where in (cell, calibrated_copy(cell)):
+        result = cli(["check", str(where), features])
+        assert result.exit_code == 0, (where.name, result.output)
+        assert "no collisions" in result.output
 
 
 def test_plan_measurements_writes_a_program_that_passes_check(cli, cells, tmp_path):
