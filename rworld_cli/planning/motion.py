@@ -381,6 +381,13 @@ def plan_path(
         way, repairs, bad = _validated(search, rng, way, lower, upper, step)
         if way is not None:
             break
+        if bad is None:  # the time ran out in the middle of the path's continuous check
+            return failed(
+                "no path found within the time limit (it ran out during the continuous check "
+                "of a path found)",
+                iterations,
+                states,
+            )
         blocked = np.stack(bad)
         if search.out_of_time():
             return failed(
@@ -553,11 +560,14 @@ def _without_repeats(way: np.ndarray) -> np.ndarray:
 
 def _validated(search: _Search, rng, way, lower, upper, step, depth: int = 0):
     """Every segment checked continuously; one that fails is planned again between its ends
-    with a quarter of the spacing (three times at most).  (path, repairs, None), or (None,
-    repairs, (q0, q1)): the segment of ``way`` that failed and could not be repaired."""
+    with a quarter of the spacing (:data:`REPAIR_DEPTH` deep at most).  (path, repairs, None),
+    or (None, repairs, (q0, q1)): the segment of ``way`` that failed and could not be
+    repaired; (None, repairs, None): the time ran out first."""
     out = [way[0]]
     repairs = 0
     for q0, q1 in zip(way[:-1], way[1:]):
+        if search.out_of_time():  # a segment's check can take seconds: none begun after time
+            return None, repairs, None
         if search.segment(q0, q1):
             out.append(q1)
             continue
@@ -611,7 +621,8 @@ class WorldChecks:
         self._make = lambda extra, **pairs: ConfigurationChecker(
             world, model, device, tolerance=tolerance, clearance=clearance + extra, **pairs
         )
-        self.search = self._make(SEARCH_MARGIN)
+        self._with_margin = self._make(SEARCH_MARGIN)  # every pair: a problem without tight
+        self.search = self._with_margin
         self.exact = self._make(0.0)
         self.tight: set[tuple[int, int]] = set()  # pairs searched without the margin
         self._tight_check = None
@@ -647,7 +658,10 @@ class WorldChecks:
 
     def _relax_margin(self) -> None:
         """The pairs inside the search margin at an end (free at the clearance asked) move to
-        ``tight``: searched at the clearance asked, the others with the margin."""
+        ``tight``: searched at the clearance asked, the others with the margin.  Those of this
+        problem's ends only: checks kept for several problems start each with none."""
+        if self.tight:
+            self.tight, self.search, self._tight_check = set(), self._with_margin, None
         for _ in range(8):  # a pair a round: few are that close
             report = self.search.check(self.ends)
             inside = np.flatnonzero(~report.free)

@@ -286,6 +286,52 @@ def test_planned_paths_pass_an_independent_checker(problem):
     independent_check(ctx, plan.waypoints, blends=plan.blends)
 
 
+def test_a_slow_continuous_check_does_not_run_past_the_time_limit():
+    """A segment's continuous check can take seconds (meshes in contact along it): none is
+    begun after the time is up (a GP7 problem's search ran 22 s of a 10 s limit so)."""
+    import time
+
+    states_free, segment_free = _behind_a_thin_wall(None)
+
+    def slow(a, b):
+        time.sleep(0.05)
+        return segment_free(a, b)
+
+    plan = plan_path(states_free, slow, [-0.5, -0.5], [0.5, -0.5], [-1, -1], [1, 1], timeout=0.3)
+    assert not plan.found and plan.seconds < 0.3 + 0.2, plan.seconds
+    assert "time limit" in plan.reason
+
+
+def test_checks_kept_for_several_problems_keep_no_tight_pair_of_an_earlier_one():
+    """The pairs a problem's ends hold inside the search margin are searched without it for
+    that problem only: kept over the next problems they made a GP7 shelf problem fail."""
+    from rworld_cli.collision.bodies import collision_model
+    from rworld_cli.planning.motion import WorldChecks, plan_in_world
+
+    ctx = scene("gp7_shelf")
+    model = collision_model(ctx.world.cell)
+    checks = WorldChecks(ctx.world, model, ctx.device.name, 1e-3)
+    shelf = [p for p in PROBLEMS if p["scene"] == "gp7_shelf"]
+    tights = []
+    for problem in shelf[2:5]:
+        plan, _ = plan_in_world(
+            ctx.world,
+            model,
+            ctx.device.name,
+            problem["start"],
+            problem["goal"],
+            tolerance=1e-3,
+            checks=checks,
+            seed=0,
+        )
+        assert plan.found, plan.reason
+        alone = WorldChecks(ctx.world, model, ctx.device.name, 1e-3)
+        alone.problem(problem["start"], problem["goal"])
+        assert checks.tight == alone.tight  # as a fresh one sets them
+        tights.append(set(checks.tight))
+    assert tights[0] and not tights[2]  # these problems have some, then none
+
+
 def test_a_segment_that_failed_is_named_with_its_pair_and_depth():
     """What a failed plan says of the segment the continuous check refused: its ends in
     degrees, the first contact (the pair, where along it) and the deepest state measured."""
