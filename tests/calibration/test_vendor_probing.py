@@ -108,3 +108,26 @@ def test_a_continuous_joint_past_half_a_turn_is_planned_from_as_an_angle(cells):
     assert plan.found, plan.reason
     travel = np.degrees(plan.waypoints[-1][2] - start[2])
     assert travel == pytest.approx(15.7, abs=1e-6)
+
+
+def test_ik_takes_a_continuous_joints_turn_nearest_where_the_arm_is(cells):
+    """The Gen3's joints 1, 3, 5 and 7 are continuous: IK from an arm whose joint 3 stands at
+    350 deg answers a pose reached at -10 deg there with 350 deg (the same angle, no turn),
+    and from -10 deg with -10 deg; a joint with limits is never moved out of them so."""
+    from rworld_cli.kinematics.inverse import solve_ik
+    from rworld_cli.kinematics.jacobian import tool_pose
+    from rworld_cli.schema.loader import load_cell
+
+    device = load_cell(cells["gen3", "folded"] / "cell.yaml").cell.devices["gen3"]
+    continuous = ~np.isfinite(device.limit_array("lower"))
+    assert continuous.tolist() == [True, False, True, False, True, False, True]
+    q = np.array(device.home, dtype=float)
+    q[2] = np.radians(-10.0)
+    target = tool_pose(device, q)
+    for seed_angle, want in ((350.0, 350.0), (-10.0, -10.0)):
+        seed = q.copy()
+        seed[2] = np.radians(seed_angle)
+        result = solve_ik(device, target, seed=seed)
+        assert result.success
+        assert np.degrees(result.q[2]) == pytest.approx(want, abs=1e-6)
+        assert np.allclose(tool_pose(device, result.q), target, atol=1e-9)
