@@ -484,7 +484,8 @@ def _design_warnings(obs, dev) -> list[str]:
 
 def _too_large(model, result, max_correction: float, max_rotation: float) -> list[str]:
     """Each joint frame, the target and the instrument frame whose correction is beyond the
-    bounds, in words."""
+    bounds, in words: the joints' from the cell's, the target's and the frame's from their
+    rigid fit with the robot nominal (the zero of ``result.p``: ``calibration.robot.identify``)."""
     groups: dict[str, list[int]] = {}  # a joint frame, the target, the instrument frame
     for k, name in enumerate(model.names):
         group, _, part = name.rpartition(".")
@@ -612,11 +613,12 @@ def _write_overlay(out: Path, obs, model, result, digests, world, T_link_target)
             lines.append(f"  {yaml_value(f'{obs.device}.{j.name}')}: {value}")
     # the measured frame: its point on the link moved by the estimate, relative to its parent
     # (on the same link, so any joint state gives the same relative pose)
+    _, target, _ = model.apply(result.p)  # from the rigid fit's target, not the cell's
     if model.R_link_target is None:
         T_link_new = T_link_target.copy()
-        T_link_new[:3, 3] += result.p[6 * n : 6 * n + 3]
+        T_link_new[:3, 3] = target[:3, 3]
     else:
-        T_link_new = T_link_target @ small_pose(result.p[6 * n : 6 * n + 6])
+        T_link_new = target
     T_world_link = world.T_world(obs.target) @ np.linalg.inv(T_link_target)
     poses = {
         obs.target: np.linalg.solve(T_world(world.parent(obs.target)), T_world_link @ T_link_new)

@@ -307,6 +307,18 @@ def register_frame(model: RobotModel, obs) -> tuple[RobotModel, np.ndarray]:
     return dataclasses.replace(model, T_frame_base=C @ model.T_frame_base), C
 
 
+def rebased(model: RobotModel, p: np.ndarray) -> RobotModel:
+    """``model`` with its instrument frame and target where the corrections ``p`` put them
+    (the robot's own joints as they are): ``p`` of a frame-only fit becomes the zero."""
+    _, target, T = model.apply(p)
+    return dataclasses.replace(
+        model,
+        T_frame_base=T,
+        p_link_target=target[:3, 3].copy(),
+        R_link_target=None if model.R_link_target is None else target[:3, :3].copy(),
+    )
+
+
 def preference(model: RobotModel) -> list[int]:
     """The order parameters are taken in when the data cannot tell some apart: the instrument
     frame first (a base error is the instrument's, not joint 1's), then the target's offset,
@@ -410,8 +422,10 @@ def identify(
     """Maximum-likelihood estimate of the identifiable parameters from ``obs``.
 
     The gauge is fixed the way the literature fixes it: an estimated instrument frame is first
-    registered in closed form with the robot nominal (:func:`register_frame`), so the same
-    data give the same robot from any starting pose of the instrument; then the parameters
+    registered in closed form with the robot nominal (:func:`register_frame`), then fitted
+    with the target's offset, the robot still nominal (``frame_only``; :func:`rebased`), so the
+    same data give the same robot from any starting pose of the instrument and any guess of
+    the target, and the corrections ``p`` count from that rigid fit; then the parameters
     are taken in a stated order (:func:`preference`) while the data determine each to better
     than its typical error (:func:`select`); the others stay exactly nominal and are listed.
     A point on the last joint's axis leaves that joint's rotations nominal.
@@ -431,12 +445,28 @@ def identify(
         raise ValueError(f"loss must be one of {', '.join(LOSSES)}, not {loss!r}")
     P = len(model.names)
     C = np.eye(4)
-    if model.frame_estimated and obs.surfaces is None:
-        model, C = register_frame(model, obs)
+    notes: list[str] = []
+    if obs.surfaces is None:  # points or poses of a target (contacts: the surfaces' frame)
+        T_given, target_given = model.T_frame_base, model.p_link_target
+        if model.frame_estimated:
+            model, C = register_frame(model, obs)
+        if not frame_only:
+            # then the frame and the target's offset fitted with the robot nominal (a rigid
+            # fit, iterated): the robot's corrections start there, whatever the cell's guesses
+            rigid = identify(model, obs, iterations, loss, loss_scale, frame_only=True)
+            model = rebased(rigid.model, rigid.p)
+            C = model.T_frame_base @ np.linalg.inv(T_given)
+            moved = float(np.linalg.norm(model.p_link_target - target_given))
+            if moved > 1e-3:
+                notes.append(
+                    f"the target's offset on its link, fitted first with the robot nominal"
+                    f"{' (and the instrument frame)' if model.frame_estimated else ''}, lies "
+                    f"{moved * 1000:.1f} mm from the cell's; the robot's corrections (and "
+                    "--max-correction) start from that fit"
+                )
     scales = model.scales
     p = np.zeros(P)
     before = model.residuals(p, obs)
-    notes: list[str] = []
     excluded: set[int] = set()
     n6 = 6 * model.device.dof
     if frame_only:

@@ -58,7 +58,9 @@ from .common import (
     default="50mm",
     show_default=True,
     metavar="LEN",
-    help="A joint frame, the target or the instrument frame moved further: refused.",
+    help="A joint frame moved further from the cell's, or the target or the instrument frame "
+    "further from their rigid fit with the robot nominal (fitted first: the cell's guesses "
+    "may be rough): refused.",
 )
 @click.option(
     "--max-rotation",
