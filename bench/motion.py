@@ -107,6 +107,68 @@ def ompl_plan(checks, start, goal, timeout: float):
     return True, way, seconds, valid_path
 
 
+def coal_geometry(model) -> dict:
+    """An independent checker's view of a collision model: body label -> (coal geometry, its
+    pose in the body's frame) - boxes, cylinders and spheres as coal's own primitives, meshes
+    as OBBRSS trees of their triangles."""
+    import coal
+
+    out = {}
+    for body in model.bodies:
+        shape = body.shape
+        if shape.kind == "box":
+            geometry = coal.Box(*[float(v) for v in shape.size])
+        elif shape.kind == "cylinder":
+            geometry = coal.Cylinder(float(shape.size[0]) / 2, float(shape.size[2]))
+        elif shape.kind == "sphere":
+            geometry = coal.Sphere(float(shape.size[0]) / 2)
+        else:
+            tri = body.mesh().triangles()
+            vertices, faces = np.unique(tri.reshape(-1, 3), axis=0, return_inverse=True)
+            geometry = coal.BVHModelOBBRSS()
+            geometry.beginModel(len(tri), len(vertices))
+            geometry.addVertices(vertices)
+            geometry.addTriangles(faces.reshape(-1, 3))
+            geometry.endModel()
+            out[body.label] = (geometry, np.eye(4))
+            continue
+        out[body.label] = (geometry, np.asarray(shape.T_owner_shape, dtype=float))
+    return out
+
+
+def coal_clearance(checks, model, geometry, way, blends, spacing: float = 0.01) -> float:
+    """The least distance [m] coal measures between the pairs the planner checks, over states
+    at most ``spacing`` rad apart along the path as driven (its segments and blends): below 0
+    the path passes through something (coal's signed distance), 0 a touch."""
+    import coal
+
+    from rworld_cli.planning.path import JointPath
+
+    path = JointPath(way, None, "blended", blends)
+    count = max(2, int(np.ceil(length(way) / spacing)) + 1)
+    Q = path.evaluate(np.linspace(0.0, 1.0, count))[0]
+    poses = checks.exact.poses(Q)
+    request = coal.DistanceRequest()
+    request.enable_signed_distance = True
+    least = np.inf
+    for i, j in checks.exact.pairs:
+        a, b = model.bodies[i], model.bodies[j]
+        (ga, Sa), (gb, Sb) = geometry[a.label], geometry[b.label]
+        for k in range(len(Q)):
+            Ta, Tb = poses[a.frame][k] @ Sa, poses[b.frame][k] @ Sb
+            result = coal.DistanceResult()
+            d = coal.distance(
+                ga,
+                coal.Transform3s(Ta[:3, :3], Ta[:3, 3]),
+                gb,
+                coal.Transform3s(Tb[:3, :3], Tb[:3, 3]),
+                request,
+                result,
+            )
+            least = min(least, float(d))
+    return least
+
+
 def ompl_solve(ctx, model, device, start, goal, timeout: float) -> bool:
     """For tests/data/motion/build.py: whether OMPL finds a continuously valid path."""
     from rworld_cli.planning.motion import WorldChecks
@@ -217,6 +279,63 @@ def summary(rows: list[dict], side: str) -> tuple[float, float, float, float]:
     )
 
 
+def _cases(args, scenes: dict, invalid: list):
+    """The problems to plan, each a dict: scene (its name), group (the robot; MBM: the family),
+    k, device, world, model, checks, start, goal (and MBM: coal's geometry).  MBM problems
+    whose start or goal is not free by rworld's check go to ``invalid`` (name, why)."""
+    if not args.mbm:
+        for scene, items in scenes.items():
+            items = items[: args.limit] if args.limit else items
+            device = items[0]["device"]
+            world, model, checks = scene_checks(scene, device)
+            for k, p in enumerate(items):
+                yield {
+                    "scene": scene,
+                    "group": device,
+                    "k": k,
+                    "device": device,
+                    "world": world,
+                    "model": model,
+                    "checks": checks,
+                    "start": np.array(p["start"]),
+                    "goal": np.array(p["goal"]),
+                }
+        return
+    import tempfile
+
+    import mbm
+
+    from rworld_cli.api import device_context
+    from rworld_cli.collision.bodies import collision_model
+    from rworld_cli.planning.motion import WorldChecks
+
+    root = Path(tempfile.mkdtemp(prefix="rworld-mbm-"))
+    for k, problem in enumerate(mbm.problems(args.only, args.limit or 20)):
+        name = f"{problem['family']} {problem['index']}"
+        folder = mbm.write_cell(problem, root / f"{problem['family']}_{problem['index']:04d}")
+        ctx = device_context(str(folder), "panda")
+        model = collision_model(ctx.world.cell)
+        checks = WorldChecks(ctx.world, model, "panda", 1e-3)
+        start, goal = np.array(problem["start"]), np.array(problem["goal"])
+        _, why = checks.problem(start, goal)
+        if why is not None:
+            invalid.append((name, why))
+            print(f"{name}: left out: {why}", file=sys.stderr, flush=True)
+            continue
+        yield {
+            "scene": problem["family"],
+            "group": problem["family"],
+            "k": problem["index"] - 1,
+            "device": "panda",
+            "world": ctx.world,
+            "model": model,
+            "checks": checks,
+            "start": start,
+            "goal": goal,
+            "geometry": coal_geometry(model),
+        }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--timeout", type=float, default=10.0, help="per problem and planner [s]")
@@ -228,6 +347,12 @@ def main() -> None:
     )
     parser.add_argument(
         "--phases", action="store_true", help="where rworld's time goes, per scene (no OMPL)"
+    )
+    parser.add_argument(
+        "--mbm",
+        action="store_true",
+        help="MotionBenchMaker's Panda problems (tests/data/mbm) instead of the project's scenes; "
+        "--only names families, --limit counts per family (default 20)",
     )
     args = parser.parse_args()
     problems = yaml.safe_load(PROBLEMS.read_text())["problems"]
@@ -245,57 +370,62 @@ def main() -> None:
     )
     print(
         f"# Motion planning beside OMPL: {cpu}, Python {platform.python_version()}, "
-        f"timeout {args.timeout:g} s\n"
+        f"timeout {args.timeout:g} s{', MotionBenchMaker Panda' if args.mbm else ''}\n"
     )
     if args.phases:
         for scene, items in scenes.items():
             phases(scene, items[: args.limit] if args.limit else items)
         sys.stdout.flush()
         os._exit(0)
-    rows = []
-    for scene, items in scenes.items():
-        items = items[: args.limit] if args.limit else items
-        device = items[0]["device"]
-        world, model, checks = scene_checks(scene, device)
-        for k, p in enumerate(items):
-            start, goal = np.array(p["start"]), np.array(p["goal"])
-            ok, way, seconds, plan = rworld_plan(
-                world, model, device, checks, start, goal, args.timeout, k, not args.no_blend
+    rows, invalid = [], []
+    for case in _cases(args, scenes, invalid):
+        scene, k, device = case["scene"], case["k"], case["device"]
+        world, model, checks = case["world"], case["model"], case["checks"]
+        start, goal = case["start"], case["goal"]
+        ok, way, seconds, plan = rworld_plan(
+            world, model, device, checks, start, goal, args.timeout, k, not args.no_blend
+        )
+        row = {"scene": scene, "robot": case["group"], "rworld_ok": ok, "rworld_s": seconds}
+        row["rworld_len"] = length(way)
+        if ok:
+            row.update(durations(checks.device, plan))
+            row["blend_s"] = plan.blend_seconds
+            if args.mbm:
+                row["coal_m"] = coal_clearance(checks, model, case["geometry"], way, plan.blends)
+        if not args.no_ompl:
+            found, oway, oseconds, valid = ompl_plan(checks, start, goal, args.timeout)
+            row.update(
+                ompl_ok=found and valid,
+                ompl_found=found,
+                ompl_s=oseconds,
+                ompl_len=length(oway),
             )
-            row = {"scene": scene, "robot": device, "rworld_ok": ok, "rworld_s": seconds}
-            row["rworld_len"] = length(way)
-            if ok:
-                row.update(durations(checks.device, plan))
-                row["blend_s"] = plan.blend_seconds
-            if not args.no_ompl:
-                found, oway, oseconds, valid = ompl_plan(checks, start, goal, args.timeout)
-                row.update(
-                    ompl_ok=found and valid,
-                    ompl_found=found,
-                    ompl_s=oseconds,
-                    ompl_len=length(oway),
+            if args.mbm and found:
+                row["ompl_coal_m"] = coal_clearance(
+                    checks, model, case["geometry"], oway, np.zeros(len(oway))
                 )
-            rows.append(row)
-            print(
-                f"{scene} {k + 1}: rworld {'ok' if ok else 'FAIL'} {seconds:.3f} s "
-                f"{row['rworld_len']:.3f} rad"
-                + (
-                    f" (corners {row['corners']}, blended {row['blended']}, "
-                    f"{row['stop_s']:.2f} -> {row['blend_T']:.2f} s)"
-                    if ok
-                    else ""
-                )
-                + (
-                    ""
-                    if args.no_ompl
-                    else f" | ompl {'ok' if row['ompl_ok'] else ('invalid' if found else 'FAIL')} "
-                    f"{oseconds:.3f} s {row['ompl_len']:.3f} rad"
-                ),
-                file=sys.stderr,
-                flush=True,
+        rows.append(row)
+        print(
+            f"{scene} {k + 1}: rworld {'ok' if ok else 'FAIL'} {seconds:.3f} s "
+            f"{row['rworld_len']:.3f} rad"
+            + (
+                f" (corners {row['corners']}, blended {row['blended']}, "
+                f"{row['stop_s']:.2f} -> {row['blend_T']:.2f} s)"
+                if ok
+                else ""
             )
+            + (
+                ""
+                if args.no_ompl
+                else f" | ompl {'ok' if row['ompl_ok'] else ('invalid' if found else 'FAIL')} "
+                f"{oseconds:.3f} s {row['ompl_len']:.3f} rad"
+            ),
+            file=sys.stderr,
+            flush=True,
+        )
     sides = ["rworld"] + ([] if args.no_ompl else ["ompl"])
-    print("| robot | planner | problems | solved | median [s] | p95 [s] | median length [rad] |")
+    group = "family" if args.mbm else "robot"
+    print(f"| {group} | planner | problems | solved | median [s] | p95 [s] | median length [rad] |")
     print("|---|---|---:|---:|---:|---:|---:|")
     for robot in sorted({r["robot"] for r in rows}) + ["all"]:
         subset = [r for r in rows if robot in ("all", r["robot"])]
@@ -327,6 +457,20 @@ def main() -> None:
             )
         bad = sum(1 for r in rows if r.get("ompl_found") and not r["ompl_ok"])
         print(f"OMPL paths found but failing the continuous check: {bad} of {len(rows)}")
+    if args.mbm:
+        print(f"\nLeft out (start or goal not free by rworld's check): {len(invalid)}")
+        for name, why in invalid:
+            print(f"- {name}: {why}")
+        for side, key in (("rworld", "coal_m"), ("ompl", "ompl_coal_m")):
+            measured = [r[key] for r in rows if key in r]
+            if measured:
+                touching = sum(1 for d in measured if d <= 0.0)
+                print(
+                    f"coal on {side}'s paths (states 0.01 rad apart, blends included): "
+                    f"{touching} of {len(measured)} touch or pass through something; the least "
+                    f"distance {1000 * min(measured):.3f} mm, median of each path's least "
+                    f"{1000 * float(np.median(measured)):.2f} mm"
+                )
     sys.stdout.flush()
     os._exit(0)  # ompl's bindings report leaked objects at interpreter exit: not ours
 
