@@ -1,10 +1,10 @@
 """MotionBenchMaker's Panda problems (``tests/data/mbm``, SOURCE.md there) as rworld cells.
 
 Each problem of the archive - a MoveIt scene (boxes, cylinders, spheres with their poses) and a
-request (the start state, the goal's joint constraints) - becomes a cell folder: the Panda of
-``workcells/panda`` (its fingers locked 20 mm open and merged into the hand; its meshes read
-where they are) at the world's origin, as MBM places it, and the scene's primitives as objects.
-The Panda's own table, block and program are left out.
+request (the start state, the goal's joint constraints) - becomes a cell folder: MBM's own Panda
+(``tests/data/mbm/panda``: robowflex_resources' URDF and collision meshes as vamp ships them,
+the fingers fixed 65 mm open, imported once by ``rworld import urdf`` with its SRDF's disabled
+pairs) at the world's origin, as MBM places it, and the scene's primitives as objects.
 
     python bench/mbm.py /tmp/mbm [--families box cage] [--limit 5]   # writes cells to look at
 
@@ -25,7 +25,7 @@ import yaml
 
 REPO = Path(__file__).resolve().parents[1]
 ARCHIVE = REPO / "tests" / "data" / "mbm" / "panda_problems.tar.bz2"
-PANDA = REPO / "workcells" / "panda"
+PANDA_URDF = REPO / "tests" / "data" / "mbm" / "panda" / "panda.urdf"
 FAMILIES = (
     "table_pick",
     "table_under_pick",
@@ -107,18 +107,35 @@ def problems(families=None, limit: int | None = None) -> Iterator[dict]:
             }
 
 
-def write_cell(problem: dict, folder: Path) -> Path:
-    """The problem as a cell folder at ``folder`` (written, or rewritten): the Panda and the
-    scene's objects, in metres and radians."""
+def robot_cell(root: Path) -> Path:
+    """MBM's Panda imported by rworld into ``root/panda`` (once; the folder reused after)."""
+    from rworld_cli.api import import_urdf
+
+    out = root / "panda"
+    if not (out / "cell.yaml").is_file():
+        import_urdf(
+            str(PANDA_URDF),
+            str(out),
+            package_paths=[str(PANDA_URDF.parent)],
+            tip="panda_hand",
+            srdf=str(PANDA_URDF.with_suffix(".srdf")),
+            overlap_states=0,
+        )
+    return out
+
+
+def write_cell(problem: dict, folder: Path, robot: Path) -> Path:
+    """The problem as a cell folder at ``folder`` (written, or rewritten): the Panda of
+    ``robot`` (:func:`robot_cell`) and the scene's objects, in metres and radians."""
     folder.mkdir(parents=True, exist_ok=True)
-    cell = yaml.safe_load((PANDA / "cell.yaml").read_text())
-    poses = yaml.safe_load((PANDA / "poses.yaml").read_text())
+    cell = yaml.safe_load((robot / "cell.yaml").read_text())
+    poses = yaml.safe_load((robot / "poses.yaml").read_text())
 
     def relink(node):
         if isinstance(node, dict):
             for key, value in node.items():
                 if key == "file" and isinstance(value, str):
-                    node[key] = str(PANDA / value)
+                    node[key] = str(robot / value)
                 else:
                     relink(value)
         elif isinstance(node, list):
@@ -134,10 +151,6 @@ def write_cell(problem: dict, folder: Path) -> Path:
     )
     cell["pose_files"] = ["poses.yaml"]
     cell["objects"] = []
-    cell.pop("affixments", None)
-    cell["allowed_contacts"] = []
-    for frame in ("table", "table.top", "table.drop", "block", "block.grasp"):
-        poses["poses"].pop(frame, None)
     for item in problem["objects"]:
         d = item["dimensions"]
         if item["kind"] == "box":
@@ -166,9 +179,10 @@ def main() -> None:
     parser.add_argument("--limit", type=int, default=None, help="problems per family at most")
     args = parser.parse_args()
     count = 0
+    robot = robot_cell(args.out)
     for problem in problems(args.families, args.limit):
         name = f"{problem['family']}_{problem['index']:04d}"
-        write_cell(problem, args.out / name)
+        write_cell(problem, args.out / name, robot)
         (args.out / name / "problem.yaml").write_text(
             yaml.safe_dump({"start": problem["start"], "goal": problem["goal"]})
         )

@@ -310,9 +310,12 @@ def _cases(args, scenes: dict, invalid: list):
     from rworld_cli.planning.motion import WorldChecks
 
     root = Path(tempfile.mkdtemp(prefix="rworld-mbm-"))
+    robot = mbm.robot_cell(root)
     for k, problem in enumerate(mbm.problems(args.only, args.limit or 20)):
         name = f"{problem['family']} {problem['index']}"
-        folder = mbm.write_cell(problem, root / f"{problem['family']}_{problem['index']:04d}")
+        folder = mbm.write_cell(
+            problem, root / f"{problem['family']}_{problem['index']:04d}", robot
+        )
         ctx = device_context(str(folder), "panda")
         model = collision_model(ctx.world.cell)
         checks = WorldChecks(ctx.world, model, "panda", 1e-3)
