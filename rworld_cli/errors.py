@@ -93,9 +93,15 @@ class UserError(RworldError):
 
 class CheckFailed(UserError):
     """The input is well formed but fails a check the command makes (e.g. a path that leaves a
-    joint's range between its waypoints).  CLI exit code 1, with the located issues."""
+    joint's range between its waypoints).  CLI exit code 1, with the located issues; ``report``
+    (a dict): what the command's ``--json`` prints beside the error (a plan that failed: its
+    outcome, counts and time)."""
 
     exit_code = 1
+
+    def __init__(self, message: str, issues: Iterable[Issue] = (), report: dict | None = None):
+        super().__init__(message, issues)
+        self.report = report
 
 
 def did_you_mean(word: str, choices, cutoff: float = 0.6) -> str:

@@ -62,6 +62,7 @@ class PlannedPath:
             "target": self.target,
             "offset": self.offset,
             "found": p.found,
+            "outcome": p.outcome,
             "reason": p.reason,
             "waypoints": p.waypoints.tolist(),
             "knots": p.knots.tolist(),
@@ -76,6 +77,9 @@ class PlannedPath:
             "states_checked": p.states_checked,
             "segments_checked": p.segments_checked,
             "repairs": p.repairs,
+            "attempts": p.attempts,
+            "failed_segment": None if p.blocked is None else p.blocked.tolist(),
+            "bodies_met": p.bodies,
             "seconds": p.seconds,
             "clearance": self.clearance,
             "collision_tolerance": self.tolerance,
@@ -112,8 +116,9 @@ def goal_states(
     """The goal states for ``to``: a named position or joint values (one state), or a frame of
     the cell - moved by ``offset`` (3,) [m] along its own axes (a pre-grasp point above a
     grasp frame) - whose IK solutions within the limits (from the start and from
-    :data:`IK_SEEDS` random starts, one batch) are the goals, nearest the start first (G, n)."""
-    from ..kinematics.inverse import distinct_solutions, solve_ik
+    :data:`IK_SEEDS` random starts, one batch), each at the turns nearest the start, are the
+    goals, nearest the start first (G, n)."""
+    from ..kinematics.inverse import distinct_solutions, nearest_turns, solve_ik
     from ..planning.motion import sampled_box
 
     cell = ctx.world.cell
@@ -139,7 +144,16 @@ def goal_states(
                 result.unreachable(to, ctx.tcp, [j.name for j in dev.joints], dev.dof < 6)
             )
         goals = np.asarray(result.q, dtype=float)[None]
-    return goals[np.argsort(np.linalg.norm(goals - start, axis=1), kind="stable")]
+    # each solution at the turns nearest the start (a wrist at -200 deg is at +160 too: the
+    # same pose, 360 deg less to travel), then the nearest first; turns that meet, once
+    revolute = np.array([j.kind == "revolute" for j in dev.joints])
+    goals = nearest_turns(goals, start, revolute, lower, upper)
+    goals = goals[np.argsort(np.linalg.norm(goals - start, axis=1), kind="stable")]
+    kept: list[np.ndarray] = []
+    for g in goals:  # IK's answers agree to its tolerance (1e-7), not to the bit
+        if all(np.abs(g - k).max() > 1e-6 for k in kept):
+            kept.append(g)
+    return np.array(kept)
 
 
 def plan_free_path(
@@ -211,7 +225,7 @@ def plan_free_path(
     out = PlannedPath(plan, dev.name, to, q0, goals, clearance, tolerance)
     out.offset = None if offset is None else [float(v) for v in offset]
     if not plan.found:
-        raise CheckFailed(f"no path to '{to}': {plan.reason}")
+        raise CheckFailed(f"no path to '{to}': {plan.reason}", report=out.as_dict())
     if output is not None:
         from ..schema.paths import write_planned_path
 

@@ -126,7 +126,8 @@ def handle_errors(fn: Callable) -> Callable:
         except RworldError as exc:
             if kwargs.get("json_output"):
                 issues = exc.issues if isinstance(exc, UserError) else []
-                emit_json({"error": str(exc), "issues": [i.as_dict() for i in issues]})
+                report = getattr(exc, "report", None) or {}
+                emit_json({"error": str(exc), "issues": [i.as_dict() for i in issues], **report})
             else:
                 lines = exc.lines() if isinstance(exc, UserError) else [str(exc)]
                 for line in lines:

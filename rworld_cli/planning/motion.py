@@ -105,6 +105,10 @@ class PathPlan:
         The ends of the last segment that failed the continuous check (None: none failed).
     bodies : list of str
         The labels of the bodies that segment met (``plan_in_world`` names them).
+    outcome : str
+        "found", or why not in a word a script can test: "start_not_free", "goal_not_free",
+        "goal_touching" (every free goal touches something), "goal_outside_limits",
+        "timeout", "iterations" (the bound on growth rounds).
     """
 
     found: bool
@@ -125,6 +129,7 @@ class PathPlan:
     attempts: int = 0
     blocked: np.ndarray | None = None
     bodies: list[str] = field(default_factory=list)
+    outcome: str = "found"
 
     def joint_path(self):
         """The path as a :class:`~rworld_cli.planning.path.JointPath` (``blended``: the
@@ -312,10 +317,11 @@ def plan_path(
 
     attempts, iterations, blocked = 0, 0, None
 
-    def failed(reason: str, iterations: int = 0, states: int = 0) -> PathPlan:
+    def failed(reason: str, iterations: int = 0, states: int = 0, outcome="timeout") -> PathPlan:
         return PathPlan(
             False,
             empty,
+            outcome=outcome,
             reason=reason,
             iterations=iterations,
             tree_states=states,
@@ -331,13 +337,14 @@ def plan_path(
     free = np.asarray(states_free(ends), dtype=bool)
     search.states_checked += len(ends)
     if not free[0]:
-        return failed("the start state is not free")
+        return failed("the start state is not free", outcome="start_not_free")
     usable = np.flatnonzero(free[1:] & inside)
     if not len(usable):
         return failed(
             "no goal state is free"
             if inside.any()
-            else "every goal state lies outside the joint limits"
+            else "every goal state lies outside the joint limits",
+            outcome="goal_not_free" if inside.any() else "goal_outside_limits",
         )
     rng = np.random.default_rng(seed)
     # the straight line first: most moves in an open cell need nothing else
@@ -374,7 +381,8 @@ def plan_path(
                     f" ({attempts - 1} path(s) found before failed the continuous check "
                     "and could not be planned around)"
                 )
-            return failed(found, iterations + search.iterations, search.tree_states)
+            outcome = "timeout" if "time limit" in found else "iterations"
+            return failed(found, iterations + search.iterations, search.tree_states, outcome)
         raw, goal, its, states = found
         iterations += its
         way = _shortcut(search, rng, raw, shortcuts)
@@ -742,7 +750,12 @@ def plan_in_world(
         goals[:, endless] = start[endless] + turn
     usable, why = checks.problem(start, goals)
     if why is not None:
-        return PathPlan(False, np.zeros((0, len(start))), reason=why), checks
+        outcome = (
+            "start_not_free"
+            if why.startswith("the start")
+            else ("goal_touching" if "touches something" in why else "goal_not_free")
+        )
+        return PathPlan(False, np.zeros((0, len(start))), reason=why, outcome=outcome), checks
     lower, upper = checks.box()
     lower = np.where(endless, start - np.pi, lower)
     upper = np.where(endless, start + np.pi, upper)

@@ -637,6 +637,26 @@ def test_plan_path_command(cli, tmp_path):
     assert r.exit_code == 2 and "--offset moves a frame" in r.stderr
 
 
+def test_a_failed_plan_says_in_json_why_and_what_it_cost(cli):
+    """``--json`` on failure: the fields of a found plan with ``found: false`` and an
+    ``outcome`` a script can test (a timeout apart from a goal that touches something), the
+    time, the counts and the error (exit 1)."""
+    problem = next(p for p in PROBLEMS if p["scene"] == "panda_fixtures")
+    cell = str(MOTION / "panda_fixtures")
+    start = ",".join(map(repr, problem["start"]))
+    goal = ",".join(map(repr, problem["goal"]))
+    r = cli(["--json", "plan", "path", cell, "--from", start, "--to", goal, "--timeout", "0.001"])
+    doc = json.loads(r.stdout)
+    assert r.exit_code == 1 and doc["found"] is False and doc["outcome"] == "timeout"
+    assert doc["error"].startswith("no path to") and "time limit" in doc["reason"]
+    assert doc["seconds"] >= 0.001 and doc["states_checked"] > 0 and doc["waypoints"] == []
+    panda = str(REPO / "workcells" / "panda")
+    r = cli(["--json", "plan", "path", panda, "--to", "block.grasp"])
+    doc = json.loads(r.stdout)
+    assert r.exit_code == 1 and doc["outcome"] == "goal_touching" and not doc["found"]
+    assert "block and panda.panda_link7" in doc["reason"]
+
+
 # ------------------------------------------------------------------ free turns chosen clear
 
 
@@ -991,3 +1011,43 @@ def test_a_path_file_whose_first_via_point_is_where_the_device_is_runs(tmp_path)
     assert np.allclose(result.devices["panda"].q[-1], [0.3, -0.6, 0, -2.2, 0, 1.6, 0.8])
     legs = [e for e in result.events if e.kind == "move" and e.step == 1]
     assert len(legs) == 1  # one joint move once the repeat is gone
+
+
+def test_goals_are_taken_at_the_turns_nearest_the_start(tmp_path):
+    """A frame's goal states (its IK solutions from random starts) each at the turns nearest
+    the start: on the UR5 (every joint +-360 deg) a wrist at -200 deg is the same pose at +160,
+    and the start at +170 makes +160 the goal (issue 61: 'took A6 at -200 deg')."""
+    from rworld_cli.api import device_context
+    from rworld_cli.api.motion import goal_states
+    from rworld_cli.kinematics.jacobian import tool_pose
+
+    cell = tmp_path / "ur5"
+    shutil.copytree(REPO / "workcells" / "ur5", cell)
+    ctx = device_context(str(cell), "ur5")
+    q_goal = np.radians([30.0, -80.0, 70.0, -60.0, -90.0, 160.0])
+    T = ctx.T_world_base @ tool_pose(ctx.device, q_goal, ctx.mount)
+    data = yaml.safe_load((cell / "cell.yaml").read_text())
+    data["frames"] = [*data.get("frames", []), {"name": "target"}]
+    (cell / "cell.yaml").write_text(yaml.safe_dump(data, sort_keys=False))
+    poses = yaml.safe_load((cell / "poses.yaml").read_text())
+    from rworld_cli import spatial
+
+    units = poses.get("units", {})  # the pose file's own
+    scale = 1000.0 if units.get("length") == "mm" else 1.0
+    rpy = spatial.matrix_to_rpy(T[:3, :3])
+    poses["poses"]["target"] = {
+        "xyz": [float(v) * scale for v in T[:3, 3]],
+        "rpy": [float(v) for v in (np.degrees(rpy) if units.get("angle") == "deg" else rpy)],
+    }
+    (cell / "poses.yaml").write_text(yaml.safe_dump(poses, sort_keys=False))
+    ctx = device_context(str(cell), "ur5")
+    start = np.radians([20.0, -70.0, 60.0, -50.0, -80.0, 170.0])
+    goals = goal_states(ctx, "target", start, seed=0)
+    assert len(goals) >= 2
+    assert (np.abs(goals - start) <= np.pi + 1e-9).all()  # no joint a turn further than needed
+    for g in goals:  # each the frame's pose; no two the same state
+        assert np.allclose(ctx.T_world_base @ tool_pose(ctx.device, g, ctx.mount), T, atol=1e-6)
+    apart = np.abs(goals[:, None] - goals[None]).max(axis=2) + np.eye(len(goals))
+    assert apart.min() > 1e-6
+    travel = np.linalg.norm(goals - start, axis=1)
+    assert (np.diff(travel) >= 0).all()
