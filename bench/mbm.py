@@ -36,6 +36,7 @@ FAMILIES = (
     "cage",
 )
 JOINTS = [f"panda_joint{k}" for k in range(1, 8)]
+FRANKA_ACCELERATION = [15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0]  # [rad/s^2], Franka's datasheet
 LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 
 
@@ -121,6 +122,11 @@ def robot_cell(root: Path) -> Path:
             srdf=str(PANDA_URDF.with_suffix(".srdf")),
             overlap_states=0,
         )
+        # the URDF has no acceleration limits; Franka's datasheet's, so programs can be timed
+        cell = yaml.safe_load((out / "cell.yaml").read_text())
+        for joint, limit in zip(cell["devices"][0]["joints"], FRANKA_ACCELERATION):
+            joint["limits"]["acceleration"] = limit
+        (out / "cell.yaml").write_text(yaml.safe_dump(cell, sort_keys=False))
     return out
 
 

@@ -119,7 +119,8 @@ def unlimited_notes(result) -> list[str]:
 
 
 def collision_notes(result) -> list[str]:
-    """What the collision check could not look at: bodies without geometry, open meshes."""
+    """What the collision check could not look at (bodies without geometry, open meshes) and
+    the cell's static overlaps, once a pair."""
     report = result.collisions
     if report is None:
         return []
@@ -130,6 +131,24 @@ def collision_notes(result) -> list[str]:
         notes.append(
             "meshes that are not closed solids, checked as surfaces only: "
             + ", ".join(report.open_meshes)
+        )
+    if report.static_overlaps:  # the cell's geometry: once a pair, not a collision
+        pairs = "; ".join(
+            f"{c.a} and {c.b} "
+            + (
+                f"{1000 * c.depth:.1f} mm deep"
+                if c.collision
+                else f"{1000 * c.distance:.1f} mm apart"
+            )
+            for c in report.static_overlaps
+        )
+        first = report.static_overlaps[0]
+        notes.append(
+            f"static overlaps in the cell ({len(report.static_overlaps)}; nothing in the run "
+            f"moves either body, so they are the cell's geometry, not collisions of the run): "
+            f"{pairs}. Not meant: move one in its pose file; meant (a part set into a "
+            f"fixture): say so in cell.yaml, allowed_contacts: [{{between: [{first.a}, "
+            f"{first.b}], reason: ...}}, ...]"
         )
     return notes
 

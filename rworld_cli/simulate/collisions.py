@@ -134,6 +134,11 @@ class CollisionReport:
         Bodies without geometry (not checked).
     open_meshes : list of str
         Meshes that are not closed solids (their insides are not checked).
+    static_overlaps : list of Contact
+        Pairs of objects that overlap (or keep less than the clearance) where nothing in the
+        run moves either of them nor one against the other (a can set into a shelf's board):
+        the cell's geometry, not the run's - one entry a pair, the deepest, never a collision
+        of the run (the planner does not count them either).
     """
 
     tolerance: float
@@ -148,6 +153,7 @@ class CollisionReport:
     refinements: int = 0
     first_state: dict | None = None  # the first contact's worst instant: t, snap, joints
     handling: list[HandlingProblem] = field(default_factory=list)
+    static_overlaps: list[Contact] = field(default_factory=list)
 
     @property
     def failed(self) -> bool:
@@ -172,6 +178,7 @@ class CollisionReport:
             "not_checked": self.unchecked,
             "open_meshes": self.open_meshes,
             "handling": [h.as_dict() for h in self.handling],
+            "static_overlaps": [c.as_dict() for c in self.static_overlaps],
             "queries": self.queries,
             "refinements": self.refinements,
         }
@@ -249,7 +256,18 @@ def check_run(run, sched, times: np.ndarray, report_within: float = REPORT_WITHI
         touches,
         report_within=watch,
     )
-    contacts = [RunContact(c, _steps_at(sched, spans, c)) for c in result.contacts]
+    static = _still_pairs(sched, model, {(c.a, c.b) for c in result.contacts})
+    overlaps: dict[tuple[str, str], Contact] = {}
+    for c in result.contacts:
+        if (c.a, c.b) in static and (
+            (c.a, c.b) not in overlaps or c.depth > overlaps[c.a, c.b].depth
+        ):
+            overlaps[c.a, c.b] = c
+    contacts = [
+        RunContact(c, _steps_at(sched, spans, c))
+        for c in result.contacts
+        if (c.a, c.b) not in static
+    ]
     clearance, nearest_steps = _clearance_columns(sched, model, result, times, spans)
     first = None
     if contacts:
@@ -270,7 +288,53 @@ def check_run(run, sched, times: np.ndarray, report_within: float = REPORT_WITHI
         result.refinements,
         first,
         _handling(run, sched, model, states),
+        sorted(overlaps.values(), key=lambda c: (c.a, c.b)),
     )
+
+
+def _still_pairs(sched, model, pairs: set[tuple[str, str]]) -> set[tuple[str, str]]:
+    """Of ``pairs`` (body labels), those of two objects that hold still against each other the
+    whole run: in every affixment state of the run (the scheduler's snapshots) neither hangs
+    from a device (a link, a TCP, a held or tool-carried part) and their relative pose is the
+    same."""
+    bodies = {b.label: b for b in model.bodies}
+    world = sched.world
+    cell = world.cell
+    candidates = {
+        (a, b)
+        for a, b in pairs
+        if bodies[a].owner in cell.objects and bodies[b].owner in cell.objects
+    }
+    if not candidates:
+        return set()
+    now = world.snapshot()
+    relative: dict[tuple[str, str], np.ndarray] = {}
+    moved: set[tuple[str, str]] = set()
+    try:
+        for _, snap in sched.snapshots:
+            world.restore(snap)
+            for a, b in candidates - moved:
+                fa, fb = bodies[a].frame, bodies[b].frame
+                if _on_a_device(world, fa) or _on_a_device(world, fb):
+                    moved.add((a, b))
+                    continue
+                T = np.linalg.solve(world.T_world(fa), world.T_world(fb))
+                if (a, b) in relative and not np.allclose(relative[a, b], T, atol=1e-12):
+                    moved.add((a, b))
+                relative.setdefault((a, b), T)
+    finally:
+        world.restore(now)
+    return candidates - moved
+
+
+def _on_a_device(world, frame: str) -> bool:
+    """Whether ``frame`` hangs, through its parents, from a device (it moves with one)."""
+    cell = world.cell
+    while frame is not None and frame != WORLD:
+        if frame in cell.devices or cell.frames[frame].kind == "link":
+            return True
+        frame = world.parent(frame)
+    return False
 
 
 def _handling(run, sched, model, states) -> list[HandlingProblem]:

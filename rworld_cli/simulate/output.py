@@ -55,6 +55,7 @@ def _collision_summary(result: SimulationResult) -> dict | None:
             "handling",
             "not_checked",
             "open_meshes",
+            "static_overlaps",
         )
     }
 

@@ -1051,3 +1051,49 @@ def test_goals_are_taken_at_the_turns_nearest_the_start(tmp_path):
     assert apart.min() > 1e-6
     travel = np.linalg.norm(goals - start, axis=1)
     assert (np.diff(travel) >= 0).all()
+
+
+def test_a_static_overlap_is_said_once_and_is_not_a_collision_of_the_run(tmp_path, cli):
+    """Two boards of a shelf set 20 mm into each other, a can 10 mm into a board (as MBM and
+    most MoveIt scenes build them), nothing moving them: ``check`` says it once, as the cell's
+    geometry, and passes the program the planner planned (which never counted those pairs);
+    listed in ``--json``; gone once ``allowed_contacts`` accepts them."""
+    cell = tmp_path / "panda_fixtures"
+    shutil.copytree(MOTION / "panda_fixtures", cell)
+    text = (cell / "cell.yaml").read_text().replace("../../../../", str(REPO) + "/")
+    data = yaml.safe_load(text)
+    data["objects"] += [
+        {"name": "board", "mass": 1.0, "geometry": {"box": [0.3, 0.3, 0.02]}},
+        {"name": "side", "mass": 1.0, "geometry": {"box": [0.02, 0.3, 0.3]}},
+        {"name": "can", "mass": 0.2, "geometry": {"cylinder": {"radius": 0.03, "length": 0.12}}},
+    ]
+    (cell / "cell.yaml").write_text(yaml.safe_dump(data, sort_keys=False))
+    poses = yaml.safe_load((cell / "poses.yaml").read_text())
+    poses["poses"]["board"] = {"xyz": [-1.5, 0.0, 0.5]}
+    poses["poses"]["side"] = {"xyz": [-1.36, 0.0, 0.5]}  # 20 mm into the board's end
+    poses["poses"]["can"] = {"xyz": [-1.5, 0.0, 0.56]}  # 10 mm into the board
+    (cell / "poses.yaml").write_text(yaml.safe_dump(poses, sort_keys=False))
+    problem = next(p for p in PROBLEMS if p["scene"] == "panda_fixtures")
+    (cell / "p.yaml").write_text(
+        "device: panda\nunits: {length: m, angle: rad}\nsteps:\n"
+        f"  - move: {{joints: {problem['start']}, path: free}}\n"
+        f"  - move: {{joints: {problem['goal']}, path: free}}\n"
+    )
+    r = cli(["check", str(cell), str(cell / "p.yaml")])
+    assert r.exit_code == 0, r.output
+    notes = [line for line in r.stderr.splitlines() if "static overlaps" in line]
+    assert len(notes) == 1 and "(2;" in notes[0]
+    assert "board and can 10.0 mm deep" in notes[0] and "board and side 20.0 mm deep" in notes[0]
+    r = cli(["--json", "check", str(cell), str(cell / "p.yaml")])
+    doc = json.loads(r.stdout)
+    overlaps = doc["collisions"]["static_overlaps"]
+    assert sorted((o["a"], o["b"]) for o in overlaps) == [("board", "can"), ("board", "side")]
+    assert not doc["collisions"]["collisions"]
+    data["allowed_contacts"] = [
+        *data.get("allowed_contacts", []),
+        {"between": ["board", "can"], "reason": "set into it"},
+        {"between": ["board", "side"], "reason": "one piece"},
+    ]
+    (cell / "cell.yaml").write_text(yaml.safe_dump(data, sort_keys=False))
+    r = cli(["check", str(cell), str(cell / "p.yaml")])
+    assert r.exit_code == 0 and "static overlaps" not in r.stderr
