@@ -80,6 +80,7 @@ class PlannedPath:
             "attempts": p.attempts,
             "failed_segment": None if p.blocked is None else p.blocked.tolist(),
             "bodies_met": p.bodies,
+            "inside_margin": p.inside_margin,
             "seconds": p.seconds,
             "clearance": self.clearance,
             "collision_tolerance": self.tolerance,

@@ -785,5 +785,7 @@ def path_cmd(
     for k, q in enumerate(p.waypoints):
         blended = f"  blend {p.blends[k]:g}" if p.blends[k] > 0 else ""
         click.echo(f"  {k}: [" + ", ".join(f"{v:.6g}" for v in q) + "]" + blended)
+    for words in p.inside_margin:
+        click.echo(f"note: {words}: that pair was searched at the clearance asked", err=True)
     if planned.written:
         click.echo(f"wrote {planned.written}", err=True)

@@ -105,6 +105,9 @@ class PathPlan:
         The ends of the last segment that failed the continuous check (None: none failed).
     bodies : list of str
         The labels of the bodies that segment met (``plan_in_world`` names them).
+    inside_margin : list of str
+        Pairs already inside the search margin at the start or a goal, in words (``plan_in_world``:
+        searched at the clearance asked, the margin kept for the others).
     outcome : str
         "found", or why not in a word a script can test: "start_not_free", "goal_not_free",
         "goal_touching" (every free goal touches something), "goal_outside_limits",
@@ -130,6 +133,7 @@ class PathPlan:
     blocked: np.ndarray | None = None
     bodies: list[str] = field(default_factory=list)
     outcome: str = "found"
+    inside_margin: list[str] = field(default_factory=list)
 
     def joint_path(self):
         """The path as a :class:`~rworld_cli.planning.path.JointPath` (``blended``: the
@@ -633,6 +637,7 @@ class WorldChecks:
         self.search = self._with_margin
         self.exact = self._make(0.0)
         self.tight: set[tuple[int, int]] = set()  # pairs searched without the margin
+        self.inside_margin: list[str] = []  # those pairs at the ends, in words
         self._tight_check = None
         self.ends = np.zeros((0, self.device.dof))
 
@@ -670,6 +675,7 @@ class WorldChecks:
         problem's ends only: checks kept for several problems start each with none."""
         if self.tight:
             self.tight, self.search, self._tight_check = set(), self._with_margin, None
+        self.inside_margin = []
         for _ in range(8):  # a pair a round: few are that close
             report = self.search.check(self.ends)
             inside = np.flatnonzero(~report.free)
@@ -680,6 +686,15 @@ class WorldChecks:
             }
             if not added - self.tight:
                 return
+            for k in inside:
+                if report.pair[k][0] >= 0 and tuple(report.pair[k]) not in self.tight:
+                    end = "the start" if k == 0 else "a goal"
+                    words = (
+                        f"{nearest_words(self.search, report, k)} at {end}, inside the search's "
+                        f"{SEARCH_MARGIN * 1000:g} mm margin"
+                    )
+                    if words not in self.inside_margin:
+                        self.inside_margin.append(words)
             self.tight |= added
             self.search = self._make(SEARCH_MARGIN, skip=self.tight)
             self._tight_check = self._make(0.0, only=self.tight)
@@ -771,6 +786,7 @@ def plan_in_world(
         progress=progress,
         blend_free=checks.blend_free if blend else None,
     )
+    plan.inside_margin = list(checks.inside_margin)
     if plan.found:
         plan.goal = int(usable[plan.goal])  # an index of the goals given
     elif plan.blocked is not None:

@@ -87,6 +87,11 @@ def test_a_free_path_leaves_a_pair_that_starts_inside_the_search_margin(cells):
     assert plan.found, plan.reason
     labels = {frozenset(checks.exact.model.bodies[k].label for k in pair) for pair in checks.tight}
     assert frozenset({"stylus", "kuka_kr6r900sixx.link_5"}) in labels
+    # and said, with the distance (plan path prints it as a note, --json as inside_margin)
+    assert plan.inside_margin[0].startswith(
+        "stylus and kuka_kr6r900sixx.link_5 0.707 mm apart at the start, inside the search's "
+        "5 mm margin"
+    )
 
 
 def test_a_continuous_joint_past_half_a_turn_is_planned_from_as_an_angle(cells):
