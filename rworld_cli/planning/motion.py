@@ -394,9 +394,14 @@ def plan_path(
         if way is not None:
             break
         if bad is None:  # the time ran out in the middle of the path's continuous check
+            before = (
+                f"; {attempts - 1} path(s) before failed it and could not be planned around"
+                if blocked is not None
+                else ""
+            )
             return failed(
                 "no path found within the time limit (it ran out during the continuous check "
-                "of a path found)",
+                f"of a path found{before})",
                 iterations,
                 states,
             )
@@ -586,11 +591,14 @@ def _validated(search: _Search, rng, way, lower, upper, step, depth: int = 0):
         repairs += 1
         if depth >= REPAIR_DEPTH or search.out_of_time():
             return None, repairs, (q0, q1)
+        # a repair may take a share of the time left: one that cannot be found (a gap the
+        # finer states cannot pass either) leaves the rest to a new search
+        now = search.clock()
         finer = _Search(
             search.states_free,
             search.segment_free,
             search.resolution / 4,
-            search.deadline,
+            min(search.deadline, now + REPAIR_SHARE * max(search.deadline - now, 0.0)),
             search.clock,
         )
         found = _connect_trees(
@@ -610,6 +618,7 @@ def _validated(search: _Search, rng, way, lower, upper, step, depth: int = 0):
 
 
 REPAIR_DEPTH = 2  # a failing segment re-planned finer at most twice deep; then a new search
+REPAIR_SHARE = 0.1  # of the time left, what one repair may take
 SEARCH_MARGIN = 0.005  # [m] the search's states keep this much more than the clearance asked
 NEAR_END = 0.1  # [rad or m] states this near the start or a goal: searched without the margin
 
