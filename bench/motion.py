@@ -303,11 +303,10 @@ def _cases(args, scenes: dict, invalid: list):
         return
     import tempfile
 
-    import mbm
-
     from rworld_cli.api import device_context
     from rworld_cli.collision.bodies import collision_model
     from rworld_cli.planning.motion import WorldChecks
+    from tests.planning import mbm_cells as mbm
 
     root = Path(tempfile.mkdtemp(prefix="rworld-mbm-"))
     robot = mbm.robot_cell(root)

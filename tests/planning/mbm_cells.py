@@ -6,7 +6,7 @@ request (the start state, the goal's joint constraints) - becomes a cell folder:
 the fingers fixed 65 mm open, imported once by ``rworld import urdf`` with its SRDF's disabled
 pairs) at the world's origin, as MBM places it, and the scene's primitives as objects.
 
-    python bench/mbm.py /tmp/mbm [--families box cage] [--limit 5]   # writes cells to look at
+    python -m tests.planning.mbm_cells /tmp/mbm [--families box cage] [--limit 5]  # to look at
 
 ``bench/motion.py --mbm`` plans them (:func:`problems`, :func:`write_cell`).
 """
@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 ARCHIVE = REPO / "tests" / "data" / "mbm" / "panda_problems.tar.bz2"
 PANDA_URDF = REPO / "tests" / "data" / "mbm" / "panda" / "panda.urdf"
 FAMILIES = (
@@ -153,7 +153,8 @@ def write_cell(problem: dict, folder: Path, robot: Path) -> Path:
     relink(cell)
     cell["name"] = f"mbm_{problem['family']}_{problem['index']:04d}"
     cell["description"] = (
-        f"MotionBenchMaker Panda, {problem['family']} {problem['index']} (bench/mbm.py)"
+        f"MotionBenchMaker Panda, {problem['family']} {problem['index']} "
+        "(tests/planning/mbm_cells.py)"
     )
     cell["pose_files"] = ["poses.yaml"]
     cell["objects"] = []
@@ -197,5 +198,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    sys.path.insert(0, str(REPO))
     main()
