@@ -620,20 +620,18 @@ def _validated(search: _Search, rng, way, lower, upper, step, depth: int = 0):
 REPAIR_DEPTH = 2  # a failing segment re-planned finer at most twice deep; then a new search
 REPAIR_SHARE = 0.1  # of the time left, what one repair may take
 SEARCH_MARGIN = 0.005  # [m] the search's states keep this much more than the clearance asked
-NEAR_END = 0.1  # [rad or m] states this near the start or a goal: searched without the margin
 
 
 class WorldChecks:
     """The questions :func:`plan_path` asks, for ``device`` in ``world`` as it is now (other
     devices, grasps and tools where the world has them), answered by the collision room: a
     state is free by ``ConfigurationChecker.check`` at the clearance plus
-    :data:`SEARCH_MARGIN`, except within :data:`NEAR_END` of the start and the goals, where
-    the rule asked decides (a goal just above a table is reached); a segment by
-    ``check_segment`` at the clearance asked (``exact``).  A pair already inside the margin
-    at the start or a goal (a probe's stylus 0.7 mm from the wrist it is mounted beside, at
-    every state) keeps only the clearance asked everywhere (``tight``): with the margin, no
-    state near it would be free and no path found.  Built once per world and device (the
-    pairs, the trees); :meth:`problem` sets the ends."""
+    :data:`SEARCH_MARGIN`; a segment by ``check_segment`` at the clearance asked (``exact``).
+    A pair already inside the margin at the start or a goal (a goal just above a table, a
+    probe's stylus 0.7 mm from the wrist it is mounted beside at every state) keeps only the
+    clearance asked, everywhere in the problem (``tight``): with the margin, no state near that
+    end would be free and no path found; every other pair keeps the margin up to the ends.
+    Built once per world and device (the pairs, the trees); :meth:`problem` sets the ends."""
 
     def __init__(self, world, model, device: str, tolerance: float, clearance: float = 0.0):
         from ..collision.configurations import ConfigurationChecker
@@ -711,17 +709,10 @@ class WorldChecks:
     def states_free(self, Q) -> np.ndarray:
         """(N, n) joint states -> (N,) bool (the class docstring's rule)."""
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
-        near = (np.abs(Q[:, None, :] - self.ends[None]).max(axis=2) < NEAR_END).any(axis=1)
-        out = np.zeros(len(Q), dtype=bool)
-        if (~near).any():
-            far = Q[~near]
-            free = self.search.check(far, nearest=False).free
-            if self._tight_check is not None and free.any():
-                free[free] = self._tight_check.check(far[free], nearest=False).free
-            out[~near] = free
-        if near.any():
-            out[near] = self.exact.check(Q[near], nearest=False).free
-        return out
+        free = np.asarray(self.search.check(Q, nearest=False).free, dtype=bool)
+        if self._tight_check is not None and free.any():
+            free[free] = self._tight_check.check(Q[free], nearest=False).free
+        return free
 
     def segment_free(self, qa, qb) -> bool:
         """The straight segment free everywhere, at the clearance asked (continuous)."""
