@@ -683,7 +683,7 @@ class WorldChecks:
         if self.tight:
             self.tight, self.search, self._tight_check = set(), self._with_margin, None
         self.inside_margin = []
-        for _ in range(8):  # a pair a round: few are that close
+        for _ in range(len(self.exact.pairs)):  # a pair an end a round: few are that close
             report = self.search.check(self.ends)
             inside = np.flatnonzero(~report.free)
             if not len(inside):
