@@ -348,6 +348,7 @@ def _vendor_checker(name: str):
 
 def vendor_configurations(batches=(1, 64, 4096)) -> None:
     import coal
+    from peers import coal_mesh
 
     print("\n## 5b. Configuration checks: microseconds per joint state (one run)\n")
     print(
@@ -358,14 +359,7 @@ def vendor_configurations(batches=(1, 64, 4096)) -> None:
         model, check, limits = _vendor_checker(name)
         geometry = {}
         for body in model.bodies:  # coal: an OBBRSS tree of the body's triangles, in its frame
-            tri = body.mesh().triangles()
-            vertices, faces = np.unique(tri.reshape(-1, 3), axis=0, return_inverse=True)
-            bvh = coal.BVHModelOBBRSS()
-            bvh.beginModel(len(tri), len(vertices))
-            bvh.addVertices(vertices)
-            bvh.addTriangles(faces.reshape(-1, 3))
-            bvh.endModel()
-            geometry[body.label] = bvh
+            geometry[body.label] = coal_mesh(body.mesh().triangles())
         pairs = [(model.bodies[i], model.bodies[j]) for i, j in check.pairs]
         rng = np.random.default_rng(0)
         check.check(rng.uniform(limits[:, 0], limits[:, 1], (256, len(limits))), nearest=False)

@@ -112,6 +112,7 @@ def coal_geometry(model) -> dict:
     pose in the body's frame) - boxes, cylinders and spheres as coal's own primitives, meshes
     as OBBRSS trees of their triangles."""
     import coal
+    from peers import coal_mesh
 
     out = {}
     for body in model.bodies:
@@ -123,14 +124,7 @@ def coal_geometry(model) -> dict:
         elif shape.kind == "sphere":
             geometry = coal.Sphere(float(shape.size[0]) / 2)
         else:
-            tri = body.mesh().triangles()
-            vertices, faces = np.unique(tri.reshape(-1, 3), axis=0, return_inverse=True)
-            geometry = coal.BVHModelOBBRSS()
-            geometry.beginModel(len(tri), len(vertices))
-            geometry.addVertices(vertices)
-            geometry.addTriangles(faces.reshape(-1, 3))
-            geometry.endModel()
-            out[body.label] = (geometry, np.eye(4))
+            out[body.label] = (coal_mesh(body.mesh().triangles()), np.eye(4))
             continue
         out[body.label] = (geometry, np.asarray(shape.T_owner_shape, dtype=float))
     return out

@@ -50,3 +50,16 @@ def pinocchio_with_armature(device, gravity=(0.0, 0.0, -9.81)):
     model.armature = np.array([j.armature for j in device.joints])
     model.gravity.linear = np.asarray(gravity, dtype=float)
     return model, tool
+
+
+def coal_mesh(triangles: np.ndarray):
+    """A body's triangles (F, 3, 3) [m] as coal's OBBRSS tree, in the body's frame."""
+    import coal
+
+    vertices, faces = np.unique(triangles.reshape(-1, 3), axis=0, return_inverse=True)
+    tree = coal.BVHModelOBBRSS()
+    tree.beginModel(len(triangles), len(vertices))
+    tree.addVertices(vertices)
+    tree.addTriangles(faces.reshape(-1, 3))
+    tree.endModel()
+    return tree
