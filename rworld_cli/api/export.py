@@ -525,14 +525,7 @@ def _changes(cell, run, dt, against, loaded, result, devices) -> list[TargetChan
         or not np.allclose(T, nominal_run.cell.poses[name], rtol=0.0, atol=1e-12)
     }
     world = World(loaded.cell)
-
-    def ancestors(frame: str) -> list[str]:
-        out = []
-        node: str | None = frame
-        while node is not None and node != "world":
-            out.append(node)
-            node = world.parent(node)
-        return out
+    ancestors = world.ancestors
 
     changes = []
     for name in devices:

@@ -119,7 +119,12 @@ def goal_states(
     grasp frame) - whose IK solutions within the limits (from the start and from
     :data:`IK_SEEDS` random starts, one batch), each at the turns nearest the start, are the
     goals, nearest the start first (G, n)."""
-    from ..kinematics.inverse import distinct_solutions, nearest_turns, solve_ik
+    from ..kinematics.inverse import (
+        distinct_solutions,
+        distinct_states,
+        nearest_turns,
+        solve_ik,
+    )
     from ..planning.motion import sampled_box
 
     cell = ctx.world.cell
@@ -150,11 +155,7 @@ def goal_states(
     revolute = np.array([j.kind == "revolute" for j in dev.joints])
     goals = nearest_turns(goals, start, revolute, lower, upper)
     goals = goals[np.argsort(np.linalg.norm(goals - start, axis=1), kind="stable")]
-    kept: list[np.ndarray] = []
-    for g in goals:  # IK's answers agree to its tolerance (1e-7), not to the bit
-        if all(np.abs(g - k).max() > 1e-6 for k in kept):
-            kept.append(g)
-    return np.array(kept)
+    return distinct_states(goals, 1e-6)  # IK's answers agree to its tolerance, not to the bit
 
 
 def plan_free_path(

@@ -37,7 +37,7 @@ import numpy as np
 
 from .. import spatial
 from ..errors import UserError
-from ..kinematics.inverse import solve_ik
+from ..kinematics.inverse import distinct_states, solve_ik
 from ..kinematics.jacobian import ToolMount, reach_bound
 from ..model.cell import CellModel
 from ..world.tree import World
@@ -280,7 +280,7 @@ class ProbeRig:
         # clear, every IK branch from seeded restarts (the second pass)
         recent = self._recent  # the last target solved, of any feature: where the arm will be
         seeds = [None if last is None else last[2], recent, *self.seeds, self.q_start]
-        seeds = _distinct([np.asarray(q, dtype=float) for q in seeds if q is not None])
+        seeds = list(distinct_states([q for q in seeds if q is not None], 1e-9))
         for thorough in (False, True):  # the second pass: the preferred orientations only
             for stylus_k, spin in orientations[:THOROUGH] if thorough else orientations:
                 best, why_k = self._orientation(
@@ -517,15 +517,6 @@ class ProbeRig:
     # ------------------------------------------------------------------ order
     def travel_time(self, qa: np.ndarray, qb: np.ndarray) -> float:
         return float(np.max(np.abs(qa - qb) / self.vmax))
-
-
-def _distinct(qs: list) -> list:
-    """Joint states without repeats (the same to 1e-9), in their order."""
-    out: list = []
-    for q in qs:
-        if all(np.abs(q - other).max() > 1e-9 for other in out):
-            out.append(q)
-    return out
 
 
 def _reach_bound(dev, mount: ToolMount, T_tcp_sensor: np.ndarray) -> float:

@@ -303,11 +303,18 @@ def distinct_solutions(
     Q, ok = solve_ik_many(device, np.repeat(T[None], len(starts), 0), starts, mount, position_only)
     if accept is not None and ok.any():
         ok = ok & np.asarray(accept(Q), dtype=bool)
+    return distinct_states(Q[ok], apart).reshape(-1, starts.shape[1])
+
+
+def distinct_states(Q, apart: float) -> np.ndarray:
+    """The joint states ``Q`` (K, n) without repeats, in their order: a state within ``apart``
+    [rad or m] of an earlier one (largest joint difference) is dropped.  Shape (M, n)."""
+    Q = np.atleast_2d(np.asarray(Q, dtype=float))
     found: list[np.ndarray] = []
-    for q in Q[ok]:
+    for q in Q:
         if all(np.abs(q - other).max() > apart for other in found):
             found.append(q)
-    return np.array(found).reshape(-1, starts.shape[1])
+    return np.array(found).reshape(-1, Q.shape[1])
 
 
 def solve_ik_soonest(

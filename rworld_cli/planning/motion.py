@@ -645,18 +645,22 @@ class WorldChecks:
         self.exact = self._make(0.0)
         self.tight: set[tuple[int, int]] = set()  # pairs searched without the margin
         self.inside_margin: list[str] = []  # those pairs at the ends, in words
+        self.outcome = "found"  # why the last problem has no path, when it has none
         self._tight_check = None
         self.ends = np.zeros((0, self.device.dof))
 
     def problem(self, start, goals) -> tuple[np.ndarray, str | None]:
         """Set the ends: the goals that are free and touch nothing (an overlap within the
         tolerance: every way into such a goal grazes what it touches) - (their indices, None),
-        or (empty, why no path can start or end)."""
+        or (empty, why no path can start or end), the why in a word in :attr:`outcome`
+        (:attr:`PathPlan.outcome`'s)."""
         start = np.asarray(start, dtype=float).ravel()
         goals = np.atleast_2d(np.asarray(goals, dtype=float))
+        self.outcome = "found"
         report = self.exact.check(np.concatenate([start[None], goals]))
         if not report.free[0]:
             words = nearest_words(self.exact, report, 0)
+            self.outcome = "start_not_free"
             return np.zeros(0, dtype=int), f"the start is not free ({words})"
         free, touching = report.free[1:], report.distance[1:] < 0.0
         usable = np.flatnonzero(free & ~touching)
@@ -666,11 +670,13 @@ class WorldChecks:
             )
             words += f"; and {len(goals) - 3} more" if len(goals) > 3 else ""
             if (free & touching).any():
+                self.outcome = "goal_touching"
                 return usable, (
                     f"every free goal state touches something ({words}): a motion into contact "
                     "is a guarded or straight move's work (with 'touch:'); plan to a state clear "
                     "of it (an offset) and approach from there"
                 )
+            self.outcome = "goal_not_free"
             return usable, f"no goal state is free ({words})"
         self.ends = np.concatenate([start[None], goals[usable]])
         self._relax_margin()
@@ -765,12 +771,8 @@ def plan_in_world(
         goals[:, endless] = start[endless] + turn
     usable, why = checks.problem(start, goals)
     if why is not None:
-        outcome = (
-            "start_not_free"
-            if why.startswith("the start")
-            else ("goal_touching" if "touches something" in why else "goal_not_free")
-        )
-        return PathPlan(False, np.zeros((0, len(start))), reason=why, outcome=outcome), checks
+        plan = PathPlan(False, np.zeros((0, len(start))), reason=why, outcome=checks.outcome)
+        return plan, checks
     lower, upper = checks.box()
     lower = np.where(endless, start - np.pi, lower)
     upper = np.where(endless, start + np.pi, upper)

@@ -330,11 +330,7 @@ def _still_pairs(sched, model, pairs: set[tuple[str, str]]) -> set[tuple[str, st
 def _on_a_device(world, frame: str) -> bool:
     """Whether ``frame`` hangs, through its parents, from a device (it moves with one)."""
     cell = world.cell
-    while frame is not None and frame != WORLD:
-        if frame in cell.devices or cell.frames[frame].kind == "link":
-            return True
-        frame = world.parent(frame)
-    return False
+    return any(f in cell.devices or cell.frames[f].kind == "link" for f in world.ancestors(frame))
 
 
 def _handling(run, sched, model, states) -> list[HandlingProblem]:

@@ -477,7 +477,7 @@ class MotionSteps:
         )
         if not plan.found:
             hint = ""
-            if "time limit" in str(plan.reason):
+            if plan.outcome == "timeout":
                 hint = f" ({timeout:g} s; 'timeout:' on the step or the run gives it longer)"
             raise NoFreePath(
                 f"{step.where}: {device} step {step.index + 1} ({step.describe()}): no "
@@ -496,17 +496,9 @@ class MotionSteps:
         moved = self.run.cell.calibrated
         if not moved:
             return ""
-        known = set(self.world.frames)
-
-        def carried_by(label: str) -> set[str]:
-            frame = label if label in known else label.split(".")[0]
-            chain = set()
-            while frame is not None and frame in known:
-                chain.add(frame)
-                frame = self.world.parent(frame)
-            return chain
-
-        carries = {f: [b for b in bodies if f in carried_by(b)] for f in moved}
+        known = set(self.world.frames)  # a body's label is its frame
+        carriers = {b: set(self.world.ancestors(b)) if b in known else set() for b in bodies}
+        carries = {f: [b for b in bodies if f in carriers[b]] for f in moved}
         order = sorted(moved, key=lambda f: (not carries[f], -moved[f][1]))
         said = []
         for frame in order[:5]:

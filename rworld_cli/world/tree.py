@@ -106,6 +106,17 @@ class World:
         self._check_frame(frame)
         return self._parent[frame]
 
+    def ancestors(self, frame: str) -> list[str]:
+        """``frame`` and its parents up to the world (not included), nearest first: what
+        carries it as the affixments are now."""
+        self._check_frame(frame)
+        out = []
+        node: str | None = frame
+        while node is not None and node != WORLD:
+            out.append(node)
+            node = self._parent[node]
+        return out
+
     def children(self, frame: str) -> list[str]:
         self._check_frame(frame)
         return list(self._children().get(frame, []))
