@@ -160,7 +160,9 @@ class Body:
         ``item``.  The axes and centres are those :func:`convex.penetration` takes from the
         pieces (a triangle's as :func:`convex.triangles` makes them; a single piece's from its
         table); convex parts have none (their pieces' centres depend on the batch's padding),
-        and their overlaps go to the exact query.  None for a sphere or a cylinder."""
+        and their overlaps go to the exact query.  A cylinder is one row of one "vertex",
+        ``(radius, half length, 0)``, its axis the pose's z, and ``"cylinder"`` in place of the
+        estimate (the walk measures it by GJK's cylinder support).  None for a sphere."""
         identity = np.r_[np.eye(3).ravel(), np.zeros(3)]
         if self.is_mesh:
             pieces = convex.triangles(self._triangles)
@@ -168,14 +170,17 @@ class Body:
         if self.parts is not None and not self.single_piece:
             return self._hulls[0], None, identity, None
         table = self._own_table
-        if table.kind[0] not in (0, 2):
+        if table.kind[0] not in (0, 2, 3):
             return None
         T = table.T_frame_shape[0]
+        pose = np.r_[T[:3, :3].ravel(), T[:3, 3]]
+        if table.kind[0] == 3:
+            size = np.asarray(self.shape.size, dtype=float)
+            return np.array([[[size[0] / 2, size[2] / 2, 0.0]]]), None, pose, "cylinder"
         if table.kind[0] == 0:  # a box: its own axes and centre in its shape frame
             estimate = (np.eye(3)[None], np.zeros((1, 3)))
         else:
             estimate = (table.axes[:1], table.center[:1])
-        pose = np.r_[T[:3, :3].ravel(), T[:3, 3]]
         return table.vertices, table.neighbours, pose, estimate
 
     @functools.cached_property
@@ -187,7 +192,7 @@ class Body:
     @functools.cached_property
     def walk_side(self) -> tuple | None:
         """:attr:`tree` and :attr:`leaf_table` prepared for :func:`compiled_bvh.contacts`
-        (held here: the kernel reads their addresses), or None (a sphere or a cylinder)."""
+        (held here: the kernel reads their addresses), or None (a sphere)."""
         from .compiled_bvh import walk_side
 
         leaves = self.leaf_table

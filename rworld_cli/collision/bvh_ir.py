@@ -346,7 +346,27 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
             b.store(cA[j], k.cell(shape_a, 1 + j))
             b.store(value, k.cell(shape_b, 1 + j))
 
-    def call_gjk(side_a, side_b):
+    def call_gjk(side_a, side_b, cylinders=(None, None)):
+        """GJK of one leaf against one leaf (or a node's box): a side whose ``cylinders`` entry
+        is given (its flag, table, pose) is a cylinder where that flag is set - GJK then takes
+        its support from the shape row (centre, axis: the pose's z, radius, half length) -
+        and a polytope of its table row elsewhere."""
+        for shape, cylinder in zip((shape_a, shape_b), cylinders):
+            if cylinder is None:
+                b.store(c(0.0), k.cell(shape, 0))
+                continue
+            flag, table, pose = cylinder
+            b.store(b.select(flag, c(1.0), c(0.0)), k.cell(shape, 0))
+            placed = [k.load(pose, i(j)) for j in range(12)]
+            old_centre = [b.load(k.cell(shape, 1 + j)) for j in range(3)]
+            for j in range(3):  # the centre: the pose's origin; the axis: its z
+                b.store(b.select(flag, placed[9 + j], old_centre[j]), k.cell(shape, 1 + j))
+                b.store(
+                    b.select(flag, placed[3 * j + 2], c(1.0 if j == 2 else 0.0)),
+                    k.cell(shape, 4 + j),
+                )
+            for j in range(2):  # radius, half length: the table's one row
+                b.store(b.select(flag, k.load(table, i(j)), c(0.0)), k.cell(shape, 7 + j))
         (Va, ta, ra, na_, da, pa), (Vb, tb, rb, nb_, db, pb) = side_a, side_b
         shapes = [k.first(shape_a, DPTR), k.first(shape_b, DPTR), k.first(out, DPTR)]
         b.call(gjk, [i(1), Va, Vb, ta, tb, *shapes, max_it, ra, rb, pa, pb, na_, nb_, da, db])
@@ -387,6 +407,10 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     call_gjk(
         (VA, table_a, row_a, nbr_a, DA, pose_a),
         (VB, table_b, row_b, nbr_b, DB, k.first(pose_b, DPTR)),
+        (
+            (b.icmp_signed("==", estimate_a, i(2)), table_a, pose_a),
+            (b.icmp_signed("==", estimate_b, i(2)), table_b, k.first(pose_b, DPTR)),
+        ),
     )
     overlap = b.fcmp_ordered("!=", b.load(k.cell(out, 7)), c(0.0))
     unfinished = b.fcmp_ordered("!=", b.load(k.cell(out, 10)), c(0.0))
@@ -400,7 +424,7 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     # volume): where both leaves carry their axes, the depth estimate of convex.penetration
     # (the least overlap over the pieces' axes, their cross products and the centres'
     # difference) decides, as the exact query would
-    both = b.and_(b.icmp_signed("!=", estimate_a, i(0)), b.icmp_signed("!=", estimate_b, i(0)))
+    both = b.and_(b.icmp_signed("==", estimate_a, i(1)), b.icmp_signed("==", estimate_b, i(1)))
     shallow = b.and_(b.and_(overlap, b.not_(deeper)), both)
     b.cbranch(deeper, collided, measured)
     b.position_at_end(measured)

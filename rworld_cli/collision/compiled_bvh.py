@@ -168,7 +168,9 @@ def walk_side(tree, leaves) -> tuple:
     by the caller, so that one pair's call does not convert them again): ``leaves`` =
     (table (R, V, 3), neighbours (R, V, D) int64 or None: scanned, pose (12,): the table's
     frame in the tree's, R's rows then t, estimate: (axes (R, 3, 3), centres (R, 3)) in the
-    table's frame as :func:`rworld_cli.collision.convex.penetration` takes them, or None);
+    table's frame as :func:`rworld_cli.collision.convex.penetration` takes them, None, or
+    ``"cylinder"``: the table is one cylinder, ``[[[radius, half length, 0]]]``, on the pose's
+    z axis);
     the tree's leaf ``item`` is the table's row ``item``, a polytope; an inner node's is
     passed as minus its number of leaves (:func:`.contacts_ir`)."""
     table, neighbours, pose, estimate = leaves
@@ -185,10 +187,11 @@ def walk_side(tree, leaves) -> tuple:
         else np.ascontiguousarray(neighbours, dtype=np.int64)
     )
     pose = np.ascontiguousarray(pose, dtype=float)
-    # each row's axes (3 rows of 3) and centre, in the table's frame, for the depth estimate;
-    # none (a flag of 0, one zero row) where the exact query is to decide
-    flag = 0 if estimate is None else 1
-    axes, centres = (np.zeros((1, 9)), np.zeros((1, 3))) if estimate is None else estimate
+    # each row's axes (3 rows of 3) and centre, in the table's frame, for the depth estimate
+    # (flag 1); none (a flag of 0, one zero row) where the exact query is to decide; a flag of
+    # 2: the table's one row is a cylinder's (radius, half length, 0), its axis the pose's z
+    flag = 0 if estimate is None else 2 if isinstance(estimate, str) else 1
+    axes, centres = (np.zeros((1, 9)), np.zeros((1, 3))) if flag != 1 else estimate
     axes = np.ascontiguousarray(np.reshape(axes, (-1, 9)), dtype=float)
     centres = np.ascontiguousarray(np.reshape(centres, (-1, 3)), dtype=float)
     held = (*arrays, table, neighbours, pose, axes, centres)

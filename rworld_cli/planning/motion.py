@@ -657,13 +657,18 @@ class WorldChecks:
         start = np.asarray(start, dtype=float).ravel()
         goals = np.atleast_2d(np.asarray(goals, dtype=float))
         self.outcome = "found"
-        report = self.exact.check(np.concatenate([start[None], goals]))
+        ends = np.concatenate([start[None], goals])
+        # free or not, and touching (an overlap within the tolerance: measured, negative) from
+        # the free-only check; the nearest pairs, for the words, only when an end fails
+        report = self.exact.check(ends, nearest=False)
+        free, touching = report.free[1:], report.distance[1:] < 0.0
+        usable = np.flatnonzero(free & ~touching)
+        if not report.free[0] or not len(usable):
+            report = self.exact.check(ends)
         if not report.free[0]:
             words = nearest_words(self.exact, report, 0)
             self.outcome = "start_not_free"
             return np.zeros(0, dtype=int), f"the start is not free ({words})"
-        free, touching = report.free[1:], report.distance[1:] < 0.0
-        usable = np.flatnonzero(free & ~touching)
         if not len(usable):
             words = "; ".join(
                 nearest_words(self.exact, report, 1 + k) for k in range(min(3, len(goals)))
@@ -690,7 +695,8 @@ class WorldChecks:
             self.tight, self.search, self._tight_check = set(), self._with_margin, None
         self.inside_margin = []
         for _ in range(len(self.exact.pairs)):  # a pair an end a round: few are that close
-            report = self.search.check(self.ends)
+            # free-only: a state not free names a pair within the margin, measured
+            report = self.search.check(self.ends, nearest=False)
             inside = np.flatnonzero(~report.free)
             if not len(inside):
                 return

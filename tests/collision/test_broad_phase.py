@@ -159,4 +159,7 @@ def test_a_mesh_pair_culled_in_the_meshs_frame_is_the_exhaustive_minimum():
         exhaustive = every.min(axis=1)
         free = ~culled.buried
         assert free.sum() > K // 2
-        assert np.allclose(culled.distance[free], exhaustive[free], rtol=0, atol=1e-12)
+        # a cylinder (the PUMA's link 6) is measured in the plate's frame by the compiled walk,
+        # its curved support converging linearly in GJK: equal to 1e-11 m, not to rounding
+        atol = 1e-11 if other.shape.kind == "cylinder" else 1e-12
+        assert np.allclose(culled.distance[free], exhaustive[free], rtol=0, atol=atol)
