@@ -157,12 +157,13 @@ class Body:
         measures them (:func:`compiled_bvh.contacts`): (vertices (R, V, 3), neighbours (R, V,
         D) or None: scanned, pose (12,) of the table's frame in the body's: R's rows then t,
         the estimate's axes (R, 3, 3) and centres (R, 3) or None); leaf ``item`` is row
-        ``item``.  The axes and centres are those :func:`convex.penetration` takes from the
-        pieces (a triangle's as :func:`convex.triangles` makes them; a single piece's from its
-        table); convex parts have none (their pieces' centres depend on the batch's padding),
-        and their overlaps go to the exact query.  A cylinder is one row of one "vertex",
-        ``(radius, half length, 0)``, its axis the pose's z, and ``"cylinder"`` in place of the
-        estimate (the walk measures it by GJK's cylinder support).  None for a sphere."""
+        ``item``.  The axes and centres are those :func:`convex.candidate_depth` takes from the
+        pieces (a triangle's edges as :func:`convex.triangles` makes them, a box's axes: the
+        candidates that make their depths exact); hulls have none (their principal axes would
+        bound a depth only from above), and their overlaps go to the exact query.  A cylinder
+        is one row of one "vertex", ``(radius, half length, 0)``, its axis the pose's z, and
+        ``"cylinder"`` in place of the estimate (the walk measures it by GJK's cylinder
+        support).  None for a sphere."""
         identity = np.r_[np.eye(3).ravel(), np.zeros(3)]
         if self.is_mesh:
             pieces = convex.triangles(self._triangles)
@@ -177,10 +178,9 @@ class Body:
         if table.kind[0] == 3:
             size = np.asarray(self.shape.size, dtype=float)
             return np.array([[[size[0] / 2, size[2] / 2, 0.0]]]), None, pose, "cylinder"
-        if table.kind[0] == 0:  # a box: its own axes and centre in its shape frame
-            estimate = (np.eye(3)[None], np.zeros((1, 3)))
-        else:
-            estimate = (table.axes[:1], table.center[:1])
+        # a box: its own axes and centre in its shape frame (exact depths); a hull's principal
+        # axes would bound its depth only from above: the exact query measures it
+        estimate = (np.eye(3)[None], np.zeros((1, 3))) if table.kind[0] == 0 else None
         return table.vertices, table.neighbours, pose, estimate
 
     @functools.cached_property
@@ -208,8 +208,20 @@ class Body:
         if self.parts is not None and not self.single_piece:
             local, axes = self._hulls
             width = int(self._hull_counts[leaf].max(initial=1))
-            return convex.hulls(local[leaf, :width] @ Rt + t[:, None], axes[leaf] @ Rt)
+            faces = (self._hull_faces, leaf, T[:, :3, :3], t)
+            return convex.hulls(local[leaf, :width] @ Rt + t[:, None], axes[leaf] @ Rt, faces)
         return self.pieces(T)
+
+    @functools.cached_property
+    def _hull_faces(self) -> np.ndarray:
+        """Each convex part's hull faces in the body's frame, padded with zero rows to one
+        count (C, F, 4) (:func:`convex.hull_faces`): the depth's candidates."""
+        assert self.parts is not None
+        faces = [convex.hull_faces(v) for v, _ in self.parts]
+        out = np.zeros((len(faces), max(1, max(len(f) for f in faces)), 4))
+        for k, f in enumerate(faces):
+            out[k, : len(f)] = f
+        return out
 
     @functools.cached_property
     def _hull_counts(self) -> np.ndarray:
@@ -233,13 +245,21 @@ class Body:
             pieces = _placed(table, index, table.kind[index], R, c, c[:, None, :])
             pose = np.concatenate([R.reshape(-1, 9), c], axis=1)
             pieces.local = (table.vertices, table.neighbours, index, pose)
+            pieces.faces = (self._hull_faces, index, T[:, :3, :3], T[:, :3, 3])
             return pieces
         if self.parts is not None:  # K * C hulls, state-major
             local, axes = self._hulls
             count = local.shape[1]
             world = np.einsum("kij,cvj->kcvi", T[:, :3, :3], local) + T[:, None, None, :3, 3]
             world_axes = np.einsum("kij,caj->kcai", T[:, :3, :3], axes)
-            return convex.hulls(world.reshape(-1, count, 3), world_axes.reshape(-1, 3, 3))
+            C = len(local)
+            faces = (
+                self._hull_faces,
+                np.tile(np.arange(C), len(T)),
+                np.repeat(T[:, :3, :3], C, axis=0),
+                np.repeat(T[:, :3, 3], C, axis=0),
+            )
+            return convex.hulls(world.reshape(-1, count, 3), world_axes.reshape(-1, 3, 3), faces)
         if shape.kind == "mesh":
             tri = self.mesh().triangles()
             world = np.einsum("kij,ftj->kfti", T[:, :3, :3], tri) + T[:, None, None, :3, 3]
@@ -361,6 +381,7 @@ def pair_distance(
     max_iterations: int = convex.MAX_ITERATIONS,
     within: float | np.ndarray = np.inf,
     deep_enough: float = np.inf,
+    exact_above: float = 0.0,
 ) -> PairDistance:
     """Exact distance between bodies ``a`` and ``b`` at K states.
 
@@ -378,6 +399,11 @@ def pair_distance(
         Exact depths only up to this [m]: a state with an overlapping leaf pair deeper is
         reported with that pair's depth, its other overlapping pairs not measured (a
         collision test needs to know the depth is over the tolerance, not by how much).
+    exact_above : float
+        Depths are exact above this [m]; below it they may be an upper bound below it (a
+        touch within the collision tolerance is one whatever its depth: the pieces whose
+        depth takes the expanding polytope, hulls and cylinders, are not measured further
+        there).  0: every depth exact.
 
     Returns
     -------
@@ -393,16 +419,20 @@ def pair_distance(
         depth = np.zeros(K)
         if over.any():
             rows = np.flatnonzero(over)
-            d, n = convex.penetration(pa.take(rows), pb.take(rows))
+            d, n = convex.penetration(
+                pa.take(rows), pb.take(rows), deep_enough, exact_above=exact_above
+            )
             depth[rows] = np.maximum(d, 0.0)
         return PairDistance(dist, depth, pta, ptb, np.zeros(K, dtype=bool))
-    walked = _walked(a, b, Ta, Tb, max_iterations, within, deep_enough)
+    walked = _walked(a, b, Ta, Tb, max_iterations, within, deep_enough, exact_above)
     if walked is not None:
         return walked
-    return _searched(a, b, Ta, Tb, max_iterations, within, deep_enough)
+    return _searched(a, b, Ta, Tb, max_iterations, within, deep_enough, exact_above)
 
 
-def _walked(a, b, Ta, Tb, max_iterations, within, deep_enough) -> PairDistance | None:
+def _walked(
+    a, b, Ta, Tb, max_iterations, within, deep_enough, exact_above=0.0
+) -> PairDistance | None:
     """:func:`pair_distance` by the compiled walk of both trees (:func:`compiled_bvh.
     contacts`: branch and bound, each leaf pair measured by GJK where it is met): the states
     where no leaf pair overlaps take its nearest distance and closest points, those whose
@@ -442,13 +472,15 @@ def _walked(a, b, Ta, Tb, max_iterations, within, deep_enough) -> PairDistance |
     # deeper overlaps, or shallow ones without an estimate: their depths measured by the search
     rest = np.flatnonzero((status != 0) & ~((status == 2) & np.isfinite(witness[:, 8])))
     if len(rest):
-        found_rest = _searched(a, b, Ta[rest], Tb[rest], max_iterations, limit[rest], deep_enough)
+        found_rest = _searched(
+            a, b, Ta[rest], Tb[rest], max_iterations, limit[rest], deep_enough, exact_above
+        )
         for name in ("distance", "depth", "point_a", "point_b", "buried"):
             getattr(out, name)[rest] = getattr(found_rest, name)
     return out
 
 
-def _searched(a, b, Ta, Tb, max_iterations, within, deep_enough) -> PairDistance:
+def _searched(a, b, Ta, Tb, max_iterations, within, deep_enough, exact_above=0.0) -> PairDistance:
     """:func:`pair_distance` of two bodies of several leaves (or one of them) by the trees'
     breadth-first search (:func:`bvh.candidates`) and their leaf pairs measured in batches."""
     K = len(Ta)
@@ -478,10 +510,13 @@ def _searched(a, b, Ta, Tb, max_iterations, within, deep_enough) -> PairDistance
         leaves(b, Tb, placed_b, k, lb),
         max_iterations,
         deep_enough,
+        exact_above,
     )
 
 
-def _closest(a, b, Ta, Tb, K, k, pa, pb, max_iterations, deep_enough=np.inf) -> PairDistance:
+def _closest(
+    a, b, Ta, Tb, K, k, pa, pb, max_iterations, deep_enough=np.inf, exact_above=0.0
+) -> PairDistance:
     """Each state's closest pair among the piece pairs ``pa[q]``, ``pb[q]`` of state ``k[q]``,
     its depth where they overlap, and whether one body is buried in the other's closed mesh.
     ``deep_enough``: a state's overlapping pairs are measured a few at a time (GJK's simplex
@@ -508,7 +543,9 @@ def _closest(a, b, Ta, Tb, K, k, pa, pb, max_iterations, deep_enough=np.inf) -> 
         take = (rank >= low) & (rank < high) & (depth[k[overlapping]] <= deep_enough)
         rows = overlapping[take]
         if len(rows):
-            d, _ = convex.penetration(pa.take(rows), pb.take(rows))
+            d, _ = convex.penetration(
+                pa.take(rows), pb.take(rows), deep_enough, k[rows], exact_above
+            )
             np.maximum.at(depth, k[rows], np.maximum(d, 0.0))
         low, high = high, 2 * high + 1
     buried = np.zeros(K, dtype=bool)
@@ -560,6 +597,7 @@ def distances(
     max_iterations: int = convex.MAX_ITERATIONS,
     within: float | np.ndarray = np.inf,
     deep_enough: float = np.inf,
+    exact_above: float = 0.0,
 ) -> PairDistance:
     """Exact distances of Q queries: body ``I[q]`` at ``TI[q]`` against ``J[q]`` at ``TJ[q]``.
 
@@ -579,6 +617,8 @@ def distances(
         (:func:`pair_distance`).
     deep_enough : float
         Depths above this [m] may be reported as any depth above it (:func:`pair_distance`).
+    exact_above : float
+        Depths below this [m] may be reported as an upper bound below it (:func:`pair_distance`).
     """
     I, J = np.asarray(I, dtype=int), np.asarray(J, dtype=int)
     Q = len(I)
@@ -618,13 +658,20 @@ def distances(
             if len(over):
                 pa = _gather(bodies, I[over], TI[over])
                 pb = _gather(bodies, J[over], TJ[over])
-                d, _ = convex.penetration(pa, pb)
+                d, _ = convex.penetration(pa, pb, deep_enough, exact_above=exact_above)
                 out.depth[over] = np.maximum(d, 0.0)
     limit = np.broadcast_to(np.asarray(within, dtype=float), (Q,))
     for i, j in {(int(a), int(b)) for a, b in zip(I[~primitive], J[~primitive])}:
         sel = np.flatnonzero((I == i) & (J == j))
         res1 = pair_distance(
-            bodies[i], bodies[j], TI[sel], TJ[sel], max_iterations, limit[sel], deep_enough
+            bodies[i],
+            bodies[j],
+            TI[sel],
+            TJ[sel],
+            max_iterations,
+            limit[sel],
+            deep_enough,
+            exact_above,
         )
         out.distance[sel], out.depth[sel], out.buried[sel] = res1.distance, res1.depth, res1.buried
         out.point_a[sel], out.point_b[sel] = res1.point_a, res1.point_b

@@ -27,7 +27,7 @@ CONTACTS = (I64, DPTR, F64, DPTR, DPTR) + TREE + TREE + LEAVES + LEAVES + (I64, 
 
 BOX_BOUND_LEAVES = 8  # the walk bounds a hull against a node's box above this many leaves
 WITNESS = 9  # doubles per state of contacts' witness: points (6), leaves (2), shallow depth
-DIRECTIONS = 16  # convex.penetration's candidates: 3 + 3 axes, their 9 crosses, the centres
+DIRECTIONS = 18  # convex.candidate_depth's: 3 + 3 axes, their 9 crosses, the centres, 2 normals
 
 
 def box_gap_ir(symbol: str) -> str:
@@ -160,9 +160,10 @@ def touching_ir(symbol: str) -> str:
 
 
 def _polytope_depth(k: Kernel, a: tuple, b: tuple):
-    """The depth estimate of :func:`rworld_cli.collision.convex.penetration` for two rows of
-    leaf tables: the least of ``hi_a - lo_b`` and ``hi_b - lo_a`` over the unit directions of
-    each piece's three axes, their nine cross products and the centres' difference, those no
+    """The depth of :func:`rworld_cli.collision.convex.candidate_depth` for two rows of leaf
+    tables (exact for boxes and triangles, whose axes are complete): the least of ``hi_a -
+    lo_b`` and ``hi_b - lo_a`` over the unit directions of each piece's three axes, their nine
+    cross products, the centres' difference and each piece's first two axes crossed, those no
     shorter than 1e-9.  A side is (vertices table, V, row, pose (12 doubles: R's rows, then
     t), axes table (3 rows of 3 a row), centres table); the builder is left at the end of the
     emitted code, and the estimate returned."""
@@ -194,6 +195,8 @@ def _polytope_depth(k: Kernel, a: tuple, b: tuple):
     axes_b, centre_b, Rb, tb = placed_side(b)
     candidates = axes_a + axes_b + [cross(x, y) for x in axes_a for y in axes_b]
     candidates.append([b_.fsub(centre_b[j], centre_a[j]) for j in range(3)])
+    # a triangle's normal: its first two edges crossed (a box: its third axis again)
+    candidates += [cross(axes_a[0], axes_a[1]), cross(axes_b[0], axes_b[1])]
     units, goods = [], []
     for d in candidates:
         length = k.length(d)

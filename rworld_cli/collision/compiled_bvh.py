@@ -168,9 +168,9 @@ def walk_side(tree, leaves) -> tuple:
     by the caller, so that one pair's call does not convert them again): ``leaves`` =
     (table (R, V, 3), neighbours (R, V, D) int64 or None: scanned, pose (12,): the table's
     frame in the tree's, R's rows then t, estimate: (axes (R, 3, 3), centres (R, 3)) in the
-    table's frame as :func:`rworld_cli.collision.convex.penetration` takes them, None, or
-    ``"cylinder"``: the table is one cylinder, ``[[[radius, half length, 0]]]``, on the pose's
-    z axis);
+    table's frame as :func:`rworld_cli.collision.convex.candidate_depth` takes them (complete:
+    exact depths), None, or ``"cylinder"``: the table is one cylinder, ``[[[radius, half
+    length, 0]]]``, on the pose's z axis);
     the tree's leaf ``item`` is the table's row ``item``, a polytope; an inner node's is
     passed as minus its number of leaves (:func:`.contacts_ir`)."""
     table, neighbours, pose, estimate = leaves

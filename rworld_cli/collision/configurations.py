@@ -338,6 +338,7 @@ class ConfigurationChecker:
             TJ,
             within=within,
             deep_enough=deep_enough,
+            exact_above=self.tolerance,
         )
         self._tally(s, p, _signed(res), res.buried, *report)
 
@@ -552,6 +553,7 @@ class ConfigurationChecker:
                 placed(J),
                 within=within[rows],
                 deep_enough=self.tolerance,
+                exact_above=self.tolerance,
             )
             signed[rows], buried[rows] = _signed(res), res.buried
         return np.minimum(signed, within), buried

@@ -27,12 +27,18 @@ converge linearly near the end; 96 iterations reach the tolerance for every
 case of the property tests.
 
 Penetration: when the cores overlap, GJK returns distance 0 and
-:func:`penetration` estimates the depth as the least overlap of the two
-pieces' projections over candidate directions (the 15 separating axes of two
-boxes, the cylinder axes and their cross products, the centre line).  The
-least overlap over *all* directions is the exact penetration depth of two
-convex solids; over the candidates it is an upper bound, exact for two boxes
-and for spheres.
+:func:`penetration` measures the depth, the least overlap of the two pieces'
+projections over all directions (the distance from the origin to the boundary of
+their Minkowski difference).  For two polytopes the least is taken on a face
+normal of that difference: a face normal of either piece or the cross product of
+an edge of each.  Boxes and triangles carry those directions (``complete``), so
+for their pairs the least over the candidates - each piece's axes, the cross
+products of a's with b's, each piece's first two axes crossed, the centre line -
+is exact.  Other pairs (hulls, cylinders) start from the same candidates and are
+then measured by :func:`expanding_depth`: the hull of support points of the
+difference grown towards its face nearest the origin until the support along
+that face's normal is within :data:`DEPTH_TOLERANCE` of it (the expanding
+polytope algorithm, with each hull taken by qhull).
 """
 
 from __future__ import annotations
@@ -77,6 +83,18 @@ class Pieces:
         ``table[rows[p]]`` placed by its pose (:func:`rworld_cli.collision.compiled.
         gjk_local` climbs their hulls); ``vertices`` then holds only their centres, and
         :attr:`points` places the vertices when something needs them.
+    complete : ndarray of bool, shape (P,), or None
+        The piece's ``axes`` with the cross product of the first two hold every face normal
+        and edge direction it has (a box: its axes; a triangle: its three edges, their cross
+        its normal; a sphere's core, a point): :func:`penetration`'s candidates are then the
+        exact set for a pair of such pieces.  None: no piece is (a hull's principal axes, a
+        cylinder: measured by :func:`expanding_depth`).
+    faces : tuple, or None
+        Hulls' faces, ``(table (C, F, 4), row (P,) int, R (P, 3, 3), t (P, 3))``: piece p's
+        are ``table[row[p]]`` (unit outward normal and offset, ``n.x <= offset`` inside, in its
+        own frame; rows of zeros pad, :func:`hull_faces`), placed by ``R[p]``, ``t[p]``.  More
+        candidates for :func:`candidate_depth`, each with its support known (an upper bound
+        close to the exact depth, so that few pairs need :func:`expanding_depth`).
     """
 
     vertices: np.ndarray
@@ -89,6 +107,8 @@ class Pieces:
     axes: np.ndarray
     rows: np.ndarray | None = None
     local: tuple | None = None
+    complete: np.ndarray | None = None
+    faces: tuple | None = None
 
     @property
     def points(self) -> np.ndarray:
@@ -126,6 +146,10 @@ class Pieces:
             self.axes[index],
             None if self.rows is None else self.rows[index],
             local,
+            None if self.complete is None else self.complete[index],
+            None
+            if self.faces is None
+            else (self.faces[0], self.faces[1][index], self.faces[2][index], self.faces[3][index]),
         )
 
     def materialized(self) -> Pieces:
@@ -497,14 +521,31 @@ def _affine_nearest(pts: np.ndarray):
     return lam, valid
 
 
-def penetration(a: Pieces, b: Pieces) -> tuple[np.ndarray, np.ndarray]:
-    """Penetration depth estimate of overlapping pieces: the least projection overlap over
-    candidate directions (an upper bound, exact for box pairs and spheres).
+def penetration(
+    a: Pieces,
+    b: Pieces,
+    deep_enough: float = np.inf,
+    state: np.ndarray | None = None,
+    exact_above: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Penetration depth of overlapping pieces (module docstring): exact for pairs of
+    ``complete`` pieces by their candidate directions, by :func:`expanding_depth` for the
+    others.
 
     Parameters
     ----------
     a, b : Pieces
         P pairs (expected to overlap).
+    deep_enough : float
+        Depths are exact up to this [m]: a pair shown deeper is reported with a depth above
+        it, not measured further (a collision test needs no more).
+    state : ndarray of int, shape (P,), optional
+        Each pair's group (its state): only each group's deepest pair is measured exactly; the
+        others keep an upper bound that does not exceed it (what a state's depth, the deepest
+        of its pairs, needs).  The pairs are measured deepest bound first.
+    exact_above : float
+        Depths are exact above this [m]: a pair whose candidates bound it at or below (a
+        touch within the collision tolerance, whatever its depth) keeps that bound.
 
     Returns
     -------
@@ -513,10 +554,41 @@ def penetration(a: Pieces, b: Pieces) -> tuple[np.ndarray, np.ndarray]:
     normal : ndarray, shape (P, 3)
         Unit direction from a towards b.
     """
+    best, normal = candidate_depth(a, b)
+    exact = np.zeros(len(a), dtype=bool)
+    if a.complete is not None and b.complete is not None:
+        exact = a.complete & b.complete
+    rows = np.flatnonzero(~exact & (best > max(exact_above, 0.0)))
+    if not len(rows):
+        return best, normal
+    group = np.zeros(len(a), dtype=np.int64) if state is None else np.asarray(state)
+    floor: dict[int, float] = {}  # each group's deepest measured so far
+    if state is not None:
+        for k in np.flatnonzero(exact):
+            floor[int(group[k])] = max(floor.get(int(group[k]), -np.inf), float(best[k]))
+    for k in rows[np.argsort(-best[rows], kind="stable")]:
+        g = int(group[k])
+        if state is not None and best[k] <= floor.get(g, -np.inf):
+            continue  # an upper bound below a deeper pair of its state: that one counts
+        one = np.array([k])
+        start = (float(best[k]), normal[k].copy())
+        depth, n = expanding_depth(a.take(one), b.take(one), deep_enough, start)
+        if depth < best[k]:
+            best[k], normal[k] = depth, n
+        floor[g] = max(floor.get(g, -np.inf), float(best[k]))
+    return best, normal
+
+
+def candidate_depth(a: Pieces, b: Pieces) -> tuple[np.ndarray, np.ndarray]:
+    """The least projection overlap of P pairs over their candidate directions (module
+    docstring): an upper bound on the penetration depth, exact for ``complete`` pieces;
+    (depth (P,) [m], unit normal from a towards b (P, 3))."""
     P = len(a)
     cands = [a.axes[:, i] for i in range(3)] + [b.axes[:, i] for i in range(3)]
     cands += [np.cross(a.axes[:, i], b.axes[:, j]) for i in range(3) for j in range(3)]
     cands.append(b.center - a.center)
+    # a triangle's normal (its first two edges crossed; a box's third axis again)
+    cands += [np.cross(a.axes[:, 0], a.axes[:, 1]), np.cross(b.axes[:, 0], b.axes[:, 1])]
     dirs = np.stack(cands, axis=1)  # (P, D, 3)
     length = np.linalg.norm(dirs, axis=2)
     good = length > 1e-9
@@ -540,7 +612,133 @@ def penetration(a: Pieces, b: Pieces) -> tuple[np.ndarray, np.ndarray]:
     sign = np.where(pick % 2 == 0, 1.0, -1.0)
     normal = sign[:, None] * dirs[np.arange(P), pick // 2]
     normal[~np.isfinite(best)] = 0.0
+    # a hull's faces: the other piece pushed out through each (its support along the face's
+    # normal is the face's offset), the other's vertices taken into the hull's frame
+    for faced, other, towards in ((a, b, 1.0), (b, a, -1.0)):
+        if faced.faces is None:
+            continue
+        table, row, R, t = faced.faces
+        usable = np.abs(table[..., :3]).sum(axis=2) > 0.5  # (C, F): padding rows out
+        if other.cylinder.any():  # a cylinder's extent along a normal: in world, closed form
+            for k in np.flatnonzero(other.cylinder):
+                one = np.array([k])
+                placed = place_faces(table[row[one]], R[one], t[one])
+                _, lo = _extents(other.take(one), placed[..., :3])
+                value = placed[0, :, 3] + faced.margin[k] - lo[0]
+                value = np.where(usable[row[k]], value, np.inf)
+                f = int(np.argmin(value))
+                if value[f] < best[k]:
+                    best[k], normal[k] = value[f], towards * placed[0, f, :3]
+        points = other.points
+        for part in np.unique(row[~other.cylinder]):
+            rows = np.flatnonzero((row == part) & ~other.cylinder)
+            n, offset = table[part, :, :3], table[part, :, 3]
+            block = max(1, PENETRATION_BUDGET // (points.shape[1] * len(n)))
+            for start in range(0, len(rows), block):
+                sel = rows[start : start + block]
+                local = np.einsum("pji,pvj->pvi", R[sel], points[sel] - t[sel, None, :])
+                lo = (local @ n.T).min(axis=1) - other.margin[sel, None]  # (S, F)
+                value = offset + faced.margin[sel, None] - lo
+                value = np.where(usable[part], value, np.inf)
+                f = np.argmin(value, axis=1)
+                least = value[np.arange(len(sel)), f]
+                better = least < best[sel]
+                best[sel[better]] = least[better]
+                normal[sel[better]] = towards * np.einsum(
+                    "pij,pj->pi", R[sel[better]], n[f[better]]
+                )
     return best, normal
+
+
+DEPTH_TOLERANCE = 1e-9  # [m] expanding_depth stops when its bounds are this close
+DEPTH_ITERATIONS = 200  # expansions at most (a polytope pair needs a few dozen)
+# the first support points: the 26 directions of a cube's faces, edges and corners
+_SEED_DIRECTIONS = np.array(
+    [
+        [x, y, z]
+        for x in (-1, 0, 1)
+        for y in (-1, 0, 1)
+        for z in (-1, 0, 1)
+        if (x, y, z) != (0, 0, 0)
+    ],
+    dtype=float,
+)
+_SEED_DIRECTIONS /= np.linalg.norm(_SEED_DIRECTIONS, axis=1, keepdims=True)
+
+
+def expanding_depth(
+    a: Pieces, b: Pieces, deep_enough: float = np.inf, start: tuple | None = None
+) -> tuple[float, np.ndarray]:
+    """The penetration depth of one pair of overlapping convex pieces (any kind) [m], to
+    :data:`DEPTH_TOLERANCE`, and its unit normal from a towards b (3,).
+
+    The Minkowski difference ``D = a - b`` holds the origin; the depth is the least of its
+    support function ``h(u) = max_a u.x - min_b u.y`` over unit ``u``, the distance from the
+    origin to D's boundary.  Two polytopes: D is the hull of every vertex difference, its
+    face nearest the origin found by qhull at once.  Otherwise (a cylinder): support points
+    of D along the candidate directions and 26 more are its inner polytope; while the origin
+    is not inside it, the supports along the normals of the faces it lies beyond are added
+    (none new: the origin is on D's boundary, depth 0).  Then, as the expanding polytope
+    algorithm: the face nearest the origin (distance ``d``, normal ``n``) is a lower bound and
+    ``h(n)`` an upper one; the support along ``n`` is added until they meet, or the lower
+    bound is above ``deep_enough``.  The upper bound is returned (a depth never below the
+    exact one).  ``start``: the pair's :func:`candidate_depth` (depth, normal), when known."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    if start is None:
+        best, normal = candidate_depth(a, b)
+        start = (float(best[0]), normal[0])
+    upper, upper_n = start[0], np.array(start[1], dtype=float)
+    normal = upper_n[None]
+    margin = float(a.margin[0] + b.margin[0])
+    if not (a.cylinder[0] or b.cylinder[0]):
+        pa, pb = np.unique(a.points[0], axis=0), np.unique(b.points[0], axis=0)
+        if len(pa) * len(pb) <= EXACT_HULL_POINTS:
+            try:
+                hull = ConvexHull((pa[:, None, :] - pb[None, :, :]).reshape(-1, 3))
+            except (QhullError, ValueError):  # flat: the origin on D's boundary
+                return min(upper, margin), upper_n
+            face = int(np.argmin(-hull.equations[:, 3]))
+            depth = max(float(-hull.equations[face, 3]), 0.0) + margin
+            if depth < upper:
+                upper, upper_n = depth, hull.equations[face, :3].copy()
+            return upper, upper_n
+    dirs = np.concatenate([_SEED_DIRECTIONS, normal, -normal])
+    dirs = dirs[np.linalg.norm(dirs, axis=1) > 0.5]
+
+    def support(u: np.ndarray) -> np.ndarray:  # the cores' difference's support points (M, 3)
+        M = len(u)
+        A, B = a.take(np.zeros(M, dtype=int)), b.take(np.zeros(M, dtype=int))
+        return A.support(u) - B.support(-u)
+
+    points = support(dirs)
+    for _ in range(DEPTH_ITERATIONS):
+        try:
+            hull = ConvexHull(points)
+        except (QhullError, ValueError):  # flat: the origin on D's boundary (or no volume)
+            return min(upper, margin), upper_n
+        n, offset = hull.equations[:, :3], -hull.equations[:, 3]  # n.x <= offset inside
+        beyond = offset <= 0.0
+        if beyond.any():  # the origin not inside the inner polytope yet
+            new = support(n[beyond])
+            gain = np.einsum("ij,ij->i", new, n[beyond]) - offset[beyond]
+            if not (gain > DEPTH_TOLERANCE).any():
+                return min(upper, margin), upper_n  # on D's boundary: touching
+            points = np.concatenate([points, new[gain > DEPTH_TOLERANCE]])
+            continue
+        face = int(np.argmin(offset))
+        u = n[face]
+        s = support(u[None])[0]
+        h = float(u @ s)
+        if h + margin < upper:
+            upper, upper_n = h + margin, u.copy()
+        if h - offset[face] <= DEPTH_TOLERANCE or offset[face] + margin > deep_enough:
+            break
+        points = np.concatenate([points, s[None]])
+    return upper, upper_n
+
+
+EXACT_HULL_POINTS = 20_000  # vertex differences of two polytopes hulled at once, at most
 
 
 PENETRATION_BUDGET = 8_000_000  # vertex-direction products per block of penetration pairs
@@ -587,6 +785,7 @@ def boxes(T: np.ndarray, half: np.ndarray) -> Pieces:
         np.zeros(P),
         np.zeros(P),
         np.transpose(R, (0, 2, 1)).copy(),
+        complete=np.ones(P, dtype=bool),
     )
 
 
@@ -603,6 +802,7 @@ def spheres(center: np.ndarray, radius: np.ndarray) -> Pieces:
         np.zeros(P),
         np.broadcast_to(np.asarray(radius, dtype=float), (P,)).copy(),
         np.broadcast_to(np.eye(3), (P, 3, 3)).copy(),
+        complete=np.ones(P, dtype=bool),
     )
 
 
@@ -628,23 +828,26 @@ def triangles(tri: np.ndarray) -> Pieces:
     tri = np.asarray(tri, dtype=float).reshape(-1, 3, 3)
     P = len(tri)
     vertices = tri.copy()
-    e0, e1 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
-    n = np.cross(e0, e1)
-    axes = np.stack([e0, n, np.cross(n, e0)], axis=1)
+    # its three edges as its axes: with their crosses (the normal, each against the other
+    # piece's) the exact candidates of penetration
+    axes = tri[:, [1, 2, 0]] - tri
     axes /= np.linalg.norm(axes, axis=2, keepdims=True) + 1e-300
+    n = np.cross(axes[:, 0], axes[:, 1])
+    n /= np.linalg.norm(n, axis=1, keepdims=True) + 1e-300
     return Pieces(
         vertices,
         np.zeros(P, dtype=bool),
         tri.mean(axis=1),
-        axes[:, 1].copy(),
+        n,
         np.zeros(P),
         np.zeros(P),
         np.zeros(P),
         axes,
+        complete=np.ones(P, dtype=bool),
     )
 
 
-def hulls(vertices: np.ndarray, axes: np.ndarray) -> Pieces:
+def hulls(vertices: np.ndarray, axes: np.ndarray, faces: tuple | None = None) -> Pieces:
     """Convex polytopes given by their vertices.
 
     Parameters
@@ -653,6 +856,8 @@ def hulls(vertices: np.ndarray, axes: np.ndarray) -> Pieces:
         Each polytope's vertices in world [m] (a vertex repeated to fill V).
     axes : ndarray, shape (P, 3, 3)
         Unit directions as rows (principal axes): candidate axes for :func:`penetration`.
+    faces : tuple, optional
+        Their faces (:attr:`Pieces.faces`).
     """
     P = len(vertices)
     return Pieces(
@@ -664,7 +869,31 @@ def hulls(vertices: np.ndarray, axes: np.ndarray) -> Pieces:
         np.zeros(P),
         np.zeros(P),
         np.asarray(axes, dtype=float),
+        faces=faces,
     )
+
+
+def hull_faces(vertices: np.ndarray) -> np.ndarray:
+    """The faces of the hull of ``vertices`` (V, 3) [m]: unit outward normals and offsets
+    (F, 4), ``n.x <= offset`` inside, each normal once (coplanar facets merged); none (0, 4)
+    for a flat or degenerate set."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        equations = ConvexHull(vertices).equations
+    except (QhullError, ValueError):
+        return np.zeros((0, 4))
+    faces = np.column_stack([equations[:, :3], -equations[:, 3]])
+    _, first = np.unique(np.round(faces, 12), axis=0, return_index=True)
+    return faces[np.sort(first)]
+
+
+def place_faces(faces: np.ndarray, R: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Faces (..., F, 4) of a frame moved by rotation ``R`` (..., 3, 3) and translation ``t``
+    (..., 3) into world: the normals turned, the offsets moved along them; zero rows stay."""
+    n = np.einsum("...ij,...fj->...fi", R, faces[..., :3])
+    offset = faces[..., 3] + np.einsum("...fi,...i->...f", n, t)
+    return np.concatenate([n, np.where(np.abs(n).sum(-1) > 0.5, offset, 0.0)[..., None]], -1)
 
 
 def box_neighbours(width: int = 8) -> np.ndarray:

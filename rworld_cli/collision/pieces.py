@@ -59,6 +59,7 @@ def _placed(table, index, kind, R, c, world) -> convex.Pieces:
         scalars[:, 1].copy(),
         scalars[:, 2].copy(),
         axes,
+        complete=(kind == 0) | (kind == 1),  # boxes and spheres (module convex: penetration)
     )
 
 

@@ -367,8 +367,17 @@ def _sweep_chunk(
         adjacent[:, :-1] = bound
         adjacent[:, 1:] = np.maximum(adjacent[:, 1:], bound)
     within = _within(adjacent[qp, qk], watch, clearance)
+    # depths exact above the tolerance (what a collision reports); a touch's bounded from
+    # above (a signed distance no larger: the intervals' test stays safe)
     res = distances(
-        bodies, I[qp], J[qp], poses[I[qp], qk], poses[J[qp], qk], SWEEP_ITERATIONS, within
+        bodies,
+        I[qp],
+        J[qp],
+        poses[I[qp], qk],
+        poses[J[qp], qk],
+        SWEEP_ITERATIONS,
+        within,
+        exact_above=tolerance,
     )
     stats["queries"] += len(qp)
     exact[qp, qk] = _signed(res, within)
@@ -488,6 +497,7 @@ def _midpoints(run: _Sweep, levers, weights, pairs, items, tm, rows: slice):
         mid_poses[slot[:, 1], every],
         SWEEP_ITERATIONS,
         within,
+        exact_above=run.tolerance,
     )
     dm = _signed(res, within)
     for r in _reportable(res, run.tolerance, run.clearance):

@@ -31,16 +31,20 @@ def _setup(name: str):
     return cell, world, model, levers
 
 
-def _all_distances(world, model, states: dict) -> np.ndarray:
-    """(N, B, B) distances of every pair of bodies at N joint states (device -> (N, n))."""
+def _all_distances(world, model, states: dict, of=None, deep_enough=0.0) -> np.ndarray:
+    """(N, B, B) distances of every pair of bodies (``of``: those of that body) at N joint
+    states (device -> (N, n)), minus their depths where they overlap: exact up to
+    ``deep_enough`` (0: an overlap is only known to be one)."""
     bodies = model.bodies
     B = len(bodies)
     poses = sweep._poses(world, bodies, states)  # (B, N, 4, 4)
     N = poses.shape[1]
     I, J = np.triu_indices(B, 1)
+    if of is not None:
+        I, J = I[(I == of) | (J == of)], J[(I == of) | (J == of)]
     k = np.repeat(np.arange(N), len(I))
     I, J = np.tile(I, N), np.tile(J, N)
-    res = distances(bodies, I, J, poses[I, k], poses[J, k])
+    res = distances(bodies, I, J, poses[I, k], poses[J, k], deep_enough=deep_enough)
     d = np.where(res.overlap, -res.depth, res.distance)
     out = np.zeros((N, B, B))
     out[k, I, J] = d
@@ -79,12 +83,13 @@ def test_turning_a_joint_about_a_round_body_changes_none_of_its_distances(name):
         q = rng.uniform(np.maximum(lo, -np.pi), np.minimum(hi, np.pi), (8, dev.dof))
         turned = q.copy()
         turned[:, i] = rng.uniform(max(lo[i], -np.pi), min(hi[i], np.pi), 8)
-        before = _all_distances(world, model, {d: q})
-        after = _all_distances(world, model, {d: turned})
-        # distances exactly; an overlap stays an overlap (its depth is an estimate)
+        before = _all_distances(world, model, {d: q}, of=b, deep_enough=np.inf)
+        after = _all_distances(world, model, {d: turned}, of=b, deep_enough=np.inf)
+        # distances and depths (exact: convex.penetration) alike
         apart = before[:, b] > 0
         np.testing.assert_allclose(after[:, b][apart], before[:, b][apart], atol=1e-9)
         assert np.array_equal(after[:, b] > 0, apart)
+        np.testing.assert_allclose(after[:, b][~apart], before[:, b][~apart], atol=1e-8)
 
 
 @pytest.mark.parametrize("name, d", [("puma560", "puma"), ("paper_fig9", "robot")])
