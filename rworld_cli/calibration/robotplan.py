@@ -439,8 +439,13 @@ def tracker_visible(cell, device, target, Q, floor, instrument_at, acceptance, w
             continue
         Tc = np.broadcast_to(np.eye(4), (len(near), 4, 4)).copy()
         Tc[:, :3, 3] = C[near]
-        result = distances(
-            bodies, np.full(len(near), i), np.full(len(near), ball), Tb[owner[near]], Tc
+        result = distances(  # overlap or not: no depth wanted
+            bodies,
+            np.full(len(near), i),
+            np.full(len(near), ball),
+            Tb[owner[near]],
+            Tc,
+            deep_enough=0.0,
         )
         hidden[owner[near[result.overlap]]] = True
     lost["with the arm in the line of sight"] = int((keep & hidden).sum())

@@ -561,6 +561,26 @@ def penetration(
     rows = np.flatnonzero(~exact & (best > max(exact_above, 0.0)))
     if not len(rows):
         return best, normal
+    # a point core (a sphere's) in a cylinder: the point's depth below its side or its cap, in
+    # closed form (the expanding polytope converges slowly on a curved side)
+    for point, round_, towards in ((a, b, -1.0), (b, a, 1.0)):
+        sel = rows[round_.cylinder[rows] & ~point.cylinder[rows]]
+        sel = sel[np.ptp(point.points[sel], axis=1).max(axis=1) == 0.0] if len(sel) else sel
+        if not len(sel):
+            continue
+        u = point.points[sel, 0] - round_.center[sel]
+        axis = round_.axis[sel]
+        z = np.einsum("pi,pi->p", u, axis)
+        radial = u - z[:, None] * axis
+        rho = np.linalg.norm(radial, axis=1)
+        side = round_.radius[sel] - rho
+        cap = round_.half_length[sel] - np.abs(z)
+        margins = point.margin[sel] + round_.margin[sel]
+        out = np.where(rho > 0, 1.0, 0.0)[:, None] * radial / np.maximum(rho, 1e-300)[:, None]
+        out = np.where((side <= cap)[:, None], out, np.sign(z + (z == 0))[:, None] * axis)
+        best[sel] = np.minimum(side, cap) + margins
+        normal[sel] = towards * out  # from a towards b: the point leaves by that side
+        rows = np.setdiff1d(rows, sel)
     group = np.zeros(len(a), dtype=np.int64) if state is None else np.asarray(state)
     floor: dict[int, float] = {}  # each group's deepest measured so far
     if state is not None:
@@ -738,7 +758,8 @@ def expanding_depth(
     return upper, upper_n
 
 
-EXACT_HULL_POINTS = 20_000  # vertex differences of two polytopes hulled at once, at most
+# vertex differences of two polytopes hulled at once, at most (more: the expansion)
+EXACT_HULL_POINTS = 1_500
 
 
 PENETRATION_BUDGET = 8_000_000  # vertex-direction products per block of penetration pairs

@@ -97,7 +97,7 @@ def test_hull_pairs_equal_the_minkowski_hull_with_and_without_their_faces():
     np.testing.assert_allclose(depth, want, rtol=0, atol=1e-12)
 
 
-@pytest.mark.parametrize("other", ["triangle", "box", "cylinder"])
+@pytest.mark.parametrize("other", ["triangle", "box", "cylinder", "sphere"])
 def test_cylinder_depths_lie_between_the_prisms_inside_and_around_them(other):
     P = 24
     T = poses(P)
@@ -109,11 +109,18 @@ def test_cylinder_depths_lie_between_the_prisms_inside_and_around_them(other):
     elif other == "box":
         pieces = cv.boxes(poses(P), RNG.uniform(0.01, 0.05, (P, 3)))
         points = list(pieces.vertices)
+    elif other == "sphere":  # a point core in the cylinder (its closed form), grown
+        centres = T[:, :3, 3] + RNG.normal(scale=0.01, size=(P, 3))
+        pieces = cv.spheres(centres, RNG.uniform(0.001, 0.02, P))
+        points = list(centres[:, None, :])
     else:
         T2, r2, h2 = poses(P), RNG.uniform(0.01, 0.04, P), RNG.uniform(0.01, 0.05, P)
         pieces = cv.cylinders(T2, r2, h2)
     rows = overlapping(cylinders, pieces, 8)
+    if other == "sphere":  # the cores overlap: the centre inside the cylinder
+        rows = rows[cv.distance(cylinders.take(rows), cv.spheres(centres[rows], 0.0)).overlap]
     depth, _ = cv.penetration(cylinders.take(rows), pieces.take(rows))
+    depth = depth - pieces.margin[rows]  # the cores' depth
     # sides of the prisms: the bracket is r (1 - cos(pi / sides)) wide, 2.4e-7 m at 1024
     # against a polytope; two round pieces (a product of both prisms' vertices) 256 a side
     sides = 256 if other == "cylinder" else 1024
