@@ -208,9 +208,14 @@ class Body:
         if self.parts is not None and not self.single_piece:
             local, axes = self._hulls
             width = int(self._hull_counts[leaf].max(initial=1))
-            faces = (self._hull_faces, leaf, T[:, :3, :3], t)
+            faces = (self._faces_table, leaf, T[:, :3, :3], t)
             return convex.hulls(local[leaf, :width] @ Rt + t[:, None], axes[leaf] @ Rt, faces)
         return self.pieces(T)
+
+    def _faces_table(self) -> np.ndarray:
+        """:attr:`_hull_faces`, computed when a depth first needs them (qhull, and scipy's
+        import: 0.3 s a command otherwise)."""
+        return self._hull_faces
 
     @functools.cached_property
     def _hull_faces(self) -> np.ndarray:
@@ -245,7 +250,7 @@ class Body:
             pieces = _placed(table, index, table.kind[index], R, c, c[:, None, :])
             pose = np.concatenate([R.reshape(-1, 9), c], axis=1)
             pieces.local = (table.vertices, table.neighbours, index, pose)
-            pieces.faces = (self._hull_faces, index, T[:, :3, :3], T[:, :3, 3])
+            pieces.faces = (self._faces_table, index, T[:, :3, :3], T[:, :3, 3])
             return pieces
         if self.parts is not None:  # K * C hulls, state-major
             local, axes = self._hulls
@@ -254,7 +259,7 @@ class Body:
             world_axes = np.einsum("kij,caj->kcai", T[:, :3, :3], axes)
             C = len(local)
             faces = (
-                self._hull_faces,
+                self._faces_table,
                 np.tile(np.arange(C), len(T)),
                 np.repeat(T[:, :3, :3], C, axis=0),
                 np.repeat(T[:, :3, 3], C, axis=0),

@@ -90,7 +90,8 @@ class Pieces:
         exact set for a pair of such pieces.  None: no piece is (a hull's principal axes, a
         cylinder: measured by :func:`expanding_depth`).
     faces : tuple, or None
-        Hulls' faces, ``(table (C, F, 4), row (P,) int, R (P, 3, 3), t (P, 3))``: piece p's
+        Hulls' faces, ``(table (C, F, 4) or a function that returns it when first needed,
+        row (P,) int, R (P, 3, 3), t (P, 3))``: piece p's
         are ``table[row[p]]`` (unit outward normal and offset, ``n.x <= offset`` inside, in its
         own frame; rows of zeros pad, :func:`hull_faces`), placed by ``R[p]``, ``t[p]``.  More
         candidates for :func:`candidate_depth`, each with its support known (an upper bound
@@ -638,6 +639,7 @@ def candidate_depth(a: Pieces, b: Pieces) -> tuple[np.ndarray, np.ndarray]:
         if faced.faces is None:
             continue
         table, row, R, t = faced.faces
+        table = table() if callable(table) else table
         usable = np.abs(table[..., :3]).sum(axis=2) > 0.5  # (C, F): padding rows out
         if other.cylinder.any():  # a cylinder's extent along a normal: in world, closed form
             for k in np.flatnonzero(other.cylinder):
