@@ -360,7 +360,8 @@ class PairDistance:
     distance : ndarray, shape (K,)
         Separation [m]; 0 when the solids touch or overlap.
     depth : ndarray, shape (K,)
-        Penetration depth estimate where they overlap [m] (0 elsewhere).
+        Penetration depth where they overlap [m] (0 elsewhere): exact, but where the query
+        asked less (``deep_enough``, ``exact_above`` of :func:`pair_distance`).
     point_a, point_b : ndarray, shape (K, 3)
         Closest points (or the deepest contact points) in world [m].
     buried : ndarray of bool, shape (K,)

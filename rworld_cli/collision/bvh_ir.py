@@ -242,19 +242,20 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     gjk_ir` with ``local``, called for one pair): leaf ``item`` of a side is row ``item`` of its
     table (V vertices in the side's own frame, placed by its fixed ``pose``, 12 doubles, and for
     b then by the state's ``T_a_b``), climbed by its neighbours (D per vertex; 0: scanned).
-    ``status[k]``: 0 no leaf pair overlaps, 1 one overlaps deeper than ``deep`` by GJK's
-    depth bound or, where the bound says less and both leaves carry their axes (``estimate``
-    not 0: rows of ``axes`` (3 x 3) and ``centres`` (3) in the table's frame), by the depth
-    estimate of :func:`rworld_cli.collision.convex.penetration` (:func:`_polytope_depth`;
-    the walk of that state stops there), 2 some overlap is not known to be that deep (from
-    the first overlap on, only leaf pairs whose boxes meet are walked: the state's distance is
-    0); ``nearest[k]``: the least distance of the leaf pairs measured that do not overlap (inf:
-    none), exact for every pair within ``limit``; for status 1, minus that depth; for status 2,
-    0; ``witness[k]`` (:data:`WITNESS` doubles): that nearest pair's (status 2: the deepest
-    overlap's) closest points in a's frame (6), its two leaf items (as doubles), then for
-    status 2 the deepest overlap's depth estimate when every overlapping pair carries one (the
-    depth the exact query reports), else NaN.  ``status[0]`` -1: a tree deeper than the stack
-    (the caller falls back).
+    ``status[k]``: 0 no leaf pair overlaps, 1 one overlaps deeper than ``deep`` by GJK's depth
+    bound or, where the bound says less and both leaves carry their axes (``estimate`` 1: rows
+    of ``axes`` (3 x 3) and ``centres`` (3) in the table's frame: triangles and boxes, whose
+    depths these make exact; 2: the leaf is a cylinder, measured by GJK's own support, with no
+    depth here), by the depth of :func:`rworld_cli.collision.convex.candidate_depth`
+    (:func:`_polytope_depth`; the walk of that state stops there), 2 some overlap is not known
+    to be that deep (from the first overlap on, only leaf pairs whose boxes meet are walked: the
+    state's distance is 0); ``nearest[k]``: the least distance of the leaf pairs measured that
+    do not overlap (inf: none), exact for every pair within ``limit``; for status 1, minus that
+    depth; for status 2, 0; ``witness[k]`` (:data:`WITNESS` doubles): that nearest pair's
+    (status 2: the deepest overlap's) closest points in a's frame (6), its two leaf items (as
+    doubles), then for status 2 the deepest overlap's depth estimate when every overlapping pair
+    carries one (the depth the exact query reports), else NaN.  ``status[0]`` -1: a tree deeper
+    than the stack (the caller falls back).
 
     An inner node's ``item`` is minus the number of leaves below it (:func:`rworld_cli.
     collision.compiled_bvh.walk_side`): a node of at least :data:`BOX_BOUND_LEAVES` met by a
@@ -424,9 +425,10 @@ def contacts_ir(symbol: str, gjk_symbol: str) -> str:
     estimating = k.block("estimating")
     b.store(bound_depth, depth_slot)
     # an overlap GJK's simplex bounds too little (two crossing triangles leave it little
-    # volume): where both leaves carry their axes, the depth estimate of convex.penetration
-    # (the least overlap over the pieces' axes, their cross products and the centres'
-    # difference) decides, as the exact query would
+    # volume): where both leaves carry their axes (triangles, boxes), the depth of
+    # convex.candidate_depth (the least overlap over the pieces' axes, their cross products,
+    # their normals and the centres' difference: exact for them) decides, as the exact query
+    # would
     both = b.and_(b.icmp_signed("==", estimate_a, i(1)), b.icmp_signed("==", estimate_b, i(1)))
     shallow = b.and_(b.and_(overlap, b.not_(deeper)), both)
     b.cbranch(deeper, collided, measured)
