@@ -651,14 +651,14 @@ def candidate_depth(a: Pieces, b: Pieces) -> tuple[np.ndarray, np.ndarray]:
                 f = int(np.argmin(value))
                 if value[f] < best[k]:
                     best[k], normal[k] = value[f], towards * placed[0, f, :3]
-        points = other.points
         for part in np.unique(row[~other.cylinder]):
             rows = np.flatnonzero((row == part) & ~other.cylinder)
             n, offset = table[part, :, :3], table[part, :, 3]
-            block = max(1, PENETRATION_BUDGET // (points.shape[1] * len(n)))
+            block = max(1, PENETRATION_BUDGET // (max(other.width, 1) * len(n)))
             for start in range(0, len(rows), block):
                 sel = rows[start : start + block]
-                local = np.einsum("pji,pvj->pvi", R[sel], points[sel] - t[sel, None, :])
+                points = other.take(sel).points  # placed a block at a time (a large hull)
+                local = np.einsum("pji,pvj->pvi", R[sel], points - t[sel, None, :])
                 lo = (local @ n.T).min(axis=1) - other.margin[sel, None]  # (S, F)
                 value = offset + faced.margin[sel, None] - lo
                 value = np.where(usable[part], value, np.inf)
