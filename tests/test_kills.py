@@ -171,7 +171,7 @@ def test_a_killed_command_leaves_the_old_or_the_new_output_and_the_next_run_clea
         # the first and the last rename, and two between (seeded): every rename was killed
         # at until 2026-11-29, 87 s of the suite's CPU for three commands
         middle = renames[1:-1]
-        renames = renames[:1] + rng.sample(middle, min(2, len(middle))) + renames[-1:]
+        renames = renames[:1] + rng.sample(middle, min(2, len(middle))) + renames[1:][-1:]
         kills += [("strace", e) for e in renames + rng.sample(others, min(1, len(others)))]
     kills += [("timer", rng.uniform(0.3, 3.0))]
     seen = set()
