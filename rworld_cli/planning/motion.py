@@ -46,6 +46,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -379,14 +380,14 @@ def plan_path(
         found = _connect_trees(
             search, rng, start, goals, usable, lower, upper, step, max_iterations, progress
         )
-        if isinstance(found, str):
+        if isinstance(found, _GaveUp):
+            reason = found.reason
             if blocked is not None:
-                found += (
+                reason += (
                     f" ({attempts - 1} path(s) found before failed the continuous check "
                     "and could not be planned around)"
                 )
-            outcome = "timeout" if "time limit" in found else "iterations"
-            return failed(found, iterations + search.iterations, search.tree_states, outcome)
+            return failed(reason, iterations + search.iterations, search.tree_states, found.outcome)
         raw, goal, its, states = found
         iterations += its
         way = _shortcut(search, rng, raw, shortcuts)
@@ -458,9 +459,16 @@ def _blended(search: _Search, way: np.ndarray, knots: np.ndarray, blend_free) ->
     return blends
 
 
+class _GaveUp(NamedTuple):
+    """Why a tree search ended without a path: :attr:`PathPlan.outcome`'s word, and in words."""
+
+    outcome: str
+    reason: str
+
+
 def _connect_trees(search, rng, start, goals, usable, lower, upper, step, max_iterations, progress):
     """RRT-Connect: (the path's states (M, n) start to goal, goal index, iterations, tree
-    states), or the reason it failed (str)."""
+    states), or why it failed (:class:`_GaveUp`)."""
     n = len(start)
     from_start, from_goals = _Tree(n), _Tree(n)
     from_start.add(start, -1)
@@ -474,7 +482,7 @@ def _connect_trees(search, rng, start, goals, usable, lower, upper, step, max_it
         if progress is not None and iteration % 64 == 0:
             progress(iteration, search.tree_states)
         if search.out_of_time():
-            return "no path found within the time limit"
+            return _GaveUp("timeout", "no path found within the time limit")
         q_rand = rng.uniform(lower, upper)
         new = _extend(search, grow, q_rand, step, connect=False)
         if new is not None:
@@ -489,7 +497,7 @@ def _connect_trees(search, rng, start, goals, usable, lower, upper, step, max_it
                 search.tree_states = from_start.count + from_goals.count
                 return path, root_goal[root], iteration, search.tree_states
         grow, other = other, grow
-    return "no path found within the iteration bound"
+    return _GaveUp("iterations", "no path found within the iteration bound")
 
 
 def _extend(search: _Search, tree: _Tree, target: np.ndarray, step: float, connect: bool):
@@ -605,7 +613,7 @@ def _validated(search: _Search, rng, way, lower, upper, step, depth: int = 0):
             finer, rng, q0, q1[None], np.array([0]), lower, upper, step, 100_000, None
         )
         piece, more = None, 0
-        if not isinstance(found, str):
+        if not isinstance(found, _GaveUp):
             piece = _shortcut(finer, rng, found[0], 20)
             piece, more, _ = _validated(finer, rng, piece, lower, upper, step, depth + 1)
         search.states_checked += finer.states_checked
