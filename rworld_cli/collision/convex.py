@@ -582,21 +582,22 @@ def penetration(
         best[sel] = np.minimum(side, cap) + margins
         normal[sel] = towards * out  # from a towards b: the point leaves by that side
         rows = np.setdiff1d(rows, sel)
-    group = np.zeros(len(a), dtype=np.int64) if state is None else np.asarray(state)
-    floor: dict[int, float] = {}  # each group's deepest measured so far
+    # each group's deepest measured so far (the complete pairs' exact already); no groups: a
+    # floor that never skips
+    _, group = np.unique(np.zeros(len(a)) if state is None else state, return_inverse=True)
+    floor = np.full(group.max(initial=-1) + 1, -np.inf)
     if state is not None:
-        for k in np.flatnonzero(exact):
-            floor[int(group[k])] = max(floor.get(int(group[k]), -np.inf), float(best[k]))
+        np.maximum.at(floor, group[exact], best[exact])
     for k in rows[np.argsort(-best[rows], kind="stable")]:
-        g = int(group[k])
-        if state is not None and best[k] <= floor.get(g, -np.inf):
+        if best[k] <= floor[group[k]]:
             continue  # an upper bound below a deeper pair of its state: that one counts
         one = np.array([k])
         start = (float(best[k]), normal[k].copy())
         depth, n = expanding_depth(a.take(one), b.take(one), deep_enough, start)
         if depth < best[k]:
             best[k], normal[k] = depth, n
-        floor[g] = max(floor.get(g, -np.inf), float(best[k]))
+        if state is not None:
+            floor[group[k]] = max(floor[group[k]], best[k])
     return best, normal
 
 
@@ -641,16 +642,20 @@ def candidate_depth(a: Pieces, b: Pieces) -> tuple[np.ndarray, np.ndarray]:
         table, row, R, t = faced.faces
         table = table() if callable(table) else table
         usable = np.abs(table[..., :3]).sum(axis=2) > 0.5  # (C, F): padding rows out
-        if other.cylinder.any():  # a cylinder's extent along a normal: in world, closed form
-            for k in np.flatnonzero(other.cylinder):
-                one = np.array([k])
-                placed = place_faces(table[row[one]], R[one], t[one])
-                _, lo = _extents(other.take(one), placed[..., :3])
-                value = placed[0, :, 3] + faced.margin[k] - lo[0]
-                value = np.where(usable[row[k]], value, np.inf)
-                f = int(np.argmin(value))
-                if value[f] < best[k]:
-                    best[k], normal[k] = value[f], towards * placed[0, f, :3]
+        # a cylinder's extent along the normals: in world, in closed form
+        round_ = np.flatnonzero(other.cylinder)
+        block = max(1, PENETRATION_BUDGET // table.shape[1])
+        for start in range(0, len(round_), block):
+            sel = round_[start : start + block]
+            placed = place_faces(table[row[sel]], R[sel], t[sel])
+            _, lo = _extents(other.take(sel), placed[..., :3])
+            value = placed[..., 3] + faced.margin[sel, None] - lo
+            value = np.where(usable[row[sel]], value, np.inf)
+            f = np.argmin(value, axis=1)
+            least = value[np.arange(len(sel)), f]
+            better = least < best[sel]
+            best[sel[better]] = least[better]
+            normal[sel[better]] = towards * placed[better, f[better], :3]
         for part in np.unique(row[~other.cylinder]):
             rows = np.flatnonzero((row == part) & ~other.cylinder)
             n, offset = table[part, :, :3], table[part, :, 3]

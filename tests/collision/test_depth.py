@@ -9,6 +9,8 @@ exact depths."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
@@ -60,9 +62,11 @@ def test_triangle_and_box_pairs_equal_the_minkowski_hull():
         want = np.array([hull_depth(pa[k], pb[k]) for k in rows])
         np.testing.assert_allclose(depth, want, rtol=0, atol=1e-12)
         # b moved by the depth along the normal (a little more) clears a
-        moved = cv.Pieces(**{**b.take(rows).__dict__})
-        moved.vertices = moved.vertices + (depth + 1e-7)[:, None, None] * normal[:, None, :]
-        moved.center = moved.center + (depth + 1e-7)[:, None] * normal
+        step = (depth + 1e-7)[:, None] * normal
+        taken = b.take(rows)
+        moved = dataclasses.replace(
+            taken, vertices=taken.vertices + step[:, None, :], center=taken.center + step
+        )
         assert not cv.distance(a.take(rows), moved).overlap.any()
 
 
@@ -95,6 +99,16 @@ def test_hull_pairs_equal_the_minkowski_hull_with_and_without_their_faces():
         np.testing.assert_allclose(depth, want, rtol=0, atol=1e-12)
     depth, _ = cv.penetration(others.take(rows), with_faces.take(rows))  # either side
     np.testing.assert_allclose(depth, want, rtol=0, atol=1e-12)
+    # against cylinders (the faces' bound in closed form): the same depths as without faces
+    round_ = cv.cylinders(poses(P, 0.0), RNG.uniform(0.01, 0.03, P), RNG.uniform(0.01, 0.03, P))
+    rows = overlapping(bare, round_, 20)
+    bound, _ = cv.candidate_depth(with_faces.take(rows), round_.take(rows))
+    plain, _ = cv.candidate_depth(bare.take(rows), round_.take(rows))
+    assert (bound <= plain).all() and (bound < plain).any()  # the faces tighten the bound
+    faced, _ = cv.penetration(with_faces.take(rows), round_.take(rows))
+    without, _ = cv.penetration(bare.take(rows), round_.take(rows))
+    np.testing.assert_allclose(faced, without, rtol=0, atol=2e-9)
+    assert (faced <= bound + 1e-12).all()
 
 
 @pytest.mark.parametrize("other", ["triangle", "box", "cylinder", "sphere"])
