@@ -59,6 +59,7 @@ def coal_depth(geometry, a, b, Ta, Tb) -> float:
 
 
 def main() -> None:
+    from machine import cpu_model
     from motion import coal_geometry
 
     from rworld_cli.api import device_context
@@ -70,14 +71,7 @@ def main() -> None:
     parser.add_argument("--per-family", type=int, default=1000, help="overlapping pairs each")
     parser.add_argument("--only", nargs="*", default=None, help="families to run")
     args = parser.parse_args()
-    cpu = next(
-        (
-            line.split(":", 1)[1].strip()
-            for line in Path("/proc/cpuinfo").read_text().splitlines()
-            if line.startswith("model name")
-        ),
-        platform.processor(),
-    )
+    cpu = cpu_model()
     print(f"# Penetration depths beside coal: {cpu}, Python {platform.python_version()}\n")
     print(
         "| family | pairs | median depth [mm] | |rworld - coal| median [m] | p99 [m] | max [m] "

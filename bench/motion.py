@@ -356,14 +356,9 @@ def main() -> None:
     for p in problems:
         if args.only is None or p["scene"] in args.only:
             scenes.setdefault(p["scene"], []).append(p)
-    cpu = next(
-        (
-            line.split(":", 1)[1].strip()
-            for line in Path("/proc/cpuinfo").read_text().splitlines()
-            if line.startswith("model name")
-        ),
-        platform.processor(),
-    )
+    from machine import cpu_model
+
+    cpu = cpu_model()
     print(
         f"# Motion planning beside OMPL: {cpu}, Python {platform.python_version()}, "
         f"timeout {args.timeout:g} s{', MotionBenchMaker Panda' if args.mbm else ''}\n"

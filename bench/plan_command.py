@@ -28,19 +28,14 @@ RWORLD = Path(sys.executable).parent / "rworld"
 
 
 def main() -> None:
+    from machine import cpu_model
+
     from tests.planning import mbm_cells as mbm
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--per-family", type=int, default=3, help="problems of each family")
     args = parser.parse_args()
-    cpu = next(
-        (
-            line.split(":", 1)[1].strip()
-            for line in Path("/proc/cpuinfo").read_text().splitlines()
-            if line.startswith("model name")
-        ),
-        platform.processor(),
-    )
+    cpu = cpu_model()
     print(f"# rworld plan path, whole commands: {cpu}, Python {platform.python_version()}\n")
     root = Path(tempfile.mkdtemp(prefix="rworld-command-"))
     robot = mbm.robot_cell(root)

@@ -30,22 +30,6 @@ RENDERER = """(() => {
 })()"""
 
 
-def cpu_model() -> str:
-    """The CPU's model name, family and model as lscpu shows them (from /proc/cpuinfo)."""
-    try:
-        fields = dict(
-            (key.strip(), value.strip())
-            for key, _, value in (
-                line.partition(":") for line in Path("/proc/cpuinfo").read_text().splitlines()
-            )
-        )
-    except OSError:
-        return platform.processor() or platform.machine()
-    return f"{fields.get('model name', '?')} (family {fields.get('cpu family', '?')}, model " + (
-        f"{fields.get('model', '?')})"
-    )
-
-
 def build_page(folder: Path) -> Path:
     """The viewer page of paper_fig9 transfer, as `simulate --view` writes it."""
     from rworld_cli.api import simulate_run
@@ -61,6 +45,8 @@ def build_page(folder: Path) -> Path:
 
 
 def main() -> None:
+    from machine import cpu_model
+
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=3.0, help="playback measured per repeat")
     parser.add_argument("--repeat", type=int, default=3)
