@@ -208,7 +208,7 @@ class Body:
         if self.parts is not None and not self.single_piece:
             local, axes = self._hulls
             width = int(self._hull_counts[leaf].max(initial=1))
-            faces = (self._faces_table, leaf, T[:, :3, :3], t)
+            faces = (self._faces_table, leaf, T[:, :3, :3], t, self._edges_table)
             return convex.hulls(local[leaf, :width] @ Rt + t[:, None], axes[leaf] @ Rt, faces)
         return self.pieces(T)
 
@@ -226,6 +226,22 @@ class Body:
         out = np.zeros((len(faces), max(1, max(len(f) for f in faces)), 4))
         for k, f in enumerate(faces):
             out[k, : len(f)] = f
+        return out
+
+    def _edges_table(self) -> np.ndarray:
+        """:attr:`_hull_edges`, computed when a depth first needs them (as the faces)."""
+        return self._hull_edges
+
+    @functools.cached_property
+    def _hull_edges(self) -> np.ndarray:
+        """Each convex part's hull edges in the body's frame, padded with zero rows to one
+        count (C, E, 12) (:func:`convex.hull_edges`): with the faces, a box's or a
+        triangle's depth against the part is exact."""
+        assert self.parts is not None
+        edges = [convex.hull_edges(v) for v, _ in self.parts]
+        out = np.zeros((len(edges), max(1, max(len(e) for e in edges)), 12))
+        for k, e in enumerate(edges):
+            out[k, : len(e)] = e
         return out
 
     @functools.cached_property
@@ -250,7 +266,13 @@ class Body:
             pieces = _placed(table, index, table.kind[index], R, c, c[:, None, :])
             pose = np.concatenate([R.reshape(-1, 9), c], axis=1)
             pieces.local = (table.vertices, table.neighbours, index, pose)
-            pieces.faces = (self._faces_table, index, T[:, :3, :3], T[:, :3, 3])
+            pieces.faces = (
+                self._faces_table,
+                index,
+                T[:, :3, :3],
+                T[:, :3, 3],
+                self._edges_table,
+            )
             return pieces
         if self.parts is not None:  # K * C hulls, state-major
             local, axes = self._hulls
@@ -263,6 +285,7 @@ class Body:
                 np.tile(np.arange(C), len(T)),
                 np.repeat(T[:, :3, :3], C, axis=0),
                 np.repeat(T[:, :3, 3], C, axis=0),
+                self._edges_table,
             )
             return convex.hulls(world.reshape(-1, count, 3), world_axes.reshape(-1, 3, 3), faces)
         if shape.kind == "mesh":
@@ -542,7 +565,7 @@ def _closest(
     # the deepest overlapping piece pair of each state: all at once when depths are to be
     # exact, else the first of each state, then the next two, four, ... of the states not
     # yet deeper than deep_enough
-    rank = _rank_in_state(k[overlapping])
+    rank = convex.rank_in_group(k[overlapping])
     last = int(rank.max(initial=-1))
     low, high = 0, (last + 1 if not np.isfinite(deep_enough) else 1)
     while low <= last:
@@ -581,17 +604,6 @@ def buried_in(a: Body, b: Body, Ta: np.ndarray, Tb: np.ndarray) -> np.ndarray:
         boxed = np.flatnonzero(np.all((local >= lo) & (local <= hi), axis=1))
         buried[boxed[winding_number(local[boxed], mesh_body._triangles) > 0.5]] = True
     return buried
-
-
-def _rank_in_state(k: np.ndarray) -> np.ndarray:
-    """Each row's place among the rows of its state (0 for the first), in row order."""
-    order = np.argsort(k, kind="stable")
-    sorted_k = k[order]
-    position = np.arange(len(k))
-    first = np.maximum.accumulate(np.where(np.r_[True, sorted_k[1:] != sorted_k[:-1]], position, 0))
-    rank = np.empty(len(k), dtype=int)
-    rank[order] = position - first
-    return rank
 
 
 def distances(

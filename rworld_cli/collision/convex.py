@@ -34,10 +34,14 @@ normal of that difference: a face normal of either piece or the cross product of
 an edge of each.  Boxes and triangles carry those directions (``complete``), so
 for their pairs the least over the candidates - each piece's axes, the cross
 products of a's with b's, each piece's first two axes crossed, the centre line -
-is exact.  Other pairs (hulls, cylinders) start from the same candidates and are
-then measured by :func:`expanding_depth`: the hull of support points of the
-difference grown towards its face nearest the origin until the support along
-that face's normal is within :data:`DEPTH_TOLERANCE` of it (the expanding
+is exact.  A box or a triangle against a hull whose faces and edges are known
+(:attr:`Pieces.faces`) is exact too: the hull's face normals, and each cross product of an
+edge of the one with an edge of the hull kept where it lies in the hull edge's normal cone
+(between the normals of its two faces: there the edge is the hull's support, so the
+support is known without reading every vertex).  Other pairs (two hulls, cylinders)
+start from the same candidates and are then measured by :func:`expanding_depth`: the hull
+of support points of the difference grown towards its face nearest the origin until the
+support along that face's normal is within :data:`DEPTH_TOLERANCE` of it (the expanding
 polytope algorithm, with each hull taken by qhull).
 """
 
@@ -95,7 +99,10 @@ class Pieces:
         are ``table[row[p]]`` (unit outward normal and offset, ``n.x <= offset`` inside, in its
         own frame; rows of zeros pad, :func:`hull_faces`), placed by ``R[p]``, ``t[p]``.  More
         candidates for :func:`candidate_depth`, each with its support known (an upper bound
-        close to the exact depth, so that few pairs need :func:`expanding_depth`).
+        close to the exact depth, so that few pairs need :func:`expanding_depth`).  A fifth
+        entry, when there is one: the hulls' edges (C, E, 12) or a function that returns
+        them (:func:`hull_edges`, rows of zeros pad): with them a box's or a triangle's depth
+        against the hull is exact (:func:`edge_depth`).
     """
 
     vertices: np.ndarray
@@ -150,7 +157,13 @@ class Pieces:
             None if self.complete is None else self.complete[index],
             None
             if self.faces is None
-            else (self.faces[0], self.faces[1][index], self.faces[2][index], self.faces[3][index]),
+            else (
+                self.faces[0],
+                self.faces[1][index],
+                self.faces[2][index],
+                self.faces[3][index],
+                *self.faces[4:],
+            ),
         )
 
     def materialized(self) -> Pieces:
@@ -555,11 +568,72 @@ def penetration(
     normal : ndarray, shape (P, 3)
         Unit direction from a towards b.
     """
-    best, normal = candidate_depth(a, b)
-    exact = np.zeros(len(a), dtype=bool)
+    P = len(a)
+    # a box or a triangle against a hull with its edges (either way round): bounded first by
+    # the hull's faces alone, then measured exactly by every candidate with the edges' crosses
+    # (edge_depth), in waves - each state's deepest bound not yet measured, while it can still
+    # be its deepest pair and the state is not deeper than asked already
+    hull_side = np.zeros(P)  # +1: a is the hull, -1: b is
+    for faced, other, towards in ((a, b, 1.0), (b, a, -1.0)):
+        if faced.faces is not None and len(faced.faces) >= 5 and other.complete is not None:
+            hull_side[other.complete & ~other.cylinder & ~faced.cylinder & (hull_side == 0)] = (
+                towards
+            )
+    best, normal = np.full(P, np.inf), np.zeros((P, 3))
+    rows = np.flatnonzero(hull_side == 0)
+    if len(rows):
+        best[rows], normal[rows] = candidate_depth(a.take(rows), b.take(rows))
+    rows = np.flatnonzero(hull_side)
+    if len(rows):
+        # the hull's faces, and the other's own face normals (a triangle's, a box's axes):
+        # a tight bound where a state's pairs all reach about as deep (a hull through a
+        # plate's triangles), so that the deepest measured leaves the rest below it
+        A, B = a.take(rows), b.take(rows)
+        best[rows], normal[rows] = candidate_depth(A, B, directions=False)
+        axes = np.where((hull_side[rows] > 0)[:, None, None], B.axes, A.axes)
+        own = np.concatenate([axes, np.cross(axes[:, 0], axes[:, 1])[:, None]], axis=1)
+        value, direction = _direction_depth(A, B, own)
+        better = value < best[rows]
+        best[rows[better]], normal[rows[better]] = value[better], direction[better]
+    exact = np.zeros(P, dtype=bool)
     if a.complete is not None and b.complete is not None:
-        exact = a.complete & b.complete
+        exact = a.complete & b.complete & (hull_side == 0)
     rows = np.flatnonzero(~exact & (best > max(exact_above, 0.0)))
+    # each group's deepest measured so far (the complete pairs' exact already); no groups: a
+    # floor that never skips
+    _, group = np.unique(np.zeros(P) if state is None else state, return_inverse=True)
+    floor = np.full(group.max(initial=-1) + 1, -np.inf)
+    if state is not None:
+        np.maximum.at(floor, group[exact], best[exact])
+    todo = rows[hull_side[rows] != 0]
+    rows = rows[hull_side[rows] == 0]
+    todo = todo[np.argsort(-best[todo], kind="stable")]
+    per_state = 1  # rows of each state measured at once: 1, 2, 4, ... (all without states)
+    while len(todo):
+        # a bound within DEPTH_TOLERANCE of its state's deepest: no deeper than the tolerance
+        # the depths are exact to (ties: a plate's triangles a hull reaches through alike)
+        above = best[todo] > floor[group[todo]] + DEPTH_TOLERANCE
+        todo = todo[above & (floor[group[todo]] <= deep_enough)]
+        wave = todo if state is None else todo[rank_in_group(group[todo]) < per_state]
+        if not len(wave):
+            break
+        # the faces' and the other's normals' bound is the least over those candidates
+        # already: the edges' crosses are the rest
+        value, direction = best[wave], normal[wave]
+        for towards, (faced, other) in ((1.0, (a, b)), (-1.0, (b, a))):
+            mine = np.flatnonzero(hull_side[wave] == towards)
+            if not len(mine):
+                continue
+            least, along = edge_depth(faced.take(wave[mine]), other.take(wave[mine]))
+            better = least < value[mine]
+            value[mine[better]] = least[better]
+            direction[mine[better]] = towards * along[better]
+        best[wave], normal[wave] = value, direction  # exact now
+        if state is not None:
+            np.maximum.at(floor, group[wave], best[wave])
+        todo = np.setdiff1d(todo, wave, assume_unique=True)
+        todo = todo[np.argsort(-best[todo], kind="stable")]
+        per_state *= 2
     if not len(rows):
         return best, normal
     # a point core (a sphere's) in a cylinder: the point's depth below its side or its cap, in
@@ -582,14 +656,8 @@ def penetration(
         best[sel] = np.minimum(side, cap) + margins
         normal[sel] = towards * out  # from a towards b: the point leaves by that side
         rows = np.setdiff1d(rows, sel)
-    # each group's deepest measured so far (the complete pairs' exact already); no groups: a
-    # floor that never skips
-    _, group = np.unique(np.zeros(len(a)) if state is None else state, return_inverse=True)
-    floor = np.full(group.max(initial=-1) + 1, -np.inf)
-    if state is not None:
-        np.maximum.at(floor, group[exact], best[exact])
     for k in rows[np.argsort(-best[rows], kind="stable")]:
-        if best[k] <= floor[group[k]]:
+        if best[k] <= floor[group[k]] + DEPTH_TOLERANCE:
             continue  # an upper bound below a deeper pair of its state: that one counts
         one = np.array([k])
         start = (float(best[k]), normal[k].copy())
@@ -601,45 +669,23 @@ def penetration(
     return best, normal
 
 
-def candidate_depth(a: Pieces, b: Pieces) -> tuple[np.ndarray, np.ndarray]:
+def candidate_depth(a: Pieces, b: Pieces, directions: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """The least projection overlap of P pairs over their candidate directions (module
     docstring): an upper bound on the penetration depth, exact for ``complete`` pieces;
-    (depth (P,) [m], unit normal from a towards b (P, 3))."""
+    (depth (P,) [m], unit normal from a towards b (P, 3)).  ``directions`` False: the
+    hulls' faces only (each costs the other piece's few vertices, not the hull's many; inf
+    where neither piece has faces)."""
     P = len(a)
-    cands = [a.axes[:, i] for i in range(3)] + [b.axes[:, i] for i in range(3)]
-    cands += [np.cross(a.axes[:, i], b.axes[:, j]) for i in range(3) for j in range(3)]
-    cands.append(b.center - a.center)
-    # a triangle's normal (its first two edges crossed; a box's third axis again)
-    cands += [np.cross(a.axes[:, 0], a.axes[:, 1]), np.cross(b.axes[:, 0], b.axes[:, 1])]
-    dirs = np.stack(cands, axis=1)  # (P, D, 3)
-    length = np.linalg.norm(dirs, axis=2)
-    good = length > 1e-9
-    dirs = np.divide(dirs, length[..., None], out=np.zeros_like(dirs), where=good[..., None])
-    dirs[~good] = (1.0, 0.0, 0.0)
-    depth = np.empty((P, dirs.shape[1], 2))
-    # every direction in one product per block of pairs (not one pass over the vertices per
-    # direction and sign): a hull of thousands of vertices is read once
-    width = max(a.width, b.width, 1)
-    block = max(1, PENETRATION_BUDGET // (width * dirs.shape[1]))
-    for start in range(0, P, block):
-        sl = slice(start, min(P, start + block))
-        hi_a, lo_a = _extents(a.take(np.arange(sl.start, sl.stop)), dirs[sl])
-        hi_b, lo_b = _extents(b.take(np.arange(sl.start, sl.stop)), dirs[sl])
-        # b moved along +n: a's reach along n less b's least; along -n: the other way round
-        depth[sl, :, 0] = hi_a - lo_b
-        depth[sl, :, 1] = hi_b - lo_a
-    depth = np.where(good[..., None], depth, np.inf).reshape(P, -1)
-    pick = np.argmin(depth, axis=1)  # the first least, in the candidates' order
-    best = depth[np.arange(P), pick]
-    sign = np.where(pick % 2 == 0, 1.0, -1.0)
-    normal = sign[:, None] * dirs[np.arange(P), pick // 2]
-    normal[~np.isfinite(best)] = 0.0
+    if not directions:
+        best, normal = np.full(P, np.inf), np.zeros((P, 3))
+    else:
+        best, normal = _direction_depth(a, b)
     # a hull's faces: the other piece pushed out through each (its support along the face's
     # normal is the face's offset), the other's vertices taken into the hull's frame
     for faced, other, towards in ((a, b, 1.0), (b, a, -1.0)):
         if faced.faces is None:
             continue
-        table, row, R, t = faced.faces
+        table, row, R, t = faced.faces[:4]
         table = table() if callable(table) else table
         usable = np.abs(table[..., :3]).sum(axis=2) > 0.5  # (C, F): padding rows out
         # a cylinder's extent along the normals: in world, in closed form
@@ -677,6 +723,124 @@ def candidate_depth(a: Pieces, b: Pieces) -> tuple[np.ndarray, np.ndarray]:
     return best, normal
 
 
+def _direction_depth(
+    a: Pieces, b: Pieces, dirs: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`candidate_depth` over the pieces' own directions (their axes, their crosses,
+    the centre line, the triangles' normals), not the hulls' faces; or over ``dirs`` (P, D,
+    3), any lengths."""
+    P = len(a)
+    if dirs is None:
+        cands = [a.axes[:, i] for i in range(3)] + [b.axes[:, i] for i in range(3)]
+        cands += [np.cross(a.axes[:, i], b.axes[:, j]) for i in range(3) for j in range(3)]
+        cands.append(b.center - a.center)
+        # a triangle's normal (its first two edges crossed; a box's third axis again)
+        cands += [np.cross(a.axes[:, 0], a.axes[:, 1]), np.cross(b.axes[:, 0], b.axes[:, 1])]
+        dirs = np.stack(cands, axis=1)  # (P, D, 3)
+    length = np.linalg.norm(dirs, axis=2)
+    good = length > 1e-9
+    dirs = np.divide(dirs, length[..., None], out=np.zeros_like(dirs), where=good[..., None])
+    dirs[~good] = (1.0, 0.0, 0.0)
+    depth = np.empty((P, dirs.shape[1], 2))
+    # every direction in one product per block of pairs (not one pass over the vertices per
+    # direction and sign): a hull of thousands of vertices is read once
+    width = max(a.width, b.width, 1)
+    block = max(1, PENETRATION_BUDGET // (width * dirs.shape[1]))
+    for start in range(0, P, block):
+        sl = slice(start, min(P, start + block))
+        hi_a, lo_a = _extents(a.take(np.arange(sl.start, sl.stop)), dirs[sl])
+        hi_b, lo_b = _extents(b.take(np.arange(sl.start, sl.stop)), dirs[sl])
+        # b moved along +n: a's reach along n less b's least; along -n: the other way round
+        depth[sl, :, 0] = hi_a - lo_b
+        depth[sl, :, 1] = hi_b - lo_a
+    flat = np.where(good[..., None], depth, np.inf).reshape(P, -1)
+    pick = np.argmin(flat, axis=1)  # the first least, in the candidates' order
+    best = flat[np.arange(P), pick]
+    sign = np.where(pick % 2 == 0, 1.0, -1.0)
+    normal = sign[:, None] * dirs[np.arange(P), pick // 2]
+    normal[~np.isfinite(best)] = 0.0
+    return best, normal
+
+
+def edge_depth(hull: Pieces, other: Pieces) -> tuple[np.ndarray, np.ndarray]:
+    """The least overlap of P pairs over the cross products of an edge of ``other`` (its
+    ``axes``: a triangle's edges, a box's axes) with an edge of ``hull`` (``hull.faces``'
+    fifth entry, :func:`hull_edges`) that lie in that hull edge's normal cone: (value (P,)
+    [m], inf where there is none; unit direction (P, 3) in world, along which ``other``
+    moves out of ``hull``).
+
+    The directions normal to an edge ``a`` of the other form a great circle; a hull edge's
+    normal cone is the arc between its faces' normals ``f1``, ``f2``.  The circle crosses the
+    arc where ``f1.a`` and ``f2.a`` differ in sign, at ``d = |f2.a| f1 + |f1.a| f2`` (normal
+    to both edges, inside the cone).  There the hull's support along ``d`` is the edge, so
+    each candidate costs the other piece's few vertices, not the hull's many.  With the
+    hull's faces and the other's own face normals (:func:`candidate_depth`) these are every
+    face normal of the pair's Minkowski difference: the least over all is the exact depth.
+    Worked in the hull's frame (the other's vertices and edges moved there)."""
+    P = len(hull)
+    value = np.full(P, np.inf)
+    direction = np.zeros((P, 3))
+    assert hull.faces is not None and len(hull.faces) >= 5
+    _, row, R, t = hull.faces[:4]
+    edges = hull.faces[4]
+    edges = edges() if callable(edges) else edges
+    points = other.points
+    margins = hull.margin + other.margin
+    for part in np.unique(row):
+        rows = np.flatnonzero(row == part)
+        e = edges[part]
+        e = e[np.abs(e[:, 3:6]).sum(axis=1) > 0]  # padding rows out
+        if not len(e):
+            continue
+        start, f1, f2 = e[:, 0:3], e[:, 6:9], e[:, 9:12]
+        block = max(1, PENETRATION_BUDGET // (3 * len(e)))
+        for first in range(0, len(rows), block):
+            sel = rows[first : first + block]
+            Rs, ts = R[sel], t[sel]
+            local = np.einsum("sji,svj->svi", Rs, points[sel] - ts[:, None, :])  # (S, V, 3)
+            axes = np.einsum("sji,saj->sai", Rs, other.axes[sel])  # (S, 3, 3)
+            s1, s2 = axes @ f1.T, axes @ f2.T  # (S, 3, E)
+            s_k, a_k, e_k = np.nonzero(s1 * s2 < 0.0)  # the circle crosses the arc
+            if not len(s_k):
+                continue
+            d = np.abs(s2[s_k, a_k, e_k])[:, None] * f1[e_k]
+            d += np.abs(s1[s_k, a_k, e_k])[:, None] * f2[e_k]
+            d /= np.linalg.norm(d, axis=1, keepdims=True)
+            # the other moved along d out past the hull's reach (the edge's) by its least
+            least = np.einsum("ni,ni->n", d, start[e_k])
+            least -= np.einsum("nvi,ni->nv", local[s_k], d).min(axis=1)
+            # each row's least candidate: sorted by row then value, the first of each row
+            order = np.lexsort((least, s_k))
+            keep = order[np.r_[True, s_k[order][1:] != s_k[order][:-1]]]
+            mine = sel[s_k[keep]]
+            value[mine] = least[keep] + margins[mine]
+            direction[mine] = np.einsum("sij,sj->si", Rs[s_k[keep]], d[keep])
+    return value, direction
+
+
+def hull_edges(vertices: np.ndarray) -> np.ndarray:
+    """The edges of the hull of ``vertices`` (V, 3) [m] between faces that are not coplanar,
+    each once: (E, 12) rows ``[start (3), end - start (3), outward unit normal of one face
+    (3), of the other (3)]``; none (0, 12) for a flat or degenerate set."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        hull = ConvexHull(vertices)
+    except (QhullError, ValueError):
+        return np.zeros((0, 12))
+    simplices, neighbours, n = hull.simplices, hull.neighbors, hull.equations[:, :3]
+    i = np.repeat(np.arange(len(simplices)), 3)
+    j = np.tile(np.arange(3), len(simplices))
+    k = neighbours[i, j]  # the facet across the edge opposite vertex j
+    keep = i < k
+    i, j, k = i[keep], j[keep], k[keep]
+    keep = np.einsum("ei,ei->e", n[i], n[k]) < 1.0 - 1e-12  # an edge inside a flat face: none
+    i, j, k = i[keep], j[keep], k[keep]
+    p0 = hull.points[simplices[i, (j + 1) % 3]]
+    p1 = hull.points[simplices[i, (j + 2) % 3]]
+    return np.column_stack([p0, p1 - p0, n[i], n[k]])
+
+
 DEPTH_TOLERANCE = 1e-9  # [m] expanding_depth stops when its bounds are this close
 DEPTH_ITERATIONS = 200  # expansions at most (a polytope pair needs a few dozen)
 # the first support points: the 26 directions of a cube's faces, edges and corners
@@ -701,15 +865,17 @@ def expanding_depth(
 
     The Minkowski difference ``D = a - b`` holds the origin; the depth is the least of its
     support function ``h(u) = max_a u.x - min_b u.y`` over unit ``u``, the distance from the
-    origin to D's boundary.  Two polytopes: D is the hull of every vertex difference, its
-    face nearest the origin found by qhull at once.  Otherwise (a cylinder): support points
-    of D along the candidate directions and 26 more are its inner polytope; while the origin
-    is not inside it, the supports along the normals of the faces it lies beyond are added
-    (none new: the origin is on D's boundary, depth 0).  Then, as the expanding polytope
-    algorithm: the face nearest the origin (distance ``d``, normal ``n``) is a lower bound and
-    ``h(n)`` an upper one; the support along ``n`` is added until they meet, or the lower
-    bound is above ``deep_enough``.  The upper bound is returned (a depth never below the
-    exact one).  ``start``: the pair's :func:`candidate_depth` (depth, normal), when known."""
+    origin to D's boundary.  Two polytopes of at most :data:`EXACT_HULL_POINTS` vertex
+    differences: D is their hull, its face nearest the origin found by qhull at once (unless
+    the hull of 28 support points, inside D, already puts the depth above ``deep_enough``).
+    Otherwise (larger hulls, a cylinder): support points of D along the candidate directions
+    and 26 more are its inner polytope; while the origin is not inside it, the supports along
+    the normals of the faces it lies beyond are added (none new: the origin is on D's
+    boundary, depth 0).  Then, as the expanding polytope algorithm: the face nearest the
+    origin (distance ``d``, normal ``n``) is a lower bound and ``h(n)`` an upper one; the
+    support along ``n`` is added until they meet, or the lower bound is above
+    ``deep_enough``.  The upper bound is returned (a depth never below the exact one).
+    ``start``: the pair's :func:`candidate_depth` (depth, normal), when known."""
     from scipy.spatial import ConvexHull, QhullError
 
     if start is None:
@@ -718,27 +884,49 @@ def expanding_depth(
     upper, upper_n = start[0], np.array(start[1], dtype=float)
     normal = upper_n[None]
     margin = float(a.margin[0] + b.margin[0])
-    if not (a.cylinder[0] or b.cylinder[0]):
-        pa, pb = np.unique(a.points[0], axis=0), np.unique(b.points[0], axis=0)
-        if len(pa) * len(pb) <= EXACT_HULL_POINTS:
-            try:
-                hull = ConvexHull((pa[:, None, :] - pb[None, :, :]).reshape(-1, 3))
-            except (QhullError, ValueError):  # flat: the origin on D's boundary
-                return min(upper, margin), upper_n
-            face = int(np.argmin(-hull.equations[:, 3]))
-            depth = max(float(-hull.equations[face, 3]), 0.0) + margin
-            if depth < upper:
-                upper, upper_n = depth, hull.equations[face, :3].copy()
-            return upper, upper_n
-    dirs = np.concatenate([_SEED_DIRECTIONS, normal, -normal])
-    dirs = dirs[np.linalg.norm(dirs, axis=1) > 0.5]
+    # each polytope's vertices placed once (a support is then one product, not a copy of the
+    # hull per direction), without its padding
+    pa = _distinct(a.points[0]) if not a.cylinder[0] else None
+    pb = _distinct(b.points[0]) if not b.cylinder[0] else None
+    # (3, V) copies: a support is then a row-wise argmax over contiguous memory
+    pa_t = None if pa is None else np.ascontiguousarray(pa.T)
+    pb_t = None if pb is None else np.ascontiguousarray(pb.T)
 
     def support(u: np.ndarray) -> np.ndarray:  # the cores' difference's support points (M, 3)
         M = len(u)
-        A, B = a.take(np.zeros(M, dtype=int)), b.take(np.zeros(M, dtype=int))
-        return A.support(u) - B.support(-u)
+        if pa is not None:
+            sa = pa[np.argmax(u @ pa_t, axis=1)]
+        else:
+            sa = a.take(np.zeros(M, dtype=int)).support(u)
+        if pb is not None:
+            sb = pb[np.argmin(u @ pb_t, axis=1)]
+        else:
+            sb = b.take(np.zeros(M, dtype=int)).support(-u)
+        return sa - sb
 
+    dirs = np.concatenate([_SEED_DIRECTIONS, normal, -normal])
+    dirs = dirs[np.linalg.norm(dirs, axis=1) > 0.5]
     points = support(dirs)
+    if pa is not None and pb is not None and len(pa) * len(pb) <= EXACT_HULL_POINTS:
+        if np.isfinite(deep_enough):
+            # the seeds' inner polytope bounds the depth from below: deeper than asked, the
+            # whole difference's hull is not needed
+            try:
+                seeds = ConvexHull(points)
+                least = float(np.min(-seeds.equations[:, 3]))
+                if least + margin > deep_enough:
+                    return upper, upper_n
+            except (QhullError, ValueError):
+                pass
+        try:
+            hull = ConvexHull((pa[:, None, :] - pb[None, :, :]).reshape(-1, 3))
+        except (QhullError, ValueError):  # flat: the origin on D's boundary
+            return min(upper, margin), upper_n
+        face = int(np.argmin(-hull.equations[:, 3]))
+        depth = max(float(-hull.equations[face, 3]), 0.0) + margin
+        if depth < upper:
+            upper, upper_n = depth, hull.equations[face, :3].copy()
+        return upper, upper_n
     for _ in range(DEPTH_ITERATIONS):
         try:
             hull = ConvexHull(points)
@@ -765,6 +953,26 @@ def expanding_depth(
     return upper, upper_n
 
 
+def rank_in_group(group: np.ndarray) -> np.ndarray:
+    """Each row's place among the rows of its group (0 for the first), in row order."""
+    order = np.argsort(group, kind="stable")
+    sorted_group = group[order]
+    position = np.arange(len(group))
+    first = np.maximum.accumulate(
+        np.where(np.r_[True, sorted_group[1:] != sorted_group[:-1]], position, 0)
+    )
+    rank = np.empty(len(group), dtype=int)
+    rank[order] = position - first
+    return rank
+
+
+def _distinct(points: np.ndarray) -> np.ndarray:
+    """A piece's own vertices (V, 3): its padding (copies of its first vertex after its last,
+    :mod:`.pieces`) cut off."""
+    other = np.flatnonzero(np.any(points != points[0], axis=1))
+    return points[: (other[-1] + 1) if len(other) else 1]
+
+
 # vertex differences of two polytopes hulled at once, at most (more: the expansion)
 EXACT_HULL_POINTS = 1_500
 
@@ -775,8 +983,17 @@ PENETRATION_BUDGET = 8_000_000  # vertex-direction products per block of penetra
 def _extents(p: Pieces, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each piece's largest and least projection on its directions (P, D, 3) unit, margin
     included: (P, D) each [m]."""
-    proj = p.points @ np.transpose(dirs, (0, 2, 1))  # (P, V, D)
-    hi, lo = proj.max(axis=1), proj.min(axis=1)
+    same = _same_hulls(p)
+    if same is not None:  # a few hulls met by many pairs: each placed once, all its rows at once
+        hi, lo = np.empty(dirs.shape[:2]), np.empty(dirs.shape[:2])
+        for rows in same:
+            vertices = p.take(rows[:1]).points[0]  # (V, 3)
+            proj = vertices @ dirs[rows].reshape(-1, 3).T  # (V, n D)
+            hi[rows] = proj.max(axis=0).reshape(len(rows), -1)
+            lo[rows] = proj.min(axis=0).reshape(len(rows), -1)
+    else:
+        proj = p.points @ np.transpose(dirs, (0, 2, 1))  # (P, V, D)
+        hi, lo = proj.max(axis=1), proj.min(axis=1)
     c = p.cylinder
     if c.any():  # a cylinder's support in closed form: centre, end cap, rim
         along = np.einsum("pdi,pi->pd", dirs[c], p.axis[c])
@@ -785,6 +1002,22 @@ def _extents(p: Pieces, dirs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         reach = p.half_length[c][:, None] * np.abs(along) + p.radius[c][:, None] * radial
         hi[c], lo[c] = centre + reach, centre - reach
     return hi + p.margin[:, None], lo - p.margin[:, None]
+
+
+def _same_hulls(p: Pieces) -> list[np.ndarray] | None:
+    """The rows of ``p`` grouped by hull (the same part at the same pose, by its faces'
+    entry), when there are at most a quarter as many hulls as rows: a link's hull against
+    the many triangles of a fixture, at a few states.  None otherwise (or no faces)."""
+    if p.faces is None or len(p) < 8:
+        return None
+    _, row, R, t = p.faces[:4]
+    key = np.column_stack([row, R.reshape(-1, 9), t])
+    order = np.lexsort(key.T[::-1])
+    ordered = key[order]
+    starts = np.flatnonzero(np.r_[True, np.any(ordered[1:] != ordered[:-1], axis=1)])
+    if 4 * len(starts) > len(p):
+        return None
+    return np.split(order, starts[1:])
 
 
 # --------------------------------------------------------------------------- building pieces

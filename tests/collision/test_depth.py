@@ -111,6 +111,77 @@ def test_hull_pairs_equal_the_minkowski_hull_with_and_without_their_faces():
     assert (faced <= bound + 1e-12).all()
 
 
+def random_hulls(P: int, size: int = 40):
+    """P random hulls padded to ``size`` vertices, in their own frames, with their faces and
+    edges padded with zero rows."""
+    vertices, faces, edges = [], [], []
+    for _ in range(P):
+        cloud = RNG.normal(scale=0.03, size=(size, 3)) * RNG.uniform(0.3, 1.5, 3)
+        v = cloud[ConvexHull(cloud).vertices]
+        vertices.append(np.concatenate([v, np.repeat(v[:1], size - len(v), 0)]))
+        f, e = cv.hull_faces(v), cv.hull_edges(v)
+        faces.append(np.concatenate([f, np.zeros((3 * size - len(f), 4))]))
+        edges.append(np.concatenate([e, np.zeros((3 * size - len(e), 12))]))
+    return np.array(vertices), np.array(faces), np.array(edges)
+
+
+@pytest.mark.parametrize("shared", [False, True])
+def test_triangles_and_boxes_against_hulls_with_their_edges_equal_the_minkowski_hull(shared):
+    """A triangle's or a box's depth against a hull whose faces and edges are known is exact
+    without the expanding polytope: the hull's faces, the other's own normals and the edges'
+    crosses inside the hull edges' normal cones (``convex.edge_depth``) are every face normal
+    of the difference.  ``shared``: one hull at one pose against many pieces (a link through
+    a fixture's triangles; its support computed once for all its rows)."""
+    P = 300
+    local, table, edges = random_hulls(8 if shared else P)
+    part = RNG.integers(0, len(local), P) if shared else np.arange(P)
+    T = poses(len(local), 0.0)[part] if not shared else poses(len(local), 0.0)
+    if shared:
+        T = T[part]
+    world = np.einsum("pij,pvj->pvi", T[:, :3, :3], local[part]) + T[:, None, :3, 3]
+    hulls = cv.hulls(
+        world,
+        np.einsum("pij,aj->pai", T[:, :3, :3], np.eye(3)),
+        (table, part, T[:, :3, :3], T[:, :3, 3], edges),
+    )
+    tri = triangles(P)
+    box = cv.boxes(poses(P), RNG.uniform(0.005, 0.04, (P, 3)))
+    for others, points in ((cv.triangles(tri), tri), (box, box.vertices)):
+        rows = overlapping(hulls, others, 100)
+        want = np.array([hull_depth(world[k], points[k]) for k in rows])
+        for a, b in ((hulls, others), (others, hulls)):
+            depth, normal = cv.penetration(a.take(rows), b.take(rows))
+            np.testing.assert_allclose(depth, want, rtol=0, atol=1e-12)
+            step = (depth + 1e-7)[:, None] * normal  # b moved by it along the normal: clear
+            taken = b.take(rows)
+            moved = dataclasses.replace(
+                taken, vertices=taken.vertices + step[:, None, :], center=taken.center + step
+            )
+            assert not cv.distance(a.take(rows), moved).overlap.any()
+        # grouped in states: each state's deepest pair exact, the others never deeper
+        state = RNG.integers(0, 10, len(rows))
+        depth, _ = cv.penetration(hulls.take(rows), others.take(rows), state=state)
+        for k in np.unique(state):
+            mine = state == k
+            assert depth[mine].max() == pytest.approx(want[mine].max(), abs=1e-9)
+            assert (depth[mine] >= want[mine] - 1e-12).all()
+
+
+def test_hull_edges_lie_between_two_faces_that_meet_there():
+    """Each edge's faces hold both its ends, and the edges are those of the hull's polygons
+    (a cube: 12, not the 18 of its triangulation)."""
+    cube = cv.box_corners(np.array([0.1, 0.2, 0.3]))
+    edges = cv.hull_edges(cube)
+    assert len(edges) == 12
+    faces = cv.hull_faces(cube)
+    for start, along, f1, f2 in edges.reshape(-1, 4, 3):
+        for n in (f1, f2):
+            offset = faces[np.argmin(np.linalg.norm(faces[:, :3] - n, axis=1)), 3]
+            assert n @ start == pytest.approx(offset, abs=1e-12)
+            assert n @ (start + along) == pytest.approx(offset, abs=1e-12)
+    assert len(cv.hull_edges(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]))) == 0  # flat
+
+
 @pytest.mark.parametrize("other", ["triangle", "box", "cylinder", "sphere"])
 def test_cylinder_depths_lie_between_the_prisms_inside_and_around_them(other):
     P = 24
