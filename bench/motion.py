@@ -55,11 +55,12 @@ def scene_checks(scene: str, device: str, tolerance: float = 1e-3):
     """(world, model, WorldChecks) of a scene."""
     from rworld_cli.api import device_context
     from rworld_cli.collision.bodies import collision_model
-    from rworld_cli.planning.motion import WorldChecks
+    from rworld_cli.planning.motion import PATH_CLEARANCE, WorldChecks
 
     ctx = device_context(str(PROBLEMS.parent / scene), device)
     model = collision_model(ctx.world.cell)
-    return ctx.world, model, WorldChecks(ctx.world, model, device, tolerance)
+    # as `plan path` plans without --clearance: 1 mm kept where the ends allow
+    return ctx.world, model, WorldChecks(ctx.world, model, device, tolerance, kept=PATH_CLEARANCE)
 
 
 def ompl_plan(checks, start, goal, timeout: float):
@@ -299,7 +300,7 @@ def _cases(args, scenes: dict, invalid: list):
 
     from rworld_cli.api import device_context
     from rworld_cli.collision.bodies import collision_model
-    from rworld_cli.planning.motion import WorldChecks
+    from rworld_cli.planning.motion import PATH_CLEARANCE, WorldChecks
     from tests.planning import mbm_cells as mbm
 
     root = Path(tempfile.mkdtemp(prefix="rworld-mbm-"))
@@ -311,7 +312,7 @@ def _cases(args, scenes: dict, invalid: list):
         )
         ctx = device_context(str(folder), "panda")
         model = collision_model(ctx.world.cell)
-        checks = WorldChecks(ctx.world, model, "panda", 1e-3)
+        checks = WorldChecks(ctx.world, model, "panda", 1e-3, kept=PATH_CLEARANCE)
         start, goal = np.array(problem["start"]), np.array(problem["goal"])
         _, why = checks.problem(start, goal)
         if why is not None:

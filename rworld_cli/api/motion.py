@@ -33,7 +33,9 @@ class PlannedPath:
         The goal states given to the search (a frame's IK solutions, nearest the start first;
         those not free or touching something are dropped there).
     clearance, tolerance : float
-        The clearance kept and the collision tolerance [m].
+        The clearance asked (0: none) and the collision tolerance [m]; the path's ``kept``
+        clearance (``plan.kept``) is what it keeps from every pair not inside the search
+        margin at its ends (``plan.inside_margin``).
     written : str or None
         The path file written.
     offset : list of float or None
@@ -49,6 +51,20 @@ class PlannedPath:
     tolerance: float
     written: str | None = None
     offset: list[float] | None = None  # [m] a frame target moved along its axes
+
+    def kept_words(self) -> str:
+        """The clearance the path keeps, in words: 'clearance 1 mm (none asked)', and the
+        pairs an end holds closer, which keep only the clearance asked."""
+        p = self.plan
+        words = f"clearance {p.kept * 1000:g} mm" + (
+            " (none asked)" if self.clearance == 0 and p.kept > 0 else ""
+        )
+        if p.inside_margin:
+            words += (
+                f" except {len(p.inside_margin)} pair(s) an end holds closer (kept "
+                f"{self.clearance * 1000:g} mm: " + "; ".join(p.inside_margin) + ")"
+            )
+        return words
 
     @property
     def knots(self) -> np.ndarray:
@@ -83,6 +99,7 @@ class PlannedPath:
             "inside_margin": p.inside_margin,
             "seconds": p.seconds,
             "clearance": self.clearance,
+            "clearance_kept": p.kept,
             "collision_tolerance": self.tolerance,
             "written": self.written,
         }
@@ -165,7 +182,7 @@ def plan_free_path(
     *,
     seed: int = 0,
     timeout: float = 10.0,
-    clearance: float = 0.0,
+    clearance: float | None = None,
     tolerance: float = COLLISION_TOLERANCE,
     output: str | None = None,
     progress=None,
@@ -177,8 +194,11 @@ def plan_free_path(
     'home', or joint values; ``offset`` (3,) [m] moves a frame along its own axes), in the
     cell as it is (other devices where the pose files put them;
     ``planning.motion.plan_in_world``), its corners blended where the blends' curves are
-    free (``blend``).  Written to ``output`` as a path file (``boundary: blended``: the
-    straight lines and blends checked) when one was found.
+    free (``blend``).  ``clearance`` [m] is kept from everything everywhere; None (not asked):
+    the path keeps ``planning.motion.PATH_CLEARANCE`` (1 mm) from every pair its start and
+    goal leave room for, the others only out of contact deeper than ``tolerance``.  Written
+    to ``output`` as a path file (``boundary: blended``: the straight lines and blends
+    checked) when one was found.
 
     Raises
     ------
@@ -190,7 +210,7 @@ def plan_free_path(
         nearest pairs), or none found within ``timeout`` (exit 1).
     """
     from ..collision.bodies import collision_model
-    from ..planning.motion import plan_in_world
+    from ..planning.motion import PATH_CLEARANCE, plan_in_world
 
     dev = ctx.device
     q0 = (
@@ -216,7 +236,8 @@ def plan_free_path(
         q0,
         goals,
         tolerance=tolerance,
-        clearance=clearance,
+        clearance=clearance or 0.0,
+        kept=PATH_CLEARANCE if clearance is None else clearance,
         seed=seed,
         timeout=timeout,
         progress=None
@@ -224,7 +245,7 @@ def plan_free_path(
         else lambda rounds, states: progress(rounds, None, f"searching: {states} states"),
         blend=blend,
     )
-    out = PlannedPath(plan, dev.name, to, q0, goals, clearance, tolerance)
+    out = PlannedPath(plan, dev.name, to, q0, goals, clearance or 0.0, tolerance)
     out.offset = None if offset is None else [float(v) for v in offset]
     if not plan.found:
         raise CheckFailed(f"no path to '{to}': {plan.reason}", report=out.as_dict())
@@ -245,7 +266,7 @@ def _note(out: PlannedPath) -> str:
     return (
         f"rworld plan path: '{out.device}' to '{out.target}'{_moved(out.offset)}, "
         f"{len(p.waypoints)} waypoints, "
-        f"{p.length:.4g} rad of joint travel, clearance {out.clearance * 1000:g} mm, collision "
+        f"{p.length:.4g} rad of joint travel, {out.kept_words()}, collision "
         f"tolerance {out.tolerance * 1000:g} mm; straight joint segments, "
         f"{int((p.blends > 0).sum())} of {max(len(p.waypoints) - 2, 0)} corners blended, each "
         "line and blend checked continuously (docs/planning.md)"

@@ -668,11 +668,11 @@ def impulse(
 )
 @click.option(
     "--clearance",
-    default="0",
-    show_default=True,
+    default=None,
     metavar="LENGTH",
-    help="Keep at least this far from everything (e.g. 10mm); 0: no overlap deeper than the "
-    "collision tolerance.",
+    help="Keep at least this far from everything, everywhere (e.g. 10mm); 0: no overlap "
+    "deeper than the collision tolerance.  Default: 1 mm from every pair the start and goal "
+    "leave room for.",
 )
 @click.option(
     "--collision-tolerance",
@@ -741,9 +741,9 @@ def path_cmd(
     from .common import with_progress
 
     ctx = context(cell, device, tcp, other_joints)
-    kept = parse_length_option(clearance, "--clearance")
+    kept = None if clearance is None else parse_length_option(clearance, "--clearance")
     tolerance = parse_length_option(collision_tolerance, "--collision-tolerance")
-    if kept < 0:
+    if kept is not None and kept < 0:
         raise click.BadParameter("must not be negative", param_hint="--clearance")
     if tolerance <= 0:
         raise click.BadParameter("must be above 0", param_hint="--collision-tolerance")
@@ -776,6 +776,7 @@ def path_cmd(
         f"{p.seconds:.3f} s ({p.iterations} rounds, {p.states_checked} states, "
         f"{p.segments_checked} segments checked)"
     )
+    click.echo(f"  keeps {planned.kept_words()}")
     corners = len(p.waypoints) - 2
     if corners > 0:
         click.echo(

@@ -109,6 +109,8 @@ class PathPlan:
     inside_margin : list of str
         Pairs already inside the search margin at the start or a goal, in words (``plan_in_world``:
         searched at the clearance asked, the margin kept for the others).
+    kept : float
+        The clearance the path keeps from everything but those pairs [m] (``plan_in_world``).
     outcome : str
         "found", or why not in a word a script can test: "start_not_free", "goal_not_free",
         "goal_touching" (every free goal touches something), "goal_outside_limits",
@@ -135,6 +137,7 @@ class PathPlan:
     bodies: list[str] = field(default_factory=list)
     outcome: str = "found"
     inside_margin: list[str] = field(default_factory=list)
+    kept: float = 0.0
 
     def joint_path(self):
         """The path as a :class:`~rworld_cli.planning.path.JointPath` (``blended``: the
@@ -627,30 +630,54 @@ def _validated(search: _Search, rng, way, lower, upper, step, depth: int = 0):
 
 REPAIR_DEPTH = 2  # a failing segment re-planned finer at most twice deep; then a new search
 REPAIR_SHARE = 0.1  # of the time left, what one repair may take
-SEARCH_MARGIN = 0.005  # [m] the search's states keep this much more than the clearance asked
+SEARCH_MARGIN = 0.005  # [m] the search's states keep this much more than the path keeps
+# [m] what a path keeps from everything when no clearance is asked, where its ends allow it: a
+# path may not touch (as MoveIt's and MotionBenchMaker's checks see it) although touches
+# within the collision tolerance pass `rworld check`.  On 35 MotionBenchMaker problems it cost
+# nothing measurable (median 0.139 s either way); 5 mm cost (34 of 35 solved, p95 3.5 s
+# against 1.1 s): states at the 5 mm margin and segments held to 5 mm between them
+PATH_CLEARANCE = 0.001
 
 
 class WorldChecks:
     """The questions :func:`plan_path` asks, for ``device`` in ``world`` as it is now (other
-    devices, grasps and tools where the world has them), answered by the collision room: a
-    state is free by ``ConfigurationChecker.check`` at the clearance plus
-    :data:`SEARCH_MARGIN`; a segment by ``check_segment`` at the clearance asked (``exact``).
-    A pair already inside the margin at the start or a goal (a goal just above a table, a
-    probe's stylus 0.7 mm from the wrist it is mounted beside at every state) keeps only the
-    clearance asked, everywhere in the problem (``tight``): with the margin, no state near that
-    end would be free and no path found; every other pair keeps the margin up to the ends.
-    Built once per world and device (the pairs, the trees); :meth:`problem` sets the ends."""
+    devices, grasps and tools where the world has them), answered by the collision room.
 
-    def __init__(self, world, model, device: str, tolerance: float, clearance: float = 0.0):
+    ``clearance`` is asked of every pair everywhere (the ends checked at it: ``exact``);
+    ``kept`` (at least the clearance; :data:`PATH_CLEARANCE` where the caller asks none) is
+    what the path keeps: a state is free by ``ConfigurationChecker.check`` at ``kept`` plus
+    :data:`SEARCH_MARGIN`, a segment or a blend by ``check_segment`` / ``check_blend`` at
+    ``kept`` (``kept_check``).  A pair already inside the margin at the start or a goal (a goal
+    just above a table, a probe's stylus 0.7 mm from the wrist it is mounted beside at every
+    state) keeps only the clearance asked, everywhere in the problem (``tight``): with the
+    margin, no state near that end would be free and no path found; every other pair keeps
+    the margin up to the ends.  Built once per world and device (the pairs, the trees);
+    :meth:`problem` sets the ends."""
+
+    def __init__(
+        self,
+        world,
+        model,
+        device: str,
+        tolerance: float,
+        clearance: float = 0.0,
+        kept: float | None = None,
+    ):
         from ..collision.configurations import ConfigurationChecker
 
         self.device = world.cell.devices[device]
+        self.clearance = float(clearance)
+        self.kept = max(self.clearance, float(kept if kept is not None else clearance))
         self._make = lambda extra, **pairs: ConfigurationChecker(
             world, model, device, tolerance=tolerance, clearance=clearance + extra, **pairs
         )
-        self._with_margin = self._make(SEARCH_MARGIN)  # every pair: a problem without tight
+        extra = self.kept - self.clearance
+        # every pair: a problem no end of which is inside the margin
+        self._with_margin = self._make(extra + SEARCH_MARGIN)
         self.search = self._with_margin
         self.exact = self._make(0.0)
+        self._kept_all = self._make(extra) if extra > 0 else self.exact
+        self.kept_check = self._kept_all  # the segments' check: pairs not tight keep `kept`
         self.tight: set[tuple[int, int]] = set()  # pairs searched without the margin
         self.inside_margin: list[str] = []  # those pairs at the ends, in words
         self.outcome = "found"  # why the last problem has no path, when it has none
@@ -701,6 +728,7 @@ class WorldChecks:
         problem's ends only: checks kept for several problems start each with none."""
         if self.tight:
             self.tight, self.search, self._tight_check = set(), self._with_margin, None
+            self.kept_check = self._kept_all
         self.inside_margin = []
         for _ in range(len(self.exact.pairs)):  # a pair an end a round: few are that close
             # free-only: a state not free names a pair within the margin, measured
@@ -723,8 +751,10 @@ class WorldChecks:
                     if words not in self.inside_margin:
                         self.inside_margin.append(words)
             self.tight |= added
-            self.search = self._make(SEARCH_MARGIN, skip=self.tight)
+            extra = self.kept - self.clearance
+            self.search = self._make(extra + SEARCH_MARGIN, skip=self.tight)
             self._tight_check = self._make(0.0, only=self.tight)
+            self.kept_check = self._make(extra, skip=self.tight) if extra > 0 else self.exact
 
     def states_free(self, Q) -> np.ndarray:
         """(N, n) joint states -> (N,) bool (the class docstring's rule)."""
@@ -734,14 +764,22 @@ class WorldChecks:
             free[free] = self._tight_check.check(Q[free], nearest=False).free
         return free
 
+    def _tight_too(self) -> bool:
+        """Whether the tight pairs need their own continuous check (the others keep more)."""
+        return self._tight_check is not None and self.kept_check is not self.exact
+
     def segment_free(self, qa, qb) -> bool:
-        """The straight segment free everywhere, at the clearance asked (continuous)."""
-        return bool(self.exact.check_segment(qa, qb).free)
+        """The straight segment free everywhere (continuous): ``kept`` from everything, the
+        tight pairs the clearance asked."""
+        if not self.kept_check.check_segment(qa, qb).free:
+            return False
+        return not self._tight_too() or bool(self._tight_check.check_segment(qa, qb).free)
 
     def blend_free(self, p0, corner, p2) -> bool:
-        """A corner's blend (the quadratic Bezier curve) free everywhere, at the clearance
-        asked (continuous)."""
-        return bool(self.exact.check_blend(p0, corner, p2).free)
+        """A corner's blend (the quadratic Bezier curve) free everywhere, as a segment."""
+        if not self.kept_check.check_blend(p0, corner, p2).free:
+            return False
+        return not self._tight_too() or bool(self._tight_check.check_blend(p0, corner, p2).free)
 
     def box(self) -> tuple[np.ndarray, np.ndarray]:
         """The joint box sampled (:func:`sampled_box` of the limits)."""
@@ -764,13 +802,15 @@ def plan_in_world(
     progress: Callable[[int, int], None] | None = None,
     checks: WorldChecks | None = None,
     blend: bool = True,
+    kept: float | None = None,
 ) -> tuple[PathPlan, WorldChecks]:
     """:func:`plan_path` for ``device`` in ``world`` as it is now, checked as
-    :class:`WorldChecks` says (``checks``: one built before for this world and device), its
-    corners blended where the blends are free (``blend``).  Goals that are not free or touch
-    something are dropped first; with none left the plan is not found and its reason names
-    the nearest pairs.  Returns (plan, the checks)."""
-    checks = checks or WorldChecks(world, model, device, tolerance, clearance)
+    :class:`WorldChecks` says (``checks``: one built before for this world and device;
+    ``clearance`` asked everywhere, ``kept`` where the ends allow), its corners blended where
+    the blends are free (``blend``).  Goals that are not free or touch something are dropped
+    first; with none left the plan is not found and its reason names the nearest pairs.
+    Returns (plan, the checks)."""
+    checks = checks or WorldChecks(world, model, device, tolerance, clearance, kept)
     start = np.asarray(start, dtype=float).ravel()
     goals = np.atleast_2d(np.asarray(goals, dtype=float))
     # a continuous joint (no limits) is an angle: each goal the turn nearest the start, and
@@ -803,6 +843,7 @@ def plan_in_world(
         blend_free=checks.blend_free if blend else None,
     )
     plan.inside_margin = list(checks.inside_margin)
+    plan.kept = checks.kept
     if plan.found:
         plan.goal = int(usable[plan.goal])  # an index of the goals given
     elif plan.blocked is not None:
@@ -825,8 +866,11 @@ def segment_words(checks: WorldChecks, segment: np.ndarray) -> tuple[str, list[s
     contact found and the deepest of its states measured (the pair and how deep); and the
     bodies named (their labels)."""
     q0, q1 = np.asarray(segment, dtype=float)
-    exact = checks.exact
+    exact = checks.kept_check  # the check that refused it: what the path keeps, or the tight
     found = exact.check_segment(q0, q1)
+    if found.free and checks._tight_too():
+        exact = checks._tight_check
+        found = exact.check_segment(q0, q1)
     s = np.linspace(0.0, 1.0, 65)
     report = exact.check(q0 + s[:, None] * (q1 - q0), nearest=True)
     k = int(np.argmin(report.distance))

@@ -456,12 +456,13 @@ class MotionSteps:
         """``move: {..., path: free}``: a collision-free joint path from the joints now to the
         move's end (``planning.motion.plan_in_world``: in the world at this instant - other
         devices where their programs have them, grasps, tools, calibrated poses; the run's
-        clearance and collision tolerance; the step's or the run's seed and timeout
+        clearance (none: the path keeps ``PATH_CLEARANCE`` where its ends leave room) and
+        collision tolerance; the step's or the run's seed and timeout
         (:meth:`_planner_settings`); its corners blended
         where the blends are free), driven through its via points without stopping at the
         blended ones (:meth:`_drive_through`).  No path: the target is unreachable (exit 1),
         with the planner's reason."""
-        from ..planning.motion import plan_in_world
+        from ..planning.motion import PATH_CLEARANCE, plan_in_world
 
         seed, timeout = self._planner_settings(step)
         plan, _ = plan_in_world(
@@ -472,6 +473,8 @@ class MotionSteps:
             seg.q_end[None],
             tolerance=self.run.collision_tolerance,
             clearance=self.run.clearance,
+            # none asked of the run: the path keeps 1 mm where its ends leave room
+            kept=self.run.clearance or PATH_CLEARANCE,
             seed=seed,
             timeout=timeout,
         )

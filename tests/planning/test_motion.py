@@ -372,15 +372,96 @@ def test_a_second_robot_is_planned_around_where_it_stands():
     independent_check(ctx, planned.plan.waypoints, blends=planned.plan.blends)
 
 
+def test_a_path_keeps_a_millimetre_from_everything_where_none_is_asked():
+    """No clearance asked: the path keeps PATH_CLEARANCE (1 mm) from every pair its ends
+    leave room for, between states and through its blends (the continuous checks at 1 mm),
+    so that a checker that calls any overlap a collision (MoveIt's, MotionBenchMaker's) finds
+    none; measured here at 4 001 states along each path by the exact distances of every
+    pair.  A pair an end holds inside the search margin (the GP7's link 2 and link 4, 1.39 mm
+    apart at a start) keeps the tolerance rule only, and the path file says so."""
+    from rworld_cli.api import plan_free_path
+    from rworld_cli.collision.bodies import collision_model
+    from rworld_cli.collision.configurations import ConfigurationChecker
+    from rworld_cli.planning.motion import PATH_CLEARANCE, plan_in_world
+
+    tight_seen = False
+    for name in ("panda_fixtures", "gp7_shelf"):
+        ctx = scene(name)
+        model = collision_model(ctx.world.cell)
+        for problem in [p for p in PROBLEMS if p["scene"] == name][:3]:
+            plan, checks = plan_in_world(
+                ctx.world,
+                model,
+                ctx.device.name,
+                problem["start"],
+                problem["goal"],
+                tolerance=1e-3,
+                kept=PATH_CLEARANCE,
+            )
+            assert plan.found and plan.kept == 0.001
+            q = plan.joint_path().evaluate(np.linspace(0.0, 1.0, 4001))[0]
+            others = ConfigurationChecker(
+                ctx.world, model, ctx.device.name, skip=checks.tight or None
+            )
+            assert others.check(q).distance.min() >= 0.001 - 1e-9
+            if checks.tight:
+                tight_seen = True
+                held = ConfigurationChecker(ctx.world, model, ctx.device.name, only=checks.tight)
+                assert held.check(q).free.all()
+                words = plan_free_path(
+                    ctx, ",".join(map(repr, problem["goal"])), problem["start"]
+                ).kept_words()
+                assert words.startswith("clearance 1 mm (none asked) except 1 pair(s) an end")
+            else:
+                words = plan_free_path(
+                    ctx, ",".join(map(repr, problem["goal"])), problem["start"]
+                ).kept_words()
+                assert words == "clearance 1 mm (none asked)"
+    assert tight_seen
+
+
+def test_a_segment_closer_than_the_kept_clearance_is_refused():
+    """A segment ending 0.5 mm from a fixture: free at the tolerance rule (kept 0), refused
+    when the path keeps 1 mm - the continuous check, not only the states, holds the path to
+    it."""
+    from rworld_cli.collision.bodies import collision_model
+    from rworld_cli.collision.configurations import ConfigurationChecker
+    from rworld_cli.planning.motion import WorldChecks
+
+    problem = next(p for p in PROBLEMS if p["scene"] == "panda_fixtures")
+    ctx = scene("panda_fixtures")
+    model = collision_model(ctx.world.cell)
+    exact = ConfigurationChecker(ctx.world, model, ctx.device.name)
+    start, goal = np.asarray(problem["start"]), np.asarray(problem["goal"])
+    s = np.linspace(0.0, 1.0, 2001)
+    distance = exact.check(start + s[:, None] * (goal - start)).distance
+    first = int(np.argmax(distance < 0.0005))  # the straight line runs into something
+    assert first > 0 and distance[:first].min() >= 0.0005
+    lo, hi = s[first - 1], s[first]
+    for _ in range(60):  # the state 0.5 mm from it
+        mid = 0.5 * (lo + hi)
+        near = exact.check((start + mid * (goal - start))[None]).distance[0]
+        lo, hi = (mid, hi) if near >= 0.0005 else (lo, mid)
+    end = start + lo * (goal - start)
+    assert 0.0004 < exact.check(end[None]).distance[0] < 0.0006
+    loose = WorldChecks(ctx.world, model, ctx.device.name, 1e-3)
+    kept = WorldChecks(ctx.world, model, ctx.device.name, 1e-3, kept=0.001)
+    assert loose.segment_free(start, end)
+    assert not kept.segment_free(start, end)
+
+
 def test_the_path_file_is_the_polyline_and_blends_checked_and_times(tmp_path):
     from rworld_cli.api import load_joint_path, plan_free_path, time_optimal_plan
     from rworld_cli.planning.path import blend_corners
 
     ctx = scene("panda_fixtures")
-    problem = next(p for p in PROBLEMS if p["scene"] == "panda_fixtures")
+    # its second problem: three corners, all blended (the first's one corner is not, with the
+    # path's 1 mm kept)
+    problem = [p for p in PROBLEMS if p["scene"] == "panda_fixtures"][1]
     goal = ",".join(map(repr, problem["goal"]))
     out = tmp_path / "p.yaml"
     planned = plan_free_path(ctx, goal, problem["start"], output=str(out))
+    assert "clearance 1 mm (none asked)" in out.read_text()
     again = tmp_path / "q.yaml"
     plan_free_path(ctx, goal, problem["start"], output=str(again))
     assert out.read_bytes() == again.read_bytes()  # same seed, same file
@@ -922,7 +1003,7 @@ def test_blended_via_points_are_exported_as_the_controllers_blends(tmp_path):
     from rworld_cli.api import export_program, plan_free_path
 
     ctx = scene("gp7_shelf")
-    problem = [p for p in PROBLEMS if p["scene"] == "gp7_shelf"][1]  # a path of 4 blends
+    problem = [p for p in PROBLEMS if p["scene"] == "gp7_shelf"][5]  # 2 corners blended, 1 not
     planned = plan_free_path(
         ctx, ",".join(map(repr, problem["goal"])), problem["start"], output=str(tmp_path / "p.yaml")
     )
