@@ -124,7 +124,7 @@ def import_urdf(
             "to overwrite its cell.yaml, poses.yaml and meshes"
         )
     robot, warnings = read_urdf(urdf, package_paths, xacro_args)
-    stated = read_joint_limits(joint_limits) if joint_limits is not None else None
+    stated = read_joint_limits(joint_limits, xacro_args) if joint_limits is not None else None
     name = out.resolve().name
     disabled = []
     if srdf is not None:

@@ -691,42 +691,147 @@ def write_urdf(
     atomic_write_text(path, urdf_text(robot, mesh_names))
 
 
-def read_joint_limits(path: str | Path) -> dict[str, dict[str, float]]:
-    """A ROS ``joint_limits.yaml`` (MoveIt's, ros2_control's): per joint the limits it states,
-    SI - ``velocity`` [rad/s or m/s], ``acceleration`` [rad/s^2 or m/s^2], ``effort`` [N m or
-    N] - each only where its ``has_*_limits`` is true.
+@dataclass
+class JointLimitsFile:
+    """A vendor's joint-limits file as read (:func:`read_joint_limits`).
+
+    Attributes
+    ----------
+    limits : dict
+        Joint name -> the limits it states, SI: ``velocity`` [rad/s or m/s], ``acceleration``
+        [rad/s^2 or m/s^2], ``effort`` [N m or N].
+    marks : dict
+        Joint name -> (file, line, column) of its name: where a warning about it points.
+    form : str
+        "ros" (``joint_limits:``, MoveIt's and ros2_control's), "lists" (a driver's
+        ``joint_names`` with ``maximum_velocities`` ...), or "urdf" (each joint's ``limit:``,
+        as franka_description gives them).
+    """
+
+    limits: dict[str, dict[str, float]]
+    marks: dict[str, tuple[str, int, int]]
+    form: str
+
+
+# a driver's list-style limits file (ros2_kortex): each list beside joint_names, its kind
+_LIST_KEYS = {
+    "maximum_velocities": "velocity",
+    "maximum_accelerations": "acceleration",
+    "maximum_efforts": "effort",
+}
+_ARG = re.compile(r"\$\(arg\s+([A-Za-z_][A-Za-z0-9_]*)\)")
+
+
+def read_joint_limits(path: str | Path, args: dict[str, str] | None = None) -> JointLimitsFile:
+    """A vendor's joint-limits file as it ships, in any of three forms (:class:`JointLimitsFile`
+    ``form``): ROS's ``joint_limits.yaml`` (MoveIt's, ros2_control's: each limit only where
+    its ``has_*_limits`` is true; xacro's ``!degrees`` and ``!radians`` tags read, as UR's
+    files use them), a driver's lists (``joint_names`` and ``maximum_velocities``,
+    ``maximum_accelerations``, ``maximum_efforts``; ``$(arg NAME)`` in a name taken from
+    ``args``, else empty: ros2_kortex's ``$(arg prefix)joint_1``), or each joint's ``limit:``
+    mapping (franka_description's ``velocity`` and ``effort``).  Position limits are the
+    URDF's; these files' are not read.
 
     Raises
     ------
     UserError
-        Not the format, a value that is not a finite number above 0: every one located.
+        Not one of the forms, a value that is not a finite number above 0, lists of other
+        lengths than the names: every one located.
     """
     from .yamlio import read_yaml
 
-    doc = read_yaml(path, str(path))
-    limits = doc.data.get("joint_limits") if isinstance(doc.data, dict) else None
-    if not isinstance(limits, dict):
-        issue = doc.issue((), "no 'joint_limits:' section (ROS joint_limits.yaml)")
-        raise UserError(issue.format(), [issue])
+    doc = read_yaml(path, str(path), ros_units=True)
+    data = doc.data if isinstance(doc.data, dict) else {}
     out: dict[str, dict[str, float]] = {}
-    issues = []
-    for joint, entry in limits.items():
-        if not isinstance(entry, dict):
-            issues.append(doc.issue(("joint_limits", joint), "a joint's limits are a mapping"))
-            continue
-        values = {}
-        for kind in ("velocity", "acceleration", "effort"):
-            if entry.get(f"has_{kind}_limits") is not True:
+    marks: dict[str, tuple[str, int, int]] = {}
+    issues: list[Issue] = []
+
+    def number(value, where, what: str) -> float | None:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            issues.append(doc.issue(where, f"{what} is not a number"))
+        elif not (math.isfinite(value) and value > 0):
+            issues.append(doc.issue(where, f"{what} {value!r} is not a number above 0"))
+        else:
+            return float(value)
+        return None
+
+    def mark(name: str, where) -> None:
+        line, column = doc.position(where, prefer="key")
+        marks[name] = (doc.file, line, column)
+
+    if isinstance(data.get("joint_limits"), dict):
+        form = "ros"
+        for joint, entry in data["joint_limits"].items():
+            mark(str(joint), ("joint_limits", joint))
+            if not isinstance(entry, dict):
+                issues.append(doc.issue(("joint_limits", joint), "a joint's limits are a mapping"))
                 continue
-            value = entry.get(f"max_{kind}")
-            where = ("joint_limits", joint, f"max_{kind}")
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                issues.append(doc.issue(where, f"has_{kind}_limits is true: give max_{kind}"))
-            elif not (math.isfinite(value) and value > 0):
-                issues.append(doc.issue(where, f"max_{kind} {value!r} is not a number above 0"))
-            else:
-                values[kind] = float(value)
-        out[str(joint)] = values
+            values = {}
+            for kind in ("velocity", "acceleration", "effort"):
+                if entry.get(f"has_{kind}_limits") is not True:
+                    continue
+                where = ("joint_limits", joint, f"max_{kind}")
+                if f"max_{kind}" not in entry:
+                    issues.append(doc.issue(where, f"has_{kind}_limits is true: give max_{kind}"))
+                    continue
+                value = number(entry[f"max_{kind}"], where, f"max_{kind}")
+                if value is not None:
+                    values[kind] = value
+            out[str(joint)] = values
+    elif isinstance(data.get("joint_names"), list):
+        form = "lists"
+        names = []
+        for k, raw in enumerate(data["joint_names"]):
+            if not isinstance(raw, str):
+                issues.append(doc.issue(("joint_names", k), "a joint name is text"))
+                continue
+            name = _ARG.sub(lambda m: (args or {}).get(m.group(1), ""), raw)
+            names.append(name)
+            mark(name, ("joint_names", k))
+            out[name] = {}
+        lists = [key for key in _LIST_KEYS if key in data]
+        if not lists:
+            issues.append(
+                doc.issue(
+                    ("joint_names",), "no limits beside the names: give " + ", ".join(_LIST_KEYS)
+                )
+            )
+        for key in lists:
+            values = data[key]
+            if not isinstance(values, list) or len(values) != len(data["joint_names"]):
+                count = len(values) if isinstance(values, list) else "not a list"
+                issues.append(
+                    doc.issue(
+                        (key,),
+                        f"{len(data['joint_names'])} joint_names, {count} {key}: one each",
+                    )
+                )
+                continue
+            for k, (name, value) in enumerate(zip(names, values, strict=False)):
+                got = number(value, (key, k), f"{key}[{k}]")
+                if got is not None:
+                    out[name][_LIST_KEYS[key]] = got
+    elif data and all(
+        isinstance(v, dict) and isinstance(v.get("limit"), dict) for v in data.values()
+    ):
+        form = "urdf"
+        for joint, entry in data.items():
+            mark(str(joint), (joint,))
+            values = {}
+            for kind in ("velocity", "effort"):
+                if kind in entry["limit"]:
+                    value = number(entry["limit"][kind], (joint, "limit", kind), kind)
+                    if value is not None:
+                        values[kind] = value
+            out[str(joint)] = values
+    else:
+        issue = doc.issue(
+            (),
+            "not a joint-limits file: expected 'joint_limits:' (ROS, MoveIt's or "
+            "ros2_control's joint_limits.yaml), 'joint_names:' with 'maximum_velocities:' or "
+            "'maximum_accelerations:' (a driver's lists), or each joint's 'limit:' mapping",
+        )
+        raise UserError(issue.format(), [issue])
     if issues:
         raise UserError(issues[0].format(), issues)
-    return out
+    return JointLimitsFile(out, marks, form)

@@ -30,7 +30,7 @@ from ..errors import Issue, UserError, did_you_mean
 from ..model.cell import Inertial
 from .loader import inertia_entries
 from .models import NAME_PATTERN
-from .urdf import MOVING, UrdfGeometry, UrdfJoint, UrdfLink, UrdfRobot
+from .urdf import MOVING, JointLimitsFile, UrdfGeometry, UrdfJoint, UrdfLink, UrdfRobot
 from .urdf_vendors import vendor_conventions
 from .yamlio import comment_text
 
@@ -269,7 +269,7 @@ def cell_from_urdf(
     locks: dict[str, str] | None = None,
     disabled=(),
     always=(),
-    joint_limits: dict[str, dict[str, float]] | None = None,
+    joint_limits: JointLimitsFile | None = None,
 ) -> ImportedCell:
     """The cell files for the serial chain ``base`` -> ``tip`` of a URDF robot.
 
@@ -471,12 +471,23 @@ def cell_from_urdf(
     if issues:
         raise UserError(f"invalid: {robot.file}: {len(issues)} error(s)", issues + warnings)
 
-    stated = joint_limits or {}
-    unknown = [n for n in stated if n not in robot.joints]  # others' (a gripper's): skipped
-    if unknown:
-        raise UserError(
-            "the joint limits name joints the robot does not have: "
-            + ", ".join(f"'{n}'{did_you_mean(n, robot.joints)}" for n in unknown)
+    stated = dict(joint_limits.limits) if joint_limits is not None else {}
+    # joints the robot does not have (a MoveIt config's gripper joints, another arm's): said
+    # where the file names them, and skipped
+    for name in [n for n in stated if n not in robot.joints]:
+        del stated[name]
+        assert joint_limits is not None
+        file, line, column = joint_limits.marks[name]
+        warnings.append(
+            Issue(
+                file,
+                line,
+                column,
+                name,
+                f"the joint limits name '{name}', a joint the robot does not have"
+                f"{did_you_mean(name, robot.joints)}: skipped",
+                "warning",
+            )
         )
     without = [j for j in moving if "acceleration" not in stated.get(j.name, {})]
     if without:

@@ -12,7 +12,10 @@ keep the last of duplicated keys; both are wrong for a validator.
 
 from __future__ import annotations
 
+import ast
 import hashlib
+import math
+import operator
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -133,8 +136,65 @@ def _mark(node: yaml.Node) -> tuple[int, int]:
     return (node.start_mark.line + 1, node.start_mark.column + 1)
 
 
-def parse_yaml_text(text: str, file: str) -> Marked:
-    """Parse one YAML document from ``text``.
+# xacro's load_yaml tags (ROS packages' YAML: UR's joint_limits.yaml gives `!degrees 120.0`):
+# each value times its factor to SI
+ROS_UNIT_TAGS = {
+    "!radians": 1.0,
+    "!degrees": math.pi / 180.0,
+    "!meters": 1.0,
+    "!millimeters": 1e-3,
+    "!foot": 0.3048,
+    "!inches": 0.0254,
+}
+_ARITHMETIC = {
+    ast.Add: operator.add,
+    ast.Sub: operator.sub,
+    ast.Mult: operator.mul,
+    ast.Div: operator.truediv,
+}
+
+
+def _unit_number(text: str) -> float:
+    """A unit tag's value: a number, or arithmetic (+ - * /, brackets) of numbers and ``pi``,
+    as xacro evaluates it (``!radians pi/2``), read as data: nothing else is evaluated.
+
+    Raises ValueError when it is anything else."""
+
+    def value(node: ast.AST, depth: int) -> float:
+        if depth > 32:
+            raise ValueError("nested too deep")
+        if isinstance(node, ast.Constant) and type(node.value) in (int, float):
+            return float(node.value)
+        if isinstance(node, ast.Name) and node.id in ("pi", "e", "tau"):
+            return float(getattr(math, node.id))
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.UAdd | ast.USub):
+            inner = value(node.operand, depth + 1)
+            return -inner if isinstance(node.op, ast.USub) else inner
+        if isinstance(node, ast.BinOp) and type(node.op) in _ARITHMETIC:
+            return _ARITHMETIC[type(node.op)](
+                value(node.left, depth + 1), value(node.right, depth + 1)
+            )
+        raise ValueError("not arithmetic of numbers and pi")
+
+    if len(text) > 200:
+        raise ValueError("too long")
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except SyntaxError:
+        raise ValueError("not an expression") from None
+    try:
+        out = value(tree.body, 0)
+    except ZeroDivisionError:
+        raise ValueError("divides by zero") from None
+    if not math.isfinite(out):
+        raise ValueError("not finite")
+    return out
+
+
+def parse_yaml_text(text: str, file: str, ros_units: bool = False) -> Marked:
+    """Parse one YAML document from ``text``.  ``ros_units``: xacro's unit tags
+    (:data:`ROS_UNIT_TAGS`, ``!degrees 120``) read as numbers in SI, as ROS packages' YAML
+    files use them.
 
     Raises
     ------
@@ -168,7 +228,9 @@ def parse_yaml_text(text: str, file: str) -> Marked:
                 [Issue(file, 1, 1, "(root)", "the file is empty; expected a YAML mapping")],
             )
         issues: list[Issue] = []
-        doc.data = _walk(loader, root, (), doc, issues, _WalkState())
+        state = _WalkState()
+        state.ros_units = ros_units
+        doc.data = _walk(loader, root, (), doc, issues, state)
         if issues:
             raise UserError("invalid YAML", issues)
         return doc
@@ -193,6 +255,7 @@ class _WalkState:
         self.built: dict[int, tuple[Any, int]] = {}
         self.active: set[int] = set()
         self.values = 0
+        self.ros_units = False  # xacro's unit tags read (parse_yaml_text)
 
 
 def _walk(
@@ -237,6 +300,10 @@ def _walk(
 def _build(
     loader, node: yaml.Node, path: PathKey, doc: Marked, issues: list[Issue], state: _WalkState
 ) -> Any:
+    if state.ros_units and node.tag in ROS_UNIT_TAGS and not isinstance(node, yaml.ScalarNode):
+        line, col = _mark(node)
+        issues.append(Issue(doc.file, line, col, format_path(path), f"{node.tag} takes one number"))
+        return None
     if isinstance(node, yaml.MappingNode):
         loader.flatten_mapping(node)  # resolves '<<' merge keys
         out: dict[str, Any] = {}
@@ -277,6 +344,22 @@ def _build(
             _walk(loader, item, path + (i,), doc, issues, state)
             for i, item in enumerate(node.value)
         ]
+    if state.ros_units and isinstance(node, yaml.ScalarNode) and node.tag in ROS_UNIT_TAGS:
+        try:
+            return _unit_number(str(node.value)) * ROS_UNIT_TAGS[node.tag]
+        except ValueError as exc:
+            line, col = _mark(node)
+            issues.append(
+                Issue(
+                    doc.file,
+                    line,
+                    col,
+                    format_path(path),
+                    f"{node.tag} {node.value!r}: {exc} (a number, or arithmetic of numbers "
+                    "and pi, as xacro reads it)",
+                )
+            )
+            return None
     try:
         return loader.construct_object(node, deep=True)
     except yaml.constructor.ConstructorError as exc:
@@ -287,8 +370,9 @@ def _build(
         return None
 
 
-def read_yaml(path: str | Path, display: str | None = None) -> Marked:
-    """Read and parse a YAML file; ``display`` is the name used in messages.
+def read_yaml(path: str | Path, display: str | None = None, ros_units: bool = False) -> Marked:
+    """Read and parse a YAML file; ``display`` is the name used in messages; ``ros_units``:
+    xacro's unit tags read (:func:`parse_yaml_text`).
 
     Raises
     ------
@@ -317,6 +401,6 @@ def read_yaml(path: str | Path, display: str | None = None) -> Marked:
         raise UserError(
             f"{shown}: cannot read", [Issue(shown, 0, 0, "(file)", f"cannot read: {exc.strerror}")]
         ) from None
-    marked = parse_yaml_text(text, shown)
+    marked = parse_yaml_text(text, shown, ros_units)
     marked.digest = hashlib.sha256(data).hexdigest()
     return marked

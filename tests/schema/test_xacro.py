@@ -82,14 +82,12 @@ def test_xacro_errors_are_clear(cli, tmp_path):
 @pytest.mark.parametrize(
     "text, message",
     [
-        ("joint_limits:\n  joint_1_x: {has_acceleration_limits: true, max_acceleration: 5}\n",
-         "'joint_1_x' (did you mean 'joint_1_s'?)"),
         ("joint_limits:\n  joint_1_s: {has_acceleration_limits: true}\n",
          "joint_limits.yaml:2:14: joint_limits.joint_1_s.max_acceleration: "
          "has_acceleration_limits is true: give max_acceleration"),
         ("joint_limits:\n  joint_1_s: {has_acceleration_limits: true, max_acceleration: -1}\n",
          "max_acceleration -1 is not a number above 0"),
-        ("limits: {}\n", "no 'joint_limits:' section"),
+        ("limits: {}\n", "not a joint-limits file: expected 'joint_limits:'"),
     ],
 )  # fmt: skip
 def test_bad_joint_limits_are_located(cli, tmp_path, text, message):
