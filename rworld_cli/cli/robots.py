@@ -36,7 +36,8 @@ def import_group():
     "--tcp",
     default=None,
     metavar="LINK",
-    help="The link whose frame is the TCP (default: a link named tcp or tool0, else the tip).",
+    help="The link whose frame is the TCP (default: a tool frame by its name - tcp, tool0, "
+    "tool_frame, end_effector_link, flange, ... - on the last link, else the tip).",
 )
 @click.option(
     "--name",

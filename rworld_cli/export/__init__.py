@@ -21,6 +21,12 @@ VENDOR_FORMATS = {
 VENDOR_WITHOUT_FORMAT = {
     "franka": "Franka's controllers take no program file rworld writes (the robot is driven "
     "through libfranka / franka_ros at 1 kHz): export with --format csv",
+    "kinova": "Kinova's Kortex controllers take no program file rworld writes (the arm is "
+    "driven through the Kortex API or ros2_kortex): export with --format csv",
+    "denso": "DENSO's controllers run PacScript, which rworld does not write yet: export with "
+    "--format csv",
+    "epson": "Epson's controllers run SPEL+, which rworld does not write yet: export with "
+    "--format csv",
 }
 
 

@@ -190,7 +190,8 @@ class ControllerProfile:
     coupling : ndarray, shape (n, n)
         ... ``+ coupling @ q``: parallel linkages (ABB's and FANUC's J2-J3), zero diagonal.
     vendor : str or None
-        abb, fanuc, kuka, kuka_sunrise, ur, yaskawa, staubli, doosan, franka or generic.
+        abb, fanuc, kuka, kuka_sunrise, ur, yaskawa, staubli, doosan, franka, kinova, denso,
+        epson or generic.
     pulses_per_degree, zero_pulse : list or None
         Yaskawa: each axis' encoder pulses per degree and pulse count at zero.
     """

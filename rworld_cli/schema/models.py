@@ -448,6 +448,9 @@ class Controller(Strict):
             "staubli",
             "doosan",
             "franka",
+            "kinova",
+            "denso",
+            "epson",
             "generic",
         ]
         | None
@@ -455,8 +458,8 @@ class Controller(Strict):
         None,
         description="Whose controller: 'export program' writes its language when no --format "
         "is given (abb: RAPID, fanuc: TP, kuka: KRL, ur: URScript, yaskawa: INFORM, staubli: "
-        "VAL3, doosan: DRL, kuka_sunrise (LBR iiwa, Med): Sunrise Java; franka: no format, "
-        "refused with the reason).",
+        "VAL3, doosan: DRL, kuka_sunrise (LBR iiwa, Med): Sunrise Java; franka, kinova, denso, "
+        "epson: no format yet, refused with the reason).",
     )
     flange: Name | None = Field(
         None,

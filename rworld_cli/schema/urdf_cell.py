@@ -76,6 +76,63 @@ class ImportedCell:
     renamed_where: dict[str, str] = field(default_factory=dict)
 
 
+# links the vendors' packages mark as a tool frame, first taken first (a prefix before them
+# allowed: 'left_tool0'): rworld's own export, ROS-Industrial's and UR's flange, Kinova's tool
+# and end-effector frames, then common others
+TOOL_FRAMES = ("tcp", "tool0", "tool_frame", "end_effector_link", "flange", "ee_link", "tool_link")
+
+
+def _tool_frame(placed: dict, last: int) -> str | None:
+    """The first link of :data:`TOOL_FRAMES` (a prefix allowed) fixed to the chain's last
+    moving link, or None."""
+    on_last = [name for name, (group, _) in placed.items() if group == last]
+    for wanted in TOOL_FRAMES:
+        for name in on_last:
+            if name == wanted or name.endswith("_" + wanted):
+                return name
+    return None
+
+
+def _tcp_words(placed: dict, last: int, head: str, taken: str, named: bool) -> str:
+    """What the import says of the TCP it took without --tcp, when the last link carries other
+    frames: which it took and why, the others, and --tcp ('' when there is nothing else).
+    ``head``: the last moving link itself; ``named``: taken as a tool frame by its name (else it
+    is the chain's tip)."""
+    others = [
+        name for name, (group, _) in placed.items() if group == last and name not in (taken, head)
+    ]
+    if not others:
+        return ""
+    if named:
+        why = "a tool frame by the vendors' names"
+    else:
+        why = (
+            "the chain's tip: no link on it is named as a tool frame ("
+            + ", ".join(TOOL_FRAMES)
+            + ")"
+        )
+    shown = ", ".join(others[:8]) + (f" and {len(others) - 8} more" if len(others) > 8 else "")
+    return (
+        f"the TCP is '{taken}' ({why}); the last link also carries {shown}: --tcp NAME takes "
+        "another"
+    )
+
+
+def _package_of(file: str) -> str | None:
+    """The ROS package a robot description's file is in (the nearest folder above it with a
+    package.xml, at most four up): its name, or None."""
+    from pathlib import Path
+
+    folder = Path(file).resolve().parent
+    for _ in range(4):
+        if (folder / "package.xml").is_file():
+            return folder.name
+        if folder.parent == folder:
+            break
+        folder = folder.parent
+    return None
+
+
 def _issue(robot: UrdfRobot, item, location: str, message: str, severity="error") -> Issue:
     return Issue(robot.file, item.line, item.column, location, message, severity)
 
@@ -280,8 +337,8 @@ def cell_from_urdf(
     base, tip : str, optional
         URDF links; default the root, and the end of the unique chain of moving joints.
     tcp : str, optional
-        The URDF link whose frame becomes the device's TCP; default a link named ``tcp`` or
-        ``tool0`` on the imported part, else ``tip``.
+        The URDF link whose frame becomes the device's TCP; default the first of
+        :data:`TOOL_FRAMES` fixed to the chain's last link (a prefix allowed), else ``tip``.
     device_name : str, optional
         Default: the robot's name.
     locks : dict, optional
@@ -399,10 +456,17 @@ def cell_from_urdf(
     poses: dict[str, dict] = {device: {"xyz": [0.0, 0.0, 0.0]}}
     moving = [j for j in chain if j.type in MOVING]
     heads = [names(group[0][0].name) for group in groups]
-    # the TCP: --tcp, else a link named 'tcp' (what 'rworld export urdf' writes) or 'tool0' (the
-    # ROS-Industrial flange frame), else the tip.  A merged link becomes the TCP itself; a
-    # moving link gets a TCP frame 'tcp' on it.
-    tcp_link = tcp or next((n for n in ("tcp", "tool0") if n in placed), tip)
+    # the TCP: --tcp, else the link the vendors' packages name as a tool frame (TOOL_FRAMES:
+    # 'tcp' as 'rworld export urdf' writes it, ROS-Industrial's and UR's 'tool0', Kinova's
+    # 'tool_frame', ...; a prefix before the name allowed), else the tip.  A merged link
+    # becomes the TCP itself; a moving link gets a TCP frame 'tcp' on it.
+    named = _tool_frame(placed, len(groups) - 1)
+    tcp_link = tcp or named or tip
+    if tcp is None:
+        last = len(groups) - 1
+        said = _tcp_words(placed, last, groups[last][0][0].name, tcp_link, named is not None)
+        if said:
+            warnings.append(Issue(robot.file, 0, 0, "tcp", said, "warning"))
     if tcp_link not in placed:
         raise UserError(
             f"{robot.file}: --tcp '{tcp_link}' is not on the imported part (the chain {base} -> "
@@ -549,7 +613,22 @@ def cell_from_urdf(
         controller["flange"] = names("tool0")
     if "base" in placed and placed["base"][0] == 0 and base != "base":
         controller["base"] = names("base")
-    vendor, j23 = vendor_conventions(robot.name)
+    package = _package_of(robot.file)
+    vendor, j23 = vendor_conventions(robot.name, package)
+    if vendor is None:
+        warnings.append(
+            Issue(
+                robot.file,
+                0,
+                0,
+                "controller",
+                f"no controller vendor recognised from the robot's name '{robot.name}'"
+                + (f" or its package '{package}'" if package else "")
+                + ": 'export program' then needs --format; or set 'controller: {vendor: ...}' "
+                "in cell.yaml (abb, fanuc, kuka, kuka_sunrise, ur, yaskawa, staubli, doosan)",
+                "warning",
+            )
+        )
     if vendor is not None:  # named even where the URDF has no tool0 or base (Doosan's)
         controller = {"vendor": vendor, **controller}
         moving_revolute = [j for j in moving if j.type in ("revolute", "continuous")]

@@ -473,6 +473,22 @@ def test_inform_writes_joint_targets_in_pulses_when_the_cell_gives_them(vendor_c
         ("fanuc_m2000ia", "fanuc"),
         ("m2000ia", "fanuc"),
         ("abb_irb2400", "abb"),
+        # issue 62: the vendors' own package and model names
+        ("abb_crb15000_5_95", "abb"),
+        ("gofa", "abb"),
+        ("yumi", "abb"),
+        ("crx10ial", "fanuc"),
+        ("fanuc_crx10ial", "fanuc"),
+        ("motoman_hc10", "yaskawa"),
+        ("hc10dt", "yaskawa"),
+        ("ur", "ur"),
+        ("ur20", "ur"),
+        ("gen3", "kinova"),
+        ("kinova_gen3_lite", "kinova"),
+        ("vs060", "denso"),
+        ("denso_cobotta", "denso"),
+        ("epson_vt6", "epson"),
+        ("fr3", "franka"),
         ("my_robot", None),
     ],
 )
@@ -480,6 +496,36 @@ def test_import_names_the_vendor_families(name, vendor):
     from rworld_cli.schema.urdf_vendors import vendor_conventions
 
     assert vendor_conventions(name)[0] == vendor
+
+
+def test_a_vendor_is_read_from_the_package_when_the_name_says_nothing():
+    """A robot named 'robot' in abb_crb15000_support (or fanuc_crx10ia_support) is ABB's (or
+    FANUC's, with its J2-J3 factor); the CRX's coupling is the other FANUCs' (its streaming
+    launch files' J23_factor 1)."""
+    from rworld_cli.schema.urdf_vendors import vendor_conventions
+
+    assert vendor_conventions("robot", "abb_crb15000_support") == ("abb", None)
+    assert vendor_conventions("robot", "fanuc_crx10ia_support") == ("fanuc", -1.0)
+    assert vendor_conventions("robot", "my_robot_description") == (None, None)
+
+
+def test_an_import_without_a_vendor_says_so(tmp_path, cli):
+    """A URDF whose name and package name no vendor: the import warns, naming both and the
+    way on ('export program' needs --format, or controller.vendor in cell.yaml)."""
+    (tmp_path / "arm").mkdir()
+    (tmp_path / "arm" / "package.xml").write_text("<package><name>arm</name></package>\n")
+    urdf = tmp_path / "arm" / "my_arm.urdf"
+    urdf.write_text(
+        '<robot name="my_arm"><link name="base"/><link name="l1"/>'
+        '<joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>'
+        '<limit lower="-1" upper="1" velocity="1" effort="1"/></joint></robot>'
+    )
+    result = cli(["import", "urdf", str(urdf), "-o", str(tmp_path / "cell")])
+    assert result.exit_code == 0, result.output
+    assert (
+        "warning: controller: no controller vendor recognised from the robot's name 'my_arm' "
+        "or its package 'arm': 'export program' then needs --format"
+    ) in result.output
 
 
 def test_a_vendor_without_a_language_is_refused_with_the_reason(tmp_path, cli):

@@ -39,7 +39,7 @@ CASES = {
     "panda": (
         "panda_description/urdf/panda.urdf",
         {"tip": "panda_hand"},
-        "panda_hand",
+        "panda_hand_tcp",  # Franka's TCP frame, taken by its name (issue 62)
         ("panda_finger_joint1", "panda_finger_joint2"),
     ),
     "kinova": ("kinova_description/robots/kinova.urdf", {}, "j2s6s200_link_6", ()),
