@@ -171,6 +171,7 @@ def import_urdf(
             atomic_write_bytes(out / "cell.yaml", imported.cell_text.encode())
             loaded = load_cell(staging)
         imported.warnings.extend(warning for _, _, _, warning, _ in overlaps)
+        imported.warnings.extend(_implausible_dynamics(robot, loaded.cell, imported.device))
         load_warnings = [
             Issue(
                 w.file.replace(str(staging), str(out)),
@@ -233,6 +234,71 @@ def _always_overlapping(
             f"not checked for overlapping links: {', '.join(found.unchecked)} (no closed solid)"
         )
         out.append(("", "", "", Issue(file, 0, 0, "collision", message, "warning"), False))
+    return out
+
+
+def _implausible_dynamics(robot, cell, device: str) -> list[Issue]:
+    """Warnings for mass properties and effort limits no real robot has
+    (:mod:`rworld_cli.dynamics.plausible`): links whose inertia is beyond what their mass
+    and size allow, joints whose efforts cannot hold the arm against gravity - each a line,
+    at the first such link's or joint's element of the URDF."""
+    import numpy as np
+
+    from ..dynamics.plausible import efforts_below_gravity, inertia_beyond_size
+    from ..geometry import shape_mesh
+
+    dev = cell.devices[device]
+    out = []
+    beyond = []
+    for link in dev.links:
+        inertial = link.inertial
+        if inertial is None or inertial.mass <= 0 or link.shape is None:
+            continue
+        vertices = np.asarray(shape_mesh(link.shape).vertices, dtype=float)
+        reach = float(np.linalg.norm(vertices - inertial.com, axis=1).max())
+        found = inertia_beyond_size(inertial.mass, inertial.inertia, reach)
+        if found is not None:
+            beyond.append((link.name, inertial.mass, reach, *found))
+    if beyond:
+        first = robot.links.get(beyond[0][0])
+        said = "; ".join(
+            f"{name} {largest:.3g} kg m^2 (a {mass:.3g} kg body within {reach * 1000:.0f} mm of "
+            f"its centre of mass: at most {most:.3g})"
+            for name, mass, reach, largest, most in beyond[:4]
+        ) + (f"; and {len(beyond) - 4} more" if len(beyond) > 4 else "")
+        out.append(
+            Issue(
+                robot.file,
+                first.line if first is not None else 0,
+                first.column if first is not None else 0,
+                "inertial",
+                f"the inertia of {len(beyond)} link(s) is more than their mass and size allow "
+                f"({said}): placeholder dynamics? torques, overload checks and dynamics fits use "
+                "them; give the links' real mass properties in cell.yaml",
+                "warning",
+            )
+        )
+    weak = efforts_below_gravity(dev)
+    if weak:
+        joint = dev.joints[weak[0][0]]
+        first = robot.joints.get(joint.name)
+        effort = dev.limit_array("effort")
+        said = "; ".join(
+            f"{dev.joints[j].name} needs up to {need:.3g} (limit {effort[j]:.3g})"
+            for j, need, _ in weak
+        )
+        out.append(
+            Issue(
+                robot.file,
+                first.line if first is not None else 0,
+                first.column if first is not None else 0,
+                "limit",
+                f"the effort limits of {len(weak)} joint(s) cannot hold the arm against gravity "
+                f"({said}; N m or N, at states within the limits): placeholder limits? every "
+                "move would overload; give the real 'effort' in cell.yaml, or remove it",
+                "warning",
+            )
+        )
     return out
 
 
