@@ -15,7 +15,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Literal
 
-Severity = Literal["error", "warning"]
+Severity = Literal["error", "warning", "note"]
 
 
 @dataclass(frozen=True)
@@ -33,7 +33,9 @@ class Issue:
         ``(root)`` for the whole document.
     message : str
         What is wrong, and where possible what would be right.
-    severity : {"error", "warning"}
+    severity : {"error", "warning", "note"}
+        A note says what the files already acknowledge (meshes marked as open surfaces): the
+        global ``--quiet`` leaves notes out.
     """
 
     file: str
@@ -45,7 +47,7 @@ class Issue:
 
     def format(self) -> str:
         """The one-line form ``file:line:col: [warning: ]location: message``."""
-        tag = "warning: " if self.severity == "warning" else ""
+        tag = f"{self.severity}: " if self.severity != "error" else ""
         where = f"{self.file}:{self.line}:{self.column}" if self.line > 0 else self.file
         return f"{where}: {tag}{self.location}: {self.message}"
 

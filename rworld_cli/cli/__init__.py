@@ -167,8 +167,14 @@ def _warning_line(message, category, filename, lineno, file=None, line=None) -> 
     is_flag=True,
     help="Machine-readable JSON on stdout (same as each command's --json).",
 )
+@click.option(
+    "-q",
+    "--quiet",
+    is_flag=True,
+    help="Leave out notes: what the files already acknowledge (meshes marked 'surface: true').",
+)
 @click.pass_context
-def main(ctx: click.Context, json_output: bool) -> None:
+def main(ctx: click.Context, json_output: bool, quiet: bool) -> None:
     """rworld - world models, device physics and checks for robot workcells.
 
     A cell is a directory with cell.yaml (structure: devices, objects,

@@ -251,3 +251,11 @@ def with_progress(show: bool, call, what: str):
             bar.update(task, completed=done, total=total, description=text)
 
         return call(progress)
+
+
+def shown_issues(issues) -> list:
+    """The warnings and notes a command prints: notes (what the files acknowledge) left out
+    under the global ``--quiet``."""
+    ctx = click.get_current_context(silent=True)
+    quiet = bool(ctx is not None and ctx.find_root().params.get("quiet"))
+    return [i for i in issues if not (quiet and i.severity == "note")]

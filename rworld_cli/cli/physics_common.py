@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import emit_json
+from .common import emit_json, shown_issues
 
 
 def device_options(fn):
@@ -95,7 +95,7 @@ def emit(
         payload["notes"] = list(notes)
         emit_json(payload)
         return
-    for w in warnings:
+    for w in shown_issues(warnings):
         click.echo(w.format(), err=True)
     for note in notes:
         click.echo(f"note: {note}", err=True)

@@ -4,7 +4,14 @@ from __future__ import annotations
 
 import click
 
-from .common import device_option, emit_json, handle_errors, json_option, output_option
+from .common import (
+    device_option,
+    emit_json,
+    handle_errors,
+    json_option,
+    output_option,
+    shown_issues,
+)
 
 
 @click.group("import")
@@ -149,7 +156,7 @@ def import_urdf(
     if json_output:
         emit_json(result.as_dict())
         return
-    for w in result.warnings:
+    for w in shown_issues(result.warnings):
         click.echo(w.format(), err=True)
     click.echo(
         f"imported {result.device} ({result.dof} joints, {result.base} -> {result.tip}, TCP at "

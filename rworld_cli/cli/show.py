@@ -4,7 +4,13 @@ from __future__ import annotations
 
 import click
 
-from .common import emit_json, handle_errors, json_option, parse_joint_assignments
+from .common import (
+    emit_json,
+    handle_errors,
+    json_option,
+    parse_joint_assignments,
+    shown_issues,
+)
 
 KIND_STYLE = {"device": "bold cyan", "object": "bold green", "sensor": "bold magenta"}
 FRAME_STYLE = {
@@ -82,7 +88,7 @@ def _render(summary, units: str) -> None:
     digits = 1 if units == "mm" else 4  # 0.1 mm, for people; --json has every digit
     console = Console(highlight=False)
     err_console = Console(stderr=True, highlight=False)
-    for w in summary.warnings:
+    for w in shown_issues(summary.warnings):
         err_console.print(w.format(), style="yellow", markup=False)
 
     title = summary.name + (f" - {summary.description}" if summary.description else "")

@@ -15,6 +15,7 @@ from .common import (
     handle_errors,
     json_option,
     output_option,
+    shown_issues,
     with_progress,
 )
 
@@ -155,7 +156,7 @@ def simulate(
         payload["warnings"] = [w.as_dict() for w in loaded.warnings]
         emit_json(payload)
         return
-    for w in loaded.warnings:
+    for w in shown_issues(loaded.warnings):
         click.echo(w.format(), err=True)
     _render(result)
     for p in written:

@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from .common import EXIT_BAD_INPUT, emit_json, handle_errors, json_option
+from .common import EXIT_BAD_INPUT, emit_json, handle_errors, json_option, shown_issues
 
 
 @click.command()
@@ -52,7 +52,8 @@ def validate(files: tuple[str, ...], cell: str | None, json_output: bool) -> Non
     else:
         for r in reports:
             for issue in sorted(
-                r.errors + r.warnings, key=lambda i: (i.file != r.file, i.file, i.line, i.column)
+                r.errors + shown_issues(r.warnings),
+                key=lambda i: (i.file != r.file, i.file, i.line, i.column),
             ):
                 click.echo(issue.format(), err=True)
             if r.valid:

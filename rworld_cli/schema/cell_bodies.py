@@ -86,11 +86,14 @@ class BodiesMixin:
             return None
         T_mesh_box, extents, size, watertight = facts
         scale = LENGTH[mesh.units or self.cf.units.length]
-        if not watertight:
+        if not watertight and mesh.surface:
+            self.surfaces.append((self._body_name(path), path + ("surface",)))
+        elif not watertight:
             self.warn(
                 path + ("file",),
                 f"the mesh of '{self._body_name(path)}' is not closed (watertight): sensing and "
-                "collision checks treat it as a surface, so a body inside it goes unnoticed",
+                "collision checks treat it as a surface, so a body inside it goes unnoticed "
+                "('surface: true' in its mesh entry says so once for all such meshes)",
             )
         T_mesh_box = T_mesh_box.copy()
         T_mesh_box[:3, 3] *= scale

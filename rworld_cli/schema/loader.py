@@ -125,7 +125,7 @@ def load_cell(
     ordered = sorted(builder.issues, key=lambda i: (i.file != shown, i.file, i.line, i.column))
     if errors:
         raise UserError(f"{shown}: {len(errors)} error(s)", ordered)
-    loaded = LoadedCell(cell, [i for i in ordered if i.severity == "warning"])
+    loaded = LoadedCell(cell, [i for i in ordered if i.severity != "error"])
     cellcache.store(where, loaded, [(real, doc.digest), *builder.read])
     return loaded
 
@@ -153,6 +153,7 @@ class _Builder(BodiesMixin, DevicesMixin, RulesMixin, PosesMixin):
         # bytes when read: what the cell cache records (cellcache.store)
         self.read: list[tuple[Path, str]] = []
         self.calibrated: dict[str, tuple[Path, float, float]] = {}  # frame -> (overlay, m, rad)
+        self.surfaces: list[tuple[str, tuple]] = []  # meshes marked open surfaces: (body, path)
 
     # ------------------------------------------------------------------ helpers
     def err(self, path, message, prefer="value", doc: Marked | None = None):
@@ -233,6 +234,17 @@ class _Builder(BodiesMixin, DevicesMixin, RulesMixin, PosesMixin):
             devices[name] = dataclasses.replace(dev, joints=joints)
         self._check_cycles(affixments)
         allowed = self._allowed_contacts(objects, devices)
+        if self.surfaces:  # known open meshes: one line for all, a note (--quiet: none)
+            names = [name for name, _ in self.surfaces]
+            shown = ", ".join(names[:6]) + (f" and {len(names) - 6} more" if len(names) > 6 else "")
+            self.issues.append(
+                self.doc.issue(
+                    self.surfaces[0][1],
+                    f"{len(names)} mesh(es) marked 'surface: true' are open surfaces ({shown}): "
+                    "checked as surfaces, so a body inside one goes unnoticed",
+                    severity="note",
+                )
+            )
         return wm.CellModel(
             name=cf.name,
             path=cell_path,

@@ -162,6 +162,12 @@ class Mesh(Strict):
     units: Literal["m", "mm"] | None = Field(
         None, description="Length unit of the mesh file; default: the cell's."
     )
+    surface: bool = Field(
+        False,
+        description="The mesh is known to be an open surface (not closed: a vendor's mesh, "
+        "'rworld import urdf' marks the ones it could not close): checked as a surface, said "
+        "in one note for all such meshes instead of a warning each (--quiet: not at all).",
+    )
 
 
 class Geometry(Strict):

@@ -20,6 +20,7 @@ friction) is listed in a comment.
 from __future__ import annotations
 
 import re
+import warnings as pywarnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -249,6 +250,50 @@ def _mesh_bytes(robot: UrdfRobot, parts: list[tuple[UrdfGeometry, np.ndarray]]) 
         meshes.append(m)
     merged = trimesh.util.concatenate(meshes) if len(meshes) > 1 else meshes[0]
     return bytes(merged.export(file_type="stl"))  # type: ignore[call-arg]
+
+
+def _closed_or_surface(owner: str, name: str, meshes: dict, entry: dict) -> str | None:
+    """A link's mesh file (``meshes[name]``, its ``entry`` in the cell) made closed where
+    trimesh can close it (vertices merged, small holes filled, normals made consistent: the
+    file replaced by the closed mesh, in the same units), else marked ``surface: true`` (an
+    open surface, known: later commands say it in one note).  What was done, in words for the
+    import's warning, or None when the mesh is closed as it is."""
+    import io
+
+    import trimesh
+
+    data = meshes[name]
+    suffix = name.rsplit(".", 1)[-1]
+    with pywarnings.catch_warnings():
+        pywarnings.simplefilter("ignore")
+        mesh = trimesh.load(io.BytesIO(data), file_type=suffix, force="mesh")
+    if mesh.is_watertight:
+        return None
+    _, uses = np.unique(mesh.edges_sorted, axis=0, return_counts=True)
+    flaws = f"{int((uses == 1).sum())} open edges"  # on one face only
+    if (uses > 2).any():
+        flaws += f", {int((uses > 2).sum())} edges shared by more than two faces"
+    repaired = mesh.copy()
+    with pywarnings.catch_warnings():
+        pywarnings.simplefilter("ignore")
+        repaired.merge_vertices()
+        trimesh.repair.fill_holes(repaired)
+        trimesh.repair.fix_normals(repaired)
+    if repaired.is_watertight and repaired.is_volume:
+        stl = name.rsplit(".", 1)[0] + ".stl"
+        del meshes[name]
+        meshes[stl] = bytes(repaired.export(file_type="stl"))  # type: ignore[call-arg]
+        entry["file"] = stl
+        return (
+            f"the mesh of '{owner}' was no closed surface ({flaws}): closed by "
+            f"filling its holes (trimesh), written as {stl}"
+        )
+    entry["surface"] = True
+    return (
+        f"the mesh of '{owner}' is no closed surface ({flaws}) and trimesh cannot close "
+        "it: kept as an open surface (a body inside it goes unnoticed), marked 'surface: true' "
+        "in cell.yaml, so later commands say it in one note"
+    )
 
 
 def _flow(dumper, data):
@@ -526,6 +571,13 @@ def cell_from_urdf(
             doc["inertia"] = inertia_entries(inertial.inertia)
         if geometry and not any(g.kind == "mesh" and g.mesh_file is None for g, _ in geometry):
             doc["geometry"] = _geometry_doc(robot, owner, geometry, meshes)
+            entry = doc["geometry"].get("mesh")
+            said = _closed_or_surface(owner, entry["file"], meshes, entry) if entry else None
+            if said:  # said once, here; later commands read the repair or the mark
+                first = geometry[0][0]
+                warnings.append(
+                    _issue(robot, first, f"link[{group[0][0].name}].mesh", said, "warning")
+                )
         if frames:
             doc["frames"] = frames
         if k == 0:
