@@ -4,15 +4,17 @@ Run:  .venv/bin/pip install -e ".[bench]" && .venv/bin/python bench/depth.py [--
 
 For each of MBM's 7 scene families (its first problem's cell, ``tests/data/mbm``): random joint
 states of the Panda (seeded, uniform in its limits); at each, every pair the planner checks of
-a link (its mesh, triangle by triangle) and one of the scene's boxes or cylinders whose bodies
-overlap by rworld's ``bodies.pair_distance`` (depths exact: ``exact_above`` 0), until
-``--per-family`` overlapping pairs.  Each is measured again by coal (``coal.collide``, every
-contact: each of the mesh's triangles against the primitive by coal's GJK and EPA) and coal's
-deepest contact compared with rworld's depth (the deepest piece pair, the same definition).
-Link against link is left out: coal measures two meshes' crossing triangles by its triangle
-intersection test, whose depth is not the pair's penetration depth.  So is the hand and link 7,
-whose meshes rworld takes as convex parts (solids: a part's depth is the solid's, deeper than
-any of its surface triangles' that coal measures).  Printed per family: pairs, the median
+a link and one of the scene's boxes or cylinders whose bodies overlap by rworld's
+``bodies.pair_distance`` (depths exact: ``exact_above`` 0), until ``--per-family``
+overlapping pairs.  Each is measured again by coal (``coal.collide``, every contact) and
+coal's deepest contact compared with rworld's depth (the deepest piece pair, the same
+definition).  A link is what rworld checks: the import closes MBM's Panda meshes (their seams
+merged), and a closed link that is one convex part is its hull - given to coal as the same
+hull (``coal.Convex``: coal's GJK and EPA on the solid); link 6, an open surface, is its
+triangles (coal: each triangle against the primitive).  Link against link is left out: coal
+measures two meshes' crossing triangles by its triangle intersection test, whose depth is not
+the pair's penetration depth.  So are link 7 and the hand, several convex parts each (coal
+would need each part as its own object).  Printed per family: pairs, the median
 depth, and |rworld - coal|: median, 99th percentile, largest, and the share within 1e-6 m;
 then the time each took.  A pair coal
 reports no contact for (it and rworld disagree whether they overlap at all) is counted apart.
@@ -32,6 +34,16 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(REPO / "bench"))
+
+
+def coal_convex(vertices: np.ndarray):
+    """coal's convex hull of ``vertices`` (V, 3) [m] (its own qhull)."""
+    import coal
+
+    points = coal.StdVec_Vec3s()
+    for p in np.asarray(vertices, dtype=float):
+        points.append(p)
+    return coal.Convex.convexHull(points, False, None)
 
 
 def coal_depth(geometry, a, b, Ta, Tb) -> float:
@@ -88,6 +100,9 @@ def main() -> None:
         model = collision_model(ctx.world.cell)
         checks = WorldChecks(ctx.world, model, "panda", 1e-3)
         geometry = coal_geometry(model)
+        for body in model.bodies:  # one convex part: that hull, as rworld checks it
+            if body.shape.kind == "mesh" and not body.is_mesh and body.single_piece:
+                geometry[body.label] = (coal_convex(body.parts[0][0]), np.eye(4))
         lower, upper = checks.box()
         ours, theirs, t_ours, t_theirs, missing = [], [], 0.0, 0.0, 0
         while len(ours) + missing < args.per_family:
@@ -95,10 +110,11 @@ def main() -> None:
             poses = checks.exact.poses(Q)
             for i, j in checks.exact.pairs:
                 a, b = model.bodies[i], model.bodies[j]
-                if (a.shape.kind == "mesh") == (b.shape.kind == "mesh") or not (
-                    a.is_mesh or b.is_mesh
-                ):
-                    continue  # a link's triangles against a primitive (module docstring)
+                if (a.shape.kind == "mesh") == (b.shape.kind == "mesh"):
+                    continue  # a link against a primitive (module docstring)
+                link = a if a.shape.kind == "mesh" else b
+                if not (link.is_mesh or link.single_piece):
+                    continue
                 t0 = time.perf_counter()
                 found = pair_distance(a, b, poses[a.frame], poses[b.frame])
                 t_ours += time.perf_counter() - t0

@@ -266,27 +266,32 @@ def _closed_or_surface(owner: str, name: str, meshes: dict, entry: dict) -> str 
     suffix = name.rsplit(".", 1)[-1]
     with pywarnings.catch_warnings():
         pywarnings.simplefilter("ignore")
-        mesh = trimesh.load(io.BytesIO(data), file_type=suffix, force="mesh")
+        mesh: trimesh.Trimesh = trimesh.load(  # type: ignore[assignment]
+            io.BytesIO(data), file_type=suffix, force="mesh"
+        )
     if mesh.is_watertight:
         return None
-    _, uses = np.unique(mesh.edges_sorted, axis=0, return_counts=True)
+    _, uses = np.unique(np.asarray(mesh.edges_sorted), axis=0, return_counts=True)
     flaws = f"{int((uses == 1).sum())} open edges"  # on one face only
     if (uses > 2).any():
         flaws += f", {int((uses > 2).sum())} edges shared by more than two faces"
     repaired = mesh.copy()
     with pywarnings.catch_warnings():
         pywarnings.simplefilter("ignore")
-        repaired.merge_vertices()
-        trimesh.repair.fill_holes(repaired)
+        repaired.merge_vertices()  # seams: corners repeated a rounding apart
+        how = "its seams' corners merged"
+        if not repaired.is_watertight:
+            trimesh.repair.fill_holes(repaired)
+            how += " and its holes filled"
         trimesh.repair.fix_normals(repaired)
     if repaired.is_watertight and repaired.is_volume:
         stl = name.rsplit(".", 1)[0] + ".stl"
         del meshes[name]
-        meshes[stl] = bytes(repaired.export(file_type="stl"))  # type: ignore[call-arg]
+        meshes[stl] = bytes(repaired.export(file_type="stl"))  # type: ignore[call-arg, arg-type]
         entry["file"] = stl
         return (
-            f"the mesh of '{owner}' was no closed surface ({flaws}): closed by "
-            f"filling its holes (trimesh), written as {stl}"
+            f"the mesh of '{owner}' was no closed surface ({flaws}): closed, {how} "
+            f"(trimesh), written as {stl}"
         )
     entry["surface"] = True
     return (
@@ -572,11 +577,12 @@ def cell_from_urdf(
         if geometry and not any(g.kind == "mesh" and g.mesh_file is None for g, _ in geometry):
             doc["geometry"] = _geometry_doc(robot, owner, geometry, meshes)
             entry = doc["geometry"].get("mesh")
-            said = _closed_or_surface(owner, entry["file"], meshes, entry) if entry else None
-            if said:  # said once, here; later commands read the repair or the mark
-                first = geometry[0][0]
+            repair = _closed_or_surface(owner, entry["file"], meshes, entry) if entry else None
+            if repair:  # said once, here; later commands read the repair or the mark
                 warnings.append(
-                    _issue(robot, first, f"link[{group[0][0].name}].mesh", said, "warning")
+                    _issue(
+                        robot, geometry[0][0], f"link[{group[0][0].name}].mesh", repair, "warning"
+                    )
                 )
         if frames:
             doc["frames"] = frames

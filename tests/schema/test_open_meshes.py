@@ -79,7 +79,7 @@ def test_a_mesh_with_a_hole_trimesh_can_fill_is_closed_at_import(cli, tmp_path):
     )
     result = cli(["import", "urdf", str(urdf), "-o", str(tmp_path / "cell")])
     assert result.exit_code == 0, result.output
-    assert "the mesh of 'l1' was no closed surface (3 open edges): closed by filling" in (
+    assert "the mesh of 'l1' was no closed surface (3 open edges): closed, its seams" in (
         result.output
     )
     loaded = load_cell(str(tmp_path / "cell"))
