@@ -17,7 +17,12 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 
 from .. import spatial
-from ..kinematics.configuration import abb_confdata, fanuc_config, kuka_status_turn  # noqa: F401
+from ..kinematics.configuration import (  # noqa: F401
+    abb_confdata,
+    as_written,
+    fanuc_config,
+    kuka_status_turn,
+)
 from ..model.cell import ControllerProfile, Inertial
 from ..model.program import MoveTarget, ResolvedStep
 

@@ -19,6 +19,7 @@ from .common import (
     Record,
     Tool,
     Writer,
+    as_written,
     blend_percent,
     fanuc_config,
     walk,
@@ -130,7 +131,7 @@ class FanucWriter(Writer):
         self.label += 1
         label = self.label
         body += _comments(f"{item.where}: {item.text}")
-        axes = program.axes(item.q_target)
+        axes = as_written(program.axes(item.q_target), 6)  # CONFIG as the J values are written
         where = f"\tUF : {self.uframe}, UT : {self.current_tool},"
         if item.motion == "joint":
             values = [f"J{i + 1}={_f(np.degrees(v)):>12} deg" for i, v in enumerate(axes)]

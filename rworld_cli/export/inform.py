@@ -29,6 +29,7 @@ from .common import (
     Record,
     Tool,
     Writer,
+    as_written,
     walk,
     xyz_wpr,
 )
@@ -151,7 +152,7 @@ class InformWriter(Writer):
             if self.current_tool != self.tool_now:
                 positions.append(f"///TOOL {self.current_tool}")
                 self.tool_now = self.current_tool
-            kind = rconf(axes, item.configuration)
+            kind = rconf(as_written(axes, 6), item.configuration)  # RCONF as written
             if kind != self.type_now:
                 positions.append(f"///RCONF {kind}")
                 self.type_now = kind

@@ -16,6 +16,7 @@ from .common import (
     Record,
     Tool,
     Writer,
+    as_written,
     blend_percent,
     contact_fields,
     kuka_abc,
@@ -114,7 +115,8 @@ class KRLWriter(Writer):
                 src.append(f"PTP {label}")
         else:
             position = frame(program.in_user(item.T_target))
-            status, turn = kuka_status_turn(program.axes(item.q_target), item.configuration)
+            written = as_written(program.axes(item.q_target), 9)  # as E6AXIS values are written
+            status, turn = kuka_status_turn(written, item.configuration)
             dat.append(
                 f"DECL E6POS {label} = {{{position}, S {status}, T {turn}, E1 0, E2 0, E3 0, "
                 "E4 0, E5 0, E6 0}"

@@ -19,6 +19,7 @@ from .common import (
     Writer,
     abb_confdata,
     abb_quaternion,
+    as_written,
     contact_fields,
     number,
     principal,
@@ -134,7 +135,7 @@ class RAPIDWriter(Writer):
         program, lines, body, k = self.program, self.lines, self.body, self.index
         tool, wobj = self.current_tool, self.wobj
         label = f"p{k + 1}"
-        axes = program.axes(item.q_target)
+        axes = as_written(program.axes(item.q_target), 9)  # confdata from the joints written
         joints = ",".join(number(np.degrees(v), 9) for v in axes)
         cf = ",".join(str(c) for c in abb_confdata(axes, item.configuration))
         lines.append(f"  ! {label}: {note(item.where)} {note(item.text)}")

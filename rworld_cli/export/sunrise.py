@@ -28,6 +28,7 @@ from .common import (
     Record,
     Tool,
     Writer,
+    as_written,
     kuka_abc,
     number,
     walk,
@@ -114,7 +115,7 @@ class SunriseWriter(Writer):
         program, body = self.program, self.body
         body.append(f"        // {note(item.where)}: {note(item.text)}")
         mover = self.current or "robot"
-        axes = program.axes(item.q_target)
+        axes = as_written(program.axes(item.q_target), 9, "rad")  # Status, Turn as written
         if item.motion == "joint" and not item.guard:
             relative = max(0.01, min(1.0, item.speed_fraction))
             blend = (  # a planned path's blended via point: the TCP's mm from it

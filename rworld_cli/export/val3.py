@@ -27,6 +27,7 @@ from .common import (
     Record,
     Tool,
     Writer,
+    as_written,
     walk,
 )
 
@@ -106,7 +107,7 @@ class VAL3Writer(Writer):
     def move(self, item: Move) -> None:
         program, code, tool = self.program, self.body, self.current_tool
         code.append(f"  // {note(item.where)}: {note(item.text)}")
-        axes = program.axes(item.q_target)
+        axes = as_written(program.axes(item.q_target), 6)  # config as joint values are written
         speed = len(self.speeds)
         percent = max(0.01, min(100.0, 100.0 * item.speed_fraction))
         acceleration = max(0.01, min(100.0, 100.0 * item.acceleration_fraction))

@@ -152,6 +152,17 @@ def arm_configurations(device: DeviceModel, Q) -> ArmConfigurations:
 # ------------------------------------------------------------------ the vendors' words
 
 
+def as_written(axes, decimals: int, unit: str = "deg") -> np.ndarray:
+    """The axis values [rad] a controller reads back from a program that writes them in
+    ``unit`` ("deg" or "rad") to ``decimals`` places: what every configuration field (a sign,
+    a quadrant, a turn) is taken from, so that it agrees with the joint values written beside
+    it (an axis at -5.6e-14 rad is written 0, and is 0 for its quadrant, not -1)."""
+    axes = np.asarray(axes, dtype=float)
+    if unit == "deg":
+        return np.radians(np.round(np.degrees(axes), decimals)) + 0.0  # + 0.0: no -0
+    return np.round(axes, decimals) + 0.0
+
+
 def abb_confdata(axes: np.ndarray, configuration: dict[str, str] | None) -> list[int]:
     """ABB's ``confdata`` [cf1, cf4, cf6, cfx] of a 6-axis joint solution (the controller's
     axis values [rad]): the quarter revolutions of axes 1, 4 and 6 (floor of angle / 90 deg);

@@ -601,3 +601,48 @@ def test_an_arm_angle_that_cannot_be_is_located(tmp_path, cli, cell, target, con
     result = cli(["check", str(folder), str(program)])
     assert result.exit_code == 2, result.output
     assert "angle.yaml:3" in result.output and message in result.output, result.output
+
+
+def test_configuration_fields_are_those_of_the_joint_values_as_written(vendor_cell, tmp_path):
+    """Issue 62: an axis at -5.6e-14 rad was written 0 in RAPID's jointtarget and quadrant -1
+    in its confdata - the file disagreed with itself.  Every language's configuration fields
+    now come from the joint values as written: a move to joints whose axes 1, 4, 5 and 6 sit
+    a rounding below 0 (and a linear move back there) exports confdata [0,0,0,...] in RAPID,
+    KUKA's Turn without those axes' bits, FANUC's turn numbers 0 and 'F'/'N' by the written J5,
+    the LBR's Turn likewise."""
+    import re
+
+    from rworld_cli.kinematics.configuration import (
+        abb_confdata,
+        as_written,
+        fanuc_config,
+        kuka_status_turn,
+    )
+
+    tiny = -5.6e-14
+    axes = np.array(
+        [tiny, 0.3, 0.4, tiny, tiny, tiny, tiny][: 7 if "iiwa" in vendor_cell[0] else 6]
+    )
+    assert abb_confdata(axes, None)[:3] == [-1, -1, -1]  # what the raw values say
+    written = as_written(axes, 9)
+    assert list(written[[0, 3, 4, 5]]) == [0.0] * 4 and not np.signbit(written).any()
+    assert abb_confdata(written, None) == [0, 0, 0, 0]
+    assert kuka_status_turn(written, None)[1] == 0
+    assert fanuc_config(as_written(axes, 6), None) == "N U T, 0, 0, 0"
+    key, root, device, _ = vendor_cell
+    fmt = VENDORS[key][1]
+    if fmt != "rapid":
+        return
+    degrees = ", ".join(repr(float(np.degrees(a))) for a in axes)
+    program = root / "programs" / "tiny.yaml"
+    program.write_text(
+        f"device: {device}\nunits: {{angle: deg}}\nsteps:\n  - move: {{joints: [{degrees}]}}\n"
+    )
+    out = tmp_path / "out"
+    export_program(str(root), str(program), fmt, str(out))
+    text = (out / "tiny.mod").read_text()
+    joints = re.search(r"CONST jointtarget j\d+ := \[\[([^\]]*)\]", text).group(1).split(",")
+    cf = re.search(r"CONST robtarget p\d+ := \[\[[^\]]*\],\[[^\]]*\],\[([^\]]*)\]", text)
+    confdata = cf.group(1).split(",")
+    assert joints[0] == "0" and joints[3:6] == ["0", "0", "0"]
+    assert confdata == ["0", "0", "0", "0"], text

@@ -22,7 +22,7 @@ MODULE pick_place
   CONST speeddata s5 := [1088.056,500,5000,1000];
   ! p6: workcells/puma560/programs/pick_place.yaml:11 move to workpiece.grasp (linear)
   CONST jointtarget j6 := [[32.159231609,32.354593311,-174.389015177,0,-37.965578134,-177.840768391],[9E9,9E9,9E9,9E9,9E9,9E9]];
-  CONST robtarget p6 := [[599.999998,199.999999,450],[0,0.965925826289,0.258819045103,0],[0,-1,-2,1],[9E9,9E9,9E9,9E9,9E9,9E9]];
+  CONST robtarget p6 := [[599.999998,199.999999,450],[0,0.965925826289,0.258819045103,0],[0,0,-2,1],[9E9,9E9,9E9,9E9,9E9,9E9]];
   CONST speeddata s6 := [125,500,5000,1000];
   PERS loaddata load1 := [1.2,[0.000002,0,125],[1,0,0,0],0.00125,0.00225,0.0035];
   ! p9: workcells/puma560/programs/pick_place.yaml:13 move to table.drop
