@@ -1,6 +1,8 @@
 """docs/walkthrough.md is run as written (issue 50): each ```console block's `$ ` commands in
-a fresh folder, in order, each exiting 0, and the output lines the document shows appear in
-what rworld prints, in order, numbers to a few units of their last digit.  Then the calibrated
+an empty folder outside the clone (issue 62: `RWORLD` names the clone, as the page tells the
+user to set it), in order, each exiting 0, and the output lines the document shows appear in
+what rworld prints, in order, numbers to a few units of their last digit; and the page shows
+every warning rworld prints (a block without `...` shows every line).  Then the calibrated
 plate is checked against the made-up truth.
 
 To rewrite the document's outputs after a deliberate change:
@@ -55,7 +57,7 @@ def commands(text: str) -> list[tuple[str, list[str], tuple[int, int]]]:
 
 
 def run(command: str, folder: Path) -> str:
-    env = dict(os.environ, COLUMNS="80", NO_COLOR="1", TERM="dumb")
+    env = dict(os.environ, COLUMNS="80", NO_COLOR="1", TERM="dumb", RWORLD=str(REPO))
     env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env['PATH']}"
     done = subprocess.run(
         ["bash", "-c", command],
@@ -103,8 +105,24 @@ def shown_in(printed: list[str], shown: list[str]) -> str | None:
     return None
 
 
+def unshown(printed: list[str], shown: list[str]) -> str | None:
+    """The first line rworld printed that the page must show and does not: every warning and
+    note always, and every line of a block that leaves nothing out (no `...`)."""
+    kept = [line for line in shown if line.strip() not in ("", "...")]
+    every = not any(line.strip() == "..." for line in shown)
+    for line in printed:
+        if not line.strip():
+            continue
+        if (every or "warning:" in line or "note:" in line) and not any(
+            same(line, s) for s in kept
+        ):
+            return line
+    return None
+
+
 def setup_folder(folder: Path) -> None:
-    (folder / "tests").symlink_to(REPO / "tests")  # the vendored robot, as in a clone
+    """An empty folder of the user's own, outside the clone (``RWORLD`` names the clone)."""
+    assert not any(folder.iterdir())
 
 
 def test_the_walkthrough_runs_as_written(tmp_path):
@@ -115,6 +133,8 @@ def test_the_walkthrough_runs_as_written(tmp_path):
         assert missing is None, (
             f"$ {command}\nthe document shows:\n  {missing}\nrworld printed:\n" + "\n".join(printed)
         )
+        left_out = unshown(printed, shown)
+        assert left_out is None, f"$ {command}\nthe document does not show:\n  {left_out}"
     # the calibrated plate against the made-up truth, within 3 of its predicted sigmas
     import yaml
 
@@ -143,7 +163,11 @@ def write(folder: Path) -> None:
     for command, shown, span in commands(text):
         printed = [s.rstrip() for s in run(command, folder).rstrip("\n").splitlines()]
         keep = [s for s in shown if s.strip() not in ("", "...")]
-        if shown == ["OUTPUT"] or shown_in(printed, keep) is not None:
+        if (
+            shown == ["OUTPUT"]
+            or shown_in(printed, keep) is not None
+            or unshown(printed, shown) is not None
+        ):
             replaced.append((span, printed))
     for (start, end), printed in reversed(replaced):
         lines[start:end] = printed

@@ -25,6 +25,7 @@ from .cells import (  # noqa: F401
     FileReport,
     FrameNode,
     clearance,
+    installed_schemas,
     load_world,
     schema_documents,
     stale_schemas,

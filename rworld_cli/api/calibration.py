@@ -370,7 +370,10 @@ def _write_probe_program(
     if not out.parent.is_dir():
         raise UserError(f"cannot write {out}: no folder {out.parent}")
     doc, stops = probe_program(rig, plans, ordered)
-    text = program_text(doc)
+    from .cells import installed_schemas
+
+    schemas = installed_schemas()
+    text = program_text(doc, None if schemas is None else str(schemas))
     trial = temporary_path(out, ".yaml")  # beside it: the program names files relative to it
     try:
         write_scratch(trial, text.encode("utf-8"))

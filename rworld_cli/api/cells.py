@@ -427,6 +427,36 @@ def schema_documents() -> dict[str, str]:
     return documents()
 
 
+def installed_schemas() -> Path | None:
+    """A folder that holds this rworld's JSON Schemas, wherever it is installed: the files
+    written once into the user's cache (``$RWORLD_CACHE_DIR``, ``~/.cache/rworld``:
+    ``schemas/<digest>/``, named by their content, so another version's are beside them).
+    What files rworld writes outside the repository point their editor schema at (an imported
+    cell, a planned program): right on any machine the files are written on, in any folder.
+    None when the cache folder is refused or cannot be written (the files then carry no
+    schema line).  Only editors read these files; rworld never reads them back."""
+    import hashlib
+
+    from .. import cache
+    from ..fileio import atomic_write_text
+
+    documents = schema_documents()
+    digest = hashlib.sha256("".join(documents.values()).encode()).hexdigest()[:16]
+    top = cache.folder("schemas")
+    if top is None:
+        return None
+    folder = top / digest
+    try:
+        folder.mkdir(mode=0o700, exist_ok=True)
+        for filename, text in documents.items():
+            path = folder / filename
+            if not path.is_file() or path.read_text(encoding="utf-8") != text:
+                atomic_write_text(path, text)
+    except OSError:
+        return None
+    return folder
+
+
 def write_schemas(directory: str | Path) -> list[Path]:
     """Write every schema into ``directory`` atomically; return the paths written."""
     from ..fileio import atomic_write_text

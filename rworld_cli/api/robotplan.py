@@ -235,6 +235,9 @@ def plan_robot_calibration(
         for k, index in enumerate(picked):  # from home to each pose and back
             steps += _visit_steps(pool, int(index), k + 1, cell, device, target, sensor)
         what = f"measure {target} at each" if sensor is None else f"touch with {sensor}"
+        from .cells import installed_schemas
+
+        schemas = installed_schemas()
         text = program_text(
             {
                 "header": [
@@ -244,7 +247,8 @@ def plan_robot_calibration(
                 "device": device,
                 "units": {"length": "mm", "angle": "deg"},
                 "steps": steps,
-            }
+            },
+            None if schemas is None else str(schemas),
         )
         trial = Path(program).with_name(f".{Path(program).name}.trial")
         trial.write_text(text)  # checked before it is written: the real file appears whole

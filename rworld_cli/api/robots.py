@@ -125,6 +125,10 @@ def import_urdf(
         )
     robot, warnings = read_urdf(urdf, package_paths, xacro_args)
     stated = read_joint_limits(joint_limits, xacro_args) if joint_limits is not None else None
+    from .cells import installed_schemas
+
+    found = installed_schemas()  # the editor's schemas, wherever the cell is written
+    schemas = None if found is None else str(found)
     name = out.resolve().name
     disabled = []
     if srdf is not None:
@@ -133,7 +137,16 @@ def import_urdf(
         disabled = read_srdf(srdf)
     try:
         imported = cell_from_urdf(
-            robot, name, base, tip, tcp, device_name, locks, disabled, joint_limits=stated
+            robot,
+            name,
+            base,
+            tip,
+            tcp,
+            device_name,
+            locks,
+            disabled,
+            joint_limits=stated,
+            schemas=schemas,
         )
     except UserError as exc:  # a xacro's robot: each problem at the vendor's file and line
         raise UserError(str(exc), robot.located(exc.issues)) from None
@@ -167,6 +180,7 @@ def import_urdf(
                 disabled,
                 allow,
                 joint_limits=stated,
+                schemas=schemas,
             )
             atomic_write_bytes(out / "cell.yaml", imported.cell_text.encode())
             loaded = load_cell(staging)

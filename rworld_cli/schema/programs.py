@@ -724,11 +724,15 @@ def flow(value) -> str:
     return yaml_value(value)
 
 
-def program_text(doc: dict) -> str:
+def program_text(doc: dict, schemas: str | None = None) -> str:
     """A program file from data: ``header`` (comment lines), ``device``, ``description``,
     ``units``, ``steps`` as (step mapping, trailing comment or None).  Written through the YAML
-    library, so reading it back gives the same data whatever the names hold."""
-    lines = ["# yaml-language-server: $schema=../../../schemas/program.schema.json"]
+    library, so reading it back gives the same data whatever the names hold.  ``schemas``: the
+    folder of the JSON Schemas its editor line points at (absolute; None: no such line)."""
+    lines = []
+    if schemas is not None:
+        path = comment_text(str(Path(schemas) / "program.schema.json"))
+        lines.append(f"# yaml-language-server: $schema={path}")
     lines += [f"# {comment_text(line)}" for line in doc.get("header", [])]
     lines.append(f"device: {yaml_value(doc['device'])}")
     if doc.get("description") is not None:

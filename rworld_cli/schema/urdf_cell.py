@@ -22,6 +22,7 @@ from __future__ import annotations
 import re
 import warnings as pywarnings
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import yaml
@@ -119,11 +120,17 @@ def _tcp_words(placed: dict, last: int, head: str, taken: str, named: bool) -> s
     )
 
 
+def _schema_line(schemas: str | None, name: str) -> str:
+    """The editor's schema line of a file rworld writes: the schema ``name`` in the folder
+    ``schemas`` (``api.installed_schemas``: absolute), or nothing without one."""
+    if schemas is None:
+        return ""
+    return f"# yaml-language-server: $schema={comment_text(str(Path(schemas) / name))}\n"
+
+
 def _package_of(file: str) -> str | None:
     """The ROS package a robot description's file is in (the nearest folder above it with a
     package.xml, at most four up): its name, or None."""
-    from pathlib import Path
-
     folder = Path(file).resolve().parent
     for _ in range(4):
         if (folder / "package.xml").is_file():
@@ -377,6 +384,7 @@ def cell_from_urdf(
     disabled=(),
     always=(),
     joint_limits: JointLimitsFile | None = None,
+    schemas: str | None = None,
 ) -> ImportedCell:
     """The cell files for the serial chain ``base`` -> ``tip`` of a URDF robot.
 
@@ -402,6 +410,11 @@ def cell_from_urdf(
         Pairs of the device's link bodies (``device.link``) that overlap at every joint state
         sampled (:func:`rworld_cli.collision.selfoverlap.always_overlapping`): allowed too, as
         MoveIt's setup assistant disables its "Always" pairs.
+    joint_limits : JointLimitsFile, optional
+        The vendor's limits file as read (:func:`.urdf.read_joint_limits`).
+    schemas : str, optional
+        The folder of the JSON Schemas the files' editor lines point at (absolute); None: no
+        such line.
 
     Raises
     ------
@@ -723,8 +736,8 @@ def cell_from_urdf(
     # comments carry text from the URDF (its path, link names): one line each, escaped
     source, chain_text = comment_text(robot.file), comment_text(f"{base} -> {tip}")
     head = (
-        "# yaml-language-server: $schema=../../schemas/cell.schema.json\n"
-        f"# Imported by 'rworld import urdf' from {source}: the chain {chain_text}.\n"
+        _schema_line(schemas, "cell.schema.json")
+        + f"# Imported by 'rworld import urdf' from {source}: the chain {chain_text}.\n"
         "# Joints are given by their frames (origin, axis) as in the URDF; links fixed to a\n"
         "# moving link are merged into it and kept as frames (their poses are in poses.yaml).\n"
     )
@@ -754,8 +767,8 @@ def cell_from_urdf(
         cell_doc["allowed_contacts"] = allowed
     cell_text = head + yaml.dump(cell_doc, Dumper=_Dumper, sort_keys=False, width=100)
     poses_text = (
-        "# yaml-language-server: $schema=../../schemas/poses.schema.json\n"
-        f"# Poses of the frames of '{device}' (imported from {source}); calibration may\n"
+        _schema_line(schemas, "poses.schema.json")
+        + f"# Poses of the frames of '{device}' (imported from {source}); calibration may\n"
         "# change these numbers.\n"
         + yaml.dump(
             {"units": {"length": "m", "angle": "rad"}, "poses": poses},

@@ -6,6 +6,7 @@ import json
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 from tests.conftest import EXAMPLE_CELLS, REPO
 
@@ -132,3 +133,32 @@ def test_readme_commands_match_ci():
     setup_demo, setup_tests = blocks[0].strip(), blocks[1].strip()
     assert "rworld" in setup_demo and "pytest" in setup_tests
     assert setup_tests in (REPO / ".ci" / "run").read_text()
+
+
+def test_imported_cells_point_their_editor_at_this_rworlds_schemas(cli, tmp_path, monkeypatch):
+    """Issue 62: an imported cell's schema line was '../../schemas/...', right only inside the
+    repository.  It now names this rworld's own copy in the user's cache (what `rworld schema
+    --where` prints), the same text as the models' schemas, from any folder."""
+    import json
+
+    from rworld_cli.api import schema_documents
+
+    monkeypatch.setenv("RWORLD_CACHE_DIR", str(tmp_path / "cache"))
+    where = cli(["schema", "--where"])
+    assert where.exit_code == 0, where.output
+    folder = Path(where.output.strip())
+    assert folder.parent == tmp_path / "cache" / "schemas"
+    for name, text in schema_documents().items():
+        assert (folder / name).read_text() == text
+        json.loads(text)
+    urdf = tmp_path / "elsewhere" / "arm.urdf"
+    urdf.parent.mkdir()
+    urdf.write_text(
+        '<robot name="ur_arm"><link name="base"/><link name="l1"/>'
+        '<joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>'
+        '<limit lower="-1" upper="1" velocity="1" effort="1"/></joint></robot>'
+    )
+    assert cli(["import", "urdf", str(urdf), "-o", str(urdf.parent / "cell")]).exit_code == 0
+    for name in ("cell", "poses"):
+        first = (urdf.parent / "cell" / f"{name}.yaml").read_text().splitlines()[0]
+        assert first == f"# yaml-language-server: $schema={folder / f'{name}.schema.json'}"
