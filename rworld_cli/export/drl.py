@@ -13,8 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import UserError
 from . import Signals
 from .common import (
+    CONTACT_MARK,
     DRL,
     DeviceProgram,
     Load,
@@ -23,11 +25,38 @@ from .common import (
     Record,
     Tool,
     Writer,
+    contact_fields,
     number,
     walk,
 )
 
 note = DRL.comment  # every text from a file goes into a comment through this
+TP_LOG_BYTES = 256  # a tp_log message's limit (DSR_ROBOT2's documentation)
+
+
+def report_lines(fields: str, head: str, limit: int) -> list[str]:
+    """A contact report's fields (``contact_fields``) in lines of at most ``limit`` bytes,
+    each beginning with ``head`` ('rworld contact K/N') and holding whole ``key=value``
+    fields.
+
+    Raises
+    ------
+    UserError
+        A field longer than a line can hold (a program path of some 200 characters)."""
+    out: list[str] = []
+    line = head
+    for item in fields[len(head) :].split():
+        if len(f"{head} {item}".encode()) > limit:
+            raise UserError(
+                f"a contact report's field is longer than DRL's tp_log holds ({limit} bytes): "
+                f"{item[:60]}...; shorten the program's path or the feature's name"
+            )
+        if len(f"{line} {item}".encode()) > limit:
+            out.append(line)
+            line = head
+        line += f" {item}"
+    out.append(line)
+    return out
 
 
 def posx(T) -> tuple[float, ...]:
@@ -139,10 +168,17 @@ class DRLWriter(Writer):
         return [f"wait({number(seconds, 6)})"]
 
     def record(self, item: Record) -> None:
-        self.body.append(
-            f"# {note(item.where)}: {note(item.text)} (contact {item.number}/{item.total} of "
-            f"{note(item.feature)}: not recorded in DRL, read get_current_posx())"
-        )
+        # where the search stopped: the TCP in the moves' reference frame as the controller
+        # gives it (get_current_posx: x, y, z mm, ZYZ deg), on the teach pendant's log; a
+        # tp_log line holds 256 bytes at most, so the report's fields take lines of their own,
+        # each beginning with its 'rworld contact K/N' (docs/export.md: contact reports)
+        self.body.append(f"# {note(item.where)}: {note(item.text)}")
+        fields = contact_fields(self.program, item, "mm")
+        head = f"{CONTACT_MARK} {item.number}/{item.total}"
+        self.body.append(f"rwc_pos, rwc_sol = get_current_posx(ref={self.ref})")
+        for line in report_lines(fields, head, TP_LOG_BYTES):
+            self.body.append(f"tp_log({line!r})")
+        self.body.append(f"tp_log({head + ' posx='!r} + str(list(rwc_pos)))")
 
     def files(self) -> dict[str, str]:
         return {f"{self.name}.drl": "\n".join(self.body) + "\n"}

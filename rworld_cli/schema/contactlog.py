@@ -19,6 +19,11 @@ The reports carry the same fields in every language::
   assigned): each ``DECL E6POS RWC_K={X, Y, Z, A, B, C, ...}`` (mm, deg,
   ``R = Rz(A) Ry(B) Rx(C)``) after its ``; rworld contact`` line, and ``RWC_COUNT``, the
   contacts recorded.
+- ``drl``: the teach pendant's log (``tp_log``), any text around the lines ignored; a
+  ``tp_log`` line holds 256 bytes, so one report is several lines, each beginning with its
+  ``rworld contact K/N``: the fields, then ``posx=[x, y, z, a, b, c]`` as DRL prints
+  ``get_current_posx`` (mm; ZYZ deg: ``R = Rz(a) Ry(b) Rz(c)``), the TCP in the moves'
+  reference frame (``DR_BASE`` or the user frame).
 - ``fanuc``: ``POSREG.VA`` (the position registers as the controller lists them), register
   ``first + K - 1`` holding contact K (X, Y, Z mm; W, P, R deg: ``R = Rz(R) Ry(P) Rx(W)``);
   the fields are not in the controller's output: they are the exported program's.
@@ -45,7 +50,7 @@ import numpy as np
 from .. import spatial
 from ..errors import Issue, UserError
 
-LANGUAGES = ("urscript", "rapid", "krl", "fanuc")
+LANGUAGES = ("urscript", "rapid", "krl", "fanuc", "drl")
 MARK = "rworld contact"
 NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?", re.ASCII)  # a whole token
 MAX_LOG_BYTES = 64 * 1024 * 1024  # a UR log of months; larger: trim it to the run
@@ -183,6 +188,49 @@ def _urscript(lines: list[str], path: str) -> list[LoggedContact]:
     return out
 
 
+def _drl(lines: list[str], path: str) -> list[LoggedContact]:
+    out = []
+    gathered: dict[str, str] = {}  # the fields of the report under way
+    at = None  # its (K, N) and first line
+    for n, text in enumerate(lines, start=1):
+        if MARK not in text:
+            continue
+        start = text.index(MARK)
+        head = re.match(rf"{MARK} (\d{{1,6}})/(\d{{1,6}})\s", text[start:], re.ASCII)
+        if head is None:
+            _fail(path, n, f"'{MARK}' without its 'K/N' count", start + 1)
+        k, total = int(head.group(1)), int(head.group(2))
+        if not 1 <= k <= total <= MAX_CONTACTS:
+            _fail(path, n, f"contact {k}/{total}: a report counts 1 to N", start + 1)
+        if at is not None and at[:2] != (k, total):
+            _fail(path, n, f"contact {at[0]}/{at[1]} of line {at[2]} has no posx= line")
+        if at is None:
+            at = (k, total, n)
+        rest = text[start + head.end() :]
+        found = re.match(r"\s*posx=\s*\[([^\]]*)\]\s*$", rest)
+        if found is None:
+            for key, value in re.findall(r"(\w+)=(\S+)", rest, re.ASCII):
+                if key in gathered:
+                    _fail(path, n, f"report: '{key}' given twice")
+                gathered[key] = value
+            continue
+        missing = [f for f in FIELDS if f not in gathered]
+        if missing:
+            _fail(path, at[2], f"contact report without {', '.join(missing)}", start + 1)
+        if gathered["unit"] not in UNITS:
+            _fail(path, at[2], f"unit={gathered['unit']}: the reports give m or mm")
+        v = _numbers(found.group(1), 6, path, n, "posx")
+        R = spatial.axis_rotation(np.array([0.0, 0.0, 1.0]), np.radians(v[3]))
+        R = R @ spatial.axis_rotation(np.array([0.0, 1.0, 0.0]), np.radians(v[4]))
+        R = R @ spatial.axis_rotation(np.array([0.0, 0.0, 1.0]), np.radians(v[5]))
+        T = spatial.make_transform(R, v[:3] * UNITS[gathered["unit"]])
+        out.append(LoggedContact(k, total, T, dict(gathered), f"{path}:{at[2]}"))
+        gathered, at = {}, None
+    if at is not None:
+        _fail(path, at[2], f"contact {at[0]}/{at[1]} has no posx= line (the log ends first)")
+    return out
+
+
 def _rapid(lines: list[str], path: str) -> list[LoggedContact]:
     out = []
     for n, text in enumerate(lines, start=1):
@@ -305,7 +353,7 @@ def read_contact_log(path: str, language: str, first_register: int = 101) -> Con
 
     Parameters
     ----------
-    language : {"urscript", "rapid", "krl", "fanuc"}
+    language : {"urscript", "rapid", "krl", "fanuc", "drl"}
     first_register : int
         FANUC: the position register of contact 1 (``export program --contact-register``).
 
@@ -335,6 +383,8 @@ def read_contact_log(path: str, language: str, first_register: int = 101) -> Con
         contacts = _rapid(lines, path)
     elif language == "krl":
         contacts, count = _krl(lines, path)
+    elif language == "drl":
+        contacts = _drl(lines, path)
     else:
         contacts = _fanuc(lines, path, first_register)
     if not contacts:
@@ -343,10 +393,11 @@ def read_contact_log(path: str, language: str, first_register: int = 101) -> Con
             "rapid": f"no line holds '{MARK}' (the file HOME:rworld_<program>.log)",
             "krl": "no 'DECL E6POS RWC_k' with its report line (the program's .dat file)",
             "fanuc": f"PR[{first_register}] holds no contact",
+            "drl": f"no line holds '{MARK}' (the teach pendant's log of the tp_log reports)",
         }[language]
         raise UserError(f"{path}: no contact: {where}")
     notes = []
-    if language in ("urscript", "rapid"):  # the last run: from the last report 1/N on
+    if language in ("urscript", "rapid", "drl"):  # the last run: from the last report 1/N on
         starts = [i for i, c in enumerate(contacts) if c.number == 1]
         if not starts or starts[0] != 0:
             first = contacts[0]

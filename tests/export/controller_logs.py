@@ -103,9 +103,62 @@ def fanuc_posreg(contacts: list[Reported], first: int, digits: int = 3, size: in
     return "\n".join(out) + "\n"
 
 
+def _tp_logs(text: str) -> list[tuple[str, bool]]:
+    """A DRL program's tp_log lines in order: (the literal string, whether the pose follows
+    it: the line ``tp_log('... posx=' + str(list(rwc_pos)))``), read by Python's own parser."""
+    import ast
+
+    out = []
+    for line in text.splitlines():
+        found = re.match(r"tp_log\((.*)\)$", line.strip())
+        if found is None:
+            continue
+        call = ast.parse(line.strip(), mode="eval").body
+        argument = call.args[0]
+        if isinstance(argument, ast.BinOp):  # 'rworld contact K/N posx=' + str(list(rwc_pos))
+            out.append((ast.literal_eval(argument.left), True))
+        else:
+            out.append((ast.literal_eval(argument), False))
+    return out
+
+
+def drl_log(exported: str, contacts: list[Reported], digits: int | None = None) -> str:
+    """A Doosan teach pendant's log of the program's run: each tp_log line as it was logged,
+    time stamps before it; ``str(list(posx))`` where the program prints the pose: Python's own
+    float text (or ``digits`` decimals), x, y, z mm and ZYZ Euler angles in degrees
+    (scipy's intrinsic 'ZYZ')."""
+    out = ["2026-11-27 09:00:00 [INFO] program started"]
+    k = 0
+    for n, (literal, pose) in enumerate(_tp_logs(exported)):
+        if pose:
+            T = contacts[k].T
+            angles = Rotation.from_matrix(T[:3, :3]).as_euler("ZYZ", degrees=True)
+            values = [*(T[:3, 3] * 1000), *angles]
+            text = (
+                str([float(v) for v in values])
+                if digits is None
+                else ("[" + ", ".join(_fmt(v, digits) for v in values) + "]")
+            )
+            literal += text
+            k += 1
+        out.append(f"2026-11-27 09:00:{10 + n % 50:02d} [USER] {literal}")
+    out.append("2026-11-27 09:01:00 [INFO] program ended")
+    return "\n".join(out) + "\n"
+
+
 def reports_in(text: str) -> list[str]:
     """The report fields an exported program states, in order (URScript's textmsg, RAPID's
-    Write pieces joined, KRL's .dat comment lines)."""
+    Write pieces joined, KRL's .dat comment lines, DRL's tp_log lines of one report joined)."""
+    if "tp_log(" in text:
+        out, current = [], ""
+        for literal, pose in _tp_logs(text):
+            if pose:
+                out.append(current.strip())
+                current = ""
+            else:
+                head = " ".join(literal.split()[:3])  # rworld contact K/N
+                current = literal if not current else current + literal[len(head) :]
+        return out
     found = re.findall(r'textmsg\("(rworld contact [^"]*?) pose=", get_actual_tcp_pose\(\)\)', text)
     if found:
         return found

@@ -31,6 +31,7 @@ LOG_FILES = {
     "rapid": "rworld.log",
     "krl": "probe.dat",
     "fanuc": "POSREG.VA",
+    "drl": "tp_log.txt",
 }
 
 
@@ -82,6 +83,8 @@ def _controller_output(fmt, exported, contacts, digits=None, noise=None) -> str:
         return controller_logs.rapid_file(contacts, *(() if digits is None else (digits,)))
     if fmt == "krl":
         return controller_logs.krl_dat(exported, contacts)
+    if fmt == "drl":
+        return controller_logs.drl_log(exported, contacts, digits)
     return controller_logs.fanuc_posreg(contacts, 101, 9 if digits is None else digits)
 
 
@@ -123,7 +126,15 @@ def _frames(cell, path, sigma=2e-5):
 
 
 @pytest.mark.parametrize(
-    "fmt, frame", [("urscript", None), ("rapid", "plate"), ("krl", "table"), ("fanuc", "plate")]
+    "fmt, frame",
+    [
+        ("urscript", None),
+        ("rapid", "plate"),
+        ("krl", "table"),
+        ("fanuc", "plate"),
+        ("drl", None),
+        ("drl", "plate"),
+    ],
 )
 def test_a_controller_log_calibrates_as_the_simulated_loop(cli, loop, tmp_path, fmt, frame):
     """Each language's contact reports, read back through the controller's frames (the user
@@ -453,6 +464,7 @@ POSE_REGION = {  # where each language's log holds the pose
     "rapid": r" x=.*$",
     "krl": r"RWC_\d+=\{[^}]*\}",
     "fanuc": r"\b[XYZWPR]:\s*\S+",
+    "drl": r"posx=\[[^\]]*\]",
 }
 
 
@@ -463,7 +475,7 @@ def _reads(log, fmt):
 
 
 def test_a_log_fuzz_refuses_every_lie_and_keeps_every_truth(cli, loop, tmp_path):
-    """At least 300 mutations of real logs in the four languages: each numeric token of a pose
+    """At least 300 mutations of real logs in five languages: each numeric token of a pose
     replaced as a controller never writes it, or as one may; a key given twice; a count that
     does not count.  The counts are printed for the closing note."""
     rng = np.random.default_rng(58)
@@ -473,6 +485,7 @@ def test_a_log_fuzz_refuses_every_lie_and_keeps_every_truth(cli, loop, tmp_path)
         ("rapid", "plate"),
         ("krl", "table"),
         ("fanuc", "plate"),
+        ("drl", "plate"),
     ]:
         log = _write_log(cli, loop, fmt, frame, tmp_path / fmt)
         text = log.read_text()
@@ -532,6 +545,19 @@ def test_a_log_fuzz_refuses_every_lie_and_keeps_every_truth(cli, loop, tmp_path)
             lambda t: re.sub(r"X:\s*(\S+)", r"X: \1 X: 1.0", t, count=1),
             "'X' given twice",
         ),
+        ("drl", None, lambda t: t.replace(" unit=mm", " unit=mm unit=mm", 1), "'unit' given twice"),
+        (
+            "drl",
+            None,
+            lambda t: re.sub(r"\n[^\n]*contact 1/12 posx=[^\n]*", "", t, count=1),
+            "contact 1/12 of line 2 has no posx= line",
+        ),
+        (
+            "drl",
+            "plate",
+            lambda t: re.sub(r"(posx=\[)[^,]*", r"\g<1>417,775", t, count=1),
+            "posx: 6 numbers expected, found 7",
+        ),
     ],
 )
 def test_keys_counts_and_sizes_are_checked(cli, loop, tmp_path, fmt, frame, edit, message):
@@ -564,3 +590,20 @@ def test_a_log_over_the_size_bound_is_refused_at_once(tmp_path, monkeypatch):
     log.write_text("x" * 2000)
     with pytest.raises(UserError, match="over 1000 bytes"):
         contactlog.read_contact_log(str(log), "urscript")
+
+
+def test_drl_reports_fit_tp_logs_256_bytes():
+    """DSR_ROBOT2 documents tp_log's message as 256 bytes at most: a report's fields are split
+    into lines of whole fields under it, each with its 'rworld contact K/N'; a single field
+    longer than a line is refused (exit 2), not cut."""
+    from rworld_cli.export.drl import report_lines
+
+    head = "rworld contact 3/12"
+    fields = f"{head} program=p step=2 line={'d/' * 90}probe.yaml:40 feature=plate.top tcp=t.p"
+    fields += " frame=base unit=mm dir=0,0,-1"
+    lines = report_lines(fields, head, 256)
+    assert len(lines) == 2 and all(len(x.encode()) <= 256 for x in lines)
+    assert all(x.startswith(head + " ") for x in lines)
+    assert " ".join(x[len(head) + 1 :] for x in lines) == fields[len(head) + 1 :]
+    with pytest.raises(UserError, match="longer than DRL's tp_log holds"):
+        report_lines(f"{head} line={'d' * 300}", head, 256)
