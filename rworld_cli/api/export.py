@@ -580,6 +580,48 @@ def _write_together(output: str, files: dict[str, str]) -> None:
 CONTACT_TOLERANCE = 0.002  # [m]: how far a contact may lie off its search's line
 
 
+def _nominal_device(cell_path: str, cell, device: str):
+    """The device as its controller knows it: the cell without the pose files that set its
+    joints (``joints:``, ``corrections:``, what ``calibrate-robot`` writes); None when the cell
+    has none (the controller's model is the cell's)."""
+    from ..schema.loader import load_cell, robot_pose_files
+
+    robot_files = robot_pose_files(cell, device)
+    if not robot_files:
+        return None
+    keep = [str(p) for p in cell.pose_files if p not in robot_files]
+    return load_cell(cell_path, pose_files=keep).cell.devices[device]
+
+
+def _through_calibration(nominal, calibrated, T_base_tcp, mount, search, contact) -> np.ndarray:
+    """The calibrated robot's TCP pose (4, 4) where a controller with the ``nominal``
+    kinematics logged ``T_base_tcp``: the joints the nominal inverse kinematics gives (from
+    the search's planned end, to 1e-12 m and rad), then the calibrated forward kinematics.
+
+    Raises
+    ------
+    UserError
+        No joint solution puts the nominal robot on the logged pose (at the log's line)."""
+    from ..kinematics.inverse import solve_ik
+    from ..kinematics.jacobian import tool_pose
+
+    found = solve_ik(
+        nominal,
+        T_base_tcp,
+        mount,
+        seed=search.q_planned,
+        position_tolerance=1e-12,
+        rotation_tolerance=1e-12,
+    )
+    if not found.success:
+        raise UserError(
+            f"{contact.where}: contact {contact.number}: no joint values put the controller's "
+            "nominal robot on the logged pose (the log is another robot's, or its frame or "
+            "units are not the export's)"
+        )
+    return tool_pose(calibrated, np.asarray(found.q, dtype=float), mount)
+
+
 def measure_from_log(
     cell: str,
     run: str,
@@ -603,6 +645,13 @@ def measure_from_log(
     TCP applied, and placed in the world; the measurement file holds those points as
     ``measure --simulate --program`` writes them (planes' and circles' outside points, lines
     in probing order).
+
+    A controller keeps its nominal kinematics: where the cell carries a robot calibration
+    (pose files with ``joints:`` or ``corrections:``, as ``calibrate-robot`` writes them), the
+    pose a controller logs is its nominal forward kinematics at the joints it stood at.  Those
+    joints are found again (the nominal inverse kinematics of the logged pose, from the
+    search's planned end), and the TCP is the calibrated robot's at them.  A joint compliance
+    the cell gives is not undone here (the logged joints are taken as the arm's).
 
     Parameters
     ----------
@@ -710,6 +759,7 @@ def measure_from_log(
         )
     events = [e for e in result.events if e.device == device and e.kind == "probe"]
     dev = loaded.cell.devices[device]
+    nominal = _nominal_device(cell, loaded.cell, device)  # None: no robot calibration
     T_world_base = world.T_world(device)
     probed, report = [], []
     for contact, record, event in zip(contacts, records, events):
@@ -746,7 +796,10 @@ def measure_from_log(
         start, end = ends[0, :3, 3], ends[1, :3, 3]
         user = program.T_base_user if fmt != "urscript" and program.user_frame else None
         T_base_frame = user if user is not None else program.T_base_controller
-        at = (T_base_frame @ contact.T_frame_tcp @ T_tcp_sensor)[:3, 3]
+        T_base_tcp = T_base_frame @ contact.T_frame_tcp
+        if nominal is not None:  # the controller's nominal view undone: its joints, then ours
+            T_base_tcp = _through_calibration(nominal, dev, T_base_tcp, mount, search, contact)
+        at = (T_base_tcp @ T_tcp_sensor)[:3, 3]
         line = end - start
         length = float(np.linalg.norm(line))
         along = float((at - start) @ line / length)

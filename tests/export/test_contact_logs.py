@@ -607,3 +607,66 @@ def test_drl_reports_fit_tp_logs_256_bytes():
     assert " ".join(x[len(head) + 1 :] for x in lines) == fields[len(head) + 1 :]
     with pytest.raises(UserError, match="longer than DRL's tp_log holds"):
         report_lines(f"{head} line={'d' * 300}", head, 256)
+
+
+ROBOT_CORRECTIONS = """\
+units: {length: mm, angle: deg}
+corrections:
+  puma.j2: {xyz: [0.4, -0.3, 0.2], rpy: [0.03, -0.02, 0.04]}
+  puma.j3: {xyz: [-0.2, 0.5, 0.1], rpy: [-0.02, 0.05, 0.01]}
+"""
+
+
+def test_a_calibrated_robots_contacts_come_back_through_its_calibration(cli, loop, tmp_path):
+    """Issue 62: a cell that carries a robot calibration the controller does not: the pose the
+    controller logs is its nominal forward kinematics at the joints it stood at.  The contacts
+    read back through the calibration (the nominal inverse kinematics of each logged pose,
+    then the calibrated robot's pose there) give the simulated loop's points to 1e-9 m; read
+    as the nominal pose they would be off by the calibration (over 0.1 mm)."""
+    from rworld_cli.api import simulate_probe_measurements
+    from rworld_cli.kinematics.inverse import solve_ik
+    from rworld_cli.kinematics.jacobian import ToolMount, tool_pose
+
+    cell, truth, *_ = loop
+    calibrated = tmp_path / "calibrated"
+    shutil.copytree(cell, calibrated)
+    (calibrated / "robot.yaml").write_text(ROBOT_CORRECTIONS)
+    text = (calibrated / "cell.yaml").read_text()
+    assert "pose_files: [poses.yaml]" in text
+    (calibrated / "cell.yaml").write_text(
+        text.replace("pose_files: [poses.yaml]", "pose_files: [poses.yaml, robot.yaml]")
+    )
+    run = load_run(str(calibrated), str(calibrated / PROGRAM))
+    result = simulate(run, collisions=False)
+    probed = probe_run(result, run, load_cell(str(truth)).cell)
+    poses = _tcp_poses(run, result, probed, None)  # the real (calibrated) robot's TCP
+    nominal = load_cell(str(cell)).cell.devices["puma"]
+    real = run.cell.devices["puma"]
+    exported = _export(cli, calibrated, "urscript", None, tmp_path / "exported")
+    logged, off = [], 0.0
+    events = [e for e in result.events if e.kind == "probe"]
+    for T, event in zip(poses, events, strict=True):
+        search = result.resolved["puma"][event.reading["guard_move"]].move
+        mount = ToolMount(search.link, search.T_link_tcp)
+        q = solve_ik(real, T, mount, seed=search.q_planned, position_tolerance=1e-13).q
+        T_nominal = tool_pose(nominal, q, mount)  # what the controller logs
+        off = max(off, float(np.linalg.norm(T_nominal[:3, 3] - T[:3, 3])))
+        logged.append(T_nominal)
+    assert off > 1e-4
+    log = tmp_path / "robot.log"
+    log.write_text(
+        controller_logs.urscript_log([Reported(f, T) for f, T in zip(reports_in(exported), logged)])
+    )
+    out = tmp_path / "from_log.yaml"
+    read = _read_back(cli, calibrated, log, "urscript", out)
+    assert read.exit_code == 0, read.output
+    simulated = tmp_path / "simulated.yaml"
+    simulate_probe_measurements(
+        str(calibrated), str(truth), str(calibrated / PROGRAM), str(simulated), 0.0
+    )
+    nominal_cell = load_cell(str(calibrated)).cell
+    a = load_measurements([str(simulated)], nominal_cell).measurements
+    b = load_measurements([str(out)], nominal_cell).measurements
+    assert sorted(a) == sorted(b)
+    for name in a:
+        assert np.abs(a[name].points - b[name].points).max() < 1e-9, name
