@@ -287,6 +287,12 @@ def _warm_caches(cell, device: str) -> None:
     DeviceDynamics(dev).inverse(states, np.zeros_like(states), np.zeros_like(states))
 
 
+def _warning_at(robot, element, location: str, message: str) -> Issue:
+    """A warning at a URDF element's line (a link's, a joint's; the file when None)."""
+    line, column = (element.line, element.column) if element is not None else (0, 0)
+    return Issue(robot.file, line, column, location, message, "warning")
+
+
 def _implausible_dynamics(robot, cell, device: str) -> list[Issue]:
     """Warnings for mass properties and effort limits no real robot has
     (:mod:`rworld_cli.dynamics.plausible`): links whose inertia is beyond what their mass
@@ -317,15 +323,13 @@ def _implausible_dynamics(robot, cell, device: str) -> list[Issue]:
             for name, mass, reach, largest, most in beyond[:4]
         ) + (f"; and {len(beyond) - 4} more" if len(beyond) > 4 else "")
         out.append(
-            Issue(
-                robot.file,
-                first.line if first is not None else 0,
-                first.column if first is not None else 0,
+            _warning_at(
+                robot,
+                first,
                 "inertial",
                 f"the inertia of {len(beyond)} link(s) is more than their mass and size allow "
                 f"({said}): placeholder dynamics? torques, overload checks and dynamics fits use "
                 "them; give the links' real mass properties in cell.yaml",
-                "warning",
             )
         )
     weak = efforts_below_gravity(dev)
@@ -338,15 +342,13 @@ def _implausible_dynamics(robot, cell, device: str) -> list[Issue]:
             for j, need, _ in weak
         )
         out.append(
-            Issue(
-                robot.file,
-                first.line if first is not None else 0,
-                first.column if first is not None else 0,
+            _warning_at(
+                robot,
+                first,
                 "limit",
                 f"the effort limits of {len(weak)} joint(s) cannot hold the arm against gravity "
                 f"({said}; N m or N, at states within the limits): placeholder limits? every "
                 "move would overload; give the real 'effort' in cell.yaml, or remove it",
-                "warning",
             )
         )
     return out

@@ -141,8 +141,8 @@ def _pairs(items: list[tuple[str, str]], path: str, line: int, what: str) -> dic
     return out
 
 
-def _report(text: str, path: str, line: int) -> tuple[int, int, dict[str, str], str]:
-    """(K, N, fields, the rest after the fields) of a report line from its mark on."""
+def _head(text: str, path: str, line: int) -> tuple[int, int, int, str]:
+    """(where the mark starts, K, N, the rest after 'rworld contact K/N') of a report line."""
     start = text.index(MARK)
     head = re.match(rf"{MARK} (\d{{1,6}})/(\d{{1,6}})\s", text[start:], re.ASCII)
     if head is None:
@@ -150,9 +150,13 @@ def _report(text: str, path: str, line: int) -> tuple[int, int, dict[str, str], 
     k, total = int(head.group(1)), int(head.group(2))
     if not 1 <= k <= total <= MAX_CONTACTS:
         _fail(path, line, f"contact {k}/{total}: a report counts 1 to N", start + 1)
-    fields = _pairs(
-        re.findall(r"(\w+)=(\S+)", text[start + head.end() :], re.ASCII), path, line, "report"
-    )
+    return start, k, total, text[start + head.end() :]
+
+
+def _report(text: str, path: str, line: int) -> tuple[int, int, dict[str, str], str]:
+    """(K, N, fields, the rest after the fields) of a report line from its mark on."""
+    start, k, total, rest = _head(text, path, line)
+    fields = _pairs(re.findall(r"(\w+)=(\S+)", rest, re.ASCII), path, line, "report")
     missing = [f for f in FIELDS if f not in fields]
     if missing:
         _fail(path, line, f"contact report without {', '.join(missing)}", start + 1)
@@ -160,7 +164,7 @@ def _report(text: str, path: str, line: int) -> tuple[int, int, dict[str, str], 
         _fail(
             path, line, f"unit={fields['unit']}: the reports give m or mm", text.index("unit=") + 1
         )
-    return k, total, fields, text[start + head.end() :]
+    return k, total, fields, rest
 
 
 def _urscript(lines: list[str], path: str) -> list[LoggedContact]:
@@ -195,18 +199,11 @@ def _drl(lines: list[str], path: str) -> list[LoggedContact]:
     for n, text in enumerate(lines, start=1):
         if MARK not in text:
             continue
-        start = text.index(MARK)
-        head = re.match(rf"{MARK} (\d{{1,6}})/(\d{{1,6}})\s", text[start:], re.ASCII)
-        if head is None:
-            _fail(path, n, f"'{MARK}' without its 'K/N' count", start + 1)
-        k, total = int(head.group(1)), int(head.group(2))
-        if not 1 <= k <= total <= MAX_CONTACTS:
-            _fail(path, n, f"contact {k}/{total}: a report counts 1 to N", start + 1)
+        start, k, total, rest = _head(text, path, n)
         if at is not None and at[:2] != (k, total):
             _fail(path, n, f"contact {at[0]}/{at[1]} of line {at[2]} has no posx= line")
         if at is None:
             at = (k, total, n)
-        rest = text[start + head.end() :]
         found = re.match(r"\s*posx=\s*\[([^\]]*)\]\s*$", rest)
         if found is None:
             for key, value in re.findall(r"(\w+)=(\S+)", rest, re.ASCII):

@@ -297,41 +297,37 @@ def _walk(
     return value
 
 
+def _at(doc: Marked, node: yaml.Node, path: PathKey, message: str) -> Issue:
+    """An issue at ``node``'s first character, located by ``path``."""
+    line, col = _mark(node)
+    return Issue(doc.file, line, col, format_path(path), message)
+
+
 def _build(
     loader, node: yaml.Node, path: PathKey, doc: Marked, issues: list[Issue], state: _WalkState
 ) -> Any:
     if state.ros_units and node.tag in ROS_UNIT_TAGS and not isinstance(node, yaml.ScalarNode):
-        line, col = _mark(node)
-        issues.append(Issue(doc.file, line, col, format_path(path), f"{node.tag} takes one number"))
+        issues.append(_at(doc, node, path, f"{node.tag} takes one number"))
         return None
     if isinstance(node, yaml.MappingNode):
         loader.flatten_mapping(node)  # resolves '<<' merge keys
         out: dict[str, Any] = {}
         for key_node, value_node in node.value:
             if not isinstance(key_node, yaml.ScalarNode):
-                line, col = _mark(key_node)
                 issues.append(
-                    Issue(
-                        doc.file,
-                        line,
-                        col,
-                        format_path(path),
-                        "a key must be a plain name, not a list or mapping",
-                    )
+                    _at(doc, key_node, path, "a key must be a plain name, not a list or mapping")
                 )
                 continue
             # Keys are names: keep their text, so 'no:' or '1:' stay strings.
             key = key_node.value
             child = path + (key,)
             if key in out:
-                line, col = _mark(key_node)
                 first = doc.key_marks[child]
                 issues.append(
-                    Issue(
-                        doc.file,
-                        line,
-                        col,
-                        format_path(child),
+                    _at(
+                        doc,
+                        key_node,
+                        child,
                         f"duplicate key '{key}' (first given at line {first[0]})",
                     )
                 )
@@ -348,25 +344,13 @@ def _build(
         try:
             return _unit_number(str(node.value)) * ROS_UNIT_TAGS[node.tag]
         except ValueError as exc:
-            line, col = _mark(node)
-            issues.append(
-                Issue(
-                    doc.file,
-                    line,
-                    col,
-                    format_path(path),
-                    f"{node.tag} {node.value!r}: {exc} (a number, or arithmetic of numbers "
-                    "and pi, as xacro reads it)",
-                )
-            )
+            message = f"{node.tag} {node.value!r}: {exc} (a number, or arithmetic of numbers and pi"
+            issues.append(_at(doc, node, path, message + ", as xacro reads it)"))
             return None
     try:
         return loader.construct_object(node, deep=True)
     except yaml.constructor.ConstructorError as exc:
-        line, col = _mark(node)
-        issues.append(
-            Issue(doc.file, line, col, format_path(path), f"unsupported YAML value: {exc.problem}")
-        )
+        issues.append(_at(doc, node, path, f"unsupported YAML value: {exc.problem}"))
         return None
 
 
