@@ -914,7 +914,7 @@ def expanding_depth(
             try:
                 seeds = ConvexHull(points)
                 least = float(np.min(-seeds.equations[:, 3]))
-                if least + margin > deep_enough:
+                if least > 0.0 and least + margin > deep_enough:  # the origin inside
                     return upper, upper_n
             except (QhullError, ValueError):
                 pass
