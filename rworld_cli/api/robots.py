@@ -135,19 +135,23 @@ def import_urdf(
         from ..schema.srdf import read_srdf
 
         disabled = read_srdf(srdf)
+    import functools
+
+    build = functools.partial(  # the import's cell, with the pairs always overlapping allowed
+        cell_from_urdf,
+        robot,
+        name,
+        base,
+        tip,
+        tcp,
+        device_name,
+        locks,
+        disabled,
+        joint_limits=stated,
+        schemas=schemas,
+    )
     try:
-        imported = cell_from_urdf(
-            robot,
-            name,
-            base,
-            tip,
-            tcp,
-            device_name,
-            locks,
-            disabled,
-            joint_limits=stated,
-            schemas=schemas,
-        )
+        imported = build()
     except UserError as exc:  # a xacro's robot: each problem at the vendor's file and line
         raise UserError(str(exc), robot.located(exc.issues)) from None
     files = {"cell.yaml": imported.cell_text.encode(), "poses.yaml": imported.poses_text.encode()}
@@ -169,19 +173,7 @@ def import_urdf(
         )
         allow = [(a, b, reason) for a, b, reason, _, allowed in overlaps if allowed]
         if allow:  # written as allowed contacts, the cell written and loaded again
-            imported = cell_from_urdf(
-                robot,
-                name,
-                base,
-                tip,
-                tcp,
-                device_name,
-                locks,
-                disabled,
-                allow,
-                joint_limits=stated,
-                schemas=schemas,
-            )
+            imported = build(allow)
             atomic_write_bytes(out / "cell.yaml", imported.cell_text.encode())
             loaded = load_cell(staging)
         imported.warnings.extend(warning for _, _, _, warning, _ in overlaps)

@@ -213,36 +213,23 @@ class Body:
         return self.pieces(T)
 
     def _faces_table(self) -> np.ndarray:
-        """:attr:`_hull_faces`, computed when a depth first needs them (qhull, and scipy's
-        import: 0.3 s a command otherwise)."""
-        return self._hull_faces
-
-    @functools.cached_property
-    def _hull_faces(self) -> np.ndarray:
         """Each convex part's hull faces in the body's frame, padded with zero rows to one
-        count (C, F, 4) (:func:`convex.hull_faces`): the depth's candidates."""
-        assert self.parts is not None
-        faces = [convex.hull_faces(v) for v, _ in self.parts]
-        out = np.zeros((len(faces), max(1, max(len(f) for f in faces)), 4))
-        for k, f in enumerate(faces):
-            out[k, : len(f)] = f
-        return out
+        count (C, F, 4) (:func:`convex.hull_faces`): the depth's candidates.  Computed when a
+        depth first needs them (qhull, and scipy's import: 0.3 s a command otherwise)."""
+        return self._hull_tables[0]
 
     def _edges_table(self) -> np.ndarray:
-        """:attr:`_hull_edges`, computed when a depth first needs them (as the faces)."""
-        return self._hull_edges
-
-    @functools.cached_property
-    def _hull_edges(self) -> np.ndarray:
         """Each convex part's hull edges in the body's frame, padded with zero rows to one
         count (C, E, 12) (:func:`convex.hull_edges`): with the faces, a box's or a
-        triangle's depth against the part is exact."""
+        triangle's depth against the part is exact.  Computed with the faces."""
+        return self._hull_tables[1]
+
+    @functools.cached_property
+    def _hull_tables(self) -> tuple[np.ndarray, np.ndarray]:
+        """(faces, edges) of every convex part, one qhull a part (:func:`convex.hull_tables`)."""
         assert self.parts is not None
-        edges = [convex.hull_edges(v) for v, _ in self.parts]
-        out = np.zeros((len(edges), max(1, max(len(e) for e in edges)), 12))
-        for k, e in enumerate(edges):
-            out[k, : len(e)] = e
-        return out
+        tables = [convex.hull_tables(v) for v, _ in self.parts]
+        return _padded([f for f, _ in tables], 4), _padded([e for _, e in tables], 12)
 
     @functools.cached_property
     def _hull_counts(self) -> np.ndarray:
@@ -693,4 +680,13 @@ def distances(
         )
         out.distance[sel], out.depth[sel], out.buried[sel] = res1.distance, res1.depth, res1.buried
         out.point_a[sel], out.point_b[sel] = res1.point_a, res1.point_b
+    return out
+
+
+def _padded(rows: list[np.ndarray], columns: int) -> np.ndarray:
+    """Tables of different lengths (each (n_k, columns)) as one (K, max n_k, columns), padded
+    with rows of zeros (at least one row)."""
+    out = np.zeros((len(rows), max(1, max((len(r) for r in rows), default=0)), columns))
+    for k, r in enumerate(rows):
+        out[k, : len(r)] = r
     return out

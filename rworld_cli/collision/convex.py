@@ -822,12 +822,19 @@ def hull_edges(vertices: np.ndarray) -> np.ndarray:
     """The edges of the hull of ``vertices`` (V, 3) [m] between faces that are not coplanar,
     each once: (E, 12) rows ``[start (3), end - start (3), outward unit normal of one face
     (3), of the other (3)]``; none (0, 12) for a flat or degenerate set."""
+    return hull_tables(vertices)[1]
+
+
+def hull_tables(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`hull_faces` and :func:`hull_edges` of ``vertices`` (V, 3) from one qhull."""
     from scipy.spatial import ConvexHull, QhullError
 
     try:
         hull = ConvexHull(vertices)
     except (QhullError, ValueError):
-        return np.zeros((0, 12))
+        return np.zeros((0, 4)), np.zeros((0, 12))
+    faces = np.column_stack([hull.equations[:, :3], -hull.equations[:, 3]])
+    _, first = np.unique(np.round(faces, 12), axis=0, return_index=True)
     simplices, neighbours, n = hull.simplices, hull.neighbors, hull.equations[:, :3]
     i = np.repeat(np.arange(len(simplices)), 3)
     j = np.tile(np.arange(3), len(simplices))
@@ -838,7 +845,7 @@ def hull_edges(vertices: np.ndarray) -> np.ndarray:
     i, j, k = i[keep], j[keep], k[keep]
     p0 = hull.points[simplices[i, (j + 1) % 3]]
     p1 = hull.points[simplices[i, (j + 2) % 3]]
-    return np.column_stack([p0, p1 - p0, n[i], n[k]])
+    return faces[np.sort(first)], np.column_stack([p0, p1 - p0, n[i], n[k]])
 
 
 DEPTH_TOLERANCE = 1e-9  # [m] expanding_depth stops when its bounds are this close
@@ -906,7 +913,7 @@ def expanding_depth(
 
     dirs = np.concatenate([_SEED_DIRECTIONS, normal, -normal])
     dirs = dirs[np.linalg.norm(dirs, axis=1) > 0.5]
-    points = support(dirs)
+    points = support(dirs)  # the inner polytope: the expansion's start, or the small pairs' bound
     if pa is not None and pb is not None and len(pa) * len(pb) <= EXACT_HULL_POINTS:
         if np.isfinite(deep_enough):
             # the seeds' inner polytope bounds the depth from below: deeper than asked, the
@@ -1138,15 +1145,7 @@ def hull_faces(vertices: np.ndarray) -> np.ndarray:
     """The faces of the hull of ``vertices`` (V, 3) [m]: unit outward normals and offsets
     (F, 4), ``n.x <= offset`` inside, each normal once (coplanar facets merged); none (0, 4)
     for a flat or degenerate set."""
-    from scipy.spatial import ConvexHull, QhullError
-
-    try:
-        equations = ConvexHull(vertices).equations
-    except (QhullError, ValueError):
-        return np.zeros((0, 4))
-    faces = np.column_stack([equations[:, :3], -equations[:, 3]])
-    _, first = np.unique(np.round(faces, 12), axis=0, return_index=True)
-    return faces[np.sort(first)]
+    return hull_tables(vertices)[0]
 
 
 def place_faces(faces: np.ndarray, R: np.ndarray, t: np.ndarray) -> np.ndarray:
