@@ -80,6 +80,8 @@ def thread_count() -> int:
 
 def _llvm():
     """The initialised llvmlite binding and the process's JIT engine, or None."""
+    if "llvm" in _STATE:  # set once, never removed: no lock to read it (a hot path asks)
+        return _STATE["llvm"]
     with _LOCK:
         if "llvm" in _STATE:
             return _STATE["llvm"]

@@ -35,7 +35,7 @@ class PlannedPath:
     clearance, tolerance : float
         The clearance asked (0: none) and the collision tolerance [m]; the path's ``kept``
         clearance (``plan.kept``) is what it keeps from every pair not inside the search
-        margin at its ends (``plan.inside_margin``).
+        margin at its ends (``plan.inside_margin``); those keep ``plan.tight_kept``.
     written : str or None
         The path file written.
     offset : list of float or None
@@ -62,7 +62,7 @@ class PlannedPath:
         if p.inside_margin:
             words += (
                 f" except {len(p.inside_margin)} pair(s) an end holds closer (kept "
-                f"{self.clearance * 1000:g} mm: " + "; ".join(p.inside_margin) + ")"
+                f"{p.tight_kept * 1000:.3g} mm: " + "; ".join(p.inside_margin) + ")"
             )
         return words
 
@@ -100,6 +100,7 @@ class PlannedPath:
             "seconds": p.seconds,
             "clearance": self.clearance,
             "clearance_kept": p.kept,
+            "clearance_kept_inside_margin": p.tight_kept if p.inside_margin else None,
             "collision_tolerance": self.tolerance,
             "written": self.written,
         }

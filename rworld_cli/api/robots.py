@@ -266,6 +266,7 @@ def _warm_caches(cell, device: str) -> None:
     other = np.clip(home + 0.1, lower, upper)
     checker.check(np.stack([home, other]))
     checker.check(np.stack([home, other]), nearest=False)
+    checker.free(np.stack([home, other]))  # the planner's: the chain's mounted frames compiled
     checker.check_segment(home, other)
     # the device's own kernels, generated for its geometry: the TCP's pose (the simulator's
     # and the exports' forward kinematics) and the inverse dynamics (the overload checks)

@@ -437,7 +437,7 @@ class ProbeRig:
             where = float(s[found.failed_at])
             return f"{what} leaves the workspace at {where:.0%} ({found.reason})"
         if checked:  # free or not in one compiled call; the nearest pair for the message only
-            bad = np.flatnonzero(~self.checker.check(found.q[1:], nearest=False).free)
+            bad = np.flatnonzero(~self.checker.free(found.q[1:]))
             if len(bad):
                 report = self.checker.check(found.q[1 + int(bad[0])][None])
                 return f"{what}: {nearest_words(self.checker, report, 0)}"
@@ -450,7 +450,7 @@ class ProbeRig:
         q0, q1 = np.asarray(q0, dtype=float), np.asarray(q1, dtype=float)
         count = max(2, int(np.ceil(np.abs(q1 - q0).max() / 0.02)) + 1)
         Q = q0 + np.linspace(0.0, 1.0, count)[:, None] * (q1 - q0)
-        return not self.checker.check(Q, nearest=False).free.all()
+        return not self.checker.free(Q).all()
 
     @functools.cached_property
     def _ball(self):

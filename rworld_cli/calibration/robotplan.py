@@ -368,7 +368,7 @@ def collision_free_states(cell, device: str, Q: np.ndarray) -> np.ndarray:
     from ..world.tree import World
 
     checker = ConfigurationChecker(World(cell), collision_model(cell), device, tolerance=0.0)
-    return checker.check(Q, nearest=False).free
+    return checker.free(Q)
 
 
 SIGHT_CLEARANCE = 0.01  # [m]: the line of sight's radius: no robot body within it

@@ -787,6 +787,10 @@ def path_cmd(
         blended = f"  blend {p.blends[k]:g}" if p.blends[k] > 0 else ""
         click.echo(f"  {k}: [" + ", ".join(f"{v:.6g}" for v in q) + "]" + blended)
     for words in p.inside_margin:
-        click.echo(f"note: {words}: that pair was searched at the clearance asked", err=True)
+        click.echo(
+            f"note: {words}: that pair was searched without the margin and keeps "
+            f"{p.tight_kept * 1000:.3g} mm",
+            err=True,
+        )
     if planned.written:
         click.echo(f"wrote {planned.written}", err=True)

@@ -326,6 +326,50 @@ class ConfigurationChecker:
             self._measure(s, subset[p], TI[s, p], TJ[s, p], within, deep, report)
         return ConfigurationReport(free, distance, nearest_pair, buried)
 
+    def free(self, q) -> np.ndarray:
+        """Whether each of N joint states q (N, n) is free: ``check(q, nearest=False).free``
+        (N,) bool, answered from the fused kernel's statuses alone where they settle every
+        pair (what a planner asks, thousands of times a second); the states an overlap or a
+        buried suspect leaves open, and checkers with pairs outside the kernel, by
+        :meth:`check`."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        fused = self._fused
+        if fused is None or len(fused["rest"]) or not len(self.pairs):
+            return self.check(q, nearest=False).free
+        from .compiled_bvh import free_states
+
+        poses = self._packed_by_chain(q)
+        if poses is None:
+            _, poses = self._packed(self.poses(q))
+        watch = max(self.clearance, 0.0)
+        found = free_states(
+            fused["local"],
+            poses,
+            fused["table"],
+            fused["spheres"],
+            fused["boxes"],
+            watch + 2e-9,
+            self.tolerance,
+            MAX_ITERATIONS,
+        )
+        if found is None:
+            return self.check(q, nearest=False).free
+        status, near = found
+        # as :meth:`_free_states` tallies them: a collision's depth, a distance within the
+        # watched one; an overlap the walk could not call deep enough is within a clearance
+        signed = np.where((status == 1) | ((status == 0) & (near <= watch)), near, np.inf)
+        bad = signed < -self.tolerance
+        if self.clearance > 0:
+            bad |= (signed < self.clearance) | (status == 2)
+            open_ = (status == -1) | (status == 4)
+        else:
+            open_ = (status == 2) | (status == -1) | (status == 4)
+        free = ~bad.any(axis=1)
+        redo = free & open_.any(axis=1)
+        if redo.any():
+            free[redo] = self.check(q[redo], nearest=False).free
+        return free
+
     def _measure(self, s, p, TI, TJ, within, deep_enough, report) -> None:
         """Pairs ``p[r]`` (indices of :attr:`pairs`) at states ``s[r]``, their bodies at ``TI``,
         ``TJ`` (R, 4, 4), by the exact query (:func:`bodies.distances`), into ``report``
@@ -416,6 +460,48 @@ class ConfigurationChecker:
             placed[:, u] = self._static[frame] if frame in self._static else T[frame]
         poses = np.concatenate([placed[..., :3, :3].reshape(N, -1, 9), placed[..., :3, 3]], axis=2)
         return placed, poses
+
+    def _packed_by_chain(self, q: np.ndarray) -> np.ndarray | None:
+        """The fused table's bodies at states q (N, n) as the kernels read them (N, U, 12),
+        as :meth:`_packed` of :meth:`poses` gives them (to rounding): the fixed frames' rows
+        copied, the moving ones by one generated program of the chain
+        (:func:`~rworld_cli.kinematics.forward.mounted_frames_program`).  None where the
+        device's chain does not place them (:meth:`_chain_of`)."""
+        plan = self.__dict__.get("_chain_plan", False)
+        if plan is False:
+            plan = self._chain_plan = self._plan_chain()
+        if plan is None:
+            return None
+        program, moving, fixed, fixed_rows = plan
+        out = np.empty((len(q), len(self._fused["frames"]), 12))
+        out[:, fixed] = fixed_rows
+        out[:, moving] = program.evaluate([q]).reshape(len(q), -1, 12)
+        return out
+
+    def _plan_chain(self):
+        """What :meth:`_packed_by_chain` needs, or None."""
+        if self._chain is None or self._fused is None:
+            return None
+        from ..kinematics.forward import mounted_frames_program
+
+        base, _, offsets = self._chain
+        moving, mounts, fixed, fixed_rows = [], [], [], []
+        for u, frame in enumerate(self._fused["frames"]):
+            if frame in self._static:
+                T = self._static[frame]
+                fixed.append(u)
+                fixed_rows.append(np.concatenate([T[:3, :3].ravel(), T[:3, 3]]))
+            else:
+                i, T_link_frame = offsets[frame]
+                moving.append(u)
+                mounts.append((i, np.eye(4) if T_link_frame is None else T_link_frame))
+        program = mounted_frames_program(self.world.cell.devices[self.device], base, mounts)
+        return (
+            program,
+            np.array(moving, dtype=int),
+            np.array(fixed, dtype=int),
+            np.array(fixed_rows).reshape(-1, 12),
+        )
 
     def _buried(self, placed, s, p, clear) -> np.ndarray:
         """Whether one body of pair ``p[r]`` lies inside the other's closed mesh at state

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..model.cell import DeviceModel
 
-__all__ = ["joint_link_transforms", "link_poses"]
+__all__ = ["joint_link_transforms", "link_poses", "mounted_frames_program"]
 
 
 def joint_link_transforms(device: DeviceModel, q) -> np.ndarray:
@@ -45,3 +45,58 @@ def link_poses(device: DeviceModel, q) -> np.ndarray:
         acc = acc @ A[..., i, :, :]
         out[..., i, :, :] = acc
     return out
+
+
+def _constant_pose(T) -> tuple[tuple, tuple]:
+    """A fixed pose (4, 4) as generated code embeds it: rotation entries within 1e-14 of 0 or
+    +-1 snapped to them, the translation rounded to 1e-13 m (as ``ToolMount`` does)."""
+    from ..codegen import snap
+
+    T = np.asarray(T, dtype=float)
+    R = tuple(tuple(snap(float(v)) + 0.0 for v in row) for row in T[:3, :3])
+    t = tuple(float(v) + 0.0 for v in np.round(T[:3, 3], 13) + 0.0)
+    return R, t
+
+
+_MOUNTED: dict[tuple, object] = {}
+
+
+def mounted_frames_program(device: DeviceModel, T_world_base, mounts):
+    """A generated program (:class:`rworld_cli.codegen.Generated`) of the poses of frames
+    fixed to the device's links, in the world: for joint values q (N, n) [rad or m] it gives
+    (N, 12 M), frame k's ``T_world_frame`` as its rotation's rows then its origin [m],
+
+        T_world_frame = T_world_base A_1(q_1) ... A_i(q_i) T_link_frame,
+
+    one compiled loop over the states (a collision check's per-state numpy products cost
+    more than its kernels on small batches).  ``mounts``: M pairs (link index i, 0-based:
+    the link after joint i+1; ``T_link_frame`` (4, 4)).  Built once per device, base and
+    mounts (their values as embedded: rounded as :func:`_constant_pose` says)."""
+    from ..codegen import Emitter, Num
+    from .chain import chain_steps, device_key
+
+    base = _constant_pose(T_world_base)
+    fixed = tuple((int(i), _constant_pose(T)) for i, T in mounts)
+    key = (device_key(device), base, fixed)
+    program = _MOUNTED.get(key)
+    if program is not None:
+        return program
+    em = Emitter()
+    q: list[Num] = [f"q{i}" for i in range(device.dof)]
+    steps = chain_steps(em, device, q)
+    deepest = max((i for i, _ in fixed), default=-1)
+    R0, p0 = base
+    links = []
+    for step in steps[: deepest + 1]:  # eq. 11, from the world's frame
+        R1 = em.matmul(R0, step.R)
+        p1 = em.vadd(p0, em.matvec(R0, em.vadd(step.A, em.matvec(step.R, step.e))))
+        links.append((R1, p1))
+        R0, p0 = R1, p1
+    outputs: list[Num] = []
+    for i, (R_link_frame, p_link_frame) in fixed:
+        R, p = links[i]
+        Rf = em.matmul(R, R_link_frame)
+        pf = em.vadd(p, em.matvec(R, p_link_frame))
+        outputs += [Rf[r][c] for r in range(3) for c in range(3)] + list(pf)
+    program = _MOUNTED[key] = em.compile("mounted_frames", [("q", device.dof)], outputs)
+    return program

@@ -4,7 +4,7 @@ shortcutting.
 The planner takes plain data and two questions it may ask as often as it likes:
 
 * ``states_free(Q)``: Q (N, n) joint states -> (N,) bool, free at that instant (for rworld,
-  ``ConfigurationChecker.check(Q, nearest=False).free``: no overlap deeper than the collision
+  ``ConfigurationChecker.free(Q)``: no overlap deeper than the collision
   tolerance, nothing buried, the clearance kept);
 * ``segment_free(q0, q1)``: the straight joint-space segment free everywhere, between its
   states too (``ConfigurationChecker.check_segment``: the continuous guarantee of
@@ -108,9 +108,13 @@ class PathPlan:
         The labels of the bodies that segment met (``plan_in_world`` names them).
     inside_margin : list of str
         Pairs already inside the search margin at the start or a goal, in words (``plan_in_world``:
-        searched at the clearance asked, the margin kept for the others).
+        searched without the margin, keeping ``tight_kept``; the margin kept for the others).
     kept : float
         The clearance the path keeps from everything but those pairs [m] (``plan_in_world``).
+    tight_kept : float
+        The clearance those pairs keep [m]: ``kept``, or less where an end holds one closer
+        (half the nearest's distance there, at least the clearance asked); a pair touching at
+        the start keeps the tolerance rule only.
     outcome : str
         "found", or why not in a word a script can test: "start_not_free", "goal_not_free",
         "goal_touching" (every free goal touches something), "goal_outside_limits",
@@ -138,6 +142,7 @@ class PathPlan:
     outcome: str = "found"
     inside_margin: list[str] = field(default_factory=list)
     kept: float = 0.0
+    tight_kept: float = 0.0
 
     def joint_path(self):
         """The path as a :class:`~rworld_cli.planning.path.JointPath` (``blended``: the
@@ -649,10 +654,14 @@ class WorldChecks:
     :data:`SEARCH_MARGIN`, a segment or a blend by ``check_segment`` / ``check_blend`` at
     ``kept`` (``kept_check``).  A pair already inside the margin at the start or a goal (a goal
     just above a table, a probe's stylus 0.7 mm from the wrist it is mounted beside at every
-    state) keeps only the clearance asked, everywhere in the problem (``tight``): with the
-    margin, no state near that end would be free and no path found; every other pair keeps
-    the margin up to the ends.  Built once per world and device (the pairs, the trees);
-    :meth:`problem` sets the ends."""
+    state) is searched without the margin everywhere in the problem (``tight``): with it, no
+    state near that end would be free and no path found.  Those pairs keep ``tight_kept``,
+    states and segments alike: ``kept`` where the ends hold them that far apart, else half
+    the nearest one's distance at an end (at least the clearance asked), so that a path never
+    touches what its ends keep clear of (with the tolerance rule alone a pair 2.7 mm apart at
+    a goal passed 0.19 mm into each other mid-path); a pair touching at the start keeps the
+    tolerance rule (``touching``).  Every other pair keeps the margin up to the ends.  Built
+    once per world and device (the pairs, the trees); :meth:`problem` sets the ends."""
 
     def __init__(
         self,
@@ -679,9 +688,11 @@ class WorldChecks:
         self._kept_all = self._make(extra) if extra > 0 else self.exact
         self.kept_check = self._kept_all  # the segments' check: pairs not tight keep `kept`
         self.tight: set[tuple[int, int]] = set()  # pairs searched without the margin
+        self.touching: set[tuple[int, int]] = set()  # of those, touching at the start
+        self.tight_kept = self.kept  # what the tight pairs (not touching) keep
         self.inside_margin: list[str] = []  # those pairs at the ends, in words
         self.outcome = "found"  # why the last problem has no path, when it has none
-        self._tight_check = None
+        self._tight_checks: list = []  # the tight pairs' checks: states and segments
         self.ends = np.zeros((0, self.device.dof))
 
     def problem(self, start, goals) -> tuple[np.ndarray, str | None]:
@@ -724,23 +735,22 @@ class WorldChecks:
 
     def _relax_margin(self) -> None:
         """The pairs inside the search margin at an end (free at the clearance asked) move to
-        ``tight``: searched at the clearance asked, the others with the margin.  Those of this
-        problem's ends only: checks kept for several problems start each with none."""
-        if self.tight:
-            self.tight, self.search, self._tight_check = set(), self._with_margin, None
-            self.kept_check = self._kept_all
+        ``tight``: searched without the margin, keeping ``tight_kept``; the others keep the
+        margin.  Those of this problem's ends only: checks kept for several problems start
+        each with none."""
+        self.tight, self.touching, self.tight_kept = set(), set(), self.kept
+        self.search, self._tight_checks = self._with_margin, []
+        self.kept_check = self._kept_all
         self.inside_margin = []
         for _ in range(len(self.exact.pairs)):  # a pair an end a round: few are that close
             # free-only: a state not free names a pair within the margin, measured
             report = self.search.check(self.ends, nearest=False)
             inside = np.flatnonzero(~report.free)
-            if not len(inside):
-                return
             added = {
                 tuple(int(x) for x in report.pair[k]) for k in inside if report.pair[k][0] >= 0
             }
             if not added - self.tight:
-                return
+                break
             for k in inside:
                 if report.pair[k][0] >= 0 and tuple(report.pair[k]) not in self.tight:
                     end = "the start" if k == 0 else "a goal"
@@ -751,35 +761,55 @@ class WorldChecks:
                     if words not in self.inside_margin:
                         self.inside_margin.append(words)
             self.tight |= added
-            extra = self.kept - self.clearance
-            self.search = self._make(extra + SEARCH_MARGIN, skip=self.tight)
-            self._tight_check = self._make(0.0, only=self.tight)
-            self.kept_check = self._make(extra, skip=self.tight) if extra > 0 else self.exact
+            self.search = self._make(self.kept - self.clearance + SEARCH_MARGIN, skip=self.tight)
+        if not self.tight:
+            return
+        if self.kept == self.clearance:  # every pair keeps the clearance asked, these too
+            self._tight_checks = [self._make(0.0, only=self.tight)]
+            return
+        # the start's touching pairs (an overlap within the tolerance: negative, measured), a
+        # pair a round; the goals touch nothing (``problem`` dropped those that do)
+        for _ in range(len(self.tight)):
+            report = self._make(1e-9, only=self.tight - self.touching).check(
+                self.ends[:1], nearest=False
+            )
+            if report.free[0] or report.pair[0][0] < 0:
+                break
+            self.touching.add(tuple(int(x) for x in report.pair[0]))
+        rest = self.tight - self.touching
+        if rest:
+            # the nearest of the rest at the ends, measured (each end free at the clearance)
+            nearest = float(self._make(0.0, only=rest).check(self.ends).distance.min())
+            self.tight_kept = max(self.clearance, min(self.kept, 0.5 * nearest))
+            self._tight_checks.append(self._make(self.tight_kept - self.clearance, only=rest))
+        if self.touching:
+            self._tight_checks.append(self._make(0.0, only=self.touching))
+        self.kept_check = self._make(self.kept - self.clearance, skip=self.tight)
 
     def states_free(self, Q) -> np.ndarray:
         """(N, n) joint states -> (N,) bool (the class docstring's rule)."""
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
-        free = np.asarray(self.search.check(Q, nearest=False).free, dtype=bool)
-        if self._tight_check is not None and free.any():
-            free[free] = self._tight_check.check(Q[free], nearest=False).free
+        free = self.search.free(Q)
+        for check in self._tight_checks:
+            if free.any():
+                free[free] = check.free(Q[free])
         return free
 
-    def _tight_too(self) -> bool:
-        """Whether the tight pairs need their own continuous check (the others keep more)."""
-        return self._tight_check is not None and self.kept_check is not self.exact
+    def _segment_checks(self) -> list:
+        """The continuous checks a segment or blend must pass: ``kept_check``, then the tight
+        pairs' own where ``kept_check`` leaves them out."""
+        if self.kept_check is self.exact:  # every pair at the clearance asked, in one
+            return [self.kept_check]
+        return [self.kept_check, *self._tight_checks]
 
     def segment_free(self, qa, qb) -> bool:
         """The straight segment free everywhere (continuous): ``kept`` from everything, the
-        tight pairs the clearance asked."""
-        if not self.kept_check.check_segment(qa, qb).free:
-            return False
-        return not self._tight_too() or bool(self._tight_check.check_segment(qa, qb).free)
+        tight pairs ``tight_kept``."""
+        return all(c.check_segment(qa, qb).free for c in self._segment_checks())
 
     def blend_free(self, p0, corner, p2) -> bool:
         """A corner's blend (the quadratic Bezier curve) free everywhere, as a segment."""
-        if not self.kept_check.check_blend(p0, corner, p2).free:
-            return False
-        return not self._tight_too() or bool(self._tight_check.check_blend(p0, corner, p2).free)
+        return all(c.check_blend(p0, corner, p2).free for c in self._segment_checks())
 
     def box(self) -> tuple[np.ndarray, np.ndarray]:
         """The joint box sampled (:func:`sampled_box` of the limits)."""
@@ -843,7 +873,7 @@ def plan_in_world(
         blend_free=checks.blend_free if blend else None,
     )
     plan.inside_margin = list(checks.inside_margin)
-    plan.kept = checks.kept
+    plan.kept, plan.tight_kept = checks.kept, checks.tight_kept
     if plan.found:
         plan.goal = int(usable[plan.goal])  # an index of the goals given
     elif plan.blocked is not None:
@@ -866,11 +896,11 @@ def segment_words(checks: WorldChecks, segment: np.ndarray) -> tuple[str, list[s
     contact found and the deepest of its states measured (the pair and how deep); and the
     bodies named (their labels)."""
     q0, q1 = np.asarray(segment, dtype=float)
-    exact = checks.kept_check  # the check that refused it: what the path keeps, or the tight
-    found = exact.check_segment(q0, q1)
-    if found.free and checks._tight_too():
-        exact = checks._tight_check
+    # the check that refused it: what the path keeps, or the tight pairs'
+    for exact in checks._segment_checks():
         found = exact.check_segment(q0, q1)
+        if not found.free:
+            break
     s = np.linspace(0.0, 1.0, 65)
     report = exact.check(q0 + s[:, None] * (q1 - q0), nearest=True)
     k = int(np.argmin(report.distance))

@@ -177,7 +177,7 @@ class FeatureSteps:
                 continue
             times = np.append(np.arange(seg.t0, seg.t1, self.run.dt), seg.t1)
             Q = seg.sample(times)[0]
-            free = checker.check(Q, nearest=False).free
+            free = checker.free(Q)
             if not free.all():
                 report = checker.check(Q[int(np.argmin(free))][None])
                 i, j = report.pair[0]

@@ -161,6 +161,63 @@ def test_the_chains_poses_are_the_world_trees(cell_file):
         assert np.abs(ours[frame] - theirs[frame]).max() < 1e-12, frame
 
 
+@pytest.mark.parametrize(
+    "cell_file",
+    [
+        REPO / "workcells/puma560/cell.yaml",
+        REPO / "tests/data/vendor_cells/gp7/cell.yaml",
+        REPO / "tests/data/motion/panda_pair/cell.yaml",
+    ],
+)
+def test_the_generated_chain_places_the_kernels_bodies_as_the_world_tree(cell_file):
+    """The planner's poses of the fused table's bodies (one generated program of the chain,
+    its fixed offsets embedded) against the world tree's at random states: rotations and
+    origins to 1e-12 (DH and joint-frame chains; the Panda's hand off its last link)."""
+    world, _, device, limits, check = checker(cell_file)
+    q = np.random.default_rng(7).uniform(limits[:, 0], limits[:, 1], (16, len(limits)))
+    ours = check._packed_by_chain(q)
+    frames = check._fused["frames"]
+    theirs = world.T_world_frames(frames, {device: q})
+    assert ours is not None and len(check._chain_plan[1]) > 3  # moving bodies among them
+    for u, frame in enumerate(frames):
+        T = np.broadcast_to(theirs[frame], (len(q), 4, 4))
+        rows = np.concatenate([T[:, :3, :3].reshape(-1, 9), T[:, :3, 3]], axis=1)
+        assert np.abs(ours[:, u] - rows).max() < 1e-12, frame
+
+
+@pytest.mark.parametrize(
+    "cell_file, clearance",
+    [
+        (REPO / "tests/data/vendor_cells/iiwa14/cell.yaml", 0.0),
+        (REPO / "tests/data/vendor_cells/iiwa14/cell.yaml", 0.01),
+        (REPO / "tests/data/vendor_cells/gp7/cell.yaml", 0.0),
+        (REPO / "tests/data/motion/panda_pair/cell.yaml", 0.006),
+    ],
+)
+def test_free_decides_every_state_as_the_check(cell_file, clearance):
+    """``free`` (the planner's question: the kernel's statuses read directly, the states an
+    overlap leaves open sent on) against ``check``'s exact nearest distances, at random
+    states and at the ends of 12 bisections towards the first contact (or the clearance) on
+    lines from free states to states that are not: the same answer at every state."""
+    _, _, _, limits, check = checker(cell_file, clearance=clearance)
+    assert not len(check._fused["rest"])  # every pair in the kernel: its statuses decide
+    rng = np.random.default_rng(12)
+    q = rng.uniform(limits[:, 0], limits[:, 1], (200, len(limits)))
+    first = check.check(q).free
+    free, hit = q[first][:30], q[~first][:30]
+    count = min(len(free), len(hit))
+    free, hit = free[:count], hit[:count]
+    lo, hi = np.zeros(count), np.ones(count)
+    for _ in range(12):
+        mid = 0.5 * (lo + hi)
+        bad = ~check.check(free + mid[:, None] * (hit - free)).free
+        hi, lo = np.where(bad, mid, hi), np.where(bad, lo, mid)
+    states = np.concatenate([q[:60], *[free + s[:, None] * (hit - free) for s in (lo, hi)]])
+    exact = check.check(states).free
+    np.testing.assert_array_equal(check.free(states), exact)
+    assert exact.sum() > 20 and (~exact).sum() > 20
+
+
 def test_a_blend_is_free_exactly_when_dense_samples_on_its_curve_find_no_contact():
     """Random corners of the Puma in its cell blended by quadratic Bezier curves (a planned
     path's blends): the blend check against 2 001 states along each curve, as the segment
