@@ -364,7 +364,7 @@ class ConfigurationChecker:
             open_ = (status == -1) | (status == 4)
         else:
             open_ = (status == 2) | (status == -1) | (status == 4)
-        free = ~bad.any(axis=1)
+        free: np.ndarray = ~bad.any(axis=1)
         redo = free & open_.any(axis=1)
         if redo.any():
             free[redo] = self.check(q[redo], nearest=False).free
@@ -472,8 +472,8 @@ class ConfigurationChecker:
             plan = self._chain_plan = self._plan_chain()
         if plan is None:
             return None
-        program, moving, fixed, fixed_rows = plan
-        out = np.empty((len(q), len(self._fused["frames"]), 12))
+        program, moving, fixed, fixed_rows, count = plan
+        out = np.empty((len(q), count, 12))
         out[:, fixed] = fixed_rows
         out[:, moving] = program.evaluate([q]).reshape(len(q), -1, 12)
         return out
@@ -501,6 +501,7 @@ class ConfigurationChecker:
             np.array(moving, dtype=int),
             np.array(fixed, dtype=int),
             np.array(fixed_rows).reshape(-1, 12),
+            len(self._fused["frames"]),
         )
 
     def _buried(self, placed, s, p, clear) -> np.ndarray:
