@@ -364,7 +364,7 @@ class ConfigurationChecker:
             open_ = (status == -1) | (status == 4)
         else:
             open_ = (status == 2) | (status == -1) | (status == 4)
-        free: np.ndarray = ~bad.any(axis=1)
+        free = np.logical_not(bad.any(axis=1))
         redo = free & open_.any(axis=1)
         if redo.any():
             free[redo] = self.check(q[redo], nearest=False).free
