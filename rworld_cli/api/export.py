@@ -655,7 +655,7 @@ def measure_from_log(
 
     Parameters
     ----------
-    fmt : {"urscript", "rapid", "krl", "fanuc", "drl"} or None
+    fmt : {"urscript", "rapid", "krl", "fanuc", "drl", "val3", "sunrise"} or None
         The log's language; None: the device's ``controller.vendor``'s.
     frame : str, optional
         The user frame the program was exported with (``export program --frame``); the

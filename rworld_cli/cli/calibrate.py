@@ -221,7 +221,7 @@ def _render(run) -> None:
     "--format",
     "fmt",
     default=None,
-    type=click.Choice(["urscript", "rapid", "krl", "fanuc", "drl"]),
+    type=click.Choice(["urscript", "rapid", "krl", "fanuc", "drl", "val3", "sunrise"]),
     help="--from-log: the log's language (default: the device's controller.vendor's).",
 )
 @device_option("--from-log: the probing device.")

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, ClassVar
 import numpy as np
 
 from .. import spatial
+from ..errors import UserError
 from ..kinematics.configuration import (  # noqa: F401
     abb_confdata,
     as_written,
@@ -475,6 +476,32 @@ def contact_fields(program: DeviceProgram, record: Record, unit: str, user: bool
         f"feature={field_value(record.feature)} tcp={field_value(tcp)} "
         f"frame={field_value(frame)} unit={unit} dir={','.join(number(x, 6) for x in d)}"
     )
+
+
+def report_lines(fields: str, head: str, limit: int, holder: str) -> list[str]:
+    """A contact report's fields (``contact_fields``) in lines of at most ``limit`` bytes,
+    each beginning with ``head`` ('rworld contact K/N') and holding whole ``key=value``
+    fields: for a language whose log message (``holder``: "DRL's tp_log") holds less than a
+    report.
+
+    Raises
+    ------
+    UserError
+        A field longer than a line can hold (a program path of some 200 characters)."""
+    out: list[str] = []
+    line = head
+    for item in fields[len(head) :].split():
+        if len(f"{head} {item}".encode()) > limit:
+            raise UserError(
+                f"a contact report's field is longer than {holder} holds ({limit} bytes): "
+                f"{item[:60]}...; shorten the program's path or the feature's name"
+            )
+        if len(f"{line} {item}".encode()) > limit:
+            out.append(line)
+            line = head
+        line += f" {item}"
+    out.append(line)
+    return out
 
 
 # --------------------------------------------------------------------------- conventions

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import UserError
 from . import Signals
 from .common import (
     CONTACT_MARK,
@@ -27,36 +26,12 @@ from .common import (
     Writer,
     contact_fields,
     number,
+    report_lines,
     walk,
 )
 
 note = DRL.comment  # every text from a file goes into a comment through this
 TP_LOG_BYTES = 256  # a tp_log message's limit (DSR_ROBOT2's documentation)
-
-
-def report_lines(fields: str, head: str, limit: int) -> list[str]:
-    """A contact report's fields (``contact_fields``) in lines of at most ``limit`` bytes,
-    each beginning with ``head`` ('rworld contact K/N') and holding whole ``key=value``
-    fields.
-
-    Raises
-    ------
-    UserError
-        A field longer than a line can hold (a program path of some 200 characters)."""
-    out: list[str] = []
-    line = head
-    for item in fields[len(head) :].split():
-        if len(f"{head} {item}".encode()) > limit:
-            raise UserError(
-                f"a contact report's field is longer than DRL's tp_log holds ({limit} bytes): "
-                f"{item[:60]}...; shorten the program's path or the feature's name"
-            )
-        if len(f"{line} {item}".encode()) > limit:
-            out.append(line)
-            line = head
-        line += f" {item}"
-    out.append(line)
-    return out
 
 
 def posx(T) -> tuple[float, ...]:
@@ -176,7 +151,7 @@ class DRLWriter(Writer):
         fields = contact_fields(self.program, item, "mm")
         head = f"{CONTACT_MARK} {item.number}/{item.total}"
         self.body.append(f"rwc_pos, rwc_sol = get_current_posx(ref={self.ref})")
-        for line in report_lines(fields, head, TP_LOG_BYTES):
+        for line in report_lines(fields, head, TP_LOG_BYTES, "DRL's tp_log"):
             self.body.append(f"tp_log({line!r})")
         self.body.append(f"tp_log({head + ' posx='!r} + str(list(rwc_pos)))")
 

@@ -29,6 +29,7 @@ from .common import (
     Tool,
     Writer,
     as_written,
+    contact_fields,
     kuka_abc,
     number,
     walk,
@@ -152,11 +153,21 @@ class SunriseWriter(Writer):
         return [f"ThreadUtil.milliSleep({int(round(seconds * 1000))});"]
 
     def record(self, item: Record) -> None:
-        self.body.append(
-            f"        // {note(item.where)}: {note(item.text)} (contact {item.number}/"
-            f"{item.total} of {note(item.feature)}: not recorded, read "
-            "robot.getCurrentCartesianPosition(...))"
-        )
+        # where the search stopped: the TCP (the tool's default motion frame) in the frame the
+        # targets are on, as the controller gives it (getCurrentCartesianPosition: x, y, z mm,
+        # A, B, C rad), one line on the application's log with the report's fields
+        # (docs/export.md: contact reports); Java prints each double to its last digit
+        fields = contact_fields(self.program, item, "mm")
+        frame = f"{self.current}.getDefaultMotionFrame()" if self.current else "robot.getFlange()"
+        self.body += [
+            f"        // {note(item.where)}: {note(item.text)}",
+            "        {",
+            f"            Frame contact = robot.getCurrentCartesianPosition({frame}, {self.base});",
+            f'            getLogger().info("{fields} pose=" + contact.getX() + "," + contact.getY()'
+            ' + "," + contact.getZ() + "," + contact.getAlphaRad() + "," + contact.getBetaRad()'
+            ' + "," + contact.getGammaRad());',
+            "        }",
+        ]
 
     def files(self) -> dict[str, str]:
         signals, name = self.signals, self.name

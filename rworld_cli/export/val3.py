@@ -19,6 +19,7 @@ import numpy as np
 
 from . import Signals
 from .common import (
+    CONTACT_MARK,
     VAL3,
     DeviceProgram,
     Load,
@@ -28,11 +29,14 @@ from .common import (
     Tool,
     Writer,
     as_written,
+    contact_fields,
+    report_lines,
     walk,
 )
 
 note = VAL3.comment  # every text from a file goes into a comment through this
 SEARCH_TIMEOUT = 60.0  # [s] a search's watch gives up after this
+STRING_BYTES = 128  # a VAL3 string's limit (the VAL3 reference manual's string type)
 
 
 def _f(x: float, digits: int = 6) -> str:
@@ -96,6 +100,7 @@ class VAL3Writer(Writer):
         self.body = [f"  // {note(line)}" for line in head]
         self.father = "fUser[0]" if program.user_frame else "world[0]"
         self.current_tool = 0
+        self.reports = False  # a contact report: the point it reads is data (pContact)
 
     def tool(self, item: Tool) -> None:
         self.current_tool = self.tools[item.name]
@@ -154,11 +159,24 @@ class VAL3Writer(Writer):
         return ["waitEndMove()", f"delay({_f(seconds)})"]
 
     def record(self, item: Record) -> None:
-        self.body.append(
-            f"  // {note(item.where)}: {note(item.text)} (contact {item.number}/"
-            f"{item.total} of {note(item.feature)}: not recorded in VAL3, read "
-            "herePoint(tTool) on the pendant)"
+        # where the search stopped: the TCP in the points' frame as the controller gives it
+        # (here: x, y, z mm, rx, ry, rz deg), in the controller's log by logMsg; a VAL3 string
+        # holds 128 characters, so the report's fields take lines of their own, each beginning
+        # with its 'rworld contact K/N', the point on the last (docs/export.md)
+        self.body.append(f"  // {note(item.where)}: {note(item.text)}")
+        fields = contact_fields(self.program, item, "mm")
+        head = f"{CONTACT_MARK} {item.number}/{item.total}"
+        frame = "fUser[0]" if self.program.user_frame else "world[0]"
+        self.body.append(f"  pContact[0] = here(tTool[{self.current_tool}], {frame})")
+        for line in report_lines(fields, head, STRING_BYTES, "a VAL3 string"):
+            self.body.append(f'  logMsg("{line}")')
+        # 9 decimals (VAL3's num is a double): the report's own rounding stays far below the
+        # controller's; the line stays under 128 characters for positions under 100 m
+        values = ' + "," + '.join(
+            f'toString(".9", pContact[0].trsf.{c})' for c in ("x", "y", "z", "rx", "ry", "rz")
         )
+        self.body.append(f'  logMsg("{head} point=" + {values})')
+        self.reports = True
 
     def files(self) -> dict[str, str]:
         program, app = self.program, self.app
@@ -177,6 +195,8 @@ class VAL3Writer(Writer):
             _array("dToolChanger", "dio", ['<Value key="0" link="" />']),
             _array("dSensor", "dio", ['<Value key="0" link="" />']),
         ]
+        if self.reports:  # here() of each contact, logged as it is read
+            datas.append(_array("pContact", "pointRx", [EMPTY["pointRx"]]))
         if program.user_frame:
             user = _pose_attributes(xyz_rxyz(program.T_controller_user))
             datas.append(

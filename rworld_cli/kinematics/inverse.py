@@ -405,6 +405,15 @@ def track(
                 break
             Jr = J[rows]
             dq = Jr.T @ np.linalg.solve(Jr @ Jr.T + damping, err)
+            # a joint at its limit that the step pushes further: held there and the step
+            # solved by the others (clamping it only stalls the iteration: a 7-axis arm
+            # whose home has a joint at its limit failed a line by 2e-8 m)
+            held = ((q <= lower) & (dq < 0)) | ((q >= upper) & (dq > 0))
+            if held.any() and not held.all():
+                free = ~held
+                Jf = Jr[:, free]
+                dq = np.zeros_like(dq)
+                dq[free] = Jf.T @ np.linalg.solve(Jf @ Jf.T + damping, err)
             q = np.minimum(np.maximum(q + dq, lower), upper)
         else:
             out[k:] = q

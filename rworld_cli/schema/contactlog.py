@@ -24,6 +24,14 @@ The reports carry the same fields in every language::
   ``rworld contact K/N``: the fields, then ``posx=[x, y, z, a, b, c]`` as DRL prints
   ``get_current_posx`` (mm; ZYZ deg: ``R = Rz(a) Ry(b) Rz(c)``), the TCP in the moves'
   reference frame (``DR_BASE`` or the user frame).
+- ``val3``: the controller's log (``logMsg``), any text around the lines ignored; a VAL3
+  string holds 128 characters, so one report is several lines as DRL's, the point last:
+  ``point=x,y,z,rx,ry,rz`` (``toString`` of ``here(tool, frame)``: mm; deg,
+  ``R = Rx(rx) Ry(ry) Rz(rz)``), the TCP in ``world`` or the user frame.
+- ``sunrise``: the application's log (``getLogger().info``), any text around the line
+  ignored; one line a report, the pose ``pose=x,y,z,A,B,C`` (``getCurrentCartesianPosition``
+  of the tool's motion frame in the targets' frame: mm; rad, ``R = Rz(A) Ry(B) Rx(C)``), each
+  value as Java prints a double.
 - ``fanuc``: ``POSREG.VA`` (the position registers as the controller lists them), register
   ``first + K - 1`` holding contact K (X, Y, Z mm; W, P, R deg: ``R = Rz(R) Ry(P) Rx(W)``);
   the fields are not in the controller's output: they are the exported program's.
@@ -50,7 +58,7 @@ import numpy as np
 from .. import spatial
 from ..errors import Issue, UserError
 
-LANGUAGES = ("urscript", "rapid", "krl", "fanuc", "drl")
+LANGUAGES = ("urscript", "rapid", "krl", "fanuc", "drl", "val3", "sunrise")
 MARK = "rworld contact"
 NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?", re.ASCII)  # a whole token
 MAX_LOG_BYTES = 64 * 1024 * 1024  # a UR log of months; larger: trim it to the run
@@ -192,7 +200,57 @@ def _urscript(lines: list[str], path: str) -> list[LoggedContact]:
     return out
 
 
-def _drl(lines: list[str], path: str) -> list[LoggedContact]:
+def _sunrise(lines: list[str], path: str) -> list[LoggedContact]:
+    out = []
+    for n, text in enumerate(lines, start=1):
+        if MARK not in text:
+            continue
+        k, total, fields, rest = _report(text, path, n)
+        found = re.search(r"\bpose=(\S*)\s*$", rest)
+        if found is None:
+            _fail(path, n, "a Sunrise contact report ends in 'pose=x,y,z,A,B,C' (mm, rad)")
+        v = _numbers(found.group(1), 6, path, n, "the pose")
+        if not np.all(np.abs(v[3:]) <= 2 * np.pi):
+            _fail(path, n, "the pose's A, B, C are radians: no controller reports over 2 pi")
+        R = _euler_zyx(*np.degrees(v[3:]))
+        out.append(
+            LoggedContact(
+                k,
+                total,
+                spatial.make_transform(R, v[:3] * UNITS[fields["unit"]]),
+                fields,
+                f"{path}:{n}",
+            )
+        )
+    return out
+
+
+def _zyz_degrees(v: np.ndarray) -> np.ndarray:
+    """DRL's posx angles a, b, c [deg]: ``R = Rz(a) Ry(b) Rz(c)``."""
+    z, y = np.array([0.0, 0.0, 1.0]), np.array([0.0, 1.0, 0.0])
+    R = spatial.axis_rotation(z, np.radians(v[0])) @ spatial.axis_rotation(y, np.radians(v[1]))
+    return R @ spatial.axis_rotation(z, np.radians(v[2]))
+
+
+def _xyz_degrees(v: np.ndarray) -> np.ndarray:
+    """VAL3's rx, ry, rz [deg]: ``R = Rx(rx) Ry(ry) Rz(rz)`` (about x, the new y, the new z)."""
+    x, y, z = np.eye(3)
+    R = spatial.axis_rotation(x, np.radians(v[0])) @ spatial.axis_rotation(y, np.radians(v[1]))
+    return R @ spatial.axis_rotation(z, np.radians(v[2]))
+
+
+# the reports split over several log lines: the pose's key, its text, and its angles
+_SPLIT_POSES = {
+    "drl": ("posx", r"\s*posx=\s*\[([^\]]*)\]\s*$", _zyz_degrees),
+    "val3": ("point", r"\s*point=\s*(\S*)\s*$", _xyz_degrees),
+}
+
+
+def _split_reports(lines: list[str], path: str, language: str) -> list[LoggedContact]:
+    """Reports whose fields take several log lines (DRL's tp_log, VAL3's logMsg), each
+    beginning with its 'rworld contact K/N', the pose on the last: x, y, z (the report's
+    unit) and three angles in degrees (:data:`_SPLIT_POSES`)."""
+    key, pattern, rotation = _SPLIT_POSES[language]
     out = []
     gathered: dict[str, str] = {}  # the fields of the report under way
     at = None  # its (K, N) and first line
@@ -201,30 +259,27 @@ def _drl(lines: list[str], path: str) -> list[LoggedContact]:
             continue
         start, k, total, rest = _head(text, path, n)
         if at is not None and at[:2] != (k, total):
-            _fail(path, n, f"contact {at[0]}/{at[1]} of line {at[2]} has no posx= line")
+            _fail(path, n, f"contact {at[0]}/{at[1]} of line {at[2]} has no {key}= line")
         if at is None:
             at = (k, total, n)
-        found = re.match(r"\s*posx=\s*\[([^\]]*)\]\s*$", rest)
+        found = re.match(pattern, rest)
         if found is None:
-            for key, value in re.findall(r"(\w+)=(\S+)", rest, re.ASCII):
-                if key in gathered:
-                    _fail(path, n, f"report: '{key}' given twice")
-                gathered[key] = value
+            for name, value in re.findall(r"(\w+)=(\S+)", rest, re.ASCII):
+                if name in gathered:
+                    _fail(path, n, f"report: '{name}' given twice")
+                gathered[name] = value
             continue
         missing = [f for f in FIELDS if f not in gathered]
         if missing:
             _fail(path, at[2], f"contact report without {', '.join(missing)}", start + 1)
         if gathered["unit"] not in UNITS:
             _fail(path, at[2], f"unit={gathered['unit']}: the reports give m or mm")
-        v = _numbers(found.group(1), 6, path, n, "posx")
-        R = spatial.axis_rotation(np.array([0.0, 0.0, 1.0]), np.radians(v[3]))
-        R = R @ spatial.axis_rotation(np.array([0.0, 1.0, 0.0]), np.radians(v[4]))
-        R = R @ spatial.axis_rotation(np.array([0.0, 0.0, 1.0]), np.radians(v[5]))
-        T = spatial.make_transform(R, v[:3] * UNITS[gathered["unit"]])
+        v = _numbers(found.group(1), 6, path, n, key)
+        T = spatial.make_transform(rotation(v[3:]), v[:3] * UNITS[gathered["unit"]])
         out.append(LoggedContact(k, total, T, dict(gathered), f"{path}:{at[2]}"))
         gathered, at = {}, None
     if at is not None:
-        _fail(path, at[2], f"contact {at[0]}/{at[1]} has no posx= line (the log ends first)")
+        _fail(path, at[2], f"contact {at[0]}/{at[1]} has no {key}= line (the log ends first)")
     return out
 
 
@@ -350,7 +405,7 @@ def read_contact_log(path: str, language: str, first_register: int = 101) -> Con
 
     Parameters
     ----------
-    language : {"urscript", "rapid", "krl", "fanuc", "drl"}
+    language : {"urscript", "rapid", "krl", "fanuc", "drl", "val3", "sunrise"}
     first_register : int
         FANUC: the position register of contact 1 (``export program --contact-register``).
 
@@ -380,8 +435,10 @@ def read_contact_log(path: str, language: str, first_register: int = 101) -> Con
         contacts = _rapid(lines, path)
     elif language == "krl":
         contacts, count = _krl(lines, path)
-    elif language == "drl":
-        contacts = _drl(lines, path)
+    elif language == "sunrise":
+        contacts = _sunrise(lines, path)
+    elif language in _SPLIT_POSES:
+        contacts = _split_reports(lines, path, language)
     else:
         contacts = _fanuc(lines, path, first_register)
     if not contacts:
@@ -391,10 +448,12 @@ def read_contact_log(path: str, language: str, first_register: int = 101) -> Con
             "krl": "no 'DECL E6POS RWC_k' with its report line (the program's .dat file)",
             "fanuc": f"PR[{first_register}] holds no contact",
             "drl": f"no line holds '{MARK}' (the teach pendant's log of the tp_log reports)",
+            "val3": f"no line holds '{MARK}' (the controller's log of the logMsg reports)",
+            "sunrise": f"no line holds '{MARK}' (the application's log: getLogger().info)",
         }[language]
         raise UserError(f"{path}: no contact: {where}")
     notes = []
-    if language in ("urscript", "rapid", "drl"):  # the last run: from the last report 1/N on
+    if language != "krl" and language != "fanuc":  # the last run: from the last 1/N on
         starts = [i for i, c in enumerate(contacts) if c.number == 1]
         if not starts or starts[0] != 0:
             first = contacts[0]

@@ -146,19 +146,90 @@ def drl_log(exported: str, contacts: list[Reported], digits: int | None = None) 
     return "\n".join(out) + "\n"
 
 
+def _log_msgs(text: str) -> list[tuple[str, bool]]:
+    """A VAL3 program's logMsg lines in order: (the leading string literal, whether the point
+    follows it: ``logMsg("... point=" + toString(".6", pContact[0].trsf.x) + ...)``)."""
+    out = []
+    for line in text.splitlines():
+        found = re.match(r'\s*logMsg\("([^"]*)"(.*)\)$', line)
+        if found is not None:
+            out.append((found.group(1), "toString(" in found.group(2)))
+    return out
+
+
+def val3_log(exported: str, contacts: list[Reported], digits: int = 9) -> str:
+    """A Staubli controller's log of the program's run: each logMsg line after a time stamp
+    and the logger's columns; where the program prints the point, here()'s x, y, z (mm) and
+    rx, ry, rz (deg; about x, then the new y, then the new z: scipy's intrinsic 'XYZ'), each
+    as ``toString(".9", ...)`` prints it, joined by commas."""
+    out = ["27/11/2026 09:00:00  INFO  application started"]
+    k = 0
+    for n, (literal, point) in enumerate(_log_msgs(exported)):
+        if point:
+            T = contacts[k].T
+            angles = Rotation.from_matrix(T[:3, :3]).as_euler("XYZ", degrees=True)
+            literal += ",".join(_fmt(v, digits) for v in [*(T[:3, 3] * 1000), *angles])
+            k += 1
+        out.append(f"27/11/2026 09:00:{10 + n % 50:02d}  USER  {literal}")
+    out.append("27/11/2026 09:01:00  INFO  application stopped")
+    return "\n".join(out) + "\n"
+
+
+def _joined(pieces: list[tuple[str, bool]]) -> list[str]:
+    """One report's fields from its lines (each beginning with 'rworld contact K/N'), the
+    line with the pose ending it."""
+    out, current = [], ""
+    for literal, pose in pieces:
+        if pose:
+            out.append(current.strip())
+            current = ""
+        else:
+            head = " ".join(literal.split()[:3])  # rworld contact K/N
+            current = literal if not current else current + literal[len(head) :]
+    return out
+
+
+def java_double(x: float) -> str:
+    """A double as Java's ``String.valueOf`` prints it: the shortest digits that read back
+    (Python's repr), decimal from 1e-3 to 1e7, else ``d.dddE-n``; always a '.'."""
+    x = float(x)
+    if x == 0.0 or 1e-3 <= abs(x) < 1e7:
+        text = repr(x)
+        return text if "." in text else text + ".0"
+    for places in range(17):  # the fewest mantissa digits that read back
+        candidate = f"{x:.{places}e}"
+        if float(candidate) == x:
+            break
+    mantissa, exponent = candidate.split("e")
+    return f"{mantissa if '.' in mantissa else mantissa + '.0'}E{int(exponent)}"
+
+
+def sunrise_log(exported: str, contacts: list[Reported]) -> str:
+    """A Sunrise application's log: each ``getLogger().info`` line after a time stamp and
+    the logger's columns; the pose as the program concatenates it: x, y, z (mm) and A, B, C
+    (rad; ``R = Rz(A) Ry(B) Rx(C)``: scipy's intrinsic 'ZYX'), each as Java prints a double."""
+    infos = re.findall(r'getLogger\(\)\.info\("([^"]*) pose=" \+ contact\.getX\(\)', exported)
+    assert len(infos) == len(contacts), (len(infos), len(contacts))
+    out = ["2026-11-27 09:00:00,000 INFO  [Sunrise] application started"]
+    for k, (fields, c) in enumerate(zip(infos, contacts)):
+        a, b, cc = Rotation.from_matrix(c.T[:3, :3]).as_euler("ZYX")
+        values = [*(c.T[:3, 3] * 1000), a, b, cc]
+        pose = ",".join(java_double(v) for v in values)
+        out.append(f"2026-11-27 09:00:{10 + k:02d},500 INFO  [Probe] {fields} pose={pose}")
+    out.append("2026-11-27 09:01:00,000 INFO  [Sunrise] application ended")
+    return "\n".join(out) + "\n"
+
+
 def reports_in(text: str) -> list[str]:
     """The report fields an exported program states, in order (URScript's textmsg, RAPID's
-    Write pieces joined, KRL's .dat comment lines, DRL's tp_log lines of one report joined)."""
+    Write pieces joined, KRL's .dat comment lines, DRL's tp_log and VAL3's logMsg lines of one
+    report joined)."""
     if "tp_log(" in text:
-        out, current = [], ""
-        for literal, pose in _tp_logs(text):
-            if pose:
-                out.append(current.strip())
-                current = ""
-            else:
-                head = " ".join(literal.split()[:3])  # rworld contact K/N
-                current = literal if not current else current + literal[len(head) :]
-        return out
+        return _joined(_tp_logs(text))
+    if "logMsg(" in text:
+        return _joined(_log_msgs(text))
+    if "getLogger().info(" in text:
+        return re.findall(r'getLogger\(\)\.info\("([^"]*) pose=" \+', text)
     found = re.findall(r'textmsg\("(rworld contact [^"]*?) pose=", get_actual_tcp_pose\(\)\)', text)
     if found:
         return found

@@ -32,6 +32,7 @@ LOG_FILES = {
     "krl": "probe.dat",
     "fanuc": "POSREG.VA",
     "drl": "tp_log.txt",
+    "val3": "val3.log",
 }
 
 
@@ -85,6 +86,8 @@ def _controller_output(fmt, exported, contacts, digits=None, noise=None) -> str:
         return controller_logs.krl_dat(exported, contacts)
     if fmt == "drl":
         return controller_logs.drl_log(exported, contacts, digits)
+    if fmt == "val3":
+        return controller_logs.val3_log(exported, contacts, *(() if digits is None else (digits,)))
     return controller_logs.fanuc_posreg(contacts, 101, 9 if digits is None else digits)
 
 
@@ -92,6 +95,8 @@ def _export(cli, cell, fmt, frame, out):
     args = ["export", "program", str(cell), str(cell / PROGRAM), "--format", fmt, "-o", str(out)]
     result = cli(args + (["--frame", frame] if frame else []))
     assert result.exit_code == 0, result.output
+    if fmt == "val3":  # an application folder: the code is its start program
+        return next(out.glob("*/start.pgx")).read_text()
     files = {p.suffix: p.read_text() for p in out.iterdir()}
     return files.get(".dat") if fmt == "krl" else next(iter(files.values()))
 
@@ -134,6 +139,8 @@ def _frames(cell, path, sigma=2e-5):
         ("fanuc", "plate"),
         ("drl", None),
         ("drl", "plate"),
+        ("val3", None),
+        ("val3", "plate"),
     ],
 )
 def test_a_controller_log_calibrates_as_the_simulated_loop(cli, loop, tmp_path, fmt, frame):
@@ -465,6 +472,7 @@ POSE_REGION = {  # where each language's log holds the pose
     "krl": r"RWC_\d+=\{[^}]*\}",
     "fanuc": r"\b[XYZWPR]:\s*\S+",
     "drl": r"posx=\[[^\]]*\]",
+    "val3": r"point=\S*",
 }
 
 
@@ -475,7 +483,7 @@ def _reads(log, fmt):
 
 
 def test_a_log_fuzz_refuses_every_lie_and_keeps_every_truth(cli, loop, tmp_path):
-    """At least 300 mutations of real logs in five languages: each numeric token of a pose
+    """At least 300 mutations of real logs in six languages: each numeric token of a pose
     replaced as a controller never writes it, or as one may; a key given twice; a count that
     does not count.  The counts are printed for the closing note."""
     rng = np.random.default_rng(58)
@@ -486,6 +494,7 @@ def test_a_log_fuzz_refuses_every_lie_and_keeps_every_truth(cli, loop, tmp_path)
         ("krl", "table"),
         ("fanuc", "plate"),
         ("drl", "plate"),
+        ("val3", None),
     ]:
         log = _write_log(cli, loop, fmt, frame, tmp_path / fmt)
         text = log.read_text()
@@ -558,6 +567,18 @@ def test_a_log_fuzz_refuses_every_lie_and_keeps_every_truth(cli, loop, tmp_path)
             lambda t: re.sub(r"(posx=\[)[^,]*", r"\g<1>417,775", t, count=1),
             "posx: 6 numbers expected, found 7",
         ),
+        (
+            "val3",
+            None,
+            lambda t: re.sub(r"\n[^\n]*contact 1/12 point=[^\n]*", "", t, count=1),
+            "contact 1/12 of line 2 has no point= line",
+        ),
+        (
+            "val3",
+            "plate",
+            lambda t: re.sub(r"(point=)[^,]*", r"\g<1>417,775", t, count=1),
+            "point: 6 numbers expected, found 7",
+        ),
     ],
 )
 def test_keys_counts_and_sizes_are_checked(cli, loop, tmp_path, fmt, frame, edit, message):
@@ -596,17 +617,32 @@ def test_drl_reports_fit_tp_logs_256_bytes():
     """DSR_ROBOT2 documents tp_log's message as 256 bytes at most: a report's fields are split
     into lines of whole fields under it, each with its 'rworld contact K/N'; a single field
     longer than a line is refused (exit 2), not cut."""
-    from rworld_cli.export.drl import report_lines
+    from rworld_cli.export.common import report_lines
 
     head = "rworld contact 3/12"
     fields = f"{head} program=p step=2 line={'d/' * 90}probe.yaml:40 feature=plate.top tcp=t.p"
     fields += " frame=base unit=mm dir=0,0,-1"
-    lines = report_lines(fields, head, 256)
+    lines = report_lines(fields, head, 256, "DRL's tp_log")
     assert len(lines) == 2 and all(len(x.encode()) <= 256 for x in lines)
     assert all(x.startswith(head + " ") for x in lines)
     assert " ".join(x[len(head) + 1 :] for x in lines) == fields[len(head) + 1 :]
     with pytest.raises(UserError, match="longer than DRL's tp_log holds"):
-        report_lines(f"{head} line={'d' * 300}", head, 256)
+        report_lines(f"{head} line={'d' * 300}", head, 256, "DRL's tp_log")
+
+
+def test_val3_reports_fit_its_128_character_strings(cli, loop, tmp_path):
+    """A VAL3 string holds 128 characters: every logMsg literal of the exported probe program
+    is under it, and the point's line is too with each of its six values as long as
+    ``toString(".9", ...)`` prints a value under 100 m (mm) or a turn (deg)."""
+    cell = loop[0]
+    text = _export(cli, cell, "val3", "plate", tmp_path / "val3")
+    literals = re.findall(r'logMsg\("([^"]*)"', text)
+    assert len(literals) >= 24
+    assert all(len(x) <= 128 for x in literals)
+    longest_value = len("-99999.999999999")
+    points = [x for x in literals if x.endswith(" point=")]
+    assert len(points) == 12
+    assert all(len(x) + 6 * longest_value + 5 <= 128 for x in points)
 
 
 ROBOT_CORRECTIONS = """\

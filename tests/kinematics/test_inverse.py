@@ -96,3 +96,26 @@ def test_nearest_turns_keeps_prismatic_joints_and_limits():
     got = nearest_turns(q, seed, revolute, lower, upper)
     # joint 1 turns down to 3 - 2 pi; joint 2 is prismatic; joint 3's turn would leave its range
     np.testing.assert_allclose(got, [3.0 - 2 * np.pi, 0.5, -3.0])
+
+
+def test_a_line_tracked_with_a_joint_held_at_its_limit():
+    """The LBR iiwa 14 (its vendor package's chain) starting with axis A6 at its lower limit:
+    lines whose every pose the other six axes reach (joint paths with A6 fixed there) are
+    tracked to the tolerance.  Clamping the step alone stalled where it pushed A6 further
+    (a probe's line refused '2.45e-05 mm short' at 1 % of the path)."""
+    from rworld_cli.kinematics.inverse import track
+
+    device = load_cell("tests/data/probe_robots/iiwa14").cell.devices["kuka_lbr_iiwa_14_r820"]
+    lo = device.limit_array("lower")
+    q0 = np.array([1.06, 1.21, 0.64, 1.5, 0.7, lo[5], 0.14])
+    rng = np.random.default_rng(3)
+    s = np.linspace(0.0, 1.0, 41)[:, None]
+    for _ in range(12):
+        d = rng.normal(0.0, 0.3, 7)
+        d[5] = 0.0  # A6 stays at its limit along the way
+        targets = tool_pose(device, q0 + s * d)
+        result = track(device, targets, q0)
+        assert result.failed_at is None, (result.reason, result.error)
+        reached = tool_pose(device, result.q)
+        assert np.abs(reached[:, :3, 3] - targets[:, :3, 3]).max() < 1e-6
+        assert (result.q[:, 5] >= lo[5]).all()
