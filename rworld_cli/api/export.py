@@ -593,10 +593,14 @@ def _nominal_device(cell_path: str, cell, device: str):
     return load_cell(cell_path, pose_files=keep).cell.devices[device]
 
 
-def _through_calibration(nominal, calibrated, T_base_tcp, mount, search, contact) -> np.ndarray:
+def _through_calibration(
+    nominal, calibrated, T_base_tcp, mount, search, contact, holding=None
+) -> np.ndarray:
     """The calibrated robot's TCP pose (4, 4) where a controller with the ``nominal``
     kinematics logged ``T_base_tcp``: the joints the nominal inverse kinematics gives (from
-    the search's planned end, to 1e-12 m and rad), then the calibrated forward kinematics.
+    the search's planned end, to 1e-12 m and rad) - the controller's, its encoders' - then,
+    for a compliant arm (``holding``: its holding torques as a function of joint values, with
+    what it carries then), the arm's ``q + c g(q)``, and the calibrated forward kinematics.
 
     Raises
     ------
@@ -619,7 +623,12 @@ def _through_calibration(nominal, calibrated, T_base_tcp, mount, search, contact
             "nominal robot on the logged pose (the log is another robot's, or its frame or "
             "units are not the export's)"
         )
-    return tool_pose(calibrated, np.asarray(found.q, dtype=float), mount)
+    q = np.asarray(found.q, dtype=float)
+    if holding is not None:
+        from ..dynamics.compliance import arm_values
+
+        q = arm_values(calibrated, q, holding)
+    return tool_pose(calibrated, q, mount)
 
 
 def measure_from_log(
@@ -650,8 +659,8 @@ def measure_from_log(
     (pose files with ``joints:`` or ``corrections:``, as ``calibrate-robot`` writes them), the
     pose a controller logs is its nominal forward kinematics at the joints it stood at.  Those
     joints are found again (the nominal inverse kinematics of the logged pose, from the
-    search's planned end), and the TCP is the calibrated robot's at them.  A joint compliance
-    the cell gives is not undone here (the logged joints are taken as the arm's).
+    search's planned end), and the TCP is the calibrated robot's at them - for a compliant arm
+    (``compliance:``) at the arm's joints, ``q + c g(q)`` with what it carries at the contact.
 
     Parameters
     ----------
@@ -760,6 +769,10 @@ def measure_from_log(
     events = [e for e in result.events if e.device == device and e.kind == "probe"]
     dev = loaded.cell.devices[device]
     nominal = _nominal_device(cell, loaded.cell, device)  # None: no robot calibration
+    from ..dynamics.compliance import compliances
+
+    # a compliant arm yields under what holds it: the holding torques at each contact's instant
+    holding_at = _holding_at(World(loaded.cell), result, device) if compliances(dev).any() else None
     T_world_base = world.T_world(device)
     probed, report = [], []
     for contact, record, event in zip(contacts, records, events):
@@ -798,7 +811,10 @@ def measure_from_log(
         T_base_frame = user if user is not None else program.T_base_controller
         T_base_tcp = T_base_frame @ contact.T_frame_tcp
         if nominal is not None:  # the controller's nominal view undone: its joints, then ours
-            T_base_tcp = _through_calibration(nominal, dev, T_base_tcp, mount, search, contact)
+            holding = holding_at(event.t) if holding_at is not None else None
+            T_base_tcp = _through_calibration(
+                nominal, dev, T_base_tcp, mount, search, contact, holding
+            )
         at = (T_base_tcp @ T_tcp_sensor)[:3, 3]
         line = end - start
         length = float(np.linalg.norm(line))

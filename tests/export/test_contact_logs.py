@@ -653,20 +653,37 @@ corrections:
 """
 
 
-def test_a_calibrated_robots_contacts_come_back_through_its_calibration(cli, loop, tmp_path):
+ROBOT_COMPLIANCE = """\
+compliance:
+  puma.j2: 0.8
+  puma.j3: 1.2
+"""
+
+
+@pytest.mark.parametrize("compliant", [False, True])
+def test_a_calibrated_robots_contacts_come_back_through_its_calibration(
+    cli, loop, tmp_path, compliant
+):
     """Issue 62: a cell that carries a robot calibration the controller does not: the pose the
     controller logs is its nominal forward kinematics at the joints it stood at.  The contacts
     read back through the calibration (the nominal inverse kinematics of each logged pose,
     then the calibrated robot's pose there) give the simulated loop's points to 1e-9 m; read
-    as the nominal pose they would be off by the calibration (over 0.1 mm)."""
+    as the nominal pose they would be off by the calibration (over 0.1 mm).  With joint
+    compliance (0.8 and 1.2 deg/kN m on joints 2 and 3) the controller's joints are its
+    encoders', the commands that hold the yielding arm where it touched (``commanded``, with
+    the holding torques of what the arm carries then); read back, the arm's ``q + c g(q)``."""
     from rworld_cli.api import simulate_probe_measurements
+    from rworld_cli.api.export import _holding_at
+    from rworld_cli.dynamics.compliance import commanded
     from rworld_cli.kinematics.inverse import solve_ik
     from rworld_cli.kinematics.jacobian import ToolMount, tool_pose
 
     cell, truth, *_ = loop
     calibrated = tmp_path / "calibrated"
     shutil.copytree(cell, calibrated)
-    (calibrated / "robot.yaml").write_text(ROBOT_CORRECTIONS)
+    (calibrated / "robot.yaml").write_text(
+        ROBOT_CORRECTIONS + (ROBOT_COMPLIANCE if compliant else "")
+    )
     text = (calibrated / "cell.yaml").read_text()
     assert "pose_files: [poses.yaml]" in text
     (calibrated / "cell.yaml").write_text(
@@ -679,16 +696,21 @@ def test_a_calibrated_robots_contacts_come_back_through_its_calibration(cli, loo
     nominal = load_cell(str(cell)).cell.devices["puma"]
     real = run.cell.devices["puma"]
     exported = _export(cli, calibrated, "urscript", None, tmp_path / "exported")
-    logged, off = [], 0.0
+    logged, off, yielded = [], 0.0, 0.0
     events = [e for e in result.events if e.kind == "probe"]
+    holding = _holding_at(World(run.cell), result, "puma")
     for T, event in zip(poses, events, strict=True):
         search = result.resolved["puma"][event.reading["guard_move"]].move
         mount = ToolMount(search.link, search.T_link_tcp)
         q = solve_ik(real, T, mount, seed=search.q_planned, position_tolerance=1e-13).q
+        if compliant:  # the encoders hold the commands that put the yielding arm at q
+            q_arm, q = q, commanded(real, q, holding(event.t))
+            yielded = max(yielded, float(np.abs(q_arm - q).max()))
         T_nominal = tool_pose(nominal, q, mount)  # what the controller logs
         off = max(off, float(np.linalg.norm(T_nominal[:3, 3] - T[:3, 3])))
         logged.append(T_nominal)
     assert off > 1e-4
+    assert (yielded > 1e-5) == compliant  # 10 urad and more where the arm yields
     log = tmp_path / "robot.log"
     log.write_text(
         controller_logs.urscript_log([Reported(f, T) for f, T in zip(reports_in(exported), logged)])
