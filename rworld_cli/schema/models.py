@@ -52,7 +52,7 @@ NonNegative = Annotated[float, Field(ge=0)]
 class Strict(BaseModel):
     """Base: no unknown keys, no silent string-to-number coercion, finite numbers only."""
 
-    model_config = ConfigDict(strict=True, extra="forbid", allow_inf_nan=False)
+    model_config = ConfigDict(strict=True, extra="forbid", allow_inf_nan=False, defer_build=True)
 
 
 # --------------------------------------------------------------------------- shared
