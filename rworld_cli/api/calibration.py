@@ -380,7 +380,7 @@ def _write_probe_program(
         run = load_run(cell_path, str(trial))
         run.clearance = rig.clearance
         try:
-            result = simulate(run, progress)
+            result = simulate(run, progress, report=False)
         except UserError as exc:  # said of the file it would have been: the trial is gone
             kind = CheckFailed if exc.exit_code == 1 else UserError
             raise kind(
@@ -466,7 +466,7 @@ def simulate_probe_measurements(
         )
     if not (joint_sigma >= 0 and np.isfinite(joint_sigma)):
         raise UserError(f"the joint sigma must be a finite angle >= 0, got {joint_sigma}")
-    result = simulate(run, progress)
+    result = simulate(run, progress, report=False)
     problems = _run_problems(result)
     if problems and not allow_collisions:
         raise CheckFailed(

@@ -360,6 +360,7 @@ def check_fleet(
         "clearance": clearance,
         "collision_tolerance": collision_tolerance,
         "collisions": collisions,
+        "report": False,  # a check prints no distances: only what decides it is measured
         "scheduler": scheduler,
     }
     # a cluster's workers get absolute paths (their working folder is not the client's)

@@ -253,7 +253,7 @@ def plan_robot_calibration(
         trial = Path(program).with_name(f".{Path(program).name}.trial")
         trial.write_text(text)  # checked before it is written: the real file appears whole
         try:
-            result = simulate(load_run(cell_path, str(trial)))
+            result = simulate(load_run(cell_path, str(trial)), report=False)
         finally:
             trial.unlink(missing_ok=True)
         bad = set()

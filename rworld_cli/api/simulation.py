@@ -39,6 +39,7 @@ def simulate_run(
     clearance: float | str | None = None,
     collision_tolerance: float | str | None = None,
     collisions: bool = True,
+    report: bool = True,
 ):
     """Load RUN's programs on CELL (located errors) and simulate them on one clock.
 
@@ -50,6 +51,9 @@ def simulate_run(
         Override the run file's values (docs/collision.md).
     collisions : bool
         Check collisions and clearance (default); False skips the check.
+    report : bool
+        Measure the pairs within 50 mm at every sample for the outputs' clearance columns
+        (default); False: only what decides the check (``rworld check``).
 
     Returns
     -------
@@ -69,7 +73,7 @@ def simulate_run(
             raise UserError(
                 "--collision-tolerance must be above 0: no check between instants can be exact"
             )
-    return loaded, simulate(loaded, progress, collisions)
+    return loaded, simulate(loaded, progress, collisions, report=report)
 
 
 def parse_length_option(value, what: str) -> float:

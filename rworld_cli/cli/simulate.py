@@ -308,7 +308,8 @@ def check(
     cell, run = targets
     from ..api import run_summary, unlimited_notes
 
-    _, result = _simulate(cell, run, dt, False, checks)
+    # a check prints no distances: only what decides it is measured
+    _, result = _simulate(cell, run, dt, False, {**checks, "report": False})
     if json_output:
         summary = run_summary(result)
         emit_json(

@@ -201,7 +201,7 @@ STEP_METHODS = {
 
 
 def simulate(
-    run: Run, progress=None, collisions: bool = True, payload: bool = False
+    run: Run, progress=None, collisions: bool = True, payload: bool = False, report: bool = True
 ) -> SimulationResult:
     """Schedule and sample a run; see the module docstring.
 
@@ -217,6 +217,11 @@ def simulate(
     payload : bool
         Also find each device's payload capacity along the run
         (:meth:`SimulationResult.payload_capacity`): one more Newton-Euler pass.
+    report : bool
+        Also measure every pair within :data:`~rworld_cli.simulate.collisions.REPORT_WITHIN`
+        at every sample: the clearance columns and the nearest pairs per step of simulate's
+        outputs and the viewer.  False: only what decides the check (its contacts, the same
+        with the same guarantee; a check, which prints none of the distances, asks only that).
 
     Raises
     ------
@@ -232,5 +237,8 @@ def simulate(
 
         if progress:
             progress(0, None, "collisions")
-        result.collisions = check_run(run, sched, result.times, sampled=sampled)
+        from .collisions import REPORT_WITHIN
+
+        within = REPORT_WITHIN if report else 0.0
+        result.collisions = check_run(run, sched, result.times, within, sampled=sampled)
     return result
