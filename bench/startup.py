@@ -82,6 +82,10 @@ def main() -> None:
             for cell, q in (("puma560", "0,0.5,-1,0,0.3,0"), ("panda", "0,0,0,-1.5,0,1.5,0"))
             for what, extra in (("validate", []), ("show", []), ("kinematics fk", ["--q", q]))
         ),
+        (  # issue 62: everything check loads before it reads a cell (here: none is there)
+            "rworld check: start-up to the cell's read",
+            [rworld, "check", "/nonexistent-cell", "/nonexistent-cell/run.yaml"],
+        ),
         (
             "rworld check workcells/puma560 pick_place",
             [rworld, "check", "workcells/puma560", "pick_place"],
