@@ -136,13 +136,10 @@ def simulate(
 
     if plot and not output:
         raise click.UsageError("--plot writes PNG files: give the directory with -o DIR")
-    loaded, result = _simulate(
-        cell,
-        run,
-        dt,
-        not json_output and sys.stderr.isatty(),
-        _checks(clearance, collision_tolerance, no_collisions),
-    )
+    # the 50 mm distances at every sample are -o's (the timelines' clearance column,
+    # collisions.json's nearest pairs per step): without it only what decides is measured
+    checks = {**_checks(clearance, collision_tolerance, no_collisions), "report": bool(output)}
+    loaded, result = _simulate(cell, run, dt, not json_output and sys.stderr.isatty(), checks)
     written = write_run_outputs(result, output, plot) if output else []
     if output or glb_path or view_path:
         written += _write_view(loaded, result, output, glb_path, view_path, not json_output)
