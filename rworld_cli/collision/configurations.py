@@ -336,22 +336,11 @@ class ConfigurationChecker:
         fused = self._fused
         if fused is None or len(fused["rest"]) or not len(self.pairs):
             return self.check(q, nearest=False).free
-        from .compiled_bvh import free_states
-
         poses = self._packed_by_chain(q)
         if poses is None:
             _, poses = self._packed(self.poses(q))
         watch = max(self.clearance, 0.0)
-        found = free_states(
-            fused["local"],
-            poses,
-            fused["table"],
-            fused["spheres"],
-            fused["boxes"],
-            watch + 2e-9,
-            self.tolerance,
-            MAX_ITERATIONS,
-        )
+        found = self._statuses(poses, watch)
         if found is None:
             return self.check(q, nearest=False).free
         status, near = found
@@ -391,21 +380,10 @@ class ConfigurationChecker:
         into the report's arrays; each state stops at its first pair deeper than the
         tolerance.  Overlaps not known to be that deep go to the exact query, a closed mesh's
         pairs with nothing overlapping to the buried test.  False: no kernel (nothing done)."""
-        from .compiled_bvh import free_states
-
         fused = self._fused
         assert fused is not None
         placed, poses = self._packed(T)
-        found = free_states(
-            fused["local"],
-            poses,
-            fused["table"],
-            fused["spheres"],
-            fused["boxes"],
-            watch + 2e-9,
-            self.tolerance,
-            MAX_ITERATIONS,
-        )
+        found = self._statuses(poses, watch)
         if found is None:
             return False
         status, near = found
@@ -448,6 +426,25 @@ class ConfigurationChecker:
                     rows, pair, placed[rows, u], placed[rows, v], watch, self.tolerance, report
                 )
         return True
+
+    def _statuses(self, poses: np.ndarray, watch: float):
+        """The fused kernel on the table's bodies at ``poses`` (N, U, 12): (status (N, P),
+        nearest (N, P)) of its pairs, ``watch`` [m] the distance measured within; None: no
+        compiled kernel."""
+        from .compiled_bvh import free_states
+
+        fused = self._fused
+        assert fused is not None
+        return free_states(
+            fused["local"],
+            poses,
+            fused["table"],
+            fused["spheres"],
+            fused["boxes"],
+            watch + 2e-9,
+            self.tolerance,
+            MAX_ITERATIONS,
+        )
 
     def _packed(self, T: _FixedPoses) -> tuple[np.ndarray, np.ndarray]:
         """The fused table's bodies at the states of ``T`` (:meth:`poses`): their frames

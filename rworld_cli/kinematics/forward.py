@@ -47,17 +47,6 @@ def link_poses(device: DeviceModel, q) -> np.ndarray:
     return out
 
 
-def _constant_pose(T) -> tuple[tuple, tuple]:
-    """A fixed pose (4, 4) as generated code embeds it: rotation entries within 1e-14 of 0 or
-    +-1 snapped to them, the translation rounded to 1e-13 m (as ``ToolMount`` does)."""
-    from ..codegen import snap
-
-    T = np.asarray(T, dtype=float)
-    R = tuple(tuple(snap(float(v)) + 0.0 for v in row) for row in T[:3, :3])
-    t = tuple(float(v) + 0.0 for v in np.round(T[:3, 3], 13) + 0.0)
-    return R, t
-
-
 _MOUNTED: dict[tuple, object] = {}
 
 
@@ -71,12 +60,17 @@ def mounted_frames_program(device: DeviceModel, T_world_base, mounts):
     one compiled loop over the states (a collision check's per-state numpy products cost
     more than its kernels on small batches).  ``mounts``: M pairs (link index i, 0-based:
     the link after joint i+1; ``T_link_frame`` (4, 4)).  Built once per device, base and
-    mounts (their values as embedded: rounded as :func:`_constant_pose` says)."""
+    mounts (their values as embedded: rounded as ``ToolMount.generated_values`` rounds a
+    tool's)."""
     from ..codegen import Emitter, Num
     from .chain import chain_steps, device_key
+    from .jacobian import ToolMount
 
-    base = _constant_pose(T_world_base)
-    fixed = tuple((int(i), _constant_pose(T)) for i, T in mounts)
+    def embedded(T) -> tuple[tuple, tuple]:
+        return ToolMount(0, T).generated_values()
+
+    base = embedded(T_world_base)
+    fixed = tuple((int(i), embedded(T)) for i, T in mounts)
     key = (device_key(device), base, fixed)
     program = _MOUNTED.get(key)
     if program is not None:

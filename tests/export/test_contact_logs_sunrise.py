@@ -71,25 +71,26 @@ def test_a_sunrise_log_gives_the_simulated_loops_points(cli, iiwa_loop, tmp_path
         assert np.abs(a[name].points - b[name].points).max() < 1e-9, name
 
 
+def _robot_frame_log(cli, iiwa_loop, tmp_path) -> str:
+    """The stand-in log of the program exported without a user frame."""
+    cell, program, run, result, probed, _ = iiwa_loop
+    out = tmp_path / "exported"
+    args = ["export", "program", str(cell), str(program), "--format", "sunrise", "-o", str(out)]
+    assert cli(args).exit_code == 0
+    java = next(out.glob("*.java")).read_text()
+    poses = _tcp_poses(run, result, probed, None, DEVICE)
+    return controller_logs.sunrise_log(
+        java, [Reported(f, T) for f, T in zip(reports_in(java), poses)]
+    )
+
+
 def test_a_sunrise_pose_in_degrees_is_refused(cli, iiwa_loop, tmp_path):
     """A, B, C are radians: a log whose angles run past 2 pi (degrees written by another
     program) is refused at its line, nothing read."""
     from rworld_cli.errors import UserError
     from rworld_cli.schema.contactlog import read_contact_log
 
-    cell, program, run, result, probed, _ = iiwa_loop
-    out = tmp_path / "exported"
-    assert (
-        cli(
-            ["export", "program", str(cell), str(program), "--format", "sunrise", "-o", str(out)]
-        ).exit_code
-        == 0
-    )
-    java = next(out.glob("*.java")).read_text()
-    poses = _tcp_poses(run, result, probed, None, DEVICE)
-    text = controller_logs.sunrise_log(
-        java, [Reported(f, T) for f, T in zip(reports_in(java), poses)]
-    )
+    text = _robot_frame_log(cli, iiwa_loop, tmp_path)
     lines = text.splitlines()
     head, pose = lines[3].rsplit("pose=", 1)
     values = pose.split(",")
@@ -109,19 +110,7 @@ def test_a_sunrise_log_fuzz_refuses_every_lie(cli, iiwa_loop, tmp_path):
     from rworld_cli.schema.contactlog import read_contact_log
     from tests.export.test_contact_logs import KEPT, REFUSED
 
-    cell, program, run, result, probed, _ = iiwa_loop
-    out = tmp_path / "exported"
-    assert (
-        cli(
-            ["export", "program", str(cell), str(program), "--format", "sunrise", "-o", str(out)]
-        ).exit_code
-        == 0
-    )
-    java = next(out.glob("*.java")).read_text()
-    poses = _tcp_poses(run, result, probed, None, DEVICE)
-    text = controller_logs.sunrise_log(
-        java, [Reported(f, T) for f, T in zip(reports_in(java), poses)]
-    )
+    text = _robot_frame_log(cli, iiwa_loop, tmp_path)
     log = tmp_path / "sunrise.log"
     log.write_text(text)
     truth = [c.T_frame_tcp for c in read_contact_log(str(log), "sunrise").contacts]
