@@ -631,6 +631,33 @@ def _through_calibration(
     return tool_pose(calibrated, q, mount)
 
 
+def _inform_frame(contact, record, program) -> np.ndarray:
+    """``T_base_frame`` [m] of an INFORM position variable: the controller's base frame (BASE or
+    ROBOT: one frame without a travel axis) or the job's user frame 1; its tool number must be
+    the job's for the search's TCP."""
+    tools = {t.name: k + 1 for k, t in enumerate(program.tools)}
+    expected = tools.get(record.search.tool.name)
+    stated = contact.fields.get("tool_number")
+    if stated is not None and expected is not None and int(stated) != expected:
+        raise UserError(
+            f"{contact.where}: contact {contact.number} was kept with TOOL {stated}, but the "
+            f"job searched with TOOL {expected} ({record.search.tool.name}, {record.where})"
+        )
+    if contact.fields["postype"] != "USER":
+        return program.T_base_controller
+    if not program.user_frame or contact.fields.get("user") != "1":
+        raise UserError(
+            f"{contact.where}: contact {contact.number} is a USER {contact.fields.get('user')} "
+            "position, but the job "
+            + (
+                f"has user frame 1 ({program.user_frame})"
+                if program.user_frame
+                else "was given no user frame (--frame: the frame it was exported with)"
+            )
+        )
+    return program.T_base_user
+
+
 def measure_from_log(
     cell: str,
     run: str,
@@ -664,7 +691,7 @@ def measure_from_log(
 
     Parameters
     ----------
-    fmt : {"urscript", "rapid", "krl", "fanuc", "drl", "val3", "sunrise"} or None
+    fmt : {"urscript", "rapid", "krl", "fanuc", "inform", "drl", "val3", "sunrise"} or None
         The log's language; None: the device's ``controller.vendor``'s.
     frame : str, optional
         The user frame the program was exported with (``export program --frame``); the
@@ -672,7 +699,7 @@ def measure_from_log(
     sigma : float, optional
         The probing's 1-sigma noise [m], written in the file for ``calibrate``.
     contact_register : int
-        FANUC: the position register of contact 1.
+        FANUC: the position register, INFORM: the position variable of contact 1.
     tolerance : float
         How far a contact may lie off its search's line, or outside its ends [m].
 
@@ -727,7 +754,8 @@ def measure_from_log(
         fmt = VENDOR_FORMATS[vendor]
     if fmt not in LANGUAGES:
         raise UserError(f"--format {fmt}: contact logs are read for {', '.join(LANGUAGES)}")
-    logged = read_contact_log(log, fmt, contact_register)
+    probes = sum(r.kind == "probe" for r in result.resolved[device])
+    logged = read_contact_log(log, fmt, contact_register, probes)
     stated = {c.fields["frame"] for c in logged.contacts if "frame" in c.fields} - {"base"}
     if fmt != "urscript" and stated:
         if len(stated) > 1:
@@ -807,8 +835,11 @@ def measure_from_log(
         # the search's line: the sensor's origin from the move's start to its planned end
         ends = tool_pose(dev, np.array([search.q_start, search.q_planned]), mount) @ T_tcp_sensor
         start, end = ends[0, :3, 3], ends[1, :3, 3]
-        user = program.T_base_user if fmt != "urscript" and program.user_frame else None
-        T_base_frame = user if user is not None else program.T_base_controller
+        if fmt == "inform":  # each position variable says its own frame and tool
+            T_base_frame = _inform_frame(contact, record, program)
+        else:
+            user = program.T_base_user if fmt != "urscript" and program.user_frame else None
+            T_base_frame = user if user is not None else program.T_base_controller
         T_base_tcp = T_base_frame @ contact.T_frame_tcp
         if nominal is not None:  # the controller's nominal view undone: its joints, then ours
             holding = holding_at(event.t) if holding_at is not None else None

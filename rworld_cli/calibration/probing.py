@@ -47,6 +47,14 @@ SPINS = np.radians([0, 60, -60, 120, -120, 180])  # the probe's turns about its 
 RESTARTS = 16  # seeded random IK starts of a contact that no seed reaches clear
 THOROUGH = 3  # the orientations tried with them (the first: what worked last, or upright)
 TILTS = np.radians([0, 30, 50])  # the stylus tilted down from the normal, for side faces
+# the stylus tilted off a hole's axis or an upward face's normal when upright fails (a wrist
+# at its singularity there: the GP12 at 65 % of its reach holds its forearm upright over the
+# plate); a stem's clearance in a hole is the collision check's
+SMALL_TILTS = np.radians([0, 6, 12])
+# a line whose states 4 mm apart reach this Jacobian condition number passes too close to a
+# singularity to be driven: between two samples the wrist may flip (a spherical wrist at
+# 0.1 deg from upright is about 2000), which the simulator's clock-rate tracking cannot follow
+LINE_CONDITION = 1e3
 
 
 @dataclass
@@ -432,9 +440,14 @@ class ProbeRig:
             return None
         s = np.linspace(0.0, 1.0, max(2, int(np.ceil(length / 0.004)) + 1))
         targets = self.T_base_world @ interpolate_poses(T_a, T_b, s)
-        found = track(self.dev, targets, q_a, self.mount)
+        found = track(self.dev, targets, q_a, self.mount, max_condition=LINE_CONDITION)
         if found.failed_at is not None:
             where = float(s[found.failed_at])
+            if found.reason == "singular":
+                return (
+                    f"{what} passes a singularity at {where:.0%} (Jacobian condition number "
+                    f"{found.condition:.3g}, above {LINE_CONDITION:g})"
+                )
             return f"{what} leaves the workspace at {where:.0%} ({found.reason})"
         if checked:  # free or not in one compiled call; the nearest pair for the message only
             bad = np.flatnonzero(~self.checker.free(found.q[1:]))
@@ -480,14 +493,25 @@ class ProbeRig:
 
     def _orientations(self, kind: str, stylus: np.ndarray, spins):
         """(stylus direction, spin) pairs to try: a hole keeps the one its first point used;
-        a face whose normal is near horizontal also tilts the stylus down by ``TILTS``."""
+        a hole or a face whose normal is near vertical: upright along the axis or normal, then
+        tilted by ``SMALL_TILTS`` toward four sides; a face whose normal is near horizontal: the
+        stylus along it, then tilted down by ``TILTS``."""
         if kind == "circle" and len(spins) == 1 and isinstance(spins[0], tuple):
             yield spins[0][1], spins[0][0]
             return
         down = np.array([0.0, 0.0, -1.0])
         side = down - (down @ stylus) * stylus
-        tilts = TILTS if np.linalg.norm(side) > 0.5 and kind != "circle" else TILTS[:1]
-        for tilt in tilts:
+        if kind == "circle" or np.linalg.norm(side) <= 0.5:  # upright, then a little tilted
+            yield from ((stylus, float(spin)) for spin in spins)
+            other = np.array([1.0, 0.0, 0.0]) if abs(stylus[2]) > 0.9 else down
+            across = np.cross(stylus, other) / np.linalg.norm(np.cross(stylus, other))
+            sides = [across, np.cross(stylus, across), -across, -np.cross(stylus, across)]
+            for tilt in SMALL_TILTS[1:]:
+                for way in sides:
+                    direction = np.cos(tilt) * stylus + np.sin(tilt) * way
+                    yield from ((direction, float(spin)) for spin in spins)
+            return
+        for tilt in TILTS:  # a side face: the stylus tilted down
             direction = stylus
             if tilt:
                 direction = np.cos(tilt) * stylus + np.sin(tilt) * side / np.linalg.norm(side)

@@ -221,7 +221,7 @@ def _render(run) -> None:
     "--format",
     "fmt",
     default=None,
-    type=click.Choice(["urscript", "rapid", "krl", "fanuc", "drl", "val3", "sunrise"]),
+    type=click.Choice(["urscript", "rapid", "krl", "fanuc", "inform", "drl", "val3", "sunrise"]),
     help="--from-log: the log's language (default: the device's controller.vendor's).",
 )
 @device_option("--from-log: the probing device.")
@@ -236,8 +236,9 @@ def _render(run) -> None:
     "--contact-register",
     default=101,
     show_default=True,
-    type=click.IntRange(1, 10000),
-    help="--from-log --format fanuc: the position register of contact 1.",
+    type=click.IntRange(1, 9999),
+    help="--from-log --format fanuc: the position register, inform: the position variable of "
+    "contact 1.",
 )
 @click.option(
     "--tolerance",

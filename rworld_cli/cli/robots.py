@@ -287,8 +287,9 @@ def export_group():
     "--contact-register",
     default=101,
     show_default=True,
-    type=click.IntRange(1, 10000),
-    help="fanuc: the position register of a probe program's first contact (one per contact).",
+    type=click.IntRange(1, 9999),
+    help="fanuc: the position register, inform: the position variable of a probe program's "
+    "first contact (one per contact).",
 )
 @json_option
 @handle_errors

@@ -33,13 +33,13 @@ VENDOR_WITHOUT_FORMAT = {
 @dataclass(frozen=True)
 class Signals:
     """The digital outputs that grasp / release and tool changes drive, the digital input
-    that a guarded move's sensor closes, and (FANUC) the first position register that keeps a
-    probe's contact."""
+    that a guarded move's sensor closes, and the first position register (FANUC) or position
+    variable (INFORM) that keeps a probe's contact."""
 
     gripper: int = 1
     tool_changer: int = 2
     sensor: int = 1
-    contact_register: int = 101  # FANUC: the first position register of the probes' contacts
+    contact_register: int = 101  # FANUC's PR[n], INFORM's P<n>: where contact 1 is kept
 
     def output(self, signal: str) -> int:
         """The output number of ``signal`` ("gripper" or "tool_changer")."""

@@ -11,6 +11,14 @@ position with that type.  Tool and user frame values are given in comments, for 
 controller's tool and user frame files (a job cannot set them).  ``MOVJ ... VJ=`` (% of the
 joints' top speed), ``MOVL ... V=`` (mm/s), ``DOUT OT#()``, ``TIMER T=``; a guarded move is a
 ``MOVL ... UNTIL IN#()=ON`` (the move stops where the input closes).
+
+A probe's contact (``probe:``) is kept in a global position variable, contact K in
+``P<first + K - 1>`` (``--contact-register``, as FANUC's position registers): ``GETS PX<n>
+$PX001`` after the search copies the current position, XYZ type in the base frame, with the
+job's tool.  The job clears them first (``SUB PX<n> PX<n>``: a variable the run did not reach
+reads zero).  ``rworld measure --from-log --format inform`` reads them back from the controller's
+saved variable data (``VAR.DAT``) or a saved job listing them, in the job data format's form
+(``///POSTYPE``, ``///TOOL``, ``///RECTAN``, ``P<n>=X,Y,Z,Rx,Ry,Rz``).
 """
 
 from __future__ import annotations
@@ -110,6 +118,15 @@ class InformWriter(Writer):
             body += _comments(f"{kind} {number} is {frame_name} (mm, deg):")
             for key, value in zip(("X", "Y", "Z", "Rx", "Ry", "Rz"), xyz_wpr(T)):
                 body.append(f"'{kind} {number} {key} {_f(value)}")
+        records = program.records
+        if records:
+            first = signals.contact_register
+            body += _comments(
+                f"contacts: P{first:03d} to P{first + len(records) - 1:03d}, one a probe "
+                "(cleared first)"
+            )
+            for k in range(len(records)):  # a variable the run did not reach reads zero
+                body.append(f"SUB PX{first + k:03d} PX{first + k:03d}")
         self.tools, self.pulses, self.zero = tools, pulses, zero
         self.user_line, self.positions, self.body = user_line, positions, body
         self.current_tool = 0
@@ -177,10 +194,14 @@ class InformWriter(Writer):
         return [f"TIMER T={seconds:.2f}"]
 
     def record(self, item: Record) -> None:
+        # where the search stopped ($PX001: the current position, XYZ type, base frame, the
+        # job's tool), one position variable a contact, read back by 'rworld measure --from-log'
+        variable = self.signals.contact_register + item.number - 1
+        self.body += _comments(f"{item.where}: {item.text}")
         self.body += _comments(
-            f"{item.where}: {item.text} (contact {item.number}/{item.total} of "
-            f"{item.feature}: not recorded in INFORM, read it on the pendant)"
+            f"contact {item.number}/{item.total} {item.feature}: P{variable:03d}"
         )
+        self.body.append(f"GETS PX{variable:03d} $PX001")
 
     def files(self) -> dict[str, str]:
         lines = [

@@ -35,6 +35,13 @@ The reports carry the same fields in every language::
 - ``fanuc``: ``POSREG.VA`` (the position registers as the controller lists them), register
   ``first + K - 1`` holding contact K (X, Y, Z mm; W, P, R deg: ``R = Rz(R) Ry(P) Rx(W)``);
   the fields are not in the controller's output: they are the exported program's.
+- ``inform``: the controller's saved variable data (``VAR.DAT``) or a saved job that lists the
+  position variables, in the job data format's form: ``///TOOL n``, ``///USER n``,
+  ``///POSTYPE BASE|ROBOT|USER``, ``///RECTAN``, ``///RCONF ...`` set what the ``P<n>=X,Y,Z,
+  Rx,Ry,Rz`` lines after them hold (mm; deg, ``R = Rz(Rz) Ry(Ry) Rx(Rx)``); variable
+  ``first + K - 1`` holds contact K; its frame (``postype``, ``user``) and tool number
+  (``tool_number``) are the fields, the others the exported program's.  A pulse-type variable
+  (``///PULSE``) is refused: the export stores XYZ type.
 
 Several runs in one log (a UR log, an appended RAPID file): the last complete run is taken
 (a report ``1/N`` starts a run) and the earlier ones named in :attr:`ContactLog.notes`.
@@ -58,7 +65,7 @@ import numpy as np
 from .. import spatial
 from ..errors import Issue, UserError
 
-LANGUAGES = ("urscript", "rapid", "krl", "fanuc", "drl", "val3", "sunrise")
+LANGUAGES = ("urscript", "rapid", "krl", "fanuc", "inform", "drl", "val3", "sunrise")
 MARK = "rworld contact"
 NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?", re.ASCII)  # a whole token
 MAX_LOG_BYTES = 64 * 1024 * 1024  # a UR log of months; larger: trim it to the run
@@ -400,14 +407,90 @@ def _fanuc(lines: list[str], path: str, first: int) -> list[LoggedContact]:
     return out
 
 
-def read_contact_log(path: str, language: str, first_register: int = 101) -> ContactLog:
+def _inform(lines: list[str], path: str, first: int, count: int | None) -> list[LoggedContact]:
+    """Position variables in the job data format: the ``///`` lines before a ``P<n>=`` line
+    say its type, frame and tool.  ``count`` variables from ``first`` on are read (None: up to
+    the first that is not an XYZ-type position); the first that reads zero ends them."""
+    state: dict[str, str] = {}
+    variables: dict[int, tuple[int, str, dict[str, str]]] = {}
+    for n, text in enumerate(lines, start=1):
+        stripped = text.strip()
+        head = re.fullmatch(r"///(TOOL|USER|POSTYPE)\s+(\S+)", stripped, re.ASCII)
+        if head:
+            key, value = head.group(1).lower(), head.group(2).upper()
+            if key != "postype" and not re.fullmatch(r"\d{1,3}", value, re.ASCII):
+                _fail(path, n, f"///{head.group(1)} {head.group(2)}: not a frame number")
+            state[key] = value
+            if key == "postype" and value != "USER":
+                state.pop("user", None)  # a user number belongs to USER positions
+            continue
+        if stripped in ("///RECTAN", "///PULSE", "///ANGLE"):
+            state["kind"] = stripped[3:].lower()
+            continue
+        if re.fullmatch(r"//[A-Z]+.*", stripped, re.ASCII) and not stripped.startswith("///"):
+            state = {}  # a new section (//POS, //INST, //VAR ...): its own types
+            continue
+        found = re.fullmatch(r"P(\d{3,5})\s*=(.*)", stripped, re.ASCII)
+        if not found:
+            continue
+        number = int(found.group(1))
+        if number in variables:
+            _fail(path, n, f"P{number:03d} listed twice (line {variables[number][0]} first)")
+        variables[number] = (n, found.group(2), dict(state))
+    if not variables:
+        _fail(path, 1, "no position variables: VAR.DAT lists them as 'P<n>=X,Y,Z,Rx,Ry,Rz'")
+    out = []
+    k = 1
+    while first + k - 1 in variables and (count is None or k <= count):
+        number = first + k - 1
+        n, text, state = variables[number]
+        name = f"P{number:03d}"
+        if state.get("kind") != "rectan" or state.get("postype") not in ("BASE", "ROBOT", "USER"):
+            if count is None and k > 1:
+                break  # the user's own variables after the contacts
+            _fail(
+                path,
+                n,
+                f"{name} is a {state.get('postype', 'untyped').lower()} position"
+                f"{' (joint pulses)' if state.get('kind') == 'pulse' else ''}: a contact is "
+                "kept as an XYZ-type position (///POSTYPE BASE, ROBOT or USER with ///RECTAN)",
+            )
+        if state["postype"] == "USER" and "user" not in state:
+            _fail(path, n, f"{name}: a USER position without its ///USER number above it")
+        tokens = text.split(",")
+        if len(tokens) != 6:  # a 7-axis arm's Re too: the export writes 6-axis jobs only
+            _fail(path, n, f"{name} holds {len(tokens)} values: X,Y,Z,Rx,Ry,Rz expected")
+        values = [
+            _number(t.strip(), path, n, f"{name}'s value {i + 1}") for i, t in enumerate(tokens)
+        ]
+        if all(v == 0.0 for v in values[:6]):  # cleared by the program, never reached
+            break
+        x, y, z, rx, ry, rz = values[:6]
+        T = spatial.make_transform(_euler_zyx(rz, ry, rx), np.array([x, y, z]) * 1e-3)
+        fields = {"postype": state["postype"]}
+        if "user" in state:
+            fields["user"] = state["user"]
+        if "tool" in state:
+            fields["tool_number"] = state["tool"]
+        out.append(LoggedContact(k, 0, T, fields, f"{path}:{n}"))
+        k += 1
+    return out
+
+
+def read_contact_log(
+    path: str, language: str, first_register: int = 101, count: int | None = None
+) -> ContactLog:
     """The contacts a controller recorded, from its log or the file the program wrote.
 
     Parameters
     ----------
-    language : {"urscript", "rapid", "krl", "fanuc", "drl", "val3", "sunrise"}
+    language : {"urscript", "rapid", "krl", "fanuc", "inform", "drl", "val3", "sunrise"}
     first_register : int
-        FANUC: the position register of contact 1 (``export program --contact-register``).
+        FANUC: the position register, INFORM: the position variable of contact 1 (``export
+        program --contact-register``).
+    count : int, optional
+        INFORM: the contacts the program records (the variables after them are the user's);
+        None: up to the first variable that is not an XYZ-type position.
 
     Raises
     ------
@@ -437,6 +520,8 @@ def read_contact_log(path: str, language: str, first_register: int = 101) -> Con
         contacts, count = _krl(lines, path)
     elif language == "sunrise":
         contacts = _sunrise(lines, path)
+    elif language == "inform":
+        contacts = _inform(lines, path, first_register, count)
     elif language in _SPLIT_POSES:
         contacts = _split_reports(lines, path, language)
     else:
@@ -447,13 +532,14 @@ def read_contact_log(path: str, language: str, first_register: int = 101) -> Con
             "rapid": f"no line holds '{MARK}' (the file HOME:rworld_<program>.log)",
             "krl": "no 'DECL E6POS RWC_k' with its report line (the program's .dat file)",
             "fanuc": f"PR[{first_register}] holds no contact",
+            "inform": f"P{first_register:03d} holds no contact (not listed, or zero: not reached)",
             "drl": f"no line holds '{MARK}' (the teach pendant's log of the tp_log reports)",
             "val3": f"no line holds '{MARK}' (the controller's log of the logMsg reports)",
             "sunrise": f"no line holds '{MARK}' (the application's log: getLogger().info)",
         }[language]
         raise UserError(f"{path}: no contact: {where}")
     notes = []
-    if language != "krl" and language != "fanuc":  # the last run: from the last 1/N on
+    if language not in ("krl", "fanuc", "inform"):  # the last run: from the last 1/N on
         starts = [i for i, c in enumerate(contacts) if c.number == 1]
         if not starts or starts[0] != 0:
             first = contacts[0]

@@ -29,7 +29,7 @@ REPO = Path(__file__).resolve().parents[2]
 ROBOTS = REPO / "tests" / "data" / "probe_robots"
 PLATE_MESH = REPO / "workcells" / "probing" / "meshes" / "plate.stl"
 STYLUS = 0.1  # [m]: the ball's centre past the robot's TCP
-NAMES = ("kr6r900sixx", "cr7ial", "vs060", "gen3", "ur10e", "iiwa14")
+NAMES = ("kr6r900sixx", "cr7ial", "vs060", "gen3", "ur10e", "iiwa14", "gp12")
 
 
 def _device(cell: dict) -> tuple[str, str]:

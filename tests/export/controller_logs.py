@@ -103,6 +103,69 @@ def fanuc_posreg(contacts: list[Reported], first: int, digits: int = 3, size: in
     return "\n".join(out) + "\n"
 
 
+def inform_var_dat(
+    contacts: list[Reported],
+    first: int,
+    digits: tuple[int, int] = (9, 9),
+    tools: list[int] | None = None,
+    user: int | None = None,
+    size: int = 128,
+) -> str:
+    """A Yaskawa controller's saved variable data with the position variables in the job data
+    format (NX100/DX100 manuals, the job format's ``///POSTYPE``, ``///TOOL``, ``///RECTAN``,
+    ``///RCONF`` and ``Pyyyy=X,Y,Z,Rx,Ry,Rz``): the contacts from P<first> on (mm; deg, R =
+    Rz(Rz) Ry(Ry) Rx(Rx): scipy's intrinsic 'ZYX' read backwards), in the base frame or user
+    frame ``user``, with the tool each was taken with (``tools``, 1 for each if None); each
+    other variable a pulse position of zeros; byte and integer variables before them, as a
+    controller's file holds other sections."""
+    out = ["//VAR", "///B", *(f"B{i:03d}=0" for i in range(4)), "///I", "I000=7", "///P"]
+    by_number = {first + k: c for k, c in enumerate(contacts)}
+    tool_of = {first + k: t for k, t in enumerate(tools or [1] * len(contacts))}
+    kind, tool = "", -1
+    for i in range(size):
+        c = by_number.get(i)
+        if c is None:
+            if kind != "pulse":
+                out += ["///POSTYPE PULSE", "///PULSE"]
+                kind = "pulse"
+            out.append(f"P{i:04d}=0,0,0,0,0,0")
+            continue
+        if tool_of[i] != tool:
+            tool = tool_of[i]
+            out.append(f"///TOOL {tool}")
+        if kind != "rectan":
+            out += ["///POSTYPE BASE"] if user is None else [f"///USER {user}", "///POSTYPE USER"]
+            out += ["///RECTAN", "///RCONF 0,0,0,0,0,0,0,0"]
+            kind = "rectan"
+        p = c.T[:3, 3] * 1000
+        rz, ry, rx = Rotation.from_matrix(c.T[:3, :3]).as_euler("ZYX", degrees=True)
+        values = [_fmt(v, digits[0]) for v in p] + [_fmt(v, digits[1]) for v in (rx, ry, rz)]
+        out.append(f"P{i:04d}=" + ",".join(values))
+    return "\r\n".join(out) + "\r\n"
+
+
+def inform_contact_tools(job: str) -> list[int]:
+    """The tool each ``GETS`` of an INFORM job takes its position with: the ``///TOOL`` of the
+    position the move before it went to (the job data format: a ``///TOOL n`` line holds for
+    the positions after it)."""
+    tool_of, tool = {}, 0
+    for line in job.splitlines():
+        found = re.fullmatch(r"///TOOL (\d+)", line)
+        if found:
+            tool = int(found.group(1))
+        found = re.fullmatch(r"(C\d{5})=.*", line)
+        if found:
+            tool_of[found.group(1)] = tool
+    out, last = [], None
+    for line in job.splitlines():
+        found = re.match(r"MOV[JL] (C\d{5})", line)
+        if found:
+            last = found.group(1)
+        if line.startswith("GETS "):
+            out.append(tool_of[last])
+    return out
+
+
 def _tp_logs(text: str) -> list[tuple[str, bool]]:
     """A DRL program's tp_log lines in order: (the literal string, whether the pose follows
     it: the line ``tp_log('... posx=' + str(list(rwc_pos)))``), read by Python's own parser."""

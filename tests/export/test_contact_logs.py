@@ -31,6 +31,7 @@ LOG_FILES = {
     "rapid": "rworld.log",
     "krl": "probe.dat",
     "fanuc": "POSREG.VA",
+    "inform": "VAR.DAT",
     "drl": "tp_log.txt",
     "val3": "val3.log",
 }
@@ -88,6 +89,9 @@ def _controller_output(fmt, exported, contacts, digits=None, noise=None) -> str:
         return controller_logs.drl_log(exported, contacts, digits)
     if fmt == "val3":
         return controller_logs.val3_log(exported, contacts, *(() if digits is None else (digits,)))
+    if fmt == "inform":
+        tools = controller_logs.inform_contact_tools(exported)
+        return controller_logs.inform_var_dat(contacts, 101, (digits or 9, digits or 9), tools)
     return controller_logs.fanuc_posreg(contacts, 101, 9 if digits is None else digits)
 
 
@@ -104,11 +108,12 @@ def _export(cli, cell, fmt, frame, out):
 def _write_log(cli, loop, fmt, frame, tmp_path, digits=None, shift=None):
     cell, _, run, result, probed, _ = loop
     exported = _export(cli, cell, fmt, frame, tmp_path / "exported")
-    poses = _tcp_poses(run, result, probed, frame)
+    # INFORM keeps a contact as $PX001 gives it: in the base frame whatever the job's frame
+    poses = _tcp_poses(run, result, probed, None if fmt == "inform" else frame)
     if shift is not None:
         poses = [T.copy() for T in poses]
         poses[shift[0]][:3, 3] += shift[1]
-    fields = reports_in(exported) if fmt != "fanuc" else [""] * len(poses)
+    fields = reports_in(exported) if fmt not in ("fanuc", "inform") else [""] * len(poses)
     assert len(fields) == len(poses) == 12  # every probe: on a feature reports its contact
     contacts = [Reported(f, T) for f, T in zip(fields, poses)]
     log = tmp_path / LOG_FILES[fmt]
@@ -137,6 +142,8 @@ def _frames(cell, path, sigma=2e-5):
         ("rapid", "plate"),
         ("krl", "table"),
         ("fanuc", "plate"),
+        ("inform", None),
+        ("inform", "plate"),
         ("drl", None),
         ("drl", "plate"),
         ("val3", None),
@@ -177,6 +184,93 @@ def test_fanuc_registers_at_the_controllers_precision(cli, loop, tmp_path):
     assert result.exit_code == 0, result.output
     T_a, T_b = _frames(cell, simulated)["plate"].T_world, _frames(cell, out)["plate"].T_world
     assert 0 < np.abs(T_a[:3, 3] - T_b[:3, 3]).max() < 5e-6
+
+
+def test_inform_keeps_each_contact_in_its_position_variable(cli, loop, tmp_path):
+    """The job clears P101..P112 first, and after each search copies the current position
+    into the contact's variable; the variables come back from VAR.DAT at the controller's
+    precision (mm to 3 decimals, deg to 4) within 5 um, and as USER-type positions of the
+    job's user frame as the base-frame ones."""
+    cell, _, run, result, probed, simulated = loop
+    exported = _export(cli, cell, "inform", "plate", tmp_path / "job")
+    lines = exported.splitlines()
+    clears = [k for k, line in enumerate(lines) if re.fullmatch(r"SUB PX(\d{3}) PX\1", line)]
+    gets = [line for line in lines if line.startswith("GETS ")]
+    assert [lines[k] for k in clears] == [f"SUB PX{n:03d} PX{n:03d}" for n in range(101, 113)]
+    assert gets == [f"GETS PX{n:03d} $PX001" for n in range(101, 113)]
+    first_move = next(k for k, line in enumerate(lines) if line.startswith("MOV"))
+    assert clears[-1] < first_move  # cleared before the robot moves
+    searches = [k for k, line in enumerate(lines) if "UNTIL IN#(" in line]
+    for k, n in zip(searches, range(101, 113)):  # each after its search, before the next move
+        after = next(line for line in lines[k + 1 :] if not line.startswith("'"))
+        assert after == f"GETS PX{n:03d} $PX001", after
+    base = _tcp_poses(run, result, probed, None)
+    contacts = [Reported("", T) for T in base]
+    log = tmp_path / "VAR.DAT"
+    tools = controller_logs.inform_contact_tools(exported)
+    assert set(tools) == {2}  # the probe, the job's second tool
+    log.write_text(controller_logs.inform_var_dat(contacts, 101, (3, 4), tools))
+    out = tmp_path / "m.yaml"
+    assert _read_back(cli, cell, log, "inform", out).exit_code == 0
+    T_a, T_b = _frames(cell, simulated)["plate"].T_world, _frames(cell, out)["plate"].T_world
+    assert 0 < np.abs(T_a[:3, 3] - T_b[:3, 3]).max() < 5e-6
+    in_user = [Reported("", T) for T in _tcp_poses(run, result, probed, "plate")]
+    log.write_text(controller_logs.inform_var_dat(in_user, 101, tools=tools, user=1))
+    assert _read_back(cli, cell, log, "inform", out, "--frame", "plate").exit_code == 0
+    nominal = load_cell(str(cell)).cell
+    a = load_measurements([str(simulated)], nominal).measurements
+    b = load_measurements([str(out)], nominal).measurements
+    for name in a:
+        assert np.abs(a[name].points - b[name].points).max() < 1e-9, name
+
+
+@pytest.mark.parametrize(
+    "edit, frame, message",
+    [
+        (
+            lambda t: t.replace("///POSTYPE BASE\n///RECTAN", "///POSTYPE BASE\n///PULSE"),
+            None,
+            "VAR.DAT:117:1: contact log: P101 is a base position (joint pulses): a contact is "
+            "kept as an XYZ-type position",
+        ),
+        (
+            lambda t: t.replace("///TOOL 2", "///TOOL 3"),
+            None,
+            "VAR.DAT:117: contact 1 was kept with TOOL 3, but the job searched with TOOL 2",
+        ),
+        (
+            lambda t: t.replace("///POSTYPE BASE", "///USER 1\n///POSTYPE USER"),
+            None,
+            "VAR.DAT:118: contact 1 is a USER 1 position, but the job was given no user frame",
+        ),
+        (
+            lambda t: re.sub(r"P0105=[^\n]*", "P0105=0.000,0.000,0.000,0.0000,0.0000,0.0000", t),
+            "plate",
+            "the log holds 4 of the program's 12 contacts: contact 5 (plate.front, step 3",
+        ),
+        (
+            lambda t: t.replace("P0102=", "P0101=1,2,3,4,5,6\nP0102=", 1),
+            None,
+            "VAR.DAT:118:1: contact log: P101 listed twice (line 117 first)",
+        ),
+        (
+            lambda t: re.sub(r"(P0103=)[^,]*", r"\g<1>417,775", t, count=1),
+            None,
+            "VAR.DAT:119:1: contact log: P103 holds 7 values: X,Y,Z,Rx,Ry,Rz expected",
+        ),
+    ],
+)
+def test_inform_variables_that_are_not_the_jobs_contacts_are_refused(
+    cli, loop, tmp_path, edit, frame, message
+):
+    """A variable of another type, tool or frame, a run that stopped (a variable still zero),
+    a variable listed twice, a decimal comma: each refused at its line, nothing written."""
+    cell = loop[0]
+    log = _write_log(cli, loop, "inform", frame, tmp_path)
+    log.write_text(edit(log.read_text()))
+    out = tmp_path / "m.yaml"
+    extra = ["--frame", frame] if frame else []
+    _refused(_read_back(cli, cell, log, "inform", out, *extra), out, message)
 
 
 def test_the_loop_recovers_the_moved_plate_within_its_predicted_sigma(cli, loop, tmp_path):
@@ -471,6 +565,7 @@ POSE_REGION = {  # where each language's log holds the pose
     "rapid": r" x=.*$",
     "krl": r"RWC_\d+=\{[^}]*\}",
     "fanuc": r"\b[XYZWPR]:\s*\S+",
+    "inform": r"^P0(?:10[1-9]|11[0-2])=.*$",
     "drl": r"posx=\[[^\]]*\]",
     "val3": r"point=\S*",
 }
@@ -479,11 +574,11 @@ POSE_REGION = {  # where each language's log holds the pose
 def _reads(log, fmt):
     from rworld_cli.schema.contactlog import read_contact_log
 
-    return read_contact_log(str(log), fmt)
+    return read_contact_log(str(log), fmt, count=12 if fmt == "inform" else None)
 
 
 def test_a_log_fuzz_refuses_every_lie_and_keeps_every_truth(cli, loop, tmp_path):
-    """At least 300 mutations of real logs in six languages: each numeric token of a pose
+    """At least 300 mutations of real logs in seven languages: each numeric token of a pose
     replaced as a controller never writes it, or as one may; a key given twice; a count that
     does not count.  The counts are printed for the closing note."""
     rng = np.random.default_rng(58)
@@ -493,6 +588,7 @@ def test_a_log_fuzz_refuses_every_lie_and_keeps_every_truth(cli, loop, tmp_path)
         ("rapid", "plate"),
         ("krl", "table"),
         ("fanuc", "plate"),
+        ("inform", "plate"),
         ("drl", "plate"),
         ("val3", None),
     ]:
