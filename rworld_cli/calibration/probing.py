@@ -55,6 +55,7 @@ SMALL_TILTS = np.radians([0, 6, 12])
 # singularity to be driven: between two samples the wrist may flip (a spherical wrist at
 # 0.1 deg from upright is about 2000), which the simulator's clock-rate tracking cannot follow
 LINE_CONDITION = 1e3
+SINGULAR = "passes a singularity"  # the words of a line refused for it
 
 
 @dataclass
@@ -277,27 +278,43 @@ class ProbeRig:
                 return f"{f.name} target {k + 1}: {what} inside {inside}"
         why = "no spin of the probe about its stylus"
         best = None
-        orientations = list(self._orientations(f.kind, stylus, spins))
         last = self._last.get(f.name)
-        if last is not None:  # what worked on this feature's last target first, from its joints
-            orientations.sort(
-                key=lambda o: abs(o[1] - last[1]) + float(np.linalg.norm(o[0] - last[0]))
-            )
+        # upright first; tilted only where upright met a singularity (or the last target
+        # took a tilt): a target upright cannot reach for other reasons is not tried 9 times
+        upright = list(self._orientations(f.kind, stylus, spins))
+        tilted = list(self._orientations(f.kind, stylus, spins, tilted=True))
+        groups = [upright, tilted]
+        if last is not None and any(np.allclose(o[0], last[0]) for o in tilted):
+            groups = [tilted + upright]
         # where the search starts: the feature's last success, the joints given (where the arm
         # is at this step), the start position; then, for a target none of them reaches
         # clear, every IK branch from seeded restarts (the second pass)
         recent = self._recent  # the last target solved, of any feature: where the arm will be
         seeds = [None if last is None else last[2], recent, *self.seeds, self.q_start]
         seeds = list(distinct_states([q for q in seeds if q is not None], 1e-9))
-        for thorough in (False, True):  # the second pass: the preferred orientations only
-            for stylus_k, spin in orientations[:THOROUGH] if thorough else orientations:
-                best, why_k = self._orientation(
-                    f.name, k, stylus_k, spin, (centre, start, end, entry), seeds, thorough
+        orientations: list = []
+        for group in groups:
+            if not group:
+                continue
+            if last is not None:  # what worked on this feature's last target first
+                group = sorted(
+                    group,
+                    key=lambda o: abs(o[1] - last[1]) + float(np.linalg.norm(o[0] - last[0])),
                 )
+            orientations += group
+            singular = False
+            for thorough in (False, True):  # the second pass: the preferred orientations only
+                for stylus_k, spin in group[:THOROUGH] if thorough else group:
+                    best, why_k = self._orientation(
+                        f.name, k, stylus_k, spin, (centre, start, end, entry), seeds, thorough
+                    )
+                    if best is not None:
+                        break
+                    why = why_k
+                    singular = singular or SINGULAR in why_k
                 if best is not None:
                     break
-                why = why_k
-            if best is not None:
+            if best is not None or not singular:
                 break
         if best is None and why is not None:
             why += (
@@ -445,7 +462,7 @@ class ProbeRig:
             where = float(s[found.failed_at])
             if found.reason == "singular":
                 return (
-                    f"{what} passes a singularity at {where:.0%} (Jacobian condition number "
+                    f"{what} {SINGULAR} at {where:.0%} (Jacobian condition number "
                     f"{found.condition:.3g}, above {LINE_CONDITION:g})"
                 )
             return f"{what} leaves the workspace at {where:.0%} ({found.reason})"
@@ -491,18 +508,22 @@ class ProbeRig:
                 return body.label
         return None
 
-    def _orientations(self, kind: str, stylus: np.ndarray, spins):
+    def _orientations(self, kind: str, stylus: np.ndarray, spins, tilted: bool = False):
         """(stylus direction, spin) pairs to try: a hole keeps the one its first point used;
-        a hole or a face whose normal is near vertical: upright along the axis or normal, then
-        tilted by ``SMALL_TILTS`` toward four sides; a face whose normal is near horizontal: the
-        stylus along it, then tilted down by ``TILTS``."""
+        a hole or a face whose normal is near vertical: upright along the axis or normal
+        (``tilted``: tilted by ``SMALL_TILTS`` toward four sides instead); a face whose normal
+        is near horizontal: the stylus along it, then tilted down by ``TILTS`` (``tilted``:
+        none)."""
         if kind == "circle" and len(spins) == 1 and isinstance(spins[0], tuple):
-            yield spins[0][1], spins[0][0]
+            if not tilted:
+                yield spins[0][1], spins[0][0]
             return
         down = np.array([0.0, 0.0, -1.0])
         side = down - (down @ stylus) * stylus
-        if kind == "circle" or np.linalg.norm(side) <= 0.5:  # upright, then a little tilted
-            yield from ((stylus, float(spin)) for spin in spins)
+        if kind == "circle" or np.linalg.norm(side) <= 0.5:  # upright, or a little tilted
+            if not tilted:
+                yield from ((stylus, float(spin)) for spin in spins)
+                return
             other = np.array([1.0, 0.0, 0.0]) if abs(stylus[2]) > 0.9 else down
             across = np.cross(stylus, other) / np.linalg.norm(np.cross(stylus, other))
             sides = [across, np.cross(stylus, across), -across, -np.cross(stylus, across)]
@@ -510,6 +531,8 @@ class ProbeRig:
                 for way in sides:
                     direction = np.cos(tilt) * stylus + np.sin(tilt) * way
                     yield from ((direction, float(spin)) for spin in spins)
+            return
+        if tilted:
             return
         for tilt in TILTS:  # a side face: the stylus tilted down
             direction = stylus

@@ -95,7 +95,17 @@ def _controller_output(fmt, exported, contacts, digits=None, noise=None) -> str:
     return controller_logs.fanuc_posreg(contacts, 101, 9 if digits is None else digits)
 
 
+_EXPORTED: dict[tuple[str, str, str | None], str] = {}  # the same export, made once a worker
+
+
 def _export(cli, cell, fmt, frame, out):
+    key = (str(cell), fmt, frame)
+    if key not in _EXPORTED:
+        _EXPORTED[key] = _export_now(cli, cell, fmt, frame, out)
+    return _EXPORTED[key]
+
+
+def _export_now(cli, cell, fmt, frame, out):
     args = ["export", "program", str(cell), str(cell / PROGRAM), "--format", fmt, "-o", str(out)]
     result = cli(args + (["--frame", frame] if frame else []))
     assert result.exit_code == 0, result.output
@@ -116,6 +126,7 @@ def _write_log(cli, loop, fmt, frame, tmp_path, digits=None, shift=None):
     fields = reports_in(exported) if fmt not in ("fanuc", "inform") else [""] * len(poses)
     assert len(fields) == len(poses) == 12  # every probe: on a feature reports its contact
     contacts = [Reported(f, T) for f, T in zip(fields, poses)]
+    tmp_path.mkdir(parents=True, exist_ok=True)  # the export (cached) may not have made it
     log = tmp_path / LOG_FILES[fmt]
     log.write_text(_controller_output(fmt, exported, contacts, digits))
     return log
@@ -228,12 +239,6 @@ def test_inform_keeps_each_contact_in_its_position_variable(cli, loop, tmp_path)
     "edit, frame, message",
     [
         (
-            lambda t: t.replace("///POSTYPE BASE\n///RECTAN", "///POSTYPE BASE\n///PULSE"),
-            None,
-            "VAR.DAT:117:1: contact log: P101 is a base position (joint pulses): a contact is "
-            "kept as an XYZ-type position",
-        ),
-        (
             lambda t: t.replace("///TOOL 2", "///TOOL 3"),
             None,
             "VAR.DAT:117: contact 1 was kept with TOOL 3, but the job searched with TOOL 2",
@@ -248,29 +253,45 @@ def test_inform_keeps_each_contact_in_its_position_variable(cli, loop, tmp_path)
             "plate",
             "the log holds 4 of the program's 12 contacts: contact 5 (plate.front, step 3",
         ),
-        (
-            lambda t: t.replace("P0102=", "P0101=1,2,3,4,5,6\nP0102=", 1),
-            None,
-            "VAR.DAT:118:1: contact log: P101 listed twice (line 117 first)",
-        ),
-        (
-            lambda t: re.sub(r"(P0103=)[^,]*", r"\g<1>417,775", t, count=1),
-            None,
-            "VAR.DAT:119:1: contact log: P103 holds 7 values: X,Y,Z,Rx,Ry,Rz expected",
-        ),
     ],
 )
 def test_inform_variables_that_are_not_the_jobs_contacts_are_refused(
     cli, loop, tmp_path, edit, frame, message
 ):
-    """A variable of another type, tool or frame, a run that stopped (a variable still zero),
-    a variable listed twice, a decimal comma: each refused at its line, nothing written."""
+    """A variable of another tool or frame, a run that stopped (a variable still zero): each
+    refused at its line, nothing written."""
     cell = loop[0]
     log = _write_log(cli, loop, "inform", frame, tmp_path)
     log.write_text(edit(log.read_text()))
     out = tmp_path / "m.yaml"
     extra = ["--frame", frame] if frame else []
     _refused(_read_back(cli, cell, log, "inform", out, *extra), out, message)
+
+
+def test_inform_variables_the_reader_refuses(cli, loop, tmp_path):
+    """A pulse-type variable, a variable listed twice, a decimal comma (seven values): refused
+    at the line by the reader itself."""
+    log = _write_log(cli, loop, "inform", None, tmp_path)
+    text = log.read_text()
+    for edit, message in [
+        (
+            lambda t: t.replace("///POSTYPE BASE\n///RECTAN", "///POSTYPE BASE\n///PULSE"),
+            "VAR.DAT:117:1: contact log: P101 is a base position (joint pulses): a contact is "
+            "kept as an XYZ-type position",
+        ),
+        (
+            lambda t: t.replace("P0102=", "P0101=1,2,3,4,5,6\nP0102=", 1),
+            "VAR.DAT:118:1: contact log: P101 listed twice (line 117 first)",
+        ),
+        (
+            lambda t: re.sub(r"(P0103=)[^,]*", r"\g<1>417,775", t, count=1),
+            "VAR.DAT:119:1: contact log: P103 holds 7 values: X,Y,Z,Rx,Ry,Rz expected",
+        ),
+    ]:
+        log.write_text(edit(text))
+        with pytest.raises(UserError) as caught:
+            _reads(log, "inform")
+        assert message in str(caught.value), caught.value
 
 
 def test_the_loop_recovers_the_moved_plate_within_its_predicted_sigma(cli, loop, tmp_path):
@@ -381,8 +402,6 @@ def test_several_runs_in_one_log_take_the_last(cli, loop, tmp_path):
 def test_a_frame_level_probe_program_reads_back_too(cli, loop, tmp_path):
     """The program plan-measurements --program writes (guarded moves to frames, then probe:
     FEATURE): its RAPID contact file gives the simulated loop's points."""
-    from rworld_cli.api import simulate_probe_measurements
-
     cell, truth, *_ = loop
     program = cell / "programs" / "probe.yaml"
     run = load_run(str(cell), str(program))
@@ -404,14 +423,15 @@ def test_a_frame_level_probe_program_reads_back_too(cli, loop, tmp_path):
     args = ["measure", "--from-log", str(log), "--cell", str(cell), "--run", str(program)]
     result = cli(args + ["--format", "rapid", "-o", str(read)])
     assert result.exit_code == 0, result.output
-    simulated = tmp_path / "simulated.yaml"
-    simulate_probe_measurements(str(cell), str(truth), str(program), str(simulated), 0.0)
+    # the simulated loop's points (what measure --simulate --program writes), feature by feature
     nominal = load_cell(str(cell)).cell
-    a = load_measurements([str(simulated)], nominal).measurements
     b = load_measurements([str(read)], nominal).measurements
-    assert sorted(a) == sorted(b)
-    for name in a:
-        assert np.abs(a[name].points - b[name].points).max() < 1e-9, name
+    assert sorted(b) == sorted({p.feature for p in probed})
+    for name, measured in b.items():
+        expected = np.array([p.reported for p in probed if p.feature == name])
+        assert measured.points.shape == expected.shape, name
+        gaps = np.linalg.norm(measured.points[:, None] - expected[None], axis=2)
+        assert gaps.min(axis=1).max() < 1e-9 and gaps.min(axis=0).max() < 1e-9, name
 
 
 # ---------------------------------------------------------------- vendors' robots
