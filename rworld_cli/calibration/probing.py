@@ -47,14 +47,13 @@ SPINS = np.radians([0, 60, -60, 120, -120, 180])  # the probe's turns about its 
 RESTARTS = 16  # seeded random IK starts of a contact that no seed reaches clear
 THOROUGH = 3  # the orientations tried with them (the first: what worked last, or upright)
 TILTS = np.radians([0, 30, 50])  # the stylus tilted down from the normal, for side faces
-# the stylus tilted off a hole's axis or an upward face's normal when upright fails (a wrist
-# at its singularity there: the GP12 at 65 % of its reach holds its forearm upright over the
-# plate); a stem's clearance in a hole is the collision check's
-SMALL_TILTS = np.radians([0, 6, 12])
-# a line whose states 4 mm apart reach this Jacobian condition number passes too close to a
-# singularity to be driven: between two samples the wrist may flip (a spherical wrist at
-# 0.1 deg from upright is about 2000), which the simulator's clock-rate tracking cannot follow
+# a line whose states 4 mm apart reach this Jacobian condition number may pass a singularity
+# between two of them (a spherical wrist 0.1 deg from upright is about 2000): it is followed
+# again every DENSE_STEP, as the simulator follows it, and refused where that fails (the
+# wrist would flip)
 LINE_CONDITION = 1e3
+DENSE_STEP = 1e-4  # [m]
+MAX_TURN = 50.0  # [rad/m]: 2.9 deg a mm, 720 deg/s at 250 mm/s, past the wrists' rates
 SINGULAR = "passes a singularity"  # the words of a line refused for it
 
 
@@ -278,43 +277,27 @@ class ProbeRig:
                 return f"{f.name} target {k + 1}: {what} inside {inside}"
         why = "no spin of the probe about its stylus"
         best = None
+        orientations = list(self._orientations(f.kind, stylus, spins))
         last = self._last.get(f.name)
-        # upright first; tilted only where upright met a singularity (or the last target
-        # took a tilt): a target upright cannot reach for other reasons is not tried 9 times
-        upright = list(self._orientations(f.kind, stylus, spins))
-        tilted = list(self._orientations(f.kind, stylus, spins, tilted=True))
-        groups = [upright, tilted]
-        if last is not None and any(np.allclose(o[0], last[0]) for o in tilted):
-            groups = [tilted + upright]
+        if last is not None:  # what worked on this feature's last target first, from its joints
+            orientations.sort(
+                key=lambda o: abs(o[1] - last[1]) + float(np.linalg.norm(o[0] - last[0]))
+            )
         # where the search starts: the feature's last success, the joints given (where the arm
         # is at this step), the start position; then, for a target none of them reaches
         # clear, every IK branch from seeded restarts (the second pass)
         recent = self._recent  # the last target solved, of any feature: where the arm will be
         seeds = [None if last is None else last[2], recent, *self.seeds, self.q_start]
         seeds = list(distinct_states([q for q in seeds if q is not None], 1e-9))
-        orientations: list = []
-        for group in groups:
-            if not group:
-                continue
-            if last is not None:  # what worked on this feature's last target first
-                group = sorted(
-                    group,
-                    key=lambda o: abs(o[1] - last[1]) + float(np.linalg.norm(o[0] - last[0])),
+        for thorough in (False, True):  # the second pass: the preferred orientations only
+            for stylus_k, spin in orientations[:THOROUGH] if thorough else orientations:
+                best, why_k = self._orientation(
+                    f.name, k, stylus_k, spin, (centre, start, end, entry), seeds, thorough
                 )
-            orientations += group
-            singular = False
-            for thorough in (False, True):  # the second pass: the preferred orientations only
-                for stylus_k, spin in group[:THOROUGH] if thorough else group:
-                    best, why_k = self._orientation(
-                        f.name, k, stylus_k, spin, (centre, start, end, entry), seeds, thorough
-                    )
-                    if best is not None:
-                        break
-                    why = why_k
-                    singular = singular or SINGULAR in why_k
                 if best is not None:
                     break
-            if best is not None or not singular:
+                why = why_k
+            if best is not None:
                 break
         if best is None and why is not None:
             why += (
@@ -457,14 +440,25 @@ class ProbeRig:
             return None
         s = np.linspace(0.0, 1.0, max(2, int(np.ceil(length / 0.004)) + 1))
         targets = self.T_base_world @ interpolate_poses(T_a, T_b, s)
-        found = track(self.dev, targets, q_a, self.mount, max_condition=LINE_CONDITION)
+        found = track(self.dev, targets, q_a, self.mount)
+        if found.failed_at is None and found.condition > LINE_CONDITION:
+            # near a singularity 4 mm steps can slip past a wrist flip: followed again every
+            # DENSE_STEP, and refused where that fails or a joint turns faster than a wrist can
+            dense = np.linspace(0.0, 1.0, max(2, int(np.ceil(length / DENSE_STEP)) + 1))
+            again = track(
+                self.dev, self.T_base_world @ interpolate_poses(T_a, T_b, dense), q_a, self.mount
+            )
+            turns = np.abs(np.diff(again.q, axis=0)).max(axis=1) / (length * dense[1])
+            fast = int(np.argmax(turns))
+            if again.failed_at is not None or turns[fast] > MAX_TURN:
+                where = dense[again.failed_at if again.failed_at is not None else fast]
+                return (
+                    f"{what} {SINGULAR} at {float(where):.0%} (Jacobian condition number "
+                    f"{found.condition:.3g}; a joint turns {np.degrees(turns[fast]) / 1000:.3g} "
+                    "deg a mm)"
+                )
         if found.failed_at is not None:
             where = float(s[found.failed_at])
-            if found.reason == "singular":
-                return (
-                    f"{what} {SINGULAR} at {where:.0%} (Jacobian condition number "
-                    f"{found.condition:.3g}, above {LINE_CONDITION:g})"
-                )
             return f"{what} leaves the workspace at {where:.0%} ({found.reason})"
         if checked:  # free or not in one compiled call; the nearest pair for the message only
             bad = np.flatnonzero(~self.checker.free(found.q[1:]))
@@ -508,33 +502,16 @@ class ProbeRig:
                 return body.label
         return None
 
-    def _orientations(self, kind: str, stylus: np.ndarray, spins, tilted: bool = False):
+    def _orientations(self, kind: str, stylus: np.ndarray, spins):
         """(stylus direction, spin) pairs to try: a hole keeps the one its first point used;
-        a hole or a face whose normal is near vertical: upright along the axis or normal
-        (``tilted``: tilted by ``SMALL_TILTS`` toward four sides instead); a face whose normal
-        is near horizontal: the stylus along it, then tilted down by ``TILTS`` (``tilted``:
-        none)."""
+        a face whose normal is near horizontal also tilts the stylus down by ``TILTS``."""
         if kind == "circle" and len(spins) == 1 and isinstance(spins[0], tuple):
-            if not tilted:
-                yield spins[0][1], spins[0][0]
+            yield spins[0][1], spins[0][0]
             return
         down = np.array([0.0, 0.0, -1.0])
         side = down - (down @ stylus) * stylus
-        if kind == "circle" or np.linalg.norm(side) <= 0.5:  # upright, or a little tilted
-            if not tilted:
-                yield from ((stylus, float(spin)) for spin in spins)
-                return
-            other = np.array([1.0, 0.0, 0.0]) if abs(stylus[2]) > 0.9 else down
-            across = np.cross(stylus, other) / np.linalg.norm(np.cross(stylus, other))
-            sides = [across, np.cross(stylus, across), -across, -np.cross(stylus, across)]
-            for tilt in SMALL_TILTS[1:]:
-                for way in sides:
-                    direction = np.cos(tilt) * stylus + np.sin(tilt) * way
-                    yield from ((direction, float(spin)) for spin in spins)
-            return
-        if tilted:
-            return
-        for tilt in TILTS:  # a side face: the stylus tilted down
+        tilts = TILTS if np.linalg.norm(side) > 0.5 and kind != "circle" else TILTS[:1]
+        for tilt in tilts:
             direction = stylus
             if tilt:
                 direction = np.cos(tilt) * stylus + np.sin(tilt) * side / np.linalg.norm(side)

@@ -9,8 +9,9 @@ simulated loop's points to 1e-9 m, the job exported in the robot's frame and in 
 
 The GP12 was the robot on which the probing first met a wrist singularity: at 65 % of its
 reach its forearm stands upright over the plate, so an upright stylus holds axis B at 0.1 deg
-and the line into a hole flips the wrist; the probing now refuses a line past a Jacobian
-condition number of 1000 and tilts the stylus (``probing.SMALL_TILTS``)."""
+and a line across a hole passes the wrist's singularity; the probing now follows a line whose
+Jacobian condition number passes 1000 again every 0.1 mm and refuses it where that fails or a
+joint turns faster than a wrist can (``probing.LINE_CONDITION``)."""
 
 from __future__ import annotations
 
@@ -83,28 +84,22 @@ def test_a_gp12s_position_variables_give_the_simulated_loops_points(
         assert np.abs(a[name].points - b[name].points).max() < 1e-9, name
 
 
-def test_the_gp12s_probing_keeps_off_its_wrist_singularity(gp12_loop):
-    """Every state of the simulated program keeps the Jacobian's condition number of the
-    probe under 1000 on the probing lines (the upright stylus held 4e5 where the line failed),
-    and the stylus over the plate stands tilted, not upright."""
-    from rworld_cli.kinematics.jacobian import ToolMount, tool_pose_and_jacobian
-    from rworld_cli.world.tree import World
+def test_a_line_through_the_gp12s_wrist_singularity_is_refused_as_the_simulator_does(gp12_loop):
+    """The line that stalled the simulator (the upright stylus 11 mm across hole1 from B =
+    -0.1 deg, the wrist upright on its way): the probing's 4 mm check passed it; followed again
+    every 0.1 mm it is refused as passing a singularity, as the simulator's line is."""
+    from rworld_cli.calibration.probing import SINGULAR, ProbeRig
+    from rworld_cli.kinematics.jacobian import tool_pose
+    from rworld_cli.motion.linear import PathError, linear_move
 
-    cell, program, run, result, probed, simulated = gp12_loop
-    world = World(run.cell)
-    mount = ToolMount(*world.mount_of(DEVICE, f"{DEVICE}.probe"))
-    device = run.cell.devices[DEVICE]
-    probes = [e for e in result.events if e.device == DEVICE and e.kind == "probe"]
-    assert len(probes) == 12
-    worst = 0.0
-    for event in probes:
-        search = result.resolved[DEVICE][event.reading["guard_move"]].move
-        for q in (search.q_start, search.q_planned):
-            T, J = tool_pose_and_jacobian(device, np.asarray(q), mount)
-            s = np.linalg.svd(J, compute_uv=False)
-            worst = max(worst, s[0] / s[-1])
-    assert worst < 1000.0, worst
-    stylus = [
-        result.resolved[DEVICE][e.reading["guard_move"]].move.T_base_planned[:3, 2] for e in probes
-    ]
-    assert min(abs(float(z[2])) for z in stylus) < 0.999  # some search with the stylus tilted
+    cell, program, run, *_ = gp12_loop
+    rig = ProbeRig(run.cell, DEVICE, f"{DEVICE}.probe", "probe_ball")
+    q0 = np.array([0.0, 0.8675, -0.7013, 0.0002, -0.002, -np.pi / 2])
+    T_a = tool_pose(rig.dev, q0, rig.mount)
+    T_b = T_a.copy()
+    T_b[:3, 3] += [-0.00465, -0.00997, 0.0]
+    T_world_base = np.linalg.inv(rig.T_base_world)
+    why = rig._line(T_world_base @ T_a, T_world_base @ T_b, q0, "hole1's line", False)
+    assert why is not None and SINGULAR in why, why
+    with pytest.raises(PathError):
+        linear_move(rig.dev, rig.mount, 0.0, q0, T_b, 0.004, speed=0.04)
