@@ -367,6 +367,12 @@ class TrackResult:
     condition: float  # largest Jacobian condition number met
 
 
+# a tracked state whose Jacobian is worse conditioned than this stops at a residual of
+# NEAR_SINGULAR_TOLERANCE (m, rad) where it does not reach the tolerance asked
+NEAR_SINGULAR_CONDITION = 1e4
+NEAR_SINGULAR_TOLERANCE = 1e-6
+
+
 def track(
     device: DeviceModel,
     targets: np.ndarray,
@@ -388,6 +394,10 @@ def track(
         Tool poses in the base frame, close to each other.
     q0 : array_like, shape (n,)
         Joint values at (or near) the first pose.
+    tolerance : float
+        The largest position [m] or rotation [rad] error left at each pose; beside a
+        singularity (condition number past ``NEAR_SINGULAR_CONDITION``) a pose that does not
+        reach it within 4 iterations keeps ``NEAR_SINGULAR_TOLERANCE``.
     max_condition : float
         A Jacobian worse conditioned than this is a singularity: the path is refused there.
     """
@@ -398,11 +408,19 @@ def track(
     out = np.empty((len(targets), device.dof))
     worst = 1.0
     for k, target in enumerate(targets):  # sequential by nature: each pose seeds the next
-        for _ in range(max_iterations):
+        for iteration in range(max_iterations):
             T, J = tool_pose_and_jacobian(device, q, mount)
             err = _errors(T, target)[rows]
-            if abs(err).max() <= tolerance:
+            largest = abs(err).max()
+            if largest <= tolerance:
                 break
+            if iteration >= 4 and largest <= NEAR_SINGULAR_TOLERANCE:
+                # beside a singularity the residual left lies along the lost direction: a
+                # step for it swings the joints that lose it (a wrist upright: R and T turn
+                # by up to pi for 1e-7 rad) and may never settle; 1e-6 (m, rad) is kept
+                s = np.linalg.svd(J[rows], compute_uv=False)
+                if s[-1] < s[0] / NEAR_SINGULAR_CONDITION:
+                    break
             Jr = J[rows]
             dq = Jr.T @ np.linalg.solve(Jr @ Jr.T + damping, err)
             # a joint at its limit that the step pushes further: held there and the step

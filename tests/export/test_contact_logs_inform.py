@@ -87,7 +87,8 @@ def test_a_gp12s_position_variables_give_the_simulated_loops_points(
 def test_a_line_through_the_gp12s_wrist_singularity_is_refused_as_the_simulator_does(gp12_loop):
     """The line that stalled the simulator (the upright stylus 11 mm across hole1 from B =
     -0.1 deg, the wrist upright on its way): the probing's 4 mm check passed it; followed again
-    every 0.1 mm it is refused as passing a singularity, as the simulator's line is."""
+    every 0.1 mm it is refused as passing a singularity (a joint turns 17 deg a mm), and the
+    simulator refuses it too (timed to the joints' rates, the wrist's flip takes 20 minutes)."""
     from rworld_cli.calibration.probing import SINGULAR, ProbeRig
     from rworld_cli.kinematics.jacobian import tool_pose
     from rworld_cli.motion.linear import PathError, linear_move
