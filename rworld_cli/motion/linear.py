@@ -21,6 +21,11 @@ from ..units import (
 )
 from .trajectory import SampledMove, TrapezoidProfile, interpolate_poses
 
+# a line that its joints' rates would slow by more than this, past this condition number on
+# its way, passes a singularity (a wrist flipping), and is refused as such
+SINGULAR_SLOWDOWN = 20.0
+SINGULAR_CONDITION = 1e4
+
 
 class PathError(Exception):
     """A linear path cannot be followed; ``fraction`` says where along it."""
@@ -51,7 +56,9 @@ def linear_move(
     Raises
     ------
     PathError
-        The line leaves the workspace or passes a singularity (with the fraction of the path).
+        The line leaves the workspace or passes a singularity (a joint would turn at more than
+        ``SINGULAR_SLOWDOWN`` times its top speed there), with the fraction of the path; it
+        cannot be kept within the joints' limits; it takes more clock samples than the bound.
     """
     q_start = np.asarray(q_start, dtype=float)
     T_start = tool_pose(device, q_start, mount)
@@ -71,6 +78,7 @@ def linear_move(
         ANGULAR_ACCELERATION * acceleration / max(dth, 1e-12),
     )
     v_max, a_max = device.limit_array("velocity"), device.limit_array("acceleration")
+    slowdown = 1.0  # how much the rounds have slowed the line so far
     for _ in range(8):  # re-timing rounds, not samples
         profile = TrapezoidProfile.fit(V, A)
         if not profile.T / dt <= MAX_SAMPLES:  # bounded before anything is allocated
@@ -91,13 +99,6 @@ def linear_move(
         result = track(device, targets, q_start, mount, position_only, max_condition=np.inf)
         if result.failed_at is not None:
             fraction = float(s[result.failed_at])
-            if result.reason == "singular":
-                raise PathError(
-                    "singular",
-                    fraction,
-                    f"the line passes a singularity at {fraction:.0%} of the path "
-                    f"(Jacobian condition number {result.condition:.3g})",
-                )
             raise PathError(
                 "unreachable",
                 fraction,
@@ -111,6 +112,18 @@ def linear_move(
         )
         if ratio <= 1.0 + 1e-6:
             return SampledMove(t0, t0 + tau, result.q, qd, qdd)
+        slowdown *= ratio
+        if slowdown > SINGULAR_SLOWDOWN and result.condition > SINGULAR_CONDITION:
+            # beside a singularity: a wrist that must flip, not a line to drive slowly
+            k, j = np.unravel_index(int(np.argmax(np.abs(qd) / v_max)), qd.shape)
+            fraction = float(s[k])
+            raise PathError(
+                "singular",
+                fraction,
+                f"the line passes a singularity at {fraction:.0%} of the path: "
+                f"{device.joints[j].name} would turn at {slowdown:.3g} x its top speed "
+                f"(Jacobian condition number {result.condition:.3g})",
+            )
         V, A = V / (ratio * 1.05), A / (ratio * 1.05) ** 2
     raise PathError(
         "limits",
