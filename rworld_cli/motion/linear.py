@@ -94,8 +94,8 @@ def linear_move(
         targets = interpolate_poses(T_start, T_base_target, s)
         if position_only:
             targets[:, :3, :3] = T_start[:3, :3]
-        # no condition bound: beside a singularity the tracking keeps 1e-6 and the re-timing
-        # below holds the joints to their rates (a wrist that must flip makes the line slow)
+        # no condition bound here: beside a singularity the tracking keeps 1e-6, and the
+        # re-timing below tells a line that only runs slowly from a wrist that must flip
         result = track(device, targets, q_start, mount, position_only, max_condition=np.inf)
         if result.failed_at is not None:
             fraction = float(s[result.failed_at])
