@@ -179,6 +179,28 @@ def calibrated_copy(cell: Path) -> Path:
     return moved
 
 
+def simulated_loop(robot: str, root: Path, home: str = "zero") -> tuple:
+    """The probing cell of ``robot`` under ``root``, a truth cell whose plate a calibration
+    moved, the feature program's simulated run on the nominal cell, its contacts as the truth
+    gives them, and the simulated loop's measurement file (noise-free): (cell, program, run,
+    result, probed, simulated) for the contact-log tests of each language."""
+    from rworld_cli.api import simulate_probe_measurements
+    from rworld_cli.calibration.probe_run import probe_run
+    from rworld_cli.schema.loader import load_cell
+    from rworld_cli.schema.programs import load_run
+    from rworld_cli.simulate.engine import simulate
+
+    cell = probe_cell(robot, root / robot, home)
+    truth = calibrated_copy(cell)
+    program = cell / "programs" / "features.yaml"
+    run = load_run(str(cell), str(program))
+    result = simulate(run, collisions=False)
+    probed = probe_run(result, run, load_cell(str(truth)).cell)
+    simulated = root / "simulated.yaml"
+    simulate_probe_measurements(str(cell), str(truth), str(program), str(simulated), 0.0)
+    return cell, program, run, result, probed, simulated
+
+
 def _write(out: Path, cell: dict, poses: dict) -> None:
     head = "# yaml-language-server: $schema=../../schemas/cell.schema.json\n"
     (out / "cell.yaml").write_text(head + yaml.safe_dump(cell, sort_keys=False))

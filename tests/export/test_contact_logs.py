@@ -137,6 +137,23 @@ def _read_back(cli, cell, log, fmt, out, *extra):
     return cli(args + ["--format", fmt, "-o", str(out), *extra])
 
 
+def assert_read_back_is_the_loop(cli, cell, program, log, fmt, simulated, tmp_path, *extra):
+    """``measure --from-log`` of ``log`` writes the simulated loop's points, feature by
+    feature, to 1e-9 m (the vendor robots' loops)."""
+    read = tmp_path / "from_log.yaml"
+    back = cli(
+        ["measure", "--from-log", str(log), "--cell", str(cell), "--run", str(program)]
+        + ["--format", fmt, "-o", str(read), *extra]
+    )
+    assert back.exit_code == 0, back.output
+    nominal = load_cell(str(cell)).cell
+    a = load_measurements([str(simulated)], nominal).measurements
+    b = load_measurements([str(read)], nominal).measurements
+    assert sorted(a) == sorted(b) and len(a) == 4
+    for name in a:
+        assert np.abs(a[name].points - b[name].points).max() < 1e-9, name
+
+
 _SIMULATED_FRAMES: dict[str, dict] = {}  # the simulated loop's frames, solved once a worker
 
 

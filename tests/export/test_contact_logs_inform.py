@@ -20,33 +20,17 @@ import re
 import numpy as np
 import pytest
 
-from rworld_cli.calibration.probe_run import probe_run
-from rworld_cli.schema.loader import load_cell
-from rworld_cli.schema.measurements import load_measurements
-from rworld_cli.schema.programs import load_run
-from rworld_cli.simulate.engine import simulate
-from tests.calibration.probe_cells import calibrated_copy, probe_cell
+from tests.calibration.probe_cells import simulated_loop
 from tests.export import controller_logs
 from tests.export.controller_logs import Reported
-from tests.export.test_contact_logs import _tcp_poses
+from tests.export.test_contact_logs import _tcp_poses, assert_read_back_is_the_loop
 
 DEVICE = "motoman_gp12"
 
 
 @pytest.fixture(scope="module")
 def gp12_loop(tmp_path_factory):
-    from rworld_cli.api import simulate_probe_measurements
-
-    root = tmp_path_factory.mktemp("gp12_loop")
-    cell = probe_cell("gp12", root / "gp12", "zero")
-    truth = calibrated_copy(cell)
-    program = cell / "programs" / "features.yaml"
-    run = load_run(str(cell), str(program))
-    result = simulate(run, collisions=False)
-    probed = probe_run(result, run, load_cell(str(truth)).cell)
-    simulated = root / "simulated.yaml"
-    simulate_probe_measurements(str(cell), str(truth), str(program), str(simulated), 0.0)
-    return cell, program, run, result, probed, simulated
+    return simulated_loop("gp12", tmp_path_factory.mktemp("gp12_loop"))
 
 
 def test_a_gp12s_position_variables_give_the_simulated_loops_points(cli, gp12_loop, tmp_path):
@@ -69,19 +53,9 @@ def test_a_gp12s_position_variables_give_the_simulated_loops_points(cli, gp12_lo
     log.write_text(
         controller_logs.inform_var_dat([Reported("", T) for T in poses], 101, tools=tools)
     )
-    read = tmp_path / "from_log.yaml"
-    back = cli(
-        ["measure", "--from-log", str(log), "--cell", str(cell), "--run", str(program)]
-        + ["--format", "inform", "-o", str(read)]
-        + (["--frame", frame] if frame else [])
+    assert_read_back_is_the_loop(
+        cli, cell, program, log, "inform", simulated, tmp_path, "--frame", frame
     )
-    assert back.exit_code == 0, back.output
-    nominal = load_cell(str(cell)).cell
-    a = load_measurements([str(simulated)], nominal).measurements
-    b = load_measurements([str(read)], nominal).measurements
-    assert sorted(a) == sorted(b) and len(a) == 4
-    for name in a:
-        assert np.abs(a[name].points - b[name].points).max() < 1e-9, name
 
 
 def test_a_line_through_the_gp12s_wrist_singularity_is_refused_as_the_simulator_does(gp12_loop):

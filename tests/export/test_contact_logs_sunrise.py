@@ -11,33 +11,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rworld_cli.calibration.probe_run import probe_run
-from rworld_cli.schema.loader import load_cell
-from rworld_cli.schema.measurements import load_measurements
-from rworld_cli.schema.programs import load_run
-from rworld_cli.simulate.engine import simulate
-from tests.calibration.probe_cells import calibrated_copy, probe_cell
+from tests.calibration.probe_cells import simulated_loop
 from tests.export import controller_logs
 from tests.export.controller_logs import Reported, reports_in
-from tests.export.test_contact_logs import _tcp_poses
+from tests.export.test_contact_logs import _tcp_poses, assert_read_back_is_the_loop
 
 DEVICE = "kuka_lbr_iiwa_14_r820"
 
 
 @pytest.fixture(scope="module")
 def iiwa_loop(tmp_path_factory):
-    from rworld_cli.api import simulate_probe_measurements
-
-    root = tmp_path_factory.mktemp("iiwa_loop")
-    cell = probe_cell("iiwa14", root / "iiwa14", "zero")
-    truth = calibrated_copy(cell)
-    program = cell / "programs" / "features.yaml"
-    run = load_run(str(cell), str(program))
-    result = simulate(run, collisions=False)
-    probed = probe_run(result, run, load_cell(str(truth)).cell)
-    simulated = root / "simulated.yaml"
-    simulate_probe_measurements(str(cell), str(truth), str(program), str(simulated), 0.0)
-    return cell, program, run, result, probed, simulated
+    return simulated_loop("iiwa14", tmp_path_factory.mktemp("iiwa_loop"))
 
 
 @pytest.mark.parametrize("frame", [None, "plate"])
@@ -57,18 +41,7 @@ def test_a_sunrise_log_gives_the_simulated_loops_points(cli, iiwa_loop, tmp_path
     log.write_text(
         controller_logs.sunrise_log(java, [Reported(f, T) for f, T in zip(fields, poses)])
     )
-    read = tmp_path / "from_log.yaml"
-    back = cli(
-        ["measure", "--from-log", str(log), "--cell", str(cell), "--run", str(program)]
-        + ["--format", "sunrise", "-o", str(read)]
-    )
-    assert back.exit_code == 0, back.output
-    nominal = load_cell(str(cell)).cell
-    a = load_measurements([str(simulated)], nominal).measurements
-    b = load_measurements([str(read)], nominal).measurements
-    assert sorted(a) == sorted(b) and len(a) == 4
-    for name in a:
-        assert np.abs(a[name].points - b[name].points).max() < 1e-9, name
+    assert_read_back_is_the_loop(cli, cell, program, log, "sunrise", simulated, tmp_path)
 
 
 def _robot_frame_log(cli, iiwa_loop, tmp_path) -> str:
