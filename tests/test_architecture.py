@@ -157,6 +157,29 @@ def test_calculation_rooms_never_read_files():
             assert not {t for t in targets if room_of(t) in ("schema", "api", "cli")}, module
 
 
+def test_the_api_serves_exactly_the_names_it_shows_type_checkers():
+    """``rworld_cli.api`` loads its names on first use (``_LAZY``); the imports under
+    ``TYPE_CHECKING`` are what type checkers and readers see: the two say the same names from
+    the same modules, and each name resolves."""
+    import rworld_cli.api as api
+
+    tree = ast.parse((PACKAGE / "api" / "__init__.py").read_text())
+    guarded = next(
+        node
+        for node in tree.body
+        if isinstance(node, ast.If) and getattr(node.test, "id", "") == "TYPE_CHECKING"
+    )
+    shown = {
+        alias.asname or alias.name: ("." * node.level + (node.module or ""), alias.name)
+        for node in guarded.body
+        if isinstance(node, ast.ImportFrom)
+        for alias in node.names
+    }
+    assert shown == api._LAZY
+    for name in api.__all__:
+        assert getattr(api, name) is not None, name
+
+
 def test_world_knows_no_kinematics():
     for module, targets in imports().items():
         if room_of(module) == "world":
