@@ -457,16 +457,12 @@ def _inform(lines: list[str], path: str, first: int, count: int | None) -> list[
             )
         if state["postype"] == "USER" and "user" not in state:
             _fail(path, n, f"{name}: a USER position without its ///USER number above it")
-        tokens = text.split(",")
-        if len(tokens) != 6:  # a 7-axis arm's Re too: the export writes 6-axis jobs only
-            _fail(path, n, f"{name} holds {len(tokens)} values: X,Y,Z,Rx,Ry,Rz expected")
-        values = [
-            _number(t.strip(), path, n, f"{name}'s value {i + 1}") for i, t in enumerate(tokens)
-        ]
-        if all(v == 0.0 for v in values[:6]):  # cleared by the program, never reached
+        # X, Y, Z, Rx, Ry, Rz (a 7-axis arm's Re too: the export writes 6-axis jobs only)
+        values = _numbers(text, 6, path, n, name)
+        if not values.any():  # cleared by the program, never reached
             break
-        x, y, z, rx, ry, rz = values[:6]
-        T = spatial.make_transform(_euler_zyx(rz, ry, rx), np.array([x, y, z]) * 1e-3)
+        rx, ry, rz = values[3:]
+        T = spatial.make_transform(_euler_zyx(rz, ry, rx), values[:3] * 1e-3)
         fields = {"postype": state["postype"]}
         if "user" in state:
             fields["user"] = state["user"]

@@ -314,7 +314,7 @@ def test_inform_variables_the_reader_refuses(cli, loop, tmp_path):
         ),
         (
             lambda t: re.sub(r"(P0103=)[^,]*", r"\g<1>417,775", t, count=1),
-            "VAR.DAT:119:1: contact log: P103 holds 7 values: X,Y,Z,Rx,Ry,Rz expected",
+            "VAR.DAT:119:1: contact log: P103: 6 numbers expected, found 7",
         ),
     ]:
         log.write_text(edit(text))
