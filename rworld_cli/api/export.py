@@ -635,8 +635,7 @@ def _inform_frame(contact, record, program) -> np.ndarray:
     """``T_base_frame`` [m] of an INFORM position variable: the controller's base frame (BASE or
     ROBOT: one frame without a travel axis) or the job's user frame 1; its tool number must be
     the job's for the search's TCP."""
-    tools = {t.name: k + 1 for k, t in enumerate(program.tools)}
-    expected = tools.get(record.search.tool.name)
+    expected = program.tool_numbers.get(record.search.tool.name)
     stated = contact.fields.get("tool_number")
     if stated is not None and expected is not None and int(stated) != expected:
         raise UserError(

@@ -304,6 +304,12 @@ class DeviceProgram:
                 out[i.name] = i
         return list(out.values())
 
+    @property
+    def tool_numbers(self) -> dict[str, int]:
+        """Each tool's number on the controller (1, 2, ... in order of first use): KRL's
+        ``TOOL_DATA[k]``, FANUC's ``UTOOL[k]``, INFORM's ``TOOL k``."""
+        return {t.name: k + 1 for k, t in enumerate(self.tools)}
+
 
 MIN_SPEED = 1e-3  # [m/s, rad/s and their /s]: no speed written is lower
 

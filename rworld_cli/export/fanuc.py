@@ -61,7 +61,7 @@ class FanucWriter(Writer):
     def __init__(self, program: DeviceProgram, signals: Signals):
         super().__init__(program, signals)
         self.name = name = FANUC.identifier(program.name, self.used)
-        self.tools = {t.name: k + 1 for k, t in enumerate(program.tools)}
+        self.tools = program.tool_numbers
         body = self.body
         head = [
             f"{program.name}: device '{program.device}', from {program.source}",

@@ -83,7 +83,7 @@ class InformWriter(Writer):
     def __init__(self, program: DeviceProgram, signals: Signals):
         super().__init__(program, signals)
         self.name = name = INFORM.identifier(program.name, self.used)
-        tools = {t.name: k + 1 for k, t in enumerate(program.tools)}
+        tools = program.tool_numbers
         profile = program.controller
         pulses = profile.pulses_per_degree if profile is not None else None
         zero = profile.zero_pulse if profile is not None else None

@@ -43,7 +43,7 @@ class KRLWriter(Writer):
         super().__init__(program, signals)
         used = self.used
         self.name = name = KRL.identifier(program.name, used)
-        self.tools = {t.name: k + 1 for k, t in enumerate(program.tools)}
+        self.tools = program.tool_numbers
         self.body = src = [
             "&ACCESS RVP",
             f"DEF {name}( )",
