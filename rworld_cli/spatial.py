@@ -33,6 +33,8 @@ __all__ = [
     "axis_rotation",
     "joint_frame",
     "rotation_error",
+    "rotation_vector",
+    "rotation_from_vector",
 ]
 
 
@@ -397,3 +399,20 @@ def rotation_vector(R) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore"):
         scale = np.where(s > 1e-12, angle / np.maximum(s, 1e-300), 2.0)  # small angles: 2 v
     return v * scale[..., None]
+
+
+def rotation_from_vector(w) -> np.ndarray:
+    """Rotations ``(..., 3, 3)`` from axis-angle vectors ``theta * axis`` ``(..., 3)`` [rad]
+    (Rodrigues' formula; the inverse of :func:`rotation_vector`, exact near zero).
+    """
+    w = np.asarray(w, dtype=float)
+    theta2 = np.sum(w * w, axis=-1)[..., None, None]
+    theta = np.sqrt(theta2)
+    small = theta2 < 1e-16
+    safe = np.where(small, 1.0, theta)
+    a = np.where(small, 1.0 - theta2 / 6.0, np.sin(safe) / safe)  # sin t / t
+    b = np.where(small, 0.5 - theta2 / 24.0, (1.0 - np.cos(safe)) / (safe * safe))  # (1-cos t)/t^2
+    K = np.zeros(w.shape[:-1] + (3, 3))
+    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
+    K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = w[..., 2], -w[..., 1], w[..., 0]
+    return np.eye(3) + a * K + b * (K @ K)

@@ -25,6 +25,7 @@ CALCULATION = {
     "planning",
     "simulate",
     "collision",
+    "vision",
 }
 # shared utilities every room may use: they know no room
 COMMON = {"errors", "units", "spatial", "codegen", "kernels", "cache", "fileio", "jsonvalues"}

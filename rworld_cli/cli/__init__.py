@@ -75,6 +75,11 @@ COMMANDS = {
         "calibrate",
         "Calibrate frames from probe points on features; write an overlay pose file.",
     ),
+    "calibrate-camera": (
+        "vision",
+        "calibrate_camera",
+        "Calibrate a camera from board images and robot poses: intrinsics, hand-eye, the board.",
+    ),
     "calibrate-robot": (
         "robotcal",
         "calibrate_robot",

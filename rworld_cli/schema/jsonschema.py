@@ -13,6 +13,7 @@ SCHEMA_FILES = {
     "path.schema.json": ("program", "PathFile"),
     "measurements.schema.json": ("measurements", "MeasurementFile"),
     "robot-observations.schema.json": ("robotobs", "ObservationFile"),
+    "captures.schema.json": ("captures", "CaptureFile"),
     "view.schema.json": ("results", "ViewFile"),
 }
 

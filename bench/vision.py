@@ -1,0 +1,331 @@
+"""Camera calibration (``rworld calibrate-camera``) against OpenCV's hand-eye methods on real
+data, against the Cramer-Rao bound on simulated views, and its times.
+
+Run:  .venv/bin/python bench/vision.py [--seeds 80] [--bootstrap 200] [--images DIR]
+
+1. Real data: Ali et al.'s KUKA eye-in-hand set (``tests/data/vision/kuka2``: 28 views, the
+   corners OpenCV found in the shipped images). A fixed split: every 4th view held out (7),
+   21 fitted. For rworld and each of OpenCV's five hand-eye methods (Tsai, Park, Horaud,
+   Andreff, Daniilidis; the board then from the views' mean through the robot) and two
+   robot-world methods (Shah, Li), on the same detections (OpenCV's intrinsics from
+   ``calibrateCamera`` on the fitted views): the held-out views' corners predicted through
+   the robot (board in base, flange pose, camera in flange, intrinsics; not each view's own
+   PnP), rms px; AX = XB over the held-out views' pairs (each view's PnP with the method's
+   intrinsics), rms deg and mm.
+2. The bootstrap over the fitted views (resampled with replacement): the camera-in-flange
+   pose's spread against the sigma rworld reports (clustered by view) and the pixel-noise one.
+3. Simulated cells with a known truth (``--seeds``, 20 views of a 9 x 6 board, 0.3 px noise):
+   each parameter's error spread against the Cramer-Rao bound of pixel noise, and the sigma
+   rworld reports against the spread.
+4. Times: corners found per 1920 x 1200 image (the two vendored images, or every image of
+   ``--images DIR``, e.g. the data set's BMPs); a 30-view calibration.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from bench.machine import cpu_model  # noqa: E402
+
+DATA = REPO / "tests" / "data" / "vision" / "kuka2"
+
+
+def _kuka2():
+    from rworld_cli.schema.captures import read_captures, read_corners
+    from rworld_cli.vision.calibrate import BoardViews
+
+    captures = read_captures(str(DATA / "captures.yaml"))
+    given = read_corners(captures.corners_file, captures)
+    corners = np.stack([given[n] for n in captures.names])
+    return BoardViews(
+        captures.board,
+        captures.camera,
+        captures.setup,
+        captures.names,
+        captures.T_base_flange,
+        corners,
+    )
+
+
+def real_data() -> tuple:
+    import cv2
+
+    from rworld_cli.vision import calibrate as vc
+
+    views = _kuka2()
+    index = np.arange(len(views.names))
+    held = index[3::4]
+    fit = np.setdiff1d(index, held)
+    train, test = views.subset(fit), views.subset(held)
+    print(f"1. real data: {DATA.relative_to(REPO)}: {len(fit)} views fitted, {len(held)} held out")
+    print(f"   {'method':<26} {'held-out rms px':>15} {'AX=XB deg':>10} {'AX=XB mm':>9} {'ms':>7}")
+    rows = []
+    t0 = time.perf_counter()
+    ours = vc.calibrate_views(train)
+    ms = (time.perf_counter() - t0) * 1000
+    rows.append(("rworld, exact robot", ours.camera, ours.T_mount_camera, ours.T_holder_board, ms))
+    t0 = time.perf_counter()
+    fe = vc.calibrate_views(train, flange_errors=True)
+    ms = (time.perf_counter() - t0) * 1000
+    rows.append(("rworld, flange errors", fe.camera, fe.T_mount_camera, fe.T_holder_board, ms))
+    t0 = time.perf_counter()
+    camera, C = vc.intrinsics_start(train, use_guess=False)
+    ms_intr = (time.perf_counter() - t0) * 1000
+    for name in ("TSAI", "PARK", "HORAUD", "ANDREFF", "DANIILIDIS"):
+        t0 = time.perf_counter()
+        X, Z = vc.hand_eye_start(train, C, getattr(cv2, f"CALIB_HAND_EYE_{name}"))
+        rows.append(
+            (
+                f"OpenCV hand-eye {name.title()}",
+                camera,
+                X,
+                Z,
+                ms_intr + (time.perf_counter() - t0) * 1000,
+            )
+        )
+    for name in ("SHAH", "LI"):
+        t0 = time.perf_counter()
+        X, Z = vc.robot_world_start(train, C, getattr(cv2, f"CALIB_ROBOT_WORLD_HAND_EYE_{name}"))
+        rows.append(
+            (
+                f"OpenCV robot-world {name.title()}",
+                camera,
+                X,
+                Z,
+                ms_intr + (time.perf_counter() - t0) * 1000,
+            )
+        )
+    results = {}
+    for label, cam, X, Z, ms in rows:
+        rms = vc.reprojection_rms(cam, X, Z, test)
+        dr, dt = vc.axxb_residuals(X, test, vc.view_poses(test, cam))
+        results[label] = (rms, dr, dt)
+        print(f"   {label:<26} {rms:15.3f} {np.degrees(dr):10.4f} {dt * 1000:9.3f} {ms:7.0f}")
+    theirs = {k: v for k, v in results.items() if not k.startswith("rworld")}
+    for k, unit, scale in ((0, "px", 1.0), (1, "deg", np.degrees(1.0)), (2, "mm", 1000.0)):
+        best = min(theirs, key=lambda name: theirs[name][k])
+        what = ("held-out rms", "AX=XB rotation", "AX=XB translation")[k]
+        ours_k = {name: results[name][k] for name in results if name.startswith("rworld")}
+        print(
+            f"   {what}: best OpenCV {best} {theirs[best][k] * scale:.4f} {unit}; "
+            + "; ".join(
+                f"{n} {v * scale:.4f} (theirs / ours {theirs[best][k] / v:.2f})"
+                for n, v in ours_k.items()
+            )
+        )
+    print(
+        f"   flange errors found: {np.degrees(fe.flange_sigma[0]):.4f} deg, "
+        f"{fe.flange_sigma[1] * 1000:.3f} mm a view; the corners' noise {fe.sigma0:.3f} px; "
+        f"fx {ours.camera.fx:.2f} (exact robot), {fe.camera.fx:.2f} (flange errors), "
+        f"{camera.fx:.2f} (calibrateCamera)"
+    )
+    return views, train, ours, fe
+
+
+def bootstrap(train, ours, count: int, flange_errors: bool = False) -> None:
+    from rworld_cli import spatial
+    from rworld_cli.vision import calibrate as vc
+
+    rng = np.random.default_rng(0)
+    X0 = ours.T_mount_camera
+    deltas = []
+    t0 = time.perf_counter()
+    for _ in range(count):
+        pick = rng.integers(0, len(train.names), len(train.names))
+        try:
+            r = vc.calibrate_views(train.subset(pick), flange_errors=flange_errors)
+        except vc.CalibrationRefused:
+            continue
+        X = r.T_mount_camera
+        deltas.append(
+            np.r_[spatial.rotation_vector(X[:3, :3] @ X0[:3, :3].T), X[:3, 3] - X0[:3, 3]]
+        )
+    spread = np.std(np.array(deltas), axis=0, ddof=1)
+    reported = ours.sigma[9:15]
+    pixels = np.sqrt(np.diag(ours.covariance_pixels))[9:15]
+    model = "flange errors" if flange_errors else "exact robot"
+    print(
+        f"2. bootstrap over the {len(train.names)} fitted views ({model}): {len(deltas)} "
+        f"resamples ({time.perf_counter() - t0:.0f} s); camera in flange"
+    )
+    print(f"   {'':<10} {'rx':>7} {'ry':>7} {'rz':>7} {'x':>7} {'y':>7} {'z':>7}  (deg, mm)")
+    scale = np.r_[np.degrees([1, 1, 1]), [1000] * 3]
+    for label, v in (("bootstrap", spread), ("reported", reported), ("pixels", pixels)):
+        print(f"   {label:<10} " + " ".join(f"{x:7.3f}" for x in v * scale))
+    r = reported / spread
+    print(
+        f"   reported / bootstrap: {' '.join(f'{x:.2f}' for x in r)} "
+        f"(range {r.min():.2f}-{r.max():.2f})"
+    )
+
+
+def simulated(seeds: int, flange_noise=(0.0, 0.0), noise_px: float = 0.3) -> None:
+    from rworld_cli import spatial
+    from rworld_cli.model.vision import BoardModel, CameraModel
+    from rworld_cli.vision import calibrate as vc
+    from rworld_cli.vision.emulate import random_views
+
+    camera = CameraModel(
+        "cam",
+        1280,
+        1024,
+        1000.0,
+        1002.0,
+        641.0,
+        511.0,
+        np.array([-0.12, 0.08, 0.0005, -0.0003, -0.02]),
+    )
+    unknown = CameraModel("cam", 1280, 1024, 0.0, 0.0, 0.0, 0.0)
+    board = BoardModel("board", "chessboard", 9, 6, 0.03)
+    X = spatial.make_transform(spatial.rpy_to_matrix(np.radians([2, -3, 90])), [0.05, -0.08, 0.1])
+    Z = spatial.make_transform(spatial.rpy_to_matrix(np.radians([180, 0, 30])), [0.8, 0.1, 0.02])
+    errors, bound, reported = [], [], []
+    t0 = time.perf_counter()
+    for seed in range(seeds):
+        v = random_views(
+            np.random.default_rng(seed),
+            camera,
+            board,
+            X,
+            Z,
+            20,
+            noise_px=noise_px,
+            flange_noise=flange_noise,
+        )
+        v = vc.BoardViews(board, unknown, v.setup, v.names, v.T_base_flange, v.corners)
+        r = vc.calibrate_views(v, flange_errors=flange_noise != (0.0, 0.0))
+        errors.append(
+            np.r_[
+                r.camera.intrinsics - camera.intrinsics,
+                spatial.rotation_vector(r.T_mount_camera[:3, :3] @ X[:3, :3].T),
+                r.T_mount_camera[:3, 3] - X[:3, 3],
+                spatial.rotation_vector(r.T_holder_board[:3, :3] @ Z[:3, :3].T),
+                r.T_holder_board[:3, 3] - Z[:3, 3],
+            ]
+        )
+        # the bound: the inverse Fisher information of the model the data follow (pixel noise
+        # only; or pixel noise and the flange's errors, the flange-error model's own)
+        cov = r.covariance if r.flange_sigma is not None else r.covariance_pixels
+        bound.append(np.sqrt(np.diag(cov)))
+        reported.append(r.sigma)
+    rms = lambda a: np.sqrt(np.mean(np.square(a), axis=0))  # noqa: E731
+    spread, crb, rep = rms(errors), rms(bound), rms(reported)
+    robot = (
+        f", flange poses off by {np.degrees(flange_noise[0]):.3g} deg and "
+        f"{flange_noise[1] * 1000:.3g} mm (the flange-error model)"
+        if flange_noise != (0.0, 0.0)
+        else " (the exact-robot model)"
+    )
+    print(
+        f"3. simulated: {seeds} seeds x 20 views, {noise_px} px noise{robot} "
+        f"({(time.perf_counter() - t0) / seeds:.2f} s a calibration)"
+    )
+    groups = {
+        "intrinsics": slice(0, 9),
+        "camera in flange": slice(9, 15),
+        "board in base": slice(15, 21),
+    }
+    for name, g in groups.items():
+        e, s = spread[g] / crb[g], rep[g] / spread[g]
+        print(
+            f"   {name:<17} error / bound {e.min():.2f}-{e.max():.2f} (mean {e.mean():.2f}); "
+            f"reported sigma / spread {s.min():.2f}-{s.max():.2f} (mean {s.mean():.2f})"
+        )
+    e, s = spread / crb, rep / spread
+    print(
+        f"   all 21: error / bound mean {e.mean():.3f}, max {e.max():.2f}; reported / spread "
+        f"mean {s.mean():.3f}"
+    )
+
+
+def timings(images_dir: str | None) -> None:
+    import cv2
+
+    from rworld_cli import spatial
+    from rworld_cli.model.vision import BoardModel, CameraModel
+    from rworld_cli.vision import calibrate as vc
+    from rworld_cli.vision.detect import detect
+    from rworld_cli.vision.emulate import random_views
+
+    board = BoardModel("board", "chessboard", 24, 17, 0.015)
+    files = (
+        sorted(Path(images_dir).glob("*"))
+        if images_dir
+        else sorted((DATA / "images").glob("*.png"))
+    )
+    times, found = [], 0
+    for f in files:
+        grey = cv2.imread(str(f), cv2.IMREAD_GRAYSCALE)
+        if grey is None:
+            continue
+        t0 = time.perf_counter()
+        d = detect(f.name, grey, board)
+        times.append(time.perf_counter() - t0)
+        found += d.refused is None
+    print(
+        f"4. corners found in {found} of {len(times)} images of 1920 x 1200: "
+        f"{np.mean(times):.2f} s an image (median {np.median(times):.2f}), one core"
+    )
+    camera = CameraModel(
+        "cam",
+        1280,
+        1024,
+        1000.0,
+        1002.0,
+        641.0,
+        511.0,
+        np.array([-0.12, 0.08, 0.0005, -0.0003, -0.02]),
+    )
+    board = BoardModel("board", "chessboard", 9, 6, 0.03)
+    X = spatial.make_transform(spatial.rpy_to_matrix(np.radians([2, -3, 90])), [0.05, -0.08, 0.1])
+    Z = spatial.make_transform(spatial.rpy_to_matrix(np.radians([180, 0, 30])), [0.8, 0.1, 0.02])
+    v = random_views(np.random.default_rng(7), camera, board, X, Z, 30, noise_px=0.3)
+    v = vc.BoardViews(
+        board,
+        CameraModel("cam", 1280, 1024, 0, 0, 0, 0),
+        v.setup,
+        v.names,
+        v.T_base_flange,
+        v.corners,
+    )
+    t = []
+    for _ in range(3):
+        t0 = time.perf_counter()
+        vc.calibrate_views(v)
+        t.append(time.perf_counter() - t0)
+    print(
+        f"   a 30-view calibration (54 corners a view, intrinsics free): {min(t):.2f} s (best of 3)"
+    )
+    kuka = _kuka2()
+    t0 = time.perf_counter()
+    vc.calibrate_views(kuka)
+    print(f"   the 28 real views (408 corners a view): {time.perf_counter() - t0:.2f} s")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=80)
+    parser.add_argument("--bootstrap", type=int, default=200)
+    parser.add_argument("--images", default=None, help="detect every image in this folder")
+    args = parser.parse_args()
+    import cv2
+
+    print(f"CPU: {cpu_model()}; OpenCV {cv2.__version__}, numpy {np.__version__}")
+    _views, train, ours, fe = real_data()
+    bootstrap(train, ours, args.bootstrap)
+    bootstrap(train, fe, args.bootstrap // 4, flange_errors=True)
+    simulated(args.seeds)
+    simulated(max(args.seeds // 4, 4), flange_noise=(np.radians(0.02), 0.2e-3), noise_px=0.1)
+    timings(args.images)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,344 @@
+"""rworld calibrate-camera: a camera's intrinsics, its pose on the flange (or over the cell) and
+the board's, from a capture file's images and robot poses (``docs/vision.md``)."""
+
+from __future__ import annotations
+
+import datetime as _dt
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import Issue, UserError
+from ..jsonvalues import finite
+from ..vision.calibrate import (
+    BoardViews,
+    CalibrationRefused,
+    CameraCalibration,
+    axxb_residuals,
+    calibrate_views,
+    reprojection_rms,
+    view_poses,
+)
+from ..vision.detect import Detection
+
+#: the largest image file read [bytes]: a camera's frame is a few to a few tens of MB
+MAX_IMAGE_BYTES = 512 * 2**20
+#: the most pixels an image may say it has (OpenCV's own bound, lowered from 2^30): 16384 x
+#: 16384, more than any industrial camera's
+MAX_IMAGE_PIXELS = 2**28
+
+
+@dataclass
+class CameraCalibrationRun:
+    """What ``rworld calibrate-camera`` did.
+
+    Attributes
+    ----------
+    detections : list of Detection
+        Every view's corners or the reason it was not used, in the file's order.
+    fitted, held_out : tuple of str
+        The views fitted and those only predicted.
+    held_out_rms : float or None
+        The held-out views' corners predicted through the robot [px].
+    axxb : tuple of float or None
+        RMS rotation [rad] and translation [m] of AX = XB over the held-out views' pairs (the
+        fitted views' when fewer than two are held out).
+    written : list of str
+        The files written.
+    """
+
+    captures: str
+    setup: str
+    camera_frame: str
+    mount: str
+    board_frame: str
+    holder: str
+    result: CameraCalibration
+    detections: list[Detection]
+    fitted: tuple[str, ...]
+    held_out: tuple[str, ...]
+    held_out_rms: float | None
+    axxb: tuple[float, float] | None
+    axxb_views: str
+    seconds: dict[str, float] = field(default_factory=dict)
+    written: list[str] = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        r = self.result
+        cam = r.camera
+        s = r.sigma
+        names = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
+        return finite(
+            {
+                "captures": self.captures,
+                "setup": self.setup,
+                "camera": {
+                    "name": cam.name,
+                    "resolution": [cam.width, cam.height],
+                    "intrinsics": dict(zip(names, cam.intrinsics.tolist(), strict=True)),
+                    "sigma": dict(zip(names, s[:9].tolist(), strict=True)),
+                },
+                "camera_pose": _pose_dict(self.mount, r.T_mount_camera, s[9:15]),
+                "board_pose": _pose_dict(self.holder, r.T_holder_board, s[15:21]),
+                "reprojection_rms_px": r.rms,
+                "model": "flange errors" if r.flange_sigma is not None else "exact robot",
+                "flange_sigma_deg": None
+                if r.flange_sigma is None
+                else float(np.degrees(r.flange_sigma[0])),
+                "flange_sigma_mm": None if r.flange_sigma is None else r.flange_sigma[1] * 1000,
+                "sigma0_px": r.sigma0,
+                "observations": r.observations,
+                "downweighted": r.downweighted,
+                "held_out": list(self.held_out),
+                "held_out_rms_px": self.held_out_rms,
+                "axxb_rms_deg": None if self.axxb is None else float(np.degrees(self.axxb[0])),
+                "axxb_rms_mm": None if self.axxb is None else self.axxb[1] * 1000,
+                "axxb_views": self.axxb_views,
+                "views": [
+                    {
+                        "name": d.name,
+                        "corners": d.seen,
+                        "refused": d.refused,
+                        "detail": d.detail,
+                        "sharpness_px": d.sharpness,
+                        "fitted": d.name in self.fitted,
+                        "rms_px": self.view_rms(d.name),
+                    }
+                    for d in self.detections
+                ],
+                "seconds": self.seconds,
+                "written": self.written,
+            }
+        )
+
+    def view_rms(self, name: str) -> float | None:
+        if name in self.result.names:
+            return float(self.result.view_rms[self.result.names.index(name)])
+        return self.held_out_view_rms.get(name)
+
+    held_out_view_rms: dict[str, float] = field(default_factory=dict)
+
+
+def _pose_dict(parent: str, T: np.ndarray, sigma: np.ndarray) -> dict:
+    from .. import spatial
+
+    return {
+        "parent": parent,
+        "xyz_mm": (T[:3, 3] * 1000).tolist(),
+        "rpy_deg": np.degrees(spatial.matrix_to_rpy(T[:3, :3])).tolist(),
+        "sigma_mm": (sigma[3:] * 1000).tolist(),
+        "sigma_deg": np.degrees(sigma[:3]).tolist(),
+    }
+
+
+def read_grey(path: Path, where: Issue) -> np.ndarray:
+    """An image file as grey uint8 ``(H, W)``; a file that is missing, too large, claiming
+    more than :data:`MAX_IMAGE_PIXELS` or not an image OpenCV decodes: a located user error."""
+    import os
+
+    os.environ.setdefault("OPENCV_IO_MAX_IMAGE_PIXELS", str(MAX_IMAGE_PIXELS))
+    import cv2
+
+    def refuse(message: str) -> UserError:
+        return UserError(
+            message,
+            [Issue(where.file, where.line, where.column, where.location, message)],
+        )
+
+    try:
+        size = path.stat().st_size
+    except OSError:
+        raise refuse(f"no such image: {path}") from None
+    if size > MAX_IMAGE_BYTES:
+        raise refuse(
+            f"{path}: {size / 2**20:.0f} MB, more than an image's {MAX_IMAGE_BYTES // 2**20} MB"
+        )
+    data = np.frombuffer(path.read_bytes(), dtype=np.uint8)
+    try:
+        image = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if len(data) else None
+    except cv2.error:  # OpenCV's checks (a size beyond its bound) raise
+        image = None
+    if image is None:
+        raise refuse(f"{path}: not an image OpenCV reads (PNG, JPEG, BMP, TIFF ...)")
+    return image
+
+
+def detect_views(captures, progress=None) -> list[Detection]:
+    """Each view's corners: from the capture file's corners CSV, else found in its image (two
+    images at a time); an image of another size than the camera's is refused, located."""
+    from ..schema.captures import read_corners
+    from ..vision.detect import detect
+
+    board = captures.board
+    if captures.corners_file is not None:
+        given = read_corners(captures.corners_file, captures)
+        return [
+            Detection(n, given[n])
+            if n in given
+            else Detection(
+                n,
+                np.full((len(board.points), 2), np.nan),
+                "board not found",
+                f"no corners in {captures.corners_file.name}",
+            )
+            for n in captures.names
+        ]
+    from concurrent.futures import ThreadPoolExecutor
+
+    width, height = captures.camera.width, captures.camera.height
+
+    def one(k: int) -> Detection:
+        line, column = captures.lines[k]
+        where = Issue(captures.path, line, column, f"views[{k}].image", "")
+        grey = read_grey(captures.images[k], where)
+        if grey.shape != (height, width):
+            message = (
+                f"{captures.images[k]}: the image is {grey.shape[1]}x{grey.shape[0]} px, "
+                f"the camera's resolution {width}x{height}"
+            )
+            raise UserError(
+                message, [Issue(captures.path, line, column, f"views[{k}].image", message)]
+            )
+        return detect(captures.names[k], grey, board)
+
+    out: list[Detection] = []
+    with ThreadPoolExecutor(max_workers=2) as pool:  # OpenCV lets go of the GIL
+        for k, d in enumerate(pool.map(one, range(len(captures.names)))):
+            out.append(d)
+            if progress is not None:
+                progress(k + 1, len(captures.names), f"corners in {d.name}")
+    return out
+
+
+def calibrate_camera(
+    captures_path: str,
+    holdout_every: int = 0,
+    fix_intrinsics: bool = False,
+    flange_errors: bool = False,
+    write_poses: str | None = None,
+    write_camera: str | None = None,
+    save_corners: str | None = None,
+    progress=None,
+) -> CameraCalibrationRun:
+    """Calibrate a camera from a capture file (``schema/captures.py``).
+
+    Parameters
+    ----------
+    holdout_every : int
+        Hold out every k-th view with the board found (the k-th, 2k-th, ...) from the fit and
+        predict it through the robot (0: fit them all).
+    fix_intrinsics : bool
+        Keep the capture file's intrinsics (which must then be given).
+    flange_errors : bool
+        Give each view's flange pose an error of its own, estimated with its sigma
+        (:func:`~rworld_cli.vision.calibrate.calibrate_views`).
+    write_poses, write_camera, save_corners : str or None
+        The pose file (camera in its mount, board in its holder), the camera's intrinsics and
+        the corners CSV to write - together, atomically, only when the calibration succeeds.
+
+    Raises
+    ------
+    UserError
+        Bad input (located), an image of another size than the camera's, too few views with
+        the board found, a degenerate motion, views that leave the estimate undetermined.
+    """
+    from ..fileio import output_set
+    from ..schema.captures import (
+        camera_file_text,
+        corners_text,
+        pose_file_text,
+        read_captures,
+        write_text,
+    )
+
+    captures = read_captures(captures_path)
+    if fix_intrinsics and not captures.camera_given:
+        raise UserError(
+            "--fix-intrinsics needs the camera's intrinsics",
+            [
+                Issue(
+                    captures.path,
+                    0,
+                    0,
+                    "camera",
+                    "give 'intrinsics' (and 'distortion') to keep them fixed",
+                )
+            ],
+        )
+    seconds: dict[str, float] = {}
+    t0 = time.perf_counter()
+    detections = detect_views(captures, progress)
+    seconds["corners"] = time.perf_counter() - t0
+    used = [k for k, d in enumerate(detections) if d.refused is None]
+    held = [k for i, k in enumerate(used) if holdout_every and (i + 1) % holdout_every == 0]
+    fit = [k for k in used if k not in held]
+    corners = np.stack([d.corners for d in detections])
+    all_views = BoardViews(
+        captures.board,
+        captures.camera,
+        captures.setup,
+        captures.names,
+        captures.T_base_flange,
+        corners,
+    )
+    t0 = time.perf_counter()
+    try:
+        result = calibrate_views(
+            all_views.subset(fit), fix_intrinsics=fix_intrinsics, flange_errors=flange_errors
+        )
+    except CalibrationRefused as exc:
+        refused = [f"{d.name}: {d.refused} ({d.detail})" for d in detections if d.refused]
+        message = str(exc)
+        if refused:
+            message += "; views not used: " + "; ".join(refused[:8])
+            if len(refused) > 8:
+                message += f"; ... {len(refused) - 8} more"
+        raise UserError(
+            f"{captures.path}: cannot calibrate", [Issue(captures.path, 0, 0, "views", message)]
+        ) from None
+    seconds["calibration"] = time.perf_counter() - t0
+    held_views = all_views.subset(held)
+    held_rms = None
+    held_view_rms: dict[str, float] = {}
+    if held:
+        held_rms = reprojection_rms(
+            result.camera, result.T_mount_camera, result.T_holder_board, held_views
+        )
+        d = result.predicted_corners(held_views) - held_views.corners
+        per = np.sqrt(np.nanmean(np.sum(d * d, axis=-1), axis=1))
+        held_view_rms = dict(zip(held_views.names, per.tolist(), strict=True))
+    check_views = held_views if len(held) >= 2 else all_views.subset(fit)
+    C = view_poses(check_views, result.camera)
+    axxb = axxb_residuals(result.T_mount_camera, check_views, C)
+    run = CameraCalibrationRun(
+        captures.path,
+        captures.setup,
+        captures.camera.name,
+        captures.mount,
+        captures.board.name,
+        captures.holder,
+        result,
+        detections,
+        tuple(captures.names[k] for k in fit),
+        held_views.names,
+        held_rms,
+        axxb,
+        "held out" if len(held) >= 2 else "fitted",
+        seconds,
+        held_out_view_rms=held_view_rms,
+    )
+    date = _dt.datetime.now().replace(microsecond=0).isoformat()
+    outputs = [
+        (write_poses, lambda: pose_file_text(captures, result, date)),
+        (write_camera, lambda: camera_file_text(result, captures, date)),
+        (save_corners, lambda: corners_text(captures.names, corners)),
+    ]
+    if any(path for path, _ in outputs):
+        with output_set():
+            for path, text in outputs:
+                if path:
+                    write_text(path, text())
+                    run.written.append(str(path))
+    return run

@@ -1,0 +1,162 @@
+"""rworld calibrate-camera"""
+
+from __future__ import annotations
+
+import click
+
+from .common import emit_json, handle_errors, json_option, with_progress
+
+
+@click.command("calibrate-camera")
+@click.argument("captures", metavar="CAPTURES")
+@click.option(
+    "--write-poses",
+    metavar="FILE",
+    type=click.Path(dir_okay=False),
+    help="The pose file to write: the camera in its mount, the board in its holder (mm, deg).",
+)
+@click.option(
+    "--write-camera",
+    metavar="FILE",
+    type=click.Path(dir_okay=False),
+    help="The camera's intrinsics to write, with their sigmas (px).",
+)
+@click.option(
+    "--save-corners",
+    metavar="FILE",
+    type=click.Path(dir_okay=False),
+    help="The corners found, as CSV (view,corner,u,v): name it as the capture file's "
+    "'corners:' to calibrate again without detecting.",
+)
+@click.option(
+    "--holdout-every",
+    default=0,
+    type=click.IntRange(min=0),
+    metavar="K",
+    help="Hold every K-th view with the board found out of the fit and predict its corners "
+    "through the robot (0: fit every view).",
+)
+@click.option(
+    "--fix-intrinsics",
+    is_flag=True,
+    help="Keep the capture file's intrinsics; fit the camera's and the board's poses only.",
+)
+@click.option(
+    "--flange-errors",
+    is_flag=True,
+    help="Give each view's flange pose an error of its own, estimated with its sigma: "
+    "intrinsics from each view's own picture of the board, the robot's pose error reported "
+    "(default: the robot's poses exact, the parameters fitted through them).",
+)
+@json_option
+@handle_errors
+def calibrate_camera(
+    captures,
+    write_poses,
+    write_camera,
+    save_corners,
+    holdout_every,
+    fix_intrinsics,
+    flange_errors,
+    json_output,
+):
+    """Calibrate a camera from views of a chessboard or ChArUco board and the robot's pose at
+    each: its intrinsics (OpenCV's model, k1 k2 p1 p2 k3), its pose on the flange
+    (eye-in-hand) or in the robot's base (eye-to-hand), and the board's pose, in one bundle
+    adjustment of every corner's reprojection error through the robot.
+
+    The corners are found by OpenCV (findChessboardCornersSB, or the ChArUco detector); an
+    image whose board is not found, partly seen or blurred is named and left out. OpenCV's
+    closed forms give the start; Huber's loss keeps a bad corner from pulling the fit; the
+    sigmas allow the errors of one view to be shared (a robot pose's error moves all of its
+    corners). A robot that only translates, or turns about one axis, is refused: the hand-eye
+    is then unobservable. Nothing is written unless the calibration succeeds; programs are
+    never touched (docs/vision.md).
+
+    \b
+    Examples:
+      rworld calibrate-camera captures.yaml
+      rworld calibrate-camera captures.yaml --holdout-every 4 --json
+      rworld calibrate-camera captures.yaml --flange-errors
+      rworld calibrate-camera captures.yaml --write-poses camera_poses.yaml \\
+          --write-camera camera.yaml --save-corners corners.csv
+
+    Exit codes: 0 calibrated (and written), 2 bad input, images of another size than the
+    camera's, too few views, a degenerate motion.
+    """
+    from ..api import calibrate_camera as run
+
+    result = with_progress(
+        not json_output,
+        lambda progress: run(
+            captures,
+            holdout_every=holdout_every,
+            fix_intrinsics=fix_intrinsics,
+            flange_errors=flange_errors,
+            write_poses=write_poses,
+            write_camera=write_camera,
+            save_corners=save_corners,
+            progress=progress,
+        ),
+        "finding corners",
+    )
+    if json_output:
+        emit_json(result.as_dict())
+        return
+    _render(result)
+
+
+def _render(run) -> None:
+    import numpy as np
+
+    r = run.result
+    cam = r.camera
+    s = r.sigma
+    used = sum(d.refused is None for d in run.detections)
+    click.echo(
+        f"{run.captures}: {run.setup}, {len(run.detections)} views, board found in {used}; "
+        f"{len(run.fitted)} fitted, {len(run.held_out)} held out "
+        f"({run.seconds.get('corners', 0):.1f} s corners, "
+        f"{run.seconds.get('calibration', 0):.1f} s calibration)"
+    )
+    for d in run.detections:
+        if d.refused:
+            click.echo(f"  {d.name}: not used: {d.refused} ({d.detail})")
+    click.echo(f"camera {cam.name} ({cam.width}x{cam.height} px):")
+    for k, name in enumerate(("fx", "fy", "cx", "cy")):
+        click.echo(f"  {name} {cam.intrinsics[k]:10.3f} +- {s[k]:.3f} px")
+    click.echo(
+        "  distortion k1 k2 p1 p2 k3: "
+        + "  ".join(f"{v:+.5f}+-{e:.5f}" for v, e in zip(cam.distortion, s[4:9], strict=True))
+    )
+
+    figures = run.as_dict()
+
+    def pose(label: str, p: dict) -> None:
+        click.echo(f"{label} in {p['parent']}:")
+        xyz = zip(p["xyz_mm"], p["sigma_mm"], strict=True)
+        rpy = zip(p["rpy_deg"], p["sigma_deg"], strict=True)
+        click.echo("  xyz mm  " + "  ".join(f"{v:10.3f} +- {e:.3f}" for v, e in xyz))
+        click.echo("  rpy deg " + "  ".join(f"{v:10.4f} +- {e:.4f}" for v, e in rpy))
+
+    pose(run.camera_frame, figures["camera_pose"])
+    pose(run.board_frame, figures["board_pose"])
+    click.echo(
+        f"reprojection through the robot: rms {r.rms:.3f} px over {r.observations} corners "
+        f"({r.downweighted} coordinates past Huber's 3 sigma)"
+    )
+    if r.flange_sigma is not None:
+        click.echo(
+            f"the robot's flange pose error a view (estimated): {np.degrees(r.flange_sigma[0]):.4f}"
+            f" deg, {r.flange_sigma[1] * 1000:.3f} mm per axis; the corners' noise "
+            f"{r.sigma0:.3f} px"
+        )
+    if run.held_out_rms is not None:
+        click.echo(f"held out ({len(run.held_out)} views): rms {run.held_out_rms:.3f} px")
+    if run.axxb is not None:
+        click.echo(
+            f"AX = XB over the {run.axxb_views} views' pairs: rms "
+            f"{np.degrees(run.axxb[0]):.4f} deg, {run.axxb[1] * 1000:.3f} mm"
+        )
+    for path in run.written:
+        click.echo(f"wrote {path}")

@@ -1,0 +1,431 @@
+"""Camera capture files: the views of a calibration board with the robot's pose at each, for
+``rworld calibrate-camera``; the corners detected in them (CSV); the calibrated camera and its
+pose file, written (``docs/vision.md``).
+
+YAML::
+
+    units: {length: mm, angle: deg}
+    setup: eye-in-hand            # or eye-to-hand
+    camera:
+      name: wrist_camera          # the camera's frame in the pose file written
+      mount: tool0                # its parent there: the flange (eye-in-hand) or the base
+      resolution: [1920, 1200]    # px
+      intrinsics: {fx: 1050, fy: 1050, cx: 960, cy: 600}   # optional start values, px
+      distortion: [0, 0, 0, 0, 0] # optional: k1 k2 p1 p2 k3
+    board:
+      name: board                 # the board's frame in the pose file written
+      holder: base_link           # its parent: the base (eye-in-hand) or the flange
+      pattern: chessboard         # or charuco (with marker and dictionary)
+      columns: 24                 # inner corners along x (charuco: squares)
+      rows: 17
+      square: 15
+    views:
+      - image: images/im_01.png   # relative to this file
+        flange: {xyz: [-567.4, 1129.8, 606.3], rpy: [7.7, 24.1, 156.9]}   # T_base_flange
+    corners: corners.csv          # optional: the corners already detected, per view
+
+The corners CSV (``rworld calibrate-camera --save-corners``): ``view,corner,u,v`` with the
+view's name (its image's name without the folder), the corner's index in the board's order,
+and the pixel position; views whose board was not found have no rows.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from pathlib import Path
+from typing import Annotated, Literal
+
+import numpy as np
+from annotated_types import Len
+from pydantic import Field
+
+from .. import spatial
+from ..errors import Issue, UserError
+from ..fileio import atomic_write_text
+from ..model.vision import BoardModel, CameraModel
+from ..units import ANGLE, LENGTH
+from .cellparts import pose_to_matrix, validate_document
+from .csvtext import read_csv_table
+from .models import Name, Pose, Strict, Units
+from .yamlio import read_yaml, yaml_value
+
+#: the ArUco dictionaries a ChArUco board may name (OpenCV's predefined ones)
+ARUCO_DICTIONARIES = tuple(
+    f"DICT_{n}X{n}_{k}" for n in (4, 5, 6, 7) for k in (50, 100, 250, 1000)
+) + ("DICT_ARUCO_ORIGINAL",)
+
+
+class Intrinsics(Strict):
+    fx: Annotated[float, Field(gt=0)] = Field(description="Focal length along x [px].")
+    fy: Annotated[float, Field(gt=0)] = Field(description="Focal length along y [px].")
+    cx: float = Field(description="Principal point x [px] (the top-left pixel's centre is 0).")
+    cy: float = Field(description="Principal point y [px].")
+
+
+class CameraSpec(Strict):
+    name: Name = Field(description="The camera's frame, as the pose file written names it.")
+    mount: Name = Field(
+        description="The frame the camera is fixed to: the flange (eye-in-hand) or the robot's "
+        "base (eye-to-hand); the camera's parent in the pose file written."
+    )
+    resolution: Annotated[list[Annotated[int, Field(gt=0)]], Len(2, 2)] = Field(
+        description="Image width and height [px]."
+    )
+    intrinsics: Intrinsics | None = Field(
+        None, description="Start values; default OpenCV's calibrateCamera on the views."
+    )
+    distortion: Annotated[list[float], Len(5, 5)] | None = Field(
+        None, description="OpenCV's k1 k2 p1 p2 k3 (start values with 'intrinsics')."
+    )
+
+
+class BoardSpec(Strict):
+    name: Name = Field(description="The board's frame, as the pose file written names it.")
+    holder: Name = Field(
+        description="The frame the board is fixed to: the robot's base (eye-in-hand) or the "
+        "flange (eye-to-hand); its parent in the pose file written."
+    )
+    pattern: Literal["chessboard", "charuco"]
+    columns: Annotated[int, Field(ge=3, le=200)] = Field(
+        description="Chessboard: inner corners along the board's x; ChArUco: squares."
+    )
+    rows: Annotated[int, Field(ge=3, le=200)] = Field(
+        description="Chessboard: inner corners along y; ChArUco: squares."
+    )
+    square: Annotated[float, Field(gt=0)] = Field(description="A square's edge [length unit].")
+    marker: Annotated[float, Field(gt=0)] | None = Field(
+        None, description="ChArUco: a marker's edge [length unit]."
+    )
+    dictionary: str | None = Field(
+        None, description="ChArUco: OpenCV's ArUco dictionary, e.g. DICT_5X5_100."
+    )
+
+
+class View(Strict):
+    image: Annotated[str, Len(1)] = Field(description="The image file, relative to this file.")
+    flange: Pose = Field(description="The robot's flange in its base at this view (T_base_flange).")
+
+
+class CaptureFile(Strict):
+    """Views of a calibration board with the robot's pose at each."""
+
+    units: Units
+    setup: Literal["eye-in-hand", "eye-to-hand"]
+    camera: CameraSpec
+    board: BoardSpec
+    views: Annotated[list[View], Len(1)]
+    corners: str | None = Field(
+        None,
+        description="A CSV of corners already detected (view, corner, u, v), instead of "
+        "detecting them in the images.",
+    )
+
+
+class Captures:
+    """A capture file read: SI data, each view's image path and source line."""
+
+    def __init__(
+        self,
+        path,
+        setup,
+        camera,
+        board,
+        mount,
+        holder,
+        names,
+        images,
+        lines,
+        flange,
+        corners_file,
+        digest,
+    ):
+        self.path = path
+        self.setup: str = setup
+        self.camera: CameraModel = camera
+        self.board: BoardModel = board
+        self.mount: str = mount
+        self.holder: str = holder
+        self.names: tuple[str, ...] = names
+        self.images: list[Path] = images
+        self.lines: list[tuple[int, int]] = lines  # each view's image: line, column
+        self.T_base_flange: np.ndarray = flange
+        self.corners_file: Path | None = corners_file
+        self.digest: dict = digest
+        self.camera_given: bool = camera.fx > 0
+
+
+def read_captures(path: str) -> Captures:
+    """Read a capture file (SI), every problem located.
+
+    Raises
+    ------
+    UserError
+        Syntax, types, units, a board a detector cannot use, a view's pose, two views of one
+        name: located.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise UserError(f"no such capture file: {path}")
+    digest = {"path": str(path), "sha256": hashlib.sha256(p.read_bytes()).hexdigest()}
+    doc = read_yaml(p, str(path))
+    f = validate_document(doc, CaptureFile)
+    L, A = LENGTH[f.units.length], ANGLE[f.units.angle]
+    issues: list[Issue] = []
+    b = f.board
+    if b.pattern == "charuco":
+        if b.marker is None or b.dictionary is None:
+            issues.append(
+                doc.issue(("board", "pattern"), "a ChArUco board needs 'marker' and 'dictionary'")
+            )
+        elif b.marker >= b.square:
+            issues.append(
+                doc.issue(
+                    ("board", "marker"),
+                    f"the marker ({b.marker}) must be smaller than the square ({b.square})",
+                )
+            )
+        if b.dictionary is not None and b.dictionary not in ARUCO_DICTIONARIES:
+            from ..errors import did_you_mean
+
+            issues.append(
+                doc.issue(
+                    ("board", "dictionary"),
+                    f"unknown ArUco dictionary {b.dictionary!r}"
+                    + did_you_mean(b.dictionary, ARUCO_DICTIONARIES),
+                )
+            )
+    elif b.marker is not None or b.dictionary is not None:
+        issues.append(doc.issue(("board",), "'marker' and 'dictionary' are for ChArUco boards"))
+    board = BoardModel(
+        b.name,
+        b.pattern,
+        b.columns,
+        b.rows,
+        b.square * L,
+        None if b.marker is None else b.marker * L,
+        b.dictionary,
+    )
+    c = f.camera
+    width, height = c.resolution
+    if c.distortion is not None and c.intrinsics is None:
+        issues.append(doc.issue(("camera", "distortion"), "give 'intrinsics' with 'distortion'"))
+    if c.intrinsics is not None:
+        k = c.intrinsics
+        camera = CameraModel(
+            c.name,
+            width,
+            height,
+            k.fx,
+            k.fy,
+            k.cx,
+            k.cy,
+            np.array(c.distortion or [0.0] * 5, dtype=float),
+        )
+    else:
+        camera = CameraModel(c.name, width, height, 0.0, 0.0, 0.0, 0.0)
+    names, images, lines, flanges = [], [], [], []
+    seen: dict[str, int] = {}
+    for k, v in enumerate(f.views):
+        where = ("views", k)
+        name = Path(v.image).name
+        line, column = doc.position(where + ("image",))
+        if name in seen:
+            issues.append(
+                doc.issue(
+                    where + ("image",),
+                    f"a second view of image {name!r} (the first at line {seen[name]})",
+                )
+            )
+            continue
+        seen[name] = line
+        T, error, _ = pose_to_matrix(v.flange, L, A)
+        if error is None and not np.all(np.isfinite(T)):
+            error = "a value is not a finite number"
+        if error:
+            issues.append(doc.issue(where + ("flange",), error))
+            continue
+        names.append(name)
+        images.append(p.parent / v.image)
+        lines.append((line, column))
+        flanges.append(T)
+    if issues:
+        raise UserError(f"{path}: invalid", issues)
+    corners_file = None if f.corners is None else p.parent / f.corners
+    return Captures(
+        str(path),
+        f.setup,
+        camera,
+        board,
+        c.mount,
+        f.board.holder,
+        tuple(names),
+        images,
+        lines,
+        np.array(flanges),
+        corners_file,
+        digest,
+    )
+
+
+def read_corners(path: Path, captures: Captures) -> dict[str, np.ndarray]:
+    """The corners CSV: view name -> (N, 2) [px], NaN for corners not listed; rows of views the
+    capture file does not list are passed over (a capture file may take some of a set's views).
+
+    Raises
+    ------
+    UserError
+        A corner index outside the board, a corner listed twice, a value not a finite number:
+        at its line and column.
+    """
+    if not path.is_file():
+        raise UserError(f"no such corners file: {path}")
+    table = read_csv_table(str(path), "view,corner,u,v")
+    want = ["view", "corner", "u", "v"]
+    if [h.lower() for h in table.header] != want:
+        raise UserError(
+            f"{path}: invalid",
+            [
+                Issue(
+                    str(path),
+                    table.header_line,
+                    1,
+                    "header",
+                    f"expected the columns {','.join(want)}, got {','.join(table.header)}",
+                )
+            ],
+        )
+    count = len(captures.board.points)
+    out: dict[str, np.ndarray] = {}
+    issues: list[Issue] = []
+    for line, fields, columns in table.rows:
+        if len(fields) != 4:
+            issues.append(Issue(str(path), line, 1, "row", f"expected 4 fields, got {len(fields)}"))
+            continue
+        view, corner_text, u_text, v_text = fields
+        if view not in captures.names:
+            continue  # a view the capture file leaves out (its own views are all reported)
+        try:
+            corner = int(corner_text)
+        except ValueError:
+            corner = -1
+        if not 0 <= corner < count:
+            issues.append(
+                Issue(
+                    str(path),
+                    line,
+                    columns[1],
+                    "corner",
+                    f"{corner_text!r} is not a corner index 0..{count - 1}",
+                )
+            )
+            continue
+        try:
+            u, v = float(u_text), float(v_text)
+        except ValueError:
+            u = v = math.nan
+        if not (math.isfinite(u) and math.isfinite(v)):
+            issues.append(
+                Issue(
+                    str(path),
+                    line,
+                    columns[2],
+                    "u, v",
+                    "the pixel position is not two finite numbers",
+                )
+            )
+            continue
+        arr = out.setdefault(view, np.full((count, 2), np.nan))
+        if np.isfinite(arr[corner, 0]):
+            issues.append(
+                Issue(str(path), line, 1, "corner", f"view {view!r} lists corner {corner} twice")
+            )
+            continue
+        arr[corner] = (u, v)
+    if issues:
+        raise UserError(f"{path}: invalid", issues[:50])
+    return out
+
+
+def corners_text(names, corners: np.ndarray) -> str:
+    """The corners CSV of views ``names`` with corners ``(V, N, 2)`` (NaN: not seen)."""
+    rows = [
+        "# corners detected by rworld calibrate-camera (OpenCV); pixels, top-left pixel's "
+        "centre at 0, 0",
+        "view,corner,u,v",
+    ]
+    for name, c in zip(names, corners, strict=True):
+        for k in np.nonzero(np.isfinite(c[:, 0]))[0]:
+            rows.append(f"{_csv_field(name)},{k},{c[k, 0]:.4f},{c[k, 1]:.4f}")
+    return "\n".join(rows) + "\n"
+
+
+def _csv_field(text: str) -> str:
+    if any(ch in text for ch in ',;"\t\n\r') or text != text.strip():
+        return '"' + text.replace('"', '""') + '"'
+    return text
+
+
+def _pose_line(name: str, T: np.ndarray) -> str:
+    xyz = ", ".join(repr(float(x) * 1000) for x in T[:3, 3])
+    rpy = ", ".join(repr(float(x)) for x in np.degrees(spatial.matrix_to_rpy(T[:3, :3])))
+    return f"  {yaml_value(name)}: {{xyz: [{xyz}], rpy: [{rpy}]}}"
+
+
+def pose_file_text(captures: Captures, result, date: str) -> str:
+    """The calibrated camera and board poses as a pose file (mm, deg) with provenance: the
+    camera's frame in its mount, the board's in its holder."""
+    sigma = result.sigma
+    lines = [
+        "# The camera's and the board's poses written by 'rworld calibrate-camera'.  List this",
+        "# file after the nominal pose file(s) in the cell's pose_files.",
+        "units: {length: mm, angle: deg}",
+        "poses:",
+        _pose_line(captures.camera.name, result.T_mount_camera),
+        _pose_line(captures.board.name, result.T_holder_board),
+        "provenance:",
+        f"  date: {yaml_value(date)}",
+        f"  captures: {{path: {yaml_value(captures.digest['path'])}, "
+        f"sha256: {captures.digest['sha256']}}}",
+        f"  setup: {captures.setup}",
+        f"  parents: {{{yaml_value(captures.camera.name)}: {yaml_value(captures.mount)}, "
+        f"{yaml_value(captures.board.name)}: {yaml_value(captures.holder)}}}",
+        f"  views: {len(result.names)}",
+        f"  reprojection_rms_px: {result.rms:.6g}",
+        f"  sigma_camera_mm: [{', '.join(f'{s * 1000:.4g}' for s in sigma[12:15])}]",
+        f"  sigma_camera_deg: [{', '.join(f'{np.degrees(s):.4g}' for s in sigma[9:12])}]",
+        f"  sigma_board_mm: [{', '.join(f'{s * 1000:.4g}' for s in sigma[18:21])}]",
+        f"  sigma_board_deg: [{', '.join(f'{np.degrees(s):.4g}' for s in sigma[15:18])}]",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def camera_file_text(result, captures: Captures, date: str) -> str:
+    """The calibrated intrinsics (px) with their sigmas: the camera's numeric file."""
+    cam = result.camera
+    s = result.sigma
+    d = ", ".join(repr(float(x)) for x in cam.distortion)
+    sd = ", ".join(f"{x:.3g}" for x in s[4:9])
+    lines = [
+        "# The camera's intrinsics written by 'rworld calibrate-camera' (OpenCV's model:",
+        "# pixels, the top-left pixel's centre at 0, 0; distortion k1 k2 p1 p2 k3).",
+        "camera:",
+        f"  name: {yaml_value(cam.name)}",
+        f"  resolution: [{cam.width}, {cam.height}]",
+        f"  intrinsics: {{fx: {cam.fx!r}, fy: {cam.fy!r}, cx: {cam.cx!r}, cy: {cam.cy!r}}}",
+        f"  distortion: [{d}]",
+        "  sigma:",
+        f"    intrinsics: {{fx: {s[0]:.3g}, fy: {s[1]:.3g}, cx: {s[2]:.3g}, cy: {s[3]:.3g}}}",
+        f"    distortion: [{sd}]",
+        "provenance:",
+        f"  date: {yaml_value(date)}",
+        f"  captures: {{path: {yaml_value(captures.digest['path'])}, "
+        f"sha256: {captures.digest['sha256']}}}",
+        f"  reprojection_rms_px: {result.rms:.6g}",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def write_text(path, text: str) -> None:
+    """Write one output atomically."""
+    atomic_write_text(path, text)

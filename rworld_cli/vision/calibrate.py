@@ -1,0 +1,651 @@
+"""The camera's calibration from views of a board: intrinsics, hand-eye and the board's place,
+in one bundle adjustment on the reprojection errors (``docs/vision.md``).
+
+The two set-ups share one model. With ``X = T_mount_camera`` (the camera in the flange for
+eye-in-hand, in the robot's base for eye-to-hand), ``Z = T_holder_board`` (the board in the
+base, or in the flange) and the robot's pose ``F_i = T_base_flange`` of view *i*::
+
+    T_camera_board_i = X^-1 H_i Z,   H_i = F_i^-1 (eye-in-hand) or F_i (eye-to-hand)
+
+and the board's corners ``p_j`` are seen at ``project(intrinsics, T_camera_board_i p_j)``.
+OpenCV gives the start (``calibrateCamera``, then ``calibrateRobotWorldHandEye`` with Shah's
+method); a least-squares fit of every reprojection error (Huber's loss beyond 3 robust sigmas)
+gives the estimate, and two covariances: the pixel-noise one (``s^2 (J^T J)^-1``) and the one
+that lets the errors of a view be shared (a robot pose's error moves all of a view's corners:
+the sandwich clustered by view), which is the one reported as the sigma.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import spatial
+from ..model.vision import BoardModel, CameraModel
+from .camera import project, transform_points
+
+EYE_IN_HAND = "eye-in-hand"
+EYE_TO_HAND = "eye-to-hand"
+SETUPS = (EYE_IN_HAND, EYE_TO_HAND)
+
+#: the parameters in the order of the estimate's vector and covariance
+PARAMETER_NAMES = (
+    "fx",
+    "fy",
+    "cx",
+    "cy",
+    "k1",
+    "k2",
+    "p1",
+    "p2",
+    "k3",
+    "camera.rx",
+    "camera.ry",
+    "camera.rz",
+    "camera.x",
+    "camera.y",
+    "camera.z",
+    "board.rx",
+    "board.ry",
+    "board.rz",
+    "board.x",
+    "board.y",
+    "board.z",
+)
+
+#: fewest views with the board found that a calibration takes
+MIN_VIEWS = 3
+#: the robot must turn at least this much between some two views [rad]
+MIN_ROTATION = np.radians(2.0)
+#: the robot's turns between views must span a second axis: the second singular value of their
+#: rotation vectors at least this fraction of the first
+MIN_SECOND_AXIS = 0.05
+
+
+class CalibrationRefused(ValueError):
+    """The views cannot determine the calibration; the message says why (the api makes it a
+    located user error)."""
+
+
+@dataclass(frozen=True)
+class BoardViews:
+    """What the calibration is given.
+
+    Attributes
+    ----------
+    T_base_flange : ndarray, shape (V, 4, 4)
+        The robot's flange in its base at each view [m].
+    corners : ndarray, shape (V, N, 2)
+        Each view's detected corners [px], NaN where a corner was not seen; N is the board's
+        corner count, in :attr:`BoardModel.points` order.
+    """
+
+    board: BoardModel
+    camera: CameraModel
+    setup: str
+    names: tuple[str, ...]
+    T_base_flange: np.ndarray
+    corners: np.ndarray
+
+    def subset(self, index) -> BoardViews:
+        index = np.asarray(index, dtype=int)
+        return BoardViews(
+            self.board,
+            self.camera,
+            self.setup,
+            tuple(self.names[i] for i in index),
+            self.T_base_flange[index],
+            self.corners[index],
+        )
+
+    @property
+    def H(self) -> np.ndarray:
+        """``T_mount_holder`` at each view, shape (V, 4, 4)."""
+        if self.setup == EYE_IN_HAND:
+            return spatial.invert_transform(self.T_base_flange)
+        return self.T_base_flange
+
+
+@dataclass(frozen=True)
+class CameraCalibration:
+    """The estimate.
+
+    Attributes
+    ----------
+    camera : CameraModel
+        The calibrated intrinsics.
+    T_mount_camera : ndarray, shape (4, 4)
+        The camera in the flange (eye-in-hand) or the robot's base (eye-to-hand) [m].
+    T_holder_board : ndarray, shape (4, 4)
+        The board in the robot's base (eye-in-hand) or the flange (eye-to-hand) [m].
+    covariance : ndarray, shape (21, 21)
+        Of :data:`PARAMETER_NAMES` (px, rad about the mount's or holder's axes, m), errors
+        shared within a view allowed (clustered by view).
+    covariance_pixels : ndarray, shape (21, 21)
+        The same if every corner's error were independent pixel noise of the residuals' size.
+    sigma0 : float
+        The residuals' robust standard deviation [px].
+    rms : float
+        Root mean square reprojection error of the views fitted [px].
+    view_rms : ndarray, shape (V,)
+        Each view's [px].
+    start : dict
+        The closed-form start: ``camera`` (OpenCV's intrinsics), ``T_mount_camera``,
+        ``T_holder_board``.
+    flange_sigma : tuple of float or None
+        With the robot's errors modelled: the sigma of a view's flange pose error, rotation
+        [rad] and translation [m] (each axis).
+    flange_errors : ndarray, shape (V, 6), or None
+        Each view's estimated flange pose error (rotation vector [rad], translation [m], in
+        the flange's frame).
+    """
+
+    setup: str
+    camera: CameraModel
+    T_mount_camera: np.ndarray
+    T_holder_board: np.ndarray
+    covariance: np.ndarray
+    covariance_pixels: np.ndarray
+    sigma0: float
+    rms: float
+    view_rms: np.ndarray
+    names: tuple[str, ...]
+    observations: int
+    downweighted: int
+    start: dict = field(default_factory=dict)
+    flange_sigma: tuple[float, float] | None = None
+    flange_errors: np.ndarray | None = None
+
+    @property
+    def sigma(self) -> np.ndarray:
+        """Standard deviations of :data:`PARAMETER_NAMES`, shape (21,)."""
+        return np.sqrt(np.diag(self.covariance))
+
+    def camera_board(self, views: BoardViews) -> np.ndarray:
+        """``T_camera_board`` predicted through the robot at each view, shape (V, 4, 4)."""
+        return spatial.invert_transform(self.T_mount_camera) @ views.H @ self.T_holder_board
+
+    def predicted_corners(self, views: BoardViews) -> np.ndarray:
+        """The corners predicted through the robot at each view, shape (V, N, 2) [px]."""
+        pts = transform_points(self.camera_board(views), views.board.points)
+        return project(self.camera.intrinsics, pts)
+
+
+# --------------------------------------------------------------------------- checks
+
+
+def check_motion(views: BoardViews) -> None:
+    """Refuse robot motions that leave the hand-eye unobservable.
+
+    Pure translations leave the camera's position in the flange undetermined, and turns about
+    one axis (or parallel axes) leave its offset along that axis undetermined (Tsai and Lenz).
+    """
+    V = len(views.names)
+    if V < MIN_VIEWS:
+        raise CalibrationRefused(
+            f"too few views: {V} with the board found, a calibration needs {MIN_VIEWS} at least "
+            "(15 or more, turned about different axes, for a good one)"
+        )
+    R = views.T_base_flange[:, :3, :3]
+    i, j = np.triu_indices(V, 1)
+    turns = spatial.rotation_vector(np.swapaxes(R[i], -1, -2) @ R[j])  # in flange i's axes
+    turns = np.einsum("kab,kb->ka", R[i], turns)  # in the base's axes: comparable
+    angles = np.linalg.norm(turns, axis=1)
+    largest = float(angles.max()) if len(angles) else 0.0
+    if largest < MIN_ROTATION:
+        raise CalibrationRefused(
+            "degenerate motion: the robot turns at most "
+            f"{np.degrees(largest):.3g} deg between views (pure translations leave the "
+            f"camera's position in the flange unobservable); turn the flange by "
+            f"{np.degrees(MIN_ROTATION):.3g} deg or more about two different axes"
+        )
+    axes = turns[angles > 1e-6] / angles[angles > 1e-6, None]
+    # the axes' spread: the second singular value of the unit axes (sign-free) relative to
+    # the first
+    s = np.linalg.svd(axes, compute_uv=False)
+    spread = float(s[1] / s[0]) if len(s) > 1 else 0.0
+    if spread < MIN_SECOND_AXIS:
+        axis = np.linalg.svd(axes)[2][0]
+        raise CalibrationRefused(
+            "degenerate motion: every turn of the robot between views is about one axis "
+            f"(base direction {np.array2string(axis, precision=3)}; the second axis's share "
+            f"{spread:.3g}, below {MIN_SECOND_AXIS}): the camera's offset along it is "
+            "unobservable; turn the flange about a second axis as well"
+        )
+
+
+# --------------------------------------------------------------------------- start values
+
+
+def _as_cv_views(views: BoardViews):
+    obj, img, keep = [], [], []
+    pts = views.board.points.astype(np.float32)
+    for k in range(len(views.names)):
+        seen = np.isfinite(views.corners[k, :, 0])
+        obj.append(pts[seen])
+        img.append(views.corners[k, seen].astype(np.float32)[:, None, :])
+        keep.append(seen)
+    return obj, img, keep
+
+
+def _poses(rvecs, tvecs) -> np.ndarray:
+    R = spatial.rotation_from_vector(np.asarray(rvecs, dtype=float).reshape(-1, 3))
+    T = np.tile(np.eye(4), (len(R), 1, 1))
+    T[:, :3, :3] = R
+    T[:, :3, 3] = np.asarray(tvecs, dtype=float).reshape(-1, 3)
+    return T
+
+
+def intrinsics_start(views: BoardViews, use_guess: bool) -> tuple[CameraModel, np.ndarray]:
+    """OpenCV's ``calibrateCamera`` on the views: the intrinsics and each view's
+    ``T_camera_board`` (V, 4, 4)."""
+    import cv2
+
+    obj, img, _ = _as_cv_views(views)
+    cam = views.camera
+    flags = cv2.CALIB_USE_INTRINSIC_GUESS if use_guess else 0
+    K0 = cam.matrix if use_guess else None
+    d0 = cam.distortion.copy() if use_guess else None
+    _rms, K, d, rvecs, tvecs = cv2.calibrateCamera(
+        obj, img, (cam.width, cam.height), K0, d0, flags=flags
+    )
+    d = np.asarray(d, dtype=float).ravel()[:5]
+    camera = cam.with_intrinsics(np.r_[K[0, 0], K[1, 1], K[0, 2], K[1, 2], d])
+    return camera, _poses(rvecs, tvecs)
+
+
+def view_poses(views: BoardViews, camera: CameraModel) -> np.ndarray:
+    """Each view's own ``T_camera_board`` by OpenCV's PnP with the given intrinsics,
+    shape (V, 4, 4)."""
+    import cv2
+
+    obj, img, _ = _as_cv_views(views)
+    out = np.zeros((len(obj), 4, 4))
+    for k, (o, i) in enumerate(zip(obj, img, strict=True)):
+        ok, rvec, tvec = cv2.solvePnP(o, i, camera.matrix, camera.distortion)
+        if not ok:
+            raise CalibrationRefused(f"view {views.names[k]!r}: the board's pose was not found")
+        out[k] = _poses(rvec, tvec)[0]
+    return out
+
+
+def robot_world_start(views: BoardViews, C: np.ndarray, method: int | None = None):
+    """OpenCV's robot-world hand-eye closed form: ``(T_mount_camera, T_holder_board)`` from
+    each view's ``C_i = T_camera_board`` (default Shah's method)."""
+    import cv2
+
+    H = views.H
+    method = cv2.CALIB_ROBOT_WORLD_HAND_EYE_SHAH if method is None else method
+    R_b2w, t_b2w, R_g2c, t_g2c = cv2.calibrateRobotWorldHandEye(
+        list(C[:, :3, :3]), list(C[:, :3, 3]), list(H[:, :3, :3]), list(H[:, :3, 3]), method=method
+    )
+    # OpenCV's results map base points to the world's (the board's) and gripper points to the
+    # camera's: T_board_holder and T_camera_mount
+    T_camera_mount = spatial.make_transform(R_g2c, np.ravel(t_g2c))
+    T_board_holder = spatial.make_transform(R_b2w, np.ravel(t_b2w))
+    return spatial.invert_transform(T_camera_mount), spatial.invert_transform(T_board_holder)
+
+
+def hand_eye_start(views: BoardViews, C: np.ndarray, method: int):
+    """OpenCV's hand-eye (AX = XB) closed form: ``T_mount_camera``, and the board from the
+    views' mean (chordal) of ``X C_i`` through the robot."""
+    import cv2
+
+    G = spatial.invert_transform(views.H)  # "gripper to base" for eye-in-hand, its inverse else
+    R_c2g, t_c2g = cv2.calibrateHandEye(
+        list(G[:, :3, :3]), list(G[:, :3, 3]), list(C[:, :3, :3]), list(C[:, :3, 3]), method=method
+    )
+    X = spatial.make_transform(R_c2g, np.ravel(t_c2g))
+    Zs = spatial.invert_transform(views.H) @ X @ C
+    return X, mean_pose(Zs)
+
+
+def mean_pose(T) -> np.ndarray:
+    """The chordal mean of poses ``(V, 4, 4)``: rotations' projected mean, translations'
+    mean."""
+    U, _, Vt = np.linalg.svd(T[:, :3, :3].sum(axis=0))
+    R = U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
+    return spatial.make_transform(R, T[:, :3, 3].mean(axis=0))
+
+
+# --------------------------------------------------------------------------- the fit
+
+
+def _perturbed(T0: np.ndarray, d: np.ndarray) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :3] = spatial.rotation_from_vector(d[:3]) @ T0[:3, :3]
+    T[:3, 3] = T0[:3, 3] + d[3:]
+    return T
+
+
+class _Problem:
+    """The reprojection residuals of ``theta`` (the 21 parameters) and, with
+    ``flange_errors``, of each view's flange pose error ``e_i`` (6: a rotation vector and a
+    translation in the flange's frame, ``F_i' = F_i exp(e_i)``)."""
+
+    def __init__(self, views: BoardViews, X0: np.ndarray, Z0: np.ndarray):
+        self.setup = views.setup
+        self.F = views.T_base_flange
+        self.H = views.H
+        self.points = views.board.points
+        self.seen = np.isfinite(views.corners[..., 0])
+        self.observed = views.corners[self.seen]  # (M, 2)
+        self.view_of = np.nonzero(self.seen)[0]
+        self.X0, self.Z0 = X0, Z0
+
+    def poses(self, theta):
+        return _perturbed(self.X0, theta[9:15]), _perturbed(self.Z0, theta[15:21])
+
+    def predicted(self, theta, flange_errors=None) -> np.ndarray:
+        X, Z = self.poses(theta)
+        H = self.H
+        if flange_errors is not None:
+            E = np.tile(np.eye(4), (len(self.F), 1, 1))
+            E[:, :3, :3] = spatial.rotation_from_vector(flange_errors[:, :3])
+            E[:, :3, 3] = flange_errors[:, 3:]
+            F = self.F @ E
+            H = spatial.invert_transform(F) if self.setup == EYE_IN_HAND else F
+        C = spatial.invert_transform(X) @ H @ Z
+        return project(theta[:9], transform_points(C, self.points))  # (V, N, 2)
+
+    def residuals(self, theta, flange_errors=None) -> np.ndarray:
+        return (self.predicted(theta, flange_errors)[self.seen] - self.observed).ravel()
+
+    def jacobian(self, theta) -> np.ndarray:
+        """Central differences, steps scaled to each parameter (the covariance's Jacobian)."""
+        J = np.empty((2 * len(self.observed), len(theta)))
+        for k, h in enumerate(_steps(theta)):
+            e = np.zeros_like(theta)
+            e[k] = h
+            J[:, k] = (self.residuals(theta + e) - self.residuals(theta - e)) / (2 * h)
+        return J
+
+
+def _steps(theta) -> np.ndarray:
+    """Central-difference steps: 1e-4 of a focal length or principal point, 1e-6 of a
+    distortion coefficient, 1e-8 rad or m of a pose."""
+    return np.r_[1e-4 * np.abs(theta[:4]), np.full(5, 1e-6), np.full(len(theta) - 9, 1e-8)]
+
+
+#: the robot-error model's variance components: at most this many rounds, and done when every
+#: component's factor is within this of 1
+VARIANCE_ROUNDS = 8
+VARIANCE_TOLERANCE = 0.02
+#: the smallest flange error sigma the variance components may reach (rad, m): a robot exact
+#: to the data leaves the prior rows to this
+SMALLEST_FLANGE_SIGMA = (1e-8, 1e-8)
+
+
+def _huber_levenberg_marquardt(fun, jac, x, iterations: int = 30, scale: float = 3.0):
+    """Minimise Huber's loss (``scale`` in the residuals' units) of ``fun`` by
+    Levenberg-Marquardt on the reweighted normal equations (the unknowns are few, the
+    residuals many: the normal matrix is small where a trust region's SVD of the Jacobian is
+    not). Stops when a step changes the cost by less than 1e-8 of it."""
+
+    def cost(r):
+        a = np.abs(r)
+        return float(np.sum(np.where(a <= scale, 0.5 * a * a, scale * a - 0.5 * scale * scale)))
+
+    r = fun(x)
+    c = cost(r)
+    damping = 1e-3
+    for _ in range(iterations):
+        w = np.minimum(1.0, scale / np.maximum(np.abs(r), 1e-300))
+        J = jac(x)
+        Jw = J * w[:, None]
+        N = J.T @ Jw
+        g = Jw.T @ r
+        diag = np.maximum(np.diag(N), 1e-30)
+        while True:
+            step = np.linalg.solve(N + damping * np.diag(diag), -g)
+            r_new = fun(x + step)
+            c_new = cost(r_new)
+            if c_new <= c:
+                break
+            damping *= 10.0
+            if damping > 1e12:
+                return x
+        x, r, done = x + step, r_new, c - c_new <= 1e-8 * max(c, 1e-300)
+        c = c_new
+        damping = max(damping / 10.0, 1e-9)
+        if done:
+            break
+    return x
+
+
+def _fit_flange_errors(problem: _Problem, theta0: np.ndarray, free: np.ndarray, sigma_px: float):
+    """Fit the 21 parameters with each view's flange pose error as a random effect
+    (``e_i ~ N(0, diag(s_r^2 I, s_t^2 I))``), the three sigmas (pixels, flange rotation,
+    flange translation) estimated by variance components (Forstner's redundancy form).
+
+    Returns ``theta, e (V, 6), covariance of theta[free], sigmas (px, rad, m), residuals
+    (px), Huber weights``.
+    """
+    V = len(problem.F)
+    m = 2 * len(problem.observed)
+    nf = len(free)
+    rows = np.repeat(problem.view_of, 2)
+    by_view = [np.nonzero(rows == i)[0] for i in range(V)]
+    sig = [max(sigma_px, 1e-6), np.radians(0.01), 1e-4]
+
+    def split(x):
+        theta = theta0.copy()
+        theta[free] = x[:nf]
+        return theta, x[nf:].reshape(V, 6)
+
+    def fun(x):
+        theta, e = split(x)
+        r = problem.residuals(theta, e) / sig[0]
+        return np.r_[r, (e[:, :3] / sig[1]).ravel(), (e[:, 3:] / sig[2]).ravel()]
+
+    def jac(x):
+        theta, e = split(x)
+        J = np.zeros((m + 6 * V, nf + 6 * V))
+        steps = _steps(theta)
+        for c, k in enumerate(free):
+            d = np.zeros_like(theta)
+            d[k] = steps[k]
+            J[:m, c] = (problem.residuals(theta + d, e) - problem.residuals(theta - d, e)) / (
+                2 * steps[k] * sig[0]
+            )
+        for j in range(6):  # each view's error moves its own corners only: all views at once
+            d = np.zeros_like(e)
+            d[:, j] = 1e-8
+            col = (problem.residuals(theta, e + d) - problem.residuals(theta, e - d)) / (
+                2e-8 * sig[0]
+            )
+            for i, sel in enumerate(by_view):
+                J[sel, nf + 6 * i + j] = col[sel]
+        for i in range(V):
+            for j in range(6):
+                row = m + (3 * i + j if j < 3 else 3 * V + 3 * i + j - 3)
+                J[row, nf + 6 * i + j] = 1.0 / (sig[1] if j < 3 else sig[2])
+        return J
+
+    x = np.r_[theta0[free], np.zeros(6 * V)]
+    groups = [
+        np.arange(m),
+        m + np.arange(3 * V),
+        m + 3 * V + np.arange(3 * V),
+    ]
+    for _ in range(VARIANCE_ROUNDS):
+        x = _huber_levenberg_marquardt(fun, jac, x)
+        r = fun(x)
+        w = np.minimum(1.0, 3.0 / np.maximum(np.abs(r), 1e-300))
+        J = jac(x) * np.sqrt(w)[:, None]
+        rw = r * np.sqrt(w)
+        N_inv = np.linalg.inv(J.T @ J)
+        leverage = np.sum((J @ N_inv) * J, axis=1)
+        factors = []
+        for g in groups:
+            redundancy = len(g) - leverage[g].sum()
+            factors.append(float(rw[g] @ rw[g]) / max(redundancy, 1e-9))
+        sig = [
+            max(sig[0] * np.sqrt(factors[0]), 1e-6),
+            max(sig[1] * np.sqrt(factors[1]), SMALLEST_FLANGE_SIGMA[0]),
+            max(sig[2] * np.sqrt(factors[2]), SMALLEST_FLANGE_SIGMA[1]),
+        ]
+        if all(abs(f - 1.0) < VARIANCE_TOLERANCE for f in factors):
+            break
+    theta, e = split(x)
+    residuals = problem.residuals(theta, e)
+    return theta, e, N_inv[:nf, :nf], sig, residuals, w[:m]
+
+
+def calibrate_views(
+    views: BoardViews,
+    fix_intrinsics: bool = False,
+    start: str = "shah",
+    flange_errors: bool = False,
+) -> CameraCalibration:
+    """Calibrate the camera from board views: intrinsics, ``T_mount_camera``,
+    ``T_holder_board``.
+
+    Parameters
+    ----------
+    views : BoardViews
+        Views with the board found (each at least 6 corners seen).
+    fix_intrinsics : bool
+        Keep the camera's intrinsics as given (hand-eye and board only).
+    start : str
+        ``shah`` or ``li`` (OpenCV's robot-world methods) for the start.
+    flange_errors : bool
+        Give each view's flange pose an error of its own (a random effect whose sigmas, with
+        the pixels', are estimated from the data): the intrinsics then come from each view's
+        own picture of the board, not bent to absorb the robot's pose errors, and the sigmas
+        include those errors. Without it the robot's poses are taken as exact and the
+        parameters fit the corners as predicted through the robot (the sigmas clustered by
+        view). ``docs/vision.md`` compares the two on real data.
+
+    Raises
+    ------
+    CalibrationRefused
+        Too few views, a degenerate motion, or an estimate the views leave undetermined.
+    """
+    import cv2
+    from scipy.optimize import least_squares
+
+    check_motion(views)
+    if fix_intrinsics:
+        camera0 = views.camera
+        C = view_poses(views, camera0)
+    else:
+        camera0, C = intrinsics_start(views, use_guess=views.camera.fx > 0)
+    method = {
+        "shah": cv2.CALIB_ROBOT_WORLD_HAND_EYE_SHAH,
+        "li": cv2.CALIB_ROBOT_WORLD_HAND_EYE_LI,
+    }[start]
+    X0, Z0 = robot_world_start(views, C, method)
+    problem = _Problem(views, X0, Z0)
+    theta0 = np.r_[camera0.intrinsics, np.zeros(12)]
+    free = np.arange(9 if fix_intrinsics else 0, 21)
+
+    def fun(x):
+        theta = theta0.copy()
+        theta[free] = x
+        return problem.residuals(theta)
+
+    first = least_squares(fun, theta0[free], method="lm", x_scale="jac")
+    r = first.fun.reshape(-1, 2)
+    # a robust sigma from the corners' residual lengths (Rayleigh: median = 1.1774 sigma)
+    sigma_robust = float(np.median(np.linalg.norm(r, axis=1)) / 1.1774)
+    final = least_squares(
+        fun,
+        first.x,
+        loss="huber",
+        f_scale=3.0 * max(sigma_robust, 1e-6),
+        x_scale="jac",
+        method="trf",
+    )
+    theta = theta0.copy()
+    theta[free] = final.x
+    res = problem.residuals(theta)
+    J = problem.jacobian(theta)[:, free]
+    # Huber's weights on each residual: the covariance of the reweighted problem
+    f = 3.0 * max(sigma_robust, 1e-6)
+    w = np.minimum(1.0, f / np.maximum(np.abs(res), 1e-300))
+    Jw, rw = J * np.sqrt(w)[:, None], res * np.sqrt(w)
+    m, n = len(rw), len(free)
+    s2 = float(rw @ rw) / max(m - n, 1)
+    A = Jw.T @ Jw
+    try:
+        A_inv = np.linalg.inv(A)
+    except np.linalg.LinAlgError as exc:
+        raise CalibrationRefused("the views leave the estimate undetermined") from exc
+    cond = np.linalg.cond(A * np.outer(1 / np.sqrt(np.diag(A)), 1 / np.sqrt(np.diag(A))))
+    if not np.isfinite(cond) or cond > 1e14:
+        raise CalibrationRefused(
+            f"the views leave the estimate undetermined (normal matrix's condition {cond:.3g})"
+        )
+    flange_sigma = None
+    errors = None
+    if flange_errors:
+        theta, errors, cov_flange, sig, res, w = _fit_flange_errors(
+            problem, theta, free, sigma_robust
+        )
+        flange_sigma = (float(sig[1]), float(sig[2]))
+        J = problem.jacobian(theta)[:, free]
+        Jw = J * np.sqrt(w)[:, None]
+        A_inv = np.linalg.inv(Jw.T @ Jw)
+        s2 = float(sig[0]) ** 2
+    # the sandwich clustered by view: a view's residuals share its robot pose's error
+    view_of_residual = np.repeat(problem.view_of, 2)
+    V = len(views.names)
+    scores = np.zeros((V, n))
+    np.add.at(scores, view_of_residual, Jw * rw[:, None])
+    meat = scores.T @ scores * (V / max(V - 1, 1)) * ((m - 1) / max(m - n, 1))
+    cov_free = A_inv @ meat @ A_inv if errors is None else cov_flange
+    covariance = np.zeros((21, 21))
+    covariance_pixels = np.zeros((21, 21))
+    covariance[np.ix_(free, free)] = cov_free
+    covariance_pixels[np.ix_(free, free)] = s2 * A_inv
+    X, Z = problem.poses(theta)
+    d = problem.predicted(theta) - views.corners
+    per_corner = np.sum(d * d, axis=-1)
+    view_rms = np.sqrt(np.nanmean(per_corner, axis=1))
+    camera = views.camera.with_intrinsics(theta[:9])
+    return CameraCalibration(
+        setup=views.setup,
+        camera=camera,
+        T_mount_camera=X,
+        T_holder_board=Z,
+        covariance=covariance,
+        covariance_pixels=covariance_pixels,
+        sigma0=float(np.sqrt(s2)),
+        rms=float(np.sqrt(np.nanmean(per_corner))),
+        view_rms=view_rms,
+        names=views.names,
+        observations=int(len(problem.observed)),
+        downweighted=int(np.count_nonzero(w < 1.0)),
+        start={"camera": camera0, "T_mount_camera": X0, "T_holder_board": Z0},
+        flange_sigma=flange_sigma,
+        flange_errors=errors,
+    )
+
+
+# --------------------------------------------------------------------------- checks on views
+
+
+def reprojection_rms(result_camera: CameraModel, X, Z, views: BoardViews) -> float:
+    """RMS [px] of the corners predicted through the robot (``X^-1 H_i Z``, the intrinsics)
+    against the detected ones - any method's estimate on any views."""
+    C = spatial.invert_transform(X) @ views.H @ Z
+    d = project(result_camera.intrinsics, transform_points(C, views.board.points)) - views.corners
+    return float(np.sqrt(np.nanmean(np.sum(d * d, axis=-1))))
+
+
+def axxb_residuals(X, views: BoardViews, C: np.ndarray) -> tuple[float, float]:
+    """RMS rotation [rad] and translation [m] of ``A X`` against ``X B`` over every pair of
+    views: ``A`` the mount's motion between them (``H_i H_j^-1``), ``B`` the camera's
+    (``C_i C_j^-1``, from each view's own PnP)."""
+    H = views.H
+    i, j = np.triu_indices(len(H), 1)
+    A = H[i] @ spatial.invert_transform(H[j])
+    B = C[i] @ spatial.invert_transform(C[j])
+    # the mount's motion seen from the camera, X^-1 A X, against the camera's own, B
+    lhs = spatial.invert_transform(X)[None] @ A @ X[None]
+    E = spatial.invert_transform(lhs) @ B
+    dr = np.linalg.norm(spatial.rotation_vector(E[:, :3, :3]), axis=1)
+    dt = np.linalg.norm(lhs[:, :3, 3] - B[:, :3, 3], axis=1)
+    return float(np.sqrt(np.mean(dr**2))), float(np.sqrt(np.mean(dt**2)))

@@ -1,0 +1,153 @@
+"""The camera's calibration: on the real KUKA data against OpenCV's closed forms, on simulated
+views against the truth and the bound, and its refusals."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rworld_cli import spatial
+from rworld_cli.model.vision import BoardModel, CameraModel
+from rworld_cli.vision import calibrate as vc
+from rworld_cli.vision.emulate import random_views
+
+cv2 = pytest.importorskip("cv2")
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "vision" / "kuka2"
+CAMERA = CameraModel(
+    "cam", 1280, 1024, 1000.0, 1002.0, 641.0, 511.0, np.array([-0.12, 0.08, 0.0005, -0.0003, -0.02])
+)
+UNKNOWN = CameraModel("cam", 1280, 1024, 0.0, 0.0, 0.0, 0.0)
+BOARD = BoardModel("board", "chessboard", 9, 6, 0.03)
+X_TRUE = spatial.make_transform(spatial.rpy_to_matrix(np.radians([2, -3, 90])), [0.05, -0.08, 0.1])
+Z_TRUE = spatial.make_transform(spatial.rpy_to_matrix(np.radians([180, 0, 30])), [0.8, 0.1, 0.02])
+
+
+def _errors(result, X, Z) -> np.ndarray:
+    """Estimate minus truth in the order of the parameters (px, rad, m)."""
+    return np.r_[
+        result.camera.intrinsics - CAMERA.intrinsics,
+        spatial.rotation_vector(result.T_mount_camera[:3, :3] @ X[:3, :3].T),
+        result.T_mount_camera[:3, 3] - X[:3, 3],
+        spatial.rotation_vector(result.T_holder_board[:3, :3] @ Z[:3, :3].T),
+        result.T_holder_board[:3, 3] - Z[:3, 3],
+    ]
+
+
+def _unknown(views: vc.BoardViews) -> vc.BoardViews:
+    return vc.BoardViews(
+        views.board, UNKNOWN, views.setup, views.names, views.T_base_flange, views.corners
+    )
+
+
+@pytest.mark.parametrize("setup", [vc.EYE_IN_HAND, vc.EYE_TO_HAND])
+def test_exact_views_give_the_truth(setup):
+    X, Z = X_TRUE, Z_TRUE
+    if setup == vc.EYE_TO_HAND:  # a camera over the cell, the board on the flange
+        X = spatial.make_transform(spatial.rpy_to_matrix(np.radians([180, 5, 0])), [0.7, 0, 1.4])
+        Z = spatial.make_transform(spatial.rpy_to_matrix(np.radians([0, 0, 45])), [0, 0, 0.05])
+    views = random_views(np.random.default_rng(1), CAMERA, BOARD, X, Z, 12, setup=setup)
+    result = vc.calibrate_views(_unknown(views))
+    e = _errors(result, X, Z)
+    assert np.abs(e[:4]).max() < 1e-6 and np.abs(e[4:9]).max() < 1e-9
+    assert np.abs(e[9:]).max() < 1e-9
+    assert result.rms < 1e-7
+
+
+def test_simulated_errors_match_the_predicted_sigma_and_the_bound():
+    """16 seeds of 20 noisy views (0.3 px): each parameter's error spread against the
+    pixel-noise bound (the Cramer-Rao bound of this model) and against the sigma the
+    calibration reports (the clustered one)."""
+    errors, bound, reported = [], [], []
+    for seed in range(16):
+        views = random_views(
+            np.random.default_rng(100 + seed), CAMERA, BOARD, X_TRUE, Z_TRUE, 20, noise_px=0.3
+        )
+        result = vc.calibrate_views(_unknown(views))
+        errors.append(_errors(result, X_TRUE, Z_TRUE))
+        bound.append(np.sqrt(np.diag(result.covariance_pixels)))
+        reported.append(result.sigma)
+    spread = np.sqrt(np.mean(np.square(errors), axis=0))
+    rms = lambda a: np.sqrt(np.mean(np.square(a), axis=0))  # noqa: E731
+    # 16 seeds: a spread's own relative error is about 1/sqrt(32) = 18 %, so each parameter
+    # lies within 0.4-1.6 of the bound (3 such errors); their mean ratio within 15 %
+    ratio = spread / rms(bound)
+    assert np.all((ratio > 0.4) & (ratio < 1.6)), ratio.round(2)
+    assert 0.85 < np.mean(ratio) < 1.15
+    assert 0.8 < np.mean(rms(reported) / rms(bound)) < 1.1
+
+
+def test_the_robots_pose_errors_are_estimated_with_the_camera():
+    """Views whose flange poses are off by 0.02 deg and 0.2 mm (each axis): the flange-error
+    model finds those sigmas and its own sigmas hold its errors (6 seeds)."""
+    truth = (np.radians(0.02), 0.2e-3)
+    found, z2 = [], []
+    for seed in range(6):
+        views = random_views(np.random.default_rng(200 + seed), CAMERA, BOARD, X_TRUE, Z_TRUE,
+                             20, noise_px=0.1, flange_noise=truth)  # fmt: skip
+        result = vc.calibrate_views(_unknown(views), flange_errors=True)
+        found.append(result.flange_sigma)
+        z2.append((_errors(result, X_TRUE, Z_TRUE) / result.sigma) ** 2)
+        assert 0.07 < result.sigma0 < 0.13
+    ratio = np.mean(found, axis=0) / truth
+    assert np.all((ratio > 0.75) & (ratio < 1.25)), ratio
+    # the errors in their reported sigmas: a chi-square of 1 a parameter (these 6 seeds give
+    # 1.59, 20 others 1.03: a seed's 21 parameters move together)
+    assert 0.5 < np.mean(z2) < 1.8, np.mean(z2)
+
+
+@pytest.fixture(scope="module")
+def kuka2():
+    from rworld_cli.schema.captures import read_captures, read_corners
+
+    captures = read_captures(str(DATA / "captures.yaml"))
+    given = read_corners(captures.corners_file, captures)
+    corners = np.stack([given[n] for n in captures.names])
+    return vc.BoardViews(
+        captures.board,
+        captures.camera,
+        captures.setup,
+        captures.names,
+        captures.T_base_flange,
+        corners,
+    )
+
+
+def test_the_real_kuka_views_held_out_are_predicted_better_than_by_opencvs_methods(kuka2):
+    index = np.arange(28)
+    held, fit = index[3::4], np.setdiff1d(index, index[3::4])
+    train, test = kuka2.subset(fit), kuka2.subset(held)
+    ours = vc.calibrate_views(train)
+    our_rms = vc.reprojection_rms(ours.camera, ours.T_mount_camera, ours.T_holder_board, test)
+    assert our_rms < 1.3
+    # OpenCV: calibrateCamera's intrinsics, each hand-eye method's X and the board from it,
+    # each robot-world method's X and Z
+    camera, C = vc.intrinsics_start(train, use_guess=False)
+    theirs = {}
+    for name in ("TSAI", "PARK", "HORAUD", "ANDREFF", "DANIILIDIS"):
+        X, Z = vc.hand_eye_start(train, C, getattr(cv2, f"CALIB_HAND_EYE_{name}"))
+        theirs[name] = vc.reprojection_rms(camera, X, Z, test)
+    for name in ("SHAH", "LI"):
+        X, Z = vc.robot_world_start(train, C, getattr(cv2, f"CALIB_ROBOT_WORLD_HAND_EYE_{name}"))
+        theirs[name] = vc.reprojection_rms(camera, X, Z, test)
+    assert our_rms < min(theirs.values()), (our_rms, theirs)
+    # the camera 137 mm from the flange's origin: the same within 5 mm by Park's method
+    X, _ = vc.hand_eye_start(train, C, cv2.CALIB_HAND_EYE_PARK)
+    assert abs(np.linalg.norm(ours.T_mount_camera[:3, 3]) - 0.137) < 0.001
+    assert np.linalg.norm(ours.T_mount_camera[:3, 3] - X[:3, 3]) < 0.005
+
+
+def test_a_motion_about_one_axis_or_none_is_refused(kuka2):
+    # the real set's first three views turn about the base's x axis only
+    with pytest.raises(vc.CalibrationRefused, match="about one axis"):
+        vc.calibrate_views(kuka2.subset([0, 1, 2]))
+    # the flange translated only: every view's rotation the first one's
+    T = kuka2.T_base_flange.copy()
+    T[:, :3, :3] = T[0, :3, :3]
+    moved = vc.BoardViews(kuka2.board, kuka2.camera, kuka2.setup, kuka2.names, T, kuka2.corners)
+    with pytest.raises(vc.CalibrationRefused, match="pure translations"):
+        vc.calibrate_views(moved)
+    with pytest.raises(vc.CalibrationRefused, match="too few views: 2"):
+        vc.calibrate_views(kuka2.subset([0, 5]))

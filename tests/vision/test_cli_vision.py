@@ -1,0 +1,191 @@
+"""rworld calibrate-camera on the real KUKA capture file, and its refusals (exit 2, located,
+nothing written)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.conftest import run_cli
+
+pytest.importorskip("cv2")
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "vision" / "kuka2"
+
+
+def _copy(tmp_path: Path, edit=lambda text: text) -> Path:
+    for name in ("corners.csv", "images"):
+        src = DATA / name
+        (shutil.copytree if src.is_dir() else shutil.copy)(src, tmp_path / name)
+    path = tmp_path / "captures.yaml"
+    path.write_text(edit((DATA / "captures.yaml").read_text()))
+    return path
+
+
+def _views(text: str, keep) -> str:
+    """The capture file with only the views ``keep`` (0-based)."""
+    head, _, views = text.partition("views:\n")
+    lines = views.splitlines()
+    pairs = [lines[k : k + 2] for k in range(0, len(lines), 2)]
+    return head + "views:\n" + "\n".join(line for k in keep for line in pairs[k]) + "\n"
+
+
+def test_the_real_capture_file_calibrates_and_writes_a_pose_file_the_cell_reads(tmp_path):
+    captures = _copy(tmp_path)
+    poses, camera = tmp_path / "out" / "camera_poses.yaml", tmp_path / "camera.yaml"
+    poses.parent.mkdir()
+    r = run_cli(
+        [
+            "calibrate-camera",
+            str(captures),
+            "--holdout-every",
+            "4",
+            "--json",
+            "--write-poses",
+            str(poses),
+            "--write-camera",
+            str(camera),
+        ]
+    )
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.stdout)
+    assert len(out["views"]) == 28 and len(out["held_out"]) == 7
+    assert out["held_out"][0] == "im_04.png"
+    assert out["held_out_rms_px"] < 1.3 and out["reprojection_rms_px"] < 1.2
+    assert out["axxb_views"] == "held out" and out["axxb_rms_mm"] < 3.0
+    xyz = np.array(out["camera_pose"]["xyz_mm"])
+    assert abs(np.linalg.norm(xyz) - 137.0) < 1.0 and out["camera_pose"]["parent"] == "flange"
+    assert max(out["camera_pose"]["sigma_mm"]) < 1.5
+    assert 1040 < out["camera"]["intrinsics"]["fx"] < 1055
+    # the pose file is one the cell loader reads: the camera's pose to the file's precision
+    from rworld_cli.schema.cellparts import load_pose_file_doc, pose_to_matrix
+
+    _, pose_file = load_pose_file_doc(poses)
+    T, error, _ = pose_to_matrix(pose_file.poses["camera"], 0.001, np.pi / 180)
+    assert error is None and np.allclose(T[:3, 3] * 1000, xyz, atol=1e-9)
+    assert "fx: 1" in camera.read_text() and "sigma:" in camera.read_text()
+    assert sorted(out["written"]) == sorted([str(poses), str(camera)])
+
+
+def test_text_output_names_every_figure(tmp_path):
+    r = run_cli(["calibrate-camera", str(_copy(tmp_path))])
+    assert r.exit_code == 0, r.output
+    for text in (
+        "28 views, board found in 28; 28 fitted, 0 held out",
+        "camera in flange:",
+        "board in base:",
+        "reprojection through the robot: rms",
+        "AX = XB over the fitted views' pairs",
+    ):
+        assert text in r.stdout
+
+
+def test_a_motion_about_one_axis_is_refused_and_nothing_written(tmp_path):
+    captures = _copy(tmp_path, lambda t: _views(t, [0, 1, 2]))
+    poses = tmp_path / "poses.yaml"
+    r = run_cli(["calibrate-camera", str(captures), "--write-poses", str(poses)])
+    assert r.exit_code == 2
+    assert "degenerate motion: every turn of the robot between views is about one axis" in r.stderr
+    assert not poses.exists() and not list(tmp_path.glob(".*poses*"))
+
+
+def test_an_image_of_another_size_is_refused_at_its_view(tmp_path):
+    def edit(text: str) -> str:
+        text = _views(text, [0, 12]).replace("[1920, 1200]", "[1280, 1024]")
+        return text.replace("corners: corners.csv\n", "")
+
+    r = run_cli(["calibrate-camera", str(_copy(tmp_path, edit))])
+    assert r.exit_code == 2
+    line = next(
+        k
+        for k, s in enumerate(edit((DATA / "captures.yaml").read_text()).splitlines(), start=1)
+        if "im_01.png" in s
+    )
+    assert f"captures.yaml:{line}:12: views[0].image: " in r.stderr
+    assert "the image is 1920x1200 px, the camera's resolution 1280x1024" in r.stderr
+
+
+def _png_claiming(width: int, height: int) -> bytes:
+    """A PNG whose header claims ``width`` x ``height`` pixels and holds almost none."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return (
+            struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+        )
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", header)
+        + chunk(b"IDAT", zlib.compress(b"\0" * 1000))
+        + chunk(b"IEND", b"")
+    )
+
+
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        (None, "no such image"),
+        (b"not an image\n", "not an image OpenCV reads"),
+        (_png_claiming(100_000, 100_000), "not an image OpenCV reads"),  # 10^10 pixels
+        (_png_claiming(20_000, 20_000), "not an image OpenCV reads"),
+    ],
+)
+def test_a_missing_or_unreadable_image_is_refused(tmp_path, content, message):
+    captures = _copy(tmp_path, lambda t: _views(t, [0, 12]).replace("corners: corners.csv\n", ""))
+    target = tmp_path / "images" / "im_01.png"
+    target.unlink()
+    if content is not None:
+        target.write_bytes(content)
+    r = run_cli(["calibrate-camera", str(captures)])
+    assert r.exit_code == 2 and message in r.stderr
+
+
+@pytest.mark.parametrize(
+    "old, new, message",
+    [
+        ("pattern: chessboard", "pattern: circles", "board.pattern"),
+        (
+            "pattern: chessboard",
+            "pattern: charuco",
+            "a ChArUco board needs 'marker' and 'dictionary'",
+        ),
+        ("setup: eye-in-hand", "setup: eye-on-hand", "setup"),
+        ("  rows: 17", "  rows: 2", "board.rows"),
+    ],
+)
+def test_a_bad_capture_file_is_refused_at_its_line(tmp_path, old, new, message):
+    captures = _copy(tmp_path, lambda t: t.replace(old, new, 1))
+    r = run_cli(["calibrate-camera", str(captures)])
+    assert r.exit_code == 2
+    line = next(k for k, s in enumerate(captures.read_text().splitlines(), start=1) if new in s)
+    assert any(f"captures.yaml:{line}:" in s and message in s for s in r.stderr.splitlines()), (
+        r.stderr
+    )
+
+
+def test_the_corners_files_problems_are_refused_at_their_line_and_a_view_without_any_named(
+    tmp_path,
+):
+    captures = _copy(tmp_path)
+    corners = tmp_path / "corners.csv"
+    lines = corners.read_text().splitlines()
+    lines[5] = lines[5].replace("im_01.png,3,", "im_01.png,408,")
+    corners.write_text("\n".join(lines) + "\n")
+    r = run_cli(["calibrate-camera", str(captures)])
+    assert r.exit_code == 2
+    assert "corners.csv:6:11: corner: '408' is not a corner index 0..407" in r.stderr
+    # a view the corners file does not list (im_02.png's rows named for a view not in the
+    # capture file): left out and named
+    corners.write_text(
+        "\n".join(x.replace("im_02.png", "im_99.png") for x in lines if ",408," not in x) + "\n"
+    )
+    r = run_cli(["calibrate-camera", str(captures)])
+    assert r.exit_code == 0, r.output
+    assert "im_02.png: not used: board not found (no corners in corners.csv)" in r.stdout
