@@ -342,3 +342,49 @@ def grid_interference(
             for region in np.nonzero(inside)[0]:
                 hit[labels == region + 1] = True
     return hit
+
+
+def segments_hit_triangles(
+    starts: np.ndarray, ends: np.ndarray, triangles: np.ndarray, chunk: int = 2_000_000
+) -> np.ndarray:
+    """Which segments cross a triangle strictly between their ends (Moller-Trumbore).
+
+    Parameters
+    ----------
+    starts, ends : ndarray, shape (M, 3)
+        The segments [m].
+    triangles : ndarray, shape (K, 3, 3)
+        Triangles' corners [m], in the segments' frame.
+    chunk : int
+        At most this many segment-triangle pairs at once (memory).
+
+    Returns
+    -------
+    ndarray of bool, shape (M,)
+        True where the segment meets a triangle at a parameter in (1e-9, 1 - 1e-6): an end
+        that lies on a surface (a corner on its own board) does not count.
+    """
+    starts = np.asarray(starts, dtype=float)
+    d = np.asarray(ends, dtype=float) - starts
+    hit = np.zeros(len(starts), dtype=bool)
+    if len(triangles) == 0 or len(starts) == 0:
+        return hit
+    a = triangles[:, 0]
+    e1 = triangles[:, 1] - a
+    e2 = triangles[:, 2] - a
+    step = max(1, chunk // len(triangles))
+    for lo in range(0, len(starts), step):
+        s, dd = starts[lo : lo + step, None, :], d[lo : lo + step, None, :]
+        p = np.cross(dd, e2[None])
+        det = np.einsum("mkj,kj->mk", p, e1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / det
+            t0 = s - a[None]
+            u = np.einsum("mkj,mkj->mk", t0, p) * inv
+            q = np.cross(t0, e1[None])
+            v = np.einsum("mkj,mkj->mk", dd, q) * inv
+            t = np.einsum("kj,mkj->mk", e2, q) * inv
+            ok = (np.abs(det) > 1e-18) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-9)
+            ok &= t < 1 - 1e-6
+        hit[lo : lo + step] = ok.any(axis=1)
+    return hit

@@ -18,6 +18,8 @@ from typing import Literal
 
 import numpy as np
 
+from .vision import BoardModel, CameraModel
+
 PrimitiveKind = Literal["object", "sensor", "device"]
 FrameKind = Literal["world", "natural", "auxiliary", "free", "link", "tcp"]
 WORLD = "world"
@@ -408,9 +410,12 @@ class DeviceModel:
 
 @dataclass(frozen=True)
 class ObjectModel:
+    """A rigid object; ``board``: a calibration board's pattern on its x-y plane."""
+
     name: str
     inertial: Inertial
     shape: Shape | None
+    board: BoardModel | None = None
 
 
 @dataclass(frozen=True)
@@ -430,23 +435,28 @@ class SensorModel:
     ball : float or None
         Touch probes with a ball tip: its radius [m], centred on the sensor frame's origin
         (``size`` is then the ball's bounding cube).
+    camera : CameraModel or None
+        A camera's intrinsics (from a pose file's ``cameras:``); its box is its housing,
+        behind the lens.
     """
 
     name: str
-    type: Literal["touch", "tactile", "proximity", "presence", "force"]
+    type: Literal["touch", "tactile", "proximity", "presence", "force", "camera"]
     size: np.ndarray
     rows: int = 1
     cols: int = 1
     slices: int = 1
     force_curve: np.ndarray | None = None
     ball: float | None = None
+    camera: CameraModel | None = None
 
     @property
     def box(self) -> Box:
-        """The sensing box in the sensor's frame (a ball's bounding cube for a ball tip)."""
+        """The sensing box in the sensor's frame (a ball's bounding cube for a ball tip, a
+        camera's housing behind its lens)."""
         T = np.eye(4)
         if self.ball is None:
-            T[2, 3] = self.size[2] / 2
+            T[2, 3] = -self.size[2] / 2 if self.type == "camera" else self.size[2] / 2
         return Box(T, self.size / 2)
 
 

@@ -47,7 +47,7 @@ from ..model.vision import BoardModel, CameraModel
 from ..units import ANGLE, LENGTH
 from .cellparts import pose_to_matrix, validate_document
 from .csvtext import read_csv_table
-from .models import Name, Pose, Strict, Units
+from .models import BoardPattern, FrameRef, Name, Pose, Strict, Units
 from .yamlio import read_yaml, yaml_value
 
 #: the ArUco dictionaries a ChArUco board may name (OpenCV's predefined ones)
@@ -65,7 +65,7 @@ class Intrinsics(Strict):
 
 class CameraSpec(Strict):
     name: Name = Field(description="The camera's frame, as the pose file written names it.")
-    mount: Name = Field(
+    mount: FrameRef = Field(
         description="The frame the camera is fixed to: the flange (eye-in-hand) or the robot's "
         "base (eye-to-hand); the camera's parent in the pose file written."
     )
@@ -80,25 +80,11 @@ class CameraSpec(Strict):
     )
 
 
-class BoardSpec(Strict):
+class BoardSpec(BoardPattern):
     name: Name = Field(description="The board's frame, as the pose file written names it.")
-    holder: Name = Field(
+    holder: FrameRef = Field(
         description="The frame the board is fixed to: the robot's base (eye-in-hand) or the "
         "flange (eye-to-hand); its parent in the pose file written."
-    )
-    pattern: Literal["chessboard", "charuco"]
-    columns: Annotated[int, Field(ge=3, le=200)] = Field(
-        description="Chessboard: inner corners along the board's x; ChArUco: squares."
-    )
-    rows: Annotated[int, Field(ge=3, le=200)] = Field(
-        description="Chessboard: inner corners along y; ChArUco: squares."
-    )
-    square: Annotated[float, Field(gt=0)] = Field(description="A square's edge [length unit].")
-    marker: Annotated[float, Field(gt=0)] | None = Field(
-        None, description="ChArUco: a marker's edge [length unit]."
-    )
-    dictionary: str | None = Field(
-        None, description="ChArUco: OpenCV's ArUco dictionary, e.g. DICT_5X5_100."
     )
 
 
@@ -120,6 +106,45 @@ class CaptureFile(Strict):
         description="A CSV of corners already detected (view, corner, u, v), instead of "
         "detecting them in the images.",
     )
+
+
+def board_model(name: str, b: BoardPattern, L: float):
+    """The board of a pattern (SI), and its problems as ``(path within the pattern,
+    message)``: a ChArUco board without its marker or dictionary, a marker not smaller than
+    the square, an unknown dictionary, marker keys on a chessboard."""
+    from ..errors import did_you_mean
+
+    problems: list[tuple[tuple, str]] = []
+    if b.pattern == "charuco":
+        if b.marker is None or b.dictionary is None:
+            problems.append((("pattern",), "a ChArUco board needs 'marker' and 'dictionary'"))
+        elif b.marker >= b.square:
+            problems.append(
+                (
+                    ("marker",),
+                    f"the marker ({b.marker}) must be smaller than the square ({b.square})",
+                )
+            )
+        if b.dictionary is not None and b.dictionary not in ARUCO_DICTIONARIES:
+            problems.append(
+                (
+                    ("dictionary",),
+                    f"unknown ArUco dictionary {b.dictionary!r}"
+                    + did_you_mean(b.dictionary, ARUCO_DICTIONARIES),
+                )
+            )
+    elif b.marker is not None or b.dictionary is not None:
+        problems.append(((), "'marker' and 'dictionary' are for ChArUco boards"))
+    board = BoardModel(
+        name,
+        b.pattern,
+        b.columns,
+        b.rows,
+        b.square * L,
+        None if b.marker is None else b.marker * L,
+        b.dictionary,
+    )
+    return board, problems
 
 
 class Captures:
@@ -173,39 +198,8 @@ def read_captures(path: str) -> Captures:
     L, A = LENGTH[f.units.length], ANGLE[f.units.angle]
     issues: list[Issue] = []
     b = f.board
-    if b.pattern == "charuco":
-        if b.marker is None or b.dictionary is None:
-            issues.append(
-                doc.issue(("board", "pattern"), "a ChArUco board needs 'marker' and 'dictionary'")
-            )
-        elif b.marker >= b.square:
-            issues.append(
-                doc.issue(
-                    ("board", "marker"),
-                    f"the marker ({b.marker}) must be smaller than the square ({b.square})",
-                )
-            )
-        if b.dictionary is not None and b.dictionary not in ARUCO_DICTIONARIES:
-            from ..errors import did_you_mean
-
-            issues.append(
-                doc.issue(
-                    ("board", "dictionary"),
-                    f"unknown ArUco dictionary {b.dictionary!r}"
-                    + did_you_mean(b.dictionary, ARUCO_DICTIONARIES),
-                )
-            )
-    elif b.marker is not None or b.dictionary is not None:
-        issues.append(doc.issue(("board",), "'marker' and 'dictionary' are for ChArUco boards"))
-    board = BoardModel(
-        b.name,
-        b.pattern,
-        b.columns,
-        b.rows,
-        b.square * L,
-        None if b.marker is None else b.marker * L,
-        b.dictionary,
-    )
+    board, problems = board_model(b.name, b, L)
+    issues += [doc.issue(("board",) + where, message) for where, message in problems]
     c = f.camera
     width, height = c.resolution
     if c.distortion is not None and c.intrinsics is None:
@@ -372,9 +366,18 @@ def _pose_line(name: str, T: np.ndarray) -> str:
     return f"  {yaml_value(name)}: {{xyz: [{xyz}], rpy: [{rpy}]}}"
 
 
+def _camera_entry(cam: CameraModel) -> str:
+    d = ", ".join(repr(float(x)) for x in cam.distortion)
+    return (
+        f"{{resolution: [{cam.width}, {cam.height}], intrinsics: {{fx: {cam.fx!r}, "
+        f"fy: {cam.fy!r}, cx: {cam.cx!r}, cy: {cam.cy!r}}}, distortion: [{d}]}}"
+    )
+
+
 def pose_file_text(captures: Captures, result, date: str) -> str:
     """The calibrated camera and board poses as a pose file (mm, deg) with provenance: the
-    camera's frame in its mount, the board's in its holder."""
+    camera's frame in its mount, the board's in its holder, and the camera's intrinsics
+    (``cameras:``, for a cell's camera sensor of the camera's name)."""
     sigma = result.sigma
     lines = [
         "# The camera's and the board's poses written by 'rworld calibrate-camera'.  List this",
@@ -383,6 +386,8 @@ def pose_file_text(captures: Captures, result, date: str) -> str:
         "poses:",
         _pose_line(captures.camera.name, result.T_mount_camera),
         _pose_line(captures.board.name, result.T_holder_board),
+        "cameras:",
+        f"  {yaml_value(captures.camera.name)}: {_camera_entry(result.camera)}",
         "provenance:",
         f"  date: {yaml_value(date)}",
         f"  captures: {{path: {yaml_value(captures.digest['path'])}, "

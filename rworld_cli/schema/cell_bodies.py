@@ -160,10 +160,18 @@ class BodiesMixin:
         path = ("objects", i)
         self._aux_frames(o.name, o.frames, path + ("frames",), o.name)
         self._features(o.name, o.features, path + ("features",))
+        board = None
+        if o.board is not None:
+            from .captures import board_model
+
+            board, problems = board_model(o.name, o.board, self.L)
+            for where, message in problems:
+                self.err(path + ("board",) + where, message)
         return wm.ObjectModel(
             o.name,
             self._inertial(path, o.mass, o.com, o.inertia),
             self._shape(path + ("geometry",), o.geometry),
+            board,
         )
 
     def _sensor(self, i: int, s: sm.Sensor) -> wm.SensorModel:

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import UserError, did_you_mean
+from ..model.vision import CameraModel
 from ..units import ANGLE, LENGTH
 
 if TYPE_CHECKING:  # pydantic, the file models and YAML load when a file is checked
@@ -37,6 +38,8 @@ class PosesMixin:
         poses: dict[str, np.ndarray] = dict(self.fixed_poses)
         origins: dict[str, dict[str, np.ndarray]] = {}  # device -> joint -> origin (SI)
         compliances: dict[str, dict[str, float]] = {}  # device -> joint -> [rad/(N m), m/N]
+        self.cameras: dict[str, CameraModel] = {}  # camera sensor -> its intrinsics
+        cf_sensors = {s.name: s for s in self.cf.sensors}
         sources: dict[str, Path] = {}
         files: list[Path] = []
         complete = True  # every pose file was read and schema-valid
@@ -157,6 +160,33 @@ class PosesMixin:
                 kind = next(j.kind for j in dev.joints if j.name == joint)
                 per_kilo = (A if kind == "revolute" else L) * 1e-3  # per kN m / kN -> SI
                 compliances.setdefault(device, {})[joint] = value * per_kilo
+            for name, spec in pf.cameras.items():
+                cpath = ("cameras", name)
+                sensor = cf_sensors.get(name)
+                if sensor is None or sensor.type != "camera":
+                    cameras = [n for n, c in cf_sensors.items() if c.type == "camera"]
+                    self.err(
+                        cpath,
+                        f"'{name}' is not a camera sensor of the cell"
+                        + (
+                            did_you_mean(name, cameras) or f"; its cameras: {', '.join(cameras)}"
+                            if cameras
+                            else "; the cell has no camera sensor"
+                        ),
+                        prefer="key",
+                        doc=doc,
+                    )
+                    continue
+                k = spec.intrinsics
+                self.cameras[name] = CameraModel(
+                    name,
+                    *spec.resolution,
+                    k.fx,
+                    k.fy,
+                    k.cx,
+                    k.cy,
+                    np.array(spec.distortion, dtype=float),
+                )
         if complete:  # otherwise the missing poses may well be in the file we could not read
             shown_files = ", ".join(str(self.display_dir / r) for r in self.cf.pose_files)
             for name, decl in self.frames.items():
@@ -167,6 +197,14 @@ class PosesMixin:
                     f"no pose for frame '{name}' in {shown_files}; add '{name}: {{xyz: [x, y, z], "
                     "rpy: [r, p, y]}'",
                 )
+            for i, c in enumerate(self.cf.sensors):
+                if c.type == "camera" and c.name not in self.cameras:
+                    self.err(
+                        ("sensors", i),
+                        f"no intrinsics for camera '{c.name}' in {shown_files}; add 'cameras: "
+                        f"{{{c.name}: {{resolution: [w, h], intrinsics: {{fx: .., fy: .., "
+                        "cx: .., cy: ..}, distortion: [k1, k2, p1, p2, k3]}}' to a pose file",
+                    )
         return poses, sources, files, origins, compliances
 
     def _joint_named(self, devices, name: str, path, doc):

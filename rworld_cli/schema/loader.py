@@ -225,6 +225,9 @@ class _Builder(BodiesMixin, DevicesMixin, RulesMixin, PosesMixin):
                 for j in dev.joints
             )
             devices[name] = dataclasses.replace(dev, joints=joints)
+        for name, camera in self.cameras.items():  # the cameras' intrinsics, from pose files
+            if name in sensors:
+                sensors[name] = dataclasses.replace(sensors[name], camera=camera)
         for name, values in compliances.items():  # the joints' compliance under load
             dev = devices[name]
             joints = tuple(

@@ -261,6 +261,25 @@ class FreeFrame(Strict):
     parent: FrameRef | None = Field(None, description="'world' (default) or another free frame.")
 
 
+class BoardPattern(Strict):
+    """A calibration board's pattern, in the object's natural frame (``docs/vision.md``): +x
+    along the first row of corners, +y along the columns, +z into the board; the origin at the
+    first inner corner (chessboard) or the board's outer corner (ChArUco)."""
+
+    pattern: Literal["chessboard", "charuco"]
+    columns: Annotated[int, Field(ge=3, le=200)] = Field(
+        description="Chessboard: inner corners along the board's x; ChArUco: squares."
+    )
+    rows: Annotated[int, Field(ge=3, le=200)] = Field(
+        description="Chessboard: inner corners along y; ChArUco: squares."
+    )
+    square: Positive = Field(description="A square's edge [length unit].")
+    marker: Positive | None = Field(None, description="ChArUco: a marker's edge [length unit].")
+    dictionary: str | None = Field(
+        None, description="ChArUco: OpenCV's ArUco dictionary, e.g. DICT_5X5_100."
+    )
+
+
 class RigidObject(Strict):
     """A rigid object: natural frame, mass properties, shape, auxiliary frames, features."""
 
@@ -276,6 +295,9 @@ class RigidObject(Strict):
     geometry: Geometry | None = None
     frames: list[AuxFrame] = Field(default_factory=list)
     features: list[Feature] = Field(default_factory=list)
+    board: BoardPattern | None = Field(
+        None, description="A calibration board: the pattern printed on the object's x-y plane."
+    )
 
 
 class Segments(Strict):
@@ -285,14 +307,16 @@ class Segments(Strict):
 
 class Sensor(Strict):
     """A sensor: a box whose origin is the centre of its base face, sensing along +z; or, for a
-    touch probe, a ball centred on the sensor frame's origin."""
+    touch probe, a ball centred on the sensor frame's origin; or a camera, its frame OpenCV's
+    (+z along the optical axis, +x along the image's rows, +y down), its housing box behind the
+    lens and its intrinsics in a pose file's 'cameras:'."""
 
     name: Name
-    type: Literal["touch", "tactile", "proximity", "presence", "force"]
+    type: Literal["touch", "tactile", "proximity", "presence", "force", "camera"]
     size: PositiveVec3 | None = Field(
         None,
-        description="Box edge lengths x, y, z [length unit]; z is the sensing depth or range. "
-        "Every sensor but a ball-tip touch probe.",
+        description="Box edge lengths x, y, z [length unit]; z is the sensing depth or range; "
+        "a camera's housing, behind the lens (-z). Every sensor but a ball-tip touch probe.",
     )
     ball: Positive | None = Field(
         None,
@@ -690,6 +714,25 @@ class CellFile(Strict):
     )
 
 
+class PinholeIntrinsics(Strict):
+    fx: Positive = Field(description="Focal length along x [px].")
+    fy: Positive = Field(description="Focal length along y [px].")
+    cx: float = Field(description="Principal point x [px] (the top-left pixel's centre is 0).")
+    cy: float = Field(description="Principal point y [px].")
+
+
+class CameraIntrinsics(Strict):
+    """A camera's numbers: OpenCV's model (``docs/vision.md``)."""
+
+    resolution: Annotated[list[Annotated[int, Field(gt=0, le=65536)]], Len(2, 2)] = Field(
+        description="Image width and height [px]."
+    )
+    intrinsics: PinholeIntrinsics
+    distortion: Annotated[list[float], Len(5, 5)] = Field(
+        default_factory=lambda: [0.0] * 5, description="OpenCV's k1 k2 p1 p2 k3."
+    )
+
+
 class PoseFile(Strict):
     """Numeric data: frame poses relative to their parents.  Calibration rewrites these files."""
 
@@ -715,6 +758,11 @@ class PoseFile(Strict):
         "unit per kN m (revolute) or length unit per kN (prismatic): the arm's joint "
         "value is the commanded one plus compliance x the torque that holds it against gravity "
         "('rworld calibrate-robot --model compliance').",
+    )
+    cameras: dict[str, CameraIntrinsics] = Field(
+        default_factory=dict,
+        description="Camera sensor -> its resolution, intrinsics and distortion (pixels; "
+        "'rworld calibrate-camera' writes them).",
     )
     provenance: dict[str, Any] | None = Field(
         None,

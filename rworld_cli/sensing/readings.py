@@ -24,6 +24,10 @@ class SensorReading:
         Proximity: nearest slice hit, 1-based (0 when nothing is in range); force: N.
     overlap_volume : float or None
         Force sensors: the overlap volume [m^3].
+    image : dict or None
+        Cameras: ``resolution`` and, per calibration board (``boards``) and point feature
+        (``points``): ``pixels`` (each corner's [u, v] in px, None where not seen), ``seen``,
+        ``total``, ``behind``, ``outside`` and ``hidden_by`` (body -> count).
     """
 
     sensor: str
@@ -34,6 +38,7 @@ class SensorReading:
     value: float | int | None = None
     overlap_volume: float | None = None
     saturated: bool = False
+    image: dict | None = None
 
     def as_dict(self) -> dict:
         return {
@@ -45,4 +50,5 @@ class SensorReading:
             "value": self.value,
             "overlap_volume": self.overlap_volume,
             "saturated": self.saturated,
+            **({"image": self.image} if self.image is not None else {}),
         }

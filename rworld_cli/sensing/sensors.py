@@ -145,6 +145,11 @@ def read_sensors(
     readings = []
     for name in names:
         sensor = cell.sensors[name]
+        if sensor.type == "camera":
+            from .camera import camera_reading
+
+            readings.append(camera_reading(world, name, sensor, bodies))
+            continue
         T_world_sensor = world.T_world(name)
         mount = _mount_owner(world, name)
         candidates = [b for b in bodies if b.owner != mount]

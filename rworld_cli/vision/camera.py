@@ -34,15 +34,15 @@ def project(intrinsics, points) -> np.ndarray:
     """
     fx, fy, cx, cy, k1, k2, p1, p2, k3 = np.asarray(intrinsics, dtype=float)
     P = np.asarray(points, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         x = P[..., 0] / P[..., 2]
         y = P[..., 1] / P[..., 2]
-    r2 = x * x + y * y
-    radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
-    xy = x * y
-    xd = x * radial + 2.0 * p1 * xy + p2 * (r2 + 2.0 * x * x)
-    yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * xy
-    return np.stack([fx * xd + cx, fy * yd + cy], axis=-1)
+        r2 = x * x + y * y
+        radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        xy = x * y
+        xd = x * radial + 2.0 * p1 * xy + p2 * (r2 + 2.0 * x * x)
+        yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * xy
+        return np.stack([fx * xd + cx, fy * yd + cy], axis=-1)
 
 
 def radial_limit(distortion) -> float:

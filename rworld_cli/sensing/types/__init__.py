@@ -12,7 +12,7 @@ from typing import Protocol
 
 import numpy as np
 
-from . import force, presence, proximity, tactile, touch
+from . import camera, force, presence, proximity, tactile, touch
 
 
 class SensorType(Protocol):
@@ -41,7 +41,7 @@ class SensorType(Protocol):
 
 
 SENSOR_TYPES: dict[str, SensorType] = {
-    t.TYPE.name: t.TYPE for t in (touch, tactile, proximity, presence, force)
+    t.TYPE.name: t.TYPE for t in (touch, tactile, proximity, presence, force, camera)
 }
 
 

@@ -1,0 +1,161 @@
+"""Camera sensors in a cell: their intrinsics from pose files, what they see of boards and
+point features (exact against OpenCV), what hides a corner, and the files' errors."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.conftest import run_cli
+
+cv2 = pytest.importorskip("cv2")
+
+CELL = Path(__file__).resolve().parents[1] / "data" / "vision" / "cell"
+
+
+def _copy(tmp_path: Path, edit_poses=lambda t: t, edit_cell=lambda t: t) -> Path:
+    (tmp_path / "cell.yaml").write_text(edit_cell((CELL / "cell.yaml").read_text()))
+    (tmp_path / "poses.yaml").write_text(edit_poses((CELL / "poses.yaml").read_text()))
+    return tmp_path / "cell.yaml"
+
+
+def _sense(cell: Path):
+    from rworld_cli.api import sense
+
+    _, readings = sense(str(cell))
+    return {r.sensor: r for r in readings}
+
+
+def test_the_overhead_camera_sees_the_board_where_opencv_projects_it():
+    readings = _sense(CELL / "cell.yaml")
+    seen = readings["overhead"].image["boards"]["board"]
+    assert seen["seen"] == seen["total"] == 54
+    # by hand from poses.yaml: the camera at (0.6, 0, 1) turned 180 deg about x; the board on
+    # the table (0.6, 0, 0) at (-0.15, -0.1, 0.004), turned 180 deg about x
+    nx, ny = np.meshgrid(np.arange(9), np.arange(6))
+    corners = np.c_[nx.ravel() * 0.03, ny.ravel() * 0.03, np.zeros(54)]
+    flip = np.diag([1.0, -1.0, -1.0])
+    world = corners @ flip.T + [0.45, -0.1, 0.004]
+    in_camera = (world - [0.6, 0, 1.0]) @ flip  # flip is its own inverse and transpose
+    K = np.array([[1000.0, 0, 639.5], [0, 1000.0, 511.5], [0, 0, 1]])
+    theirs = cv2.projectPoints(
+        in_camera, np.zeros(3), np.zeros(3), K, np.array([-0.1, 0.05, 0, 0, 0])
+    )[0][:, 0]
+    assert np.abs(np.array(seen["pixels"]) - theirs).max() < 1e-9
+    mark = readings["overhead"].image["points"]["board.mark"]
+    assert mark["seen"] == 1
+    # the wrist camera at the UR5's home looks elsewhere: nothing of the board in its image
+    wrist = readings["wrist_camera"].image["boards"]["board"]
+    assert wrist["seen"] == 0 and wrist["outside"] + wrist["behind"] == 54
+
+
+def test_a_post_over_the_board_hides_the_corners_behind_it(tmp_path):
+    # the post (r 20 mm, 0.3 m tall) stood on the board's middle, under the overhead camera
+    cell = _copy(
+        tmp_path,
+        lambda t: t.replace("post: {xyz: [0.6, 0.25, 0.0]}", "post: {xyz: [0.57, -0.175, 0.004]}"),
+    )
+    seen = _sense(cell)["overhead"].image["boards"]["board"]
+    hidden = seen["hidden_by"]
+    assert set(hidden) == {"post"} and 1 <= hidden["post"] <= 8
+    assert seen["seen"] == 54 - hidden["post"]
+    # the hidden ones are those whose line of sight passes within the post's radius
+    pixels = np.array([p if p is not None else [np.nan, np.nan] for p in seen["pixels"]])
+    gone = np.isnan(pixels[:, 0])
+    nx, ny = np.meshgrid(np.arange(9), np.arange(6))
+    world = np.c_[0.45 + nx.ravel() * 0.03, -0.1 - ny.ravel() * 0.03]
+    eye = np.array([0.6, 0.0, 1.0])
+    # where the sight line from the eye to the corner (z 0.004) is at the post's top (0.304)
+    s = (1.0 - 0.304) / (1.0 - 0.004)
+    at_top = eye[:2] + s * (world - eye[:2])
+    # the line meets the cylinder when it enters its circle anywhere between top and board;
+    # the circle seen from above: the line's closest approach to the axis over that span
+    t = np.linspace(0, 1, 200)[:, None, None]
+    path = at_top[None] + t * (world - at_top)[None]
+    near = np.min(np.linalg.norm(path - [0.57, -0.175], axis=2), axis=0) < 0.02
+    assert np.array_equal(gone, near)
+
+
+def test_a_camera_under_the_table_sees_nothing_through_it(tmp_path):
+    cell = _copy(
+        tmp_path,
+        lambda t: t.replace(
+            "overhead: {xyz: [0.6, 0, 1.0], rpy: [180, 0, 0]}", "overhead: {xyz: [0.6, 0, -1.0]}"
+        ),
+    )
+    seen = _sense(cell)["overhead"].image["boards"]["board"]
+    assert seen["seen"] == 0
+    assert seen["hidden_by"] == {"table": 54}
+
+
+def test_the_sense_command_names_what_each_camera_sees(tmp_path):
+    r = run_cli(["sense", str(CELL / "cell.yaml")])
+    assert r.exit_code == 0, r.output
+    assert "overhead (camera 1280x1024 px):" in r.stdout
+    assert "board: 54 of 54 corners seen" in r.stdout
+    assert "board: 0 of 54 corners seen (54 outside the image)" in r.stdout
+
+
+@pytest.mark.parametrize(
+    "edit_poses, edit_cell, message",
+    [
+        (lambda t: t[: t.index("cameras:")], lambda t: t, "no intrinsics for camera 'overhead' in"),
+        (
+            lambda t: t.replace("  wrist_camera: {resolution", "  wrist_cam: {resolution"),
+            lambda t: t,
+            "'wrist_cam' is not a camera sensor of the cell (did you mean",
+        ),
+        (
+            lambda t: t,
+            lambda t: t.replace("pattern: chessboard", "pattern: charuco"),
+            "a ChArUco board needs 'marker' and 'dictionary'",
+        ),
+        (lambda t: t.replace("[1280, 1024]", "[1280, 0]"), lambda t: t, "resolution"),
+    ],
+)
+def test_camera_and_board_errors_are_located(tmp_path, edit_poses, edit_cell, message):
+    cell = _copy(tmp_path, edit_poses, edit_cell)
+    r = run_cli(["validate", str(cell)])
+    assert r.exit_code == 2
+    assert any(message in line and (".yaml:" in line) for line in r.stderr.splitlines()), r.stderr
+
+
+def test_calibrate_cameras_pose_file_gives_a_cell_its_camera(tmp_path):
+    """The pose file calibrate-camera writes, listed after the cell's, moves the camera sensor
+    of its name and gives it the calibrated intrinsics."""
+    data = Path(__file__).resolve().parents[1] / "data" / "vision" / "kuka2"
+    for name in ("captures.yaml", "corners.csv"):
+        shutil.copy(data / name, tmp_path / name)
+    captures = tmp_path / "captures.yaml"
+    captures.write_text(
+        captures.read_text()
+        .replace("name: camera", "name: wrist_camera", 1)
+        .replace("mount: flange", "mount: ur5.tool")
+    )
+    out = tmp_path / "camera_poses.yaml"
+    r = run_cli(["calibrate-camera", str(captures), "--write-poses", str(out)])
+    assert r.exit_code == 0, r.output
+    text = out.read_text()
+    assert "\ncameras:\n  wrist_camera: {resolution: [1920, 1200]" in text
+    # the board's frame in the capture file is 'board' in 'base': the cell's board sits on the
+    # table, so only the camera's lines go into the cell's overlay
+    lines = [line for line in text.splitlines() if not line.startswith("  board:")]
+    (tmp_path / "overlay.yaml").write_text("\n".join(lines) + "\n")
+    cell = _copy(
+        tmp_path / "",
+        edit_cell=lambda t: t.replace(
+            "pose_files: [poses.yaml]", "pose_files: [poses.yaml, overlay.yaml]"
+        ),
+    )
+    from rworld_cli.api import load_world
+
+    world, _ = load_world(str(cell))
+    camera = world.cell.sensors["wrist_camera"].camera
+    assert 1040 < camera.fx < 1060 and camera.width == 1920
+    assert "wrist_camera" in world.cell.calibrated
+    T = world.T("ur5.tool", "wrist_camera") if hasattr(world, "T") else None
+    if T is not None:
+        assert abs(np.linalg.norm(T[:3, 3]) - 0.137) < 0.001
