@@ -118,6 +118,7 @@ if TYPE_CHECKING:  # the names as type checkers and readers see them
     )
     from .sensing import (
         describe_reading,
+        render_camera,
         render_scene,
         sense,
         write_sensor_maps,
@@ -171,7 +172,7 @@ _MODULES: dict[str, str] = {
     ".robotcal": "RobotCalibrationRun calibrate_robot",
     ".robotplan": "RobotPosePlanRun plan_robot_calibration",
     ".robots": "UrdfExport UrdfImport export_urdf import_ur_calibration import_urdf",
-    ".sensing": "describe_reading render_scene sense write_sensor_maps",
+    ".sensing": "describe_reading render_camera render_scene sense write_sensor_maps",
     ".simulation": (
         "collision_notes parse_length_option render_run_contact run_path run_summary "
         "run_view simulate_run unlimited_notes view_run_directory write_run_outputs "

@@ -128,3 +128,69 @@ def still_page(world, output: str, title: str, highlight: tuple[str, ...] = ()) 
     scene = state_scene(world, title, highlight)
     atomic_write_text(output, viewer_page(scene_glb(scene), scene.info))
     return Path(output)
+
+
+def render_camera(
+    cell_path: str,
+    camera: str,
+    output: str,
+    joints: dict[str, list[float]] | None = None,
+    blur_px: float = 0.6,
+    noise: float = 2.0,
+    seed: int = 0,
+) -> dict:
+    """Write the grey PNG the camera sensor ``camera`` would take in the cell's state: its
+    boards, the bodies in front of them, blur and noise (``vision/render.py``).
+
+    Returns
+    -------
+    dict
+        ``cell``, ``camera``, ``resolution``, ``board_pixels`` (pixels whose centre sees a
+        board), ``seconds``, ``written``.
+    """
+    import time
+
+    from ..errors import did_you_mean
+    from ..geometry import shape_mesh
+    from ..schema.captures import write_image
+    from ..sensing.sensors import sensable_bodies
+    from ..vision.render import render_view
+
+    world, _ = load_world(cell_path, joints)
+    cameras = [n for n, s in world.cell.sensors.items() if s.type == "camera"]
+    if camera not in cameras:
+        raise UserError(
+            f"'{camera}' is not a camera sensor of {cell_path}{did_you_mean(camera, cameras)}; "
+            f"its cameras: {', '.join(cameras) or 'none'}"
+        )
+    boards = [
+        (o.board, world.T_world(name))
+        for name, o in world.cell.objects.items()
+        if o.board is not None
+    ]
+    holders = {name for name, o in world.cell.objects.items() if o.board is not None}
+    occluders = [
+        shape_mesh(b.shape).triangles(b.T_world_owner)
+        for b in sensable_bodies(world)
+        if b.owner not in holders
+    ]
+    t0 = time.perf_counter()
+    image, depth = render_view(
+        world.cell.sensors[camera].camera,
+        world.T_world(camera),
+        boards,
+        occluders,
+        blur_px,
+        noise,
+        seed,
+    )
+    seconds = time.perf_counter() - t0
+    write_image(output, image)
+    return {
+        "cell": cell_path,
+        "camera": camera,
+        "resolution": [int(image.shape[1]), int(image.shape[0])],
+        "board_pixels": int(np.isfinite(depth).sum()),
+        "seconds": seconds,
+        "written": [str(output)],
+    }

@@ -53,10 +53,49 @@ from .common import (
     metavar="LENGTH",
     help="With --run: the required clearance, e.g. 10mm (default: the run file's).",
 )
+@click.option(
+    "--camera",
+    default=None,
+    metavar="SENSOR",
+    help="Write the image this camera sensor would take (-o FILE.png): the calibration "
+    "boards through its lens, the bodies in front of them, blur and noise (docs/vision.md).",
+)
+@click.option(
+    "--blur",
+    type=FiniteFloat(),
+    default=0.6,
+    show_default=True,
+    metavar="PX",
+    help="With --camera: the lens's blur, a Gaussian's sigma [px].",
+)
+@click.option(
+    "--noise",
+    type=FiniteFloat(),
+    default=2.0,
+    show_default=True,
+    metavar="GREY",
+    help="With --camera: the pixels' noise, sigma in grey levels of 255.",
+)
+@click.option(
+    "--seed", type=int, default=0, show_default=True, help="With --camera: the noise's seed."
+)
 @json_option
 @handle_errors
 def render(
-    cell, output, html_path, joints, view, no_frames, tolerance, run, clearance, json_output
+    cell,
+    output,
+    html_path,
+    joints,
+    view,
+    no_frames,
+    tolerance,
+    run,
+    clearance,
+    camera,
+    blur,
+    noise,
+    seed,
+    json_output,
 ):
     """Draw CELL: objects, devices, frame triads, sensors with colour-coded cells.
 
@@ -71,10 +110,30 @@ def render(
       rworld render workcells/paper_fig9 --html cell.html     # orbit it in a browser
       rworld render workcells/puma560 --joints puma=0,0.5,-1,0,0.3,0 -o puma.png --view 20,-120
       rworld render workcells/puma560 --run through_table -o first_contact.png
+      rworld render tests/data/vision/cell --camera overhead -o overhead.png
     """
     from ..api import render_run_contact, render_scene
     from .physics_common import parse_vector
 
+    if camera is not None:
+        from ..api import render_camera
+
+        if not output or not output.lower().endswith(".png") or html_path or run:
+            raise click.UsageError("--camera writes one PNG image: -o FILE.png, no --html or --run")
+        if blur < 0 or noise < 0:
+            raise click.UsageError("--blur and --noise are sigmas: 0 or more")
+        result = render_camera(
+            cell, camera, output, parse_joint_assignments(joints), blur, noise, seed
+        )
+        if json_output:
+            emit_json(result)
+        else:
+            click.echo(
+                f"wrote {output}: {camera}'s view, {result['resolution'][0]}x"
+                f"{result['resolution'][1]} px, {result['board_pixels']} pixels of boards "
+                f"({result['seconds']:.2f} s)"
+            )
+        return
     elev, azim = parse_vector(view, "--view", 2)
     outputs = [path for path in (output, html_path) if path]
     if not outputs:

@@ -434,3 +434,15 @@ def camera_file_text(result, captures: Captures, date: str) -> str:
 def write_text(path, text: str) -> None:
     """Write one output atomically."""
     atomic_write_text(path, text)
+
+
+def write_image(path, grey: np.ndarray) -> None:
+    """A grey uint8 image ``(H, W)`` as a PNG, atomically."""
+    import cv2
+
+    from ..fileio import atomic_write_bytes
+
+    ok, data = cv2.imencode(".png", grey)
+    if not ok:  # pragma: no cover - OpenCV encodes any uint8 array
+        raise UserError(f"cannot encode the image for {path}")
+    atomic_write_bytes(path, data.tobytes())
