@@ -28,7 +28,7 @@ ROOMS = {
         2.4,
         3.6,
         "schema/  - every file format:\ncells, poses, programs, runs, paths,\n"
-        "measurements, tables, results,\nlogs, URDF, xacro (as data),\nJSON Schemas",
+        "measurements, captures, tables,\nresults, logs, URDF, xacro (as data),\nJSON Schemas",
         "#fdd0a2",
     ),
     "calc": (
@@ -37,14 +37,15 @@ ROOMS = {
         7.6,
         "calculation rooms (plain SI data in, results out):\nworld (frame tree), kinematics, "
         "dynamics, motion, sensing (types/),\ncollision, calibration, planning (constraints), "
-        "simulate (a module per step family);\nexport (one walk, a Writer per language)",
+        "vision (cameras),\nsimulate (a module per step family); "
+        "export (one walk, a Writer per language)",
         "#c7e9c0",
     ),
     "model": (
         3.0,
         0.9,
         6.0,
-        "model/  - plain SI data: cell, rules, programs, measurements, paths",
+        "model/  - plain SI data: cell, rules, programs, measurements, paths, cameras",
         "#dadaeb",
     ),
     "common": (

@@ -38,7 +38,8 @@ def _pixel_rays(intrinsics: tuple, width: int, height: int) -> tuple[np.ndarray,
     u, v = np.meshgrid(np.arange(width, dtype=float), np.arange(height, dtype=float))
     pts = np.stack([u.ravel(), v.ravel()], axis=1)[:, None, :]
     criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 1e-14)
-    n = cv2.undistortPointsIter(pts, K, np.array(intrinsics[4:]), None, None, criteria)
+    n = cv2.undistortPointsIter(pts, K, np.array(intrinsics[4:]), np.eye(3), K, criteria)
+    n = (n.reshape(-1, 2) - K[:2, 2]) / np.diag(K)[:2]  # back from pixels to normalised
     n = n.reshape(height, width, 2)
     du = np.gradient(n, axis=1)
     dv = np.gradient(n, axis=0)
