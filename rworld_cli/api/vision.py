@@ -4,6 +4,7 @@ the board's, from a capture file's images and robot poses (``docs/vision.md``)."
 from __future__ import annotations
 
 import datetime as _dt
+import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +26,8 @@ from ..vision.detect import Detection
 
 #: the largest image file read [bytes]: a camera's frame is a few to a few tens of MB
 MAX_IMAGE_BYTES = 512 * 2**20
+#: fewest corners a view needs to count (its own pose has six unknowns)
+MIN_CORNERS = 6
 #: the most pixels an image may say it has (OpenCV's own bound, lowered from 2^30): 16384 x
 #: 16384, more than any industrial camera's
 MAX_IMAGE_PIXELS = 2**28
@@ -174,17 +177,28 @@ def detect_views(captures, progress=None) -> list[Detection]:
     board = captures.board
     if captures.corners_file is not None:
         given = read_corners(captures.corners_file, captures)
-        return [
-            Detection(n, given[n])
-            if n in given
-            else Detection(
-                n,
-                np.full((len(board.points), 2), np.nan),
-                "board not found",
-                f"no corners in {captures.corners_file.name}",
-            )
-            for n in captures.names
-        ]
+        listed: list[Detection] = []
+        for n in captures.names:
+            corners = given.get(n, np.full((len(board.points), 2), np.nan))
+            seen = int(np.isfinite(corners[:, 0]).sum())
+            if seen == 0:
+                listed.append(
+                    Detection(
+                        n, corners, "board not found", f"no corners in {captures.corners_file.name}"
+                    )
+                )
+            elif seen < MIN_CORNERS:
+                listed.append(
+                    Detection(
+                        n,
+                        np.full_like(corners, np.nan),
+                        "partly seen",
+                        f"{seen} corners in {captures.corners_file.name}, {MIN_CORNERS} needed",
+                    )
+                )
+            else:
+                listed.append(Detection(n, corners))
+        return listed
     from concurrent.futures import ThreadPoolExecutor
 
     width, height = captures.camera.width, captures.camera.height
@@ -298,7 +312,6 @@ def calibrate_camera(
         raise UserError(
             f"{captures.path}: cannot calibrate", [Issue(captures.path, 0, 0, "views", message)]
         ) from None
-    seconds["calibration"] = time.perf_counter() - t0
     held_views = all_views.subset(held)
     held_rms = None
     held_view_rms: dict[str, float] = {}
@@ -310,8 +323,14 @@ def calibrate_camera(
         per = np.sqrt(np.nanmean(np.sum(d * d, axis=-1), axis=1))
         held_view_rms = dict(zip(held_views.names, per.tolist(), strict=True))
     check_views = held_views if len(held) >= 2 else all_views.subset(fit)
-    C = view_poses(check_views, result.camera)
-    axxb = axxb_residuals(result.T_mount_camera, check_views, C)
+    try:
+        C = view_poses(check_views, result.camera)
+    except CalibrationRefused as exc:  # PnP failed on a view: no AX = XB figure
+        logging.getLogger("rworld").warning("AX = XB left out: %s", exc)
+        axxb = None
+    else:
+        axxb = axxb_residuals(result.T_mount_camera, check_views, C)
+    seconds["calibration"] = time.perf_counter() - t0
     run = CameraCalibrationRun(
         captures.path,
         captures.setup,

@@ -420,7 +420,13 @@ def _sweep_chunk(
     fail &= (da >= floor) & (db >= floor)
     fail &= da + db - M < slack
     p_idx, k_idx = np.nonzero(fail)
-    first_joint = np.argmax(levers.arm > 0, axis=1)  # (B,)
+    # (B,): each body's first joint that carries it (none at all: a cell whose arm has no
+    # shapes, only fixed bodies in the sweep)
+    first_joint = (
+        np.argmax(levers.arm > 0, axis=1)
+        if levers.arm.shape[1]
+        else np.zeros(len(levers.arm), dtype=int)
+    )
     items = {
         "p": p_idx,
         "ta": times[k_idx],

@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import spatial
 from ..geometry import segments_hit_triangles, shape_mesh
-from ..vision.camera import project, radial_limit, transform_points
+from ..vision.camera import project, transform_points, visible
 from .readings import SensorReading
 
 
@@ -43,7 +43,6 @@ def camera_reading(world, name: str, sensor, bodies) -> SensorReading:
     T_world_camera = world.T_world(name)
     T_camera_world = spatial.invert_transform(T_world_camera)
     origin = T_world_camera[:3, 3]
-    limit = radial_limit(camera.distortion)
     meshes = {b.label: (b.owner, shape_mesh(b.shape).triangles(b.T_world_owner)) for b in bodies}
     image: dict = {"resolution": [camera.width, camera.height], "boards": {}, "points": {}}
     seen_any: list[str] = []
@@ -51,44 +50,33 @@ def camera_reading(world, name: str, sensor, bodies) -> SensorReading:
         pc = transform_points(T_camera_world, points)
         uv = project(camera.intrinsics, pc)
         behind = pc[:, 2] <= 0
-        with np.errstate(divide="ignore", invalid="ignore"):
-            r = np.hypot(pc[:, 0], pc[:, 1]) / pc[:, 2]
-        inside = (
-            ~behind
-            & (r < limit)
-            & (uv[:, 0] >= -0.5)
-            & (uv[:, 0] <= camera.width - 0.5)
-            & (uv[:, 1] >= -0.5)
-            & (uv[:, 1] <= camera.height - 0.5)
-        )
-        visible = inside.copy()
+        inside = visible(camera, pc)
+        seen = inside.copy()
         hidden: dict[str, int] = {}
         for label, (body_owner, triangles) in meshes.items():
-            if body_owner == owner or not visible.any():
+            if body_owner == owner or not seen.any():
                 continue
-            idx = np.nonzero(visible)[0]
+            idx = np.nonzero(seen)[0]
             hit = segments_hit_triangles(
                 np.broadcast_to(origin, (len(idx), 3)), points[idx], triangles
             )
             if hit.any():
                 hidden[label] = int(hit.sum())
-                visible[idx[hit]] = False
-        if kind == "boards" and visible.any():  # the pattern is on the -z face: seen from -z
+                seen[idx[hit]] = False
+        if kind == "boards" and seen.any():  # the pattern is on the -z face: seen from -z
             T_board_world = spatial.invert_transform(world.T_world(target))
             if (T_board_world[:3, :3] @ origin + T_board_world[:3, 3])[2] >= 0:
-                hidden[f"{target} (seen from its back)"] = int(visible.sum())
-                visible[:] = False
-        pixels = [
-            [float(u), float(v)] if ok else None for (u, v), ok in zip(uv, visible, strict=True)
-        ]
+                hidden[f"{target} (seen from its back)"] = int(seen.sum())
+                seen[:] = False
+        pixels = [[float(u), float(v)] if ok else None for (u, v), ok in zip(uv, seen, strict=True)]
         image[kind][target] = {
             "pixels": pixels,
-            "seen": int(visible.sum()),
+            "seen": int(seen.sum()),
             "total": len(points),
             "behind": int(behind.sum()),
             "outside": int((~behind & ~inside).sum()),
             "hidden_by": hidden,
         }
-        if visible.any():
+        if seen.any():
             seen_any.append(target)
     return SensorReading(name, "camera", bool(seen_any), seen_any, value=len(seen_any), image=image)

@@ -12,7 +12,9 @@ OpenCV gives the start (``calibrateCamera``, then ``calibrateRobotWorldHandEye``
 method); a least-squares fit of every reprojection error (Huber's loss beyond 3 robust sigmas)
 gives the estimate, and two covariances: the pixel-noise one (``s^2 (J^T J)^-1``) and the one
 that lets the errors of a view be shared (a robot pose's error moves all of a view's corners:
-the sandwich clustered by view), which is the one reported as the sigma.
+the sandwich clustered by view), which is the one reported as the sigma. With
+``flange_errors`` each view's flange pose gets an error of its own (a random effect), its
+sigmas and the pixels' estimated by variance components; the sigma is then that model's.
 """
 
 from __future__ import annotations
@@ -59,7 +61,7 @@ MIN_VIEWS = 3
 #: the robot must turn at least this much between some two views [rad]
 MIN_ROTATION = np.radians(2.0)
 #: the robot's turns between views must span a second axis: the second singular value of their
-#: rotation vectors at least this fraction of the first
+#: unit axes (in the base's axes) at least this fraction of the first
 MIN_SECOND_AXIS = 0.05
 
 

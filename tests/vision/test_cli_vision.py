@@ -136,6 +136,7 @@ def _png_claiming(width: int, height: int) -> bytes:
         (_png_claiming(100_000, 100_000), "not an image OpenCV reads"),  # 10^10 pixels
         (_png_claiming(20_000, 20_000), "not an image OpenCV reads"),
     ],
+    ids=["missing", "text", "png-1e10-pixels", "png-4e8-pixels"],
 )
 def test_a_missing_or_unreadable_image_is_refused(tmp_path, content, message):
     captures = _copy(tmp_path, lambda t: _views(t, [0, 12]).replace("corners: corners.csv\n", ""))
@@ -189,3 +190,13 @@ def test_the_corners_files_problems_are_refused_at_their_line_and_a_view_without
     r = run_cli(["calibrate-camera", str(captures)])
     assert r.exit_code == 0, r.output
     assert "im_02.png: not used: board not found (no corners in corners.csv)" in r.stdout
+    # a view with 3 corners listed: too few for its own pose, left out and named
+    kept = [
+        x
+        for x in lines
+        if ",408," not in x and not (x.startswith("im_03.png,") and int(x.split(",")[1]) >= 3)
+    ]
+    corners.write_text("\n".join(kept) + "\n")
+    r = run_cli(["calibrate-camera", str(captures)])
+    assert r.exit_code == 0, r.output
+    assert "im_03.png: not used: partly seen (3 corners in corners.csv, 6 needed)" in r.stdout

@@ -159,3 +159,29 @@ def test_calibrate_cameras_pose_file_gives_a_cell_its_camera(tmp_path):
     T = world.T("ur5.tool", "wrist_camera") if hasattr(world, "T") else None
     if T is not None:
         assert abs(np.linalg.norm(T[:3, 3]) - 0.137) < 0.001
+
+
+def test_a_programs_sense_step_records_what_the_wrist_camera_sees():
+    """A run takes the wrist camera to view1 over the board and reads it: the event holds every
+    corner where OpenCV projects it from view1's pose (worked out here with scipy), to the IK's
+    tolerance. (Its arm has no link shapes: the run's collision sweep took such a cell for a
+    bug, exit 3, before this test.)"""
+    from scipy.spatial.transform import Rotation
+
+    r = run_cli(["simulate", str(CELL), str(CELL / "runs" / "look.yaml"), "--json"])
+    assert r.exit_code == 0, r.output
+    import json
+
+    events = [e for e in json.loads(r.stdout)["events"] if e["kind"] == "sense"]
+    assert len(events) == 1 and events[0]["detail"].startswith("wrist_camera: active")
+    seen = events[0]["reading"]["image"]["boards"]["board"]
+    assert seen["seen"] == 54
+    R_view = Rotation.from_euler("xyz", [180, 0, 90], degrees=True).as_matrix()
+    R_board = Rotation.from_euler("xyz", [180, 0, 0], degrees=True).as_matrix()
+    nx, ny = np.meshgrid(np.arange(9), np.arange(6))
+    corners = np.c_[nx.ravel() * 0.03, ny.ravel() * 0.03, np.zeros(54)]
+    world = corners @ R_board.T + [0.45, -0.1, 0.004]
+    in_camera = (world - [0.57, -0.175, 0.45]) @ R_view
+    K = np.array([[1050.0, 0, 960], [0, 1050.0, 600], [0, 0, 1]])
+    theirs = cv2.projectPoints(in_camera, np.zeros(3), np.zeros(3), K, np.zeros(5))[0][:, 0]
+    assert np.abs(np.array(seen["pixels"]) - theirs).max() < 1e-3
