@@ -361,3 +361,266 @@ def calibrate_camera(
                     write_text(path, text())
                     run.written.append(str(path))
     return run
+
+
+@dataclass
+class ViewPlanRun:
+    """What ``rworld plan-views`` chose.
+
+    Attributes
+    ----------
+    joints : ndarray, shape (N, n)
+        The chosen views' joint values [rad or m], in the order visited.
+    T_base_flange : ndarray, shape (N, 4, 4)
+        The camera's mount frame in the robot's base at each [m].
+    figures : dict
+        The choice's predicted sigma of the camera in the flange (``position`` m, ``rotation``
+        rad) against the median of 50 random choices of as many usable candidates.
+    """
+
+    cell: str
+    camera: str
+    board: str
+    device: str
+    mount: str
+    candidates: int
+    usable: int
+    lost: dict[str, int]
+    joints: np.ndarray
+    T_base_flange: np.ndarray
+    figures: dict
+    sigma_px: float
+    seconds: float
+    written: list[str] = field(default_factory=list)
+
+    def as_dict(self) -> dict:
+        from .. import spatial
+
+        f = self.figures
+        return finite(
+            {
+                "cell": self.cell,
+                "camera": self.camera,
+                "board": self.board,
+                "device": self.device,
+                "mount": self.mount,
+                "candidates": self.candidates,
+                "usable": self.usable,
+                "lost": self.lost,
+                "pixel_sigma_px": self.sigma_px,
+                "predicted_error_mm": f["error"] * 1000,
+                "random_error_mm": f["random_error"] * 1000,
+                "lever_mm": f["lever"] * 1000,
+                "predicted_position_mm": f["position"] * 1000,
+                "predicted_rotation_deg": float(np.degrees(f["rotation"])),
+                "random_position_mm": f["random_position"] * 1000,
+                "random_rotation_deg": float(np.degrees(f["random_rotation"])),
+                "views": [
+                    {
+                        "joints_deg": np.degrees(q).tolist(),
+                        "flange_xyz_mm": (T[:3, 3] * 1000).tolist(),
+                        "flange_rpy_deg": np.degrees(spatial.matrix_to_rpy(T[:3, :3])).tolist(),
+                    }
+                    for q, T in zip(self.joints, self.T_base_flange, strict=True)
+                ],
+                "seconds": self.seconds,
+                "written": self.written,
+            }
+        )
+
+
+def plan_views(
+    cell_path: str,
+    camera: str,
+    count: int,
+    board: str | None = None,
+    candidates: int = 300,
+    seed: int = 0,
+    distance: tuple[float, float] | None = None,
+    tilt: float = np.radians(40.0),
+    roll: float = np.radians(30.0),
+    sigma_px: float = 0.1,
+    captures: str | None = None,
+    program: str | None = None,
+    progress=None,
+) -> ViewPlanRun:
+    """Choose ``count`` robot poses from which a camera on the robot sees the whole board, and
+    which together determine its calibration best (D-optimal on the 21 parameters'
+    information, ``vision/plan.py``).
+
+    Candidates are camera poses around the board (from its printed side, within ``tilt`` of
+    its normal, ``distance`` [m] away - default where the board spans 35-80 % of the image's
+    width - turned by up to ``roll``); a candidate is usable when the robot reaches it (IK for
+    the camera's frame), touches nothing there or on the straight joint path from home, and
+    the camera sees every corner (nothing of the cell or the robot in the way). ``captures``:
+    a capture file of the views to fill with images (``rworld calibrate-camera``);
+    ``program``: a program that visits each from home, reads the camera there (a ``sense``
+    step: the simulation records what it sees) and returns.
+
+    Raises
+    ------
+    UserError
+        Not a camera, no board or an unknown one, a camera not carried by a robot (planning
+        for a fixed camera is not built), fewer usable candidates than views asked.
+    """
+    from ..calibration.robotplan import collision_free_states
+    from ..errors import did_you_mean
+    from ..fileio import atomic_write_text, output_set
+    from ..kinematics.inverse import solve_ik_many
+    from ..kinematics.jacobian import ToolMount
+    from ..sensing.camera import camera_reading
+    from ..sensing.sensors import sensable_bodies
+    from ..vision.plan import camera_candidates, select_views, view_information
+    from .cells import load_world
+
+    started = time.perf_counter()
+    world, _ = load_world(cell_path)
+    cell = world.cell
+    cameras = [n for n, s in cell.sensors.items() if s.type == "camera"]
+    if camera not in cameras:
+        raise UserError(
+            f"'{camera}' is not a camera sensor of {cell_path}{did_you_mean(camera, cameras)}; "
+            f"its cameras: {', '.join(cameras) or 'none'}"
+        )
+    boards = [n for n, o in cell.objects.items() if o.board is not None]
+    if board is None:
+        if len(boards) != 1:
+            raise UserError(
+                f"{cell_path} has {len(boards)} calibration boards"
+                + (f" ({', '.join(boards)}): name one with --board" if boards else "")
+            )
+        board = boards[0]
+    if board not in boards:
+        raise UserError(f"'{board}' is not a calibration board{did_you_mean(board, boards)}")
+    if not (count >= 3 and candidates >= count and sigma_px > 0):
+        raise UserError("give --views 3 or more, --candidates at least --views, a sigma above 0")
+    device = None
+    for name in cell.devices:
+        try:
+            link, T_link_camera = world.mount_of(name, camera)
+        except UserError:
+            continue
+        device = name
+        break
+    if device is None:
+        raise UserError(
+            f"'{camera}' is not carried by a robot: planning views for a camera fixed in the "
+            "cell (the board on the flange) is not built yet"
+        )
+    dev = cell.devices[device]
+    mount_frame = world.parent(camera)
+    cam = cell.sensors[camera].camera
+    model = cell.objects[board].board
+    T_world_board = world.T_world(board)
+    T_world_base = world.T_world(device)
+    if distance is None:
+        nx, ny = model.corner_grid
+        width = (nx + 1) * model.square
+        distance = (cam.fx * width / (0.8 * cam.width), cam.fx * width / (0.35 * cam.width))
+    rng = np.random.default_rng(seed)
+    T_board_camera = camera_candidates(rng, model, candidates, distance, tilt, roll)
+    T_base_camera = np.linalg.inv(T_world_base) @ T_world_board @ T_board_camera
+    lost: dict[str, int] = {}
+    # IK from home and two random starts for each candidate; the first that reaches it
+    lower, upper = dev.limit_array("lower"), dev.limit_array("upper")
+    lo, hi = np.where(np.isfinite(lower), lower, -np.pi), np.where(np.isfinite(upper), upper, np.pi)
+    starts = np.concatenate(
+        [np.tile(dev.home, (candidates, 1)), rng.uniform(lo, hi, (2 * candidates, dev.dof))]
+    )
+    Q, ok = solve_ik_many(
+        dev, np.tile(T_base_camera, (3, 1, 1)), starts, ToolMount(link, T_link_camera)
+    )
+    Q, ok = Q.reshape(3, candidates, -1), ok.reshape(3, candidates)
+    first = np.argmax(ok, axis=0)
+    reached = ok.any(axis=0)
+    Q = Q[first, np.arange(candidates)]
+    lost["out of reach"] = int((~reached).sum())
+    keep = np.nonzero(reached)[0]
+    if progress is not None:
+        progress(1, 3, "collision checks")
+    fractions = np.linspace(0.125, 1.0, 8)
+    path = dev.home + fractions[:, None, None] * (Q[keep] - dev.home)[None]
+    free = collision_free_states(cell, device, path.reshape(-1, dev.dof)).reshape(8, -1).all(axis=0)
+    lost["a collision there or on the way from home"] = int((~free).sum())
+    keep = keep[free]
+    if progress is not None:
+        progress(2, 3, "what the camera sees")
+    seen_all = []
+    saved = world.joints(device)
+    for k in keep:
+        world.set_joints(device, Q[k])
+        reading = camera_reading(world, camera, cell.sensors[camera], sensable_bodies(world))
+        b = (reading.image or {})["boards"][board]
+        seen_all.append(b["seen"] == b["total"])
+    world.set_joints(device, saved)
+    seen_all_arr = np.array(seen_all, dtype=bool)
+    lost["the board not whole in the image (hidden or cut)"] = int((~seen_all_arr).sum())
+    keep = keep[seen_all_arr] if len(keep) else keep
+    if len(keep) < count:
+        said = "; ".join(f"{n} {why}" for why, n in lost.items() if n)
+        raise UserError(
+            f"only {len(keep)} of {candidates} candidate views are usable ({said}); ask for "
+            "fewer views or more candidates, or move the board nearer the robot"
+        )
+    T_base_flange = np.empty((len(keep), 4, 4))
+    for i, k in enumerate(keep):
+        world.set_joints(device, Q[k])
+        T_base_flange[i] = world.T(device, mount_frame)
+    world.set_joints(device, saved)
+    T_flange_camera = world.T(mount_frame, camera)
+    T_base_board = world.T(device, board)
+    G = view_information(cam, model, T_flange_camera, T_base_board, T_base_flange, sigma_px)
+    chosen, figures = select_views(G, count, seed)
+    # visited nearest first from home
+    order = [int(c) for c in chosen[np.argsort(np.abs(Q[keep][chosen] - dev.home).max(axis=1))]]
+    joints = Q[keep][order]
+    flanges = T_base_flange[order]
+    run = ViewPlanRun(
+        cell_path,
+        camera,
+        board,
+        device,
+        mount_frame,
+        candidates,
+        len(keep),
+        lost,
+        joints,
+        flanges,
+        figures,
+        sigma_px,
+        time.perf_counter() - started,
+    )
+    if captures or program:
+        from ..schema.captures import capture_template_text
+        from ..schema.programs import program_text
+
+        with output_set():
+            if captures:
+                atomic_write_text(
+                    captures,
+                    capture_template_text(cam, mount_frame, device, model, flanges),
+                )
+                run.written.append(str(captures))
+            if program:
+                per_unit = np.array(
+                    [1000.0 if j.kind == "prismatic" else np.degrees(1.0) for j in dev.joints]
+                )  # the program's mm and deg
+                steps: list[tuple[dict, str | None]] = []
+                home = [round(float(v), 6) for v in dev.home * per_unit]
+                for k, q in enumerate(joints):
+                    view = [round(float(v), 6) for v in q * per_unit]
+                    steps.append(({"move": {"joints": view}}, f"view {k + 1:02d}"))
+                    steps.append(({"sense": camera}, f"capture view{k + 1:02d}.png"))
+                    steps.append(({"move": {"joints": home}}, None))
+                doc = {
+                    "header": [
+                        f"{count} views of {board} for {camera}, chosen by rworld plan-views "
+                        "(D-optimal); each visited from home, the camera read there.",
+                    ],
+                    "device": device,
+                    "units": {"length": "mm", "angle": "deg"},
+                    "steps": steps,
+                }
+                atomic_write_text(program, program_text(doc))
+                run.written.append(str(program))
+    return run

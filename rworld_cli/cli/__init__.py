@@ -80,6 +80,11 @@ COMMANDS = {
         "calibrate_camera",
         "Calibrate a camera from board images and robot poses: intrinsics, hand-eye, the board.",
     ),
+    "plan-views": (
+        "vision",
+        "plan_views",
+        "Choose robot poses to calibrate a camera from: the board seen whole, D-optimal.",
+    ),
     "calibrate-robot": (
         "robotcal",
         "calibrate_robot",

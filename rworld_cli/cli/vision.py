@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import emit_json, handle_errors, json_option, with_progress
+from .common import FiniteFloat, emit_json, handle_errors, json_option, with_progress
 
 
 @click.command("calibrate-camera")
@@ -159,4 +159,123 @@ def _render(run) -> None:
             f"{np.degrees(run.axxb[0]):.4f} deg, {run.axxb[1] * 1000:.3f} mm"
         )
     for path in run.written:
+        click.echo(f"wrote {path}")
+
+
+@click.command("plan-views")
+@click.argument("cell", metavar="CELL")
+@click.option("--camera", required=True, metavar="SENSOR", help="The camera sensor (on a robot).")
+@click.option(
+    "--views",
+    "count",
+    default=15,
+    show_default=True,
+    type=click.IntRange(min=3),
+    help="How many views to choose.",
+)
+@click.option(
+    "--board",
+    default=None,
+    metavar="OBJECT",
+    help="The calibration board (default: the cell's one).",
+)
+@click.option(
+    "--candidates",
+    default=300,
+    show_default=True,
+    type=click.IntRange(min=3),
+    help="Camera poses around the board to choose from.",
+)
+@click.option("--seed", default=0, show_default=True, type=int, help="The candidates' random seed.")
+@click.option(
+    "--pixel-sigma",
+    default=0.1,
+    show_default=True,
+    type=FiniteFloat(),
+    metavar="PX",
+    help="The corners' noise the prediction assumes [px].",
+)
+@click.option(
+    "--captures",
+    default=None,
+    type=click.Path(dir_okay=False),
+    metavar="FILE",
+    help="Write a capture file of the views, to fill with images.",
+)
+@click.option(
+    "--program",
+    default=None,
+    type=click.Path(dir_okay=False),
+    metavar="FILE",
+    help="Write a program that visits each view from home and reads the camera there.",
+)
+@json_option
+@handle_errors
+def plan_views(
+    cell, camera, count, board, candidates, seed, pixel_sigma, captures, program, json_output
+):
+    """Choose robot poses from which a camera on the robot sees the whole calibration board,
+    and which together determine the camera's calibration best.
+
+    Candidates are camera poses around the board (from its printed side, within 40 deg of its
+    normal, at distances where it spans 35-80 % of the image's width); a candidate is usable
+    when the robot reaches it, touches nothing there or on the way from home, and the camera
+    sees every corner. Of those, the views are chosen D-optimally on the information of the
+    calibration's 21 parameters, then exchanged to lower the camera-in-flange pose's predicted
+    error most; the choice's predicted error is shown beside random choices of as many
+    (docs/vision.md). Planning for a camera fixed in the cell is not built yet.
+
+    \b
+    Examples:
+      rworld plan-views tests/data/vision/cell --camera wrist_camera --views 12
+      rworld plan-views CELL --camera wrist_camera --captures captures.yaml --program views.yaml
+
+    Exit codes: 0 planned (and written), 2 bad input or too few usable candidates.
+    """
+    import numpy as np
+
+    from ..api import plan_views as run
+
+    if not pixel_sigma > 0:
+        raise click.BadParameter("must be above 0", param_hint="--pixel-sigma")
+    result = with_progress(
+        not json_output,
+        lambda progress: run(
+            cell,
+            camera,
+            count,
+            board,
+            candidates,
+            seed,
+            sigma_px=pixel_sigma,
+            captures=captures,
+            program=program,
+            progress=progress,
+        ),
+        "reaching the candidates",
+    )
+    if json_output:
+        emit_json(result.as_dict())
+        return
+    f = result.figures
+    click.echo(
+        f"{result.camera} on {result.device} ({result.mount}), board {result.board}: "
+        f"{result.usable} of {result.candidates} candidate views usable; {len(result.joints)} "
+        f"chosen ({result.seconds:.1f} s)"
+    )
+    for why, n in result.lost.items():
+        if n:
+            click.echo(f"  {n} candidates lost: {why}")
+    click.echo(
+        f"predicted error of the camera in the flange ({result.sigma_px:g} px of corner noise, "
+        f"at a point {f['lever'] * 1000:.0f} mm ahead): {f['error'] * 1000:.4f} mm; random "
+        f"choices of as many: {f['random_error'] * 1000:.4f} mm "
+        f"({f['random_error'] / f['error']:.2f}x)"
+    )
+    click.echo(
+        f"  position {f['position'] * 1000:.4f} mm, rotation {np.degrees(f['rotation']):.5f} "
+        f"deg (random: {f['random_position'] * 1000:.4f} mm, "
+        f"{np.degrees(f['random_rotation']):.5f} deg)"
+    )
+    for path in result.written:
         click.echo(f"wrote {path}")

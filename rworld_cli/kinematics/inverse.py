@@ -126,7 +126,11 @@ def _levenberg_marquardt(device, mount, target, Q, tol, max_iterations, stop=Non
             break
         Jr = J[:, rows, :]
         A = Jr @ np.swapaxes(Jr, 1, 2) + (lam**2)[:, None, None] * eye
-        step = np.einsum("kji,kj->ki", Jr, np.linalg.solve(A, err[..., None])[..., 0])
+        try:
+            x = np.linalg.solve(A, err[..., None])[..., 0]
+        except np.linalg.LinAlgError:  # a start on a singularity with the damping at its floor
+            x = np.einsum("kij,kj->ki", np.linalg.pinv(A), err)
+        step = np.einsum("kji,kj->ki", Jr, x)
         Q_new = np.clip(Q + step, lower, upper)
         T_new, J_new = tool_pose_and_jacobian(device, Q_new, mount)
         err_new = _errors(T_new, target)[:, rows]

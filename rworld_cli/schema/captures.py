@@ -446,3 +446,45 @@ def write_image(path, grey: np.ndarray) -> None:
     if not ok:  # pragma: no cover - OpenCV encodes any uint8 array
         raise UserError(f"cannot encode the image for {path}")
     atomic_write_bytes(path, data.tobytes())
+
+
+def capture_template_text(
+    camera: CameraModel, mount: str, base: str, board: BoardModel, T_base_flange
+) -> str:
+    """A capture file of planned views (mm, deg): the camera's nominal intrinsics as the
+    start, the board, each view's image name (``view01.png`` ...) and flange pose; the images
+    are to be taken (``rworld calibrate-camera``)."""
+    b = board
+    pattern = [
+        f"  pattern: {b.pattern}",
+        f"  columns: {b.columns}",
+        f"  rows: {b.rows}",
+        f"  square: {b.square * 1000!r}",
+    ]
+    if b.pattern == "charuco":
+        pattern += [f"  marker: {float(b.marker or 0) * 1000!r}", f"  dictionary: {b.dictionary}"]
+    d = ", ".join(repr(float(x)) for x in camera.distortion)
+    lines = [
+        "# Views planned by 'rworld plan-views': take an image at each (the program it wrote",
+        "# visits them) and name it as its view, then 'rworld calibrate-camera' this file.",
+        "units: {length: mm, angle: deg}",
+        "setup: eye-in-hand",
+        "camera:",
+        f"  name: {yaml_value(camera.name)}",
+        f"  mount: {yaml_value(mount)}",
+        f"  resolution: [{camera.width}, {camera.height}]",
+        f"  intrinsics: {{fx: {camera.fx!r}, fy: {camera.fy!r}, cx: {camera.cx!r}, "
+        f"cy: {camera.cy!r}}}",
+        f"  distortion: [{d}]",
+        "board:",
+        f"  name: {yaml_value(b.name)}",
+        f"  holder: {yaml_value(base)}",
+        *pattern,
+        "views:",
+    ]
+    for k, T in enumerate(T_base_flange):
+        xyz = ", ".join(repr(float(x) * 1000) for x in T[:3, 3])
+        rpy = ", ".join(repr(float(x)) for x in np.degrees(spatial.matrix_to_rpy(T[:3, :3])))
+        lines.append(f"  - image: view{k + 1:02d}.png")
+        lines.append(f"    flange: {{xyz: [{xyz}], rpy: [{rpy}]}}")
+    return "\n".join(lines) + "\n"

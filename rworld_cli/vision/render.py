@@ -167,6 +167,15 @@ def render_view(
         T_camera_world = spatial.invert_transform(T_world_camera)
         rows, cols = np.nonzero(seen)
         for triangles in occluders:
+            # a body wholly behind every board's print (the table it lies on) hides none: the
+            # sight line from the camera, in front of the print, stays in front of it
+            behind = True
+            for board, T_world_board in boards:
+                T_board_world = spatial.invert_transform(T_world_board)
+                z = triangles.reshape(-1, 3) @ T_board_world[2, :3] + T_board_world[2, 3]
+                behind &= bool(np.all(z >= -1e-9))
+            if behind:
+                continue
             pc = (triangles.reshape(-1, 3) @ T_camera_world[:3, :3].T) + T_camera_world[:3, 3]
             if np.all(pc[:, 2] <= 0):
                 continue
@@ -181,6 +190,18 @@ def render_view(
             r, c = rows[pick], cols[pick]
             d = np.stack([n[r, c, 0], n[r, c, 1], np.ones(len(r))], axis=1) * depth[r, c][:, None]
             ends = d @ T_world_camera[:3, :3].T + origin
+            # the sight lines that pass the body's bounding sphere at all
+            points = triangles.reshape(-1, 3)
+            centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+            radius = float(np.linalg.norm(points - centre, axis=1).max())
+            seg = ends - origin
+            s = np.clip(
+                (centre - origin) @ seg.T / np.maximum(np.sum(seg * seg, axis=1), 1e-300), 0, 1
+            )
+            near = np.linalg.norm(origin + s[:, None] * seg - centre, axis=1) <= radius
+            if not near.any():
+                continue
+            r, c, ends = r[near], c[near], ends[near]
             hidden = segments_hit_triangles(np.broadcast_to(origin, ends.shape), ends, triangles)
             value[r[hidden], c[hidden]] = BODY
     if blur_px > 0:

@@ -1,0 +1,152 @@
+"""Views to calibrate a camera from: candidate camera poses around a board, each view's
+information about the calibration's 21 parameters, and the D-optimal choice of N
+(``docs/vision.md``)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import spatial
+from ..model.vision import BoardModel, CameraModel
+from .calibrate import BoardViews, _Problem
+from .emulate import look_at
+
+
+def camera_candidates(
+    rng: np.random.Generator,
+    board: BoardModel,
+    count: int,
+    distance: tuple[float, float],
+    tilt: float,
+    roll: float,
+) -> np.ndarray:
+    """``count`` camera poses in the board's frame, ``T_board_camera`` (count, 4, 4) [m]: each
+    looks at a point near the board's centre from the printed side (-z), from a direction
+    within ``tilt`` [rad] of the board's normal, at a distance in ``distance`` [m], turned
+    about its axis by up to ``roll`` [rad]."""
+    nx, ny = board.corner_grid
+    first = 1 if board.pattern == "charuco" else 0
+    centre = np.array([(nx - 1 + 2 * first) * board.square / 2,
+                       (ny - 1 + 2 * first) * board.square / 2, 0.0])  # fmt: skip
+    out = np.empty((count, 4, 4))
+    for k in range(count):
+        t = tilt * np.sqrt(rng.uniform())
+        a = rng.uniform(0, 2 * np.pi)
+        d = rng.uniform(*distance)
+        direction = np.array([np.sin(t) * np.cos(a), np.sin(t) * np.sin(a), -np.cos(t)])
+        aim = centre + rng.normal(0, 0.15 * board.square * min(nx, ny), 3) * [1, 1, 0]
+        T = look_at(aim + d * direction, aim, up=(0.0, -1.0, 0.0))
+        out[k] = T @ spatial.make_transform(spatial.rot_z(rng.uniform(-roll, roll)))
+    return out
+
+
+def view_information(
+    camera: CameraModel,
+    board: BoardModel,
+    T_flange_camera: np.ndarray,
+    T_base_board: np.ndarray,
+    T_base_flange: np.ndarray,
+    sigma_px: float,
+) -> np.ndarray:
+    """Each eye-in-hand view's whitened Jacobian of its corners' pixels by the calibration's 21
+    parameters (``calibrate.PARAMETER_NAMES``) at the nominal values: shape (M, 2N, 21); a
+    view's information is ``G_k^T G_k`` (px / sigma_px)."""
+    from .emulate import seen_corners
+
+    C = spatial.invert_transform(T_flange_camera) @ spatial.invert_transform(T_base_flange)
+    C = C @ T_base_board
+    corners = seen_corners(camera, board, C)
+    views = BoardViews(board, camera, "eye-in-hand", tuple(map(str, range(len(C)))),
+                       T_base_flange, np.nan_to_num(corners, nan=0.0))  # fmt: skip
+    problem = _Problem(views, T_flange_camera, T_base_board)
+    theta = np.r_[camera.intrinsics, np.zeros(12)]
+    J = problem.jacobian(theta) / sigma_px  # (M * 2N, 21), view by view
+    return J.reshape(len(C), -1, J.shape[1])
+
+
+def _covariance(G: np.ndarray, ridge: float) -> np.ndarray:
+    N = np.einsum("kai,kaj->ij", G, G)
+    return np.linalg.inv(N + ridge * np.eye(N.shape[0]))
+
+
+def camera_sigma(G: np.ndarray, ridge: float = 0.0) -> tuple[float, float]:
+    """The predicted sigma of the camera in the flange from views ``G`` (K, 2N, 21): its
+    position's (root of the translation block's trace) [m] and its rotation's [rad]."""
+    cov = _covariance(G, ridge)
+    return float(np.sqrt(np.trace(cov[12:15, 12:15]))), float(np.sqrt(np.trace(cov[9:12, 9:12])))
+
+
+def _criterion(covariances: np.ndarray, lever: float) -> np.ndarray:
+    """The camera-in-flange pose's expected squared error (..., 21, 21) -> (...): its
+    position's variance plus its rotation's, times ``lever`` squared (a point that far away
+    moves by the angle times it) [m^2]."""
+    position = np.trace(covariances[..., 12:15, 12:15], axis1=-2, axis2=-1)
+    rotation = np.trace(covariances[..., 9:12, 9:12], axis1=-2, axis2=-1)
+    return position + lever**2 * rotation
+
+
+def select_views(
+    G: np.ndarray, count: int, seed: int = 0, lever: float = 0.3, passes: int = 8
+) -> tuple[np.ndarray, dict]:
+    """``count`` of the candidates' views: greedily D-optimal (the determinant of the 21
+    parameters' information) until the information is whole, then exchanges that lower the
+    camera-in-flange pose's predicted error (:func:`_criterion`, ``lever`` [m]) most; and the
+    choice's predicted sigma against random choices of as many.
+
+    Returns
+    -------
+    chosen : ndarray of int, shape (count,)
+    figures : dict
+        ``error`` (the camera-in-flange pose's predicted error at a point ``lever`` ahead,
+        root of :func:`_criterion`, m) and ``random_error`` (the median of 50 random choices'
+        of as many); ``position`` and ``rotation`` (the choice's predicted sigmas, m and rad),
+        ``random_position`` and ``random_rotation`` (the random choices' medians),
+        ``d_optimal_position`` and ``d_optimal_rotation`` (the greedy D-optimal choice's,
+        before the exchanges).
+    """
+    M = len(G)
+    info = np.einsum("kai,kaj->kij", G, G)  # (M, 21, 21)
+    scale = float(np.mean(np.trace(info, axis1=1, axis2=2))) / info.shape[1]
+    ridge = 1e-9 * scale * np.eye(info.shape[1])  # keeps sums invertible
+    total = ridge.copy()
+    chosen: list[int] = []
+    free = np.ones(M, dtype=bool)
+    for _ in range(count):
+        score = np.linalg.slogdet(total[None] + info)[1]
+        score[~free] = -np.inf
+        best = int(np.argmax(score))
+        chosen.append(best)
+        free[best] = False
+        total = total + info[best]
+    d_optimal = camera_sigma(G[chosen])
+    for _ in range(passes):  # exchanges: a chosen view for the one that lowers the error most
+        improved = False
+        for slot in range(count):
+            rest = total - info[chosen[slot]]
+            error = _criterion(np.linalg.inv(rest[None] + info), lever)
+            error[~free] = np.inf
+            error[chosen[slot]] = _criterion(np.linalg.inv(rest + info[chosen[slot]]), lever)
+            best = int(np.argmin(error))
+            if best != chosen[slot] and error[best] < error[chosen[slot]] * (1 - 1e-9):
+                free[chosen[slot]], free[best] = True, False
+                chosen[slot] = best
+                improved = True
+            total = rest + info[chosen[slot]]
+        if not improved:
+            break
+    rng = np.random.default_rng(seed)
+    position, rotation = camera_sigma(G[chosen])
+    draws = [camera_sigma(G[rng.choice(M, count, replace=False)]) for _ in range(50)]
+    errors = [float(np.hypot(p, lever * r)) for p, r in draws]
+    figures = {
+        "lever": lever,
+        "error": float(np.hypot(position, lever * rotation)),
+        "random_error": float(np.median(errors)),
+        "position": position,
+        "rotation": rotation,
+        "random_position": float(np.median([d[0] for d in draws])),
+        "random_rotation": float(np.median([d[1] for d in draws])),
+        "d_optimal_position": d_optimal[0],
+        "d_optimal_rotation": d_optimal[1],
+    }
+    return np.array(chosen), figures
