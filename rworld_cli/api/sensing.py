@@ -138,9 +138,11 @@ def render_camera(
     blur_px: float = 0.6,
     noise: float = 2.0,
     seed: int = 0,
+    depth_output: str | None = None,
 ) -> dict:
     """Write the grey PNG the camera sensor ``camera`` would take in the cell's state: its
-    boards, the bodies in front of them, blur and noise (``vision/render.py``).
+    boards, the bodies in front of them, blur and noise (``vision/render.py``); and with
+    ``depth_output`` the depth of the boards seen (a 16-bit PNG in mm, 0 where no board is).
 
     Returns
     -------
@@ -185,12 +187,20 @@ def render_camera(
         seed,
     )
     seconds = time.perf_counter() - t0
-    write_image(output, image)
+    from ..fileio import output_set
+    from ..schema.captures import write_depth_image
+
+    written = [str(output)]
+    with output_set():
+        write_image(output, image)
+        if depth_output is not None:
+            write_depth_image(depth_output, depth)
+            written.append(str(depth_output))
     return {
         "cell": cell_path,
         "camera": camera,
         "resolution": [int(image.shape[1]), int(image.shape[0])],
         "board_pixels": int(np.isfinite(depth).sum()),
         "seconds": seconds,
-        "written": [str(output)],
+        "written": written,
     }

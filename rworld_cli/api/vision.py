@@ -607,10 +607,10 @@ def plan_views(
                 )  # the program's mm and deg
                 steps: list[tuple[dict, str | None]] = []
                 home = [round(float(v), 6) for v in dev.home * per_unit]
-                for k, q in enumerate(joints):
+                for number, q in enumerate(joints, start=1):
                     view = [round(float(v), 6) for v in q * per_unit]
-                    steps.append(({"move": {"joints": view}}, f"view {k + 1:02d}"))
-                    steps.append(({"sense": camera}, f"capture view{k + 1:02d}.png"))
+                    steps.append(({"move": {"joints": view}}, f"view {number:02d}"))
+                    steps.append(({"sense": camera}, f"capture view{number:02d}.png"))
                     steps.append(({"move": {"joints": home}}, None))
                 doc = {
                     "header": [

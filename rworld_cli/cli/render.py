@@ -79,6 +79,14 @@ from .common import (
 @click.option(
     "--seed", type=int, default=0, show_default=True, help="With --camera: the noise's seed."
 )
+@click.option(
+    "--depth",
+    "depth_path",
+    default=None,
+    type=click.Path(dir_okay=False),
+    metavar="FILE.png",
+    help="With --camera: also the depth of the boards seen, a 16-bit PNG in mm (0: none).",
+)
 @json_option
 @handle_errors
 def render(
@@ -95,6 +103,7 @@ def render(
     blur,
     noise,
     seed,
+    depth_path,
     json_output,
 ):
     """Draw CELL: objects, devices, frame triads, sensors with colour-coded cells.
@@ -115,6 +124,8 @@ def render(
     from ..api import render_run_contact, render_scene
     from .physics_common import parse_vector
 
+    if camera is None and depth_path is not None:
+        raise click.UsageError("--depth is for --camera")
     if camera is not None:
         from ..api import render_camera
 
@@ -122,8 +133,10 @@ def render(
             raise click.UsageError("--camera writes one PNG image: -o FILE.png, no --html or --run")
         if blur < 0 or noise < 0:
             raise click.UsageError("--blur and --noise are sigmas: 0 or more")
+        if depth_path is not None and not depth_path.lower().endswith(".png"):
+            raise click.UsageError("--depth writes a 16-bit PNG: FILE.png")
         result = render_camera(
-            cell, camera, output, parse_joint_assignments(joints), blur, noise, seed
+            cell, camera, output, parse_joint_assignments(joints), blur, noise, seed, depth_path
         )
         if json_output:
             emit_json(result)

@@ -437,7 +437,7 @@ def write_text(path, text: str) -> None:
 
 
 def write_image(path, grey: np.ndarray) -> None:
-    """A grey uint8 image ``(H, W)`` as a PNG, atomically."""
+    """A grey image ``(H, W)`` (uint8, or uint16 for depth) as a PNG, atomically."""
     import cv2
 
     from ..fileio import atomic_write_bytes
@@ -488,3 +488,10 @@ def capture_template_text(
         lines.append(f"  - image: view{k + 1:02d}.png")
         lines.append(f"    flange: {{xyz: [{xyz}], rpy: [{rpy}]}}")
     return "\n".join(lines) + "\n"
+
+
+def write_depth_image(path, depth) -> None:
+    """A depth map [m] ``(H, W)`` as a 16-bit PNG in millimetres (the depth cameras' common
+    form; 0 where nothing is, 65535 at 65.535 m and beyond), atomically."""
+    millimetres = np.where(np.isfinite(depth), np.clip(np.rint(depth * 1000.0), 1, 65535), 0)
+    write_image(path, millimetres.astype(np.uint16))

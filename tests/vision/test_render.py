@@ -3,6 +3,7 @@ them, bodies in front of a board hide it, ChArUco prints read back."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -95,3 +96,28 @@ def test_render_camera_refuses_what_is_not_a_camera(tmp_path):
     r = run_cli(["render", str(CELL), "--camera", "overhead", "-o", str(tmp_path / "x.glb")])
     assert r.exit_code == 2 and "--camera writes one PNG image" in r.output
     assert not list(tmp_path.iterdir())
+
+
+def test_the_depth_of_the_boards_seen_is_written_in_millimetres(tmp_path):
+    r = run_cli(
+        [
+            "render",
+            str(CELL),
+            "--camera",
+            "overhead",
+            "-o",
+            str(tmp_path / "v.png"),
+            "--depth",
+            str(tmp_path / "d.png"),
+            "--json",
+        ]
+    )
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.stdout)
+    depth = cv2.imread(str(tmp_path / "d.png"), cv2.IMREAD_UNCHANGED)
+    assert depth.dtype == np.uint16 and depth.shape == (1024, 1280)
+    # the print lies flat 996 mm under the lens (the camera at 1 m, the board's face at 4 mm)
+    assert set(np.unique(depth)) == {0, 996}
+    assert int((depth > 0).sum()) == out["board_pixels"]
+    r = run_cli(["render", str(CELL), "-o", str(tmp_path / "x.png"), "--depth", "d.png"])
+    assert r.exit_code == 2 and "--depth is for --camera" in r.output
