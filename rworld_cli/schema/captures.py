@@ -47,20 +47,13 @@ from ..model.vision import BoardModel, CameraModel
 from ..units import ANGLE, LENGTH
 from .cellparts import pose_to_matrix, validate_document
 from .csvtext import read_csv_table
-from .models import BoardPattern, FrameRef, Name, Pose, Strict, Units
+from .models import BoardPattern, FrameRef, Name, PinholeIntrinsics, Pose, Strict, Units
 from .yamlio import read_yaml, yaml_value
 
 #: the ArUco dictionaries a ChArUco board may name (OpenCV's predefined ones)
 ARUCO_DICTIONARIES = tuple(
     f"DICT_{n}X{n}_{k}" for n in (4, 5, 6, 7) for k in (50, 100, 250, 1000)
 ) + ("DICT_ARUCO_ORIGINAL",)
-
-
-class Intrinsics(Strict):
-    fx: Annotated[float, Field(gt=0)] = Field(description="Focal length along x [px].")
-    fy: Annotated[float, Field(gt=0)] = Field(description="Focal length along y [px].")
-    cx: float = Field(description="Principal point x [px] (the top-left pixel's centre is 0).")
-    cy: float = Field(description="Principal point y [px].")
 
 
 class CameraSpec(Strict):
@@ -72,7 +65,7 @@ class CameraSpec(Strict):
     resolution: Annotated[list[Annotated[int, Field(gt=0)]], Len(2, 2)] = Field(
         description="Image width and height [px]."
     )
-    intrinsics: Intrinsics | None = Field(
+    intrinsics: PinholeIntrinsics | None = Field(
         None, description="Start values; default OpenCV's calibrateCamera on the views."
     )
     distortion: Annotated[list[float], Len(5, 5)] | None = Field(

@@ -29,7 +29,6 @@ from .camera import project, transform_points
 
 EYE_IN_HAND = "eye-in-hand"
 EYE_TO_HAND = "eye-to-hand"
-SETUPS = (EYE_IN_HAND, EYE_TO_HAND)
 
 #: the parameters in the order of the estimate's vector and covariance
 PARAMETER_NAMES = (
