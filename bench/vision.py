@@ -24,6 +24,7 @@ Run:  .venv/bin/python bench/vision.py [--seeds 80] [--bootstrap 200] [--images 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -39,20 +40,10 @@ DATA = REPO / "tests" / "data" / "vision" / "kuka2"
 
 
 def _kuka2():
-    from rworld_cli.schema.captures import read_captures, read_corners
-    from rworld_cli.vision.calibrate import BoardViews
+    from rworld_cli.api.vision import capture_views
+    from rworld_cli.schema.captures import read_captures
 
-    captures = read_captures(str(DATA / "captures.yaml"))
-    given = read_corners(captures.corners_file, captures)
-    corners = np.stack([given[n] for n in captures.names])
-    return BoardViews(
-        captures.board,
-        captures.camera,
-        captures.setup,
-        captures.names,
-        captures.T_base_flange,
-        corners,
-    )
+    return capture_views(read_captures(str(DATA / "captures.yaml")))
 
 
 def real_data() -> tuple:
@@ -200,7 +191,7 @@ def simulated(seeds: int, flange_noise=(0.0, 0.0), noise_px: float = 0.3) -> Non
             noise_px=noise_px,
             flange_noise=flange_noise,
         )
-        v = vc.BoardViews(board, unknown, v.setup, v.names, v.T_base_flange, v.corners)
+        v = dataclasses.replace(v, camera=unknown)
         r = vc.calibrate_views(v, flange_errors=flange_noise != (0.0, 0.0))
         errors.append(
             np.r_[
@@ -288,14 +279,7 @@ def timings(images_dir: str | None) -> None:
     X = spatial.make_transform(spatial.rpy_to_matrix(np.radians([2, -3, 90])), [0.05, -0.08, 0.1])
     Z = spatial.make_transform(spatial.rpy_to_matrix(np.radians([180, 0, 30])), [0.8, 0.1, 0.02])
     v = random_views(np.random.default_rng(7), camera, board, X, Z, 30, noise_px=0.3)
-    v = vc.BoardViews(
-        board,
-        CameraModel("cam", 1280, 1024, 0, 0, 0, 0),
-        v.setup,
-        v.names,
-        v.T_base_flange,
-        v.corners,
-    )
+    v = dataclasses.replace(v, camera=CameraModel("cam", 1280, 1024, 0, 0, 0, 0))
     t = []
     for _ in range(3):
         t0 = time.perf_counter()

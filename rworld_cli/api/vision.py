@@ -67,6 +67,7 @@ class CameraCalibrationRun:
     axxb_views: str
     seconds: dict[str, float] = field(default_factory=dict)
     written: list[str] = field(default_factory=list)
+    held_out_view_rms: dict[str, float] = field(default_factory=dict)
 
     def as_dict(self) -> dict:
         r = self.result
@@ -120,8 +121,6 @@ class CameraCalibrationRun:
         if name in self.result.names:
             return float(self.result.view_rms[self.result.names.index(name)])
         return self.held_out_view_rms.get(name)
-
-    held_out_view_rms: dict[str, float] = field(default_factory=dict)
 
 
 def _pose_dict(parent: str, T: np.ndarray, sigma: np.ndarray) -> dict:
@@ -226,6 +225,20 @@ def detect_views(captures, progress=None) -> list[Detection]:
     return out
 
 
+def capture_views(captures, detections: list[Detection] | None = None) -> BoardViews:
+    """A capture file's views with each view's corners (``detections``; default
+    :func:`detect_views`), NaN where not seen."""
+    detections = detect_views(captures) if detections is None else detections
+    return BoardViews(
+        captures.board,
+        captures.camera,
+        captures.setup,
+        captures.names,
+        captures.T_base_flange,
+        np.stack([d.corners for d in detections]),
+    )
+
+
 def calibrate_camera(
     captures_path: str,
     holdout_every: int = 0,
@@ -258,14 +271,8 @@ def calibrate_camera(
         Bad input (located), an image of another size than the camera's, too few views with
         the board found, a degenerate motion, views that leave the estimate undetermined.
     """
-    from ..fileio import output_set
-    from ..schema.captures import (
-        camera_file_text,
-        corners_text,
-        pose_file_text,
-        read_captures,
-        write_text,
-    )
+    from ..fileio import atomic_write_text, output_set
+    from ..schema.captures import camera_file_text, corners_text, pose_file_text, read_captures
 
     captures = read_captures(captures_path)
     if fix_intrinsics and not captures.camera_given:
@@ -288,15 +295,8 @@ def calibrate_camera(
     used = [k for k, d in enumerate(detections) if d.refused is None]
     held = [k for i, k in enumerate(used) if holdout_every and (i + 1) % holdout_every == 0]
     fit = [k for k in used if k not in held]
-    corners = np.stack([d.corners for d in detections])
-    all_views = BoardViews(
-        captures.board,
-        captures.camera,
-        captures.setup,
-        captures.names,
-        captures.T_base_flange,
-        corners,
-    )
+    all_views = capture_views(captures, detections)
+    corners = all_views.corners
     t0 = time.perf_counter()
     try:
         result = calibrate_views(
@@ -358,7 +358,7 @@ def calibrate_camera(
         with output_set():
             for path, text in outputs:
                 if path:
-                    write_text(path, text())
+                    atomic_write_text(path, text())
                     run.written.append(str(path))
     return run
 

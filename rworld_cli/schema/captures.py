@@ -42,7 +42,6 @@ from pydantic import Field
 
 from .. import spatial
 from ..errors import Issue, UserError
-from ..fileio import atomic_write_text
 from ..model.vision import BoardModel, CameraModel
 from ..units import ANGLE, LENGTH
 from .cellparts import pose_to_matrix, validate_document
@@ -359,12 +358,28 @@ def _pose_line(name: str, T: np.ndarray) -> str:
     return f"  {yaml_value(name)}: {{xyz: [{xyz}], rpy: [{rpy}]}}"
 
 
-def _camera_entry(cam: CameraModel) -> str:
-    d = ", ".join(repr(float(x)) for x in cam.distortion)
+def _camera_fields(cam: CameraModel) -> tuple[str, str, str]:
+    """A camera's resolution, intrinsics and distortion as YAML flow values (px; every digit)."""
     return (
-        f"{{resolution: [{cam.width}, {cam.height}], intrinsics: {{fx: {cam.fx!r}, "
-        f"fy: {cam.fy!r}, cx: {cam.cx!r}, cy: {cam.cy!r}}}, distortion: [{d}]}}"
+        f"[{cam.width}, {cam.height}]",
+        f"{{fx: {float(cam.fx)!r}, fy: {float(cam.fy)!r}, cx: {float(cam.cx)!r}, "
+        f"cy: {float(cam.cy)!r}}}",
+        "[" + ", ".join(repr(float(x)) for x in cam.distortion) + "]",
     )
+
+
+def _camera_lines(cam: CameraModel, indent: str) -> list[str]:
+    resolution, intrinsics, distortion = _camera_fields(cam)
+    return [
+        f"{indent}resolution: {resolution}",
+        f"{indent}intrinsics: {intrinsics}",
+        f"{indent}distortion: {distortion}",
+    ]
+
+
+def _camera_entry(cam: CameraModel) -> str:
+    resolution, intrinsics, distortion = _camera_fields(cam)
+    return f"{{resolution: {resolution}, intrinsics: {intrinsics}, distortion: {distortion}}}"
 
 
 def pose_file_text(captures: Captures, result, date: str) -> str:
@@ -402,16 +417,13 @@ def camera_file_text(result, captures: Captures, date: str) -> str:
     """The calibrated intrinsics (px) with their sigmas: the camera's numeric file."""
     cam = result.camera
     s = result.sigma
-    d = ", ".join(repr(float(x)) for x in cam.distortion)
     sd = ", ".join(f"{x:.3g}" for x in s[4:9])
     lines = [
         "# The camera's intrinsics written by 'rworld calibrate-camera' (OpenCV's model:",
         "# pixels, the top-left pixel's centre at 0, 0; distortion k1 k2 p1 p2 k3).",
         "camera:",
         f"  name: {yaml_value(cam.name)}",
-        f"  resolution: [{cam.width}, {cam.height}]",
-        f"  intrinsics: {{fx: {cam.fx!r}, fy: {cam.fy!r}, cx: {cam.cx!r}, cy: {cam.cy!r}}}",
-        f"  distortion: [{d}]",
+        *_camera_lines(cam, "  "),
         "  sigma:",
         f"    intrinsics: {{fx: {s[0]:.3g}, fy: {s[1]:.3g}, cx: {s[2]:.3g}, cy: {s[3]:.3g}}}",
         f"    distortion: [{sd}]",
@@ -422,11 +434,6 @@ def camera_file_text(result, captures: Captures, date: str) -> str:
         f"  reprojection_rms_px: {result.rms:.6g}",
     ]
     return "\n".join(lines) + "\n"
-
-
-def write_text(path, text: str) -> None:
-    """Write one output atomically."""
-    atomic_write_text(path, text)
 
 
 def write_image(path, grey: np.ndarray) -> None:
@@ -456,7 +463,6 @@ def capture_template_text(
     ]
     if b.pattern == "charuco":
         pattern += [f"  marker: {float(b.marker or 0) * 1000!r}", f"  dictionary: {b.dictionary}"]
-    d = ", ".join(repr(float(x)) for x in camera.distortion)
     lines = [
         "# Views planned by 'rworld plan-views': take an image at each (the program it wrote",
         "# visits them) and name it as its view, then 'rworld calibrate-camera' this file.",
@@ -465,10 +471,7 @@ def capture_template_text(
         "camera:",
         f"  name: {yaml_value(camera.name)}",
         f"  mount: {yaml_value(mount)}",
-        f"  resolution: [{camera.width}, {camera.height}]",
-        f"  intrinsics: {{fx: {camera.fx!r}, fy: {camera.fy!r}, cx: {camera.cx!r}, "
-        f"cy: {camera.cy!r}}}",
-        f"  distortion: [{d}]",
+        *_camera_lines(camera, "  "),
         "board:",
         f"  name: {yaml_value(b.name)}",
         f"  holder: {yaml_value(base)}",

@@ -3,6 +3,7 @@ views against the truth and the bound, and its refusals."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -37,9 +38,7 @@ def _errors(result, X, Z) -> np.ndarray:
 
 
 def _unknown(views: vc.BoardViews) -> vc.BoardViews:
-    return vc.BoardViews(
-        views.board, UNKNOWN, views.setup, views.names, views.T_base_flange, views.corners
-    )
+    return dataclasses.replace(views, camera=UNKNOWN)
 
 
 @pytest.mark.parametrize("setup", [vc.EYE_IN_HAND, vc.EYE_TO_HAND])
@@ -100,19 +99,10 @@ def test_the_robots_pose_errors_are_estimated_with_the_camera():
 
 @pytest.fixture(scope="module")
 def kuka2():
-    from rworld_cli.schema.captures import read_captures, read_corners
+    from rworld_cli.api.vision import capture_views
+    from rworld_cli.schema.captures import read_captures
 
-    captures = read_captures(str(DATA / "captures.yaml"))
-    given = read_corners(captures.corners_file, captures)
-    corners = np.stack([given[n] for n in captures.names])
-    return vc.BoardViews(
-        captures.board,
-        captures.camera,
-        captures.setup,
-        captures.names,
-        captures.T_base_flange,
-        corners,
-    )
+    return capture_views(read_captures(str(DATA / "captures.yaml")))
 
 
 def test_the_real_kuka_views_held_out_are_predicted_better_than_by_opencvs_methods(kuka2):
@@ -146,7 +136,7 @@ def test_a_motion_about_one_axis_or_none_is_refused(kuka2):
     # the flange translated only: every view's rotation the first one's
     T = kuka2.T_base_flange.copy()
     T[:, :3, :3] = T[0, :3, :3]
-    moved = vc.BoardViews(kuka2.board, kuka2.camera, kuka2.setup, kuka2.names, T, kuka2.corners)
+    moved = dataclasses.replace(kuka2, T_base_flange=T)
     with pytest.raises(vc.CalibrationRefused, match="pure translations"):
         vc.calibrate_views(moved)
     with pytest.raises(vc.CalibrationRefused, match="too few views: 2"):

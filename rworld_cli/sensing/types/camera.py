@@ -20,9 +20,11 @@ class Camera(SingleCell):
         ]
         for kind in ("boards", "points"):
             for name, seen in (image.get(kind) or {}).items():
-                why = [f"{n} behind the lens" for n in [seen["behind"]] if n]
-                why += [f"{n} outside the image" for n in [seen["outside"]] if n]
-                why += [f"{n} hidden by {body}" for body, n in seen["hidden_by"].items()]
+                why = [f"{n} hidden by {body}" for body, n in seen["hidden_by"].items()]
+                if seen["outside"]:
+                    why.insert(0, f"{seen['outside']} outside the image")
+                if seen["behind"]:
+                    why.insert(0, f"{seen['behind']} behind the lens")
                 lines.append(
                     f"  {name}: {seen['seen']} of {seen['total']} "
                     + ("corners" if kind == "boards" else "point")
