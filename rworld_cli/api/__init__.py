@@ -137,7 +137,13 @@ if TYPE_CHECKING:  # the names as type checkers and readers see them
         write_run_view,
     )
     from .sweep import SweepResult, sweep_rows, sweep_run, write_sweep
-    from .vision import CameraCalibrationRun, ViewPlanRun, calibrate_camera, plan_views
+    from .vision import (
+        CameraCalibrationRun,
+        ViewPlanRun,
+        calibrate_camera,
+        captures_from_log,
+        plan_views,
+    )
 
 # module (relative to this package) -> the names the package serves from it, as imported
 # above for type checkers (tests/test_architecture.py holds the two lists equal)
@@ -179,7 +185,7 @@ _MODULES: dict[str, str] = {
         "write_run_view"
     ),
     ".sweep": "SweepResult sweep_rows sweep_run write_sweep",
-    ".vision": "CameraCalibrationRun ViewPlanRun calibrate_camera plan_views",
+    ".vision": "CameraCalibrationRun ViewPlanRun calibrate_camera captures_from_log plan_views",
 }
 # name -> (module, its name there)
 _LAZY: dict[str, tuple[str, str]] = {

@@ -5,12 +5,20 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import CheckFailed, UserError, did_you_mean
 from ..export import FORMATS, VENDOR_FORMATS, VENDOR_WITHOUT_FORMAT, Signals
 from ..units import ARCSEC
+
+if TYPE_CHECKING:
+    from ..export.common import DeviceProgram, Record
+    from ..model.program import Run
+    from ..schema.contactlog import LoggedContact
+    from ..simulate.timeline import Event, SimulationResult
+    from ..world.tree import World
 
 # the languages that drive arms (Sunrise: 7-axis, the others 6-axis); csv streams any device
 ARM_FORMATS = {
@@ -635,19 +643,20 @@ def _inform_frame(contact, record, program) -> np.ndarray:
     """``T_base_frame`` [m] of an INFORM position variable: the controller's base frame (BASE or
     ROBOT: one frame without a travel axis) or the job's user frame 1; its tool number must be
     the job's for the search's TCP."""
-    expected = program.tool_numbers.get(record.search.tool.name)
+    expected = program.tool_numbers.get(record.tool.name)
     stated = contact.fields.get("tool_number")
     if stated is not None and expected is not None and int(stated) != expected:
         raise UserError(
-            f"{contact.where}: contact {contact.number} was kept with TOOL {stated}, but the "
-            f"job searched with TOOL {expected} ({record.search.tool.name}, {record.where})"
+            f"{contact.where}: {record.kind} {contact.number} was kept with TOOL {stated}, but "
+            f"the job {'searched' if record.kind == 'contact' else 'stood'} with TOOL "
+            f"{expected} ({record.tool.name}, {record.where})"
         )
     if contact.fields["postype"] != "USER":
         return program.T_base_controller
     if not program.user_frame or contact.fields.get("user") != "1":
         raise UserError(
-            f"{contact.where}: contact {contact.number} is a USER {contact.fields.get('user')} "
-            "position, but the job "
+            f"{contact.where}: {record.kind} {contact.number} is a USER "
+            f"{contact.fields.get('user')} position, but the job "
             + (
                 f"has user frame 1 ({program.user_frame})"
                 if program.user_frame
@@ -655,6 +664,193 @@ def _inform_frame(contact, record, program) -> np.ndarray:
             )
         )
     return program.T_base_user
+
+
+@dataclass
+class LoggedReports:
+    """A controller's reports of one device's exported program, checked against the program
+    and mapped into the device's frame (:func:`logged_reports`).
+
+    Attributes
+    ----------
+    logged : list of LoggedContact
+        The reports as the log holds them, in the program's order.
+    records : list of Record
+        The program's reports of the kind, one for each.
+    events : list of Event
+        The simulated run's event of each (its instant, its reading).
+    T_base_tcp : list of ndarray, shape (4, 4)
+        Each report's TCP pose in the device's natural frame [m], through the robot's
+        calibration when the cell has one (the controller logs its nominal kinematics).
+    """
+
+    loaded: Run
+    result: SimulationResult
+    device: str
+    fmt: str
+    world: World
+    program: DeviceProgram
+    logged: list[LoggedContact]
+    records: list[Record]
+    events: list[Event]
+    T_base_tcp: list[np.ndarray]
+    notes: list[str]
+
+
+def logged_reports(
+    cell: str,
+    run: str,
+    log: str,
+    kind,
+    fmt: str | None = None,
+    device: str | None = None,
+    frame: str | None = None,
+    register: int = 101,
+) -> LoggedReports:
+    """Read the reports (``kind``: ``contactlog.CONTACT`` or ``CAPTURE``) a controller logged
+    while it ran RUN as ``export program`` wrote it, check them against the program (count,
+    order, each report's fields, the frame) and map each logged TCP pose into the device's
+    natural frame: through the controller's base frame or the user frame, and - where the cell
+    carries a robot calibration - through the nominal robot's joints at the pose into the
+    calibrated robot's (:func:`_through_calibration`).
+
+    Raises
+    ------
+    UserError
+        A malformed log (at its line), a count or a field that does not match the program's
+        reports, no device with such reports (or several: ``device``)."""
+    from ..export.common import field_value
+    from ..schema.contactlog import LANGUAGES, read_contact_log
+    from ..world.tree import World
+
+    noun = kind.noun
+    step_word = {"contact": "probe", "capture": "capture"}[noun]
+    loaded, result = _simulate(cell, run, None, None)
+    reporting = [
+        p.device
+        for p in loaded.programs
+        if any(r.kind == step_word for r in result.resolved[p.device])
+    ]
+    if device is None:
+        if len(reporting) != 1:
+            raise UserError(
+                f"{run}: "
+                + (
+                    f"no program records a {noun} (no '{step_word}:' step)"
+                    if not reporting
+                    else f"{len(reporting)} devices record {noun}s ({', '.join(reporting)}): "
+                    "choose one with --device"
+                )
+            )
+        device = reporting[0]
+    elif device not in reporting:
+        raise UserError(
+            f"--device {device}: its program in {run} records no {noun}"
+            + did_you_mean(device, reporting)
+        )
+    if fmt is None:
+        profile = loaded.cell.devices[device].controller
+        vendor = profile.vendor if profile is not None else None
+        if vendor not in VENDOR_FORMATS or VENDOR_FORMATS[vendor] not in LANGUAGES:
+            raise UserError(
+                f"give --format ({', '.join(LANGUAGES)}): '{device}' names no controller vendor "
+                "(controller.vendor) whose log rworld reads"
+            )
+        fmt = VENDOR_FORMATS[vendor]
+    if fmt not in LANGUAGES:
+        raise UserError(f"--format {fmt}: {noun} logs are read for {', '.join(LANGUAGES)}")
+    expected_count = sum(r.kind == step_word for r in result.resolved[device])
+    logged = read_contact_log(log, fmt, register, expected_count, kind)
+    stated = {c.fields["frame"] for c in logged.contacts if "frame" in c.fields} - {"base"}
+    if fmt != "urscript" and stated:
+        if len(stated) > 1:
+            raise UserError(f"{log}: {noun}s in several frames ({', '.join(sorted(stated))})")
+        named = stated.pop()
+        if frame is None:
+            frame = next((f for f in loaded.cell.frames if field_value(f) == named), None)
+            if frame is None:
+                raise UserError(f"{log}: frame={named} is no frame of the cell")
+        elif field_value(frame) != named:
+            raise UserError(f"--frame {frame}, but the log's {noun}s are in frame={named}")
+    if frame is not None and frame not in loaded.cell.frames:
+        raise UserError(
+            f"--frame: unknown frame '{frame}'{did_you_mean(frame, loaded.cell.frames)}"
+        )
+    world = World(loaded.cell)
+    program = _device_program(loaded, result, device, world, frame)
+    records = program.contacts if noun == "contact" else program.captures
+    contacts = logged.contacts
+    if len(contacts) != len(records):
+        if len(contacts) > len(records):
+            extra = contacts[len(records)]
+            raise UserError(
+                f"{extra.where}: {noun} {extra.number}: the program records "
+                f"{len(records)} {noun}(s), the log {len(contacts)}"
+            )
+        gone = records[len(contacts)]
+        last = contacts[-1].where if contacts else log
+        raise UserError(
+            f"{last}: the log holds {len(contacts)} of the program's {len(records)} {noun}s: "
+            f"{noun} {gone.number} ({gone.feature}, step {gone.step}, {gone.where}) and after "
+            "it are missing (the program stopped, or its log was cut)"
+        )
+    if logged.count is not None and logged.count != len(records):
+        variable = f"{kind.krl}_COUNT"
+        raise UserError(
+            f"{log}: {variable} = {logged.count}: the program recorded {logged.count} of its "
+            f"{len(records)} {noun}s (the values after it are an earlier run's)"
+        )
+    events = [e for e in result.events if e.device == device and e.kind == step_word]
+    dev = loaded.cell.devices[device]
+    nominal = _nominal_device(cell, loaded.cell, device)  # None: no robot calibration
+    from ..dynamics.compliance import compliances
+    from ..kinematics.jacobian import ToolMount
+
+    # a compliant arm yields under what holds it: the holding torques at each report's instant
+    holding_at = _holding_at(World(loaded.cell), result, device) if compliances(dev).any() else None
+    poses = []
+    for contact, record, event in zip(contacts, records, events, strict=True):
+        expected = {
+            "program": field_value(program.name),
+            "step": str(record.step),
+            "feature" if noun == "contact" else "camera": field_value(record.feature),
+            "tcp": field_value(record.tool.name),
+            "frame": "base" if fmt == "urscript" else field_value(program.user_frame or "base"),
+        }
+        if contact.number != record.number:
+            raise UserError(
+                f"{contact.where}: {noun} {contact.number} where {noun} {record.number} "
+                "was expected (the reports run 1, 2, ... in the program's order)"
+            )
+        if contact.total and contact.total != len(records):
+            raise UserError(
+                f"{contact.where}: {noun} {contact.number}/{contact.total}: this program "
+                f"records {len(records)} {noun}s: the log is another program's"
+            )
+        for key, value in expected.items():
+            if key in contact.fields and contact.fields[key] != value:
+                raise UserError(
+                    f"{contact.where}: {noun} {contact.number}: {key}={contact.fields[key]}, "
+                    f"but the program's {noun} {record.number} has {key}={value} "
+                    f"({record.where})"
+                )
+        if fmt == "inform":  # each position variable says its own frame and tool
+            T_base_frame = _inform_frame(contact, record, program)
+        else:
+            user = program.T_base_user if fmt != "urscript" and program.user_frame else None
+            T_base_frame = user if user is not None else program.T_base_controller
+        T_base_tcp = T_base_frame @ contact.T_frame_tcp
+        if nominal is not None:  # the controller's nominal view undone: its joints, then ours
+            holding = holding_at(event.t) if holding_at is not None else None
+            move = record.search.resolved
+            mount = ToolMount(move.link, move.T_link_tcp)
+            T_base_tcp = _through_calibration(
+                nominal, dev, T_base_tcp, mount, move, contact, holding
+            )
+        poses.append(T_base_tcp)
+    return LoggedReports(
+        loaded, result, device, fmt, world, program, contacts, records, events, poses, logged.notes
+    )
 
 
 def measure_from_log(
@@ -709,142 +905,32 @@ def measure_from_log(
         searches, a contact off its search's line (at its line); nothing written.
     """
     from ..calibration.probe_run import ProbedPoint, measurement_features
-    from ..export.common import field_value
     from ..kinematics.jacobian import ToolMount, tool_pose
-    from ..schema.contactlog import LANGUAGES, read_contact_log
+    from ..schema.contactlog import CONTACT
     from ..schema.measurements import today, write_measurements
-    from ..world.tree import World
 
     if not (tolerance > 0 and np.isfinite(tolerance)):
         raise UserError(f"--tolerance must be a finite length > 0, got {tolerance}")
     if sigma is not None and not (sigma > 0 and np.isfinite(sigma)):
         raise UserError(f"--sigma must be a finite length > 0, got {sigma}")
-    loaded, result = _simulate(cell, run, None, None)
-    probing = [
-        p.device
-        for p in loaded.programs
-        if any(r.kind == "probe" for r in result.resolved[p.device])
-    ]
-    if device is None:
-        if len(probing) != 1:
-            raise UserError(
-                f"{run}: "
-                + (
-                    "no program records a contact (no 'probe:' step)"
-                    if not probing
-                    else f"{len(probing)} devices record contacts ({', '.join(probing)}): "
-                    "choose one with --device"
-                )
-            )
-        device = probing[0]
-    elif device not in probing:
-        raise UserError(
-            f"--device {device}: its program in {run} records no contact"
-            + did_you_mean(device, probing)
-        )
-    if fmt is None:
-        profile = loaded.cell.devices[device].controller
-        vendor = profile.vendor if profile is not None else None
-        if vendor not in VENDOR_FORMATS or VENDOR_FORMATS[vendor] not in LANGUAGES:
-            raise UserError(
-                f"give --format ({', '.join(LANGUAGES)}): '{device}' names no controller vendor "
-                "(controller.vendor) whose log rworld reads"
-            )
-        fmt = VENDOR_FORMATS[vendor]
-    if fmt not in LANGUAGES:
-        raise UserError(f"--format {fmt}: contact logs are read for {', '.join(LANGUAGES)}")
-    probes = sum(r.kind == "probe" for r in result.resolved[device])
-    logged = read_contact_log(log, fmt, contact_register, probes)
-    stated = {c.fields["frame"] for c in logged.contacts if "frame" in c.fields} - {"base"}
-    if fmt != "urscript" and stated:
-        if len(stated) > 1:
-            raise UserError(f"{log}: contacts in several frames ({', '.join(sorted(stated))})")
-        named = stated.pop()
-        if frame is None:
-            frame = next((f for f in loaded.cell.frames if field_value(f) == named), None)
-            if frame is None:
-                raise UserError(f"{log}: frame={named} is no frame of the cell")
-        elif field_value(frame) != named:
-            raise UserError(f"--frame {frame}, but the log's contacts are in frame={named}")
-    if frame is not None and frame not in loaded.cell.frames:
-        raise UserError(
-            f"--frame: unknown frame '{frame}'{did_you_mean(frame, loaded.cell.frames)}"
-        )
-    world = World(loaded.cell)
-    program = _device_program(loaded, result, device, world, frame)
-    records = program.records
-    contacts = logged.contacts
-    if len(contacts) != len(records):
-        if len(contacts) > len(records):
-            extra = contacts[len(records)]
-            raise UserError(
-                f"{extra.where}: contact {extra.number}: the program records "
-                f"{len(records)} contact(s), the log {len(contacts)}"
-            )
-        gone = records[len(contacts)]
-        last = contacts[-1].where if contacts else log
-        raise UserError(
-            f"{last}: the log holds {len(contacts)} of the program's {len(records)} contacts: "
-            f"contact {gone.number} ({gone.feature}, step {gone.step}, {gone.where}) and after "
-            "it are missing (the program stopped, or its log was cut)"
-        )
-    if logged.count is not None and logged.count != len(records):
-        raise UserError(
-            f"{log}: RWC_COUNT = {logged.count}: the program recorded {logged.count} of its "
-            f"{len(records)} contacts (the values after it are an earlier run's)"
-        )
-    events = [e for e in result.events if e.device == device and e.kind == "probe"]
+    got = logged_reports(cell, run, log, CONTACT, fmt, device, frame, contact_register)
+    loaded, device, fmt, world = got.loaded, got.device, got.fmt, got.world
+    program, records, contacts = got.program, got.records, got.logged
     dev = loaded.cell.devices[device]
-    nominal = _nominal_device(cell, loaded.cell, device)  # None: no robot calibration
-    from ..dynamics.compliance import compliances
-
-    # a compliant arm yields under what holds it: the holding torques at each contact's instant
-    holding_at = _holding_at(World(loaded.cell), result, device) if compliances(dev).any() else None
     T_world_base = world.T_world(device)
     probed, report = [], []
-    for contact, record, event in zip(contacts, records, events):
-        expected = {
-            "program": field_value(program.name),
-            "step": str(record.step),
-            "feature": field_value(record.feature),
-            "tcp": field_value(record.search.tool.name),
-            "frame": "base" if fmt == "urscript" else field_value(program.user_frame or "base"),
-        }
-        if contact.number != record.number:
-            raise UserError(
-                f"{contact.where}: contact {contact.number} where contact {record.number} "
-                "was expected (the reports run 1, 2, ... in the program's order)"
-            )
-        if contact.total and contact.total != len(records):
-            raise UserError(
-                f"{contact.where}: contact {contact.number}/{contact.total}: this program "
-                f"records {len(records)} contacts: the log is another program's"
-            )
-        for key, value in expected.items():
-            if key in contact.fields and contact.fields[key] != value:
-                raise UserError(
-                    f"{contact.where}: contact {contact.number}: {key}={contact.fields[key]}, "
-                    f"but the program's contact {record.number} has {key}={value} "
-                    f"({record.where})"
-                )
+    for contact, record, event, T_base_tcp in zip(
+        contacts, records, got.events, got.T_base_tcp, strict=True
+    ):
+        assert record.search is not None and event.reading is not None  # a contact has both
         search = record.search.resolved
         sensor = search.guard
+        assert sensor is not None  # a probe's search is guarded
         T_tcp_sensor = world.T(search.tcp, sensor)
         mount = ToolMount(search.link, search.T_link_tcp)
         # the search's line: the sensor's origin from the move's start to its planned end
         ends = tool_pose(dev, np.array([search.q_start, search.q_planned]), mount) @ T_tcp_sensor
         start, end = ends[0, :3, 3], ends[1, :3, 3]
-        if fmt == "inform":  # each position variable says its own frame and tool
-            T_base_frame = _inform_frame(contact, record, program)
-        else:
-            user = program.T_base_user if fmt != "urscript" and program.user_frame else None
-            T_base_frame = user if user is not None else program.T_base_controller
-        T_base_tcp = T_base_frame @ contact.T_frame_tcp
-        if nominal is not None:  # the controller's nominal view undone: its joints, then ours
-            holding = holding_at(event.t) if holding_at is not None else None
-            T_base_tcp = _through_calibration(
-                nominal, dev, T_base_tcp, mount, search, contact, holding
-            )
         at = (T_base_tcp @ T_tcp_sensor)[:3, 3]
         line = end - start
         length = float(np.linalg.norm(line))
@@ -884,7 +970,8 @@ def measure_from_log(
             }
         )
     features = measurement_features(loaded.cell, probed, 0.0, 0)
-    radii = {float(loaded.cell.sensors[r.search.resolved.guard].ball or 0.0) for r in records}
+    guards = [r.search.resolved.guard for r in records if r.search is not None]
+    radii = {float(loaded.cell.sensors[g].ball or 0.0) for g in guards if g is not None}
     write_measurements(
         output,
         features,
@@ -906,5 +993,5 @@ def measure_from_log(
         "contacts": report,
         "features": sorted(features),
         "points": {k: len(v.points) for k, v in features.items()},
-        "notes": logged.notes,
+        "notes": got.notes,
     }

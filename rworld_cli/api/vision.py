@@ -606,16 +606,25 @@ def plan_views(
                     [1000.0 if j.kind == "prismatic" else np.degrees(1.0) for j in dev.joints]
                 )  # the program's mm and deg
                 steps: list[tuple[dict, str | None]] = []
-                home = [round(float(v), 6) for v in dev.home * per_unit]
+                # 6 decimals, rounded inside the limits (a view at a limit stays within it)
+                low = np.ceil(dev.limit_array("lower") * per_unit * 1e6) / 1e6
+                high = np.floor(dev.limit_array("upper") * per_unit * 1e6) / 1e6
+
+                def written(q):
+                    return [float(v) for v in np.clip(np.round(q * per_unit, 6), low, high)]
+
+                home = written(dev.home)
                 for number, q in enumerate(joints, start=1):
-                    view = [round(float(v), 6) for v in q * per_unit]
+                    view = written(q)
                     steps.append(({"move": {"joints": view}}, f"view {number:02d}"))
-                    steps.append(({"sense": camera}, f"capture view{number:02d}.png"))
+                    steps.append(({"capture": camera}, f"view{number:02d}.png"))
                     steps.append(({"move": {"joints": home}}, None))
                 doc = {
                     "header": [
                         f"{count} views of {board} for {camera}, chosen by rworld plan-views "
-                        "(D-optimal); each visited from home, the camera read there.",
+                        "(D-optimal); each visited from home, an image taken there (capture:",
+                        "the trigger and the pose logged when exported; rworld captures reads "
+                        "them back).",
                     ],
                     "device": device,
                     "units": {"length": "mm", "angle": "deg"},
@@ -624,3 +633,193 @@ def plan_views(
                 atomic_write_text(program, program_text(doc))
                 run.written.append(str(program))
     return run
+
+
+#: how far a logged capture pose may lie from the simulated one before it is refused: the
+#: controller's robot stands where the program sent it, to its accuracy
+CAPTURE_TOLERANCE = 0.005  # [m]
+CAPTURE_ANGLE_TOLERANCE = np.radians(1.0)  # [rad]
+
+
+def captures_from_log(
+    cell: str,
+    run: str,
+    log: str,
+    images: list[str],
+    output: str,
+    fmt: str | None = None,
+    device: str | None = None,
+    frame: str | None = None,
+    camera: str | None = None,
+    board: str | None = None,
+    capture_register: int = 151,
+    tolerance: float = CAPTURE_TOLERANCE,
+) -> dict:
+    """A capture file from a robot's run of an exported program with ``capture:`` steps: the
+    pose its controller logged at each image (``export program``'s capture reports), the
+    images in the order they were taken, for ``rworld calibrate-camera``.
+
+    The run is simulated on the cell as it is now (the pose files the program was exported
+    with): it gives each capture its camera, the TCP the controller reported and the
+    controller's frames (:func:`~rworld_cli.api.export.logged_reports`).  Each logged TCP pose
+    is mapped into the robot's base frame (through its calibration, where the cell has one),
+    and the flange's pose follows from the TCP's place on the flange: the camera's mount
+    (eye-in-hand) or the board's holder (eye-to-hand, the camera fixed in the cell).
+
+    Parameters
+    ----------
+    images : list of str
+        The image files, one for each capture, in the order taken.
+    tolerance : float
+        How far a logged pose may lie from the simulated capture's [m] (and 1 deg): further,
+        and it is not this capture's pose, or the log's frame or units are not the export's.
+
+    Raises
+    ------
+    UserError
+        A malformed log (at its line), a count or a field that does not match the program's
+        captures, a pose far from its capture's, a missing image, captures of several cameras
+        without ``camera``; nothing written.
+    """
+    import os
+
+    from .. import spatial
+    from ..errors import did_you_mean
+    from ..fileio import atomic_write_text
+    from ..schema.captures import capture_template_text
+    from ..schema.contactlog import CAPTURE
+    from .export import ARM_FORMATS, _world_at, logged_reports
+
+    if not (tolerance > 0 and np.isfinite(tolerance)):
+        raise UserError(f"--tolerance must be a finite length > 0, got {tolerance}")
+    got = logged_reports(cell, run, log, CAPTURE, fmt, device, frame, capture_register)
+    world, records = got.world, got.records
+    cell_model = got.loaded.cell
+    cameras = sorted({r.feature for r in records})
+    if camera is None:
+        if len(cameras) > 1:
+            raise UserError(
+                f"{run}: the program captures with {len(cameras)} cameras "
+                f"({', '.join(cameras)}): choose one with --camera"
+            )
+        camera = cameras[0]
+    elif camera not in cameras:
+        raise UserError(
+            f"--camera {camera}: the program takes no image with it{did_you_mean(camera, cameras)}"
+        )
+    chosen = [k for k, r in enumerate(records) if r.feature == camera]
+    if len(images) != len(chosen):
+        raise UserError(
+            f"{len(images)} image(s) given for the {len(chosen)} capture(s) of '{camera}' in "
+            f"{log}: one image for each, in the order they were taken"
+        )
+    missing = [p for p in images if not Path(p).is_file()]
+    if missing:
+        raise UserError(
+            f"no image file {missing[0]}"
+            + (f" (and {len(missing) - 1} more)" if len(missing) > 1 else "")
+        )
+    boards = [n for n, o in cell_model.objects.items() if o.board is not None]
+    name = got.device
+    try:
+        link, _ = world.mount_of(name, camera)
+    except UserError:
+        link = 0
+    setup = "eye-in-hand" if link > 0 else "eye-to-hand"
+    if board is None:
+        carried = [b for b in boards if setup == "eye-in-hand" or _on_robot(world, name, b)]
+        if len(carried) != 1:
+            raise UserError(
+                f"{cell} has {len(carried)} calibration board(s)"
+                + (" on the robot" if setup == "eye-to-hand" else "")
+                + (f" ({', '.join(carried)}): name one with --board" if carried else "")
+            )
+        board = carried[0]
+    if board not in boards:
+        raise UserError(
+            f"--board: '{board}' is not a calibration board{did_you_mean(board, boards)}"
+        )
+    # the frame on the flange: the camera's mount, or the board's holder (eye-to-hand)
+    flange_frame = world.parent(camera if setup == "eye-in-hand" else board)
+    assert flange_frame is not None  # a sensor's and an object's parent: never the root
+    if setup == "eye-to-hand" and not _on_robot(world, name, board):
+        raise UserError(
+            f"'{camera}' is fixed in the cell and '{board}' is not on '{name}': the robot moves "
+            "neither, so its poses say nothing of the camera (eye-to-hand: the board on the "
+            "flange)"
+        )
+    T_base_flange: list[np.ndarray] = []
+    report: list[dict] = []
+    for k in chosen:
+        record, event, logged = records[k], got.events[k], got.logged[k]
+        T_base_tcp = got.T_base_tcp[k]
+        _world_at(world, result=got.result, t=event.t)
+        assert record.tool is not None  # export refuses a capture before the first move
+        tcp = record.tool.name  # the resolved TCP frame the move steered
+        T_sim = world.T(name, tcp)
+        T_flange = T_base_tcp @ world.T(tcp, flange_frame)
+        off = float(np.linalg.norm(T_base_tcp[:3, 3] - T_sim[:3, 3]))
+        turn = float(np.linalg.norm(spatial.rotation_vector(T_sim[:3, :3].T @ T_base_tcp[:3, :3])))
+        # written so that a NaN anywhere is outside
+        if not (off <= tolerance and turn <= CAPTURE_ANGLE_TOLERANCE):
+            raise UserError(
+                f"{logged.where}: capture {logged.number} ({camera}, step {record.step}) lies "
+                f"{off * 1000:.3f} mm and {np.degrees(turn):.3f} deg from where the program "
+                f"took it (at most {tolerance * 1000:g} mm and "
+                f"{np.degrees(CAPTURE_ANGLE_TOLERANCE):g} deg): not this capture's pose, or "
+                "the log's frame or units are not the export's"
+            )
+        T_base_flange.append(T_flange)
+        report.append(
+            {
+                "capture": logged.number,
+                "step": record.step,
+                "where": record.where,
+                "log": logged.where,
+                "image": images[len(report)],
+                "flange_xyz_mm": (T_flange[:3, 3] * 1000).tolist(),
+                "flange_rpy_deg": np.degrees(spatial.matrix_to_rpy(T_flange[:3, :3])).tolist(),
+                "from_simulated_mm": off * 1000,
+                "from_simulated_deg": float(np.degrees(turn)),
+            }
+        )
+    base_dir = Path(output).resolve().parent
+    relative = [os.path.relpath(Path(p).resolve(), base_dir) for p in images]
+    cam = cell_model.sensors[camera].camera
+    pattern = cell_model.objects[board].board
+    assert cam is not None and pattern is not None  # a camera sensor's model, a board's
+    mount = flange_frame if setup == "eye-in-hand" else name
+    holder = name if setup == "eye-in-hand" else flange_frame
+    text = capture_template_text(
+        cam,
+        mount,
+        holder,
+        pattern,
+        np.array(T_base_flange),
+        relative,
+        setup,
+        [
+            f"The images {camera} took in a run of {Path(run).name} on {name}, with the flange",
+            f"poses its controller logged ({ARM_FORMATS[got.fmt]}: {Path(log).name}); read by",
+            "'rworld captures --from-log'. Calibrate with 'rworld calibrate-camera' this file.",
+        ],
+    )
+    atomic_write_text(output, text)
+    return {
+        "written": output,
+        "device": name,
+        "format": got.fmt,
+        "camera": camera,
+        "board": board,
+        "setup": setup,
+        "views": report,
+        "notes": got.notes,
+    }
+
+
+def _on_robot(world, device: str, frame: str) -> bool:
+    """Whether ``frame`` rides on one of ``device``'s links (not its base)."""
+    try:
+        return world.mount_of(device, frame)[0] > 0
+    except UserError:
+        return False

@@ -80,6 +80,11 @@ COMMANDS = {
         "calibrate_camera",
         "Calibrate a camera from board images and robot poses: intrinsics, hand-eye, the board.",
     ),
+    "captures": (
+        "vision",
+        "captures",
+        "A capture file from a controller's log of an exported capture program and its images.",
+    ),
     "plan-views": (
         "vision",
         "plan_views",

@@ -291,6 +291,20 @@ def export_group():
     help="fanuc: the position register, inform: the position variable of a probe program's "
     "first contact (one per contact).",
 )
+@click.option(
+    "--camera-output",
+    default=3,
+    show_default=True,
+    help="Digital output of the camera's trigger (capture: steps).",
+)
+@click.option(
+    "--capture-register",
+    default=151,
+    show_default=True,
+    type=click.IntRange(1, 9999),
+    help="fanuc: the position register, inform: the position variable of the pose at a "
+    "program's first capture (one per image).",
+)
 @json_option
 @handle_errors
 def export_program(
@@ -307,6 +321,8 @@ def export_program(
     tool_changer_output,
     sensor_input,
     contact_register,
+    camera_output,
+    capture_register,
     json_output,
 ):
     """Write the programs of RUN (or one PROGRAM file) on CELL in a robot language.
@@ -318,8 +334,10 @@ def export_program(
     speeds and accelerations of the simulated motion.  A guarded move (until:) becomes a search
     to its planned end that stops on --sensor-input.  Grasp / release / place and tool changes
     drive digital outputs; a probe: reports its contact in a line 'rworld measure --from-log'
-    reads back; syncs and waits for other devices become comments.  The files appear
-    together or not at all.  An unreachable target exits 1 with the program's file:line.
+    reads back; a capture: stands still, triggers --camera-output and reports the pose, which
+    'rworld captures --from-log' reads back with the images; syncs and waits for other devices
+    become comments.  The files appear together or not at all.  An unreachable target exits 1
+    with the program's file:line.
 
     \b
     Examples:
@@ -341,7 +359,14 @@ def export_program(
         device,
         period,
         list(against) if against else None,
-        Signals(gripper_output, tool_changer_output, sensor_input, contact_register),
+        Signals(
+            gripper_output,
+            tool_changer_output,
+            sensor_input,
+            contact_register,
+            camera_output,
+            capture_register,
+        ),
         user_frame,
         compensate,
     )

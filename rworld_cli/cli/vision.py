@@ -1,10 +1,18 @@
-"""rworld calibrate-camera"""
+"""rworld calibrate-camera, plan-views, captures"""
 
 from __future__ import annotations
 
 import click
 
-from .common import FiniteFloat, emit_json, handle_errors, json_option, with_progress
+from .common import (
+    FiniteFloat,
+    device_option,
+    emit_json,
+    handle_errors,
+    json_option,
+    output_option,
+    with_progress,
+)
 
 
 @click.command("calibrate-camera")
@@ -279,3 +287,158 @@ def plan_views(
     )
     for path in result.written:
         click.echo(f"wrote {path}")
+
+
+@click.command("captures")
+@click.argument("cell", metavar="CELL")
+@click.option(
+    "--from-log",
+    "log",
+    required=True,
+    type=click.Path(dir_okay=False),
+    metavar="LOG",
+    help="The controller's record of the run: its log, the file the program wrote, the .dat, "
+    "POSREG.VA or VAR.DAT.",
+)
+@click.option("--run", required=True, metavar="RUN|PROGRAM", help="The run (or program) exported.")
+@click.option(
+    "--images",
+    "images",
+    required=True,
+    multiple=True,
+    metavar="GLOB|FILE",
+    help="The images, in the order they were taken: files, or a quoted pattern ('shots/*.png', "
+    "sorted by name); repeat for more.",
+)
+@click.option(
+    "--format",
+    "fmt",
+    default=None,
+    type=click.Choice(["urscript", "rapid", "krl", "fanuc", "inform", "drl", "val3", "sunrise"]),
+    help="The log's language (default: the device's controller.vendor's).",
+)
+@device_option("The robot that took the images (default: the one whose program captures).")
+@click.option(
+    "--frame",
+    "user_frame",
+    default=None,
+    metavar="FRAME",
+    help="The user frame the program was exported with (export program --frame).",
+)
+@click.option(
+    "--camera", default=None, metavar="SENSOR", help="The camera, when several take images."
+)
+@click.option(
+    "--board", default=None, metavar="OBJECT", help="The board, when the cell has several."
+)
+@click.option(
+    "--capture-register",
+    default=151,
+    show_default=True,
+    type=click.IntRange(1, 9999),
+    help="--format fanuc: the position register, inform: the position variable of capture 1.",
+)
+@click.option(
+    "--tolerance",
+    default="5mm",
+    show_default=True,
+    help="How far a logged pose may lie from where the program took the image (and 1 deg).",
+)
+@output_option("The capture file to write (YAML), for calibrate-camera.", required=True)
+@json_option
+@handle_errors
+def captures(
+    cell,
+    log,
+    run,
+    images,
+    fmt,
+    device,
+    user_frame,
+    camera,
+    board,
+    capture_register,
+    tolerance,
+    output,
+    json_output,
+):
+    """A capture file from a robot's run of an exported program with capture: steps: the
+    images its camera took and the flange pose its controller logged at each, for
+    'rworld calibrate-camera'.
+
+    'rworld export program' writes each capture: step as: stand still (settle), set the
+    camera's trigger output, log the TCP pose (URScript textmsg, RAPID's file, KRL's .dat,
+    FANUC's position registers, INFORM's position variables, DRL tp_log, VAL3 logMsg, Sunrise's
+    logger), hold the trigger for the exposure, reset it (docs/export.md). This command
+    matches the log's reports with the run's captures (count, step, camera, TCP, frame), maps
+    each pose through the controller's base or user frame (and the robot's calibration, where
+    the cell has one) to the flange, checks it lies where the program took the image, and
+    writes the capture file with the images in the order taken. Give the cell with the pose
+    files the program was exported with.
+
+    \b
+    Examples:
+      rworld captures workcells/cam --from-log robot.log --run programs/views.yaml \\
+          --images 'shots/*.png' -o captures.yaml
+      rworld captures workcells/cam --from-log VIEWS.dat --run programs/views.yaml \\
+          --format krl --images shots/a.png --images shots/b.png -o captures.yaml --json
+
+    Exit codes: 0 written, 2 bad input (a malformed log, reports that are not the program's,
+    a pose far from its capture's, a missing image, not one image a capture).
+    """
+    import glob
+
+    from ..api import captures_from_log
+    from ..errors import UserError
+    from ..units import parse_length
+
+    files: list[str] = []
+    for given in images:
+        if any(ch in given for ch in "*?["):
+            found = sorted(glob.glob(given))
+            if not found:
+                raise UserError(f"--images {given}: no file matches")
+            files += found
+        else:
+            files.append(given)
+    try:
+        length = parse_length(tolerance, "--tolerance", "mm")
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    result = captures_from_log(
+        cell,
+        run,
+        log,
+        files,
+        output,
+        fmt,
+        device,
+        user_frame,
+        camera,
+        board,
+        capture_register,
+        length,
+    )
+    if json_output:
+        emit_json(result)
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    console = Console()
+    table = Table(title=f"{result['camera']} on {result['device']} ({result['setup']})")
+    for column in ("capture", "image", "log", "flange xyz [mm]", "off [mm]", "off [deg]"):
+        table.add_column(column)
+    for v in result["views"]:
+        table.add_row(
+            str(v["capture"]),
+            v["image"],
+            v["log"],
+            ", ".join(f"{x:.2f}" for x in v["flange_xyz_mm"]),
+            f"{v['from_simulated_mm']:.3f}",
+            f"{v['from_simulated_deg']:.3f}",
+        )
+    console.print(table)
+    for note in result["notes"]:
+        console.print(f"note: {note}")
+    console.print(f"wrote {result['written']}: 'rworld calibrate-camera {result['written']}'")

@@ -32,15 +32,17 @@ VENDOR_WITHOUT_FORMAT = {
 
 @dataclass(frozen=True)
 class Signals:
-    """The digital outputs that grasp / release and tool changes drive, the digital input
-    that a guarded move's sensor closes, and the first position register (FANUC) or position
-    variable (INFORM) that keeps a probe's contact."""
+    """The digital outputs that grasp / release, tool changes and camera captures drive, the
+    digital input that a guarded move's sensor closes, and the first position register
+    (FANUC) or position variable (INFORM) that keeps a probe's contact and a capture's pose."""
 
     gripper: int = 1
     tool_changer: int = 2
     sensor: int = 1
     contact_register: int = 101  # FANUC's PR[n], INFORM's P<n>: where contact 1 is kept
+    camera: int = 3  # the camera's trigger: on for the exposure
+    capture_register: int = 151  # FANUC's PR[n], INFORM's P<n>: where capture 1's pose is kept
 
     def output(self, signal: str) -> int:
-        """The output number of ``signal`` ("gripper" or "tool_changer")."""
-        return self.gripper if signal == "gripper" else self.tool_changer
+        """The output number of ``signal`` ("gripper", "tool_changer" or "camera")."""
+        return {"gripper": self.gripper, "tool_changer": self.tool_changer}.get(signal, self.camera)

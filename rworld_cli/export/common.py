@@ -198,22 +198,31 @@ class Comment:
 
 @dataclass
 class Record:
-    """A probe step: report where the last search stopped, as a probe point of a feature.
+    """A report the controller logs with the TCP's pose: a probe step's contact (where the
+    last search stopped, a probe point of a feature) or a capture step's image (where the
+    robot stood when it triggered the camera).
 
-    Every language writes the same fields (:func:`contact_fields`, ``docs/export.md``): the
-    contact's number of the program's contacts, the program, the step, its ``file:line``, the
-    feature, the TCP and the search's direction; the controller adds where the TCP stopped.
+    Every language writes the same fields (:func:`report_fields`, ``docs/export.md``): the
+    report's number of the program's reports of its kind, the program, the step, its
+    ``file:line``, the feature (a contact) or the camera (a capture), the TCP and, for a
+    contact, the search's direction; the controller adds where the TCP is.
 
     Attributes
     ----------
+    feature : str
+        A contact's feature; a capture's camera.
+    kind : {"contact", "capture"}
     number, total : int
-        This contact's number (1-based) and how many the program records.
+        This report's number (1-based) and how many of its kind the program records.
     step : int
         The probe step's number in its program (1-based).
     search : Move
-        The guarded move whose contact this records.
+        The guarded move whose contact this records; a capture's: the move that took the
+        robot there.
     direction : ndarray, shape (3,)
         The search's direction in the device's natural frame (unit; the TCP's travel).
+    tool : Tool or None
+        The tool whose TCP the controller reports (a contact: its search's).
     """
 
     feature: str
@@ -224,6 +233,13 @@ class Record:
     step: int = 0
     search: Move | None = None
     direction: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    kind: str = "contact"
+    tool: Tool | None = None
+
+    @property
+    def mark(self) -> str:
+        """What the report's line starts with: 'rworld contact' or 'rworld capture'."""
+        return CAPTURE_MARK if self.kind == "capture" else CONTACT_MARK
 
 
 Instruction = Tool | Load | Move | Output | Wait | Comment | Record
@@ -293,7 +309,16 @@ class DeviceProgram:
 
     @property
     def records(self) -> list[Record]:
+        """Every report the program logs: contacts and captures."""
         return [i for i in self.instructions if isinstance(i, Record)]
+
+    @property
+    def contacts(self) -> list[Record]:
+        return [r for r in self.records if r.kind == "contact"]
+
+    @property
+    def captures(self) -> list[Record]:
+        return [r for r in self.records if r.kind == "capture"]
 
     @property
     def tools(self) -> list[Tool]:
@@ -390,7 +415,9 @@ def instructions(
     tool: Tool | None = None
     load: Load | None = None
     search: Move | None = None  # the last guarded move: what a probe records
-    records: list[Record] = []
+    last: Move | None = None  # the last move: where a capture stands
+    records: list[Record] = []  # the contacts
+    captures: list[Record] = []
     for item in resolved:
         step, move = item.step, item.move
         text = step.describe()
@@ -411,6 +438,7 @@ def instructions(
             if is_arm(device):
                 item_move.configuration = arm_configurations(device, item_move.q_target).names()
             program.instructions.append(item_move)
+            last = item_move
             if move.guard:
                 search = item_move
         elif kind in ("grasp", "release", "place"):
@@ -435,60 +463,97 @@ def instructions(
                     step.index + 1,
                     search,
                     travel / max(float(np.linalg.norm(travel)), 1e-12),
+                    tool=search.tool,
                 )
             )
             program.instructions.append(records[-1])
+        elif kind == "capture":
+            # stand still, trigger the camera, log the pose, hold the trigger for the exposure
+            spec = step.spec
+            if tool is None or last is None:
+                raise UserError(
+                    f"{step.where}: a capture before the program's first move: the pose the "
+                    "controller logs is of the tool a move sets; move first"
+                )
+            program.instructions.append(Wait(spec.settle, step.where, f"{text}: settle"))
+            program.instructions.append(Output("camera", True, step.where, f"{text}: trigger"))
+            captures.append(
+                Record(
+                    spec.camera,
+                    step.where,
+                    text,
+                    len(captures) + 1,
+                    0,
+                    step.index + 1,
+                    last,
+                    kind="capture",
+                    tool=tool,
+                )
+            )
+            program.instructions.append(captures[-1])
+            program.instructions.append(Wait(spec.exposure, step.where, f"{text}: exposure"))
+            program.instructions.append(Output("camera", False, step.where, f"{text}: trigger off"))
         elif kind == "wait" and step.spec.time is not None:
             program.instructions.append(Wait(float(step.spec.time), step.where, text))
         else:
             program.instructions.append(
                 Comment(f"{text} (at t = {item.t0:.3f} s in the simulation)", step.where)
             )
-    for record in records:
-        record.total = len(records)
+    for group in (records, captures):
+        for record in group:
+            record.total = len(group)
     return program
 
 
 # --------------------------------------------------------------------------- contact reports
 
 CONTACT_MARK = "rworld contact"  # starts every contact report, in every language
+CAPTURE_MARK = "rworld capture"  # starts every capture report
 
 
 def field_value(text: object) -> str:
-    """A contact field's value: letters, digits and ``_ . : / -`` (anything else ``_``), so it
+    """A report field's value: letters, digits and ``_ . : / -`` (anything else ``_``), so it
     sits in any language's string literal and the report splits on spaces."""
     return re.sub(r"[^A-Za-z0-9_.:/-]", "_", str(text)) or "_"
 
 
-def contact_fields(program: DeviceProgram, record: Record, unit: str, user: bool = True) -> str:
-    """The fields of a contact report that the export knows (``docs/export.md``)::
+def report_fields(program: DeviceProgram, record: Record, unit: str, user: bool = True) -> str:
+    """The fields of a report that the export knows (``docs/export.md``)::
 
         rworld contact 3/12 program=probe step=5 line=programs/probe.yaml:40
         feature=plate.top tcp=puma.probe frame=base unit=mm dir=0,0,-1
 
+        rworld capture 2/8 program=views step=5 line=programs/views.yaml:21
+        camera=wrist_camera tcp=wrist_camera frame=base unit=mm
+
     ``frame`` is the frame the controller reports the TCP in: ``base`` (its base frame) or the
     cell frame given as the user frame; ``unit`` the length unit of the reported position;
-    ``dir`` the search's direction in that frame.  ``user``: the controller reports in the
+    ``dir`` a search's direction in that frame.  ``user``: the controller reports in the
     program's user frame (else always in its base frame).
     """
-    if user:
-        d, frame = program.direction_in_user(record.direction), program.user_frame or "base"
-    else:
-        d, frame = program.T_base_controller[:3, :3].T @ record.direction, "base"
-    tcp = record.search.tool.name if record.search is not None else "_"
-    return (
-        f"{CONTACT_MARK} {record.number}/{record.total} program={field_value(program.name)} "
+    frame = (program.user_frame or "base") if user else "base"
+    tcp = record.tool.name if record.tool is not None else "_"
+    what = "camera" if record.kind == "capture" else "feature"
+    text = (
+        f"{record.mark} {record.number}/{record.total} program={field_value(program.name)} "
         f"step={record.step} line={field_value(record.where)} "
-        f"feature={field_value(record.feature)} tcp={field_value(tcp)} "
-        f"frame={field_value(frame)} unit={unit} dir={','.join(number(x, 6) for x in d)}"
+        f"{what}={field_value(record.feature)} tcp={field_value(tcp)} "
+        f"frame={field_value(frame)} unit={unit}"
     )
+    if record.kind == "capture":
+        return text
+    if user:
+        d = program.direction_in_user(record.direction)
+    else:
+        d = program.T_base_controller[:3, :3].T @ record.direction
+    return text + f" dir={','.join(number(x, 6) for x in d)}"
 
 
 def report_lines(fields: str, head: str, limit: int, holder: str) -> list[str]:
-    """A contact report's fields (``contact_fields``) in lines of at most ``limit`` bytes,
-    each beginning with ``head`` ('rworld contact K/N') and holding whole ``key=value``
-    fields: for a language whose log message (``holder``: "DRL's tp_log") holds less than a
-    report.
+    """A report's fields (``report_fields``) in lines of at most ``limit`` bytes, each
+    beginning with ``head`` ('rworld contact K/N', 'rworld capture K/N') and holding whole
+    ``key=value`` fields: for a language whose log message (``holder``: "DRL's tp_log") holds
+    less than a report.
 
     Raises
     ------
@@ -499,7 +564,7 @@ def report_lines(fields: str, head: str, limit: int, holder: str) -> list[str]:
     for item in fields[len(head) :].split():
         if len(f"{head} {item}".encode()) > limit:
             raise UserError(
-                f"a contact report's field is longer than {holder} holds ({limit} bytes): "
+                f"a report's field is longer than {holder} holds ({limit} bytes): "
                 f"{item[:60]}...; shorten the program's path or the feature's name"
             )
         if len(f"{line} {item}".encode()) > limit:

@@ -15,7 +15,6 @@ import numpy as np
 
 from . import Signals
 from .common import (
-    CONTACT_MARK,
     DRL,
     DeviceProgram,
     Load,
@@ -24,8 +23,8 @@ from .common import (
     Record,
     Tool,
     Writer,
-    contact_fields,
     number,
+    report_fields,
     report_lines,
     walk,
 )
@@ -148,8 +147,8 @@ class DRLWriter(Writer):
         # tp_log line holds 256 bytes at most, so the report's fields take lines of their own,
         # each beginning with its 'rworld contact K/N' (docs/export.md: contact reports)
         self.body.append(f"# {note(item.where)}: {note(item.text)}")
-        fields = contact_fields(self.program, item, "mm")
-        head = f"{CONTACT_MARK} {item.number}/{item.total}"
+        fields = report_fields(self.program, item, "mm")
+        head = f"{item.mark} {item.number}/{item.total}"
         self.body.append(f"rwc_pos, rwc_sol = get_current_posx(ref={self.ref})")
         for line in report_lines(fields, head, TP_LOG_BYTES, "DRL's tp_log"):
             self.body.append(f"tp_log({line!r})")

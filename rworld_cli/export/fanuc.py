@@ -75,17 +75,28 @@ class FanucWriter(Writer):
             "of J4, J5, J6",
             f"PR[{SCRATCH_PR}] carries tool and user frame values",
         ]
-        records = program.records
-        if records:
-            last = signals.contact_register + len(records) - 1
+        contacts, captures = program.contacts, program.captures
+        if contacts:
+            last = signals.contact_register + len(contacts) - 1
             head.append(
                 f"contacts: PR[{signals.contact_register}] to PR[{last}], one a probe (cleared "
                 "first)"
             )
+        if captures:
+            last = signals.capture_register + len(captures) - 1
+            head.append(
+                f"camera trigger DO[{signals.camera}] (ON = exposing); the pose at each image: "
+                f"PR[{signals.capture_register}] to PR[{last}] (cleared first)"
+            )
         for text in head:
             body += _comments(text)
-        for k in range(len(records)):  # a register the program did not reach reads zero
-            body.append(f"PR[{signals.contact_register + k}]=LPOS-LPOS")
+        # a register the program did not reach reads zero
+        for first, group in (
+            (signals.contact_register, contacts),
+            (signals.capture_register, captures),
+        ):
+            for k in range(len(group)):
+                body.append(f"PR[{first + k}]=LPOS-LPOS")
         self.uframe = 0
         if program.user_frame:
             self.uframe = 1
@@ -184,9 +195,14 @@ class FanucWriter(Writer):
     def record(self, item: Record) -> None:
         # where the skip stopped (LPOS: the active UFRAME and UTOOL), one register a contact,
         # read back from POSREG.VA by 'rworld measure --from-log'
-        register = self.signals.contact_register + item.number - 1
+        # (a capture's: LPOS standing still at the trigger)
+        capture = item.kind == "capture"
+        first = self.signals.capture_register if capture else self.signals.contact_register
+        register = first + item.number - 1
         self.body += _comments(f"{item.where}: {item.text}")
-        self.body += _comments(f"contact {item.number}/{item.total} {item.feature}: PR[{register}]")
+        self.body += _comments(
+            f"{item.kind} {item.number}/{item.total} {item.feature}: PR[{register}]"
+        )
         self.body.append(f"PR[{register}]=LPOS")
 
     def files(self) -> dict[str, str]:

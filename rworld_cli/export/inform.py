@@ -118,14 +118,19 @@ class InformWriter(Writer):
             body += _comments(f"{kind} {number} is {frame_name} (mm, deg):")
             for key, value in zip(("X", "Y", "Z", "Rx", "Ry", "Rz"), xyz_wpr(T)):
                 body.append(f"'{kind} {number} {key} {_f(value)}")
-        records = program.records
-        if records:
-            first = signals.contact_register
+        for first, group, what in (
+            (signals.contact_register, program.contacts, "contacts"),
+            (signals.capture_register, program.captures, "captures"),
+        ):
+            if not group:
+                continue
+            if what == "captures":
+                body += _comments(f"camera trigger OT#({signals.camera}) ON = exposing")
             body += _comments(
-                f"contacts: P{first:03d} to P{first + len(records) - 1:03d}, one a probe "
-                "(cleared first)"
+                f"{what}: P{first:03d} to P{first + len(group) - 1:03d}, one a "
+                f"{'probe' if what == 'contacts' else 'image'} (cleared first)"
             )
-            for k in range(len(records)):  # a variable the run did not reach reads zero
+            for k in range(len(group)):  # a variable the run did not reach reads zero
                 body.append(f"SUB PX{first + k:03d} PX{first + k:03d}")
         self.tools, self.pulses, self.zero = tools, pulses, zero
         self.user_line, self.positions, self.body = user_line, positions, body
@@ -196,10 +201,13 @@ class InformWriter(Writer):
     def record(self, item: Record) -> None:
         # where the search stopped ($PX001: the current position, XYZ type, base frame, the
         # job's tool), one position variable a contact, read back by 'rworld measure --from-log'
-        variable = self.signals.contact_register + item.number - 1
+        # (a capture's: the robot standing still at the trigger)
+        capture = item.kind == "capture"
+        first = self.signals.capture_register if capture else self.signals.contact_register
+        variable = first + item.number - 1
         self.body += _comments(f"{item.where}: {item.text}")
         self.body += _comments(
-            f"contact {item.number}/{item.total} {item.feature}: P{variable:03d}"
+            f"{item.kind} {item.number}/{item.total} {item.feature}: P{variable:03d}"
         )
         self.body.append(f"GETS PX{variable:03d} $PX001")
 

@@ -18,11 +18,11 @@ from .common import (
     Writer,
     as_written,
     blend_percent,
-    contact_fields,
     kuka_abc,
     kuka_status_turn,
     number,
     principal,
+    report_fields,
     walk,
 )
 
@@ -66,10 +66,18 @@ class KRLWriter(Writer):
         self.dat = dat = ["&ACCESS RVP", f"DEFDAT {name}", f"; targets of {note(program.name)}"]
         self.contact = contact = KRL.identifier("RWC", used)  # RWC_1.. in the .dat: the contacts
         self.count = count = KRL.identifier("RWC_COUNT", used)
-        if program.records:
+        if program.contacts:
             dat.append(f"; contacts: {contact}_k = $POS_INT of the k-th probe, {count} recorded")
             dat.append(f"DECL INT {count}=0")
             src.append(f"{count} = 0  ; contacts recorded (the .dat keeps them)")
+        # RWV_1.. in the .dat: the poses of the captures ($POS_ACT, standing still)
+        self.capture = capture = KRL.identifier("RWV", used)
+        self.captured = captured = KRL.identifier("RWV_COUNT", used)
+        if program.captures:
+            src.insert(5, f"; camera trigger: $OUT[{signals.camera}] (TRUE = exposing)")
+            dat.append(f"; captures: {capture}_k = $POS_ACT at the k-th image, {captured} taken")
+            dat.append(f"DECL INT {captured}=0")
+            src.append(f"{captured} = 0  ; images taken (the .dat keeps their poses)")
         for tool_name, k in self.tools.items():
             dat.append(f"; TOOL_DATA[{k}] is {note(tool_name)}")
         self.targets = 0
@@ -139,11 +147,13 @@ class KRLWriter(Writer):
         # the contact ($POS_INT: where the search's interrupt latched, in $BASE with $TOOL)
         # kept in the .dat, whose values the controller saves: read back by 'rworld measure
         # --from-log' (docs/export.md: contact reports)
-        variable = f"{self.contact}_{item.number}"
+        # a capture's: $POS_ACT, the robot standing still at the trigger
+        capture = item.kind == "capture"
+        variable = f"{self.capture if capture else self.contact}_{item.number}"
         self.body += self.remark(item.where, item.text)
-        self.body.append(f"{variable} = $POS_INT")
-        self.body.append(f"{self.count} = {item.number}")
-        self.dat.append(f"; {contact_fields(self.program, item, 'mm')}")
+        self.body.append(f"{variable} = {'$POS_ACT' if capture else '$POS_INT'}")
+        self.body.append(f"{self.captured if capture else self.count} = {item.number}")
+        self.dat.append(f"; {report_fields(self.program, item, 'mm')}")
         self.dat.append(
             f"DECL E6POS {variable}={{X 0.0,Y 0.0,Z 0.0,A 0.0,B 0.0,C 0.0,S 0,T 0,E1 0.0,"
             "E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0}"

@@ -20,10 +20,10 @@ from .common import (
     abb_confdata,
     abb_quaternion,
     as_written,
-    contact_fields,
     number,
     principal,
     rapid_zone,
+    report_fields,
     walk,
 )
 
@@ -72,7 +72,15 @@ class RAPIDWriter(Writer):
                     f"  ! contacts: one line each in HOME:rworld_{name}.log (rworld measure "
                     "--from-log)"
                 ]
-                if program.records
+                if program.contacts
+                else []
+            ),
+            *(
+                [
+                    f"  ! camera trigger: do_{signals.camera} (1 = exposing); the pose at each "
+                    f"image: one line in HOME:rworld_{name}.log (rworld captures --from-log)"
+                ]
+                if program.captures
                 else []
             ),
             *("  " + line for line in RAPID.renamed(name, program.name)),
@@ -166,14 +174,22 @@ class RAPIDWriter(Writer):
         return [f"WaitTime {number(seconds, 6)};"]
 
     def record(self, item: Record) -> None:
-        # SearchL's search point (where the input closed), in the work object, one line of the
-        # contact log; a RAPID string holds 80 characters, so the line is written in pieces
-        # (docs/export.md: contact reports)
-        if self.last_hit is None:
-            return
+        # SearchL's search point (where the input closed), or a capture's pose (CRobT: the
+        # robot standing still), in the work object, one line of the log; a RAPID string holds
+        # 80 characters, so the line is written in pieces (docs/export.md: contact reports)
         body, log = self.body, self.log
-        body += self.remark(item.where, item.text)
-        text = contact_fields(self.program, item, "mm") + " "
+        if item.kind == "capture":
+            self.last_hit = RAPID.identifier(f"shot{item.number}", self.used)
+            self.lines.append(f"  VAR robtarget {self.last_hit};")
+            body += self.remark(item.where, item.text)
+            body.append(
+                f"    {self.last_hit} := CRobT(\\Tool:={self.current_tool} \\WObj:={self.wobj});"
+            )
+        elif self.last_hit is None:
+            return
+        else:
+            body += self.remark(item.where, item.text)
+        text = report_fields(self.program, item, "mm") + " "
         for k in range(0, len(text), 80):
             body.append(f'    Write {log}, "{text[k : k + 80]}"\\NoNewLine;')
         t, r = f"{self.last_hit}.trans", f"{self.last_hit}.rot"
@@ -188,7 +204,7 @@ class RAPIDWriter(Writer):
 
     def files(self) -> dict[str, str]:
         lines, body = list(self.lines), list(self.body)
-        if self.program.records:  # the contact log: a file on the controller, appended to
+        if self.program.records:  # the log: a file on the controller, appended to
             lines.append(f"  VAR iodev {self.log};")
             body.insert(
                 1, f'    Open "HOME:" \\File:="rworld_{self.name}.log", {self.log} \\Append;'

@@ -29,9 +29,9 @@ from .common import (
     Tool,
     Writer,
     as_written,
-    contact_fields,
     kuka_abc,
     number,
+    report_fields,
     walk,
 )
 
@@ -146,18 +146,21 @@ class SunriseWriter(Writer):
         ]
 
     def set_output(self, item: Output) -> list[str]:
-        method = "setGripper" if item.signal == "gripper" else "setToolChanger"
+        method = {"gripper": "setGripper", "tool_changer": "setToolChanger"}.get(
+            item.signal, "setCameraTrigger"
+        )
         return [f"{method}({'true' if item.value else 'false'});"]
 
     def pause(self, seconds: float) -> list[str]:
         return [f"ThreadUtil.milliSleep({int(round(seconds * 1000))});"]
 
     def record(self, item: Record) -> None:
-        # where the search stopped: the TCP (the tool's default motion frame) in the frame the
-        # targets are on, as the controller gives it (getCurrentCartesianPosition: x, y, z mm,
-        # A, B, C rad), one line on the application's log with the report's fields
-        # (docs/export.md: contact reports); Java prints each double to its last digit
-        fields = contact_fields(self.program, item, "mm")
+        # where the search stopped (or where the robot stands at a capture): the TCP (the
+        # tool's default motion frame) in the frame the targets are on, as the controller
+        # gives it (getCurrentCartesianPosition: x, y, z mm, A, B, C rad), one line on the
+        # application's log with the report's fields (docs/export.md: contact reports); Java
+        # prints each double to its last digit
+        fields = report_fields(self.program, item, "mm")
         frame = f"{self.current}.getDefaultMotionFrame()" if self.current else "robot.getFlange()"
         self.body += [
             f"        // {note(item.where)}: {note(item.text)}",
@@ -181,6 +184,11 @@ class SunriseWriter(Writer):
             io_methods.append(
                 f"    /** Output {signals.tool_changer}: the tool changer, true = locked. */\n"
                 "    protected abstract void setToolChanger(boolean locked);"
+            )
+        if "camera" in self.outputs:
+            io_methods.append(
+                f"    /** Output {signals.camera}: the camera's trigger, true = exposing. */\n"
+                "    protected abstract void setCameraTrigger(boolean on);"
             )
         if self.searches:
             io_methods.append(

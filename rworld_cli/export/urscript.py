@@ -13,8 +13,8 @@ from .common import (
     Record,
     Tool,
     Writer,
-    contact_fields,
     number,
+    report_fields,
     rotation_vector,
     walk,
 )
@@ -43,6 +43,8 @@ class URScriptWriter(Writer):
             f"{signals.sensor}",
             f"def {name}():",
         ]
+        if program.captures:
+            lines.insert(-1, f"# camera trigger: digital output {signals.camera} (True = exposing)")
         lines[1:1] = URSCRIPT.renamed(name, program.name)
         lines[-1:-1] = [f"# {note(line)}" for line in program.conventions()]
         if program.user_frame:
@@ -123,11 +125,11 @@ class URScriptWriter(Writer):
         return [f"sleep({number(seconds, 6)})"]
 
     def record(self, item: Record) -> None:
-        # where the search stopped (after its stopping distance): the TCP pose in the base
-        # frame as the controller logs a pose: p[x, y, z, rx, ry, rz], m and rotation vector
-        # (docs/export.md: contact reports)
+        # where the search stopped (after its stopping distance), or where the robot stands at
+        # a capture: the TCP pose in the base frame as the controller logs a pose:
+        # p[x, y, z, rx, ry, rz], m and rotation vector (docs/export.md: contact reports)
         self.body += self.remark(item.where, item.text)
-        fields = contact_fields(self.program, item, "m", user=False)
+        fields = report_fields(self.program, item, "m", user=False)
         self.body.append(f'  textmsg("{fields} pose=", get_actual_tcp_pose())')
 
     def files(self) -> dict[str, str]:

@@ -19,7 +19,6 @@ import numpy as np
 
 from . import Signals
 from .common import (
-    CONTACT_MARK,
     VAL3,
     DeviceProgram,
     Load,
@@ -29,7 +28,7 @@ from .common import (
     Tool,
     Writer,
     as_written,
-    contact_fields,
+    report_fields,
     report_lines,
     walk,
 )
@@ -93,6 +92,14 @@ class VAL3Writer(Writer):
             f"outputs: dGripper (true = closed) and dToolChanger (true = locked): link them to "
             f"outputs {signals.gripper} and {signals.tool_changer}; dSensor (searches) to input "
             f"{signals.sensor}",
+            *(
+                [
+                    "dCamera (true = exposing: the camera's trigger): link it to output "
+                    f"{signals.camera}"
+                ]
+                if program.captures
+                else []
+            ),
             *([f"application '{app}' is program '{program.name}'"] if app != program.name else []),
             *program.conventions(),
             "rx, ry, rz: about x, then the new y, then the new z (R = Rx Ry Rz), degrees; mm",
@@ -149,7 +156,7 @@ class VAL3Writer(Writer):
             ]
 
     def set_output(self, item: Output) -> list[str]:
-        name = "dGripper" if item.signal == "gripper" else "dToolChanger"
+        name = {"gripper": "dGripper", "tool_changer": "dToolChanger"}.get(item.signal, "dCamera")
         return [
             "waitEndMove()",
             f"{name} = {'true' if item.value else 'false'}",
@@ -164,8 +171,8 @@ class VAL3Writer(Writer):
         # holds 128 characters, so the report's fields take lines of their own, each beginning
         # with its 'rworld contact K/N', the point on the last (docs/export.md)
         self.body.append(f"  // {note(item.where)}: {note(item.text)}")
-        fields = contact_fields(self.program, item, "mm")
-        head = f"{CONTACT_MARK} {item.number}/{item.total}"
+        fields = report_fields(self.program, item, "mm")
+        head = f"{item.mark} {item.number}/{item.total}"
         frame = "fUser[0]" if self.program.user_frame else "world[0]"
         self.body.append(f"  pContact[0] = here(tTool[{self.current_tool}], {frame})")
         for line in report_lines(fields, head, STRING_BYTES, "a VAL3 string"):
@@ -195,6 +202,8 @@ class VAL3Writer(Writer):
             _array("dToolChanger", "dio", ['<Value key="0" link="" />']),
             _array("dSensor", "dio", ['<Value key="0" link="" />']),
         ]
+        if program.captures:  # the camera's trigger
+            datas.append(_array("dCamera", "dio", ['<Value key="0" link="" />']))
         if self.reports:  # here() of each contact, logged as it is read
             datas.append(_array("pContact", "pointRx", [EMPTY["pointRx"]]))
         if program.user_frame:

@@ -66,7 +66,8 @@ class Step:
     index : int
         0-based position in its program.
     kind : str
-        move | grasp | release | place | attach_tool | detach_tool | wait | sync | sense | probe
+        move | grasp | release | place | attach_tool | detach_tool | wait | sync | sense | capture
+        | probe
     spec : object
         The step's parameters, by attribute as in ``docs/simulation.md`` (``to``, ``tcp``,
         ``speed``,
@@ -129,6 +130,8 @@ class Step:
             return f"wait {s.time} s" if s.time is not None else f"wait for {s.for_}"
         if self.kind == "sense":
             return f"sense {s}"
+        if self.kind == "capture":
+            return f"capture {s.camera}"
         if self.kind == "probe":
             return f"probe {s.feature}" + (
                 f" ({self.goal.points} points)" if self.goal is not None else ""
@@ -255,7 +258,8 @@ class ResolvedStep:
     action : str or None
         What happened when it is not a move: ``grasp``, ``release``, ``place``,
         ``attach_tool``, ``detach_tool`` (the affixment tree changed), ``probe`` (a contact
-        recorded); None: the step itself (a wait, a sync, a sense).
+        recorded), ``capture`` (an image taken: the camera is ``step.spec.camera``); None: the step
+        itself (a wait, a sync, a sense).
     feature : str or None
         A ``probe`` action's feature.
     """

@@ -449,11 +449,20 @@ def write_image(path, grey: np.ndarray) -> None:
 
 
 def capture_template_text(
-    camera: CameraModel, mount: str, base: str, board: BoardModel, T_base_flange
+    camera: CameraModel,
+    mount: str,
+    holder: str,
+    board: BoardModel,
+    T_base_flange,
+    images: list[str] | None = None,
+    setup: str = "eye-in-hand",
+    header: list[str] | None = None,
 ) -> str:
-    """A capture file of planned views (mm, deg): the camera's nominal intrinsics as the
-    start, the board, each view's image name (``view01.png`` ...) and flange pose; the images
-    are to be taken (``rworld calibrate-camera``)."""
+    """A capture file (mm, deg): the camera's nominal intrinsics as the start, the board,
+    each view's image (default ``view01.png`` ...: planned views, the images to be taken) and
+    flange pose; ``mount`` the camera's parent (the flange, or the base eye-to-hand),
+    ``holder`` the board's (the base, or the flange eye-to-hand); ``header``: the comment
+    lines on top (default: planned views' instructions)."""
     b = board
     pattern = [
         f"  pattern: {b.pattern}",
@@ -463,25 +472,30 @@ def capture_template_text(
     ]
     if b.pattern == "charuco":
         pattern += [f"  marker: {float(b.marker or 0) * 1000!r}", f"  dictionary: {b.dictionary}"]
+    if header is None:
+        header = [
+            "Views planned by 'rworld plan-views': take an image at each (the program it wrote",
+            "visits them) and name it as its view, then 'rworld calibrate-camera' this file.",
+        ]
     lines = [
-        "# Views planned by 'rworld plan-views': take an image at each (the program it wrote",
-        "# visits them) and name it as its view, then 'rworld calibrate-camera' this file.",
+        *(f"# {line}" for line in header),
         "units: {length: mm, angle: deg}",
-        "setup: eye-in-hand",
+        f"setup: {setup}",
         "camera:",
         f"  name: {yaml_value(camera.name)}",
         f"  mount: {yaml_value(mount)}",
         *_camera_lines(camera, "  "),
         "board:",
         f"  name: {yaml_value(b.name)}",
-        f"  holder: {yaml_value(base)}",
+        f"  holder: {yaml_value(holder)}",
         *pattern,
         "views:",
     ]
     for k, T in enumerate(T_base_flange):
         xyz = ", ".join(repr(float(x) * 1000) for x in T[:3, 3])
         rpy = ", ".join(repr(float(x)) for x in np.degrees(spatial.matrix_to_rpy(T[:3, :3])))
-        lines.append(f"  - image: view{k + 1:02d}.png")
+        image = images[k] if images is not None else f"view{k + 1:02d}.png"
+        lines.append(f"  - image: {yaml_value(image)}")
         lines.append(f"    flange: {{xyz: [{xyz}], rpy: [{rpy}]}}")
     return "\n".join(lines) + "\n"
 

@@ -75,6 +75,27 @@ UNITS = {"m": 1.0, "mm": 1e-3}
 FIELDS = ("program", "step", "line", "feature", "tcp", "frame", "unit", "dir")
 
 
+@dataclass(frozen=True)
+class ReportKind:
+    """What a kind of report starts with and holds: a probe's contact, or the robot's pose
+    at a capture's image (``rworld capture K/N ... camera=C``, no ``dir``; KRL keeps it in
+    ``RWV_K`` = ``$POS_ACT``)."""
+
+    noun: str  # "contact" | "capture"
+    mark: str
+    fields: tuple[str, ...]
+    krl: str  # the .dat's variables: RWC_K, RWC_COUNT
+
+
+CONTACT = ReportKind("contact", MARK, FIELDS, "RWC")
+CAPTURE = ReportKind(
+    "capture",
+    "rworld capture",
+    ("program", "step", "line", "camera", "tcp", "frame", "unit"),
+    "RWV",
+)
+
+
 @dataclass
 class LoggedContact:
     """One contact as the controller reported it.
@@ -156,25 +177,28 @@ def _pairs(items: list[tuple[str, str]], path: str, line: int, what: str) -> dic
     return out
 
 
-def _head(text: str, path: str, line: int) -> tuple[int, int, int, str]:
+def _head(text: str, path: str, line: int, kind: ReportKind) -> tuple[int, int, int, str]:
     """(where the mark starts, K, N, the rest after 'rworld contact K/N') of a report line."""
-    start = text.index(MARK)
-    head = re.match(rf"{MARK} (\d{{1,6}})/(\d{{1,6}})\s", text[start:], re.ASCII)
+    mark = kind.mark
+    start = text.index(mark)
+    head = re.match(rf"{mark} (\d{{1,6}})/(\d{{1,6}})\s", text[start:], re.ASCII)
     if head is None:
-        _fail(path, line, f"'{MARK}' without its 'K/N' count", start + 1)
+        _fail(path, line, f"'{mark}' without its 'K/N' count", start + 1)
     k, total = int(head.group(1)), int(head.group(2))
     if not 1 <= k <= total <= MAX_CONTACTS:
-        _fail(path, line, f"contact {k}/{total}: a report counts 1 to N", start + 1)
+        _fail(path, line, f"{kind.noun} {k}/{total}: a report counts 1 to N", start + 1)
     return start, k, total, text[start + head.end() :]
 
 
-def _report(text: str, path: str, line: int) -> tuple[int, int, dict[str, str], str]:
+def _report(
+    text: str, path: str, line: int, kind: ReportKind
+) -> tuple[int, int, dict[str, str], str]:
     """(K, N, fields, the rest after the fields) of a report line from its mark on."""
-    start, k, total, rest = _head(text, path, line)
+    start, k, total, rest = _head(text, path, line, kind)
     fields = _pairs(re.findall(r"(\w+)=(\S+)", rest, re.ASCII), path, line, "report")
-    missing = [f for f in FIELDS if f not in fields]
+    missing = [f for f in kind.fields if f not in fields]
     if missing:
-        _fail(path, line, f"contact report without {', '.join(missing)}", start + 1)
+        _fail(path, line, f"{kind.noun} report without {', '.join(missing)}", start + 1)
     if fields["unit"] not in UNITS:
         _fail(
             path, line, f"unit={fields['unit']}: the reports give m or mm", text.index("unit=") + 1
@@ -182,15 +206,15 @@ def _report(text: str, path: str, line: int) -> tuple[int, int, dict[str, str], 
     return k, total, fields, rest
 
 
-def _urscript(lines: list[str], path: str) -> list[LoggedContact]:
+def _urscript(lines: list[str], path: str, kind: ReportKind) -> list[LoggedContact]:
     out = []
     for n, text in enumerate(lines, start=1):
-        if MARK not in text:
+        if kind.mark not in text:
             continue
-        k, total, fields, rest = _report(text, path, n)
+        k, total, fields, rest = _report(text, path, n, kind)
         found = re.search(r"pose=\s*p\[([^\]]*)\]", rest)
         if found is None:
-            _fail(path, n, "a URScript contact report ends in 'pose=p[x, y, z, rx, ry, rz]'")
+            _fail(path, n, f"a URScript {kind.noun} report ends in 'pose=p[x, y, z, rx, ry, rz]'")
         v = _numbers(found.group(1), 6, path, n, "the pose")
         scale = UNITS[fields["unit"]]
         if not np.linalg.norm(v[3:]) <= 2 * np.pi:
@@ -207,15 +231,15 @@ def _urscript(lines: list[str], path: str) -> list[LoggedContact]:
     return out
 
 
-def _sunrise(lines: list[str], path: str) -> list[LoggedContact]:
+def _sunrise(lines: list[str], path: str, kind: ReportKind) -> list[LoggedContact]:
     out = []
     for n, text in enumerate(lines, start=1):
-        if MARK not in text:
+        if kind.mark not in text:
             continue
-        k, total, fields, rest = _report(text, path, n)
+        k, total, fields, rest = _report(text, path, n, kind)
         found = re.search(r"\bpose=(\S*)\s*$", rest)
         if found is None:
-            _fail(path, n, "a Sunrise contact report ends in 'pose=x,y,z,A,B,C' (mm, rad)")
+            _fail(path, n, f"a Sunrise {kind.noun} report ends in 'pose=x,y,z,A,B,C' (mm, rad)")
         v = _numbers(found.group(1), 6, path, n, "the pose")
         if not np.all(np.abs(v[3:]) <= 2 * np.pi):
             _fail(path, n, "the pose's A, B, C are radians: no controller reports over 2 pi")
@@ -253,7 +277,9 @@ _SPLIT_POSES = {
 }
 
 
-def _split_reports(lines: list[str], path: str, language: str) -> list[LoggedContact]:
+def _split_reports(
+    lines: list[str], path: str, language: str, kind: ReportKind
+) -> list[LoggedContact]:
     """Reports whose fields take several log lines (DRL's tp_log, VAL3's logMsg), each
     beginning with its 'rworld contact K/N', the pose on the last: x, y, z (the report's
     unit) and three angles in degrees (:data:`_SPLIT_POSES`)."""
@@ -262,11 +288,11 @@ def _split_reports(lines: list[str], path: str, language: str) -> list[LoggedCon
     gathered: dict[str, str] = {}  # the fields of the report under way
     at = None  # its (K, N) and first line
     for n, text in enumerate(lines, start=1):
-        if MARK not in text:
+        if kind.mark not in text:
             continue
-        start, k, total, rest = _head(text, path, n)
+        start, k, total, rest = _head(text, path, n, kind)
         if at is not None and at[:2] != (k, total):
-            _fail(path, n, f"contact {at[0]}/{at[1]} of line {at[2]} has no {key}= line")
+            _fail(path, n, f"{kind.noun} {at[0]}/{at[1]} of line {at[2]} has no {key}= line")
         if at is None:
             at = (k, total, n)
         found = re.match(pattern, rest)
@@ -276,9 +302,9 @@ def _split_reports(lines: list[str], path: str, language: str) -> list[LoggedCon
                     _fail(path, n, f"report: '{name}' given twice")
                 gathered[name] = value
             continue
-        missing = [f for f in FIELDS if f not in gathered]
+        missing = [f for f in kind.fields if f not in gathered]
         if missing:
-            _fail(path, at[2], f"contact report without {', '.join(missing)}", start + 1)
+            _fail(path, at[2], f"{kind.noun} report without {', '.join(missing)}", start + 1)
         if gathered["unit"] not in UNITS:
             _fail(path, at[2], f"unit={gathered['unit']}: the reports give m or mm")
         v = _numbers(found.group(1), 6, path, n, key)
@@ -286,20 +312,22 @@ def _split_reports(lines: list[str], path: str, language: str) -> list[LoggedCon
         out.append(LoggedContact(k, total, T, dict(gathered), f"{path}:{at[2]}"))
         gathered, at = {}, None
     if at is not None:
-        _fail(path, at[2], f"contact {at[0]}/{at[1]} has no {key}= line (the log ends first)")
+        _fail(path, at[2], f"{kind.noun} {at[0]}/{at[1]} has no {key}= line (the log ends first)")
     return out
 
 
-def _rapid(lines: list[str], path: str) -> list[LoggedContact]:
+def _rapid(lines: list[str], path: str, kind: ReportKind) -> list[LoggedContact]:
     out = []
     for n, text in enumerate(lines, start=1):
-        if MARK not in text:
+        if kind.mark not in text:
             continue
-        k, total, fields, rest = _report(text, path, n)
+        k, total, fields, rest = _report(text, path, n, kind)
         # x=, y=, z= and q= are fields of the report like the others
         absent = [key for key in ("x", "y", "z", "q") if key not in fields]
         if absent:
-            _fail(path, n, "a RAPID contact report ends in 'x= y= z=' (mm) and 'q=q1,q2,q3,q4'")
+            _fail(
+                path, n, f"a RAPID {kind.noun} report ends in 'x= y= z=' (mm) and 'q=q1,q2,q3,q4'"
+            )
         p = np.array([_number(fields[c], path, n, c) for c in "xyz"]) * UNITS[fields["unit"]]
         q = _numbers(fields["q"], 4, path, n, "q")
         norm = float(np.linalg.norm(q))
@@ -310,28 +338,29 @@ def _rapid(lines: list[str], path: str) -> list[LoggedContact]:
     return out
 
 
-def _krl(lines: list[str], path: str) -> tuple[list[LoggedContact], int | None]:
+def _krl(lines: list[str], path: str, kind: ReportKind) -> tuple[list[LoggedContact], int | None]:
     out, count, report = [], None, None
+    RWC = kind.krl  # the variables' prefix: RWC_K, RWC_COUNT (contacts), RWV_K (captures)
     for n, text in enumerate(lines, start=1):
         stripped = text.strip()
-        if stripped.startswith(";") and MARK in stripped:
-            report = (n, *_report(stripped, path, n))
+        if stripped.startswith(";") and kind.mark in stripped:
+            report = (n, *_report(stripped, path, n, kind))
             continue
-        found = re.match(r"DECL\s+INT\s+RWC_COUNT\s*=\s*(\S+)\s*$", stripped, re.I | re.ASCII)
+        found = re.match(rf"DECL\s+INT\s+{RWC}_COUNT\s*=\s*(\S+)\s*$", stripped, re.I | re.ASCII)
         if found:
-            value = _number(found.group(1), path, n, "RWC_COUNT")
+            value = _number(found.group(1), path, n, f"{RWC}_COUNT")
             if not (value == int(value) and 0 <= value <= MAX_CONTACTS):
-                _fail(path, n, f"RWC_COUNT = {found.group(1)}: not a count of contacts")
+                _fail(path, n, f"{RWC}_COUNT = {found.group(1)}: not a count of {kind.noun}s")
             count = int(value)
             continue
         found = re.match(
-            r"DECL\s+E6POS\s+RWC_(\d{1,6})\s*=\s*\{(.*)\}\s*$", stripped, re.I | re.ASCII
+            rf"DECL\s+E6POS\s+{RWC}_(\d{{1,6}})\s*=\s*\{{(.*)\}}\s*$", stripped, re.I | re.ASCII
         )
         if not found:
             continue
         k = int(found.group(1))
         if report is None or report[1] != k:
-            _fail(path, n, f"RWC_{k} without its '; {MARK} {k}/N' line above it")
+            _fail(path, n, f"{RWC}_{k} without its '; {kind.mark} {k}/N' line above it")
         items = []
         for item in found.group(2).split(","):
             parts = item.split()
@@ -339,14 +368,14 @@ def _krl(lines: list[str], path: str) -> tuple[list[LoggedContact], int | None]:
                 _fail(
                     path,
                     n,
-                    f"RWC_{k}: '{item.strip()[:40]}' is not 'NAME value' (an E6POS component)",
+                    f"{RWC}_{k}: '{item.strip()[:40]}' is not 'NAME value' (an E6POS component)",
                 )
             items.append((parts[0].upper(), parts[1]))
-        values = _pairs(items, path, n, f"RWC_{k}")
+        values = _pairs(items, path, n, f"{RWC}_{k}")
         absent = [c for c in "XYZABC" if c not in values]
         if absent:
-            _fail(path, n, f"RWC_{k} has no {', '.join(absent)}")
-        v = {c: _number(x, path, n, f"RWC_{k}.{c}") for c, x in values.items()}  # all of them
+            _fail(path, n, f"{RWC}_{k} has no {', '.join(absent)}")
+        v = {c: _number(x, path, n, f"{RWC}_{k}.{c}") for c, x in values.items()}  # all of them
         _, _, total, fields, _ = report
         scale = UNITS[fields["unit"]]
         xyz = np.array([v["X"], v["Y"], v["Z"]]) * scale
@@ -474,7 +503,11 @@ def _inform(lines: list[str], path: str, first: int, count: int | None) -> list[
 
 
 def read_contact_log(
-    path: str, language: str, first_register: int = 101, count: int | None = None
+    path: str,
+    language: str,
+    first_register: int = 101,
+    count: int | None = None,
+    kind: ReportKind = CONTACT,
 ) -> ContactLog:
     """The contacts a controller recorded, from its log or the file the program wrote.
 
@@ -483,10 +516,13 @@ def read_contact_log(
     language : {"urscript", "rapid", "krl", "fanuc", "inform", "drl", "val3", "sunrise"}
     first_register : int
         FANUC: the position register, INFORM: the position variable of contact 1 (``export
-        program --contact-register``).
+        program --contact-register``; a capture's: ``--capture-register``).
     count : int, optional
         INFORM: the contacts the program records (the variables after them are the user's);
         None: up to the first variable that is not an XYZ-type position.
+    kind : ReportKind
+        :data:`CONTACT` (a probe program's contacts) or :data:`CAPTURE` (the robot's pose at
+        each image a program's ``capture:`` steps took).
 
     Raises
     ------
@@ -501,7 +537,7 @@ def read_contact_log(
         if len(raw) > MAX_LOG_BYTES:
             raise UserError(
                 f"{path}: over {MAX_LOG_BYTES} bytes; give the part of the log with the "
-                "run (from its 'rworld contact 1/N' report on)"
+                f"run (from its '{kind.mark} 1/N' report on)"
             )
     except OSError as exc:
         raise UserError(f"cannot read {path}: {exc.strerror or exc}") from None
@@ -509,31 +545,32 @@ def read_contact_log(
     lines = text.splitlines()
     count = None
     if language == "urscript":
-        contacts = _urscript(lines, path)
+        contacts = _urscript(lines, path, kind)
     elif language == "rapid":
-        contacts = _rapid(lines, path)
+        contacts = _rapid(lines, path, kind)
     elif language == "krl":
-        contacts, count = _krl(lines, path)
+        contacts, count = _krl(lines, path, kind)
     elif language == "sunrise":
-        contacts = _sunrise(lines, path)
+        contacts = _sunrise(lines, path, kind)
     elif language == "inform":
         contacts = _inform(lines, path, first_register, count)
     elif language in _SPLIT_POSES:
-        contacts = _split_reports(lines, path, language)
+        contacts = _split_reports(lines, path, language, kind)
     else:
         contacts = _fanuc(lines, path, first_register)
+    mark, noun = kind.mark, kind.noun
     if not contacts:
         where = {
-            "urscript": f"no line holds '{MARK}' (the program's textmsg reports)",
-            "rapid": f"no line holds '{MARK}' (the file HOME:rworld_<program>.log)",
-            "krl": "no 'DECL E6POS RWC_k' with its report line (the program's .dat file)",
-            "fanuc": f"PR[{first_register}] holds no contact",
-            "inform": f"P{first_register:03d} holds no contact (not listed, or zero: not reached)",
-            "drl": f"no line holds '{MARK}' (the teach pendant's log of the tp_log reports)",
-            "val3": f"no line holds '{MARK}' (the controller's log of the logMsg reports)",
-            "sunrise": f"no line holds '{MARK}' (the application's log: getLogger().info)",
+            "urscript": f"no line holds '{mark}' (the program's textmsg reports)",
+            "rapid": f"no line holds '{mark}' (the file HOME:rworld_<program>.log)",
+            "krl": f"no 'DECL E6POS {kind.krl}_k' with its report line (the program's .dat file)",
+            "fanuc": f"PR[{first_register}] holds no {noun}",
+            "inform": f"P{first_register:03d} holds no {noun} (not listed, or zero: not reached)",
+            "drl": f"no line holds '{mark}' (the teach pendant's log of the tp_log reports)",
+            "val3": f"no line holds '{mark}' (the controller's log of the logMsg reports)",
+            "sunrise": f"no line holds '{mark}' (the application's log: getLogger().info)",
         }[language]
-        raise UserError(f"{path}: no contact: {where}")
+        raise UserError(f"{path}: no {noun}: {where}")
     notes = []
     if language not in ("krl", "fanuc", "inform"):  # the last run: from the last 1/N on
         starts = [i for i, c in enumerate(contacts) if c.number == 1]
@@ -542,12 +579,12 @@ def read_contact_log(
             _fail(
                 path,
                 int(first.where.rsplit(":", 1)[1]),
-                f"contact {first.number}/{first.total} before any contact 1: the log starts in "
+                f"{noun} {first.number}/{first.total} before any {noun} 1: the log starts in "
                 "the middle of a run",
             )
         if len(starts) > 1:
             notes.append(
-                f"{len(starts) - 1} earlier run(s) in {path} left out: the contacts from "
+                f"{len(starts) - 1} earlier run(s) in {path} left out: the {noun}s from "
                 f"{contacts[starts[-1]].where} on are read"
             )
             contacts = contacts[starts[-1] :]

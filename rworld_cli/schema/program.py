@@ -304,6 +304,20 @@ class ProbeSpec(Strict):
     )
 
 
+class CaptureSpec(Strict):
+    camera: Name = Field(description="The camera sensor that takes the image.")
+    settle: Annotated[float, Field(ge=0, le=60)] = Field(
+        0.5,
+        description="Seconds the robot stands still before the trigger, for the arm's "
+        "vibration to die down.",
+    )
+    exposure: Annotated[float, Field(gt=0, le=60)] = Field(
+        0.1,
+        description="Seconds the trigger output is held on (the camera's exposure); the robot "
+        "stays still.",
+    )
+
+
 class WaitSpec(Strict):
     time: Annotated[float, Field(ge=0)] | None = Field(None, description="Seconds to wait.")
     for_: Name | None = Field(
@@ -349,6 +363,11 @@ class Step(Strict):
     sense: Name | None = Field(
         None, description="Read a sensor; the reading is recorded as an event."
     )
+    capture: CaptureSpec | None = Field(
+        None,
+        description="Take an image: stand still, trigger the camera, log the robot's pose "
+        "('capture: camera' for short; docs/vision.md).",
+    )
     probe: ProbeSpec | None = Field(
         None,
         description="Record where the guarded move before stopped (its sensor's origin, a ball "
@@ -364,6 +383,11 @@ class Step(Strict):
     @classmethod
     def _probe_shorthand(cls, v):
         return {"feature": v} if isinstance(v, str) else v
+
+    @field_validator("capture", mode="before")
+    @classmethod
+    def _capture_shorthand(cls, v):
+        return {"camera": v} if isinstance(v, str) else v
 
     @field_validator("attach_tool", "detach_tool", mode="before")
     @classmethod
@@ -395,6 +419,7 @@ STEP_KINDS = (
     "wait",
     "sync",
     "sense",
+    "capture",
     "probe",
 )
 

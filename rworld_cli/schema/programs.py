@@ -595,6 +595,17 @@ def _check_program(
                         f"unknown sensor '{spec}'{did_you_mean(spec, cell.sensors)}",
                     )
                 )
+        elif raw.kind == "capture":
+            cameras = [n for n, sensor in cell.sensors.items() if sensor.type == "camera"]
+            if spec.camera not in cameras:
+                issues.append(
+                    doc.issue(
+                        path + ("camera",),
+                        f"'{spec.camera}' is not a camera sensor"
+                        f"{did_you_mean(spec.camera, cameras)}; the cell's cameras: "
+                        f"{', '.join(cameras) or 'none'}",
+                    )
+                )
         elif raw.kind == "probe":
             if spec.feature not in cell.features:
                 issues.append(

@@ -1,5 +1,6 @@
-"""Contact steps: guarded moves cut where their sensor first senses, ``probe:`` records, and
-``sense:`` readings, as the scheduler's methods (a mixin: ``self`` is an ``engine._Scheduler``)."""
+"""Contact steps: guarded moves cut where their sensor first senses, ``probe:`` records,
+``sense:`` readings and ``capture:`` images, as the scheduler's methods (a mixin: ``self`` is
+an ``engine._Scheduler``)."""
 
 from __future__ import annotations
 
@@ -134,4 +135,30 @@ class ContactSteps:
                 reading=reading.as_dict(),
             )
         )
+        return True
+
+    def _capture(self, device, tr, step):
+        """Stand still ``settle`` seconds, take the image (the camera's reading at that
+        instant, recorded as a ``capture`` event; an action the exporters write as the
+        trigger and the pose report), hold still while the trigger is on (``exposure``)."""
+        from ..sensing.sensors import read_sensors
+
+        spec = step.spec
+        tr.t += spec.settle
+        self.set_time(tr.t)
+        reading = read_sensors(self.world, [spec.camera])[0]
+        self._actions.append(ResolvedStep(step, tr.t, None, "capture"))
+        image = (reading.as_dict().get("image") or {}).get("boards", {})
+        seen = ", ".join(f"{b['seen']}/{b['total']} corners of {n}" for n, b in image.items())
+        self.events.append(
+            Event(
+                tr.t,
+                device,
+                step.index,
+                "capture",
+                f"capture {spec.camera}: {seen or 'no board in the cell'}",
+                reading=reading.as_dict(),
+            )
+        )
+        tr.t += spec.exposure
         return True

@@ -188,6 +188,7 @@ STEP_METHODS = {
     "move": MotionSteps._move,
     "probe": ContactSteps._probe,
     "sense": ContactSteps._sense,
+    "capture": ContactSteps._capture,
     "grasp": AffixmentSteps._grasp,
     "release": AffixmentSteps._release,
     "place": AffixmentSteps._place,

@@ -52,10 +52,13 @@ def rapid_file(contacts: list[Reported], digits: int = 8) -> str:
     return "\n".join(out) + "\n"
 
 
-def krl_dat(exported_dat: str, contacts: list[Reported], count: int | None = None) -> str:
+def krl_dat(
+    exported_dat: str, contacts: list[Reported], count: int | None = None, prefix: str = "RWC"
+) -> str:
     """The exported .dat as the controller keeps it after the run: each RWC_K assigned its
     $POS_INT (mm; A, B, C: R = Rz(A) Ry(B) Rx(C), deg), RWC_COUNT the contacts recorded; the
-    KSS writes values without the spaces after commas."""
+    KSS writes values without the spaces after commas.  ``prefix`` "RWV": a capture
+    program's poses ($POS_ACT at each image, RWV_COUNT the images taken)."""
     text = exported_dat
     for k, c in enumerate(contacts, start=1):
         p = c.T[:3, 3] * 1000
@@ -64,9 +67,9 @@ def krl_dat(exported_dat: str, contacts: list[Reported], count: int | None = Non
             f"X {p[0]:.9f},Y {p[1]:.9f},Z {p[2]:.9f},A {a:.9f},B {b:.9f},C {cc:.9f},S 2,T 35,"
             "E1 0.0,E2 0.0,E3 0.0,E4 0.0,E5 0.0,E6 0.0"
         )
-        text = re.sub(rf"(DECL E6POS RWC_{k})=\{{[^}}]*\}}", rf"\1={{{values}}}", text)
+        text = re.sub(rf"(DECL E6POS {prefix}_{k})=\{{[^}}]*\}}", rf"\1={{{values}}}", text)
     recorded = len(contacts) if count is None else count
-    return re.sub(r"DECL INT RWC_COUNT=\d+", f"DECL INT RWC_COUNT={recorded}", text)
+    return re.sub(rf"DECL INT {prefix}_COUNT=\d+", f"DECL INT {prefix}_COUNT={recorded}", text)
 
 
 def fanuc_posreg(contacts: list[Reported], first: int, digits: int = 3, size: int = 200) -> str:
@@ -293,7 +296,9 @@ def reports_in(text: str) -> list[str]:
         return _joined(_log_msgs(text))
     if "getLogger().info(" in text:
         return re.findall(r'getLogger\(\)\.info\("([^"]*) pose=" \+', text)
-    found = re.findall(r'textmsg\("(rworld contact [^"]*?) pose=", get_actual_tcp_pose\(\)\)', text)
+    found = re.findall(
+        r'textmsg\("(rworld (?:contact|capture) [^"]*?) pose=", get_actual_tcp_pose\(\)\)', text
+    )
     if found:
         return found
     if "Write rworld_log" in text:  # literal pieces, then the x= expression
@@ -306,4 +311,8 @@ def reports_in(text: str) -> list[str]:
                 out.append(current.strip())
                 current = ""
         return out
-    return [line[2:] for line in text.splitlines() if line.startswith("; rworld contact ")]
+    return [
+        line[2:]
+        for line in text.splitlines()
+        if line.startswith(("; rworld contact ", "; rworld capture "))
+    ]

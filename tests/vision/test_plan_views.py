@@ -1,6 +1,7 @@
 """rworld plan-views, and the whole loop on the test cell: planned views, their program checked
-in simulation, the images rendered at them, the corners found, the camera calibrated back to
-the cell's own pose of it."""
+in simulation and exported, the controller's log of the poses at its captures (a stand-in:
+``tests.export.controller_logs``) and the images rendered at them read back into a capture
+file, the corners found, the camera calibrated back to the cell's own pose of it."""
 
 from __future__ import annotations
 
@@ -60,13 +61,34 @@ def test_the_loop_plan_simulate_render_detect_calibrate_finds_the_cells_camera(t
     (cell / "runs" / "views.yaml").write_text("programs: [../programs/views.yaml]\ndt: 0.01\n")
     r = run_cli(["check", str(cell), str(cell / "runs" / "views.yaml")])
     assert r.exit_code == 0, r.output
-    # the images the camera would take at each view, then calibrate-camera on them
+    # exported; the controller logs the TCP pose at each capture (its forward kinematics)
     from rworld_cli.api import render_camera
+    from rworld_cli.schema.loader import load_cell
+    from rworld_cli.world.tree import World
+    from tests.export.controller_logs import Reported, reports_in, urscript_log
 
+    args = ["export", "program", str(cell), str(program), "--format", "urscript"]
+    r = run_cli(args + ["-o", str(tmp_path / "ur")])
+    assert r.exit_code == 0, r.output
+    script = (tmp_path / "ur" / "views.script").read_text()
+    world = World(load_cell(str(cell)).cell)
+    poses = []
+    for view in views:
+        world.set_joints("ur5", np.radians(view["joints_deg"]))
+        poses.append(world.T("ur5", "ur5.tool"))
+    log = tmp_path / "robot.log"
+    log.write_text(urscript_log([Reported(f, T) for f, T in zip(reports_in(script), poses)]))
+    # the images the camera took at each, then captures --from-log and calibrate-camera
     for k, view in enumerate(views):
         joints = {"ur5": np.radians(view["joints_deg"]).tolist()}
-        render_camera(str(cell), "wrist_camera", str(cell / f"view{k + 1:02d}.png"), joints, seed=k)
-    r = run_cli(["calibrate-camera", str(captures), "--json"])
+        image = tmp_path / "shots" / f"shot{k + 1}.png"
+        render_camera(str(cell), "wrist_camera", str(image), joints, seed=k)
+    logged = tmp_path / "logged.yaml"
+    args = ["captures", str(cell), "--from-log", str(log), "--run", str(program)]
+    args += ["--format", "urscript", "--images", str(tmp_path / "shots" / "*.png")]
+    r = run_cli(args + ["-o", str(logged)])
+    assert r.exit_code == 0, r.output
+    r = run_cli(["calibrate-camera", str(logged), "--json"])
     assert r.exit_code == 0, r.output
     out = json.loads(r.stdout)
     assert all(v["refused"] is None for v in out["views"])
