@@ -344,6 +344,49 @@ def grid_interference(
     return hit
 
 
+def triangles_in_sight(origin: np.ndarray, ends: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Which triangles a segment from ``origin`` to one of ``ends`` may meet: a conservative
+    cull of each triangle's bounding sphere against the cone the segments span (their mean
+    direction, the widest angle from it) and the farthest end's distance - the sight lines of
+    a camera, which meet a handful of a robot's thousands of mesh triangles.
+
+    Parameters
+    ----------
+    origin : ndarray, shape (3,)
+    ends : ndarray, shape (M, 3)
+    triangles : ndarray, shape (K, 3, 3)
+        All in one frame [m].
+
+    Returns
+    -------
+    ndarray of bool, shape (K,)
+        False only where no segment can meet the triangle.
+    """
+    keep = np.ones(len(triangles), dtype=bool)
+    v = np.asarray(ends, dtype=float) - origin
+    length = np.linalg.norm(v, axis=1)
+    if len(triangles) == 0 or len(v) == 0 or not np.all(length > 0):
+        return keep
+    u = v / length[:, None]
+    axis = u.mean(axis=0)
+    if np.linalg.norm(axis) < 1e-6:
+        return keep
+    axis /= np.linalg.norm(axis)
+    half = float(np.arccos(np.clip(u @ axis, -1.0, 1.0)).max())
+    if half >= np.pi / 2 - 1e-6:  # a cone this wide culls little: test them all
+        return keep
+    centre = triangles.mean(axis=1)
+    radius = np.linalg.norm(triangles - centre[:, None], axis=2).max(axis=1)
+    w = centre - origin
+    distance = np.linalg.norm(w, axis=1)
+    outside = distance > radius
+    with np.errstate(divide="ignore", invalid="ignore"):
+        angle = np.arccos(np.clip((w @ axis) / distance, -1.0, 1.0))
+        spread = np.arcsin(np.clip(radius / distance, 0.0, 1.0))
+    near = (angle - spread <= half + 1e-9) & (distance - radius <= length.max() + 1e-9)
+    return ~outside | near
+
+
 def segments_hit_triangles(
     starts: np.ndarray, ends: np.ndarray, triangles: np.ndarray, chunk: int = 2_000_000
 ) -> np.ndarray:

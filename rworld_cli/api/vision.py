@@ -371,11 +371,15 @@ class ViewPlanRun:
     ----------
     joints : ndarray, shape (N, n)
         The chosen views' joint values [rad or m], in the order visited.
+    mount : str
+        The frame on the robot's flange: the camera's mount (eye-in-hand) or the board's
+        holder (eye-to-hand).
     T_base_flange : ndarray, shape (N, 4, 4)
-        The camera's mount frame in the robot's base at each [m].
+        That frame in the robot's base at each [m].
     figures : dict
-        The choice's predicted sigma of the camera in the flange (``position`` m, ``rotation``
-        rad) against the median of 50 random choices of as many usable candidates.
+        The choice's predicted sigma of the camera's pose in its mount - the flange, or the
+        robot's base eye-to-hand - (``position`` m, ``rotation`` rad) against the median of
+        50 random choices of as many usable candidates.
     """
 
     cell: str
@@ -383,6 +387,7 @@ class ViewPlanRun:
     board: str
     device: str
     mount: str
+    setup: str
     candidates: int
     usable: int
     lost: dict[str, int]
@@ -404,6 +409,7 @@ class ViewPlanRun:
                 "board": self.board,
                 "device": self.device,
                 "mount": self.mount,
+                "setup": self.setup,
                 "candidates": self.candidates,
                 "usable": self.usable,
                 "lost": self.lost,
@@ -463,6 +469,7 @@ def plan_views(
         Not a camera, no board or an unknown one, a camera not carried by a robot (planning
         for a fixed camera is not built), fewer usable candidates than views asked.
     """
+    from .. import spatial
     from ..calibration.robotplan import collision_free_states
     from ..errors import did_you_mean
     from ..fileio import atomic_write_text, output_set
@@ -470,6 +477,7 @@ def plan_views(
     from ..kinematics.jacobian import ToolMount
     from ..sensing.camera import camera_reading
     from ..sensing.sensors import sensable_bodies
+    from ..vision.camera import transform_points, visible
     from ..vision.plan import camera_candidates, select_views, view_information
     from .cells import load_world
 
@@ -482,36 +490,47 @@ def plan_views(
             f"'{camera}' is not a camera sensor of {cell_path}{did_you_mean(camera, cameras)}; "
             f"its cameras: {', '.join(cameras) or 'none'}"
         )
-    boards = [n for n, o in cell.objects.items() if o.board is not None]
-    if board is None:
-        if len(boards) != 1:
-            raise UserError(
-                f"{cell_path} has {len(boards)} calibration boards"
-                + (f" ({', '.join(boards)}): name one with --board" if boards else "")
-            )
-        board = boards[0]
-    if board not in boards:
-        raise UserError(f"'{board}' is not a calibration board{did_you_mean(board, boards)}")
     if not (count >= 3 and candidates >= count and sigma_px > 0):
         raise UserError("give --views 3 or more, --candidates at least --views, a sigma above 0")
-    device = None
-    for name in cell.devices:
-        try:
-            link, T_link_camera = world.mount_of(name, camera)
-        except UserError:
-            continue
-        device = name
-        break
-    if device is None:
-        raise UserError(
-            f"'{camera}' is not carried by a robot: planning views for a camera fixed in the "
-            "cell (the board on the flange) is not built yet"
-        )
+    boards = [n for n, o in cell.objects.items() if o.board is not None]
+    if board is not None and board not in boards:
+        raise UserError(f"'{board}' is not a calibration board{did_you_mean(board, boards)}")
+    # eye-in-hand: the camera on a robot's link; eye-to-hand: the camera fixed, the board on one
+    carriers = [d for d in cell.devices if _on_robot(world, d, camera)]
+    setup = "eye-in-hand" if carriers else "eye-to-hand"
+    if setup == "eye-to-hand":
+        held = [(d, b) for b in boards for d in cell.devices if _on_robot(world, d, b)]
+        if board is not None:
+            held = [(d, b) for d, b in held if b == board]
+        if len(held) != 1:
+            raise UserError(
+                f"'{camera}' is fixed in the cell (on no robot's link), and "
+                + (
+                    f"{len(held)} boards are on robots ({', '.join(b for _, b in held)}): name "
+                    "one with --board"
+                    if held
+                    else (f"'{board}' is" if board else "no calibration board is")
+                    + " on a robot's link: to calibrate a fixed camera, a robot holds the board"
+                )
+            )
+        device, board = held[0]
+    else:
+        device = carriers[0]
+        if board is None:
+            if len(boards) != 1:
+                raise UserError(
+                    f"{cell_path} has {len(boards)} calibration boards"
+                    + (f" ({', '.join(boards)}): name one with --board" if boards else "")
+                )
+            board = boards[0]
+    carried = camera if setup == "eye-in-hand" else board  # what the robot moves
+    link, T_link_carried = world.mount_of(device, carried)
     dev = cell.devices[device]
-    mount_frame = world.parent(camera)
+    mount_frame = world.parent(carried)  # the frame on the flange: camera mount, board holder
+    assert mount_frame is not None
     cam = cell.sensors[camera].camera
     model = cell.objects[board].board
-    T_world_board = world.T_world(board)
+    assert cam is not None and model is not None  # a camera sensor's model, a board's
     T_world_base = world.T_world(device)
     if distance is None:
         nx, ny = model.corner_grid
@@ -519,7 +538,14 @@ def plan_views(
         distance = (cam.fx * width / (0.8 * cam.width), cam.fx * width / (0.35 * cam.width))
     rng = np.random.default_rng(seed)
     T_board_camera = camera_candidates(rng, model, candidates, distance, tilt, roll)
-    T_base_camera = np.linalg.inv(T_world_base) @ T_world_board @ T_board_camera
+    if setup == "eye-in-hand":  # the camera brought around the board
+        T_base_target = np.linalg.inv(T_world_base) @ world.T_world(board) @ T_board_camera
+    else:  # the board brought in front of the camera
+        T_base_target = (
+            np.linalg.inv(T_world_base)
+            @ world.T_world(camera)
+            @ spatial.invert_transform(T_board_camera)
+        )
     lost: dict[str, int] = {}
     # IK from home and two random starts for each candidate; the first that reaches it
     lower, upper = dev.limit_array("lower"), dev.limit_array("upper")
@@ -528,7 +554,7 @@ def plan_views(
         [np.tile(dev.home, (candidates, 1)), rng.uniform(lo, hi, (2 * candidates, dev.dof))]
     )
     Q, ok = solve_ik_many(
-        dev, np.tile(T_base_camera, (3, 1, 1)), starts, ToolMount(link, T_link_camera)
+        dev, np.tile(T_base_target, (3, 1, 1)), starts, ToolMount(link, T_link_carried)
     )
     Q, ok = Q.reshape(3, candidates, -1), ok.reshape(3, candidates)
     first = np.argmax(ok, axis=0)
@@ -551,10 +577,14 @@ def plan_views(
         world.set_joints(device, Q[k])
         reading = camera_reading(world, camera, cell.sensors[camera], sensable_bodies(world))
         b = (reading.image or {})["boards"][board]
-        seen_all.append(b["seen"] == b["total"])
+        # every corner seen, and the outer squares inside the image (the detector needs them)
+        around = transform_points(world.T(camera, board), model.outline)
+        seen_all.append(b["seen"] == b["total"] and bool(visible(cam, around, 1.0).all()))
     world.set_joints(device, saved)
     seen_all_arr = np.array(seen_all, dtype=bool)
-    lost["the board not whole in the image (hidden or cut)"] = int((~seen_all_arr).sum())
+    lost["the board not whole in the image (hidden, or its corners or outer squares cut)"] = int(
+        (~seen_all_arr).sum()
+    )
     keep = keep[seen_all_arr] if len(keep) else keep
     if len(keep) < count:
         said = "; ".join(f"{n} {why}" for why, n in lost.items() if n)
@@ -567,9 +597,11 @@ def plan_views(
         world.set_joints(device, Q[k])
         T_base_flange[i] = world.T(device, mount_frame)
     world.set_joints(device, saved)
-    T_flange_camera = world.T(mount_frame, camera)
-    T_base_board = world.T(device, board)
-    G = view_information(cam, model, T_flange_camera, T_base_board, T_base_flange, sigma_px)
+    if setup == "eye-in-hand":  # the camera in the flange, the board in the base
+        X, Z = world.T(mount_frame, camera), world.T(device, board)
+    else:  # the camera in the base, the board in the flange
+        X, Z = world.T(device, camera), world.T(mount_frame, board)
+    G = view_information(cam, model, X, Z, T_base_flange, sigma_px, setup)
     chosen, figures = select_views(G, count, seed)
     # visited nearest first from home
     order = [int(c) for c in chosen[np.argsort(np.abs(Q[keep][chosen] - dev.home).max(axis=1))]]
@@ -581,6 +613,7 @@ def plan_views(
         board,
         device,
         mount_frame,
+        setup,
         candidates,
         len(keep),
         lost,
@@ -598,7 +631,14 @@ def plan_views(
             if captures:
                 atomic_write_text(
                     captures,
-                    capture_template_text(cam, mount_frame, device, model, flanges),
+                    capture_template_text(
+                        cam,
+                        mount_frame if setup == "eye-in-hand" else device,
+                        device if setup == "eye-in-hand" else mount_frame,
+                        model,
+                        flanges,
+                        setup=setup,
+                    ),
                 )
                 run.written.append(str(captures))
             if program:

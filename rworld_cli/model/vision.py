@@ -103,3 +103,13 @@ class BoardModel:
         pts[:, 0] = (ix.ravel() + first) * self.square
         pts[:, 1] = (iy.ravel() + first) * self.square
         return pts
+
+    @property
+    def outline(self) -> np.ndarray:
+        """The printed pattern's four outer corners in the board's frame, shape (4, 3) [m]:
+        the corner grid with one square around it (a detector needs the outer squares)."""
+        nx, ny = self.corner_grid
+        first = 1 if self.pattern == "charuco" else 0
+        x0, y0 = (first - 1) * self.square, (first - 1) * self.square
+        x1, y1 = (first + nx) * self.square, (first + ny) * self.square
+        return np.array([[x0, y0, 0.0], [x1, y0, 0.0], [x1, y1, 0.0], [x0, y1, 0.0]])

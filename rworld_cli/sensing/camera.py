@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import spatial
-from ..geometry import segments_hit_triangles, shape_mesh
+from ..geometry import segments_hit_triangles, shape_mesh, triangles_in_sight
 from ..vision.camera import project, transform_points, visible
 from .readings import SensorReading
 
@@ -57,9 +57,10 @@ def camera_reading(world, name: str, sensor, bodies) -> SensorReading:
             if body_owner == owner or not seen.any():
                 continue
             idx = np.nonzero(seen)[0]
-            hit = segments_hit_triangles(
-                np.broadcast_to(origin, (len(idx), 3)), points[idx], triangles
-            )
+            near = triangles[triangles_in_sight(origin, points[idx], triangles)]
+            if not len(near):
+                continue
+            hit = segments_hit_triangles(np.broadcast_to(origin, (len(idx), 3)), points[idx], near)
             if hit.any():
                 hidden[label] = int(hit.sum())
                 seen[idx[hit]] = False

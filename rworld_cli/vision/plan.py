@@ -43,22 +43,27 @@ def camera_candidates(
 def view_information(
     camera: CameraModel,
     board: BoardModel,
-    T_flange_camera: np.ndarray,
-    T_base_board: np.ndarray,
+    X: np.ndarray,
+    Z: np.ndarray,
     T_base_flange: np.ndarray,
     sigma_px: float,
+    setup: str = "eye-in-hand",
 ) -> np.ndarray:
-    """Each eye-in-hand view's whitened Jacobian of its corners' pixels by the calibration's 21
+    """Each view's whitened Jacobian of its corners' pixels by the calibration's 21
     parameters (``calibrate.PARAMETER_NAMES``) at the nominal values: shape (M, 2N, 21); a
-    view's information is ``G_k^T G_k`` (px / sigma_px)."""
+    view's information is ``G_k^T G_k`` (px / sigma_px).
+
+    ``X`` is the camera in its mount and ``Z`` the board in its holder (4, 4) [m]: eye-in-hand
+    ``T_flange_camera`` and ``T_base_board``, eye-to-hand ``T_base_camera`` and
+    ``T_flange_board``; ``T_base_flange`` (M, 4, 4) the flange at each view."""
     from .emulate import seen_corners
 
-    C = spatial.invert_transform(T_flange_camera) @ spatial.invert_transform(T_base_flange)
-    C = C @ T_base_board
+    H = spatial.invert_transform(T_base_flange) if setup == "eye-in-hand" else T_base_flange
+    C = spatial.invert_transform(X) @ H @ Z
     corners = seen_corners(camera, board, C)
-    views = BoardViews(board, camera, "eye-in-hand", tuple(map(str, range(len(C)))),
+    views = BoardViews(board, camera, setup, tuple(map(str, range(len(C)))),
                        T_base_flange, np.nan_to_num(corners, nan=0.0))  # fmt: skip
-    problem = _Problem(views, T_flange_camera, T_base_board)
+    problem = _Problem(views, X, Z)
     theta = np.r_[camera.intrinsics, np.zeros(12)]
     J = problem.jacobian(theta) / sigma_px  # (M * 2N, 21), view by view
     return J.reshape(len(C), -1, J.shape[1])
@@ -70,8 +75,9 @@ def _covariance(G: np.ndarray, ridge: float) -> np.ndarray:
 
 
 def camera_sigma(G: np.ndarray, ridge: float = 0.0) -> tuple[float, float]:
-    """The predicted sigma of the camera in the flange from views ``G`` (K, 2N, 21): its
-    position's (root of the translation block's trace) [m] and its rotation's [rad]."""
+    """The predicted sigma of the camera in its mount (the flange, or the base) from views
+    ``G`` (K, 2N, 21): its position's (root of the translation block's trace) [m] and its
+    rotation's [rad]."""
     cov = _covariance(G, ridge)
     return float(np.sqrt(np.trace(cov[12:15, 12:15]))), float(np.sqrt(np.trace(cov[9:12, 9:12])))
 

@@ -185,3 +185,30 @@ def test_a_programs_sense_step_records_what_the_wrist_camera_sees():
     K = np.array([[1050.0, 0, 960], [0, 1050.0, 600], [0, 0, 1]])
     theirs = cv2.projectPoints(in_camera, np.zeros(3), np.zeros(3), K, np.zeros(5))[0][:, 0]
     assert np.abs(np.array(seen["pixels"]) - theirs).max() < 1e-3
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_sight_cull_keeps_every_triangle_a_sight_line_meets(seed):
+    """``geometry.triangles_in_sight`` (the camera reading's cull of a body's triangles against
+    the cone of its sight lines) drops no triangle that a segment from the camera meets: the
+    hits with and without the cull are the same, over random scenes where both happen."""
+    from rworld_cli.geometry import segments_hit_triangles, triangles_in_sight
+
+    rng = np.random.default_rng(seed)
+    origin = rng.normal(0, 0.2, 3)
+    aim = origin + rng.normal(0, 1, 3)
+    ends = aim + rng.normal(0, 0.15 * (1 + seed % 3), (60, 3))
+    centres = (
+        origin + rng.uniform(-1.5, 1.5, (3000, 1)) * (aim - origin) + rng.normal(0, 0.4, (3000, 3))
+    )
+    triangles = centres[:, None] + rng.normal(0, 0.03 * (1 + seed % 2), (3000, 3, 3))
+    keep = triangles_in_sight(origin, ends, triangles)
+    starts = np.broadcast_to(origin, ends.shape)
+    everything = segments_hit_triangles(starts, ends, triangles)
+    assert everything.any() and (~everything).any()  # a scene that tests something
+    assert 0 < keep.sum() < len(triangles)
+    assert np.array_equal(segments_hit_triangles(starts, ends, triangles[keep]), everything)
+    # and per triangle: none dropped that a segment meets
+    dropped = triangles[~keep]
+    for k in range(0, len(dropped), 500):
+        assert not segments_hit_triangles(starts, ends, dropped[k : k + 500]).any()
