@@ -278,6 +278,26 @@ def scene_glb(scene, tolerance: float = TOLERANCE) -> bytes:
         index = b.node(entry)
         if node.axes:
             b.node({"name": f"{node.name}.axes", "mesh": axes, "scale": [node.axes] * 3}, index)
+        if node.lines is not None:  # a camera's field of view
+            segments = np.asarray(node.lines, dtype=float).reshape(-1, 3)
+            lines = b.mesh(
+                f"{node.name}.frustum",
+                {
+                    "attributes": {
+                        "POSITION": b.accessor(segments, "VEC3", ARRAY_BUFFER, bounds=True)
+                    },
+                    "mode": LINES,
+                    "material": b.material(node.line_colour),
+                },
+            )
+            b.node(
+                {
+                    "name": f"{node.name}.frustum",
+                    "mesh": lines,
+                    "extras": {"kind": "frustum", "camera": node.name},  # no "frame": not a frame
+                },
+                index,
+            )
         if animated:
             keep = keyframes(times, p, q, max(radius, 0.01), tolerance)
             if len(keep) > 2 or not (

@@ -23,6 +23,8 @@ SENSOR_PERIOD = 0.05
 
 AXES_FRAME = 0.05  # triad length of auxiliary frames and TCPs [m]
 AXES_BODY = 0.1  # triad length of bodies drawn without geometry [m]
+FRUSTUM_DEPTH = 0.25  # how far a camera's field of view is drawn in front of its lens [m]
+FRUSTUM_COLOUR = "#e377c2"
 
 
 @dataclass
@@ -51,6 +53,9 @@ class SceneNode:
         Length of an x-y-z triad drawn at the frame [m] (0: none).
     highlight : list of (t0, t1)
         When the node's body is in a collision or clearance violation [s].
+    lines : ndarray, shape (L, 2, 3), optional
+        Line segments in the node's frame [m]: a camera's field of view
+        (:func:`camera_frustum`), drawn in ``line_colour``.
     """
 
     name: str
@@ -59,6 +64,22 @@ class SceneNode:
     mesh: SceneMesh | None = None
     axes: float = 0.0
     highlight: list[tuple[float, float]] = field(default_factory=list)
+    lines: np.ndarray | None = None
+    line_colour: str = FRUSTUM_COLOUR
+
+
+def camera_frustum(camera, depth: float = FRUSTUM_DEPTH) -> np.ndarray:
+    """A camera's field of view as line segments in its frame (OpenCV's: z along the optical
+    axis, x right, y down), shape (8, 2, 3) [m]: the lens to the image's four corners at
+    ``depth`` along z, and the rectangle there (the pinhole's, distortion left out)."""
+    u = np.array([-0.5, camera.width - 0.5])
+    v = np.array([-0.5, camera.height - 0.5])
+    x, y = (u - camera.cx) / camera.fx * depth, (v - camera.cy) / camera.fy * depth
+    corners = np.array([[x[0], y[0], depth], [x[1], y[0], depth], [x[1], y[1], depth],
+                        [x[0], y[1], depth]])  # fmt: skip
+    rays = [(np.zeros(3), c) for c in corners]
+    rim = [(corners[k], corners[(k + 1) % 4]) for k in range(4)]
+    return np.array(rays + rim)
 
 
 @dataclass
@@ -137,7 +158,9 @@ def _nodes(cell, poses, highlight=()) -> list[SceneNode]:
                 colour,
             )
         spans = [(0.0, 1.0)] if name in highlight else []
-        nodes.append(SceneNode(name, kind, poses(name), mesh, axes, spans))
+        sensor = cell.sensors.get(name) if kind == "sensor" else None
+        lines = camera_frustum(sensor.camera) if sensor is not None and sensor.camera else None
+        nodes.append(SceneNode(name, kind, poses(name), mesh, axes, spans, lines))
     return nodes
 
 

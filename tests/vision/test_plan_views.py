@@ -99,32 +99,12 @@ def test_the_loop_plan_simulate_render_detect_calibrate_finds_the_cells_camera(t
 
 
 def test_a_fixed_camera_is_calibrated_from_a_board_the_robot_holds(tmp_path):
-    """Eye-to-hand: the test cell's overhead camera (lowered to 0.9 m over the table's near
-    half) and a 7 x 5 board on the UR5's flange, 50 mm out, facing away from it; the views
-    planned for the board in front of the camera, the whole loop as above: the camera's pose
-    in the robot's base comes back."""
+    """Eye-to-hand (``tests/data/vision/cell_eye_to_hand``): the test cell's overhead camera
+    (lowered to 0.9 m over the table's near half) and a 7 x 5 board on the UR5's flange, 50 mm
+    out, facing away from it; the views planned for the board in front of the camera, the
+    whole loop as above: the camera's pose in the robot's base comes back."""
     cell = tmp_path / "cell"
-    shutil.copytree(CELL, cell)
-    text = (cell / "cell.yaml").read_text()
-    text = text.replace(
-        "  - name: post\n",
-        "  - name: hand_board\n    mass: 0.2\n"
-        "    geometry: {box: [0.2, 0.15, 0.004], origin: {xyz: [0.075, 0.05, 0.002]}}\n"
-        "    board: {pattern: chessboard, columns: 7, rows: 5, square: 0.025}\n"
-        "  - name: post\n",
-    )
-    text += "  - {parent: ur5.tool, child: hand_board, type: rigid, kind: fixture}\n"
-    (cell / "cell.yaml").write_text(text)
-    poses = (
-        (cell / "poses.yaml")
-        .read_text()
-        .replace(
-            "  overhead: {xyz: [0.6, 0, 1.0], rpy: [180, 0, 0]}",
-            "  overhead: {xyz: [0.45, 0, 0.9], rpy: [180, 0, 0]}\n"
-            "  hand_board: {xyz: [-0.075, 0.05, 0.05], rpy: [180, 0, 0]}",
-        )
-    )
-    (cell / "poses.yaml").write_text(poses)
+    shutil.copytree(CELL.parent / "cell_eye_to_hand", cell)
     plan, out = _loop(cell, "overhead", tmp_path, candidates=200)
     assert plan["setup"] == "eye-to-hand" and plan["mount"] == "ur5.tool"
     assert plan["random_error_mm"] / plan["predicted_error_mm"] > 1.5

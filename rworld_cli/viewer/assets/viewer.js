@@ -14,7 +14,7 @@ const glbText = document.getElementById("rworld-glb").textContent.trim();
 const MARK_COLOURS = {
   collision: "#d62728", clearance: "#ff7f0e", violation: "#b30000", grasp: "#2ca02c",
   release: "#17becf", place: "#17becf", attach_tool: "#9467bd", detach_tool: "#9467bd",
-  sync: "#7f7f7f", sense: "#bcbd22", move: "#1f77b4", done: "#444444",
+  sync: "#7f7f7f", sense: "#bcbd22", capture: "#e377c2", move: "#1f77b4", done: "#444444",
 };
 const JOINT_COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2"];
 
@@ -316,6 +316,7 @@ new GLTFLoader().parse(
   "",
   (gltf) => {
     world.add(gltf.scene);
+    api.scene = gltf.scene;
     api.frames = addLabels(gltf.scene);
     addContacts();
     if (gltf.animations.length) {
@@ -373,6 +374,25 @@ api.worldPosition = (frameName) => {
   const p = new THREE.Vector3().setFromMatrixPosition(node.matrixWorld);
   world.worldToLocal(p); // cell coordinates (z up)
   return [p.x, p.y, p.z];
+};
+api.frustumPoints = (camera) => { // a camera's field of view: its lines' vertices, cell coords
+  let node = null;
+  if (api.scene) {
+    api.scene.traverse((o) => {
+      if (o.userData.kind === "frustum" && o.userData.camera === camera) node = o;
+    });
+  }
+  const lines = node && (node.isLineSegments ? node : node.children.find((c) => c.isLineSegments));
+  if (!lines) return null;
+  lines.updateWorldMatrix(true, false);
+  const position = lines.geometry.getAttribute("position");
+  const out = [];
+  for (let i = 0; i < position.count; i++) {
+    const p = new THREE.Vector3().fromBufferAttribute(position, i).applyMatrix4(lines.matrixWorld);
+    world.worldToLocal(p);
+    out.push([p.x, p.y, p.z]);
+  }
+  return out;
 };
 api.screenPoint = (point) => { // a cell point (z up) to page pixels
   const p = world.localToWorld(new THREE.Vector3(...point)).project(camera);
