@@ -601,21 +601,18 @@ def _nominal_device(cell_path: str, cell, device: str):
     return load_cell(cell_path, pose_files=keep).cell.devices[device]
 
 
-def _through_calibration(
-    nominal, calibrated, T_base_tcp, mount, search, contact, holding=None
+def _logged_joints(
+    nominal, T_base_tcp, mount, search, contact, noun: str = "contact"
 ) -> np.ndarray:
-    """The calibrated robot's TCP pose (4, 4) where a controller with the ``nominal``
-    kinematics logged ``T_base_tcp``: the joints the nominal inverse kinematics gives (from
-    the search's planned end, to 1e-12 m and rad) - the controller's, its encoders' - then,
-    for a compliant arm (``holding``: its holding torques as a function of joint values, with
-    what it carries then), the arm's ``q + c g(q)``, and the calibrated forward kinematics.
+    """The joint values (n,) at which a controller with the ``nominal`` kinematics logged
+    ``T_base_tcp``: its inverse kinematics from the move's planned end, to 1e-12 m and rad -
+    the controller's, its encoders'.
 
     Raises
     ------
     UserError
         No joint solution puts the nominal robot on the logged pose (at the log's line)."""
     from ..kinematics.inverse import solve_ik
-    from ..kinematics.jacobian import tool_pose
 
     found = solve_ik(
         nominal,
@@ -627,11 +624,19 @@ def _through_calibration(
     )
     if not found.success:
         raise UserError(
-            f"{contact.where}: contact {contact.number}: no joint values put the controller's "
+            f"{contact.where}: {noun} {contact.number}: no joint values put the controller's "
             "nominal robot on the logged pose (the log is another robot's, or its frame or "
             "units are not the export's)"
         )
-    q = np.asarray(found.q, dtype=float)
+    return np.asarray(found.q, dtype=float)
+
+
+def _through_calibration(calibrated, q, mount, holding=None) -> np.ndarray:
+    """The calibrated robot's TCP pose (4, 4) at the controller's joint values ``q``
+    (:func:`_logged_joints`): for a compliant arm (``holding``: its holding torques as a
+    function of joint values, with what it carries then) at the arm's ``q + c g(q)``."""
+    from ..kinematics.jacobian import tool_pose
+
     if holding is not None:
         from ..dynamics.compliance import arm_values
 
@@ -682,6 +687,10 @@ class LoggedReports:
     T_base_tcp : list of ndarray, shape (4, 4)
         Each report's TCP pose in the device's natural frame [m], through the robot's
         calibration when the cell has one (the controller logs its nominal kinematics).
+    joints : list of ndarray, shape (n,)
+        The controller's joint values at each report (its nominal inverse kinematics of the
+        logged pose, from the move's planned end), where asked (``joints=True``) or where the
+        cell has a robot calibration; else empty.
     """
 
     loaded: Run
@@ -695,6 +704,7 @@ class LoggedReports:
     events: list[Event]
     T_base_tcp: list[np.ndarray]
     notes: list[str]
+    joints: list[np.ndarray]
 
 
 def logged_reports(
@@ -706,6 +716,7 @@ def logged_reports(
     device: str | None = None,
     frame: str | None = None,
     register: int = 101,
+    joints: bool = False,
 ) -> LoggedReports:
     """Read the reports (``kind``: ``contactlog.CONTACT`` or ``CAPTURE``) a controller logged
     while it ran RUN as ``export program`` wrote it, check them against the program (count,
@@ -808,7 +819,7 @@ def logged_reports(
 
     # a compliant arm yields under what holds it: the holding torques at each report's instant
     holding_at = _holding_at(World(loaded.cell), result, device) if compliances(dev).any() else None
-    poses = []
+    poses, logged_q = [], []
     for contact, record, event in zip(contacts, records, events, strict=True):
         expected = {
             "program": field_value(program.name),
@@ -840,16 +851,31 @@ def logged_reports(
             user = program.T_base_user if fmt != "urscript" and program.user_frame else None
             T_base_frame = user if user is not None else program.T_base_controller
         T_base_tcp = T_base_frame @ contact.T_frame_tcp
-        if nominal is not None:  # the controller's nominal view undone: its joints, then ours
-            holding = holding_at(event.t) if holding_at is not None else None
+        if nominal is not None or joints:  # the controller's joints: its nominal IK
+            assert record.search is not None and record.tool is not None
             move = record.search.resolved
             mount = ToolMount(move.link, move.T_link_tcp)
-            T_base_tcp = _through_calibration(
-                nominal, dev, T_base_tcp, mount, move, contact, holding
+            q = _logged_joints(
+                nominal if nominal is not None else dev, T_base_tcp, mount, move, contact, noun
             )
+            logged_q.append(q)
+            if nominal is not None:  # the controller's nominal view undone: its joints, ours
+                holding = holding_at(event.t) if holding_at is not None else None
+                T_base_tcp = _through_calibration(dev, q, mount, holding)
         poses.append(T_base_tcp)
     return LoggedReports(
-        loaded, result, device, fmt, world, program, contacts, records, events, poses, logged.notes
+        loaded,
+        result,
+        device,
+        fmt,
+        world,
+        program,
+        contacts,
+        records,
+        events,
+        poses,
+        logged.notes,
+        logged_q,
     )
 
 

@@ -225,6 +225,52 @@ def detect_views(captures, progress=None) -> list[Detection]:
     return out
 
 
+def load_captures(path: str):
+    """A capture file (``schema/captures.read_captures``) with its views' joint values in SI
+    (``captures.joints``, (K, n)) where it names a ``robot:``: converted with its cell's device
+    (the file's units, the joints' kinds), every problem at its line.
+
+    Raises
+    ------
+    UserError
+        The capture file's problems; a robot cell that does not load, an unknown device,
+        joint values of the wrong count, units or beyond the limits (at their line)."""
+    from ..errors import did_you_mean
+    from ..schema.captures import read_captures
+    from ..schema.cellparts import joint_values
+    from ..schema.loader import load_cell
+
+    captures = read_captures(path)
+    if captures.robot_cell is None:
+        return captures
+    line, column = captures.robot_line
+    try:
+        cell = load_cell(captures.robot_cell).cell
+    except UserError as exc:
+        issue = Issue(captures.path, line, column, "robot.cell", f"its cell: {exc.message}")
+        raise UserError(f"{captures.path}: invalid", [issue, *exc.issues]) from None
+    device = cell.devices.get(captures.device or "")
+    if device is None:
+        message = (
+            f"no device '{captures.device}' in {captures.robot_cell}"
+            f"{did_you_mean(captures.device or '', cell.devices)}"
+        )
+        raise UserError(
+            f"{captures.path}: invalid", [Issue(captures.path, line, column, "robot", message)]
+        )
+    L, A = captures.units
+    joints, issues = [], []
+    for k, (values, at_line, at_column) in enumerate(captures.joint_values):
+        q, why = joint_values(device, values, L, A)
+        if why is not None:
+            issues.append(Issue(captures.path, at_line, at_column, f"views[{k}].joints", why))
+        joints.append(q)
+    if issues:
+        raise UserError(f"{captures.path}: invalid", issues)
+    captures.joints = np.array(joints)
+    return captures
+
+
 def capture_views(captures, detections: list[Detection] | None = None) -> BoardViews:
     """A capture file's views with each view's corners (``detections``; default
     :func:`detect_views`), NaN where not seen."""
@@ -248,6 +294,8 @@ def calibrate_camera(
     write_camera: str | None = None,
     save_corners: str | None = None,
     progress=None,
+    through_robot: bool = False,
+    write_robot_observations: str | None = None,
 ) -> CameraCalibrationRun:
     """Calibrate a camera from a capture file (``schema/captures.py``).
 
@@ -264,6 +312,17 @@ def calibrate_camera(
     write_poses, write_camera, save_corners : str or None
         The pose file (camera in its mount, board in its holder), the camera's intrinsics and
         the corners CSV to write - together, atomically, only when the calibration succeeds.
+    through_robot : bool
+        Each view's flange pose from its joint values through the robot of the capture file's
+        ``robot:`` cell (its pose files, a robot calibration included), not the file's
+        ``flange:`` poses.
+    write_robot_observations : str or None
+        A robot observation file for ``rworld calibrate-robot`` (the robot's own kinematic
+        errors): at every view with the board found, its joint values and the pose of what the
+        robot carries (the camera, or the board eye-to-hand) in the frame of what stays, by
+        PnP with the intrinsics of the views' own pictures (OpenCV's ``calibrateCamera``, the
+        fit's start: the fit through the robot's poses bends them by the robot's errors;
+        :func:`~rworld_cli.vision.calibrate.pose_observations`).
 
     Raises
     ------
@@ -272,9 +331,26 @@ def calibrate_camera(
         the board found, a degenerate motion, views that leave the estimate undetermined.
     """
     from ..fileio import atomic_write_text, output_set
-    from ..schema.captures import camera_file_text, corners_text, pose_file_text, read_captures
+    from ..schema.captures import camera_file_text, corners_text, pose_file_text
 
-    captures = read_captures(captures_path)
+    captures = load_captures(captures_path)
+    if (through_robot or write_robot_observations) and captures.joints is None:
+        flag = "--through-robot" if through_robot else "--write-robot-observations"
+        raise UserError(
+            f"{flag} needs the views' joint values",
+            [
+                Issue(
+                    captures.path,
+                    0,
+                    0,
+                    "robot",
+                    f"{flag} needs the views' joint values: give 'robot: {{cell: ..., device: "
+                    "...}' and each view's 'joints' ('rworld captures --from-log' writes them)",
+                )
+            ],
+        )
+    if through_robot:
+        captures.T_base_flange = _flanges_through_robot(captures)
     if fix_intrinsics and not captures.camera_given:
         raise UserError(
             "--fix-intrinsics needs the camera's intrinsics",
@@ -354,6 +430,9 @@ def calibrate_camera(
         (write_camera, lambda: camera_file_text(result, captures, date)),
         (save_corners, lambda: corners_text(captures.names, corners)),
     ]
+    if write_robot_observations:  # computed now: a PnP that fails is an error, before writing
+        observations = _robot_observations(captures, all_views.subset(used), used, result, date)
+        outputs.append((write_robot_observations, lambda: observations))
     if any(path for path, _ in outputs):
         with output_set():
             for path, text in outputs:
@@ -361,6 +440,64 @@ def calibrate_camera(
                     atomic_write_text(path, text())
                     run.written.append(str(path))
     return run
+
+
+def _flanges_through_robot(captures) -> np.ndarray:
+    """Each view's flange pose (V, 4, 4) [m]: the frame the capture file puts on the flange
+    (the camera's mount, or the board's holder eye-to-hand) in the robot's base at the view's
+    joint values, through the capture file's ``robot:`` cell."""
+    from ..schema.loader import load_cell
+    from ..world.tree import World
+
+    world = World(load_cell(captures.robot_cell).cell)
+    device = captures.device
+    flange = captures.mount if captures.setup == "eye-in-hand" else captures.holder
+    if flange not in world.cell.frames:
+        raise UserError(
+            f"{captures.path}: '{flange}' (the frame on the flange) is no frame of "
+            f"{captures.robot_cell}"
+        )
+    out = np.empty((len(captures.joints), 4, 4))
+    for k, q in enumerate(captures.joints):
+        world.set_joints(device, q)
+        out[k] = world.T(device, flange)
+    return out
+
+
+def _robot_observations(captures, views, used: list[int], result, date: str) -> str:
+    """The robot observation file of :func:`calibrate_camera`'s ``write_robot_observations``."""
+    from ..schema.loader import load_cell
+    from ..schema.robotobs import observation_file_text
+    from ..vision.calibrate import pose_observations
+
+    # the intrinsics of the views' own pictures of the board (OpenCV's calibrateCamera, the
+    # fit's start), not the fit through the robot's poses, which the robot's errors bend
+    camera = result.start.get("camera", result.camera)
+    try:
+        poses, sigma, sigma_angle = pose_observations(views, camera)
+    except CalibrationRefused as exc:
+        raise UserError(f"{captures.path}: no robot observations: {exc}") from None
+    device = load_cell(captures.robot_cell).cell.devices[captures.device]
+    eye_in_hand = captures.setup == "eye-in-hand"
+    target = captures.camera.name if eye_in_hand else captures.board.name
+    frame = captures.board.name if eye_in_hand else captures.camera.name
+    return observation_file_text(
+        device,
+        target,
+        frame,
+        f"camera {captures.camera.name} on board {captures.board.name} (PnP)",
+        sigma,
+        sigma_angle,
+        captures.joints[used],
+        poses,
+        [
+            f"The pose of {target} in {frame} at each view of {captures.path} with the board "
+            "found,",
+            "by PnP with the intrinsics of the views' own pictures (OpenCV's calibrateCamera,",
+            f"rworld calibrate-camera, {date}); the sigmas from the views' PnP at the pixel",
+            f"noise. For 'rworld calibrate-robot {captures.robot_cell} FILE'.",
+        ],
+    )
 
 
 @dataclass
@@ -732,7 +869,7 @@ def captures_from_log(
 
     if not (tolerance > 0 and np.isfinite(tolerance)):
         raise UserError(f"--tolerance must be a finite length > 0, got {tolerance}")
-    got = logged_reports(cell, run, log, CAPTURE, fmt, device, frame, capture_register)
+    got = logged_reports(cell, run, log, CAPTURE, fmt, device, frame, capture_register, joints=True)
     world, records = got.world, got.records
     cell_model = got.loaded.cell
     cameras = sorted({r.feature for r in records})
@@ -825,6 +962,9 @@ def captures_from_log(
         )
     base_dir = Path(output).resolve().parent
     relative = [os.path.relpath(Path(p).resolve(), base_dir) for p in images]
+    cell_dir = Path(cell).resolve()
+    cell_dir = cell_dir.parent if cell_dir.is_file() else cell_dir
+    robot = (os.path.relpath(cell_dir, base_dir), cell_model.devices[name])
     cam = cell_model.sensors[camera].camera
     pattern = cell_model.objects[board].board
     assert cam is not None and pattern is not None  # a camera sensor's model, a board's
@@ -842,7 +982,10 @@ def captures_from_log(
             f"The images {camera} took in a run of {Path(run).name} on {name}, with the flange",
             f"poses its controller logged ({ARM_FORMATS[got.fmt]}: {Path(log).name}); read by",
             "'rworld captures --from-log'. Calibrate with 'rworld calibrate-camera' this file.",
+            "The joints: the controller's, its nominal inverse kinematics of each logged pose.",
         ],
+        robot,
+        np.array([got.joints[k] for k in chosen]),
     )
     atomic_write_text(output, text)
     return {

@@ -56,6 +56,19 @@ from .common import (
     "intrinsics from each view's own picture of the board, the robot's pose error reported "
     "(default: the robot's poses exact, the parameters fitted through them).",
 )
+@click.option(
+    "--through-robot",
+    is_flag=True,
+    help="Each view's flange pose from its joint values through the capture file's robot "
+    "(its cell's pose files: a robot calibration included), not the file's flange poses.",
+)
+@click.option(
+    "--write-robot-observations",
+    metavar="FILE",
+    type=click.Path(dir_okay=False),
+    help="A robot observation file for 'rworld calibrate-robot': the camera and board as a "
+    "6-DoF instrument (each view's PnP pose, its joint values).",
+)
 @json_option
 @handle_errors
 def calibrate_camera(
@@ -66,6 +79,8 @@ def calibrate_camera(
     holdout_every,
     fix_intrinsics,
     flange_errors,
+    through_robot,
+    write_robot_observations,
     json_output,
 ):
     """Calibrate a camera from views of a chessboard or ChArUco board and the robot's pose at
@@ -88,6 +103,10 @@ def calibrate_camera(
       rworld calibrate-camera captures.yaml --flange-errors
       rworld calibrate-camera captures.yaml --write-poses camera_poses.yaml \\
           --write-camera camera.yaml --save-corners corners.csv
+      # the robot's own errors: the views as 6-DoF observations, calibrate-robot, again
+      rworld calibrate-camera captures.yaml --write-robot-observations robot_obs.yaml
+      rworld calibrate-robot cell robot_obs.yaml -o cell/robot_calibrated.yaml
+      rworld calibrate-camera captures.yaml --through-robot --write-poses camera_poses.yaml
 
     Exit codes: 0 calibrated (and written), 2 bad input, images of another size than the
     camera's, too few views, a degenerate motion.
@@ -105,6 +124,8 @@ def calibrate_camera(
             write_camera=write_camera,
             save_corners=save_corners,
             progress=progress,
+            through_robot=through_robot,
+            write_robot_observations=write_robot_observations,
         ),
         "finding corners",
     )

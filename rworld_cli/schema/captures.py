@@ -22,6 +22,8 @@ YAML::
     views:
       - image: images/im_01.png   # relative to this file
         flange: {xyz: [-567.4, 1129.8, 606.3], rpy: [7.7, 24.1, 156.9]}   # T_base_flange
+        joints: [10.2, -35.0, 80.1, 0.0, 45.0, 12.0]   # optional, with 'robot'
+    robot: {cell: ../cell, device: kr16}   # optional: the robot of the views' joint values
     corners: corners.csv          # optional: the corners already detected, per view
 
 The corners CSV (``rworld calibrate-camera --save-corners``): ``view,corner,u,v`` with the
@@ -42,6 +44,7 @@ from pydantic import Field
 
 from .. import spatial
 from ..errors import Issue, UserError
+from ..model.cell import DeviceModel
 from ..model.vision import BoardModel, CameraModel
 from ..units import ANGLE, LENGTH
 from .cellparts import pose_to_matrix, validate_document
@@ -83,6 +86,16 @@ class BoardSpec(BoardPattern):
 class View(Strict):
     image: Annotated[str, Len(1)] = Field(description="The image file, relative to this file.")
     flange: Pose = Field(description="The robot's flange in its base at this view (T_base_flange).")
+    joints: Annotated[list[float], Len(1)] | None = Field(
+        None,
+        description="The robot's joint values at this view (angle unit; length unit for "
+        "prismatic joints), with 'robot': its kinematics' own errors can then be calibrated.",
+    )
+
+
+class RobotRef(Strict):
+    cell: Annotated[str, Len(1)] = Field(description="The cell, relative to this file.")
+    device: Name = Field(description="The robot of the views' joint values.")
 
 
 class CaptureFile(Strict):
@@ -93,6 +106,10 @@ class CaptureFile(Strict):
     camera: CameraSpec
     board: BoardSpec
     views: Annotated[list[View], Len(1)]
+    robot: RobotRef | None = Field(
+        None,
+        description="The robot whose joint values the views give (every view then has 'joints').",
+    )
     corners: str | None = Field(
         None,
         description="A CSV of corners already detected (view, corner, u, v), instead of "
@@ -170,6 +187,15 @@ class Captures:
         self.corners_file: Path | None = corners_file
         self.digest: dict = digest
         self.camera_given: bool = camera.fx > 0
+        # the robot of the views' joint values: its cell and name, each view's values as the
+        # file gives them with their line and column, the file's length and angle units
+        # (None: not given); ``joints`` (K, n) SI once the cell has converted them
+        self.robot_cell: Path | None = None
+        self.device: str | None = None
+        self.joint_values: list[tuple[list[float], int, int]] = []
+        self.units: tuple[float, float] = (1.0, 1.0)
+        self.robot_line: tuple[int, int] = (0, 0)
+        self.joints: np.ndarray | None = None
 
 
 def read_captures(path: str) -> Captures:
@@ -211,6 +237,7 @@ def read_captures(path: str) -> Captures:
     else:
         camera = CameraModel(c.name, width, height, 0.0, 0.0, 0.0, 0.0)
     names, images, lines, flanges = [], [], [], []
+    joint_values: list[tuple[list[float], int, int]] = []
     seen: dict[str, int] = {}
     for k, v in enumerate(f.views):
         where = ("views", k)
@@ -231,6 +258,14 @@ def read_captures(path: str) -> Captures:
         if error:
             issues.append(doc.issue(where + ("flange",), error))
             continue
+        if f.robot is not None:
+            if v.joints is None:
+                issues.append(doc.issue(where, "a view without 'joints' where 'robot' is given"))
+                continue
+            joint_values.append((v.joints, *doc.position(where + ("joints",))))
+        elif v.joints is not None:
+            issues.append(doc.issue(where + ("joints",), "joint values need 'robot' (its cell)"))
+            continue
         names.append(name)
         images.append(p.parent / v.image)
         lines.append((line, column))
@@ -238,7 +273,7 @@ def read_captures(path: str) -> Captures:
     if issues:
         raise UserError(f"{path}: invalid", issues)
     corners_file = None if f.corners is None else p.parent / f.corners
-    return Captures(
+    captures = Captures(
         str(path),
         f.setup,
         camera,
@@ -252,6 +287,13 @@ def read_captures(path: str) -> Captures:
         corners_file,
         digest,
     )
+    if f.robot is not None:
+        captures.robot_cell = p.parent / f.robot.cell
+        captures.device = f.robot.device
+        captures.joint_values = joint_values
+        captures.units = (L, A)
+        captures.robot_line = doc.position(("robot",))
+    return captures
 
 
 def read_corners(path: Path, captures: Captures) -> dict[str, np.ndarray]:
@@ -457,12 +499,16 @@ def capture_template_text(
     images: list[str] | None = None,
     setup: str = "eye-in-hand",
     header: list[str] | None = None,
+    robot: tuple[str, DeviceModel] | None = None,
+    joints: np.ndarray | None = None,
 ) -> str:
     """A capture file (mm, deg): the camera's nominal intrinsics as the start, the board,
     each view's image (default ``view01.png`` ...: planned views, the images to be taken) and
     flange pose; ``mount`` the camera's parent (the flange, or the base eye-to-hand),
     ``holder`` the board's (the base, or the flange eye-to-hand); ``header``: the comment
-    lines on top (default: planned views' instructions)."""
+    lines on top (default: planned views' instructions); ``robot`` (the cell's path relative
+    to the file, the device model) and ``joints`` (K, n) [rad or m]: each view's joint values,
+    written in deg and mm."""
     b = board
     pattern = [
         f"  pattern: {b.pattern}",
@@ -497,6 +543,16 @@ def capture_template_text(
         image = images[k] if images is not None else f"view{k + 1:02d}.png"
         lines.append(f"  - image: {yaml_value(image)}")
         lines.append(f"    flange: {{xyz: [{xyz}], rpy: [{rpy}]}}")
+        if robot is not None and joints is not None:
+            device = robot[1]
+            per_unit = [
+                1000.0 if j.kind == "prismatic" else float(np.degrees(1.0)) for j in device.joints
+            ]
+            values = ", ".join(repr(float(v) * u) for v, u in zip(joints[k], per_unit))
+            lines.append(f"    joints: [{values}]")
+    if robot is not None and joints is not None:
+        device = robot[1]
+        lines.append(f"robot: {{cell: {yaml_value(robot[0])}, device: {yaml_value(device.name)}}}")
     return "\n".join(lines) + "\n"
 
 

@@ -522,3 +522,41 @@ def contacts_template(
         joints = ", ".join(f"{v:.6f}" for v in q * scale)
         lines.append(f"  - {{joints: [{joints}], feature: {yaml_value(name)}}}")
     return "\n".join(lines) + "\n"
+
+
+def observation_file_text(
+    device,
+    target: str,
+    frame: str,
+    instrument: str,
+    sigma: float,
+    sigma_angle: float,
+    joints: np.ndarray,
+    poses: np.ndarray,
+    header: list[str],
+) -> str:
+    """A robot observation file of 6-DoF poses (mm, deg) for ``rworld calibrate-robot``: the
+    pose of ``target`` (a frame on ``device``) in ``frame`` at each of the joint values
+    ``joints`` (K, n) [rad or m], ``poses`` (K, 4, 4) [m]; ``sigma`` [m] and ``sigma_angle``
+    [rad] per axis; ``header`` the comment lines on top."""
+    from .. import spatial
+
+    per_unit = [1000.0 if j.kind == "prismatic" else float(np.degrees(1.0)) for j in device.joints]
+    lines = [
+        *(f"# {line}" for line in header),
+        "units: {length: mm, angle: deg}",
+        f"device: {yaml_value(device.name)}",
+        f"instrument: {yaml_value(instrument)}",
+        f"sigma: {sigma * 1000!r}",
+        f"sigma_angle: {float(np.degrees(sigma_angle))!r}",
+        f"target: {yaml_value(target)}",
+        f"frame: {yaml_value(frame)}",
+        "observations:",
+    ]
+    for q, T in zip(joints, poses, strict=True):
+        values = ", ".join(repr(float(v) * u) for v, u in zip(q, per_unit, strict=True))
+        xyz = ", ".join(repr(float(v) * 1000) for v in T[:3, 3])
+        rpy = ", ".join(repr(float(v)) for v in np.degrees(spatial.matrix_to_rpy(T[:3, :3])))
+        lines.append(f"  - joints: [{values}]")
+        lines.append(f"    pose: {{xyz: [{xyz}], rpy: [{rpy}]}}")
+    return "\n".join(lines) + "\n"

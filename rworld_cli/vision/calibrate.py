@@ -271,6 +271,62 @@ def view_poses(views: BoardViews, camera: CameraModel) -> np.ndarray:
     return out
 
 
+def pose_observations(views: BoardViews, camera: CameraModel) -> tuple[np.ndarray, float, float]:
+    """The camera and board as a 6-DoF instrument for the robot's own calibration: at each view
+    the pose of what the robot carries in the frame of what stays (eye-in-hand the camera in
+    the board's frame, ``T_board_camera``; eye-to-hand the board in the camera's,
+    ``T_camera_board``) by PnP with ``camera``, and the sigmas of those poses.
+
+    The sigmas follow from each view's PnP: the pixel noise (the residuals' rms over every
+    view, each pose's 6 unknowns taken off the degrees of freedom) through the pose's
+    information ``J^T J`` (``J``: the corners' pixels by the pose's translation in the frame
+    and its rotation in its own axes, central differences); the median over the views of each
+    block's root mean variance per axis.
+
+    Returns
+    -------
+    poses : ndarray, shape (V, 4, 4)
+        [m].
+    sigma_position : float
+        [m], per axis.
+    sigma_angle : float
+        [rad], per axis.
+    """
+    C = view_poses(views, camera)  # T_camera_board
+    carried = spatial.invert_transform(C) if views.setup == EYE_IN_HAND else C
+    points = views.board.points
+
+    def pixels(P):
+        T = spatial.invert_transform(P) if views.setup == EYE_IN_HAND else P
+        return project(camera.intrinsics, transform_points(T, points))
+
+    squares, count = 0.0, 0
+    sig_p, sig_r = [], []
+    for k, P in enumerate(carried):
+        seen = np.isfinite(views.corners[k, :, 0])
+        residual = pixels(P)[seen] - views.corners[k][seen]
+        squares += float(np.sum(residual**2))
+        count += 2 * int(seen.sum()) - 6
+        J = np.empty((2 * int(seen.sum()), 6))
+        for i in range(6):
+            h = 1e-7
+            d = np.zeros(6)
+            d[i] = h
+            up, down = P.copy(), P.copy()
+            if i < 3:  # the position, in the frame's axes
+                up[:3, 3] += d[:3]
+                down[:3, 3] -= d[:3]
+            else:  # the rotation, in the carried frame's own axes
+                up[:3, :3] = P[:3, :3] @ spatial.rotation_from_vector(d[3:])
+                down[:3, :3] = P[:3, :3] @ spatial.rotation_from_vector(-d[3:])
+            J[:, i] = ((pixels(up) - pixels(down))[seen] / (2 * h)).ravel()
+        cov = np.linalg.inv(J.T @ J)
+        sig_p.append(np.sqrt(np.trace(cov[:3, :3]) / 3))
+        sig_r.append(np.sqrt(np.trace(cov[3:, 3:]) / 3))
+    noise = np.sqrt(squares / max(count, 1))
+    return carried, float(noise * np.median(sig_p)), float(noise * np.median(sig_r))
+
+
 def robot_world_start(views: BoardViews, C: np.ndarray, method: int | None = None):
     """OpenCV's robot-world hand-eye closed form: ``(T_mount_camera, T_holder_board)`` from
     each view's ``C_i = T_camera_board`` (default Shah's method)."""

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from rworld_cli import spatial
-from rworld_cli.schema.captures import read_captures
+from rworld_cli.api.vision import load_captures
 from rworld_cli.schema.loader import load_cell
 from rworld_cli.world.tree import World
 from tests.export import controller_logs
@@ -138,12 +138,15 @@ def test_each_languages_capture_log_gives_the_planned_flange_poses(cli, plans, t
     args += ["--images", str(tmp_path / "shots" / "*.png"), "--format", fmt, "-o", str(out)]
     r = cli(args + ["--json"])
     assert r.exit_code == 0, r.output
-    captures = read_captures(str(out))
+    captures = load_captures(str(out))
     assert captures.setup == "eye-in-hand"
     assert [Path(v).name for v in captures.images] == [f"shot{k}.png" for k in range(1, 5)]
     for T, planned in zip(captures.T_base_flange, plan.T_base_flange, strict=True):
         assert np.abs(T[:3, 3] - planned[:3, 3]).max() < 1e-9
         assert np.linalg.norm(spatial.rotation_vector(planned[:3, :3].T @ T[:3, :3])) < 1e-9
+    # the controller's joints: its inverse kinematics of each logged pose, the planned ones
+    assert captures.device == plan.device
+    assert np.abs(captures.joints - plan.joints).max() < 1e-8
     assert captures.camera.name == "wrist_camera"
     assert captures.board.name == "board"
     # the trigger: set, the pose logged, held for the exposure, reset - in each language
