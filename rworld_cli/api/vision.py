@@ -670,8 +670,7 @@ def plan_views(
     assert cam is not None and model is not None  # a camera sensor's model, a board's
     T_world_base = world.T_world(device)
     if distance is None:
-        nx, ny = model.corner_grid
-        width = (nx + 1) * model.square
+        width = model.width
         distance = (cam.fx * width / (0.8 * cam.width), cam.fx * width / (0.35 * cam.width))
     rng = np.random.default_rng(seed)
     T_board_camera = camera_candidates(rng, model, candidates, distance, tilt, roll)

@@ -64,18 +64,27 @@ class BoardModel:
     at the board's outer corner on a ChArUco board (its first corner one square in along x
     and y, as ``cv2.aruco.CharucoBoard`` places them).
 
+    An AprilTag grid (Kalibr's ``aprilgrid``, OpenCV's ``aruco.GridBoard``): ``columns`` x
+    ``rows`` tags, tag ``k`` at column ``k % columns``, row ``k // columns``; its points are
+    each tag's four outer corners (clockwise from the top-left as the detector reports them,
+    point ``4 k + c``), the origin at tag 0's top-left corner.
+
     Attributes
     ----------
     pattern : str
-        ``chessboard`` or ``charuco``.
+        ``chessboard``, ``charuco`` or ``aprilgrid``.
     columns, rows : int
-        Squares along x and y for a ChArUco board; inner corners for a chessboard.
+        Squares along x and y for a ChArUco board; inner corners for a chessboard; tags for
+        an AprilTag grid.
     square : float
-        Edge of a square [m].
+        Edge of a square, or of a tag [m].
     marker : float or None
         Edge of a ChArUco marker [m].
     dictionary : str or None
-        The ArUco dictionary of a ChArUco board (OpenCV's name, ``DICT_5X5_100``).
+        The ArUco dictionary of a ChArUco board (OpenCV's name, ``DICT_5X5_100``) or the tag
+        family of an AprilTag grid (``DICT_APRILTAG_36h11``).
+    spacing : float or None
+        The gap between an AprilTag grid's tags [m].
     """
 
     name: str
@@ -85,6 +94,7 @@ class BoardModel:
     square: float
     marker: float | None = None
     dictionary: str | None = None
+    spacing: float | None = None
 
     @property
     def corner_grid(self) -> tuple[int, int]:
@@ -95,7 +105,18 @@ class BoardModel:
 
     @property
     def points(self) -> np.ndarray:
-        """The corners in the board's frame, shape (N, 3) [m], row by row (x fastest)."""
+        """The corners in the board's frame, shape (N, 3) [m], row by row (x fastest); an
+        AprilTag grid's tag by tag, four a tag."""
+        if self.pattern == "aprilgrid":
+            pitch = self.square + float(self.spacing or 0.0)
+            k = np.arange(self.columns * self.rows)
+            x0, y0 = (k % self.columns) * pitch, (k // self.columns) * pitch
+            s = self.square
+            corners = np.array([[0.0, 0.0], [s, 0.0], [s, s], [0.0, s]])
+            pts = np.zeros((len(k) * 4, 3))
+            pts[:, 0] = (x0[:, None] + corners[None, :, 0]).ravel()
+            pts[:, 1] = (y0[:, None] + corners[None, :, 1]).ravel()
+            return pts
         nx, ny = self.corner_grid
         ix, iy = np.meshgrid(np.arange(nx), np.arange(ny))
         pts = np.zeros((nx * ny, 3))
@@ -107,9 +128,34 @@ class BoardModel:
     @property
     def outline(self) -> np.ndarray:
         """The printed pattern's four outer corners in the board's frame, shape (4, 3) [m]:
-        the corner grid with one square around it (a detector needs the outer squares)."""
-        nx, ny = self.corner_grid
-        first = 1 if self.pattern == "charuco" else 0
-        x0, y0 = (first - 1) * self.square, (first - 1) * self.square
-        x1, y1 = (first + nx) * self.square, (first + ny) * self.square
+        the corner grid with one square around it (a detector needs the outer squares); an
+        AprilTag grid's tags with one gap around them (a tag needs its white border)."""
+        if self.pattern == "aprilgrid":
+            gap = float(self.spacing or 0.0)
+            pitch = self.square + gap
+            x0 = y0 = -gap
+            x1, y1 = self.columns * pitch, self.rows * pitch
+        else:
+            nx, ny = self.corner_grid
+            first = 1 if self.pattern == "charuco" else 0
+            x0, y0 = (first - 1) * self.square, (first - 1) * self.square
+            x1, y1 = (first + nx) * self.square, (first + ny) * self.square
         return np.array([[x0, y0, 0.0], [x1, y0, 0.0], [x1, y1, 0.0], [x0, y1, 0.0]])
+
+    @property
+    def centre(self) -> np.ndarray:
+        """The middle of the board's points, shape (3,) [m]."""
+        pts = self.points
+        return (pts.min(axis=0) + pts.max(axis=0)) / 2
+
+    @property
+    def span(self) -> float:
+        """The points' shorter extent plus a square [m] (a chessboard's: its inner corners
+        along the shorter side times the square): how far views aim around the centre."""
+        pts = self.points
+        return float(min(np.ptp(pts[:, 0]), np.ptp(pts[:, 1]))) + self.square
+
+    @property
+    def width(self) -> float:
+        """The printed pattern's extent along x [m] (:attr:`outline`)."""
+        return float(np.ptp(self.outline[:, 0]))

@@ -56,6 +56,13 @@ from .yamlio import read_yaml, yaml_value
 ARUCO_DICTIONARIES = tuple(
     f"DICT_{n}X{n}_{k}" for n in (4, 5, 6, 7) for k in (50, 100, 250, 1000)
 ) + ("DICT_ARUCO_ORIGINAL",)
+#: the tag families an AprilTag grid may name (OpenCV's), with how many tags each holds
+APRILTAG_FAMILIES = {
+    "DICT_APRILTAG_16h5": 30,
+    "DICT_APRILTAG_25h9": 35,
+    "DICT_APRILTAG_36h10": 2320,
+    "DICT_APRILTAG_36h11": 587,
+}
 
 
 class CameraSpec(Strict):
@@ -124,7 +131,35 @@ def board_model(name: str, b: BoardPattern, L: float):
     from ..errors import did_you_mean
 
     problems: list[tuple[tuple, str]] = []
-    if b.pattern == "charuco":
+    dictionary = b.dictionary
+    for key in ("columns", "rows"):
+        if b.pattern != "aprilgrid" and getattr(b, key) < 3:
+            problems.append(((key,), f"a {b.pattern} board has 3 or more {key}"))
+    if b.pattern != "aprilgrid" and b.spacing is not None:
+        problems.append((("spacing",), "'spacing' is for AprilTag grids"))
+    if b.pattern == "aprilgrid":
+        dictionary = dictionary or "DICT_APRILTAG_36h11"
+        if b.spacing is None:
+            problems.append((("pattern",), "an AprilTag grid needs 'spacing' (between tags)"))
+        if b.marker is not None:
+            problems.append((("marker",), "'marker' is for ChArUco boards: a tag is 'square'"))
+        if dictionary not in APRILTAG_FAMILIES:
+            problems.append(
+                (
+                    ("dictionary",),
+                    f"unknown AprilTag family {dictionary!r}"
+                    + did_you_mean(dictionary, list(APRILTAG_FAMILIES)),
+                )
+            )
+        elif b.columns * b.rows > APRILTAG_FAMILIES[dictionary]:
+            problems.append(
+                (
+                    (),
+                    f"{b.columns} x {b.rows} tags: {dictionary} holds "
+                    f"{APRILTAG_FAMILIES[dictionary]}",
+                )
+            )
+    elif b.pattern == "charuco":
         if b.marker is None or b.dictionary is None:
             problems.append((("pattern",), "a ChArUco board needs 'marker' and 'dictionary'"))
         elif b.marker >= b.square:
@@ -151,7 +186,8 @@ def board_model(name: str, b: BoardPattern, L: float):
         b.rows,
         b.square * L,
         None if b.marker is None else b.marker * L,
-        b.dictionary,
+        dictionary,
+        None if b.spacing is None else b.spacing * L,
     )
     return board, problems
 
@@ -518,6 +554,8 @@ def capture_template_text(
     ]
     if b.pattern == "charuco":
         pattern += [f"  marker: {float(b.marker or 0) * 1000!r}", f"  dictionary: {b.dictionary}"]
+    if b.pattern == "aprilgrid":
+        pattern += [f"  spacing: {float(b.spacing or 0) * 1000!r}", f"  dictionary: {b.dictionary}"]
     if header is None:
         header = [
             "Views planned by 'rworld plan-views': take an image at each (the program it wrote",

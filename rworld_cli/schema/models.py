@@ -264,19 +264,29 @@ class FreeFrame(Strict):
 class BoardPattern(Strict):
     """A calibration board's pattern, in the object's natural frame (``docs/vision.md``): +x
     along the first row of corners, +y along the columns, +z into the board; the origin at the
-    first inner corner (chessboard) or the board's outer corner (ChArUco)."""
+    first inner corner (chessboard), the board's outer corner (ChArUco) or the first tag's
+    outer corner (AprilTag grid)."""
 
-    pattern: Literal["chessboard", "charuco"]
-    columns: Annotated[int, Field(ge=3, le=200)] = Field(
-        description="Chessboard: inner corners along the board's x; ChArUco: squares."
+    pattern: Literal["chessboard", "charuco", "aprilgrid"]
+    columns: Annotated[int, Field(ge=1, le=200)] = Field(
+        description="Chessboard: inner corners along the board's x (3 or more); ChArUco: "
+        "squares (3 or more); AprilTag grid: tags."
     )
-    rows: Annotated[int, Field(ge=3, le=200)] = Field(
-        description="Chessboard: inner corners along y; ChArUco: squares."
+    rows: Annotated[int, Field(ge=1, le=200)] = Field(
+        description="Chessboard: inner corners along y; ChArUco: squares; AprilTag grid: tags."
     )
-    square: Positive = Field(description="A square's edge [length unit].")
+    square: Positive = Field(
+        description="A square's edge; an AprilTag grid's: a tag's (its black border's outer "
+        "edge) [length unit]."
+    )
     marker: Positive | None = Field(None, description="ChArUco: a marker's edge [length unit].")
+    spacing: Positive | None = Field(
+        None, description="AprilTag grid: the gap between two tags [length unit]."
+    )
     dictionary: str | None = Field(
-        None, description="ChArUco: OpenCV's ArUco dictionary, e.g. DICT_5X5_100."
+        None,
+        description="ChArUco: OpenCV's ArUco dictionary, e.g. DICT_5X5_100; AprilTag grid: "
+        "the tag family (default DICT_APRILTAG_36h11, Kalibr's).",
     )
 
 

@@ -71,8 +71,8 @@ def random_views(
     ``T_holder_board`` the board in the base; eye-to-hand: the camera in the base and the board
     in the flange.
     """
-    nx, ny = board.corner_grid
-    centre = np.array([(nx - 1) * board.square / 2, (ny - 1) * board.square / 2, 0.0])
+    centre = board.centre
+    span = board.span
     flanges: list[np.ndarray] = []
     corners: list[np.ndarray] = []
     while len(flanges) < count:
@@ -81,7 +81,7 @@ def random_views(
         d = rng.uniform(*distance)
         # the board's +z points away from the camera: views from -z
         direction = np.array([np.sin(t) * np.cos(a), np.sin(t) * np.sin(a), -np.cos(t)])
-        aim = centre + rng.normal(0, 0.1 * board.square * min(nx, ny), 3) * [1, 1, 0]
+        aim = centre + rng.normal(0, 0.1 * span, 3) * [1, 1, 0]
         T_board_camera = look_at(aim + d * direction, aim, up=(0.0, -1.0, 0.0))
         roll = spatial.make_transform(spatial.rot_z(np.radians(rng.uniform(-roll_deg, roll_deg))))
         T_board_camera = T_board_camera @ roll

@@ -24,17 +24,15 @@ def camera_candidates(
     looks at a point near the board's centre from the printed side (-z), from a direction
     within ``tilt`` [rad] of the board's normal, at a distance in ``distance`` [m], turned
     about its axis by up to ``roll`` [rad]."""
-    nx, ny = board.corner_grid
-    first = 1 if board.pattern == "charuco" else 0
-    centre = np.array([(nx - 1 + 2 * first) * board.square / 2,
-                       (ny - 1 + 2 * first) * board.square / 2, 0.0])  # fmt: skip
+    centre = board.centre
+    span = board.span
     out = np.empty((count, 4, 4))
     for k in range(count):
         t = tilt * np.sqrt(rng.uniform())
         a = rng.uniform(0, 2 * np.pi)
         d = rng.uniform(*distance)
         direction = np.array([np.sin(t) * np.cos(a), np.sin(t) * np.sin(a), -np.cos(t)])
-        aim = centre + rng.normal(0, 0.15 * board.square * min(nx, ny), 3) * [1, 1, 0]
+        aim = centre + rng.normal(0, 0.15 * span, 3) * [1, 1, 0]
         T = look_at(aim + d * direction, aim, up=(0.0, -1.0, 0.0))
         out[k] = T @ spatial.make_transform(spatial.rot_z(rng.uniform(-roll, roll)))
     return out

@@ -25,6 +25,8 @@ from .camera import project
 BLACK, WHITE, BACKGROUND, BODY = 25.0, 225.0, 110.0, 70.0
 #: ChArUco prints are sampled from OpenCV's own drawing at about this many pixels a square
 CHARUCO_PIXELS_PER_SQUARE = 100
+#: pixels across an AprilTag in the grid's drawing (36h11: 8 cells of code and border, 15 px each)
+APRILGRID_PIXELS_PER_TAG = 120
 
 
 @functools.lru_cache(maxsize=8)
@@ -62,9 +64,30 @@ def _charuco_print(board: BoardModel) -> tuple[np.ndarray, int]:
     raise ValueError(f"OpenCV cannot draw the ChArUco board {board.name!r}")
 
 
+@functools.lru_cache(maxsize=4)
+def _aprilgrid_print(board: BoardModel) -> tuple[np.ndarray, float, int]:
+    """OpenCV's drawing of the grid, its pixels a metre and its white margin [px]: a tag's
+    cells 15 px (36h11's 8 across a tag, its black border included: 120 px a tag)."""
+    from .detect import aprilgrid_image
+
+    pixels = APRILGRID_PIXELS_PER_TAG / board.square
+    margin = int(round(float(board.spacing or 0.0) * pixels))  # a gap of white around
+    return aprilgrid_image(board, pixels, margin).astype(float), pixels, margin
+
+
 def _shade(board: BoardModel, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
     """The board's print at board coordinates [m]: NaN off the printed area."""
     s = board.square
+    if board.pattern == "aprilgrid":
+        img, pixels, border = _aprilgrid_print(board)
+        h, w = img.shape
+        with np.errstate(invalid="ignore"):
+            col = np.floor(np.nan_to_num(X * pixels, nan=-1e9)).astype(np.int64) + border
+            row = np.floor(np.nan_to_num(Y * pixels, nan=-1e9)).astype(np.int64) + border
+        inside = (col >= 0) & (col < w) & (row >= 0) & (row < h)
+        out = np.full(X.shape, np.nan)
+        out[inside] = np.where(img[row[inside], col[inside]] > 127, WHITE, BLACK)
+        return out
     if board.pattern == "charuco":
         img, pixels = _charuco_print(board)
         h, w = img.shape
