@@ -225,10 +225,11 @@ def detect_views(captures, progress=None) -> list[Detection]:
     return out
 
 
-def load_captures(path: str):
+def load_captures(path: str, joints: bool = True):
     """A capture file (``schema/captures.read_captures``) with its views' joint values in SI
-    (``captures.joints``, (K, n)) where it names a ``robot:``: converted with its cell's device
-    (the file's units, the joints' kinds), every problem at its line.
+    (``captures.joints``, (K, n)) where it names a ``robot:`` and ``joints`` is asked:
+    converted with its cell's device (the file's units, the joints' kinds), every problem at
+    its line (a calibration that does not use them does not read the robot's cell).
 
     Raises
     ------
@@ -241,7 +242,7 @@ def load_captures(path: str):
     from ..schema.loader import load_cell
 
     captures = read_captures(path)
-    if captures.robot_cell is None:
+    if captures.robot_cell is None or not joints:
         return captures
     line, column = captures.robot_line
     try:
@@ -259,15 +260,15 @@ def load_captures(path: str):
             f"{captures.path}: invalid", [Issue(captures.path, line, column, "robot", message)]
         )
     L, A = captures.units
-    joints, issues = [], []
+    values_si, issues = [], []
     for k, (values, at_line, at_column) in enumerate(captures.joint_values):
         q, why = joint_values(device, values, L, A)
         if why is not None:
             issues.append(Issue(captures.path, at_line, at_column, f"views[{k}].joints", why))
-        joints.append(q)
+        values_si.append(q)
     if issues:
         raise UserError(f"{captures.path}: invalid", issues)
-    captures.joints = np.array(joints)
+    captures.joints = np.array(values_si)
     return captures
 
 
@@ -333,7 +334,7 @@ def calibrate_camera(
     from ..fileio import atomic_write_text, output_set
     from ..schema.captures import camera_file_text, corners_text, pose_file_text
 
-    captures = load_captures(captures_path)
+    captures = load_captures(captures_path, joints=through_robot or bool(write_robot_observations))
     if (through_robot or write_robot_observations) and captures.joints is None:
         flag = "--through-robot" if through_robot else "--write-robot-observations"
         raise UserError(

@@ -215,7 +215,7 @@ class Record:
     number, total : int
         This report's number (1-based) and how many of its kind the program records.
     step : int
-        The probe step's number in its program (1-based).
+        The probe or capture step's number in its program (1-based).
     search : Move
         The guarded move whose contact this records; a capture's: the move that took the
         robot there.
