@@ -727,7 +727,9 @@ def plan_views(
         said = "; ".join(f"{n} {why}" for why, n in lost.items() if n)
         raise UserError(
             f"only {len(keep)} of {candidates} candidate views are usable ({said}); ask for "
-            "fewer views or more candidates, or move the board nearer the robot"
+            "fewer views or more candidates, or move the "
+            + ("board" if setup == "eye-in-hand" else "camera")
+            + " nearer the robot"
         )
     T_base_flange = np.empty((len(keep), 4, 4))
     for i, k in enumerate(keep):

@@ -63,14 +63,14 @@ def plans(tmp_path_factory):
     return lambda robot: _planned(robot, root)
 
 
-def _controller_poses(cell: Path, plan) -> list[np.ndarray]:
+def _controller_poses(cell: Path, plan, carried: str = "wrist_camera") -> list[np.ndarray]:
     """Where the controller's TCP stood at each image, in its base frame: the planned joints'
-    forward kinematics (the program's TCP: the device's first, the camera's mount)."""
+    forward kinematics (the program's TCP: the device's first, the carried frame's mount)."""
     model = load_cell(str(cell)).cell
     world = World(model)
     device = plan.device
     dev = model.devices[device]
-    tcp = world.parent("wrist_camera")
+    tcp = world.parent(carried)
     base = dev.controller.base if dev.controller is not None and dev.controller.base else device
     out = []
     for q in plan.joints:
@@ -199,3 +199,37 @@ def test_a_capture_with_a_sensor_that_is_not_a_camera_is_refused_at_its_line(cli
     r = cli(["export", "program", str(cell), str(program), "--format", "krl", "-o", str(tmp_path)])
     assert r.exit_code == 2
     assert "a capture before the program's first move" in r.output
+
+
+def test_a_fixed_cameras_captures_give_the_board_holders_poses_on_a_kuka(cli, tmp_path):
+    """Eye-to-hand on the KR 6 R900 sixx from its vendor package (``camera_cells``, fixed):
+    4 views planned for the board it holds in front of a camera beside it, exported in KRL, the
+    .dat's poses read back: each view's flange - the board's holder, the TCP - at the plan's
+    to 1e-9 m, the capture file eye-to-hand with the camera in the robot's base."""
+    from rworld_cli.api import plan_views
+
+    cell = camera_cell("kr6r900sixx", tmp_path / "kr6", fixed=True)
+    program = cell / "programs" / "views.yaml"
+    plan = plan_views(str(cell), "wrist_camera", 4, candidates=200, program=str(program))
+    assert plan.setup == "eye-to-hand" and plan.board == "hand_board"
+    exported = _exported(cli, cell, program, "krl", tmp_path / "exported")
+    fields = reports_in(exported)
+    poses = _controller_poses(cell, plan, "hand_board")
+    log = tmp_path / "views.dat"
+    log.write_text(
+        controller_logs.krl_dat(
+            exported, [Reported(f, T) for f, T in zip(fields, poses)], prefix="RWV"
+        )
+    )
+    for k in range(4):
+        (tmp_path / f"shot{k + 1}.png").write_bytes(b"")
+    out = tmp_path / "captures.yaml"
+    args = ["captures", str(cell), "--from-log", str(log), "--run", str(program), "-o", str(out)]
+    r = cli(args + ["--format", "krl", "--images", str(tmp_path / "shot*.png")])
+    assert r.exit_code == 0, r.output
+    captures = load_captures(str(out))
+    assert captures.setup == "eye-to-hand" and captures.holder == plan.mount
+    assert captures.mount == plan.device and captures.board.name == "hand_board"
+    for T, planned in zip(captures.T_base_flange, plan.T_base_flange, strict=True):
+        assert np.abs(T[:3, 3] - planned[:3, 3]).max() < 1e-9
+        assert np.linalg.norm(spatial.rotation_vector(planned[:3, :3].T @ T[:3, :3])) < 1e-9
