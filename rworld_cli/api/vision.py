@@ -593,7 +593,7 @@ def plan_views(
     information, ``vision/plan.py``).
 
     Candidates are camera poses around the board (from its printed side, within ``tilt`` of
-    its normal, ``distance`` [m] away - default where the board spans 25-80 % of the image's
+    its normal, ``distance`` [m] away - default where the board spans 35-80 % of the image's
     width - turned by up to ``roll``); a candidate is usable when the robot reaches it (IK for
     the camera's frame), touches nothing there or on the straight joint path from home, and
     the camera sees every corner (nothing of the cell or the robot in the way). ``captures``:
@@ -672,9 +672,7 @@ def plan_views(
     T_world_base = world.T_world(device)
     if distance is None:
         width = model.width
-        # near enough to fill 80 % of the image, far enough for a quarter: the planned views
-        # were as good or better with the far ones among the candidates than without (35 %)
-        distance = (cam.fx * width / (0.8 * cam.width), cam.fx * width / (0.25 * cam.width))
+        distance = (cam.fx * width / (0.8 * cam.width), cam.fx * width / (0.35 * cam.width))
     rng = np.random.default_rng(seed)
     T_board_camera = camera_candidates(rng, model, candidates, distance, tilt, roll)
     if setup == "eye-in-hand":  # the camera brought around the board

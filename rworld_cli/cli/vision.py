@@ -247,7 +247,7 @@ def plan_views(
     and which together determine the camera's calibration best.
 
     Candidates are camera poses around the board (from its printed side, within 40 deg of its
-    normal, at distances where it spans 25-80 % of the image's width); a candidate is usable
+    normal, at distances where it spans 35-80 % of the image's width); a candidate is usable
     when the robot reaches it, touches nothing there or on the way from home, and the camera
     sees every corner. Of those, the views are chosen D-optimally on the information of the
     calibration's 21 parameters, then exchanged to lower the camera-in-flange pose's predicted
