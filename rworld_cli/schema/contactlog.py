@@ -1,4 +1,7 @@
-"""Contact logs: what a robot controller recorded of the probe program's contacts.
+"""Contact logs: what a robot controller recorded of the probe program's contacts - and, with
+:data:`CAPTURE`, of a program's images (``capture:`` steps: the same reports, ``rworld capture
+K/N`` and the camera for the feature, no ``dir``; KRL's ``RWV_K``; FANUC's and INFORM's from
+``--capture-register``), for ``rworld captures --from-log``.
 
 ``rworld export program`` writes each ``probe:`` as a contact report in the controller's own
 means (``docs/export.md``, contact reports); this module reads them back, one reader per
