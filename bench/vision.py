@@ -375,7 +375,7 @@ def planning() -> None:
 
     cell = REPO / "tests" / "data" / "vision" / "cell"
     print("6. plan-views on the test cell (predicted error at a point 300 mm ahead, 0.1 px):")
-    for count, candidates in ((8, 300), (12, 300), (16, 300), (12, 600)):
+    for count, candidates in ((8, 300), (12, 300), (16, 300), (12, 600), (8, 1000), (12, 1000)):
         t0 = time.perf_counter()
         run = plan_views(str(cell / "cell.yaml"), "wrist_camera", count, candidates=candidates)
         f = run.figures

@@ -578,7 +578,7 @@ def plan_views(
     camera: str,
     count: int,
     board: str | None = None,
-    candidates: int = 300,
+    candidates: int = 1000,
     seed: int = 0,
     distance: tuple[float, float] | None = None,
     tilt: float = np.radians(40.0),

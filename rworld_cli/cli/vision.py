@@ -210,7 +210,7 @@ def _render(run) -> None:
 )
 @click.option(
     "--candidates",
-    default=300,
+    default=1000,
     show_default=True,
     type=click.IntRange(min=3),
     help="Camera poses around the board to choose from.",
