@@ -269,6 +269,7 @@ def load_captures(path: str, joints: bool = True):
     if issues:
         raise UserError(f"{captures.path}: invalid", issues)
     captures.joints = np.array(values_si)
+    captures.robot_model = cell
     return captures
 
 
@@ -447,10 +448,9 @@ def _flanges_through_robot(captures) -> np.ndarray:
     """Each view's flange pose (V, 4, 4) [m]: the frame the capture file puts on the flange
     (the camera's mount, or the board's holder eye-to-hand) in the robot's base at the view's
     joint values, through the capture file's ``robot:`` cell."""
-    from ..schema.loader import load_cell
     from ..world.tree import World
 
-    world = World(load_cell(captures.robot_cell).cell)
+    world = World(captures.robot_model)
     device = captures.device
     flange = captures.mount if captures.setup == "eye-in-hand" else captures.holder
     if flange not in world.cell.frames:
@@ -467,7 +467,6 @@ def _flanges_through_robot(captures) -> np.ndarray:
 
 def _robot_observations(captures, views, used: list[int], result, date: str) -> str:
     """The robot observation file of :func:`calibrate_camera`'s ``write_robot_observations``."""
-    from ..schema.loader import load_cell
     from ..schema.robotobs import observation_file_text
     from ..vision.calibrate import pose_observations
 
@@ -478,7 +477,7 @@ def _robot_observations(captures, views, used: list[int], result, date: str) -> 
         poses, sigma, sigma_angle = pose_observations(views, camera)
     except CalibrationRefused as exc:
         raise UserError(f"{captures.path}: no robot observations: {exc}") from None
-    device = load_cell(captures.robot_cell).cell.devices[captures.device]
+    device = captures.robot_model.devices[captures.device]
     eye_in_hand = captures.setup == "eye-in-hand"
     target = captures.camera.name if eye_in_hand else captures.board.name
     frame = captures.board.name if eye_in_hand else captures.camera.name

@@ -44,7 +44,7 @@ from pydantic import Field
 
 from .. import spatial
 from ..errors import Issue, UserError
-from ..model.cell import DeviceModel
+from ..model.cell import CellModel, DeviceModel
 from ..model.vision import BoardModel, CameraModel
 from ..units import ANGLE, LENGTH
 from .cellparts import pose_to_matrix, validate_document
@@ -225,13 +225,15 @@ class Captures:
         self.camera_given: bool = camera.fx > 0
         # the robot of the views' joint values: its cell and name, each view's values as the
         # file gives them with their line and column, the file's length and angle units
-        # (None: not given); ``joints`` (K, n) SI once the cell has converted them
+        # (None: not given); ``joints`` (K, n) SI and ``robot_model`` (the cell loaded) once
+        # the cell has converted them
         self.robot_cell: Path | None = None
         self.device: str | None = None
         self.joint_values: list[tuple[list[float], int, int]] = []
         self.units: tuple[float, float] = (1.0, 1.0)
         self.robot_line: tuple[int, int] = (0, 0)
         self.joints: np.ndarray | None = None
+        self.robot_model: CellModel | None = None
 
 
 def read_captures(path: str) -> Captures:
