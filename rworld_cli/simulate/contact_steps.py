@@ -146,9 +146,9 @@ class ContactSteps:
         spec = step.spec
         tr.t += spec.settle
         self.set_time(tr.t)
-        reading = read_sensors(self.world, [spec.camera])[0]
+        reading = read_sensors(self.world, [spec.camera])[0].as_dict()
         self._actions.append(ResolvedStep(step, tr.t, None, "capture"))
-        image = (reading.as_dict().get("image") or {}).get("boards", {})
+        image = (reading.get("image") or {}).get("boards", {})
         seen = ", ".join(f"{b['seen']}/{b['total']} corners of {n}" for n, b in image.items())
         self.events.append(
             Event(
@@ -157,7 +157,7 @@ class ContactSteps:
                 step.index,
                 "capture",
                 f"capture {spec.camera}: {seen or 'no board in the cell'}",
-                reading=reading.as_dict(),
+                reading=reading,
             )
         )
         tr.t += spec.exposure

@@ -173,18 +173,18 @@ def refine_tag_corners(grey: np.ndarray, quad: np.ndarray, samples: int = 16) ->
         profile = map_coordinates(img, [pts[..., 1], pts[..., 0]], order=1, mode="nearest")
         dark = profile[:, :quarter].mean(axis=1)
         bright = profile[:, -quarter:].mean(axis=1)
-        edge = []
-        for s in range(samples):
-            p = profile[s] - (dark[s] + bright[s]) / 2
-            rising = np.nonzero((p[:-1] < 0) & (p[1:] >= 0))[0]
-            if len(rising) == 0 or bright[s] - dark[s] < 20:
-                continue
-            i = rising[np.argmin(np.abs(rising - len(steps) // 2))]
-            f = -p[i] / (p[i + 1] - p[i])
-            edge.append(base[s] + (steps[i] + f * (steps[1] - steps[0])) * n)
-        if len(edge) < 3:
+        # each profile's mid-level crossing nearest the middle, all profiles at once
+        p = profile - ((dark + bright) / 2)[:, None]
+        rising = (p[:, :-1] < 0) & (p[:, 1:] >= 0)  # (S, P - 1)
+        gap = np.where(rising, np.abs(np.arange(len(steps) - 1) - len(steps) // 2), len(steps))
+        i = np.argmin(gap, axis=1)
+        rows = np.arange(samples)
+        good = rising[rows, i] & (bright - dark >= 20)
+        if good.sum() < 3:
             return quad
-        points = np.array(edge)
+        i, rows = i[good], rows[good]
+        f = -p[rows, i] / (p[rows, i + 1] - p[rows, i])
+        points = base[rows] + (steps[i] + f * (steps[1] - steps[0]))[:, None] * n
         middle = points.mean(axis=0)
         direction = np.linalg.svd(points - middle)[2][0]
         lines.append((middle, direction))
