@@ -449,103 +449,79 @@ def planning() -> None:
         )
 
 
+def _robot_truth(root: Path, cell: Path, seed: int, rng) -> tuple:
+    """One truth of section 7: ``cell`` (its robot the first device, a wrist camera over a
+    board) copied to a truth off its model (``rng``), 40 planned views (``seed``) emulated
+    through it with 0.1 px of noise, the exact-robot fit against the two steps; (exact,
+    through, the robot's fit, the camera to the board at the held-out joints before and after
+    against the truth's, max [m], the three calibrations' time [s])."""
+    from rworld_cli.api import calibrate_camera, calibrate_robot, plan_views
+    from rworld_cli.schema.loader import load_cell
+    from rworld_cli.world.tree import World
+    from tests.vision.camera_cells import (
+        emulated_captures,
+        list_pose_file,
+        robot_off_its_model,
+    )
+
+    truth = load_cell(str(robot_off_its_model(cell, root / "truth", rng))).cell
+    nominal = load_cell(str(cell)).cell
+    name = next(iter(nominal.devices))
+    plan = plan_views(str(cell), "wrist_camera", 40, candidates=300, seed=seed)
+    captures = emulated_captures(root, nominal, truth, plan.joints, rng, 0.1)
+    t0 = time.perf_counter()
+    exact = calibrate_camera(str(captures), holdout_every=4)
+    obs = root / "obs.yaml"
+    calibrate_camera(str(captures), write_robot_observations=str(obs))
+    fit = calibrate_robot(str(cell), [str(obs)], output=str(cell / "robot_cal.yaml"))
+    list_pose_file(cell, "robot_cal.yaml")
+    through = calibrate_camera(str(captures), holdout_every=4, through_robot=True)
+    seconds = time.perf_counter() - t0
+    held = plan.joints[3::4]
+
+    def board_camera(model, result):
+        world = World(model)
+        mount = world.parent("wrist_camera")
+        out = []
+        for q in held:
+            world.set_joints(name, q)
+            T = world.T(name, mount) @ result.T_mount_camera
+            out.append(np.linalg.solve(result.T_holder_board, T))
+        return np.array(out)
+
+    true_world = World(truth)
+    true = []
+    for q in held:
+        true_world.set_joints(name, q)
+        true.append(true_world.T("board", "wrist_camera"))
+    true = np.array(true)
+    before = board_camera(nominal, exact.result)
+    after = board_camera(load_cell(str(cell)).cell, through.result)
+    off = [float(np.abs(x[:, :3, 3] - true[:, :3, 3]).max()) for x in (before, after)]
+    return exact, through, fit.as_dict(), off[0], off[1], seconds
+
+
 def robot(truths: int) -> None:
     """Section 7 (module docstring)."""
     import shutil
     import tempfile
 
-    from rworld_cli.api import calibrate_camera, calibrate_robot, plan_views
-    from rworld_cli.schema.captures import capture_template_text, corners_text
-    from rworld_cli.schema.loader import load_cell
-    from rworld_cli.vision.emulate import seen_corners
-    from rworld_cli.world.tree import World
-
-    cell_data = REPO / "tests" / "data" / "vision" / "cell"
     print(f"7. the robot's own errors from the camera ({truths} truths, 40 views, 0.1 px):")
     rows = []
     for seed in range(truths):
         with tempfile.TemporaryDirectory() as tmp:
             root = Path(tmp)
-            cell, truth_dir = root / "cell", root / "truth"
-            shutil.copytree(cell_data, cell)
-            shutil.copytree(cell_data, truth_dir)
-            rng = np.random.default_rng(100 + seed)
-            lines = ["units: {length: mm, angle: deg}", "corrections:"]
-            for name in ("j1", "j2", "j3", "j4", "j5", "j6"):
-                xyz = ", ".join(f"{v:.6f}" for v in rng.normal(0, 0.5, 3))
-                rpy = ", ".join(f"{v:.6f}" for v in rng.normal(0, 0.05, 3))
-                lines.append(f"  ur5.{name}: {{xyz: [{xyz}], rpy: [{rpy}]}}")
-            (truth_dir / "robot_truth.yaml").write_text("\n".join(lines) + "\n")
-            text = (truth_dir / "cell.yaml").read_text()
-            (truth_dir / "cell.yaml").write_text(
-                text.replace(
-                    "pose_files: [poses.yaml]", "pose_files: [poses.yaml, robot_truth.yaml]"
-                )
+            cell = root / "cell"
+            shutil.copytree(REPO / "tests" / "data" / "vision" / "cell", cell)
+            exact, through, f, before, after, seconds = _robot_truth(
+                root, cell, seed, np.random.default_rng(100 + seed)
             )
-            truth, nominal = load_cell(str(truth_dir)).cell, load_cell(str(cell)).cell
-            plan = plan_views(str(cell), "wrist_camera", 40, candidates=300, seed=seed)
-            true_world, nominal_world = World(truth), World(nominal)
-            camera = nominal.sensors["wrist_camera"].camera
-            board = nominal.objects["board"].board
-            corners, flanges = [], []
-            for q in plan.joints:
-                true_world.set_joints("ur5", q)
-                nominal_world.set_joints("ur5", q)
-                seen = seen_corners(camera, board, true_world.T("wrist_camera", "board"))
-                corners.append(seen + rng.normal(0, 0.1, seen.shape))
-                flanges.append(nominal_world.T("ur5", "ur5.tool"))
-            names = [f"view{k + 1:02d}.png" for k in range(len(plan.joints))]
-            captures = root / "captures.yaml"
-            captures.write_text(
-                capture_template_text(
-                    camera,
-                    "ur5.tool",
-                    "ur5",
-                    board,
-                    np.array(flanges),
-                    names,
-                    robot=("cell", nominal.devices["ur5"]),
-                    joints=plan.joints,
-                )  # fmt: skip
-                + "corners: corners.csv\n"
-            )
-            (root / "corners.csv").write_text(corners_text(names, np.array(corners)))
-            t0 = time.perf_counter()
-            exact = calibrate_camera(str(captures), holdout_every=4)
-            obs = root / "obs.yaml"
-            calibrate_camera(str(captures), write_robot_observations=str(obs))
-            fit = calibrate_robot(str(cell), [str(obs)], output=str(cell / "robot_cal.yaml"))
-            text = (cell / "cell.yaml").read_text()
-            (cell / "cell.yaml").write_text(
-                text.replace("pose_files: [poses.yaml]", "pose_files: [poses.yaml, robot_cal.yaml]")
-            )
-            through = calibrate_camera(str(captures), holdout_every=4, through_robot=True)
-            seconds = time.perf_counter() - t0
-            held = plan.joints[3::4]
-
-            def board_camera(model, result):
-                world = World(model)
-                out = []
-                for q in held:
-                    world.set_joints("ur5", q)
-                    T = world.T("ur5", "ur5.tool") @ result.T_mount_camera
-                    out.append(np.linalg.solve(result.T_holder_board, T))
-                return np.array(out)
-
-            true = []
-            for q in held:
-                true_world.set_joints("ur5", q)
-                true.append(true_world.T("board", "wrist_camera"))
-            true = np.array(true)
-            before = board_camera(nominal, exact.result)
-            after = board_camera(load_cell(str(cell)).cell, through.result)
-            f = fit.as_dict()
             rows.append(
                 (
                     exact.held_out_rms,
                     through.held_out_rms,
-                    np.abs(before[:, :3, 3] - true[:, :3, 3]).max() * 1000,
-                    np.abs(after[:, :3, 3] - true[:, :3, 3]).max() * 1000,
+                    before * 1000,
+                    after * 1000,
                     f["sigma_mm"],
                     f["fit_mm"]["after"]["rms"],
                     f["identified"],
@@ -568,93 +544,30 @@ def robot(truths: int) -> None:
 
 def robot_vendors(truths: int) -> None:
     """Section 7 on vendor robots (module docstring)."""
-    import shutil
     import tempfile
 
-    from rworld_cli import spatial
-    from rworld_cli.api import calibrate_camera, calibrate_robot, plan_views
-    from rworld_cli.calibration.robot import small_pose
-    from rworld_cli.schema.captures import capture_template_text, corners_text
-    from rworld_cli.schema.loader import load_cell
-    from rworld_cli.vision.emulate import seen_corners
-    from rworld_cli.world.tree import World
     from tests.vision.camera_cells import camera_cell
 
     print(f"7b. the robot's own errors from the camera, vendor robots ({truths} truths each):")
-    for robot in ("kr6r900sixx", "cr7ial", "iiwa14"):
+    for name in ("kr6r900sixx", "cr7ial", "iiwa14"):
         rows = []
         for seed in range(truths):
             with tempfile.TemporaryDirectory() as tmp:
                 root = Path(tmp)
-                cell = camera_cell(robot, root / "cell")
-                shutil.copytree(cell, root / "truth")
-                nominal = load_cell(str(cell)).cell
-                name = next(iter(nominal.devices))
-                dev = nominal.devices[name]
-                rng = np.random.default_rng(200 + seed)
-                lines = ["units: {length: mm, angle: deg}", "joints:"]
-                for j in dev.joints:  # each joint frame off by a small pose
-                    d = np.r_[rng.normal(0, 0.5e-3, 3), np.radians(rng.normal(0, 0.05, 3))]
-                    T = np.asarray(j.origin) @ small_pose(d)
-                    xyz = ", ".join(f"{v * 1000:.9f}" for v in T[:3, 3])
-                    rpy = ", ".join(
-                        f"{v:.9f}" for v in np.degrees(spatial.matrix_to_rpy(T[:3, :3]))
-                    )
-                    lines.append(f"  {name}.{j.name}: {{xyz: [{xyz}], rpy: [{rpy}]}}")
-                (root / "truth" / "robot_truth.yaml").write_text("\n".join(lines) + "\n")
-                text = (root / "truth" / "cell.yaml").read_text()
-                (root / "truth" / "cell.yaml").write_text(
-                    text.replace("- poses.yaml", "- poses.yaml\n- robot_truth.yaml", 1)
+                cell = camera_cell(name, root / "cell")
+                exact, through, f, *_ = _robot_truth(
+                    root, cell, seed, np.random.default_rng(200 + seed)
                 )
-                truth = load_cell(str(root / "truth")).cell
-                plan = plan_views(str(cell), "wrist_camera", 40, candidates=300, seed=seed)
-                true_world, nominal_world = World(truth), World(nominal)
-                camera = nominal.sensors["wrist_camera"].camera
-                board = nominal.objects["board"].board
-                mount = nominal_world.parent("wrist_camera")
-                corners, flanges = [], []
-                for q in plan.joints:
-                    true_world.set_joints(name, q)
-                    nominal_world.set_joints(name, q)
-                    seen = seen_corners(camera, board, true_world.T("wrist_camera", "board"))
-                    corners.append(seen + rng.normal(0, 0.1, seen.shape))
-                    flanges.append(nominal_world.T(name, mount))
-                names = [f"view{k + 1:02d}.png" for k in range(len(plan.joints))]
-                captures = root / "captures.yaml"
-                captures.write_text(
-                    capture_template_text(
-                        camera,
-                        mount,
-                        name,
-                        board,
-                        np.array(flanges),
-                        names,
-                        robot=("cell", dev),
-                        joints=plan.joints,
-                    )  # fmt: skip
-                    + "corners: corners.csv\n"
-                )
-                (root / "corners.csv").write_text(corners_text(names, np.array(corners)))
-                exact = calibrate_camera(str(captures), holdout_every=4)
-                obs = root / "obs.yaml"
-                calibrate_camera(str(captures), write_robot_observations=str(obs))
-                fit = calibrate_robot(str(cell), [str(obs)], output=str(cell / "robot_cal.yaml"))
-                text = (cell / "cell.yaml").read_text()
-                (cell / "cell.yaml").write_text(
-                    text.replace("- poses.yaml", "- poses.yaml\n- robot_cal.yaml", 1)
-                )
-                through = calibrate_camera(str(captures), holdout_every=4, through_robot=True)
-                f = fit.as_dict()
                 rows.append((exact.held_out_rms, through.held_out_rms))
                 print(
-                    f"   {robot} truth {seed}: held-out {rows[-1][0]:.3f} -> {rows[-1][1]:.3f} px; "
+                    f"   {name} truth {seed}: held-out {rows[-1][0]:.3f} -> {rows[-1][1]:.3f} px; "
                     f"sigma {f['sigma_mm']:.3f} mm, robot fit "
                     f"{f['fit_mm']['after']['rms']:.3f} mm, "
                     f"{f['identified']} of {f['parameters']} identified"
                 )
         r = np.array(rows)
         print(
-            f"   {robot}: held-out median {np.median(r[:, 0]):.3f} -> {np.median(r[:, 1]):.3f} px "
+            f"   {name}: held-out median {np.median(r[:, 0]):.3f} -> {np.median(r[:, 1]):.3f} px "
             f"(at most {r[:, 1].max():.3f})"
         )
 

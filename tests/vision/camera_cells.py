@@ -11,6 +11,7 @@ on the TCP, 50 mm out, facing away from the flange.
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -77,3 +78,86 @@ def camera_cell(robot: str, out: Path, fixed: bool = False) -> Path:
     }
     _write(out, cell, poses)
     return out
+
+
+def list_pose_file(cell: Path, name: str) -> None:
+    """Add ``name`` last to ``cell``'s ``pose_files`` (either YAML form of the list)."""
+    text = (cell / "cell.yaml").read_text()
+    if "pose_files: [poses.yaml]" in text:
+        text = text.replace("pose_files: [poses.yaml]", f"pose_files: [poses.yaml, {name}]")
+    else:
+        assert "- poses.yaml" in text, "the cell's pose_files"
+        text = text.replace("- poses.yaml", f"- poses.yaml\n- {name}", 1)
+    (cell / "cell.yaml").write_text(text)
+
+
+def robot_off_its_model(cell: Path, out: Path, rng: np.random.Generator) -> Path:
+    """A copy of ``cell`` at ``out`` whose robot (its first device) is off its kinematics, the
+    truth of a robot calibration: a small pose before every DH row (``corrections:``) or after
+    every joint frame (``joints:``), 0.5 mm and 0.05 deg sigma an axis, drawn from ``rng``
+    (lengths, then angles, joint by joint) into ``robot_truth.yaml``, listed last."""
+    from rworld_cli import spatial
+    from rworld_cli.calibration.robot import small_pose
+    from rworld_cli.schema.loader import load_cell
+
+    shutil.copytree(cell, out)
+    model = load_cell(str(out)).cell
+    name, dev = next(iter(model.devices.items()))
+    if dev.convention == "frames":
+        lines = ["units: {length: mm, angle: deg}", "joints:"]
+        for j in dev.joints:  # the joint's frame itself, moved by the small pose
+            d = np.r_[rng.normal(0, 0.5e-3, 3), np.radians(rng.normal(0, 0.05, 3))]
+            T = np.asarray(j.origin) @ small_pose(d)
+            xyz = ", ".join(f"{v * 1000:.9f}" for v in T[:3, 3])
+            rpy = ", ".join(f"{v:.9f}" for v in np.degrees(spatial.matrix_to_rpy(T[:3, :3])))
+            lines.append(f"  {name}.{j.name}: {{xyz: [{xyz}], rpy: [{rpy}]}}")
+    else:
+        lines = ["units: {length: mm, angle: deg}", "corrections:"]
+        for j in dev.joints:
+            xyz = ", ".join(f"{v:.6f}" for v in rng.normal(0, 0.5, 3))
+            rpy = ", ".join(f"{v:.6f}" for v in rng.normal(0, 0.05, 3))
+            lines.append(f"  {name}.{j.name}: {{xyz: [{xyz}], rpy: [{rpy}]}}")
+    (out / "robot_truth.yaml").write_text("\n".join(lines) + "\n")
+    list_pose_file(out, "robot_truth.yaml")
+    return out
+
+
+def emulated_captures(
+    root: Path, nominal, truth, joints: np.ndarray, rng: np.random.Generator, noise_px: float
+) -> Path:
+    """A capture file ``root/captures.yaml`` (and its ``corners.csv``) of the wrist camera's
+    views of the board at ``joints`` (K, n): the corners as the ``truth`` cell's robot puts
+    them, with ``noise_px`` of noise from ``rng`` view by view, the flange poses as the
+    ``nominal`` robot's controller reports them, the joints with ``robot:`` naming
+    ``root/cell``."""
+    from rworld_cli.schema.captures import capture_template_text, corners_text
+    from rworld_cli.vision.emulate import seen_corners
+    from rworld_cli.world.tree import World
+
+    name = next(iter(nominal.devices))
+    true_world, nominal_world = World(truth), World(nominal)
+    camera = nominal.sensors["wrist_camera"].camera
+    board = nominal.objects["board"].board
+    mount = nominal_world.parent("wrist_camera")
+    corners, flanges = [], []
+    for q in joints:
+        true_world.set_joints(name, q)
+        nominal_world.set_joints(name, q)
+        seen = seen_corners(camera, board, true_world.T("wrist_camera", "board"))
+        corners.append(seen + rng.normal(0, noise_px, seen.shape))
+        flanges.append(nominal_world.T(name, mount))  # what the controller reports
+    names = [f"view{k + 1:02d}.png" for k in range(len(joints))]
+    captures = root / "captures.yaml"
+    text = capture_template_text(
+        camera,
+        mount,
+        name,
+        board,
+        np.array(flanges),
+        names,
+        robot=("cell", nominal.devices[name]),
+        joints=joints,
+    )
+    captures.write_text(text + "corners: corners.csv\n")
+    (root / "corners.csv").write_text(corners_text(names, np.array(corners)))
+    return captures

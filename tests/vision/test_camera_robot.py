@@ -10,11 +10,11 @@ true robot has it relative to the board at the held-out joints (0.058 mm, agains
 from __future__ import annotations
 
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from tests.vision.camera_cells import emulated_captures, list_pose_file, robot_off_its_model
 from tests.vision.test_sense_camera import CELL
 
 cv2 = pytest.importorskip("cv2")
@@ -22,63 +22,22 @@ cv2 = pytest.importorskip("cv2")
 NOISE_PX = 0.1
 
 
-def _truth(folder: Path, seed: int = 3) -> Path:
-    shutil.copytree(CELL, folder)
-    rng = np.random.default_rng(seed)
-    lines = ["units: {length: mm, angle: deg}", "corrections:"]
-    for name in ("j1", "j2", "j3", "j4", "j5", "j6"):
-        xyz = ", ".join(f"{v:.6f}" for v in rng.normal(0, 0.5, 3))
-        rpy = ", ".join(f"{v:.6f}" for v in rng.normal(0, 0.05, 3))
-        lines.append(f"  ur5.{name}: {{xyz: [{xyz}], rpy: [{rpy}]}}")
-    (folder / "robot_truth.yaml").write_text("\n".join(lines) + "\n")
-    text = (folder / "cell.yaml").read_text()
-    assert "pose_files: [poses.yaml]" in text
-    (folder / "cell.yaml").write_text(
-        text.replace("pose_files: [poses.yaml]", "pose_files: [poses.yaml, robot_truth.yaml]")
-    )
-    return folder
-
-
 @pytest.fixture(scope="module")
 def setup(tmp_path_factory):
     """The nominal cell, the truth, 40 planned views' joints, and the capture file."""
     from rworld_cli.api import plan_views
-    from rworld_cli.schema.captures import capture_template_text, corners_text
     from rworld_cli.schema.loader import load_cell
-    from rworld_cli.vision.emulate import seen_corners
-    from rworld_cli.world.tree import World
 
     root = tmp_path_factory.mktemp("camera_robot")
     cell = root / "cell"
     shutil.copytree(CELL, cell)
-    truth = load_cell(str(_truth(root / "truth"))).cell
+    truth_dir = robot_off_its_model(CELL, root / "truth", np.random.default_rng(3))
+    truth = load_cell(str(truth_dir)).cell
     nominal = load_cell(str(cell)).cell
     plan = plan_views(str(cell), "wrist_camera", 40, candidates=300, seed=1)
-    true_world, nominal_world = World(truth), World(nominal)
-    camera = nominal.sensors["wrist_camera"].camera
-    board = nominal.objects["board"].board
-    rng = np.random.default_rng(5)
-    corners, flanges = [], []
-    for q in plan.joints:
-        true_world.set_joints("ur5", q)
-        nominal_world.set_joints("ur5", q)
-        seen = seen_corners(camera, board, true_world.T("wrist_camera", "board"))
-        corners.append(seen + rng.normal(0, NOISE_PX, seen.shape))
-        flanges.append(nominal_world.T("ur5", "ur5.tool"))  # what the controller reports
-    names = [f"view{k + 1:02d}.png" for k in range(len(plan.joints))]
-    captures = root / "captures.yaml"
-    text = capture_template_text(
-        camera,
-        "ur5.tool",
-        "ur5",
-        board,
-        np.array(flanges),
-        names,
-        robot=("cell", nominal.devices["ur5"]),
-        joints=plan.joints,
+    captures = emulated_captures(
+        root, nominal, truth, plan.joints, np.random.default_rng(5), NOISE_PX
     )
-    captures.write_text(text + "corners: corners.csv\n")
-    (root / "corners.csv").write_text(corners_text(names, np.array(corners)))
     return root, cell, truth, plan, captures
 
 
@@ -117,10 +76,7 @@ def test_the_camera_calibrates_the_robot_and_then_predicts_through_it(setup):
     assert "target: wrist_camera" in text and "frame: board" in text
     robot = calibrate_robot(str(cell), [str(observations)], output=str(cell / "robot_cal.yaml"))
     assert robot.written
-    text = (cell / "cell.yaml").read_text()
-    (cell / "cell.yaml").write_text(
-        text.replace("pose_files: [poses.yaml]", "pose_files: [poses.yaml, robot_cal.yaml]")
-    )
+    list_pose_file(cell, "robot_cal.yaml")
     through = calibrate_camera(str(captures), holdout_every=4, through_robot=True)
 
     # held-out views predicted through the robot: the nominal robot's errors, then the noise
