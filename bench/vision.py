@@ -362,22 +362,13 @@ def rendering() -> None:
     )
 
 
-def planning() -> None:
-    """plan-views on the test cell (a UR5 with a camera on its flange over a 9 x 6 board):
-    the planned views' predicted camera-in-flange error against random usable views; then the
-    whole loop for 8 planned views: images rendered there, corners found, the camera
-    calibrated, its pose against the cell's."""
-    import shutil
-    import tempfile
+def _plan_rows(cell: Path, camera: str, rows) -> None:
+    """Planned against random views' predicted error, one line for each (views, candidates)."""
+    from rworld_cli.api import plan_views
 
-    from rworld_cli import spatial
-    from rworld_cli.api import calibrate_camera, plan_views, render_camera
-
-    cell = REPO / "tests" / "data" / "vision" / "cell"
-    print("6. plan-views on the test cell (predicted error at a point 300 mm ahead, 0.1 px):")
-    for count, candidates in ((8, 300), (12, 300), (16, 300), (12, 600), (8, 1000), (12, 1000)):
+    for count, candidates in rows:
         t0 = time.perf_counter()
-        run = plan_views(str(cell / "cell.yaml"), "wrist_camera", count, candidates=candidates)
+        run = plan_views(str(cell / "cell.yaml"), camera, count, candidates=candidates)
         f = run.figures
         print(
             f"   {count:2d} views of {run.usable} usable / {candidates}: planned "
@@ -386,67 +377,60 @@ def planning() -> None:
             f"{np.hypot(f['d_optimal_position'], 0.3 * f['d_optimal_rotation']) * 1000:.4f} mm; "
             f"{time.perf_counter() - t0:.1f} s"
         )
+
+
+def _plan_loop(cell: Path, camera: str, truth: np.ndarray) -> None:
+    """The loop on 8 planned views (the default candidates): images rendered at each, corners
+    found, the camera calibrated; its pose in its mount against ``truth`` (4, 4)."""
+    import shutil
+    import tempfile
+
+    from rworld_cli import spatial
+    from rworld_cli.api import calibrate_camera, plan_views, render_camera
+
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp) / "cell"
         shutil.copytree(cell, work)
-        run = plan_views(str(work / "cell.yaml"), "wrist_camera", 8, captures=str(work / "c.yaml"))
+        run = plan_views(str(work / "cell.yaml"), camera, 8, captures=str(work / "c.yaml"))
         t0 = time.perf_counter()
         for k, q in enumerate(run.joints):
-            render_camera(
-                str(work / "cell.yaml"),
-                "wrist_camera",
-                str(work / f"view{k + 1:02d}.png"),
-                {"ur5": q.tolist()},
-                seed=k,
-            )
-        t_render = time.perf_counter() - t0
-        result = calibrate_camera(str(work / "c.yaml")).result
-        X = result.T_mount_camera
-        off = np.abs(X[:3, 3] * 1000 - [0, 60, 30]).max()
-        print(
-            f"   the loop, 8 planned views rendered at 1920 x 1200 ({t_render / 8:.2f} s an "
-            f"image), calibrated: the camera {off:.4f} mm and "
-            f"{np.degrees(np.linalg.norm(spatial.rotation_vector(X[:3, :3]))):.5f} "
-            f"deg from the cell's, fx {result.camera.fx:.3f} px (the cell's 1050), rms "
-            f"{result.rms:.4f} px"
-        )
-    # eye-to-hand: the overhead camera (at 450, 0, 900 mm, turned 180 deg about x) and a 7 x 5
-    # board on the flange (tests/data/vision/cell_eye_to_hand)
-    fixed = REPO / "tests" / "data" / "vision" / "cell_eye_to_hand"
-    print("   eye-to-hand (the board on the flange, the overhead camera):")
-    for count, candidates in ((8, 300), (12, 300)):
-        t0 = time.perf_counter()
-        run = plan_views(str(fixed / "cell.yaml"), "overhead", count, candidates=candidates)
-        f = run.figures
-        print(
-            f"   {count:2d} views of {run.usable} usable / {candidates}: planned "
-            f"{f['error'] * 1000:.4f} mm, random {f['random_error'] * 1000:.4f} mm "
-            f"({f['random_error'] / f['error']:.2f}x); {time.perf_counter() - t0:.1f} s"
-        )
-    with tempfile.TemporaryDirectory() as tmp:
-        work = Path(tmp) / "cell"
-        shutil.copytree(fixed, work)
-        run = plan_views(str(work / "cell.yaml"), "overhead", 8, captures=str(work / "c.yaml"))
-        for k, q in enumerate(run.joints):
-            render_camera(
-                str(work / "cell.yaml"),
-                "overhead",
-                str(work / f"view{k + 1:02d}.png"),
-                {"ur5": q.tolist()},
-                seed=k,
-            )
+            image = str(work / f"view{k + 1:02d}.png")
+            render_camera(str(work / "cell.yaml"), camera, image, {"ur5": q.tolist()}, seed=k)
+        t_render = (time.perf_counter() - t0) / len(run.joints)
         calibration = calibrate_camera(str(work / "c.yaml"))
         result = calibration.result
         X = result.T_mount_camera
-        truth = spatial.make_transform(spatial.rot_x(np.pi), [0.45, 0.0, 0.9])
         turn = np.linalg.norm(spatial.rotation_vector(truth[:3, :3].T @ X[:3, :3]))
         used = sum(d.refused is None for d in calibration.detections)
+        cam = result.camera
         print(
-            f"   the loop, 8 planned views ({used} with the board found) rendered at 1280 x "
-            f"1024, calibrated: the camera {np.abs(X[:3, 3] - truth[:3, 3]).max() * 1000:.4f} "
-            f"mm and {np.degrees(turn):.5f} deg from the cell's, fx {result.camera.fx:.3f} px "
-            f"(the cell's 1000), rms {result.rms:.4f} px"
+            f"   the loop, 8 planned views ({used} with the board found) rendered at "
+            f"{cam.width} x {cam.height} ({t_render:.2f} s an image), calibrated: the camera "
+            f"{np.abs(X[:3, 3] - truth[:3, 3]).max() * 1000:.4f} mm and "
+            f"{np.degrees(turn):.5f} deg from the cell's, fx {cam.fx:.3f} px, rms "
+            f"{result.rms:.4f} px"
         )
+
+
+def planning() -> None:
+    """plan-views on the test cell (a UR5 with a camera on its flange over a 9 x 6 board):
+    the planned views' predicted camera-in-flange error against random usable views, and the
+    whole loop for 8 planned views: images rendered there, corners found, the camera
+    calibrated, its pose against the cell's; the same eye-to-hand."""
+    from rworld_cli import spatial
+
+    data = REPO / "tests" / "data" / "vision"
+    print("6. plan-views on the test cell (predicted error at a point 300 mm ahead, 0.1 px):")
+    rows = ((8, 300), (12, 300), (16, 300), (12, 600), (8, 1000), (12, 1000))
+    _plan_rows(data / "cell", "wrist_camera", rows)
+    # the cell's wrist camera: 60 mm along the tool's y and 30 mm along its z, not turned
+    _plan_loop(data / "cell", "wrist_camera", spatial.make_transform(None, [0.0, 0.06, 0.03]))
+    # eye-to-hand: the overhead camera (at 450, 0, 900 mm, turned 180 deg about x) and a 7 x 5
+    # board on the flange (tests/data/vision/cell_eye_to_hand)
+    print("   eye-to-hand (the board on the flange, the overhead camera):")
+    _plan_rows(data / "cell_eye_to_hand", "overhead", ((8, 300), (12, 300)))
+    truth = spatial.make_transform(spatial.rot_x(np.pi), [0.45, 0.0, 0.9])
+    _plan_loop(data / "cell_eye_to_hand", "overhead", truth)
 
 
 def _robot_truth(root: Path, cell: Path, seed: int, rng) -> tuple:
