@@ -13,6 +13,7 @@ from .common import (
     frames_option,
     handle_errors,
     json_option,
+    log_format_option,
     output_option,
     seed_option,
     with_progress,
@@ -217,13 +218,7 @@ def _render(run) -> None:
     metavar="RUN|PROGRAM",
     help="--from-log: the run (or program) that was exported.",
 )
-@click.option(
-    "--format",
-    "fmt",
-    default=None,
-    type=click.Choice(["urscript", "rapid", "krl", "fanuc", "inform", "drl", "val3", "sunrise"]),
-    help="--from-log: the log's language (default: the device's controller.vendor's).",
-)
+@log_format_option("--from-log: the log's language (default: the device's controller.vendor's).")
 @device_option("--from-log: the probing device.")
 @click.option(
     "--frame",

@@ -184,6 +184,16 @@ def output_option(
     )
 
 
+#: the languages whose controller logs rworld reads back (``schema/contactlog.LANGUAGES``)
+LOG_FORMATS = ("urscript", "rapid", "krl", "fanuc", "inform", "drl", "val3", "sunrise")
+
+
+def log_format_option(help: str) -> Callable:
+    """``--format LANGUAGE``: the language of a controller's log (``measure --from-log``,
+    ``captures --from-log``); each command says in ``help`` what it takes by default."""
+    return click.option("--format", "fmt", default=None, type=click.Choice(LOG_FORMATS), help=help)
+
+
 def device_option(help: str, *, required: bool = False) -> Callable:
     """``--device NAME``: which device of the cell a command acts on; each command says in
     ``help`` what it does with it and what it takes by default."""

@@ -10,6 +10,7 @@ from .common import (
     emit_json,
     handle_errors,
     json_option,
+    log_format_option,
     output_option,
     with_progress,
 )
@@ -236,7 +237,8 @@ def _render(run) -> None:
     default=None,
     type=click.Path(dir_okay=False),
     metavar="FILE",
-    help="Write a program that visits each view from home and reads the camera there.",
+    help="Write a program that visits each view from home and takes an image there (capture: "
+    "steps, exported as the camera's trigger and a logged pose).",
 )
 @json_option
 @handle_errors
@@ -331,13 +333,7 @@ def plan_views(
     help="The images, in the order they were taken: files, or a quoted pattern ('shots/*.png', "
     "sorted by name); repeat for more.",
 )
-@click.option(
-    "--format",
-    "fmt",
-    default=None,
-    type=click.Choice(["urscript", "rapid", "krl", "fanuc", "inform", "drl", "val3", "sunrise"]),
-    help="The log's language (default: the device's controller.vendor's).",
-)
+@log_format_option("The log's language (default: the device's controller.vendor's).")
 @device_option("The robot that took the images (default: the one whose program captures).")
 @click.option(
     "--frame",

@@ -164,6 +164,13 @@ def test_each_languages_capture_log_gives_the_planned_flange_poses(cli, plans, t
     assert len(re.findall(trigger, text)) == 4
 
 
+def test_the_clis_log_formats_are_the_readers():
+    from rworld_cli.cli.common import LOG_FORMATS
+    from rworld_cli.schema.contactlog import LANGUAGES
+
+    assert LOG_FORMATS == LANGUAGES
+
+
 def test_a_pose_far_from_its_capture_is_refused_at_its_line(cli, plans, tmp_path):
     cell, program, _, log, images = _write_log(
         cli, plans, "urscript", tmp_path, shift=(1, np.array([0.0, 0.012, 0.0]))
