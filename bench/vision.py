@@ -31,7 +31,14 @@ Run:  .venv/bin/python bench/vision.py [--seeds 80] [--bootstrap 200] [--images 
    ``calibrate-robot``, ``--through-robot``): held-out (every 4th) rms and the camera's place
    relative to the board at the held-out joints, against the truth. ``--vendors``: the same on
    robots from their vendors' packages (``tests/vision/camera_cells.py``), their joint frames
-   off by a small pose each (0.5 mm, 0.05 deg sigma): held-out rms.
+   off by a small pose each (0.5 mm, 0.05 deg sigma): held-out rms. Each row also gives the
+   one estimate (``--with-robot``: camera, board and the robot's joint frames in one bundle
+   adjustment, from the nominal robot).
+7c. The one estimate's sigma (``--only robot-spread --seeds N``): one truth of section 7, 40
+   planned views, N draws of the 0.1 px noise; the camera's place relative to the board at 5
+   of the views (gauge-free: the board's pose and joint 1's errors are one to the camera) -
+   the sigma the estimate predicts (its joint covariance through the place's Jacobian)
+   against the spread over the draws, and the rms error against the truth.
 """
 
 from __future__ import annotations
@@ -453,6 +460,7 @@ def _robot_truth(root: Path, cell: Path, seed: int, rng) -> tuple:
     name = next(iter(nominal.devices))
     plan = plan_views(str(cell), "wrist_camera", 40, candidates=300, seed=seed)
     captures = emulated_captures(root, nominal, truth, plan.joints, rng, 0.1)
+    nominal_captures = nominal_copy(cell, root)  # before the two steps list their file
     t0 = time.perf_counter()
     exact = calibrate_camera(str(captures), holdout_every=4)
     obs = root / "obs.yaml"
@@ -461,6 +469,9 @@ def _robot_truth(root: Path, cell: Path, seed: int, rng) -> tuple:
     list_pose_file(cell, "robot_cal.yaml")
     through = calibrate_camera(str(captures), holdout_every=4, through_robot=True)
     seconds = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    one = calibrate_camera(str(nominal_captures), holdout_every=4, with_robot=True)
+    seconds_one = time.perf_counter() - t0
     held = plan.joints[3::4]
 
     def board_camera(model, result):
@@ -481,8 +492,25 @@ def _robot_truth(root: Path, cell: Path, seed: int, rng) -> tuple:
     true = np.array(true)
     before = board_camera(nominal, exact.result)
     after = board_camera(load_cell(str(cell)).cell, through.result)
-    off = [float(np.abs(x[:, :3, 3] - true[:, :3, 3]).max()) for x in (before, after)]
-    return exact, through, fit.as_dict(), off[0], off[1], seconds
+    robot = one.result.robot
+    joined = np.linalg.solve(
+        one.result.T_holder_board,
+        robot.model.poses(robot.p, held) @ one.result.T_mount_camera,
+    )
+    off = [float(np.abs(x[:, :3, 3] - true[:, :3, 3]).max()) for x in (before, after, joined)]
+    return exact, through, fit.as_dict(), off[0], off[1], seconds, one, off[2], seconds_one
+
+
+def nominal_copy(cell: Path, root: Path) -> Path:
+    """A copy of ``cell`` (``root/nominal``) and a capture file naming it beside
+    ``root/captures.yaml``; returns the capture file."""
+    import shutil
+
+    shutil.copytree(cell, root / "nominal")
+    text = (root / "captures.yaml").read_text()
+    out = root / "captures_nominal.yaml"
+    out.write_text(text.replace("robot: {cell: cell,", "robot: {cell: nominal,"))
+    return out
 
 
 def robot(truths: int) -> None:
@@ -497,7 +525,7 @@ def robot(truths: int) -> None:
             root = Path(tmp)
             cell = root / "cell"
             shutil.copytree(REPO / "tests" / "data" / "vision" / "cell", cell)
-            exact, through, f, before, after, seconds = _robot_truth(
+            exact, through, f, before, after, seconds, one, joined, seconds_one = _robot_truth(
                 root, cell, seed, np.random.default_rng(100 + seed)
             )
             rows.append(
@@ -510,20 +538,95 @@ def robot(truths: int) -> None:
                     f["fit_mm"]["after"]["rms"],
                     f["identified"],
                     seconds,
+                    one.held_out_rms,
+                    joined * 1000,
+                    one.result.robot.rank,
+                    seconds_one,
                 )
             )
             print(
-                f"   truth {seed}: held-out {rows[-1][0]:.3f} px -> {rows[-1][1]:.3f} px; camera "
-                f"to board {rows[-1][2]:.3f} mm -> {rows[-1][3]:.4f} mm; observations' sigma "
-                f"{rows[-1][4]:.3f} mm, robot fit rms {rows[-1][5]:.3f} mm, "
-                f"{rows[-1][6]} parameters identified; {seconds:.1f} s"
+                f"   truth {seed}: held-out {rows[-1][0]:.3f} px -> two steps {rows[-1][1]:.3f} "
+                f"px, one estimate {rows[-1][8]:.3f} px; camera to board {rows[-1][2]:.3f} mm -> "
+                f"{rows[-1][3]:.4f} mm, {rows[-1][9]:.4f} mm; two steps: observations' sigma "
+                f"{rows[-1][4]:.3f} mm, robot fit rms {rows[-1][5]:.3f} mm, {rows[-1][6]} "
+                f"parameters identified, {seconds:.1f} s; one: {rows[-1][10]} identified, "
+                f"{seconds_one:.1f} s"
             )
     r = np.array(rows)
     print(
-        f"   median over {truths}: held-out {np.median(r[:, 0]):.3f} -> {np.median(r[:, 1]):.3f} "
-        f"px (max {r[:, 1].max():.3f}); camera to board {np.median(r[:, 2]):.3f} -> "
-        f"{np.median(r[:, 3]):.4f} mm (max {r[:, 3].max():.4f})"
+        f"   median over {truths}: held-out {np.median(r[:, 0]):.3f} -> two steps "
+        f"{np.median(r[:, 1]):.3f} px (max {r[:, 1].max():.3f}), one estimate "
+        f"{np.median(r[:, 8]):.3f} px (max {r[:, 8].max():.3f}); camera to board "
+        f"{np.median(r[:, 2]):.3f} -> {np.median(r[:, 3]):.4f} mm (max {r[:, 3].max():.4f}), "
+        f"{np.median(r[:, 9]):.4f} mm (max {r[:, 9].max():.4f})"
     )
+
+
+def robot_spread(seeds: int) -> None:
+    """Section 7c (module docstring)."""
+    import shutil
+    import tempfile
+
+    from rworld_cli.api import calibrate_camera, plan_views
+    from rworld_cli.schema.loader import load_cell
+    from rworld_cli.vision.calibrate import _perturbed
+    from rworld_cli.world.tree import World
+    from tests.vision.camera_cells import emulated_captures, robot_off_its_model
+
+    print(f"7c. one estimate with the robot: its sigma against {seeds} noise seeds (0.1 px):")
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        cell = root / "cell"
+        shutil.copytree(REPO / "tests" / "data" / "vision" / "cell", cell)
+        truth = load_cell(str(robot_off_its_model(cell, root / "truth", np.random.default_rng(7))))
+        nominal = load_cell(str(cell)).cell
+        name = next(iter(nominal.devices))
+        plan = plan_views(str(cell), "wrist_camera", 40, candidates=300, seed=0)
+        checks = plan.joints[::8]  # five of the views: the camera's place at them
+        true_world = World(truth.cell)
+        true = []
+        for q in checks:
+            true_world.set_joints(name, q)
+            true.append(true_world.T("board", "wrist_camera")[:3, 3])
+        true = np.array(true).ravel()
+        estimates, predicted, factors = [], [], []
+        for k in range(seeds):
+            captures = emulated_captures(
+                root, nominal, truth.cell, plan.joints, np.random.default_rng(1000 + k), 0.1
+            )
+            r = calibrate_camera(str(captures), with_robot=True).result
+            robot = r.robot
+            P = len(robot.p)
+
+            def place(d, r=r, robot=robot, P=P):
+                X = _perturbed(r.T_mount_camera, d[9:15])
+                Z = _perturbed(r.T_holder_board, d[15:21])
+                F = robot.model.poses(robot.p + d[21:], checks)
+                return np.linalg.solve(Z, F @ X)[:, :3, 3].ravel()
+
+            x0 = np.zeros(21 + P)
+            J = np.empty((len(true), 21 + P))
+            for j in range(21 + P):
+                e = np.zeros_like(x0)
+                e[j] = 1e-7
+                J[:, j] = (place(x0 + e) - place(x0 - e)) / 2e-7
+            cov = np.block([[r.covariance, r.robot_cross], [r.robot_cross.T, robot.covariance]])
+            estimates.append(place(x0))
+            predicted.append(np.sqrt(np.diag(J @ cov @ J.T)))
+            factors.append(robot.variance_factor)
+        est = np.array(estimates)
+        spread = est.std(axis=0, ddof=1)
+        sigma = np.mean(predicted, axis=0)
+        error = np.sqrt(np.mean((est - true) ** 2, axis=0))
+        ratio = sigma / spread
+        print(
+            f"   the camera's place relative to the board at 5 views (15 coordinates): predicted "
+            f"sigma / observed spread median {np.median(ratio):.3f} ({ratio.min():.3f}-"
+            f"{ratio.max():.3f}); rms error against the truth / predicted sigma median "
+            f"{np.median(error / sigma):.3f} (max {np.max(error / sigma):.3f}); sigma "
+            f"{np.median(sigma) * 1000:.4f} mm median; a-posteriori factor "
+            f"{np.mean(factors):.3f}"
+        )
 
 
 def robot_vendors(truths: int) -> None:
@@ -539,20 +642,22 @@ def robot_vendors(truths: int) -> None:
             with tempfile.TemporaryDirectory() as tmp:
                 root = Path(tmp)
                 cell = camera_cell(name, root / "cell")
-                exact, through, f, *_ = _robot_truth(
+                exact, through, f, _, _, _, one, *_ = _robot_truth(
                     root, cell, seed, np.random.default_rng(200 + seed)
                 )
-                rows.append((exact.held_out_rms, through.held_out_rms))
+                rows.append((exact.held_out_rms, through.held_out_rms, one.held_out_rms))
                 print(
-                    f"   {name} truth {seed}: held-out {rows[-1][0]:.3f} -> {rows[-1][1]:.3f} px; "
-                    f"sigma {f['sigma_mm']:.3f} mm, robot fit "
-                    f"{f['fit_mm']['after']['rms']:.3f} mm, "
-                    f"{f['identified']} of {f['parameters']} identified"
+                    f"   {name} truth {seed}: held-out {rows[-1][0]:.3f} -> two steps "
+                    f"{rows[-1][1]:.3f} px, one estimate {rows[-1][2]:.3f} px; sigma "
+                    f"{f['sigma_mm']:.3f} mm, robot fit {f['fit_mm']['after']['rms']:.3f} mm, "
+                    f"{f['identified']} of {f['parameters']} identified (two steps), "
+                    f"{one.result.robot.rank} of {6 * one.result.robot.device.dof} (one)"
                 )
         r = np.array(rows)
         print(
-            f"   {name}: held-out median {np.median(r[:, 0]):.3f} -> {np.median(r[:, 1]):.3f} px "
-            f"(at most {r[:, 1].max():.3f})"
+            f"   {name}: held-out median {np.median(r[:, 0]):.3f} -> two steps "
+            f"{np.median(r[:, 1]):.3f} px (at most {r[:, 1].max():.3f}), one estimate "
+            f"{np.median(r[:, 2]):.3f} px (at most {r[:, 2].max():.3f})"
         )
 
 
@@ -634,7 +739,7 @@ def main() -> None:
     parser.add_argument("--images", default=None, help="detect every image in this folder")
     parser.add_argument(
         "--only",
-        choices=["rendering", "planning", "robot", "aprilgrid"],
+        choices=["rendering", "planning", "robot", "robot-spread", "aprilgrid"],
         default=None,
         help="run one section",
     )
@@ -651,6 +756,9 @@ def main() -> None:
             robot_vendors(min(args.truths, 3))
         else:
             robot(args.truths)
+        return
+    if args.only == "robot-spread":
+        robot_spread(args.seeds)
         return
     if args.only is not None:
         {"rendering": rendering, "planning": planning, "aprilgrid": aprilgrid}[args.only]()

@@ -54,6 +54,43 @@ def example_run():
     return get
 
 
+_SIMULATED: dict[str, tuple] = {}  # simulation_once's results, by the inputs' digest
+
+
+def _inputs_digest(cell: str, run: str, dt, pose_files) -> str:
+    """A digest of everything ``api.export._simulate`` reads: every file under the cell's
+    folder (contents), the run's file, the period and the pose files."""
+    import hashlib
+
+    h = hashlib.blake2b(repr((cell, run, dt, pose_files)).encode(), digest_size=20)
+    folder = Path(cell) if Path(cell).is_dir() else Path(cell).parent
+    files = sorted(p for p in folder.rglob("*") if p.is_file())
+    files += [Path(p) for p in [run, *(pose_files or [])] if Path(p).is_file()]
+    for path in files:
+        h.update(str(path).encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()
+
+
+@pytest.fixture
+def simulation_once(monkeypatch):
+    """The simulation behind ``export program``, ``measure --from-log`` and ``captures
+    --from-log`` (``api.export._simulate``) made once a test process for the same files - the
+    real one, keyed by the digest of every file it reads, its result shared read-only (as
+    ``example_run``'s). The contact-log tests read the same program back dozens of times."""
+    from rworld_cli.api import export
+
+    simulate_now = export._simulate
+
+    def simulate_once(cell: str, run: str, dt, pose_files):
+        key = _inputs_digest(cell, run, dt, pose_files)
+        if key not in _SIMULATED:
+            _SIMULATED[key] = simulate_now(cell, run, dt, pose_files)
+        return _SIMULATED[key]
+
+    monkeypatch.setattr(export, "_simulate", simulate_once)
+
+
 def urdf_without_meshes(source: Path, target: Path) -> Path:
     """A copy of a vendor's URDF without its visual and collision elements (their meshes are
     not vendored): the kinematics and inertials stay as they are."""

@@ -4,7 +4,6 @@ written as a pose-file overlay (joint frames, the measured frame, the instrument
 from __future__ import annotations
 
 import dataclasses
-import datetime as _dt
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -575,74 +574,49 @@ def _take(surfaces, rows):
 
 
 def _write_overlay(out: Path, obs, model, result, digests, world, T_link_target) -> None:
-    """The calibrated numbers as a pose file (mm, deg): every joint's frame (and compliance),
-    the measured frame's pose, the instrument frame's pose; provenance with the files'
-    hashes."""
-    from .. import spatial
-    from ..calibration.robot import small_pose
+    """The calibrated numbers as a pose file (``schema.robotobs.robot_overlay_text``)."""
     from ..fileio import atomic_write_text
-    from ..schema.yamlio import yaml_value
+    from ..schema.robotobs import robot_overlay_text
 
-    def pose(T) -> str:
-        xyz = ", ".join(repr(float(x) * 1000) for x in T[:3, 3])
-        rpy = ", ".join(repr(float(x)) for x in np.degrees(spatial.matrix_to_rpy(T[:3, :3])))
-        return f"{{xyz: [{xyz}], rpy: [{rpy}]}}"
+    rms = float(np.sqrt(np.mean(np.sum(result.residuals**2, axis=1))))
+    text = robot_overlay_text(
+        result.device,
+        obs.device,
+        calibrated_frames(obs.target, obs.frame, model, result, world, T_link_target),
+        "rworld calibrate-robot",
+        digests,
+        {
+            "points": len(obs.q),
+            "identified": f"{result.rank} of {len(result.p)} parameters",
+            "observability_index": float(result.observability),
+            "residual_rms_mm": rms * 1000,
+        },
+    )
+    atomic_write_text(out, text)
 
-    def T_world(frame: str | None) -> np.ndarray:
-        return world.T_world(frame) if frame not in (None, "world") else np.eye(4)
 
-    n = result.device.dof
-    lines = [
-        "# The robot's calibrated kinematics, written by 'rworld calibrate-robot'.  List this",
-        "# file last in the cell's pose_files; the nominal values stay where they are.",
-        "units: {length: mm, angle: deg}",
-    ]
-    if result.device.convention == "frames":  # each joint's frame
-        lines.append("joints:")
-        for j in result.device.joints:
-            lines.append(f"  {yaml_value(f'{obs.device}.{j.name}')}: {pose(j.origin)}")
-    else:  # a small pose before each DH row
-        lines.append("corrections:")
-        for j in result.device.joints:
-            lines.append(f"  {yaml_value(f'{obs.device}.{j.name}')}: {pose(j.correction)}")
-    if any(j.compliance for j in result.device.joints):  # per kN m (per kN): readable numbers
-        lines.append("compliance:  # deg per kN m (mm per kN for a prismatic joint)")
-        for j in result.device.joints:
-            unit = 1000.0 if j.kind == "prismatic" else float(np.degrees(1.0))  # mm or deg
-            value = repr(float(j.compliance * unit * 1000))
-            lines.append(f"  {yaml_value(f'{obs.device}.{j.name}')}: {value}")
-    # the measured frame: its point on the link moved by the estimate, relative to its parent
-    # (on the same link, so any joint state gives the same relative pose)
-    _, target, _ = model.apply(result.p)  # from the rigid fit's target, not the cell's
+def calibrated_frames(target: str, frame: str, model, result, world, T_link_target) -> dict:
+    """The poses a robot calibration moves besides the joints, relative to each frame's parent
+    (name -> (4, 4) [m]): the measured frame (its pose on the link moved by the estimate) and
+    an estimated instrument frame (``F' = F R E``, R its registration)."""
+    from ..calibration.robot import small_pose
+
+    def T_world(name: str | None) -> np.ndarray:
+        return world.T_world(name) if name not in (None, "world") else np.eye(4)
+
+    _, moved, _ = model.apply(result.p)  # from the rigid fit's target, not the cell's
     if model.R_link_target is None:
         T_link_new = T_link_target.copy()
-        T_link_new[:3, 3] = target[:3, 3]
+        T_link_new[:3, 3] = moved[:3, 3]
     else:
-        T_link_new = target
-    T_world_link = world.T_world(obs.target) @ np.linalg.inv(T_link_target)
-    poses = {
-        obs.target: np.linalg.solve(T_world(world.parent(obs.target)), T_world_link @ T_link_new)
-    }
-    if model.frame_estimated:  # the instrument's frame F' = F R E (R: its registration)
-        m = model.target_count
+        T_link_new = moved
+    T_world_link = world.T_world(target) @ np.linalg.inv(T_link_target)
+    poses = {target: np.linalg.solve(T_world(world.parent(target)), T_world_link @ T_link_new)}
+    if model.frame_estimated:
+        n, m = result.device.dof, model.target_count
         E = small_pose(result.p[6 * n + m : 6 * n + m + 6])
-        poses[obs.frame] = np.linalg.solve(
-            T_world(world.parent(obs.frame)),
-            world.T_world(obs.frame) @ result.T_frame_registered @ E,
+        poses[frame] = np.linalg.solve(
+            T_world(world.parent(frame)),
+            world.T_world(frame) @ result.T_frame_registered @ E,
         )
-    lines.append("poses:")
-    for name, T in poses.items():
-        lines.append(f"  {yaml_value(name)}: {pose(T)}")
-    lines.append("provenance:")
-    lines.append(f"  date: {yaml_value(_dt.datetime.now().replace(microsecond=0).isoformat())}")
-    lines.append("  tool: rworld calibrate-robot")
-    lines.append(f"  device: {yaml_value(obs.device)}")
-    lines.append("  observations:")
-    for d in digests:
-        lines.append(f"    - {{path: {yaml_value(str(d['path']))}, sha256: {d['sha256']}}}")
-    lines.append(f"  points: {len(obs.q)}")
-    lines.append(f"  identified: {yaml_value(f'{result.rank} of {len(result.p)} parameters')}")
-    lines.append(f"  observability_index: {result.observability:.6g}")
-    rms = float(np.sqrt(np.mean(np.sum(result.residuals**2, axis=1))))
-    lines.append(f"  residual_rms_mm: {rms * 1000:.6g}")
-    atomic_write_text(out, "\n".join(lines) + "\n")
+    return poses

@@ -3,6 +3,7 @@ the board's, from a capture file's images and robot poses (``docs/vision.md``)."
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as _dt
 import logging
 import time
@@ -19,6 +20,7 @@ from ..vision.calibrate import (
     CameraCalibration,
     axxb_residuals,
     calibrate_views,
+    calibrate_views_with_robot,
     reprojection_rms,
     view_poses,
 )
@@ -87,7 +89,12 @@ class CameraCalibrationRun:
                 "camera_pose": _pose_dict(self.mount, r.T_mount_camera, s[9:15]),
                 "board_pose": _pose_dict(self.holder, r.T_holder_board, s[15:21]),
                 "reprojection_rms_px": r.rms,
-                "model": "flange errors" if r.flange_sigma is not None else "exact robot",
+                "model": "robot errors"
+                if r.robot is not None
+                else "flange errors"
+                if r.flange_sigma is not None
+                else "exact robot",
+                "robot": None if r.robot is None else _robot_dict(r.robot),
                 "flange_sigma_deg": None
                 if r.flange_sigma is None
                 else float(np.degrees(r.flange_sigma[0])),
@@ -121,6 +128,33 @@ class CameraCalibrationRun:
         if name in self.result.names:
             return float(self.result.view_rms[self.result.names.index(name)])
         return self.held_out_view_rms.get(name)
+
+
+def _robot_dict(robot) -> dict:
+    """The robot's corrections of a ``--with-robot`` calibration: each identified joint-frame
+    parameter (mm or deg) with its sigma, the ones kept nominal, the pictures' noise."""
+    rows = []
+    for k in robot.identified:
+        name = robot.model.names[k]
+        angle = name.rsplit(".", 1)[1].startswith("r")
+        unit = float(np.degrees(1.0)) if angle else 1000.0
+        rows.append(
+            {
+                "name": name,
+                "correction": float(robot.p[k] * unit),
+                "sigma": float(robot.sigma[k] * unit),
+                "unit": "deg" if angle else "mm",
+            }
+        )
+    return {
+        "identified": int(robot.rank),
+        "parameters": 6 * robot.device.dof,
+        "corrections": rows,
+        "kept_nominal": [u.parameters[0][0] for u in robot.unidentifiable],
+        "pixel_noise_px": float(robot.sigma_instrument),
+        "variance_factor": float(robot.variance_factor),
+        "observability_index": float(robot.observability),
+    }
 
 
 def _pose_dict(parent: str, T: np.ndarray, sigma: np.ndarray) -> dict:
@@ -298,6 +332,8 @@ def calibrate_camera(
     progress=None,
     through_robot: bool = False,
     write_robot_observations: str | None = None,
+    with_robot: bool = False,
+    write_robot: str | None = None,
 ) -> CameraCalibrationRun:
     """Calibrate a camera from a capture file (``schema/captures.py``).
 
@@ -325,6 +361,15 @@ def calibrate_camera(
         PnP with the intrinsics of the views' own pictures (OpenCV's ``calibrateCamera``, the
         fit's start: the fit through the robot's poses bends them by the robot's errors;
         :func:`~rworld_cli.vision.calibrate.pose_observations`).
+    with_robot : bool
+        Estimate the robot's own kinematic errors (its joint frames) with the camera, in one
+        bundle adjustment (:func:`~rworld_cli.vision.calibrate.calibrate_views_with_robot`):
+        each view's flange pose from its joint values through the capture file's ``robot:``
+        cell, corrected by the estimate; held-out views are predicted through the corrected
+        robot.
+    write_robot : str or None
+        With ``with_robot``: the robot's corrections as a pose-file overlay for the robot's
+        cell (as ``rworld calibrate-robot`` writes it), with the other outputs, atomically.
 
     Raises
     ------
@@ -335,9 +380,18 @@ def calibrate_camera(
     from ..fileio import atomic_write_text, output_set
     from ..schema.captures import camera_file_text, corners_text, pose_file_text
 
-    captures = load_captures(captures_path, joints=through_robot or bool(write_robot_observations))
-    if (through_robot or write_robot_observations) and captures.joints is None:
-        flag = "--through-robot" if through_robot else "--write-robot-observations"
+    if write_robot and not with_robot:
+        raise UserError("--write-robot writes what --with-robot estimates: give both")
+    needs_joints = through_robot or with_robot or bool(write_robot_observations)
+    captures = load_captures(captures_path, joints=needs_joints)
+    if needs_joints and captures.joints is None:
+        flag = (
+            "--through-robot"
+            if through_robot
+            else "--with-robot"
+            if with_robot
+            else "--write-robot-observations"
+        )
         raise UserError(
             f"{flag} needs the views' joint values",
             [
@@ -351,7 +405,11 @@ def calibrate_camera(
                 )
             ],
         )
-    if through_robot:
+    robot = None
+    if with_robot:
+        robot = _robot_model(captures)
+        captures.T_base_flange = robot.poses(np.zeros(len(robot.names)), captures.joints)
+    elif through_robot:
         captures.T_base_flange = _flanges_through_robot(captures)
     if fix_intrinsics and not captures.camera_given:
         raise UserError(
@@ -377,9 +435,19 @@ def calibrate_camera(
     corners = all_views.corners
     t0 = time.perf_counter()
     try:
-        result = calibrate_views(
-            all_views.subset(fit), fix_intrinsics=fix_intrinsics, flange_errors=flange_errors
-        )
+        if robot is not None:
+            result = calibrate_views_with_robot(
+                all_views.subset(fit), robot, captures.joints[fit], fix_intrinsics=fix_intrinsics
+            )
+            # every view's flange where the corrected robot puts it (the held-out ones too)
+            assert result.robot is not None
+            all_views = dataclasses.replace(
+                all_views, T_base_flange=robot.poses(result.robot.p, captures.joints)
+            )
+        else:
+            result = calibrate_views(
+                all_views.subset(fit), fix_intrinsics=fix_intrinsics, flange_errors=flange_errors
+            )
     except CalibrationRefused as exc:
         refused = [f"{d.name}: {d.refused} ({d.detail})" for d in detections if d.refused]
         message = str(exc)
@@ -435,6 +503,8 @@ def calibrate_camera(
     if write_robot_observations:  # computed now: a PnP that fails is an error, before writing
         observations = _robot_observations(captures, all_views.subset(used), used, result, date)
         outputs.append((write_robot_observations, lambda: observations))
+    if write_robot:
+        outputs.append((write_robot, lambda: _robot_overlay(captures, result, len(fit))))
     if any(path for path, _ in outputs):
         with output_set():
             for path, text in outputs:
@@ -444,25 +514,62 @@ def calibrate_camera(
     return run
 
 
-def _flanges_through_robot(captures) -> np.ndarray:
-    """Each view's flange pose (V, 4, 4) [m]: the frame the capture file puts on the flange
-    (the camera's mount, or the board's holder eye-to-hand) in the robot's base at the view's
-    joint values, through the capture file's ``robot:`` cell."""
+def _robot_model(captures):
+    """The capture file's robot as the robot calibration models it: the frame on its flange
+    (the camera's mount, or the board's holder eye-to-hand) as a 6-DoF target on its link,
+    in the robot's base."""
+    from ..calibration.robot import RobotModel
     from ..world.tree import World
 
     world = World(captures.robot_model)
-    device = captures.device
     flange = captures.mount if captures.setup == "eye-in-hand" else captures.holder
     if flange not in world.cell.frames:
         raise UserError(
             f"{captures.path}: '{flange}' (the frame on the flange) is no frame of "
             f"{captures.robot_cell}"
         )
-    out = np.empty((len(captures.joints), 4, 4))
-    for k, q in enumerate(captures.joints):
-        world.set_joints(device, q)
-        out[k] = world.T(device, flange)
-    return out
+    link, T_link_flange = world.mount_of(captures.device, flange)
+    return RobotModel(
+        captures.robot_model.devices[captures.device],
+        np.eye(4),
+        link,
+        T_link_flange[:3, 3].copy(),
+        False,
+        T_link_flange[:3, :3].copy(),
+    )
+
+
+def _robot_overlay(captures, result, views: int) -> str:
+    """``calibrate_camera``'s ``write_robot``: the robot's corrections as a pose-file overlay
+    for its cell (the flange frame's own pose is the camera's or the board's, not moved)."""
+    import hashlib
+
+    from ..schema.robotobs import robot_overlay_text
+
+    robot = result.robot
+    rms = float(np.sqrt(np.mean(np.sum(robot.residuals**2, axis=1))))
+    digest = hashlib.sha256(Path(captures.path).read_bytes()).hexdigest()
+    return robot_overlay_text(
+        robot.device,
+        captures.device,
+        {},
+        "rworld calibrate-camera --with-robot",
+        [{"path": captures.path, "sha256": digest}],
+        {
+            "views": views,
+            "identified": f"{robot.rank} of {6 * robot.device.dof} joint parameters",
+            "observability_index": float(robot.observability),
+            "residual_rms_px": rms,
+        },
+    )
+
+
+def _flanges_through_robot(captures) -> np.ndarray:
+    """Each view's flange pose (V, 4, 4) [m]: the frame the capture file puts on the flange
+    (the camera's mount, or the board's holder eye-to-hand) in the robot's base at the view's
+    joint values, through the capture file's ``robot:`` cell."""
+    robot = _robot_model(captures)
+    return robot.poses(np.zeros(len(robot.names)), captures.joints)
 
 
 def _robot_observations(captures, views, used: list[int], result, date: str) -> str:

@@ -70,6 +70,20 @@ from .common import (
     help="A robot observation file for 'rworld calibrate-robot': the camera and board as a "
     "6-DoF instrument (each view's PnP pose, its joint values).",
 )
+@click.option(
+    "--with-robot",
+    is_flag=True,
+    help="Estimate the robot's own kinematic errors (its joint frames) with the camera in one "
+    "bundle adjustment: each view's flange from its joint values through the capture file's "
+    "robot, corrected by the estimate.",
+)
+@click.option(
+    "--write-robot",
+    metavar="FILE",
+    type=click.Path(dir_okay=False),
+    help="With --with-robot: the robot's corrections as a pose file for its cell (list it "
+    "last in the cell's pose_files, as calibrate-robot's).",
+)
 @json_option
 @handle_errors
 def calibrate_camera(
@@ -82,6 +96,8 @@ def calibrate_camera(
     flange_errors,
     through_robot,
     write_robot_observations,
+    with_robot,
+    write_robot,
     json_output,
 ):
     """Calibrate a camera from views of a chessboard or ChArUco board and the robot's pose at
@@ -108,6 +124,9 @@ def calibrate_camera(
       rworld calibrate-camera captures.yaml --write-robot-observations robot_obs.yaml
       rworld calibrate-robot cell robot_obs.yaml -o cell/robot_calibrated.yaml
       rworld calibrate-camera captures.yaml --through-robot --write-poses camera_poses.yaml
+      # or in one estimate: camera, hand-eye, board and the robot's joint frames together
+      rworld calibrate-camera captures.yaml --with-robot --holdout-every 4 \\
+          --write-poses camera_poses.yaml --write-robot cell/robot_calibrated.yaml
 
     Exit codes: 0 calibrated (and written), 2 bad input, images of another size than the
     camera's, too few views, a degenerate motion.
@@ -127,6 +146,8 @@ def calibrate_camera(
             progress=progress,
             through_robot=through_robot,
             write_robot_observations=write_robot_observations,
+            with_robot=with_robot,
+            write_robot=write_robot,
         ),
         "finding corners",
     )
@@ -181,6 +202,18 @@ def _render(run) -> None:
             f" deg, {r.flange_sigma[1] * 1000:.3f} mm per axis; the corners' noise "
             f"{r.sigma0:.3f} px"
         )
+    if r.robot is not None:
+        robot = figures["robot"]
+        click.echo(
+            f"the robot's joint frames: {robot['identified']} of {robot['parameters']} "
+            f"parameters identified (the others nominal); the pictures' noise "
+            f"{robot['pixel_noise_px']:.3f} px, a-posteriori factor {robot['variance_factor']:.2f}"
+        )
+        for row in robot["corrections"]:
+            click.echo(
+                f"  {row['name']:<28} {row['correction']:+10.4f} +- {row['sigma']:.4f} "
+                f"{row['unit']}"
+            )
     if run.held_out_rms is not None:
         click.echo(f"held out ({len(run.held_out)} views): rms {run.held_out_rms:.3f} px")
     if run.axxb is not None:

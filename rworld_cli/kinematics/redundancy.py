@@ -21,6 +21,12 @@ from .configuration import _nearest_on, joint_axes
 from .inverse import _errors, nearest_turns, solve_ik
 from .jacobian import ToolMount, tool_pose
 
+#: a start is given up when its residual fell by less than STALL_GAIN (relative) over the last
+#: STALL_ITERATIONS steps: starts that converge do so in 10-40 steps, and every start the LBR's
+#: tests ran 200 steps for ended where it stood after 20 (2026-11-29)
+STALL_ITERATIONS = 20
+STALL_GAIN = 0.01
+
 
 def is_seven_axis_arm(device: DeviceModel) -> bool:
     """Seven revolute joints: a shoulder, an elbow and a wrist with one turn to spare."""
@@ -104,9 +110,15 @@ def solve_ik_arm_angle(
         q = q.copy()
         damping = 1e-3
         r = residuals(q)[0]
+        history = [float(np.linalg.norm(r))]
         for _ in range(max_iterations):
             if np.abs(r).max() < tolerance:
                 break
+            if (
+                len(history) > STALL_ITERATIONS
+                and history[-1] > (1 - STALL_GAIN) * history[-1 - STALL_ITERATIONS]
+            ):
+                break  # a local minimum (most random starts end in one): the next start
             around = residuals(q + steps)  # central differences, one batch
             J = ((around[: device.dof] - around[device.dof :]) / (2 * h)).T
             if not (np.all(np.isfinite(J)) and np.all(np.isfinite(r))):
@@ -124,6 +136,7 @@ def solve_ik_arm_angle(
                 damping *= 5
                 if damping > 1e6:
                     break
+            history.append(float(np.linalg.norm(r)))
         if np.abs(r).max() < 1e-7:
             found.append(q)
             if len(found) >= 3 or np.allclose(q, seed, atol=np.pi / 2):

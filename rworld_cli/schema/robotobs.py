@@ -560,3 +560,58 @@ def observation_file_text(
         lines.append(f"  - joints: [{values}]")
         lines.append(f"    pose: {{xyz: [{xyz}], rpy: [{rpy}]}}")
     return "\n".join(lines) + "\n"
+
+
+def robot_overlay_text(
+    device, device_name: str, poses: dict, tool: str, digests: list[dict], figures: dict
+) -> str:
+    """A robot calibration as a pose-file overlay (mm, deg): every joint's frame (or DH row's
+    correction) of the corrected ``device``, its compliance when it has any, the ``poses``
+    (name -> (4, 4) [m], relative to each frame's parent) and the provenance: the date, the
+    ``tool``, the input files' hashes (``digests``: path, sha256) and ``figures`` (name ->
+    a number or text)."""
+    import datetime as _dt
+
+    from .. import spatial
+
+    def pose(T) -> str:
+        xyz = ", ".join(repr(float(x) * 1000) for x in T[:3, 3])
+        rpy = ", ".join(repr(float(x)) for x in np.degrees(spatial.matrix_to_rpy(T[:3, :3])))
+        return f"{{xyz: [{xyz}], rpy: [{rpy}]}}"
+
+    lines = [
+        f"# The robot's calibrated kinematics, written by '{tool}'.  List this",
+        "# file last in the cell's pose_files; the nominal values stay where they are.",
+        "units: {length: mm, angle: deg}",
+    ]
+    if device.convention == "frames":  # each joint's frame
+        lines.append("joints:")
+        for j in device.joints:
+            lines.append(f"  {yaml_value(f'{device_name}.{j.name}')}: {pose(j.origin)}")
+    else:  # a small pose before each DH row
+        lines.append("corrections:")
+        for j in device.joints:
+            lines.append(f"  {yaml_value(f'{device_name}.{j.name}')}: {pose(j.correction)}")
+    if any(j.compliance for j in device.joints):  # per kN m (per kN): readable numbers
+        lines.append("compliance:  # deg per kN m (mm per kN for a prismatic joint)")
+        for j in device.joints:
+            unit = 1000.0 if j.kind == "prismatic" else float(np.degrees(1.0))  # mm or deg
+            value = repr(float(j.compliance * unit * 1000))
+            lines.append(f"  {yaml_value(f'{device_name}.{j.name}')}: {value}")
+    if poses:
+        lines.append("poses:")
+        for name, T in poses.items():
+            lines.append(f"  {yaml_value(name)}: {pose(T)}")
+    lines.append("provenance:")
+    lines.append(f"  date: {yaml_value(_dt.datetime.now().replace(microsecond=0).isoformat())}")
+    lines.append(f"  tool: {tool}")
+    lines.append(f"  device: {yaml_value(device_name)}")
+    lines.append("  observations:")
+    for d in digests:
+        lines.append(f"    - {{path: {yaml_value(str(d['path']))}, sha256: {d['sha256']}}}")
+    for key, value in figures.items():
+        if isinstance(value, float):
+            lines.append(f"  {key}: {value:.6g}")
+        else:
+            lines.append(f"  {key}: {value if isinstance(value, int) else yaml_value(value)}")
+    return "\n".join(lines) + "\n"

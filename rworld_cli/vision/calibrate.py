@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import spatial
+from ..calibration.robot import RobotCalibration, RobotModel
 from ..model.vision import BoardModel, CameraModel
 from .camera import project, transform_points
 
@@ -140,6 +141,13 @@ class CameraCalibration:
     flange_errors : ndarray, shape (V, 6), or None
         Each view's estimated flange pose error (rotation vector [rad], translation [m], in
         the flange's frame).
+    robot : RobotCalibration or None
+        Estimated with the robot's own errors (:func:`calibrate_views_with_robot`): the
+        robot's joint-frame corrections, their covariance (joint in the one estimate) and
+        the corrected device; its ``residuals`` are the corners' (M, 2) [px].
+    robot_cross : ndarray, shape (21, P), or None
+        With ``robot``: the covariance of :data:`PARAMETER_NAMES` with the robot's ``P``
+        parameters (``robot.covariance`` and ``covariance`` the diagonal blocks).
     """
 
     setup: str
@@ -157,6 +165,8 @@ class CameraCalibration:
     start: dict = field(default_factory=dict)
     flange_sigma: tuple[float, float] | None = None
     flange_errors: np.ndarray | None = None
+    robot: RobotCalibration | None = None
+    robot_cross: np.ndarray | None = None
 
     @property
     def sigma(self) -> np.ndarray:
@@ -394,20 +404,24 @@ class _Problem:
     def poses(self, theta):
         return _perturbed(self.X0, theta[9:15]), _perturbed(self.Z0, theta[15:21])
 
-    def predicted(self, theta, flange_errors=None) -> np.ndarray:
+    def predicted(self, theta, flange_errors=None, F=None) -> np.ndarray:
+        """The corners (V, N, 2) [px] at ``theta``; ``F`` (V, 4, 4): the flange poses instead
+        of the views' (a calibrated robot's)."""
         X, Z = self.poses(theta)
         H = self.H
-        if flange_errors is not None:
-            E = np.tile(np.eye(4), (len(self.F), 1, 1))
-            E[:, :3, :3] = spatial.rotation_from_vector(flange_errors[:, :3])
-            E[:, :3, 3] = flange_errors[:, 3:]
-            F = self.F @ E
+        if flange_errors is not None or F is not None:
+            F = self.F if F is None else F
+            if flange_errors is not None:
+                E = np.tile(np.eye(4), (len(F), 1, 1))
+                E[:, :3, :3] = spatial.rotation_from_vector(flange_errors[:, :3])
+                E[:, :3, 3] = flange_errors[:, 3:]
+                F = F @ E
             H = spatial.invert_transform(F) if self.setup == EYE_IN_HAND else F
         C = spatial.invert_transform(X) @ H @ Z
         return project(theta[:9], transform_points(C, self.points))  # (V, N, 2)
 
-    def residuals(self, theta, flange_errors=None) -> np.ndarray:
-        return (self.predicted(theta, flange_errors)[self.seen] - self.observed).ravel()
+    def residuals(self, theta, flange_errors=None, F=None) -> np.ndarray:
+        return (self.predicted(theta, flange_errors, F)[self.seen] - self.observed).ravel()
 
     def jacobian(self, theta) -> np.ndarray:
         """Central differences, steps scaled to each parameter (the covariance's Jacobian)."""
@@ -550,6 +564,17 @@ def _fit_flange_errors(problem: _Problem, theta0: np.ndarray, free: np.ndarray, 
     return theta, e, N_inv[:nf, :nf], sig, residuals, w[:m]
 
 
+def _pixel_noise(views: BoardViews, camera: CameraModel, C: np.ndarray, fixed: bool) -> float:
+    """The corners' noise per coordinate [px] in the views' own pictures of the board: the
+    residuals of each view's own pose ``C`` (V, 4, 4) with ``camera``'s intrinsics (OpenCV's
+    ``calibrateCamera``), 6 unknowns a view (and the 9 intrinsics unless ``fixed``) off the
+    degrees of freedom. No robot pose enters: its errors are not in it."""
+    d = project(camera.intrinsics, transform_points(C, views.board.points)) - views.corners
+    seen = np.isfinite(d[..., 0])
+    dof = 2 * int(seen.sum()) - 6 * len(C) - (0 if fixed else 9)
+    return float(np.sqrt(np.sum(d[seen] ** 2) / max(dof, 1)))
+
+
 def calibrate_views(
     views: BoardViews,
     fix_intrinsics: bool = False,
@@ -675,9 +700,198 @@ def calibrate_views(
         names=views.names,
         observations=int(len(problem.observed)),
         downweighted=int(np.count_nonzero(w < 1.0)),
-        start={"camera": camera0, "T_mount_camera": X0, "T_holder_board": Z0},
+        start={
+            "camera": camera0,
+            "T_mount_camera": X0,
+            "T_holder_board": Z0,
+            "pixel_noise": _pixel_noise(views, camera0, C, fix_intrinsics),
+        },
         flange_sigma=flange_sigma,
         flange_errors=errors,
+    )
+
+
+def calibrate_views_with_robot(
+    views: BoardViews,
+    robot: RobotModel,
+    joints: np.ndarray,
+    fix_intrinsics: bool = False,
+    iterations: int = 50,
+) -> CameraCalibration:
+    """Intrinsics, hand-eye, the board's place and the robot's own kinematic errors in one
+    bundle adjustment on the reprojection errors.
+
+    Each view's flange pose is the robot's at its joint values, ``F_i = T_base_flange(p,
+    q_i)`` (:meth:`RobotModel.poses`: the joint frames' small pose errors ``p``, 6 a joint),
+    not the controller's; the corners are seen at ``project(intrinsics, X^-1 H_i(p) Z)``.
+    The start is the exact-robot fit (:func:`calibrate_views` with the nominal ``F_i``); the
+    noise is that of the views' own pictures of the board (``calibrateCamera``'s rms
+    reprojection, per coordinate). Which robot parameters the views determine is decided as
+    ``calibrate-robot`` decides it (:func:`~rworld_cli.calibration.robot.select`, in its
+    order, 1 mm / 1 mrad the typical error) on the Jacobian with the camera's 21 (or 12)
+    parameters projected out: a joint-1 error the board's pose absorbs, a tilt a chain's
+    other joints hold, stays nominal and is listed. The target's own offset is not estimated
+    (it is ``X``'s). Levenberg-Marquardt on Huber's loss (3 sigmas), then the covariance
+    ``s^2 (J^T W J)^-1`` of every parameter together, ``s`` the residuals' a-posteriori sigma
+    (scaled up only: never below the pictures' noise).
+
+    Parameters
+    ----------
+    views : BoardViews
+        Views with the board found; their ``T_base_flange`` the nominal robot's at ``joints``
+        (the start's).
+    robot : RobotModel
+        The flange frame (the camera's mount, or the board's holder eye-to-hand) on its link,
+        6-DoF (``R_link_target`` set), in the robot's base (``T_frame_base`` the identity).
+    joints : ndarray, shape (V, n)
+        Each view's joint values [rad or m].
+
+    Returns
+    -------
+    CameraCalibration
+        With ``robot`` set; ``covariance`` the camera's 21 parameters' block of the joint
+        covariance.
+
+    Raises
+    ------
+    CalibrationRefused
+        As :func:`calibrate_views`.
+    """
+    from ..calibration.robot import Unidentifiable, preference, select
+
+    exact = calibrate_views(views, fix_intrinsics=fix_intrinsics)
+    start_camera = exact.start["camera"]
+    noise = max(float(exact.start["pixel_noise"]), 1e-6)
+    problem = _Problem(views, exact.T_mount_camera, exact.T_holder_board)
+    theta0 = np.r_[exact.camera.intrinsics, np.zeros(12)]
+    free = np.arange(9 if fix_intrinsics else 0, 21)
+    nf = len(free)
+    P = len(robot.names)
+    scales = robot.scales
+    n6 = 6 * robot.device.dof
+    joints = np.asarray(joints, dtype=float)
+
+    def flanges(p):
+        return robot.poses(p, joints)
+
+    def split(x):
+        theta = theta0.copy()
+        theta[free] = x[:nf]
+        p = np.zeros(P)
+        p[taken] = x[nf:] * scales[taken]
+        return theta, p
+
+    def fun(x):
+        theta, p = split(x)
+        return problem.residuals(theta, F=flanges(p)) / noise
+
+    def jacobian(theta, p, columns) -> np.ndarray:
+        """d residuals / d [theta[free], p[columns] / scale] [px per unit]."""
+        F = flanges(p)
+        out = np.empty((2 * len(problem.observed), nf + len(columns)))
+        steps = _steps(theta)
+        for c, k in enumerate(free):
+            d = np.zeros_like(theta)
+            d[k] = steps[k]
+            out[:, c] = (problem.residuals(theta + d, F=F) - problem.residuals(theta - d, F=F)) / (
+                2 * steps[k]
+            )
+        for c, k in enumerate(columns):  # 1e-3 of a typical error: 1 um, 1 urad
+            d = np.zeros(P)
+            d[k] = 1e-3 * scales[k]
+            up = problem.residuals(theta, F=flanges(p + d))
+            down = problem.residuals(theta, F=flanges(p - d))
+            out[:, nf + c] = (up - down) / 2e-3
+        return out
+
+    # the robot's parameters the views determine, beside the camera's (projected out)
+    target = set(range(n6, n6 + robot.target_count))
+    joint_columns = np.arange(n6)
+    J0 = jacobian(theta0, np.zeros(P), joint_columns)
+    Q, _ = np.linalg.qr(J0[:, :nf])
+    J_robot = np.zeros((J0.shape[0], P))
+    J_robot[:, joint_columns] = J0[:, nf:] - Q @ (Q.T @ J0[:, nf:])
+    order = [k for k in preference(robot) if k < n6 + robot.target_count]
+    chosen, dropped = select(J_robot, order, noise, excluded=target)
+    taken = np.array(sorted(chosen), dtype=int)
+
+    def scaled_jacobian(x):
+        theta, p = split(x)
+        return jacobian(theta, p, taken) / noise
+
+    x = _huber_levenberg_marquardt(
+        fun,
+        scaled_jacobian,
+        np.r_[theta0[free], np.zeros(len(taken))],
+        iterations=iterations,
+    )
+    theta, p = split(x)
+    F = flanges(p)
+    residuals = problem.residuals(theta, F=F)
+    J = jacobian(theta, p, taken)
+    w = np.minimum(1.0, 3.0 * noise / np.maximum(np.abs(residuals), 1e-300))
+    Jw, rw = J * np.sqrt(w)[:, None], residuals * np.sqrt(w)
+    m, n = len(rw), J.shape[1]
+    s2 = float(rw @ rw) / max(m - n, 1)
+    factor = float(np.sqrt(s2) / noise)
+    A = Jw.T @ Jw
+    try:
+        A_inv = np.linalg.inv(A)
+    except np.linalg.LinAlgError as exc:
+        raise CalibrationRefused("the views leave the estimate undetermined") from exc
+    cov = max(s2, noise**2) * A_inv  # (theta[free], p[taken] / scale)
+    covariance = np.zeros((21, 21))
+    covariance[np.ix_(free, free)] = cov[:nf, :nf]
+    covariance_pixels = covariance.copy()
+    robot_cov = np.zeros((P, P))
+    robot_cov[np.ix_(taken, taken)] = cov[nf:, nf:] * np.outer(scales[taken], scales[taken])
+    cross = np.zeros((21, P))
+    cross[np.ix_(free, taken)] = cov[:nf, nf:] * scales[taken]
+    names = robot.names
+    singular = np.linalg.svd(J_robot[:, taken], compute_uv=False) if len(taken) else np.zeros(0)
+    before = problem.residuals(theta0, F=flanges(np.zeros(P))).reshape(-1, 2)
+    device, _, T = robot.apply(p)
+    robot_result = RobotCalibration(
+        robot,
+        p,
+        np.sqrt(np.maximum(np.diag(robot_cov), 0.0)),
+        robot_cov,
+        len(taken),
+        [
+            Unidentifiable([(names[k], 1.0)], dropped.get(k, float("inf")))
+            for k in range(n6)
+            if k not in taken
+        ],
+        float(np.exp(np.log(singular).mean()) / np.sqrt(len(joints))) if len(singular) else 0.0,
+        residuals.reshape(-1, 2),
+        before,
+        0,
+        device,
+        T,
+        noise,
+        taken,
+        True,
+        factor,
+    )
+    d = problem.predicted(theta, F=F) - views.corners
+    per_corner = np.sum(d * d, axis=-1)
+    X, Z = problem.poses(theta)
+    return CameraCalibration(
+        setup=views.setup,
+        camera=views.camera.with_intrinsics(theta[:9]),
+        T_mount_camera=X,
+        T_holder_board=Z,
+        covariance=covariance,
+        covariance_pixels=covariance_pixels,
+        sigma0=float(np.sqrt(s2)),
+        rms=float(np.sqrt(np.nanmean(per_corner))),
+        view_rms=np.sqrt(np.nanmean(per_corner, axis=1)),
+        names=views.names,
+        observations=int(len(problem.observed)),
+        downweighted=int(np.count_nonzero(w < 1.0)),
+        start={**exact.start, "camera": start_camera},
+        robot=robot_result,
+        robot_cross=cross,
     )
 
 

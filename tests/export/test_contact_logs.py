@@ -25,6 +25,9 @@ from tests.conftest import WORKCELLS
 from tests.export import controller_logs
 from tests.export.controller_logs import Reported, reports_in
 
+# the program's simulation made once a worker for the same files (tests/conftest.py)
+pytestmark = pytest.mark.usefixtures("simulation_once")
+
 PROGRAM = "programs/probe_features.yaml"  # probe: on features (the steps of issue 44's item 2)
 LOG_FILES = {
     "urscript": "robot.log",

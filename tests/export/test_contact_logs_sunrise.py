@@ -16,6 +16,9 @@ from tests.export import controller_logs
 from tests.export.controller_logs import Reported, reports_in
 from tests.export.test_contact_logs import _tcp_poses, assert_read_back_is_the_loop
 
+# the program's simulation made once a worker for the same files (tests/conftest.py)
+pytestmark = pytest.mark.usefixtures("simulation_once")
+
 DEVICE = "kuka_lbr_iiwa_14_r820"
 
 

@@ -116,3 +116,77 @@ def test_joint_values_that_are_not_the_robots_are_refused_at_their_line(setup, c
     assert not out.exists()
     r = cli(["calibrate-camera", str(plain)])  # the file itself is fine
     assert r.exit_code == 0, r.output
+
+
+def test_one_bundle_adjustment_joins_the_robots_errors_and_writes_them_for_its_cell(setup, cli):
+    """``--with-robot``: the intrinsics, hand-eye, board and the robot's joint frames in one
+    estimate from the same views - the held-out views at the pixel noise through the corrected
+    robot, the camera where the true robot has it relative to the board, the fit's
+    a-posteriori factor near 1; the robot's corrections written as a pose file that, listed in
+    the cell, puts every flange where the estimate put it (``--through-robot`` then predicts
+    the held-out views as the estimate did)."""
+    from rworld_cli.api import calibrate_camera
+    from rworld_cli.api.vision import _flanges_through_robot, _robot_model, load_captures
+    from rworld_cli.world.tree import World
+
+    root, cell, truth, plan, captures = setup
+    work = root / "one_step"  # the nominal cell, whatever the other tests list in theirs
+    shutil.copytree(CELL, work)
+    text = captures.read_text().replace("robot: {cell: cell,", "robot: {cell: one_step,")
+    assert "one_step" in text
+    moved = root / "captures_one_step.yaml"
+    moved.write_text(text)
+    loaded = load_captures(str(moved), joints=True)
+    model = _robot_model(loaded)  # the flange through the calibration's model of the robot
+    nominal = model.poses(np.zeros(len(model.names)), loaded.joints)
+    world = World(loaded.robot_model)  # and through the cell's tree
+    for q, T in zip(loaded.joints, nominal, strict=True):
+        world.set_joints("ur5", q)
+        assert np.abs(world.T("ur5", "ur5.tool") - T).max() < 1e-12
+
+    overlay = work / "robot_from_camera.yaml"
+    r = cli(
+        ["calibrate-camera", str(moved), "--with-robot", "--holdout-every", "4"]
+        + ["--write-robot", str(overlay), "--json"]
+    )
+    assert r.exit_code == 0, r.output
+    import json
+
+    out = json.loads(r.output)
+    robot = out["robot"]
+    assert out["model"] == "robot errors"
+    assert out["held_out_rms_px"] < 2 * NOISE_PX, out["held_out_rms_px"]
+    assert 0.8 < robot["variance_factor"] < 1.25, robot
+    assert abs(robot["pixel_noise_px"] - NOISE_PX) < 0.02, robot
+    # joint 1's errors are the board's pose to the camera: kept nominal, listed
+    assert {"j1.x", "j1.y", "j1.rz"} <= set(robot["kept_nominal"])
+    assert robot["identified"] >= 12 and str(overlay) in out["written"]
+    assert "tool: rworld calibrate-camera --with-robot" in overlay.read_text()
+
+    # the camera relative to the board at the held-out joints, against the truth
+    held = plan.joints[3::4]
+    run = calibrate_camera(str(moved), holdout_every=4, with_robot=True)
+    T_base_flange = model.poses(run.result.robot.p, held)
+    estimated = np.linalg.solve(
+        run.result.T_holder_board, T_base_flange @ run.result.T_mount_camera
+    )
+    true_world = World(truth)
+    true = []
+    for q in held:
+        true_world.set_joints("ur5", q)
+        true.append(true_world.T("board", "wrist_camera"))
+    error = np.abs(estimated[:, :3, 3] - np.array(true)[:, :3, 3]).max()
+    assert error < 0.1e-3, error
+
+    # the file, listed in the cell, is the estimate's robot
+    list_pose_file(work, overlay.name)
+    again = load_captures(str(moved), joints=True)
+    through = _flanges_through_robot(again)
+    assert np.abs(through - model.poses(run.result.robot.p, again.joints)).max() < 1e-9
+    predicted = calibrate_camera(str(moved), holdout_every=4, through_robot=True)
+    assert predicted.held_out_rms < 2 * NOISE_PX, predicted.held_out_rms
+
+    # --write-robot alone is refused, nothing written
+    lone = root / "lone.yaml"
+    r = cli(["calibrate-camera", str(moved), "--write-robot", str(lone)])
+    assert r.exit_code == 2 and "--with-robot" in r.output and not lone.exists()

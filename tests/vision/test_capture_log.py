@@ -21,6 +21,9 @@ from tests.export import controller_logs
 from tests.export.controller_logs import Reported, reports_in
 from tests.vision.camera_cells import camera_cell
 
+# the program's simulation made once a worker for the same files (tests/conftest.py)
+pytestmark = pytest.mark.usefixtures("simulation_once")
+
 # each language on a robot of its vendor where tests/data/probe_robots has one
 ROBOTS = {
     "urscript": "ur10e",
