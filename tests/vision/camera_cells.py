@@ -125,11 +125,12 @@ def robot_off_its_model(cell: Path, out: Path, rng: np.random.Generator) -> Path
 def emulated_captures(
     root: Path, nominal, truth, joints: np.ndarray, rng: np.random.Generator, noise_px: float
 ) -> Path:
-    """A capture file ``root/captures.yaml`` (and its ``corners.csv``) of the wrist camera's
-    views of the board at ``joints`` (K, n): the corners as the ``truth`` cell's robot puts
-    them, with ``noise_px`` of noise from ``rng`` view by view, the flange poses as the
-    ``nominal`` robot's controller reports them, the joints with ``robot:`` naming
-    ``root/cell``."""
+    """A capture file ``root/captures.yaml`` (and its ``corners.csv``) of the camera's views
+    of the board at ``joints`` (K, n): the corners as the ``truth`` cell's robot puts them,
+    with ``noise_px`` of noise from ``rng`` view by view, the flange poses as the ``nominal``
+    robot's controller reports them, the joints with ``robot:`` naming ``root/cell``. The
+    wrist camera over ``board`` - or, where the camera is fixed in the cell (``camera_cell(...,
+    fixed=True)``), ``hand_board`` on the robot (eye-to-hand)."""
     from rworld_cli.schema.captures import capture_template_text, corners_text
     from rworld_cli.vision.emulate import seen_corners
     from rworld_cli.world.tree import World
@@ -137,24 +138,28 @@ def emulated_captures(
     name = next(iter(nominal.devices))
     true_world, nominal_world = World(truth), World(nominal)
     camera = nominal.sensors["wrist_camera"].camera
-    board = nominal.objects["board"].board
-    mount = nominal_world.parent("wrist_camera")
+    fixed = "hand_board" in nominal.objects
+    board_name = "hand_board" if fixed else "board"
+    board = nominal.objects[board_name].board
+    # the frame on the flange: the camera's mount, or the board's holder eye-to-hand
+    flange = nominal_world.parent(board_name if fixed else "wrist_camera")
     corners, flanges = [], []
     for q in joints:
         true_world.set_joints(name, q)
         nominal_world.set_joints(name, q)
-        seen = seen_corners(camera, board, true_world.T("wrist_camera", "board"))
+        seen = seen_corners(camera, board, true_world.T("wrist_camera", board_name))
         corners.append(seen + rng.normal(0, noise_px, seen.shape))
-        flanges.append(nominal_world.T(name, mount))  # what the controller reports
+        flanges.append(nominal_world.T(name, flange))  # what the controller reports
     names = [f"view{k + 1:02d}.png" for k in range(len(joints))]
     captures = root / "captures.yaml"
     text = capture_template_text(
         camera,
-        mount,
-        name,
+        name if fixed else flange,
+        flange if fixed else name,
         board,
         np.array(flanges),
         names,
+        "eye-to-hand" if fixed else "eye-in-hand",
         robot=("cell", nominal.devices[name]),
         joints=joints,
     )
