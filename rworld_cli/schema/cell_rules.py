@@ -94,19 +94,19 @@ class RulesMixin:
         for i, a in enumerate(affixments):
             parent[a.child] = a.parent
             via[a.child] = i
-        reported: set[frozenset] = set()
+        # each frame walked once: a walk stops at a frame an earlier one went through (it leads
+        # to world, or into a cycle already reported) - linear in the frames, however deep
+        walked: set[str] = set()
         for start in parent:
-            path, node = [], start
-            while node is not None and node not in path:
+            path, on_path, node = [], set(), start
+            while node is not None and node not in walked and node not in on_path:
                 path.append(node)
+                on_path.add(node)
                 node = parent.get(node)
-            if node is None:
+            walked.update(path)
+            if node is None or node not in on_path:
                 continue
             cycle = path[path.index(node) :]
-            key = frozenset(cycle)
-            if key in reported:
-                continue
-            reported.add(key)
             chain = " -> ".join(cycle + [cycle[0]])
             closing = [n for n in cycle if n in via]
             if closing:
