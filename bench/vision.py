@@ -19,7 +19,10 @@ Run:  .venv/bin/python bench/vision.py [--seeds 80] [--bootstrap 200] [--images 
    rworld reports against the spread.
 4. Times: corners found per 1920 x 1200 image (the two vendored images, or every image of
    ``--images DIR``, e.g. the data set's BMPs); a 30-view calibration.
-5. Rendering; 6. planning the views (``--only rendering``, ``--only planning``).
+5. Rendering; 6. planning the views (``--only rendering``, ``--only planning``): the planned
+   views' predicted camera-pose error against random usable views', the loops on rendered
+   images. 6b (``--only planning --vendors``): the same on six vendor robots, both set-ups,
+   without and with the candidates drawn around the first choice (``--refine``).
 8. AprilTag grids (``--only aprilgrid``): the test cell with a 6 x 4 grid of 40 mm tags for its
    chessboard, the wrist camera at 8 planned views and the overhead camera, rendered with 0.6
    and 1.2 px of blur; each tag's corners by OpenCV's refinements and by rworld's edge fit
@@ -444,6 +447,39 @@ def planning() -> None:
     _plan_loop(data / "cell_eye_to_hand", "overhead", truth)
 
 
+def planning_vendors() -> None:
+    """Section 6b (module docstring)."""
+    import tempfile
+
+    from rworld_cli.api import plan_views
+    from rworld_cli.errors import UserError
+    from tests.vision.camera_cells import camera_cell
+
+    print("6b. plan-views on vendor robots (8 views of 1000 candidates, without and with the")
+    print("    candidates drawn around the first choice):")
+    for name in ("kr6r900sixx", "cr7ial", "iiwa14", "vs060", "gen3", "ur10e"):
+        for fixed in (False, True):
+            setup = "eye-to-hand" if fixed else "eye-in-hand"
+            with tempfile.TemporaryDirectory() as tmp:
+                cell = camera_cell(name, Path(tmp) / "cell", fixed=fixed)
+                row = []
+                for refine in (0, None):
+                    t0 = time.perf_counter()
+                    try:
+                        run = plan_views(str(cell), "wrist_camera", 8, refine=refine)
+                    except UserError as exc:
+                        row.append(f"refused: {exc.message[:90]}")
+                        break
+                    f = run.figures
+                    row.append(
+                        f"{f['error'] * 1000:.4f} mm / random {f['random_error'] * 1000:.4f} mm "
+                        f"= {f['random_error'] / f['error']:.2f}x ({run.usable} usable"
+                        + (f", {f['refined']} of {f['refine']} around" if f["refine"] else "")
+                        + f", {time.perf_counter() - t0:.1f} s)"
+                    )
+                print(f"   {name} {setup}: " + "; ".join(row), flush=True)
+
+
 def _robot_truth(root: Path, cell: Path, seed: int, rng) -> tuple:
     """One truth of section 7: ``cell`` (its robot the first device, a wrist camera over a
     board) copied to a truth off its model (``rng``), 40 planned views (``seed``) emulated
@@ -782,7 +818,9 @@ def main() -> None:
     )
     parser.add_argument("--truths", type=int, default=10, help="--only robot: how many truths")
     parser.add_argument(
-        "--vendors", action="store_true", help="--only robot: on vendor robots (3 truths each)"
+        "--vendors",
+        action="store_true",
+        help="--only robot: on vendor robots (3 truths each); --only planning: on vendor robots",
     )
     args = parser.parse_args()
     import cv2
@@ -793,6 +831,9 @@ def main() -> None:
             robot_vendors(min(args.truths, 3))
         else:
             robot(args.truths)
+        return
+    if args.only == "planning" and args.vendors:
+        planning_vendors()
         return
     if args.only == "robot-spread":
         robot_spread(args.seeds)

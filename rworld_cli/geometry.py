@@ -344,11 +344,48 @@ def grid_interference(
     return hit
 
 
+def sight_cone(origin: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, float, float] | None:
+    """The cone the segments from ``origin`` (3,) to ``ends`` (M, 3) span [m]: its axis (their
+    mean direction, unit), half angle (the widest from it) [rad] and reach (the farthest
+    end's distance) [m]; None where a cone culls nothing (a zero-length segment, directions
+    that cancel, a half angle of 90 deg or more)."""
+    v = np.asarray(ends, dtype=float) - origin
+    length = np.linalg.norm(v, axis=1)
+    if len(v) == 0 or not np.all(length > 0):
+        return None
+    u = v / length[:, None]
+    axis = u.mean(axis=0)
+    if np.linalg.norm(axis) < 1e-6:
+        return None
+    axis /= np.linalg.norm(axis)
+    half = float(np.arccos(np.clip(u @ axis, -1.0, 1.0)).max())
+    if half >= np.pi / 2 - 1e-6:  # a cone this wide culls little: test them all
+        return None
+    return axis, half, float(length.max())
+
+
+def spheres_in_sight(
+    origin: np.ndarray, cone: tuple[np.ndarray, float, float], centres: np.ndarray, radii
+) -> np.ndarray:
+    """Which spheres (centres (K, 3) [m], radii (K,) or a scalar [m]) a segment inside
+    ``cone`` (:func:`sight_cone`) from ``origin`` may meet: False only where none can (the
+    sphere wholly outside the cone's angle or beyond its reach, the origin outside it)."""
+    axis, half, reach = cone
+    radii = np.asarray(radii, dtype=float)
+    w = np.atleast_2d(centres) - origin
+    distance = np.linalg.norm(w, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        angle = np.arccos(np.clip((w @ axis) / distance, -1.0, 1.0))
+        spread = np.arcsin(np.clip(radii / distance, 0.0, 1.0))
+    near = (angle - spread <= half + 1e-9) & (distance - radii <= reach + 1e-9)
+    return (distance <= radii) | near
+
+
 def triangles_in_sight(origin: np.ndarray, ends: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """Which triangles a segment from ``origin`` to one of ``ends`` may meet: a conservative
-    cull of each triangle's bounding sphere against the cone the segments span (their mean
-    direction, the widest angle from it) and the farthest end's distance - the sight lines of
-    a camera, which meet a handful of a robot's thousands of mesh triangles.
+    cull of each triangle's bounding sphere against the cone the segments span
+    (:func:`sight_cone`, :func:`spheres_in_sight`) - the sight lines of a camera, which meet
+    a handful of a robot's thousands of mesh triangles.
 
     Parameters
     ----------
@@ -362,29 +399,17 @@ def triangles_in_sight(origin: np.ndarray, ends: np.ndarray, triangles: np.ndarr
     ndarray of bool, shape (K,)
         False only where no segment can meet the triangle.
     """
-    keep = np.ones(len(triangles), dtype=bool)
-    v = np.asarray(ends, dtype=float) - origin
-    length = np.linalg.norm(v, axis=1)
-    if len(triangles) == 0 or len(v) == 0 or not np.all(length > 0):
-        return keep
-    u = v / length[:, None]
-    axis = u.mean(axis=0)
-    if np.linalg.norm(axis) < 1e-6:
-        return keep
-    axis /= np.linalg.norm(axis)
-    half = float(np.arccos(np.clip(u @ axis, -1.0, 1.0)).max())
-    if half >= np.pi / 2 - 1e-6:  # a cone this wide culls little: test them all
-        return keep
+    cone = sight_cone(origin, ends)
+    if len(triangles) == 0 or cone is None:
+        return np.ones(len(triangles), dtype=bool)
+    centre, radius = triangle_spheres(triangles)
+    return spheres_in_sight(origin, cone, centre, radius)
+
+
+def triangle_spheres(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each triangle's bounding sphere about its centroid: centres (K, 3) and radii (K,) [m]."""
     centre = triangles.mean(axis=1)
-    radius = np.linalg.norm(triangles - centre[:, None], axis=2).max(axis=1)
-    w = centre - origin
-    distance = np.linalg.norm(w, axis=1)
-    outside = distance > radius
-    with np.errstate(divide="ignore", invalid="ignore"):
-        angle = np.arccos(np.clip((w @ axis) / distance, -1.0, 1.0))
-        spread = np.arcsin(np.clip(radius / distance, 0.0, 1.0))
-    near = (angle - spread <= half + 1e-9) & (distance - radius <= length.max() + 1e-9)
-    return ~outside | near
+    return centre, np.linalg.norm(triangles - centre[:, None], axis=2).max(axis=1)
 
 
 def segments_hit_triangles(

@@ -657,6 +657,8 @@ class ViewPlanRun:
                 "candidates": self.candidates,
                 "usable": self.usable,
                 "lost": self.lost,
+                "refine": f.get("refine", 0),
+                "refined_usable": f.get("refined", 0),
                 "pixel_sigma_px": self.sigma_px,
                 "predicted_error_mm": f["error"] * 1000,
                 "random_error_mm": f["random_error"] * 1000,
@@ -693,25 +695,31 @@ def plan_views(
     captures: str | None = None,
     program: str | None = None,
     progress=None,
+    refine: int | None = None,
 ) -> ViewPlanRun:
-    """Choose ``count`` robot poses from which a camera on the robot sees the whole board, and
-    which together determine its calibration best (D-optimal on the 21 parameters'
-    information, ``vision/plan.py``).
+    """Choose ``count`` robot poses from which a camera sees the whole board - the camera on
+    the robot (eye-in-hand), or fixed in the cell with the board on the robot (eye-to-hand) -
+    and which together determine its calibration best (D-optimal on the 21 parameters'
+    information, then exchanges for the camera's pose error, ``vision/plan.py``).
 
     Candidates are camera poses around the board (from its printed side, within ``tilt`` of
     its normal, ``distance`` [m] away - default where the board spans 35-80 % of the image's
     width - turned by up to ``roll``); a candidate is usable when the robot reaches it (IK for
-    the camera's frame), touches nothing there or on the straight joint path from home, and
-    the camera sees every corner (nothing of the cell or the robot in the way). ``captures``:
-    a capture file of the views to fill with images (``rworld calibrate-camera``);
-    ``program``: a program that visits each from home, reads the camera there (a ``sense``
-    step: the simulation records what it sees) and returns.
+    the camera's frame, or the board's), touches nothing there or on the straight joint path
+    from home, and the camera sees every corner and the outer squares (nothing of the cell or
+    the robot in the way). ``refine`` more candidates (default a third of ``candidates``; 0:
+    none) are then drawn around the chosen views within the same bounds
+    (:func:`~rworld_cli.vision.plan.refined_candidates`), and the choice is made again from
+    all; the random choices it is compared with come from the first candidates only.
+    ``captures``: a capture file of the views to fill with images (``rworld
+    calibrate-camera``); ``program``: a program that visits each from home, takes an image
+    there (a ``capture:`` step) and returns.
 
     Raises
     ------
     UserError
-        Not a camera, no board or an unknown one, a camera not carried by a robot (planning
-        for a fixed camera is not built), fewer usable candidates than views asked.
+        Not a camera, no board or an unknown one, neither the camera nor the board on a
+        robot, fewer usable candidates than views asked.
     """
     from .. import spatial
     from ..calibration.robotplan import collision_free_states
@@ -722,7 +730,12 @@ def plan_views(
     from ..sensing.camera import camera_reading
     from ..sensing.sensors import sensable_bodies
     from ..vision.camera import transform_points, visible
-    from ..vision.plan import camera_candidates, select_views, view_information
+    from ..vision.plan import (
+        camera_candidates,
+        refined_candidates,
+        select_views,
+        view_information,
+    )
     from .cells import load_world
 
     started = time.perf_counter()
@@ -780,77 +793,107 @@ def plan_views(
         width = model.width
         distance = (cam.fx * width / (0.8 * cam.width), cam.fx * width / (0.35 * cam.width))
     rng = np.random.default_rng(seed)
-    T_board_camera = camera_candidates(rng, model, candidates, distance, tilt, roll)
-    if setup == "eye-in-hand":  # the camera brought around the board
-        T_base_target = np.linalg.inv(T_world_base) @ world.T_world(board) @ T_board_camera
-    else:  # the board brought in front of the camera
-        T_base_target = (
-            np.linalg.inv(T_world_base)
-            @ world.T_world(camera)
-            @ spatial.invert_transform(T_board_camera)
-        )
-    lost: dict[str, int] = {}
-    # IK from home and two random starts for each candidate; the first that reaches it
-    lower, upper = dev.limit_array("lower"), dev.limit_array("upper")
-    lo, hi = np.where(np.isfinite(lower), lower, -np.pi), np.where(np.isfinite(upper), upper, np.pi)
-    starts = np.concatenate(
-        [np.tile(dev.home, (candidates, 1)), rng.uniform(lo, hi, (2 * candidates, dev.dof))]
-    )
-    Q, ok = solve_ik_many(
-        dev, np.tile(T_base_target, (3, 1, 1)), starts, ToolMount(link, T_link_carried)
-    )
-    Q, ok = Q.reshape(3, candidates, -1), ok.reshape(3, candidates)
-    first = np.argmax(ok, axis=0)
-    reached = ok.any(axis=0)
-    Q = Q[first, np.arange(candidates)]
-    lost["out of reach"] = int((~reached).sum())
-    keep = np.nonzero(reached)[0]
-    if progress is not None:
-        progress(1, 3, "collision checks")
-    fractions = np.linspace(0.125, 1.0, 8)
-    path = dev.home + fractions[:, None, None] * (Q[keep] - dev.home)[None]
-    free = collision_free_states(cell, device, path.reshape(-1, dev.dof)).reshape(8, -1).all(axis=0)
-    lost["a collision there or on the way from home"] = int((~free).sum())
-    keep = keep[free]
-    if progress is not None:
-        progress(2, 3, "what the camera sees")
-    seen_all = []
-    saved = world.joints(device)
-    for k in keep:
-        world.set_joints(device, Q[k])
-        reading = camera_reading(world, camera, cell.sensors[camera], sensable_bodies(world))
-        b = (reading.image or {})["boards"][board]
-        # every corner seen, and the outer squares inside the image (the detector needs them)
-        around = transform_points(world.T(camera, board), model.outline)
-        seen_all.append(b["seen"] == b["total"] and bool(visible(cam, around, 1.0).all()))
-    world.set_joints(device, saved)
-    seen_all_arr = np.array(seen_all, dtype=bool)
-    lost["the board not whole in the image (hidden, or its corners or outer squares cut)"] = int(
-        (~seen_all_arr).sum()
-    )
-    keep = keep[seen_all_arr] if len(keep) else keep
-    if len(keep) < count:
-        said = "; ".join(f"{n} {why}" for why, n in lost.items() if n)
-        raise UserError(
-            f"only {len(keep)} of {candidates} candidate views are usable ({said}); ask for "
-            "fewer views or more candidates, or move the "
-            + ("board" if setup == "eye-in-hand" else "camera")
-            + " nearer the robot"
-        )
-    T_base_flange = np.empty((len(keep), 4, 4))
-    for i, k in enumerate(keep):
-        world.set_joints(device, Q[k])
-        T_base_flange[i] = world.T(device, mount_frame)
-    world.set_joints(device, saved)
     if setup == "eye-in-hand":  # the camera in the flange, the board in the base
         X, Z = world.T(mount_frame, camera), world.T(device, board)
     else:  # the camera in the base, the board in the flange
         X, Z = world.T(device, camera), world.T(mount_frame, board)
+    T_world_board, T_world_camera = world.T_world(board), world.T_world(camera)
+    lower, upper = dev.limit_array("lower"), dev.limit_array("upper")
+    lo, hi = np.where(np.isfinite(lower), lower, -np.pi), np.where(np.isfinite(upper), upper, np.pi)
+
+    def T_board_camera_of(F: np.ndarray) -> np.ndarray:
+        """The camera in the board's frame (K, 4, 4) at flange poses ``F`` (K, 4, 4)."""
+        if setup == "eye-in-hand":
+            return np.linalg.inv(T_world_board) @ T_world_base @ F @ X
+        return spatial.invert_transform(spatial.invert_transform(X) @ F @ Z)
+
+    def usable(T_board_camera: np.ndarray, lost: dict[str, int], step: str):
+        """The candidates' joints and flange poses where the robot reaches them, touches
+        nothing there or on the straight joint path from home, and the camera sees the
+        whole board; counts of the rest by reason in ``lost``."""
+        M = len(T_board_camera)
+        if setup == "eye-in-hand":  # the camera brought around the board
+            T_base_target = np.linalg.inv(T_world_base) @ T_world_board @ T_board_camera
+        else:  # the board brought in front of the camera
+            T_base_target = (
+                np.linalg.inv(T_world_base)
+                @ T_world_camera
+                @ spatial.invert_transform(T_board_camera)
+            )
+        # IK from home and two random starts for each candidate; the first that reaches it
+        starts = np.concatenate([np.tile(dev.home, (M, 1)), rng.uniform(lo, hi, (2 * M, dev.dof))])
+        Q, ok = solve_ik_many(
+            dev, np.tile(T_base_target, (3, 1, 1)), starts, ToolMount(link, T_link_carried)
+        )
+        Q, ok = Q.reshape(3, M, -1), ok.reshape(3, M)
+        first = np.argmax(ok, axis=0)
+        reached = ok.any(axis=0)
+        Q = Q[first, np.arange(M)]
+        lost["out of reach"] = lost.get("out of reach", 0) + int((~reached).sum())
+        keep = np.nonzero(reached)[0]
+        if progress is not None:
+            progress(1, 3, f"collision checks{step}")
+        fractions = np.linspace(0.125, 1.0, 8)
+        path = dev.home + fractions[:, None, None] * (Q[keep] - dev.home)[None]
+        states = path.reshape(-1, dev.dof)
+        free = collision_free_states(cell, device, states).reshape(8, -1).all(axis=0)
+        why = "a collision there or on the way from home"
+        lost[why] = lost.get(why, 0) + int((~free).sum())
+        keep = keep[free]
+        if progress is not None:
+            progress(2, 3, f"what the camera sees{step}")
+        seen_all = []
+        saved = world.joints(device)
+        for k in keep:
+            world.set_joints(device, Q[k])
+            reading = camera_reading(world, camera, cell.sensors[camera], sensable_bodies(world))
+            b = (reading.image or {})["boards"][board]
+            # every corner seen, and the outer squares inside the image (the detector needs them)
+            around = transform_points(world.T(camera, board), model.outline)
+            seen_all.append(b["seen"] == b["total"] and bool(visible(cam, around, 1.0).all()))
+        seen_all_arr = np.array(seen_all, dtype=bool)
+        why = "the board not whole in the image (hidden, or its corners or outer squares cut)"
+        lost[why] = lost.get(why, 0) + int((~seen_all_arr).sum())
+        keep = keep[seen_all_arr] if len(keep) else keep
+        flanges = np.empty((len(keep), 4, 4))
+        for i, k in enumerate(keep):
+            world.set_joints(device, Q[k])
+            flanges[i] = world.T(device, mount_frame)
+        world.set_joints(device, saved)
+        return Q[keep], flanges
+
+    lost: dict[str, int] = {}
+    T_board_camera = camera_candidates(rng, model, candidates, distance, tilt, roll)
+    Q, T_base_flange = usable(T_board_camera, lost, "")
+    if len(Q) < count:
+        said = "; ".join(f"{n} {why}" for why, n in lost.items() if n)
+        raise UserError(
+            f"only {len(Q)} of {candidates} candidate views are usable ({said}); ask for "
+            "fewer views or more candidates, or move the "
+            + ("board" if setup == "eye-in-hand" else "camera")
+            + " nearer the robot"
+        )
     G = view_information(cam, model, X, Z, T_base_flange, sigma_px, setup)
     chosen, figures = select_views(G, count, seed)
+    usable_count = len(Q)
+    refine = candidates // 3 if refine is None else refine
+    if refine:  # candidates around the chosen views, then the choice again from both
+        around = refined_candidates(
+            rng, model, T_board_camera_of(T_base_flange[chosen]), refine, distance, tilt
+        )
+        Q_near, flanges_near = usable(around, {}, " (around the choice)")
+        if len(Q_near):
+            G_near = view_information(cam, model, X, Z, flanges_near, sigma_px, setup)
+            chosen, figures = select_views(
+                np.concatenate([G, G_near]), count, seed, random_from=len(G)
+            )
+            Q = np.concatenate([Q, Q_near])
+            T_base_flange = np.concatenate([T_base_flange, flanges_near])
+        figures["refined"] = int(len(Q_near))
+    figures["refine"] = int(refine)
     # visited nearest first from home
-    order = [int(c) for c in chosen[np.argsort(np.abs(Q[keep][chosen] - dev.home).max(axis=1))]]
-    joints = Q[keep][order]
+    order = [int(c) for c in chosen[np.argsort(np.abs(Q[chosen] - dev.home).max(axis=1))]]
+    joints = Q[order]
     flanges = T_base_flange[order]
     run = ViewPlanRun(
         cell_path,
@@ -860,7 +903,7 @@ def plan_views(
         mount_frame,
         setup,
         candidates,
-        len(keep),
+        usable_count,
         lost,
         joints,
         flanges,
@@ -869,11 +912,29 @@ def plan_views(
         time.perf_counter() - started,
     )
     if captures or program:
+        import os
+
         from ..schema.captures import capture_template_text
         from ..schema.programs import program_text
 
+        per_unit = np.array(
+            [1000.0 if j.kind == "prismatic" else np.degrees(1.0) for j in dev.joints]
+        )  # the program's mm and deg
+        # 6 decimals, rounded inside the limits (a view at a limit stays within it)
+        low = np.ceil(dev.limit_array("lower") * per_unit * 1e6) / 1e6
+        high = np.floor(dev.limit_array("upper") * per_unit * 1e6) / 1e6
+
+        def written(q):
+            return [float(v) for v in np.clip(np.round(q * per_unit, 6), low, high)]
+
         with output_set():
             if captures:
+                # the robot and each view's joints as the program commands them (joint moves:
+                # the robot stands there), for calibrate-camera --through-robot / --with-robot
+                cell_dir = Path(cell_path).resolve()
+                cell_dir = cell_dir.parent if cell_dir.is_file() else cell_dir
+                base_dir = Path(captures).resolve().parent
+                commanded = np.array([written(q) for q in joints]) / per_unit
                 atomic_write_text(
                     captures,
                     capture_template_text(
@@ -883,21 +944,13 @@ def plan_views(
                         model,
                         flanges,
                         setup=setup,
+                        robot=(os.path.relpath(cell_dir, base_dir), dev),
+                        joints=commanded,
                     ),
                 )
                 run.written.append(str(captures))
             if program:
-                per_unit = np.array(
-                    [1000.0 if j.kind == "prismatic" else np.degrees(1.0) for j in dev.joints]
-                )  # the program's mm and deg
                 steps: list[tuple[dict, str | None]] = []
-                # 6 decimals, rounded inside the limits (a view at a limit stays within it)
-                low = np.ceil(dev.limit_array("lower") * per_unit * 1e6) / 1e6
-                high = np.floor(dev.limit_array("upper") * per_unit * 1e6) / 1e6
-
-                def written(q):
-                    return [float(v) for v in np.clip(np.round(q * per_unit, 6), low, high)]
-
                 home = written(dev.home)
                 for number, q in enumerate(joints, start=1):
                     view = written(q)

@@ -249,6 +249,15 @@ def _render(run) -> None:
     type=click.IntRange(min=3),
     help="Camera poses around the board to choose from.",
 )
+@click.option(
+    "--refine",
+    default=None,
+    type=click.IntRange(min=0),
+    metavar="N",
+    help="Candidates drawn around the first choice (a few degrees and centimetres from each "
+    "chosen view, within the same bounds), then the choice made again from all [default: a "
+    "third of --candidates; 0: none].",
+)
 @click.option("--seed", default=0, show_default=True, type=int, help="The candidates' random seed.")
 @click.option(
     "--pixel-sigma",
@@ -276,18 +285,30 @@ def _render(run) -> None:
 @json_option
 @handle_errors
 def plan_views(
-    cell, camera, count, board, candidates, seed, pixel_sigma, captures, program, json_output
+    cell,
+    camera,
+    count,
+    board,
+    candidates,
+    refine,
+    seed,
+    pixel_sigma,
+    captures,
+    program,
+    json_output,
 ):
-    """Choose robot poses from which a camera on the robot sees the whole calibration board,
-    and which together determine the camera's calibration best.
+    """Choose robot poses from which a camera sees the whole calibration board, and which
+    together determine the camera's calibration best: the camera on the robot (eye-in-hand),
+    or fixed in the cell with the board on the robot (eye-to-hand).
 
     Candidates are camera poses around the board (from its printed side, within 40 deg of its
     normal, at distances where it spans 35-80 % of the image's width); a candidate is usable
     when the robot reaches it, touches nothing there or on the way from home, and the camera
-    sees every corner. Of those, the views are chosen D-optimally on the information of the
-    calibration's 21 parameters, then exchanged to lower the camera-in-flange pose's predicted
-    error most; the choice's predicted error is shown beside random choices of as many
-    (docs/vision.md). Planning for a camera fixed in the cell is not built yet.
+    sees every corner and the outer squares. Of those, the views are chosen D-optimally on the
+    information of the calibration's 21 parameters, then exchanged to lower the camera's
+    predicted pose error most; more candidates are drawn around that choice (--refine) and the
+    choice is made again from all. Its predicted error is shown beside random choices of as
+    many of the first candidates (docs/vision.md).
 
     \b
     Examples:
@@ -315,6 +336,7 @@ def plan_views(
             captures=captures,
             program=program,
             progress=progress,
+            refine=refine,
         ),
         "reaching the candidates",
     )
@@ -330,6 +352,11 @@ def plan_views(
     for why, n in result.lost.items():
         if n:
             click.echo(f"  {n} candidates lost: {why}")
+    if f.get("refine"):
+        click.echo(
+            f"  {f['refine']} more drawn around the first choice: {f['refined']} usable, the "
+            "choice made again from all"
+        )
     click.echo(
         f"predicted error of the camera in the flange ({result.sigma_px:g} px of corner noise, "
         f"at a point {f['lever'] * 1000:.0f} mm ahead): {f['error'] * 1000:.4f} mm; random "

@@ -8,7 +8,13 @@ from __future__ import annotations
 import numpy as np
 
 from .. import spatial
-from ..geometry import segments_hit_triangles, shape_mesh, triangles_in_sight
+from ..geometry import (
+    segments_hit_triangles,
+    shape_mesh,
+    sight_cone,
+    spheres_in_sight,
+    triangle_spheres,
+)
 from ..vision.camera import project, transform_points, visible
 from .readings import SensorReading
 
@@ -30,6 +36,26 @@ def _targets(world) -> list[tuple[str, str, str, np.ndarray]]:
     return out
 
 
+_SIGHT: dict[int, tuple] = {}  # id(shape) -> (shape, its sight data): a cell's shapes, read once
+
+
+def _sight_data(shape) -> tuple:
+    """A shape's mesh in its owner's frame, each triangle's bounding sphere and the whole
+    mesh's (centre, radius) [m] - computed once a shape (the camera reading culls with them at
+    every sample of a plan)."""
+    got = _SIGHT.get(id(shape))
+    if got is not None and got[0] is shape:
+        return got[1]
+    mesh = shape_mesh(shape)
+    centres, radii = triangle_spheres(mesh.triangles())
+    middle = 0.5 * (mesh.vertices.min(axis=0) + mesh.vertices.max(axis=0))
+    radius = float(np.linalg.norm(mesh.vertices - middle, axis=1).max(initial=0.0))
+    if len(_SIGHT) > 4096:  # shapes of cells long gone
+        _SIGHT.clear()
+    _SIGHT[id(shape)] = (shape, (mesh, centres, radii, middle, radius))
+    return _SIGHT[id(shape)][1]
+
+
 def camera_reading(world, name: str, sensor, bodies) -> SensorReading:
     """The reading of camera sensor ``name`` in the world's current state.
 
@@ -43,7 +69,7 @@ def camera_reading(world, name: str, sensor, bodies) -> SensorReading:
     T_world_camera = world.T_world(name)
     T_camera_world = spatial.invert_transform(T_world_camera)
     origin = T_world_camera[:3, 3]
-    meshes = {b.label: (b.owner, shape_mesh(b.shape).triangles(b.T_world_owner)) for b in bodies}
+    meshes = {b.label: (b.owner, _sight_data(b.shape), b.T_world_owner) for b in bodies}
     image: dict = {"resolution": [camera.width, camera.height], "boards": {}, "points": {}}
     seen_any: list[str] = []
     for kind, target, owner, points in _targets(world):
@@ -53,13 +79,22 @@ def camera_reading(world, name: str, sensor, bodies) -> SensorReading:
         inside = visible(camera, pc)
         seen = inside.copy()
         hidden: dict[str, int] = {}
-        for label, (body_owner, triangles) in meshes.items():
+        for label, (body_owner, sight, T) in meshes.items():
             if body_owner == owner or not seen.any():
                 continue
             idx = np.nonzero(seen)[0]
-            near = triangles[triangles_in_sight(origin, points[idx], triangles)]
-            if not len(near):
+            cone = sight_cone(origin, points[idx])
+            mesh, centres, radii, middle, radius = sight
+            if cone is not None:  # the body's sphere first, then its triangles'
+                if not spheres_in_sight(origin, cone, T[:3, :3] @ middle + T[:3, 3], radius)[0]:
+                    continue
+                kept = spheres_in_sight(origin, cone, centres @ T[:3, :3].T + T[:3, 3], radii)
+                faces = mesh.faces[kept]
+            else:
+                faces = mesh.faces
+            if not len(faces):
                 continue
+            near = (mesh.vertices @ T[:3, :3].T + T[:3, 3])[faces]
             hit = segments_hit_triangles(np.broadcast_to(origin, (len(idx), 3)), points[idx], near)
             if hit.any():
                 hidden[label] = int(hit.sum())

@@ -38,6 +38,43 @@ def camera_candidates(
     return out
 
 
+#: the spread of the candidates drawn around a chosen view: a turn about each of the camera's
+#: axes [rad] and a shift along each, as a fraction of the candidates' middle distance
+REFINE_TURN = np.radians(4.0)
+REFINE_SHIFT = 0.05
+
+
+def refined_candidates(
+    rng: np.random.Generator,
+    board: BoardModel,
+    chosen: np.ndarray,
+    count: int,
+    distance: tuple[float, float],
+    tilt: float,
+) -> np.ndarray:
+    """About ``count`` camera poses near the chosen ones ``chosen`` (K, 4, 4)
+    (``T_board_camera``) [m]: each turned about its own axes by N(0, :data:`REFINE_TURN`) and
+    shifted by N(0, :data:`REFINE_SHIFT` x the middle distance), kept where it still looks at
+    the board's printed side within ``tilt`` [rad] of its normal from within ``distance`` [m]
+    of its centre (the first candidates' bounds). Shape (<= count, 4, 4)."""
+    per = max(1, int(np.ceil(count / len(chosen))))
+    base = np.repeat(chosen, per, axis=0)
+    turn = spatial.rotation_from_vector(rng.normal(0.0, REFINE_TURN, (len(base), 3)))
+    shift = rng.normal(0.0, REFINE_SHIFT * float(np.mean(distance)), (len(base), 3))
+    out = base.copy()
+    out[:, :3, :3] = base[:, :3, :3] @ turn
+    out[:, :3, 3] = base[:, :3, 3] + np.einsum("kij,kj->ki", base[:, :3, :3], shift)
+    axis = out[:, :3, 2]  # the optical axis in the board's frame: toward +z from the -z side
+    away = np.linalg.norm(out[:, :3, 3] - board.centre, axis=1)
+    keep = (
+        (np.arccos(np.clip(axis[:, 2], -1.0, 1.0)) <= tilt)
+        & (out[:, 2, 3] < 0.0)
+        & (away >= distance[0])
+        & (away <= distance[1])
+    )
+    return out[keep][:count]
+
+
 def view_information(
     camera: CameraModel,
     board: BoardModel,
@@ -90,12 +127,19 @@ def _criterion(covariances: np.ndarray, lever: float) -> np.ndarray:
 
 
 def select_views(
-    G: np.ndarray, count: int, seed: int = 0, lever: float = 0.3, passes: int = 8
+    G: np.ndarray,
+    count: int,
+    seed: int = 0,
+    lever: float = 0.3,
+    passes: int = 8,
+    random_from: int | None = None,
 ) -> tuple[np.ndarray, dict]:
     """``count`` of the candidates' views: greedily D-optimal (the determinant of the 21
     parameters' information) until the information is whole, then exchanges that lower the
     camera-in-flange pose's predicted error (:func:`_criterion`, ``lever`` [m]) most; and the
-    choice's predicted sigma against random choices of as many.
+    choice's predicted sigma against random choices of as many from the first
+    ``random_from`` views (default all: the ones after are candidates drawn around an earlier
+    choice, not views a user would draw).
 
     Returns
     -------
@@ -140,7 +184,8 @@ def select_views(
             break
     rng = np.random.default_rng(seed)
     position, rotation = camera_sigma(G[chosen])
-    draws = [camera_sigma(G[rng.choice(M, count, replace=False)]) for _ in range(50)]
+    pool = M if random_from is None else random_from
+    draws = [camera_sigma(G[rng.choice(pool, count, replace=False)]) for _ in range(50)]
     errors = [float(np.hypot(p, lever * r)) for p, r in draws]
     figures = {
         "lever": lever,
