@@ -412,6 +412,46 @@ def triangle_spheres(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return centre, np.linalg.norm(triangles - centre[:, None], axis=2).max(axis=1)
 
 
+def sight_lines_hit_triangles(
+    origin: np.ndarray, ends: np.ndarray, triangles: np.ndarray, chunk: int = 4_000_000
+) -> np.ndarray:
+    """:func:`segments_hit_triangles` for segments that share their start ``origin`` (3,) -
+    a camera's sight lines: Moller-Trumbore's cross products then depend on the triangle
+    alone, and each pair's determinant and barycentric numerators are dot products of the
+    segment's direction with three per-triangle vectors (one matrix product).
+
+    Returns
+    -------
+    ndarray of bool, shape (M,)
+        True where the segment from ``origin`` to ``ends[m]`` meets a triangle at a
+        parameter in (1e-9, 1 - 1e-6).
+    """
+    d = np.asarray(ends, dtype=float) - origin
+    hit = np.zeros(len(d), dtype=bool)
+    if len(triangles) == 0 or len(d) == 0:
+        return hit
+    a = triangles[:, 0]
+    e1 = triangles[:, 1] - a
+    e2 = triangles[:, 2] - a
+    t0 = origin - a
+    q = np.cross(t0, e1)  # (K, 3)
+    # det = (d x e2) . e1 = d . (e2 x e1); u det = t0 . (d x e2) = d . (e2 x t0); v det = d . q
+    W = np.concatenate([np.cross(e2, e1), np.cross(e2, t0), q])  # (3K, 3)
+    t_det = np.einsum("kj,kj->k", e2, q)  # (K,)
+    K = len(triangles)
+    step = max(1, chunk // (3 * K))
+    for lo in range(0, len(d), step):
+        P = d[lo : lo + step] @ W.T  # (m, 3K)
+        det, u_det, v_det = P[:, :K], P[:, K : 2 * K], P[:, 2 * K :]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / det
+            u, v, t = u_det * inv, v_det * inv, t_det[None] * inv
+            ok = (np.abs(det) > 1e-18) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-9)
+            ok &= t < 1 - 1e-6
+        hit[lo : lo + step] = ok.any(axis=1)
+    return hit
+
+
 def segments_hit_triangles(
     starts: np.ndarray, ends: np.ndarray, triangles: np.ndarray, chunk: int = 2_000_000
 ) -> np.ndarray:

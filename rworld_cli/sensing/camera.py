@@ -9,9 +9,9 @@ import numpy as np
 
 from .. import spatial
 from ..geometry import (
-    segments_hit_triangles,
     shape_mesh,
     sight_cone,
+    sight_lines_hit_triangles,
     spheres_in_sight,
     triangle_spheres,
 )
@@ -95,7 +95,7 @@ def camera_reading(world, name: str, sensor, bodies) -> SensorReading:
             if not len(faces):
                 continue
             near = (mesh.vertices @ T[:3, :3].T + T[:3, 3])[faces]
-            hit = segments_hit_triangles(np.broadcast_to(origin, (len(idx), 3)), points[idx], near)
+            hit = sight_lines_hit_triangles(origin, points[idx], near)
             if hit.any():
                 hidden[label] = int(hit.sum())
                 seen[idx[hit]] = False

@@ -212,3 +212,13 @@ def test_the_sight_cull_keeps_every_triangle_a_sight_line_meets(seed):
     dropped = triangles[~keep]
     for k in range(0, len(dropped), 500):
         assert not segments_hit_triangles(starts, ends, dropped[k : k + 500]).any()
+    # the sight lines' own test (one matrix product for a shared start) is the general one's,
+    # triangle by triangle
+    from rworld_cli.geometry import sight_lines_hit_triangles
+
+    assert np.array_equal(sight_lines_hit_triangles(origin, ends, triangles), everything)
+    for k in range(0, 3000, 97):
+        one = triangles[k : k + 1]
+        assert np.array_equal(
+            sight_lines_hit_triangles(origin, ends, one), segments_hit_triangles(starts, ends, one)
+        )
