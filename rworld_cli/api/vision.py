@@ -154,6 +154,8 @@ def _robot_dict(robot) -> dict:
         "pixel_noise_px": float(robot.sigma_instrument),
         "variance_factor": float(robot.variance_factor),
         "observability_index": float(robot.observability),
+        "iterations": int(robot.iterations),
+        "converged": bool(robot.converged),
     }
 
 

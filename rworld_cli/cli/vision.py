@@ -209,6 +209,10 @@ def _render(run) -> None:
             f"parameters identified (the others nominal); the pictures' noise "
             f"{robot['pixel_noise_px']:.3f} px, a-posteriori factor {robot['variance_factor']:.2f}"
         )
+        if not robot["converged"]:
+            click.echo(
+                f"  warning: the fit did not converge in {robot['iterations']} iterations", err=True
+            )
         for row in robot["corrections"]:
             click.echo(
                 f"  {row['name']:<28} {row['correction']:+10.4f} +- {row['sigma']:.4f} "

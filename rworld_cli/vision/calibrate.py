@@ -448,11 +448,17 @@ VARIANCE_TOLERANCE = 0.02
 SMALLEST_FLANGE_SIGMA = (1e-8, 1e-8)
 
 
-def _huber_levenberg_marquardt(fun, jac, x, iterations: int = 30, scale: float = 3.0):
+def _huber_levenberg_marquardt(
+    fun, jac, x, iterations: int = 30, scale: float = 3.0, info: dict | None = None
+):
     """Minimise Huber's loss (``scale`` in the residuals' units) of ``fun`` by
     Levenberg-Marquardt on the reweighted normal equations (the unknowns are few, the
     residuals many: the normal matrix is small where a trust region's SVD of the Jacobian is
-    not). Stops when a step changes the cost by less than 1e-8 of it."""
+    not). Stops when a step changes the cost by less than 1e-8 of it (converged) or no step
+    lowers it; ``info`` (a dict, when given) gets ``iterations`` and ``converged``."""
+    if info is None:
+        info = {}
+    info.update(iterations=0, converged=False)
 
     def cost(r):
         a = np.abs(r)
@@ -475,12 +481,15 @@ def _huber_levenberg_marquardt(fun, jac, x, iterations: int = 30, scale: float =
             if c_new <= c:
                 break
             damping *= 10.0
-            if damping > 1e12:
+            if damping > 1e12:  # no step lowers the cost: a minimum to the step's precision
+                info["converged"] = True
                 return x
         x, r, done = x + step, r_new, c - c_new <= 1e-8 * max(c, 1e-300)
         c = c_new
         damping = max(damping / 10.0, 1e-9)
+        info["iterations"] += 1
         if done:
+            info["converged"] = True
             break
     return x
 
@@ -760,7 +769,6 @@ def calibrate_views_with_robot(
     from ..calibration.robot import Unidentifiable, preference, select
 
     exact = calibrate_views(views, fix_intrinsics=fix_intrinsics)
-    start_camera = exact.start["camera"]
     noise = max(float(exact.start["pixel_noise"]), 1e-6)
     problem = _Problem(views, exact.T_mount_camera, exact.T_holder_board)
     theta0 = np.r_[exact.camera.intrinsics, np.zeros(12)]
@@ -819,11 +827,13 @@ def calibrate_views_with_robot(
         theta, p = split(x)
         return jacobian(theta, p, taken) / noise
 
+    fit: dict = {}
     x = _huber_levenberg_marquardt(
         fun,
         scaled_jacobian,
         np.r_[theta0[free], np.zeros(len(taken))],
         iterations=iterations,
+        info=fit,
     )
     theta, p = split(x)
     F = flanges(p)
@@ -865,12 +875,12 @@ def calibrate_views_with_robot(
         float(np.exp(np.log(singular).mean()) / np.sqrt(len(joints))) if len(singular) else 0.0,
         residuals.reshape(-1, 2),
         before,
-        0,
+        int(fit["iterations"]),
         device,
         T,
         noise,
         taken,
-        True,
+        bool(fit["converged"]),
         factor,
     )
     d = problem.predicted(theta, F=F) - views.corners
@@ -889,7 +899,7 @@ def calibrate_views_with_robot(
         names=views.names,
         observations=int(len(problem.observed)),
         downweighted=int(np.count_nonzero(w < 1.0)),
-        start={**exact.start, "camera": start_camera},
+        start=exact.start,
         robot=robot_result,
         robot_cross=cross,
     )

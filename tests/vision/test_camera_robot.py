@@ -159,6 +159,7 @@ def test_one_bundle_adjustment_joins_the_robots_errors_and_writes_them_for_its_c
     assert out["model"] == "robot errors"
     assert out["held_out_rms_px"] < 2 * NOISE_PX, out["held_out_rms_px"]
     assert 0.8 < robot["variance_factor"] < 1.25, robot
+    assert robot["converged"] and 0 < robot["iterations"] < 50, robot
     assert abs(robot["pixel_noise_px"] - NOISE_PX) < 0.02, robot
     # joint 1's errors are the board's pose to the camera: kept nominal, listed
     assert {"j1.x", "j1.y", "j1.rz"} <= set(robot["kept_nominal"])

@@ -133,3 +133,31 @@ def test_a_start_on_a_singularity_does_not_end_the_plan():
     run = plan_views(str(CELL / "cell.yaml"), "wrist_camera", 10, candidates=600, seed=0)
     assert run.usable > 300
     assert run.figures["random_error"] / run.figures["error"] >= 1.5
+
+
+def test_candidates_drawn_around_a_choice_stay_within_the_first_ones_bounds():
+    """``refined_candidates``: near the chosen views (a few degrees, a few centimetres), from
+    the board's printed side, within the tilt and the distances the first candidates had."""
+    from rworld_cli import spatial
+    from rworld_cli.model.vision import BoardModel
+    from rworld_cli.vision.plan import camera_candidates, refined_candidates
+
+    board = BoardModel(name="board", pattern="chessboard", columns=9, rows=6, square=0.03)
+    rng = np.random.default_rng(4)
+    tilt, distance = np.radians(40.0), (0.3, 0.7)
+    chosen = camera_candidates(rng, board, 8, distance, tilt, np.radians(30.0))
+    around = refined_candidates(rng, board, chosen, 400, distance, tilt)
+    assert 100 < len(around) <= 400
+    axis = around[:, :3, 2]
+    assert np.degrees(np.arccos(axis[:, 2])).max() <= 40.0 + 1e-9
+    away = np.linalg.norm(around[:, :3, 3] - board.centre, axis=1)
+    assert away.min() >= 0.3 and away.max() <= 0.7 and (around[:, 2, 3] < 0).all()
+    # each near one of the chosen: within 5 sigma of the spread drawn
+    gap = np.linalg.norm(around[:, None, :3, 3] - chosen[None, :, :3, 3], axis=2).min(axis=1)
+    turn = np.array(
+        [
+            min(np.linalg.norm(spatial.rotation_vector(c[:3, :3].T @ a[:3, :3])) for c in chosen)
+            for a in around
+        ]
+    )
+    assert gap.max() < 5 * 0.05 * 0.5 * np.sqrt(3) and np.degrees(turn.max()) < 5 * 4 * np.sqrt(3)
