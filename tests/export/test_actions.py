@@ -15,10 +15,11 @@ import shutil
 import pytest
 
 from rworld_cli.api import export_program
-from rworld_cli.schema.programs import load_run
-from rworld_cli.simulate.engine import simulate
 from tests.conftest import WORKCELLS
 from tests.export.controller_logs import reports_in
+
+# each case's simulation made once a worker for the four languages (tests/conftest.py)
+pytestmark = pytest.mark.usefixtures("simulation_once")
 
 FEATURE_STEPS = """device: puma
 units: {length: mm, angle: deg}
@@ -72,10 +73,10 @@ def cases(tmp_path_factory):
 def _expected(cell, run, device) -> tuple[list[tuple], set[int]]:
     """The simulated actions of ``device`` in order: gripper and tool-changer outputs, contact
     reports; and the indices after which the flange's load changes before a move follows."""
-    from rworld_cli.api.simulation import run_path
+    from rworld_cli.api import export
 
-    loaded = load_run(str(cell), run_path(str(cell), run))
-    result = simulate(loaded, collisions=False)
+    # export's own simulation of the run (simulation_once: the one each export then reads)
+    loaded, result = export._simulate(str(cell), run, None, None)
     kinds = {
         "grasp": ("gripper", True),
         "release": ("gripper", False),

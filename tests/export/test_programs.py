@@ -19,6 +19,9 @@ from rworld_cli.simulate.engine import simulate
 from tests.conftest import WORKCELLS
 from tests.export import readers
 
+# each run's simulation made once a worker for the same files (tests/conftest.py)
+pytestmark = pytest.mark.usefixtures("simulation_once")
+
 GOLDEN = Path(__file__).parent / "golden"
 ARMS = ["urscript", "krl", "rapid", "fanuc"]
 CASES = {  # name: (cell, run, device, program stem)

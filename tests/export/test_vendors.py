@@ -23,6 +23,9 @@ from rworld_cli.simulate.engine import simulate
 from tests.conftest import urdf_without_meshes
 from tests.export import readers
 
+# each run's simulation made once a worker for the same files (tests/conftest.py)
+pytestmark = pytest.mark.usefixtures("simulation_once")
+
 DATA = Path(__file__).parents[1] / "data"
 REPO = Path(__file__).parents[2]
 SHARE = Path(str(distribution("example-robot-data").locate_file("cmeel.prefix/share")))
