@@ -532,10 +532,7 @@ def identify(
                 if abs(beta[j]) > 0.05:
                     entries.append((names[taken[j]], float(-beta[j])))
         unidentifiable.append(Unidentifiable(entries, dropped.get(k, float("inf"))))
-    singular = np.linalg.svd(J[:, taken], compute_uv=False) if taken else np.zeros(0)
-    observability = (
-        float(np.exp(np.log(singular).mean()) / np.sqrt(len(obs.q))) if len(singular) else 0.0
-    )
+    observability = observability_index(J[:, taken], len(obs.q))
     device, _, T = model.apply(p)
     out = RobotCalibration(
         model,
@@ -560,6 +557,16 @@ def identify(
     )
     out._absorbed = absorbed
     return out
+
+
+def observability_index(J: np.ndarray, poses: int) -> float:
+    """Borm and Menq's O1 of an identification Jacobian ``J`` (rows, identified parameters;
+    columns scaled to their typical errors) over ``poses`` poses: the geometric mean of its
+    singular values over the root of the poses; 0 with no column."""
+    if J.shape[1] == 0:
+        return 0.0
+    singular = np.linalg.svd(J, compute_uv=False)
+    return float(np.exp(np.log(singular).mean()) / np.sqrt(poses))
 
 
 def position_errors(model: RobotModel, p: np.ndarray, obs: RobotObservations) -> dict:

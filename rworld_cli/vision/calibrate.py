@@ -766,7 +766,7 @@ def calibrate_views_with_robot(
     CalibrationRefused
         As :func:`calibrate_views`.
     """
-    from ..calibration.robot import Unidentifiable, preference, select
+    from ..calibration.robot import Unidentifiable, observability_index, preference, select
 
     exact = calibrate_views(views, fix_intrinsics=fix_intrinsics)
     noise = max(float(exact.start["pixel_noise"]), 1e-6)
@@ -858,7 +858,6 @@ def calibrate_views_with_robot(
     cross = np.zeros((21, P))
     cross[np.ix_(free, taken)] = cov[:nf, nf:] * scales[taken]
     names = robot.names
-    singular = np.linalg.svd(J_robot[:, taken], compute_uv=False) if len(taken) else np.zeros(0)
     before = problem.residuals(theta0, F=flanges(np.zeros(P))).reshape(-1, 2)
     device, _, T = robot.apply(p)
     robot_result = RobotCalibration(
@@ -872,7 +871,7 @@ def calibrate_views_with_robot(
             for k in range(n6)
             if k not in taken
         ],
-        float(np.exp(np.log(singular).mean()) / np.sqrt(len(joints))) if len(singular) else 0.0,
+        observability_index(J_robot[:, taken], len(joints)),
         residuals.reshape(-1, 2),
         before,
         int(fit["iterations"]),
