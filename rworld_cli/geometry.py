@@ -381,31 +381,6 @@ def spheres_in_sight(
     return (distance <= radii) | near
 
 
-def triangles_in_sight(origin: np.ndarray, ends: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Which triangles a segment from ``origin`` to one of ``ends`` may meet: a conservative
-    cull of each triangle's bounding sphere against the cone the segments span
-    (:func:`sight_cone`, :func:`spheres_in_sight`) - the sight lines of a camera, which meet
-    a handful of a robot's thousands of mesh triangles.
-
-    Parameters
-    ----------
-    origin : ndarray, shape (3,)
-    ends : ndarray, shape (M, 3)
-    triangles : ndarray, shape (K, 3, 3)
-        All in one frame [m].
-
-    Returns
-    -------
-    ndarray of bool, shape (K,)
-        False only where no segment can meet the triangle.
-    """
-    cone = sight_cone(origin, ends)
-    if len(triangles) == 0 or cone is None:
-        return np.ones(len(triangles), dtype=bool)
-    centre, radius = triangle_spheres(triangles)
-    return spheres_in_sight(origin, cone, centre, radius)
-
-
 def triangle_spheres(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Each triangle's bounding sphere about its centroid: centres (K, 3) and radii (K,) [m]."""
     centre = triangles.mean(axis=1)
@@ -415,16 +390,18 @@ def triangle_spheres(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def sight_lines_hit_triangles(
     origin: np.ndarray, ends: np.ndarray, triangles: np.ndarray, chunk: int = 4_000_000
 ) -> np.ndarray:
-    """:func:`segments_hit_triangles` for segments that share their start ``origin`` (3,) -
-    a camera's sight lines: Moller-Trumbore's cross products then depend on the triangle
-    alone, and each pair's determinant and barycentric numerators are dot products of the
-    segment's direction with three per-triangle vectors (one matrix product).
+    """Which segments from ``origin`` (3,) to ``ends`` (M, 3) [m] cross one of
+    ``triangles`` (K, 3, 3) [m] strictly between their ends - a camera's sight lines.
+    Moller-Trumbore for a shared start: its cross products depend on the triangle alone, and
+    each pair's determinant and barycentric numerators are dot products of the segment's
+    direction with three per-triangle vectors (one matrix product; at most ``chunk`` pairs at
+    once).
 
     Returns
     -------
     ndarray of bool, shape (M,)
-        True where the segment from ``origin`` to ``ends[m]`` meets a triangle at a
-        parameter in (1e-9, 1 - 1e-6).
+        True where the segment meets a triangle at a parameter in (1e-9, 1 - 1e-6): an end
+        that lies on a surface (a corner on its own board) does not count.
     """
     d = np.asarray(ends, dtype=float) - origin
     hit = np.zeros(len(d), dtype=bool)
@@ -446,52 +423,6 @@ def sight_lines_hit_triangles(
         with np.errstate(divide="ignore", invalid="ignore"):
             inv = 1.0 / det
             u, v, t = u_det * inv, v_det * inv, t_det[None] * inv
-            ok = (np.abs(det) > 1e-18) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-9)
-            ok &= t < 1 - 1e-6
-        hit[lo : lo + step] = ok.any(axis=1)
-    return hit
-
-
-def segments_hit_triangles(
-    starts: np.ndarray, ends: np.ndarray, triangles: np.ndarray, chunk: int = 2_000_000
-) -> np.ndarray:
-    """Which segments cross a triangle strictly between their ends (Moller-Trumbore).
-
-    Parameters
-    ----------
-    starts, ends : ndarray, shape (M, 3)
-        The segments [m].
-    triangles : ndarray, shape (K, 3, 3)
-        Triangles' corners [m], in the segments' frame.
-    chunk : int
-        At most this many segment-triangle pairs at once (memory).
-
-    Returns
-    -------
-    ndarray of bool, shape (M,)
-        True where the segment meets a triangle at a parameter in (1e-9, 1 - 1e-6): an end
-        that lies on a surface (a corner on its own board) does not count.
-    """
-    starts = np.asarray(starts, dtype=float)
-    d = np.asarray(ends, dtype=float) - starts
-    hit = np.zeros(len(starts), dtype=bool)
-    if len(triangles) == 0 or len(starts) == 0:
-        return hit
-    a = triangles[:, 0]
-    e1 = triangles[:, 1] - a
-    e2 = triangles[:, 2] - a
-    step = max(1, chunk // len(triangles))
-    for lo in range(0, len(starts), step):
-        s, dd = starts[lo : lo + step, None, :], d[lo : lo + step, None, :]
-        p = np.cross(dd, e2[None])
-        det = np.einsum("mkj,kj->mk", p, e1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            inv = 1.0 / det
-            t0 = s - a[None]
-            u = np.einsum("mkj,mkj->mk", t0, p) * inv
-            q = np.cross(t0, e1[None])
-            v = np.einsum("mkj,mkj->mk", dd, q) * inv
-            t = np.einsum("kj,mkj->mk", e2, q) * inv
             ok = (np.abs(det) > 1e-18) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-9)
             ok &= t < 1 - 1e-6
         hit[lo : lo + step] = ok.any(axis=1)

@@ -79,11 +79,13 @@ def camera_reading(world, name: str, sensor, bodies) -> SensorReading:
         inside = visible(camera, pc)
         seen = inside.copy()
         hidden: dict[str, int] = {}
+        idx = None  # the sight lines still clear and their cone, made again when one is hidden
         for label, (body_owner, sight, T) in meshes.items():
             if body_owner == owner or not seen.any():
                 continue
-            idx = np.nonzero(seen)[0]
-            cone = sight_cone(origin, points[idx])
+            if idx is None:
+                idx = np.nonzero(seen)[0]
+                cone = sight_cone(origin, points[idx])
             mesh, centres, radii, middle, radius = sight
             if cone is not None:  # the body's sphere first, then its triangles'
                 if not spheres_in_sight(origin, cone, T[:3, :3] @ middle + T[:3, 3], radius)[0]:
@@ -99,6 +101,7 @@ def camera_reading(world, name: str, sensor, bodies) -> SensorReading:
             if hit.any():
                 hidden[label] = int(hit.sum())
                 seen[idx[hit]] = False
+                idx = None
         if kind == "boards" and seen.any():  # the pattern is on the -z face: seen from -z
             T_board_world = spatial.invert_transform(world.T_world(target))
             if (T_board_world[:3, :3] @ origin + T_board_world[:3, 3])[2] >= 0:

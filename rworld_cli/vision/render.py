@@ -8,7 +8,8 @@ shade changes between neighbours, a pixel is the mean of ``supersample`` x ``sup
 rays (area sampling, the sub-pixel rays by the map's local derivative: edges fall between
 pixels as a sensor integrates them). A pixel whose
 centre ray reaches a board through a body (exact segment-triangle tests, for the pixels inside
-the body's image) takes the body's shade.
+the body's image, tile by tile against the triangles in each tile's cone) takes the body's
+shade.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import functools
 import numpy as np
 
 from .. import spatial
-from ..geometry import segments_hit_triangles
+from ..geometry import sight_cone, sight_lines_hit_triangles, spheres_in_sight, triangle_spheres
 from ..model.vision import BoardModel, CameraModel
 from .camera import project
 
@@ -27,6 +28,35 @@ BLACK, WHITE, BACKGROUND, BODY = 25.0, 225.0, 110.0, 70.0
 CHARUCO_PIXELS_PER_SQUARE = 100
 #: pixels across an AprilTag in the grid's drawing (36h11: 8 cells of code and border, 15 px each)
 APRILGRID_PIXELS_PER_TAG = 120
+
+
+#: the renderer's occlusion test takes the pixels in tiles of this many on a side: each tile's
+#: sight lines span a narrow cone, which most of a body's triangles lie outside
+OCCLUSION_TILE = 32
+
+
+def _hidden(origin, ends, rows, cols, triangles) -> np.ndarray:
+    """Which sight lines from ``origin`` (3,) to ``ends`` (M, 3) [m], the centre rays of the
+    pixels (``rows``, ``cols``), cross one of the body's ``triangles`` (K, 3, 3): tile by tile
+    (:data:`OCCLUSION_TILE`), each tile's rays against the triangles in their cone only
+    (``geometry.sight_cone``, ``spheres_in_sight``), then the exact shared-origin test
+    (``geometry.sight_lines_hit_triangles``). (M,) bool."""
+    hidden = np.zeros(len(ends), dtype=bool)
+    centres, radii = triangle_spheres(triangles)
+    tile = (rows // OCCLUSION_TILE) * (int(cols.max()) // OCCLUSION_TILE + 1) + (
+        cols // OCCLUSION_TILE
+    )
+    order = np.argsort(tile, kind="stable")
+    bounds = np.flatnonzero(np.diff(tile[order])) + 1
+    for group in np.split(order, bounds):  # a loop over tiles, not pixels
+        cone = sight_cone(origin, ends[group])
+        if cone is not None:
+            near = triangles[spheres_in_sight(origin, cone, centres, radii)]
+        else:
+            near = triangles
+        if len(near):
+            hidden[group] = sight_lines_hit_triangles(origin, ends[group], near)
+    return hidden
 
 
 @functools.lru_cache(maxsize=8)
@@ -225,7 +255,7 @@ def render_view(
             if not near.any():
                 continue
             r, c, ends = r[near], c[near], ends[near]
-            hidden = segments_hit_triangles(np.broadcast_to(origin, ends.shape), ends, triangles)
+            hidden = _hidden(origin, ends, r, c, triangles)
             value[r[hidden], c[hidden]] = BODY
     if blur_px > 0:
         value = cv2.GaussianBlur(value, (0, 0), blur_px)

@@ -187,12 +187,71 @@ def test_a_programs_sense_step_records_what_the_wrist_camera_sees():
     assert np.abs(np.array(seen["pixels"]) - theirs).max() < 1e-3
 
 
+# the general segment-triangle test (Moller-Trumbore, any starts), the reference of the sight
+# lines' one below; it was rworld_cli.geometry's until the camera's readings and renderer took
+# the shared-start form
+def segments_hit_triangles(
+    starts: np.ndarray, ends: np.ndarray, triangles: np.ndarray, chunk: int = 2_000_000
+) -> np.ndarray:
+    """Which segments cross a triangle strictly between their ends (Moller-Trumbore).
+
+    Parameters
+    ----------
+    starts, ends : ndarray, shape (M, 3)
+        The segments [m].
+    triangles : ndarray, shape (K, 3, 3)
+        Triangles' corners [m], in the segments' frame.
+    chunk : int
+        At most this many segment-triangle pairs at once (memory).
+
+    Returns
+    -------
+    ndarray of bool, shape (M,)
+        True where the segment meets a triangle at a parameter in (1e-9, 1 - 1e-6): an end
+        that lies on a surface (a corner on its own board) does not count.
+    """
+    starts = np.asarray(starts, dtype=float)
+    d = np.asarray(ends, dtype=float) - starts
+    hit = np.zeros(len(starts), dtype=bool)
+    if len(triangles) == 0 or len(starts) == 0:
+        return hit
+    a = triangles[:, 0]
+    e1 = triangles[:, 1] - a
+    e2 = triangles[:, 2] - a
+    step = max(1, chunk // len(triangles))
+    for lo in range(0, len(starts), step):
+        s, dd = starts[lo : lo + step, None, :], d[lo : lo + step, None, :]
+        p = np.cross(dd, e2[None])
+        det = np.einsum("mkj,kj->mk", p, e1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / det
+            t0 = s - a[None]
+            u = np.einsum("mkj,mkj->mk", t0, p) * inv
+            q = np.cross(t0, e1[None])
+            v = np.einsum("mkj,mkj->mk", dd, q) * inv
+            t = np.einsum("kj,mkj->mk", e2, q) * inv
+            ok = (np.abs(det) > 1e-18) & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-9)
+            ok &= t < 1 - 1e-6
+        hit[lo : lo + step] = ok.any(axis=1)
+    return hit
+
+
+def triangles_in_sight(origin, ends, triangles):
+    """The camera reading's cull of a body's triangles: their bounding spheres against the cone
+    of the sight lines (``geometry.sight_cone``, ``triangle_spheres``, ``spheres_in_sight``)."""
+    from rworld_cli.geometry import sight_cone, spheres_in_sight, triangle_spheres
+
+    cone = sight_cone(origin, ends)
+    if cone is None:
+        return np.ones(len(triangles), dtype=bool)
+    return spheres_in_sight(origin, cone, *triangle_spheres(triangles))
+
+
 @pytest.mark.parametrize("seed", range(6))
 def test_the_sight_cull_keeps_every_triangle_a_sight_line_meets(seed):
-    """``geometry.triangles_in_sight`` (the camera reading's cull of a body's triangles against
-    the cone of its sight lines) drops no triangle that a segment from the camera meets: the
-    hits with and without the cull are the same, over random scenes where both happen."""
-    from rworld_cli.geometry import segments_hit_triangles, triangles_in_sight
+    """The camera reading's cull of a body's triangles against the cone of its sight lines
+    drops no triangle that a segment from the camera meets: the hits with and without the cull
+    are the same, over random scenes where both happen."""
 
     rng = np.random.default_rng(seed)
     origin = rng.normal(0, 0.2, 3)
