@@ -544,19 +544,16 @@ def _robot_model(captures):
 def _robot_overlay(captures, result, views: int) -> str:
     """``calibrate_camera``'s ``write_robot``: the robot's corrections as a pose-file overlay
     for its cell (the flange frame's own pose is the camera's or the board's, not moved)."""
-    import hashlib
-
     from ..schema.robotobs import robot_overlay_text
 
     robot = result.robot
     rms = float(np.sqrt(np.mean(np.sum(robot.residuals**2, axis=1))))
-    digest = hashlib.sha256(Path(captures.path).read_bytes()).hexdigest()
     return robot_overlay_text(
         robot.device,
         captures.device,
         {},
         "rworld calibrate-camera --with-robot",
-        [{"path": captures.path, "sha256": digest}],
+        [captures.digest],  # the file as it was read
         {
             "views": views,
             "identified": f"{robot.rank} of {6 * robot.device.dof} joint parameters",
