@@ -3,15 +3,18 @@ data, against the Cramer-Rao bound on simulated views, and its times.
 
 Run:  .venv/bin/python bench/vision.py [--seeds 80] [--bootstrap 200] [--images DIR]
 
-1. Real data: Ali et al.'s KUKA eye-in-hand set (``tests/data/vision/kuka2``: 28 views, the
-   corners OpenCV found in the shipped images). A fixed split: every 4th view held out (7),
-   21 fitted. For rworld and each of OpenCV's five hand-eye methods (Tsai, Park, Horaud,
-   Andreff, Daniilidis; the board then from the views' mean through the robot) and two
-   robot-world methods (Shah, Li), on the same detections (OpenCV's intrinsics from
-   ``calibrateCamera`` on the fitted views): the held-out views' corners predicted through
-   the robot (board in base, flange pose, camera in flange, intrinsics; not each view's own
-   PnP), rms px; AX = XB over the held-out views' pairs (each view's PnP with the method's
-   intrinsics), rms deg and mm.
+1. Real data (``--only real``: 1, 1b, 1c): Ali et al.'s KUKA eye-in-hand sets
+   (``tests/data/vision/kuka1``, ``kuka2``, ``kuka3``: the corners OpenCV found in the shipped
+   images). A fixed split: every 4th view held out from the 4th (7). For rworld's two models
+   and each of OpenCV's five hand-eye methods (Tsai, Park, Horaud, Andreff, Daniilidis; the
+   board then from the views' mean through the robot) and two robot-world methods (Shah,
+   Li), on the same detections (OpenCV's intrinsics from ``calibrateCamera`` on the fitted
+   views): the held-out views' corners predicted through the robot (board in base, flange
+   pose, camera in flange, intrinsics; not each view's own PnP), rms px; AX = XB over the
+   held-out views' pairs (each view's PnP with the method's intrinsics), rms deg and mm; and
+   over the four splits (held out from the 1st, 2nd, 3rd, 4th view), how often each of
+   rworld's models is ahead of the best of OpenCV's seven on each figure. 1c: the rendered
+   sets with their truth (``cs_synthetic1``-``3``): each method's camera-in-flange error.
 2. The bootstrap over the fitted views (resampled with replacement): the camera-in-flange
    pose's spread against the sigma rworld reports (clustered by view) and the pixel-noise one.
 3. Simulated cells with a known truth (``--seeds``, 20 views of a 9 x 6 board, 0.3 px noise):
@@ -66,86 +69,168 @@ from bench.machine import cpu_model  # noqa: E402
 DATA = REPO / "tests" / "data" / "vision" / "kuka2"
 
 
-def _kuka2():
+def _views(folder: Path):
     from rworld_cli.api.vision import capture_views
     from rworld_cli.schema.captures import read_captures
 
-    return capture_views(read_captures(str(DATA / "captures.yaml")))
+    return capture_views(read_captures(str(folder / "captures.yaml")))
 
 
-def real_data() -> tuple:
+def _kuka2():
+    return _views(DATA)
+
+
+#: the methods compared: rworld's two models and OpenCV's five hand-eye and two robot-world ones
+HAND_EYE = ("TSAI", "PARK", "HORAUD", "ANDREFF", "DANIILIDIS")
+ROBOT_WORLD = ("SHAH", "LI")
+
+
+def _estimates(train) -> list[tuple]:
+    """(label, camera, X, Z, ms) for every method on the fitted views ``train``."""
     import cv2
 
     from rworld_cli.vision import calibrate as vc
 
-    views = _kuka2()
-    index = np.arange(len(views.names))
-    held = index[3::4]
-    fit = np.setdiff1d(index, held)
-    train, test = views.subset(fit), views.subset(held)
-    print(f"1. real data: {DATA.relative_to(REPO)}: {len(fit)} views fitted, {len(held)} held out")
-    print(f"   {'method':<26} {'held-out rms px':>15} {'AX=XB deg':>10} {'AX=XB mm':>9} {'ms':>7}")
     rows = []
-    t0 = time.perf_counter()
-    ours = vc.calibrate_views(train)
-    ms = (time.perf_counter() - t0) * 1000
-    rows.append(("rworld, exact robot", ours.camera, ours.T_mount_camera, ours.T_holder_board, ms))
-    t0 = time.perf_counter()
-    fe = vc.calibrate_views(train, flange_errors=True)
-    ms = (time.perf_counter() - t0) * 1000
-    rows.append(("rworld, flange errors", fe.camera, fe.T_mount_camera, fe.T_holder_board, ms))
+    for label, flange_errors in (("rworld, exact robot", False), ("rworld, flange errors", True)):
+        t0 = time.perf_counter()
+        r = vc.calibrate_views(train, flange_errors=flange_errors)
+        ms = (time.perf_counter() - t0) * 1000
+        rows.append((label, r.camera, r.T_mount_camera, r.T_holder_board, ms, r))
     t0 = time.perf_counter()
     camera, C = vc.intrinsics_start(train, use_guess=False)
     ms_intr = (time.perf_counter() - t0) * 1000
-    for name in ("TSAI", "PARK", "HORAUD", "ANDREFF", "DANIILIDIS"):
+    for name in HAND_EYE + ROBOT_WORLD:
         t0 = time.perf_counter()
-        X, Z = vc.hand_eye_start(train, C, getattr(cv2, f"CALIB_HAND_EYE_{name}"))
-        rows.append(
-            (
-                f"OpenCV hand-eye {name.title()}",
-                camera,
-                X,
-                Z,
-                ms_intr + (time.perf_counter() - t0) * 1000,
+        if name in HAND_EYE:
+            X, Z = vc.hand_eye_start(train, C, getattr(cv2, f"CALIB_HAND_EYE_{name}"))
+            label = f"OpenCV hand-eye {name.title()}"
+        else:
+            X, Z = vc.robot_world_start(
+                train, C, getattr(cv2, f"CALIB_ROBOT_WORLD_HAND_EYE_{name}")
             )
-        )
-    for name in ("SHAH", "LI"):
-        t0 = time.perf_counter()
-        X, Z = vc.robot_world_start(train, C, getattr(cv2, f"CALIB_ROBOT_WORLD_HAND_EYE_{name}"))
-        rows.append(
-            (
-                f"OpenCV robot-world {name.title()}",
-                camera,
-                X,
-                Z,
-                ms_intr + (time.perf_counter() - t0) * 1000,
-            )
-        )
-    results = {}
-    for label, cam, X, Z, ms in rows:
-        rms = vc.reprojection_rms(cam, X, Z, test)
-        dr, dt = vc.axxb_residuals(X, test, vc.view_poses(test, cam))
-        results[label] = (rms, dr, dt)
-        print(f"   {label:<26} {rms:15.3f} {np.degrees(dr):10.4f} {dt * 1000:9.3f} {ms:7.0f}")
-    theirs = {k: v for k, v in results.items() if not k.startswith("rworld")}
-    for k, unit, scale in ((0, "px", 1.0), (1, "deg", np.degrees(1.0)), (2, "mm", 1000.0)):
-        best = min(theirs, key=lambda name: theirs[name][k])
-        what = ("held-out rms", "AX=XB rotation", "AX=XB translation")[k]
-        ours_k = {name: results[name][k] for name in results if name.startswith("rworld")}
+            label = f"OpenCV robot-world {name.title()}"
+        rows.append((label, camera, X, Z, ms_intr + (time.perf_counter() - t0) * 1000, None))
+    return rows
+
+
+def _figures(test, camera, X, Z) -> np.ndarray:
+    """Held-out rms [px], AX = XB rotation [deg] and translation [mm] on the views ``test``."""
+    from rworld_cli.vision import calibrate as vc
+
+    rms = vc.reprojection_rms(camera, X, Z, test)
+    dr, dt = vc.axxb_residuals(X, test, vc.view_poses(test, camera))
+    return np.array([rms, np.degrees(dr), dt * 1000])
+
+
+def real_data(folder: Path, splits: bool = True) -> tuple:
+    """Section 1 on one real set: the fixed split's table, and over the four splits (every 4th
+    view held out from the 1st, 2nd, 3rd or 4th) which method is ahead on each figure."""
+    views = _views(folder)
+    index = np.arange(len(views.names))
+    what = ("held-out rms", "AX=XB rotation", "AX=XB translation")
+    wins = np.zeros((2, 3), dtype=int)
+    table = {}
+    for start in (3, 0, 1, 2) if splits else (3,):
+        held = index[start::4]
+        fit = np.setdiff1d(index, held)
+        train, test = views.subset(fit), views.subset(held)
+        rows = _estimates(train)
+        results = {label: _figures(test, cam, X, Z) for label, cam, X, Z, _ms, _r in rows}
+        best = np.min([v for k, v in results.items() if not k.startswith("rworld")], axis=0)
+        wins += np.array([results["rworld, exact robot"] < best,
+                          results["rworld, flange errors"] < best])  # fmt: skip
+        if start != 3:
+            continue
+        table = {label: r for label, _c, _X, _Z, _ms, r in rows if r is not None}
         print(
-            f"   {what}: best OpenCV {best} {theirs[best][k] * scale:.4f} {unit}; "
-            + "; ".join(
-                f"{n} {v * scale:.4f} (theirs / ours {theirs[best][k] / v:.2f})"
-                for n, v in ours_k.items()
-            )
+            f"1. real data: {folder.relative_to(REPO)}: {len(fit)} views fitted, {len(held)} held "
+            "out (every 4th from the 4th)"
         )
+        print(
+            f"   {'method':<26} {'held-out rms px':>15} {'AX=XB deg':>10} {'AX=XB mm':>9} {'ms':>7}"
+        )
+        for label, _cam, _X, _Z, ms, _r in rows:
+            rms, dr, dt = results[label]
+            print(f"   {label:<26} {rms:15.3f} {dr:10.4f} {dt:9.3f} {ms:7.0f}")
+        theirs = {k: v for k, v in results.items() if not k.startswith("rworld")}
+        for k, unit in enumerate(("px", "deg", "mm")):
+            name = min(theirs, key=lambda n: theirs[n][k])
+            ours = {n: results[n][k] for n in results if n.startswith("rworld")}
+            print(
+                f"   {what[k]}: best OpenCV {name} {theirs[name][k]:.4f} {unit}; "
+                + "; ".join(
+                    f"{n} {v:.4f} (theirs / ours {theirs[name][k] / v:.2f})"
+                    for n, v in ours.items()
+                )  # fmt: skip
+            )
+        ours, fe = table["rworld, exact robot"], table["rworld, flange errors"]
+        camera = rows[2][1]
+        print(
+            f"   flange errors found: {np.degrees(fe.flange_sigma[0]):.4f} deg, "
+            f"{fe.flange_sigma[1] * 1000:.3f} mm a view; the corners' noise {fe.sigma0:.3f} px; "
+            f"fx {ours.camera.fx:.2f} (exact robot), {fe.camera.fx:.2f} (flange errors), "
+            f"{camera.fx:.2f} (calibrateCamera)"
+        )
+        out = (views, train, ours, fe)
+    if splits:
+        print(
+            "   over the 4 splits, ahead of the best of OpenCV's seven (held-out rms, AX=XB deg, "
+            f"mm): exact robot {' '.join(map(str, wins[0]))} of 4; flange errors "
+            f"{' '.join(map(str, wins[1]))} of 4"
+        )
+    return out
+
+
+def synthetic_truth() -> None:
+    """Section 1c: Ali et al.'s rendered sets with their ground truth (the camera 180 deg about
+    the flange's x, at its origin; the board's pose in the base), all views fitted: each
+    method's camera-in-flange error against the truth (given to 4 decimals: 0.05 mm, 0.003
+    deg), and the board's for rworld."""
+    from rworld_cli import spatial
+    from tests.vision.test_calibrate import _ground_truth
+
     print(
-        f"   flange errors found: {np.degrees(fe.flange_sigma[0]):.4f} deg, "
-        f"{fe.flange_sigma[1] * 1000:.3f} mm a view; the corners' noise {fe.sigma0:.3f} px; "
-        f"fx {ours.camera.fx:.2f} (exact robot), {fe.camera.fx:.2f} (flange errors), "
-        f"{camera.fx:.2f} (calibrateCamera)"
+        "1c. rendered sets with a known truth (Ali et al.'s CS_synthetic_1-3), every view fitted:"
     )
-    return views, train, ours, fe
+    for number in (1, 2, 3):
+        folder = DATA.parent / f"cs_synthetic{number}"
+        truth = _ground_truth(folder / "GroundTruth.txt")
+        views = _views(folder)
+        rows = _estimates(views)
+        T = truth["hand2eye"]
+        errors = {}
+        for label, _cam, X, _Z, _ms, _r in rows:
+            turn = spatial.rotation_vector(X[:3, :3] @ T[:3, :3].T)
+            errors[label] = (
+                np.linalg.norm(X[:3, 3] - T[:3, 3]) * 1000,
+                np.degrees(np.linalg.norm(turn)),
+            )
+        theirs = {k: v for k, v in errors.items() if not k.startswith("rworld")}
+        best_p = min(theirs, key=lambda n: theirs[n][0])
+        best_r = min(theirs, key=lambda n: theirs[n][1])
+        ours = rows[0][5]
+        Zt = truth["base2grid"]
+        dz = np.linalg.norm(ours.T_holder_board[:3, 3] - Zt[:3, 3]) * 1000
+        rz = np.degrees(
+            np.linalg.norm(spatial.rotation_vector(ours.T_holder_board[:3, :3] @ Zt[:3, :3].T))
+        )
+        print(
+            f"   set {number} ({len(views.names)} views, corners' rms {ours.rms:.3f} px): "
+            "camera in flange, position / rotation error: "
+            + "; ".join(
+                f"{k} {v[0]:.3f} mm / {v[1]:.4f} deg"
+                for k, v in errors.items()
+                if k.startswith("rworld")
+            )  # fmt: skip
+            + f"; best OpenCV {best_p.split()[-1]} {theirs[best_p][0]:.3f} mm, "
+            f"{best_r.split()[-1]} {theirs[best_r][1]:.4f} deg; the board (7.6 m away) {dz:.3f} "
+            f"mm / {rz:.4f} deg"
+        )
+        print(
+            "      every method: "
+            + ", ".join(f"{k.split()[-1]} {v[0]:.2f} mm {v[1]:.4f} deg" for k, v in theirs.items())
+        )
 
 
 def bootstrap(train, ours, count: int, flange_errors: bool = False) -> None:
@@ -812,7 +897,15 @@ def main() -> None:
     parser.add_argument("--images", default=None, help="detect every image in this folder")
     parser.add_argument(
         "--only",
-        choices=["rendering", "planning", "robot", "robot-spread", "robot-setups", "aprilgrid"],
+        choices=[
+            "real",
+            "rendering",
+            "planning",
+            "robot",
+            "robot-spread",
+            "robot-setups",
+            "aprilgrid",
+        ],
         default=None,
         help="run one section",
     )
@@ -841,10 +934,18 @@ def main() -> None:
     if args.only == "robot-setups":
         robot_setups()
         return
+    if args.only == "real":
+        for name in ("kuka1", "kuka3", "kuka2"):
+            real_data(DATA.parent / name)
+        synthetic_truth()
+        return
     if args.only is not None:
         {"rendering": rendering, "planning": planning, "aprilgrid": aprilgrid}[args.only]()
         return
-    _views, train, ours, fe = real_data()
+    for name in ("kuka1", "kuka3"):
+        real_data(DATA.parent / name)
+    _views_, train, ours, fe = real_data(DATA)
+    synthetic_truth()
     bootstrap(train, ours, args.bootstrap)
     bootstrap(train, fe, args.bootstrap // 4, flange_errors=True)
     simulated(args.seeds)

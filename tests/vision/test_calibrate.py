@@ -141,3 +141,55 @@ def test_a_motion_about_one_axis_or_none_is_refused(kuka2):
         vc.calibrate_views(moved)
     with pytest.raises(vc.CalibrationRefused, match="too few views: 2"):
         vc.calibrate_views(kuka2.subset([0, 5]))
+
+
+def _ground_truth(path: Path) -> dict[str, np.ndarray]:
+    """The 4 x 4 matrices of Ali et al.'s GroundTruth.txt (``base2grid``, ``hand2eye``; m)."""
+    out: dict[str, np.ndarray] = {}
+    name, numbers = "", []
+    for word in path.read_text().replace("=", " ").split():
+        try:
+            numbers.append(float(word))
+        except ValueError:
+            name, numbers = word, []
+        if len(numbers) == 16:
+            out[name] = np.array(numbers).reshape(4, 4)
+    return out
+
+
+@pytest.mark.parametrize("number", [1, 2, 3])
+def test_someone_elses_rendered_views_give_their_truth_closer_than_opencvs_methods(number):
+    from rworld_cli.api.vision import capture_views
+    from rworld_cli.schema.captures import read_captures
+
+    folder = DATA.parent / f"cs_synthetic{number}"
+    truth = _ground_truth(folder / "GroundTruth.txt")
+    views = capture_views(read_captures(str(folder / "captures.yaml")))
+    ours = vc.calibrate_views(views)
+    X = ours.T_mount_camera
+
+    def position_error(T):
+        return float(np.linalg.norm(T[:3, 3] - truth["hand2eye"][:3, 3]))
+
+    # the truth is given to 4 decimals (0.05 mm, 0.003 deg): the camera in the flange within
+    # 0.4 mm and 0.005 deg of it, the board 7.6 m away within 0.4 mm and 0.01 deg. (Not in
+    # the reported sigmas: the corners' rms is 0.013-0.019 px, where the renderer's and the
+    # detector's own biases are no longer white noise; set 1 is 5.8 sigma off in one axis.)
+    turn = spatial.rotation_vector(X[:3, :3] @ truth["hand2eye"][:3, :3].T)
+    assert position_error(X) < 4e-4 and np.degrees(np.linalg.norm(turn)) < 0.005
+    Z = ours.T_holder_board
+    assert np.linalg.norm(Z[:3, 3] - truth["base2grid"][:3, 3]) < 4e-4
+    turn = spatial.rotation_vector(Z[:3, :3] @ truth["base2grid"][:3, :3].T)
+    assert np.degrees(np.linalg.norm(turn)) < 0.01
+    # OpenCV's seven from calibrateCamera's poses: none within 1 mm of the camera's place
+    _camera, C = vc.intrinsics_start(views, use_guess=False)
+    theirs = {
+        name: position_error(vc.hand_eye_start(views, C, getattr(cv2, f"CALIB_HAND_EYE_{name}"))[0])
+        for name in ("TSAI", "PARK", "HORAUD", "ANDREFF", "DANIILIDIS")
+    } | {
+        name: position_error(
+            vc.robot_world_start(views, C, getattr(cv2, f"CALIB_ROBOT_WORLD_HAND_EYE_{name}"))[0]
+        )
+        for name in ("SHAH", "LI")
+    }
+    assert min(theirs.values()) > 2.5 * position_error(X), (position_error(X), theirs)

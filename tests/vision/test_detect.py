@@ -92,3 +92,24 @@ def test_a_charuco_board_is_found_whole_and_in_part():
     assert part.refused is None and 6 <= part.seen < 24  # a ChArUco corner knows its place
     seen = np.isfinite(part.corners[:, 0])
     assert np.max(np.linalg.norm(part.corners[seen] - truth[seen], axis=1)) < 0.3
+
+
+def test_a_real_charuco_image_gives_every_corner_in_the_vendored_order():
+    # Ali et al.'s kuka_3: a calib.io board of 12 x 9 squares of 60 mm, DICT_5X5_100 markers
+    # (45 mm, measured in the image: 0.76 of a square), at 3.1 m from a 1928 x 1208 camera
+    folder = DATA.parent / "kuka3"
+    board = BoardModel("board", "charuco", 12, 9, 0.06, 0.045, "DICT_5X5_100")
+    grey = cv2.imread(str(folder / "images" / "01.png"), cv2.IMREAD_GRAYSCALE)
+    found = detect("01.png", grey, board)
+    assert found.refused is None and found.seen == 88  # 11 x 8 inner corners
+    rows = [
+        r
+        for r in csv.reader(
+            line for line in open(folder / "corners.csv") if not line.startswith("#")
+        )
+    ][1:]
+    vendored = np.array([[float(r[2]), float(r[3])] for r in rows if r[0] == "01.png"])
+    assert np.abs(found.corners - vendored).max() < 6e-5
+    # corner 0 at the board's first square (top-left in this view), the rows along +x
+    c = found.corners
+    assert c[0].sum() < c[-1].sum() and c[1, 0] > c[0, 0]
