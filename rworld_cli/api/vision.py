@@ -99,6 +99,14 @@ class CameraCalibrationRun:
                 if r.flange_sigma is None
                 else float(np.degrees(r.flange_sigma[0])),
                 "flange_sigma_mm": None if r.flange_sigma is None else r.flange_sigma[1] * 1000,
+                "flange_error_correlation": None
+                if r.flange_field is None
+                else {
+                    "neighbour": r.flange_field.neighbour_correlation,
+                    "share": r.flange_field.share,
+                    "length_m": r.flange_field.length,
+                    "lever_m_per_rad": r.flange_field.lever,
+                },
                 "sigma0_px": r.sigma0,
                 "observations": r.observations,
                 "downweighted": r.downweighted,
@@ -460,7 +468,9 @@ def calibrate_camera(
         raise UserError(
             f"{captures.path}: cannot calibrate", [Issue(captures.path, 0, 0, "views", message)]
         ) from None
-    held_views = all_views.subset(held)
+    # held-out views where the estimate expects the robot: with the flange errors modelled,
+    # each corrected by the error their correlation over the poses predicts there
+    held_views = result.robot_views(all_views.subset(held))
     held_rms = None
     held_view_rms: dict[str, float] = {}
     if held:

@@ -53,9 +53,11 @@ from .common import (
 @click.option(
     "--flange-errors",
     is_flag=True,
-    help="Give each view's flange pose an error of its own, estimated with its sigma: "
-    "intrinsics from each view's own picture of the board, the robot's pose error reported "
-    "(default: the robot's poses exact, the parameters fitted through them).",
+    help="Give each view's flange pose an error of its own, estimated with its sigma and its "
+    "correlation over the poses (a robot's errors are alike at near poses): intrinsics from "
+    "each view's own picture of the board, the robot's pose error reported, held-out views "
+    "predicted where the robot is expected to be (default: the robot's poses exact, the "
+    "parameters fitted through them).",
 )
 @click.option(
     "--through-robot",
@@ -202,6 +204,14 @@ def _render(run) -> None:
             f" deg, {r.flange_sigma[1] * 1000:.3f} mm per axis; the corners' noise "
             f"{r.sigma0:.3f} px"
         )
+        f = r.flange_field
+        if f is not None:
+            click.echo(
+                f"  its correlation with the nearest view's: {f.neighbour_correlation:.2f} "
+                f"({f.share:.2f} falling off over {f.length * 1000:.0f} mm, a turn of 1 deg "
+                f"as {f.lever * np.radians(1) * 1000:.0f} mm); held-out views are predicted "
+                "where the robot is expected to be"
+            )
     if r.robot is not None:
         robot = figures["robot"]
         click.echo(

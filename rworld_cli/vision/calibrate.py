@@ -109,6 +109,98 @@ class BoardViews:
         return self.T_base_flange
 
 
+#: the grid the flange errors' correlation is fitted over (:func:`fit_error_correlation`):
+#: the lever that makes a turn a distance [m/rad], the correlation's length [m], and the
+#: share of each view's error that is correlated with its neighbours'
+CORRELATION_LEVERS = (0.25, 0.5, 1.0, 2.0)
+CORRELATION_LENGTHS = np.geomspace(0.03, 3.0, 25)
+CORRELATION_SHARES = np.linspace(0.0, 0.98, 50)
+
+
+def pose_distances(Fa: np.ndarray, Fb: np.ndarray, lever: float) -> np.ndarray:
+    """Distances between flange poses ``Fa`` (A, 4, 4) and ``Fb`` (B, 4, 4):
+    ``sqrt(|dp|^2 + (lever * angle)^2)`` [m], ``lever`` [m/rad]. Shape (A, B)."""
+    dp = np.linalg.norm(Fa[:, None, :3, 3] - Fb[None, :, :3, 3], axis=-1)
+    R = np.einsum("aji,bjk->abik", Fa[:, :3, :3], Fb[:, :3, :3])
+    angle = np.linalg.norm(spatial.rotation_vector(R.reshape(-1, 3, 3)), axis=-1)
+    return np.sqrt(dp**2 + (lever * angle.reshape(dp.shape)) ** 2)
+
+
+@dataclass(frozen=True)
+class FlangeErrorField:
+    """The robot's flange pose error as a smooth function of the pose: two views' errors
+    correlate by ``share * exp(-d^2 / 2 length^2)`` over their poses' distance ``d``
+    (:func:`pose_distances` with ``lever``), the rest of each view's error its own. Fitted
+    to the calibration's views ``T_base_flange`` (V, 4, 4) and their estimated ``errors``
+    (V, 6: rotation vector [rad], translation [m], in the flange's frame)."""
+
+    lever: float
+    length: float
+    share: float
+    T_base_flange: np.ndarray
+    errors: np.ndarray
+
+    def correlation(self, Fa: np.ndarray, Fb: np.ndarray) -> np.ndarray:
+        """The errors' correlation between the poses ``Fa`` (A, 4, 4) and ``Fb`` (B, 4, 4)
+        (the share of each view's own error not included). Shape (A, B)."""
+        d = pose_distances(Fa, Fb, self.lever)
+        return self.share * np.exp(-0.5 * (d / self.length) ** 2)
+
+    @property
+    def neighbour_correlation(self) -> float:
+        """The correlation of each fitted view's error with its nearest view's, averaged:
+        near 0 when the errors are independent (``share`` may then be large with a
+        ``length`` shorter than the views' spacing)."""
+        C = self.correlation(self.T_base_flange, self.T_base_flange)
+        np.fill_diagonal(C, -np.inf)
+        return float(np.mean(C.max(axis=1))) if len(C) > 1 else 0.0
+
+    def predict(self, T_base_flange: np.ndarray) -> np.ndarray:
+        """The expected flange pose error at new poses ``T_base_flange`` (K, 4, 4) given the
+        fitted views' (kriging: the conditional mean). Shape (K, 6)."""
+        F = self.T_base_flange
+        C = self.correlation(F, F) + (1.0 - self.share) * np.eye(len(F))
+        return self.correlation(T_base_flange, F) @ np.linalg.solve(C, self.errors)
+
+    def corrected(self, T_base_flange: np.ndarray) -> np.ndarray:
+        """The flange poses (K, 4, 4) with their expected errors applied (``F exp(e)``)."""
+        return _with_errors(T_base_flange, self.predict(T_base_flange))
+
+
+def _with_errors(F: np.ndarray, errors: np.ndarray) -> np.ndarray:
+    """Flange poses ``F`` (V, 4, 4) with their errors (V, 6) applied: ``F exp(e)``."""
+    E = np.tile(np.eye(4), (len(F), 1, 1))
+    E[:, :3, :3] = spatial.rotation_from_vector(errors[:, :3])
+    E[:, :3, 3] = errors[:, 3:]
+    return F @ E
+
+
+def fit_error_correlation(
+    T_base_flange: np.ndarray, standardized: np.ndarray
+) -> tuple[float, float, float]:
+    """The correlation of the flange errors over the poses (``lever``, ``length``,
+    ``share``) that makes the views' standardized errors ``standardized`` (V, 6: each
+    component over its sigma) likeliest: a Gaussian with one scale profiled out, over the
+    grid :data:`CORRELATION_LEVERS` x :data:`CORRELATION_LENGTHS` x
+    :data:`CORRELATION_SHARES`. ``share`` 0: the errors are independent."""
+    V, k = standardized.shape
+    best = (-np.inf, CORRELATION_LEVERS[0], float(CORRELATION_LENGTHS[0]), 0.0)
+    shares = CORRELATION_SHARES[:, None, None]
+    for lever in CORRELATION_LEVERS:
+        D = pose_distances(T_base_flange, T_base_flange, lever)
+        for length in CORRELATION_LENGTHS:
+            C = shares * np.exp(-0.5 * (D / length) ** 2) + (1.0 - shares) * np.eye(V)
+            L = np.linalg.cholesky(C)  # (S, V, V)
+            a = np.linalg.solve(L, np.broadcast_to(standardized, (len(shares), V, k)))
+            scale = np.sum(a * a, axis=(1, 2)) / (V * k)
+            log_det = 2.0 * np.sum(np.log(np.diagonal(L, axis1=1, axis2=2)), axis=1)
+            likelihood = -0.5 * (k * log_det + V * k * np.log(scale))
+            i = int(np.argmax(likelihood))
+            if likelihood[i] > best[0]:
+                best = (float(likelihood[i]), lever, float(length), float(CORRELATION_SHARES[i]))
+    return best[1], best[2], best[3]
+
+
 @dataclass(frozen=True)
 class CameraCalibration:
     """The estimate.
@@ -141,6 +233,9 @@ class CameraCalibration:
     flange_errors : ndarray, shape (V, 6), or None
         Each view's estimated flange pose error (rotation vector [rad], translation [m], in
         the flange's frame).
+    flange_field : FlangeErrorField or None
+        With the robot's errors modelled: their correlation over the poses and the fitted
+        views' errors, to predict the robot's error at other poses.
     robot : RobotCalibration or None
         Estimated with the robot's own errors (:func:`calibrate_views_with_robot`): the
         robot's joint-frame corrections, their covariance (joint in the one estimate) and
@@ -165,6 +260,7 @@ class CameraCalibration:
     start: dict = field(default_factory=dict)
     flange_sigma: tuple[float, float] | None = None
     flange_errors: np.ndarray | None = None
+    flange_field: FlangeErrorField | None = None
     robot: RobotCalibration | None = None
     robot_cross: np.ndarray | None = None
 
@@ -176,6 +272,15 @@ class CameraCalibration:
     def camera_board(self, views: BoardViews) -> np.ndarray:
         """``T_camera_board`` predicted through the robot at each view, shape (V, 4, 4)."""
         return spatial.invert_transform(self.T_mount_camera) @ views.H @ self.T_holder_board
+
+    def robot_views(self, views: BoardViews) -> BoardViews:
+        """Other views with their flange poses where the estimate expects the robot to be:
+        with a flange error field, each corrected by the error it predicts there
+        (:meth:`FlangeErrorField.corrected`); else as given."""
+        if self.flange_field is None:
+            return views
+        F = self.flange_field.corrected(views.T_base_flange)
+        return BoardViews(views.board, views.camera, views.setup, views.names, F, views.corners)
 
     def predicted_corners(self, views: BoardViews) -> np.ndarray:
         """The corners predicted through the robot at each view, shape (V, N, 2) [px]."""
@@ -412,10 +517,7 @@ class _Problem:
         if flange_errors is not None or F is not None:
             F = self.F if F is None else F
             if flange_errors is not None:
-                E = np.tile(np.eye(4), (len(F), 1, 1))
-                E[:, :3, :3] = spatial.rotation_from_vector(flange_errors[:, :3])
-                E[:, :3, 3] = flange_errors[:, 3:]
-                F = F @ E
+                F = _with_errors(F, flange_errors)
             H = spatial.invert_transform(F) if self.setup == EYE_IN_HAND else F
         C = spatial.invert_transform(X) @ H @ Z
         return project(theta[:9], transform_points(C, self.points))  # (V, N, 2)
@@ -494,10 +596,19 @@ def _huber_levenberg_marquardt(
     return x
 
 
-def _fit_flange_errors(problem: _Problem, theta0: np.ndarray, free: np.ndarray, sigma_px: float):
+def _fit_flange_errors(
+    problem: _Problem,
+    theta0: np.ndarray,
+    free: np.ndarray,
+    sigma_px: float,
+    correlation: np.ndarray | None = None,
+    start: tuple[np.ndarray, list[float]] | None = None,
+):
     """Fit the 21 parameters with each view's flange pose error as a random effect
-    (``e_i ~ N(0, diag(s_r^2 I, s_t^2 I))``), the three sigmas (pixels, flange rotation,
+    (``e_i ~ N(0, diag(s_r^2 I, s_t^2 I))``; with ``correlation`` (V, V) each component's
+    errors over the views correlated by it), the three sigmas (pixels, flange rotation,
     flange translation) estimated by variance components (Forstner's redundancy form).
+    ``start``: the errors (V, 6) and sigmas to start from.
 
     Returns ``theta, e (V, 6), covariance of theta[free], sigmas (px, rad, m), residuals
     (px), Huber weights``.
@@ -507,7 +618,9 @@ def _fit_flange_errors(problem: _Problem, theta0: np.ndarray, free: np.ndarray, 
     nf = len(free)
     rows = np.repeat(problem.view_of, 2)
     by_view = [np.nonzero(rows == i)[0] for i in range(V)]
-    sig = [max(sigma_px, 1e-6), np.radians(0.01), 1e-4]
+    sig = [max(sigma_px, 1e-6), np.radians(0.01), 1e-4] if start is None else list(start[1])
+    # the prior's rows whitened: L^-1 e / sigma for each component, C = L L^T
+    whiten = np.eye(V) if correlation is None else np.linalg.inv(np.linalg.cholesky(correlation))
 
     def split(x):
         theta = theta0.copy()
@@ -517,7 +630,8 @@ def _fit_flange_errors(problem: _Problem, theta0: np.ndarray, free: np.ndarray, 
     def fun(x):
         theta, e = split(x)
         r = problem.residuals(theta, e) / sig[0]
-        return np.r_[r, (e[:, :3] / sig[1]).ravel(), (e[:, 3:] / sig[2]).ravel()]
+        w = whiten @ e
+        return np.r_[r, (w[:, :3] / sig[1]).ravel(), (w[:, 3:] / sig[2]).ravel()]
 
     def jac(x):
         theta, e = split(x)
@@ -537,13 +651,13 @@ def _fit_flange_errors(problem: _Problem, theta0: np.ndarray, free: np.ndarray, 
             )
             for i, sel in enumerate(by_view):
                 J[sel, nf + 6 * i + j] = col[sel]
-        for i in range(V):
-            for j in range(6):
-                row = m + (3 * i + j if j < 3 else 3 * V + 3 * i + j - 3)
-                J[row, nf + 6 * i + j] = 1.0 / (sig[1] if j < 3 else sig[2])
+        views = np.arange(V)
+        for j in range(6):
+            prior = m + (3 * views + j if j < 3 else 3 * V + 3 * views + j - 3)
+            J[np.ix_(prior, nf + 6 * views + j)] = whiten / (sig[1] if j < 3 else sig[2])
         return J
 
-    x = np.r_[theta0[free], np.zeros(6 * V)]
+    x = np.r_[theta0[free], np.zeros(6 * V) if start is None else start[0].ravel()]
     groups = [
         np.arange(m),
         m + np.arange(3 * V),
@@ -671,10 +785,24 @@ def calibrate_views(
         )
     flange_sigma = None
     errors = None
+    field_ = None
     if flange_errors:
         theta, errors, cov_flange, sig, res, w = _fit_flange_errors(
             problem, theta, free, sigma_robust
         )
+        # the errors' correlation over the poses, from the independent fit's errors; then the
+        # fit again with it (a robot's errors are mostly its kinematics': alike at near poses)
+        F = views.T_base_flange
+        lever, length, share = fit_error_correlation(
+            F, np.c_[errors[:, :3] / sig[1], errors[:, 3:] / sig[2]]
+        )
+        if share > 0.0:
+            d = pose_distances(F, F, lever)
+            C = share * np.exp(-0.5 * (d / length) ** 2) + (1.0 - share) * np.eye(len(F))
+            theta, errors, cov_flange, sig, res, w = _fit_flange_errors(
+                problem, theta, free, sig[0], correlation=C, start=(errors, sig)
+            )
+        field_ = FlangeErrorField(lever, length, share, F, errors)
         flange_sigma = (float(sig[1]), float(sig[2]))
         J = problem.jacobian(theta)[:, free]
         Jw = J * np.sqrt(w)[:, None]
@@ -717,6 +845,7 @@ def calibrate_views(
         },
         flange_sigma=flange_sigma,
         flange_errors=errors,
+        flange_field=field_,
     )
 
 
