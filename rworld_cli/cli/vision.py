@@ -209,8 +209,7 @@ def _render(run) -> None:
             click.echo(
                 f"  its correlation with the nearest view's: {f.neighbour_correlation:.2f} "
                 f"({f.share:.2f} falling off over {f.length * 1000:.0f} mm, a turn of 1 deg "
-                f"as {f.lever * np.radians(1) * 1000:.0f} mm); held-out views are predicted "
-                "where the robot is expected to be"
+                f"as {f.lever * np.radians(1) * 1000:.0f} mm)"
             )
     if r.robot is not None:
         robot = figures["robot"]
@@ -229,7 +228,12 @@ def _render(run) -> None:
                 f"{row['unit']}"
             )
     if run.held_out_rms is not None:
-        click.echo(f"held out ({len(run.held_out)} views): rms {run.held_out_rms:.3f} px")
+        where = (
+            " (each where the robot is expected: its error predicted from the fitted views')"
+            if r.flange_field is not None and r.flange_field.share > 0
+            else ""
+        )
+        click.echo(f"held out ({len(run.held_out)} views): rms {run.held_out_rms:.3f} px{where}")
     if run.axxb is not None:
         click.echo(
             f"AX = XB over the {run.axxb_views} views' pairs: rms "

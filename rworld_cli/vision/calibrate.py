@@ -155,12 +155,17 @@ class FlangeErrorField:
         np.fill_diagonal(C, -np.inf)
         return float(np.mean(C.max(axis=1))) if len(C) > 1 else 0.0
 
+    def prior(self) -> np.ndarray:
+        """The correlation of the fitted views' errors, each view's own share included: the
+        random effects' correlation over the views, shape (V, V)."""
+        F = self.T_base_flange
+        return self.correlation(F, F) + (1.0 - self.share) * np.eye(len(F))
+
     def predict(self, T_base_flange: np.ndarray) -> np.ndarray:
         """The expected flange pose error at new poses ``T_base_flange`` (K, 4, 4) given the
         fitted views' (kriging: the conditional mean). Shape (K, 6)."""
-        F = self.T_base_flange
-        C = self.correlation(F, F) + (1.0 - self.share) * np.eye(len(F))
-        return self.correlation(T_base_flange, F) @ np.linalg.solve(C, self.errors)
+        weights = np.linalg.solve(self.prior(), self.errors)
+        return self.correlation(T_base_flange, self.T_base_flange) @ weights
 
     def corrected(self, T_base_flange: np.ndarray) -> np.ndarray:
         """The flange poses (K, 4, 4) with their expected errors applied (``F exp(e)``)."""
@@ -796,13 +801,12 @@ def calibrate_views(
         lever, length, share = fit_error_correlation(
             F, np.c_[errors[:, :3] / sig[1], errors[:, 3:] / sig[2]]
         )
-        if share > 0.0:
-            d = pose_distances(F, F, lever)
-            C = share * np.exp(-0.5 * (d / length) ** 2) + (1.0 - share) * np.eye(len(F))
-            theta, errors, cov_flange, sig, res, w = _fit_flange_errors(
-                problem, theta, free, sig[0], correlation=C, start=(errors, sig)
-            )
         field_ = FlangeErrorField(lever, length, share, F, errors)
+        if share > 0.0:
+            theta, errors, cov_flange, sig, res, w = _fit_flange_errors(
+                problem, theta, free, sig[0], correlation=field_.prior(), start=(errors, sig)
+            )
+            field_ = FlangeErrorField(lever, length, share, F, errors)
         flange_sigma = (float(sig[1]), float(sig[2]))
         J = problem.jacobian(theta)[:, free]
         Jw = J * np.sqrt(w)[:, None]
