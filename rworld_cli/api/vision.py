@@ -718,8 +718,10 @@ def plan_views(
     from home, and the camera sees every corner and the outer squares (nothing of the cell or
     the robot in the way). ``refine`` more candidates (default a third of ``candidates``; 0:
     none) are then drawn around the chosen views within the same bounds
-    (:func:`~rworld_cli.vision.plan.refined_candidates`), and the choice is made again from
-    all; the random choices it is compared with come from the first candidates only.
+    (:func:`~rworld_cli.vision.plan.refined_candidates`), in
+    :data:`~rworld_cli.vision.plan.REFINE_ROUNDS` rounds each around the last choice, and the
+    choice is made again from all; the random choices it is compared with come from the first
+    candidates only.
     ``captures``: a capture file of the views to fill with images (``rworld
     calibrate-camera``); ``program``: a program that visits each from home, takes an image
     there (a ``capture:`` step) and returns.
@@ -740,6 +742,7 @@ def plan_views(
     from ..sensing.sensors import sensable_bodies
     from ..vision.camera import transform_points, visible
     from ..vision.plan import (
+        REFINE_ROUNDS,
         camera_candidates,
         refined_candidates,
         select_views,
@@ -886,19 +889,25 @@ def plan_views(
     chosen, figures = select_views(G, count, seed)
     usable_count = len(Q)
     refine = candidates // 3 if refine is None else refine
-    if refine:  # candidates around the chosen views, then the choice again from both
+    refined = 0
+    # candidates around the chosen views, the choice made again from all; in rounds, each
+    # around the last choice
+    for k in range(REFINE_ROUNDS if refine else 0):
+        share = refine // REFINE_ROUNDS + (refine % REFINE_ROUNDS if k == 0 else 0)
         around = refined_candidates(
-            rng, model, T_board_camera_of(T_base_flange[chosen]), refine, distance, tilt
+            rng, model, T_board_camera_of(T_base_flange[chosen]), share, distance, tilt
         )
         Q_near, flanges_near = usable(around, {}, " (around the choice)")
         if len(Q_near):
-            G_near = view_information(cam, model, X, Z, flanges_near, sigma_px, setup)
-            chosen, figures = select_views(
-                np.concatenate([G, G_near]), count, seed, random_from=len(G)
+            G = np.concatenate(
+                [G, view_information(cam, model, X, Z, flanges_near, sigma_px, setup)]
             )
+            chosen, figures = select_views(G, count, seed, random_from=usable_count)
             Q = np.concatenate([Q, Q_near])
             T_base_flange = np.concatenate([T_base_flange, flanges_near])
-        figures["refined"] = int(len(Q_near))
+        refined += len(Q_near)
+    if refine:
+        figures["refined"] = int(refined)
     figures["refine"] = int(refine)
     # visited nearest first from home
     order = [int(c) for c in chosen[np.argsort(np.abs(Q[chosen] - dev.home).max(axis=1))]]

@@ -273,8 +273,9 @@ def _render(run) -> None:
     type=click.IntRange(min=0),
     metavar="N",
     help="Candidates drawn around the first choice (a few degrees and centimetres from each "
-    "chosen view, within the same bounds), then the choice made again from all [default: a "
-    "third of --candidates; 0: none].",
+    "chosen view, within the same bounds; in two rounds, the second around the choice the "
+    "first led to), the choice made again from all [default: a third of --candidates; 0: "
+    "none].",
 )
 @click.option("--seed", default=0, show_default=True, type=int, help="The candidates' random seed.")
 @click.option(
@@ -372,8 +373,8 @@ def plan_views(
             click.echo(f"  {n} candidates lost: {why}")
     if f.get("refine"):
         click.echo(
-            f"  {f['refine']} more drawn around the first choice: {f['refined']} usable, the "
-            "choice made again from all"
+            f"  {f['refine']} more drawn around the choice in two rounds: {f['refined']} usable, "
+            "the choice made again from all"
         )
     click.echo(
         f"predicted error of the camera in the flange ({result.sigma_px:g} px of corner noise, "

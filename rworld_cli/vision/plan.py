@@ -42,6 +42,8 @@ def camera_candidates(
 #: axes [rad] and a shift along each, as a fraction of the candidates' middle distance
 REFINE_TURN = np.radians(4.0)
 REFINE_SHIFT = 0.05
+#: the rounds the candidates around the choice are drawn in, each around the last choice
+REFINE_ROUNDS = 2
 
 
 def refined_candidates(
