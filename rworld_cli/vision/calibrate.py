@@ -639,21 +639,20 @@ def _fit_flange_errors(
         return np.r_[r, (w[:, :3] / sig[1]).ravel(), (w[:, 3:] / sig[2]).ravel()]
 
     def jac(x):
+        # forward differences (the residuals are all but linear over the steps: a focal
+        # length's 1e-4, a pose's 1e-8): 28 evaluations for central differences' 54
         theta, e = split(x)
         J = np.zeros((m + 6 * V, nf + 6 * V))
         steps = _steps(theta)
+        here = problem.residuals(theta, e)
         for c, k in enumerate(free):
             d = np.zeros_like(theta)
             d[k] = steps[k]
-            J[:m, c] = (problem.residuals(theta + d, e) - problem.residuals(theta - d, e)) / (
-                2 * steps[k] * sig[0]
-            )
+            J[:m, c] = (problem.residuals(theta + d, e) - here) / (steps[k] * sig[0])
         for j in range(6):  # each view's error moves its own corners only: all views at once
             d = np.zeros_like(e)
             d[:, j] = 1e-8
-            col = (problem.residuals(theta, e + d) - problem.residuals(theta, e - d)) / (
-                2e-8 * sig[0]
-            )
+            col = (problem.residuals(theta, e + d) - here) / (1e-8 * sig[0])
             for i, sel in enumerate(by_view):
                 J[sel, nf + 6 * i + j] = col[sel]
         views = np.arange(V)
