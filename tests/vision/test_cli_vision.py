@@ -202,7 +202,7 @@ def test_the_corners_files_problems_are_refused_at_their_line_and_a_view_without
     assert "im_03.png: not used: partly seen (3 corners in corners.csv, 6 needed)" in r.stdout
 
 
-def test_the_flange_error_model_predicts_a_real_robots_held_out_views_where_it_is(tmp_path):
+def test_the_flange_error_model_predicts_a_real_robots_held_out_views_where_it_is():
     # Ali et al.'s kuka_3 (a ChArUco board): the robot's errors, alike at near poses, are
     # predicted at the held-out views; OpenCV's best on the same split (docs/vision.md): 3.379
     # px (Tsai), 0.1236 deg (Park), 2.721 mm (Daniilidis)
