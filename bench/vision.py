@@ -13,7 +13,9 @@ Run:  .venv/bin/python bench/vision.py [--seeds 80] [--bootstrap 200] [--images 
    pose, camera in flange, intrinsics; not each view's own PnP), rms px; AX = XB over the
    held-out views' pairs (each view's PnP with the method's intrinsics), rms deg and mm; and
    over the four splits (held out from the 1st, 2nd, 3rd, 4th view), how often each of
-   rworld's models is ahead of the best of OpenCV's seven on each figure. 1c: the rendered
+   rworld's models is ahead of the best of OpenCV's seven on each figure (the flange-error
+   model predicts the held-out views where it expects the robot: its errors' correlation over
+   the poses, ``docs/vision.md``). 1c: the rendered
    sets with their truth (``cs_synthetic1``-``3``): each method's camera-in-flange error.
 2. The bootstrap over the fitted views (resampled with replacement): the camera-in-flange
    pose's spread against the sigma rworld reports (clustered by view) and the pixel-noise one.
@@ -86,7 +88,8 @@ ROBOT_WORLD = ("SHAH", "LI")
 
 
 def _estimates(train) -> list[tuple]:
-    """(label, camera, X, Z, ms) for every method on the fitted views ``train``."""
+    """(label, camera, X, Z, ms, rworld's result or None) for every method on the fitted
+    views ``train``."""
     import cv2
 
     from rworld_cli.vision import calibrate as vc
