@@ -42,6 +42,19 @@ def _strace_works() -> bool:
 
 
 STRACE = _strace_works()
+
+
+def _seccomp_filter() -> list[str]:
+    """``--seccomp-bpf`` where strace and the kernel have it, for the run that lists the
+    watched calls: the command then stops only at them, not at every call of every thread (a
+    traced `simulate` 4.2 s -> 2.2 s, 2.6 s untraced). Not for the kills: with it, strace 6.1's
+    injected kills fell after the commit every time."""
+    flags = ["-f", "--seccomp-bpf"]
+    probe = subprocess.run(["strace", *flags, "-qq", "-o", os.devnull, "true"], capture_output=True)
+    return flags if probe.returncode == 0 else ["-f"]
+
+
+FOLLOW = _seccomp_filter() if STRACE else ["-f"]
 WATCHED = "rename,renameat,renameat2,mkdir,mkdirat,unlink,unlinkat,rmdir"
 EVENT = re.compile(r"^(?:\[pid +\d+\] |\d+ +)?(\w+)\(")
 
@@ -119,7 +132,7 @@ def events(args: list[str]) -> list[tuple[str, int]]:
     """(syscall, its occurrence number) of every watched call a normal run makes."""
     log = Path(os.environ.get("TMPDIR", "/tmp")) / f"rworld-strace-{os.getpid()}.txt"
     subprocess.run(
-        ["strace", "-f", "-qq", "-o", str(log), "-e", f"trace={WATCHED}", *RWORLD, *args],
+        ["strace", *FOLLOW, "-qq", "-o", str(log), "-e", f"trace={WATCHED}", *RWORLD, *args],
         cwd=REPO,
         capture_output=True,
         timeout=300,
