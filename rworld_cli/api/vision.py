@@ -908,6 +908,7 @@ def plan_views(
         refined += len(Q_near)
     if refine:
         figures["refined"] = int(refined)
+        figures["refine_rounds"] = REFINE_ROUNDS
     figures["refine"] = int(refine)
     # visited nearest first from home
     order = [int(c) for c in chosen[np.argsort(np.abs(Q[chosen] - dev.home).max(axis=1))]]

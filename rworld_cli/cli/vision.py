@@ -373,8 +373,8 @@ def plan_views(
             click.echo(f"  {n} candidates lost: {why}")
     if f.get("refine"):
         click.echo(
-            f"  {f['refine']} more drawn around the choice in two rounds: {f['refined']} usable, "
-            "the choice made again from all"
+            f"  {f['refine']} more drawn around the choice in {f['refine_rounds']} rounds: "
+            f"{f['refined']} usable, the choice made again from all"
         )
     click.echo(
         f"predicted error of the camera in the flange ({result.sigma_px:g} px of corner noise, "

@@ -174,10 +174,7 @@ class FlangeErrorField:
 
 def _with_errors(F: np.ndarray, errors: np.ndarray) -> np.ndarray:
     """Flange poses ``F`` (V, 4, 4) with their errors (V, 6) applied: ``F exp(e)``."""
-    E = np.tile(np.eye(4), (len(F), 1, 1))
-    E[:, :3, :3] = spatial.rotation_from_vector(errors[:, :3])
-    E[:, :3, 3] = errors[:, 3:]
-    return F @ E
+    return F @ spatial.make_transform(spatial.rotation_from_vector(errors[:, :3]), errors[:, 3:])
 
 
 def fit_error_correlation(

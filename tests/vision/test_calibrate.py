@@ -209,9 +209,7 @@ def test_a_robots_errors_alike_at_near_poses_are_predicted_at_held_out_views():
     p /= np.sqrt(np.mean(np.sum(p * p, axis=1)))
     gradient = rng.normal(size=(2, 3, 3))
     field = np.c_[p @ gradient[0].T * np.radians(0.1), p @ gradient[1].T * 1e-3] / np.sqrt(3)
-    E = np.tile(np.eye(4), (len(F), 1, 1))
-    E[:, :3, :3] = spatial.rotation_from_vector(field[:, :3])
-    E[:, :3, 3] = field[:, 3:]
+    E = spatial.make_transform(spatial.rotation_from_vector(field[:, :3]), field[:, 3:])
     reported = dataclasses.replace(views, T_base_flange=F @ spatial.invert_transform(E))
     index = np.arange(40)
     held, fit = index[3::4], np.setdiff1d(index, index[3::4])
