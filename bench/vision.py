@@ -17,13 +17,15 @@ Run:  .venv/bin/python bench/vision.py [--seeds 80] [--bootstrap 200] [--images 
    model predicts the held-out views where it expects the robot: its errors' correlation over
    the poses, ``docs/vision.md``). 1c: the rendered
    sets with their truth (``cs_synthetic1``-``3``): each method's camera-in-flange error.
-2. The bootstrap over the fitted views (resampled with replacement): the camera-in-flange
-   pose's spread against the sigma rworld reports (clustered by view) and the pixel-noise one.
+2. The bootstrap over the fitted views (resampled with replacement) and the delete-d
+   jackknife (37 % of the views left out, no view twice): the camera-in-flange pose's spread
+   against the sigma rworld reports and the pixel-noise one.
 3. Simulated cells with a known truth (``--seeds``, 20 views of a 9 x 6 board, 0.3 px noise):
    each parameter's error spread against the Cramer-Rao bound of pixel noise, and the sigma
    rworld reports against the spread.
 4. Times: corners found per 1920 x 1200 image (the two vendored images, or every image of
    ``--images DIR``, e.g. the data set's BMPs); a 30-view calibration.
+   ``--only spread``: this section alone.
 5. Rendering; 6. planning the views (``--only rendering``, ``--only planning``): the planned
    views' predicted camera-pose error against random usable views', the loops on rendered
    images. 6b (``--only planning --vendors``): the same on six vendor robots, both set-ups,
@@ -244,16 +246,14 @@ def synthetic_truth() -> None:
         )
 
 
-def bootstrap(train, ours, count: int, flange_errors: bool = False) -> None:
+def _refits(train, X0, picks, flange_errors: bool) -> np.ndarray:
+    """The camera-in-flange pose fitted to each pick of the views, as (rotation vector,
+    translation) from ``X0``: shape (K, 6)."""
     from rworld_cli import spatial
     from rworld_cli.vision import calibrate as vc
 
-    rng = np.random.default_rng(0)
-    X0 = ours.T_mount_camera
     deltas = []
-    t0 = time.perf_counter()
-    for _ in range(count):
-        pick = rng.integers(0, len(train.names), len(train.names))
+    for pick in picks:
         try:
             r = vc.calibrate_views(train.subset(pick), flange_errors=flange_errors)
         except vc.CalibrationRefused:
@@ -262,23 +262,55 @@ def bootstrap(train, ours, count: int, flange_errors: bool = False) -> None:
         deltas.append(
             np.r_[spatial.rotation_vector(X[:3, :3] @ X0[:3, :3].T), X[:3, 3] - X0[:3, 3]]
         )
-    spread = np.std(np.array(deltas), axis=0, ddof=1)
+    return np.array(deltas)
+
+
+def bootstrap(train, ours, count: int, flange_errors: bool = False, left_out: int = 0) -> None:
+    """Section 2: the bootstrap (views drawn with replacement) or, with ``left_out`` d, the
+    delete-d jackknife (n - d views drawn without: no view twice; Shao and Wu 1989, the
+    variance ``(n - d) / d`` times the picks' spread)."""
+    rng = np.random.default_rng(0)
+    n = len(train.names)
+    if left_out:
+        picks = [np.sort(rng.choice(n, n - left_out, replace=False)) for _ in range(count)]
+    else:
+        picks = [rng.integers(0, n, n) for _ in range(count)]
+    t0 = time.perf_counter()
+    deltas = _refits(train, ours.T_mount_camera, picks, flange_errors)
+    if left_out:
+        spread = np.sqrt((n - left_out) / left_out * np.mean((deltas - deltas.mean(0)) ** 2, 0))
+        label, how = "jackknife", f"delete-{left_out} jackknife ({n - left_out} views a pick)"
+    else:
+        spread = np.std(deltas, axis=0, ddof=1)
+        label, how = "bootstrap", "bootstrap"
     reported = ours.sigma[9:15]
     pixels = np.sqrt(np.diag(ours.covariance_pixels))[9:15]
     model = "flange errors" if flange_errors else "exact robot"
     print(
-        f"2. bootstrap over the {len(train.names)} fitted views ({model}): {len(deltas)} "
-        f"resamples ({time.perf_counter() - t0:.0f} s); camera in flange"
+        f"2. {how} over the {n} fitted views ({model}): {len(deltas)} picks "
+        f"({time.perf_counter() - t0:.0f} s); camera in flange"
     )
     print(f"   {'':<10} {'rx':>7} {'ry':>7} {'rz':>7} {'x':>7} {'y':>7} {'z':>7}  (deg, mm)")
     scale = np.r_[np.degrees([1, 1, 1]), [1000] * 3]
-    for label, v in (("bootstrap", spread), ("reported", reported), ("pixels", pixels)):
-        print(f"   {label:<10} " + " ".join(f"{x:7.3f}" for x in v * scale))
+    for row, v in ((label, spread), ("reported", reported), ("pixels", pixels)):
+        print(f"   {row:<10} " + " ".join(f"{x:7.3f}" for x in v * scale))
     r = reported / spread
     print(
-        f"   reported / bootstrap: {' '.join(f'{x:.2f}' for x in r)} "
+        f"   reported / {label}: {' '.join(f'{x:.2f}' for x in r)} "
         f"(range {r.min():.2f}-{r.max():.2f})"
     )
+
+
+def spreads(train, ours, fe, count: int) -> None:
+    """Section 2 on kuka2's fitted views: both models' sigma against the bootstrap (``count``
+    draws for the default, a quarter for the flange-error model) and the delete-d jackknife."""
+    bootstrap(train, ours, count)
+    bootstrap(train, fe, count // 4, flange_errors=True)
+    # no view twice: a view drawn twice is, to the flange-error model, two views at one pose
+    # whose errors agree exactly (its fitted correlation and sigmas move in every draw)
+    left_out = round(0.37 * len(train.names))  # a bootstrap's draw leaves out 37 %
+    bootstrap(train, ours, count, left_out=left_out)
+    bootstrap(train, fe, count // 4, flange_errors=True, left_out=left_out)
 
 
 def simulated(seeds: int, flange_noise=(0.0, 0.0), noise_px: float = 0.3) -> None:
@@ -916,6 +948,7 @@ def main() -> None:
             "robot-spread",
             "robot-setups",
             "aprilgrid",
+            "spread",
         ],
         default=None,
         help="run one section",
@@ -950,6 +983,14 @@ def main() -> None:
             real_data(DATA.parent / name)
         synthetic_truth()
         return
+    if args.only == "spread":
+        from rworld_cli.vision import calibrate as vc
+
+        index = np.arange(len(_kuka2().names))
+        train = _kuka2().subset(np.setdiff1d(index, index[3::4]))
+        ours = vc.calibrate_views(train)
+        spreads(train, ours, vc.calibrate_views(train, flange_errors=True), args.bootstrap)
+        return
     if args.only is not None:
         {"rendering": rendering, "planning": planning, "aprilgrid": aprilgrid}[args.only]()
         return
@@ -957,8 +998,7 @@ def main() -> None:
         real_data(DATA.parent / name)
     _views_, train, ours, fe = real_data(DATA)
     synthetic_truth()
-    bootstrap(train, ours, args.bootstrap)
-    bootstrap(train, fe, args.bootstrap // 4, flange_errors=True)
+    spreads(train, ours, fe, args.bootstrap)
     simulated(args.seeds)
     simulated(max(args.seeds // 4, 4), flange_noise=(np.radians(0.02), 0.2e-3), noise_px=0.1)
     timings(args.images)

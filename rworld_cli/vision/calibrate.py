@@ -14,12 +14,14 @@ gives the estimate, and two covariances: the pixel-noise one (``s^2 (J^T J)^-1``
 that lets the errors of a view be shared (a robot pose's error moves all of a view's corners:
 the sandwich clustered by view), which is the one reported as the sigma. With
 ``flange_errors`` each view's flange pose gets an error of its own (a random effect), its
-sigmas and the pixels' estimated by variance components; the sigma is then that model's.
+sigmas and the pixels' estimated by variance components; the errors shared by all views (in
+the flange's frame and in the base's: the views cannot tell them from ``X`` and ``Z``) are
+then put into ``X`` and ``Z``, and the sigma is that of the poses so seen.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -132,13 +134,17 @@ class FlangeErrorField:
     correlate by ``share * exp(-d^2 / 2 length^2)`` over their poses' distance ``d``
     (:func:`pose_distances` with ``lever``), the rest of each view's error its own. Fitted
     to the calibration's views ``T_base_flange`` (V, 4, 4) and their estimated ``errors``
-    (V, 6: rotation vector [rad], translation [m], in the flange's frame)."""
+    (V, 6: rotation vector [rad], translation [m], in the flange's frame) before the parts the
+    views cannot tell from the poses were put into them: ``base_side`` and ``flange_side``
+    (4, 4; :func:`_through_robot_errors`)."""
 
     lever: float
     length: float
     share: float
     T_base_flange: np.ndarray
     errors: np.ndarray
+    base_side: np.ndarray = field(default_factory=lambda: np.eye(4))
+    flange_side: np.ndarray = field(default_factory=lambda: np.eye(4))
 
     def correlation(self, Fa: np.ndarray, Fb: np.ndarray) -> np.ndarray:
         """The errors' correlation between the poses ``Fa`` (A, 4, 4) and ``Fb`` (B, 4, 4)
@@ -168,8 +174,11 @@ class FlangeErrorField:
         return self.correlation(T_base_flange, self.T_base_flange) @ weights
 
     def corrected(self, T_base_flange: np.ndarray) -> np.ndarray:
-        """The flange poses (K, 4, 4) with their expected errors applied (``F exp(e)``)."""
-        return _with_errors(T_base_flange, self.predict(T_base_flange))
+        """The flange poses (K, 4, 4) with their expected errors applied, for the poses the
+        calibration writes: ``B F exp(e) C^-1`` with ``B``, ``C`` the errors' parts it put
+        into them (``base_side``, ``flange_side``)."""
+        F = _with_errors(T_base_flange, self.predict(T_base_flange))
+        return self.base_side @ F @ spatial.invert_transform(self.flange_side)
 
 
 def _with_errors(F: np.ndarray, errors: np.ndarray) -> np.ndarray:
@@ -214,7 +223,9 @@ class CameraCalibration:
     T_mount_camera : ndarray, shape (4, 4)
         The camera in the flange (eye-in-hand) or the robot's base (eye-to-hand) [m].
     T_holder_board : ndarray, shape (4, 4)
-        The board in the robot's base (eye-in-hand) or the flange (eye-to-hand) [m].
+        The board in the robot's base (eye-in-hand) or the flange (eye-to-hand) [m]. With the
+        robot's errors modelled, both poses hold the errors shared by all views (in the
+        flange's frame and in the base's): as the robot's nominal poses see them.
     covariance : ndarray, shape (21, 21)
         Of :data:`PARAMETER_NAMES` (px, rad about the mount's or holder's axes, m), errors
         shared within a view allowed (clustered by view).
@@ -234,7 +245,7 @@ class CameraCalibration:
         [rad] and translation [m] (each axis).
     flange_errors : ndarray, shape (V, 6), or None
         Each view's estimated flange pose error (rotation vector [rad], translation [m], in
-        the flange's frame).
+        the flange's frame), the errors shared by all views taken out.
     flange_field : FlangeErrorField or None
         With the robot's errors modelled: their correlation over the poses and the fitted
         views' errors, to predict the robot's error at other poses.
@@ -612,8 +623,9 @@ def _fit_flange_errors(
     flange translation) estimated by variance components (Forstner's redundancy form).
     ``start``: the errors (V, 6) and sigmas to start from.
 
-    Returns ``theta, e (V, 6), covariance of theta[free], sigmas (px, rad, m), residuals
-    (px), Huber weights``.
+    Returns ``theta, e (V, 6), covariances of (theta[free], e) (nf + 6 V square: the model's
+    and the sandwich clustered by view), sigmas (px, rad, m), residuals (px), Huber
+    weights``.
     """
     V = len(problem.F)
     m = 2 * len(problem.observed)
@@ -685,7 +697,124 @@ def _fit_flange_errors(
             break
     theta, e = split(x)
     residuals = problem.residuals(theta, e)
-    return theta, e, N_inv[:nf, :nf], sig, residuals, w[:m]
+    # the sandwich clustered by view (a view's corners and its prior rows): a view's corners
+    # share more than its flange error (the corners' noise is not white on real images)
+    cluster = np.r_[rows, np.repeat(np.arange(V), 3), np.repeat(np.arange(V), 3)]
+    scores = np.zeros((V, J.shape[1]))
+    np.add.at(scores, cluster, J * rw[:, None])
+    clustered = N_inv @ (scores.T @ scores) @ N_inv * (V / max(V - 1, 1))
+    return theta, e, (N_inv, clustered), sig, residuals, w[:m]
+
+
+def _through_robot_errors(
+    problem: _Problem,
+    theta: np.ndarray,
+    free: np.ndarray,
+    e: np.ndarray,
+    covariances: tuple[np.ndarray, np.ndarray],
+    sigmas: tuple[float, float],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The camera and the board seen through the part of the robot's errors the views cannot
+    tell from them, and each view's error without that part.
+
+    Two fields of flange errors move every view's corners exactly as the two poses do: one
+    error ``c`` shared in the flange's frame (``F exp(c)``: the flange-side pose, the camera
+    eye-in-hand or the board eye-to-hand) and one ``b`` shared in the base's frame
+    (``exp(b) F``: the base-side pose). Only the prior tells them apart from the poses. They
+    are taken out of the errors (``(c, b)`` by least squares on the errors over their sigmas,
+    to first order; then exactly: ``exp(e_i') = F_i^-1 exp(b) F_i exp(e_i) exp(c)^-1``) and
+    put into the poses (``B F_i exp(e_i) C^-1 = F_i exp(e_i')`` with ``B = exp(b)``,
+    ``C = exp(c)``), the corners unchanged. The poses are then what a program on the
+    robot's nominal poses sees, and their covariance no longer holds the prior's guess of
+    those parts: it is the views' own - the fit's (``covariances`` of ``(theta[free], e)``,
+    the model's and the sandwich clustered by view, carried through the map:
+    :func:`_larger_covariance`) and the part from which poses the views are at.
+
+    Returns ``theta', e' (V, 6), covariance of theta'[free], B, C`` (4, 4).
+    """
+    F = problem.F
+    V, nf = len(F), len(free)
+    R, p = F[:, :3, :3], F[:, :3, 3]
+    RT = np.transpose(R, (0, 2, 1))
+    # first order: e_i = c + Ad(F_i^-1) g, Ad(F^-1) g = (R^T g_r, R^T (g_t + g_r x p))
+    G = np.zeros((V, 6, 12))
+    G[:, :3, :3] = G[:, 3:, 3:6] = np.eye(3)
+    G[:, :3, 6:9] = RT
+    G[:, 3:, 9:] = RT
+    cross_p = np.transpose(np.cross(p[:, None, :], np.eye(3)[None]), (0, 2, 1))  # [p]x
+    G[:, 3:, 6:9] = -RT @ cross_p
+    weight = np.r_[np.full(3, 1.0 / sigmas[0]), np.full(3, 1.0 / sigmas[1])]
+    G_w = (G * weight[None, :, None]).reshape(6 * V, 12)
+    flange_block = slice(9, 15) if problem.setup == EYE_IN_HAND else slice(15, 21)
+    base_block = slice(15, 21) if problem.setup == EYE_IN_HAND else slice(9, 15)
+    X0, Z0 = problem.X0, problem.Z0
+    reference = {9: X0, 15: Z0}
+
+    def pose(th, block):
+        return _perturbed(reference[block.start], th[block])
+
+    def set_pose(th, block, P):
+        P0 = reference[block.start]
+        th[block] = np.r_[spatial.rotation_vector(P[:3, :3] @ P0[:3, :3].T), P[:3, 3] - P0[:3, 3]]
+
+    def gauge(errors):
+        cg = np.linalg.lstsq(G_w, (errors * weight).ravel(), rcond=None)[0]
+        B = _with_errors(np.eye(4)[None], -cg[None, 6:])[0]
+        C = _with_errors(np.eye(4)[None], cg[None, :6])[0]
+        return B, C
+
+    def fold(x):
+        th = theta.copy()
+        th[free] = x[:nf]
+        errors = x[nf:].reshape(V, 6)
+        B, C = gauge(errors)
+        E = spatial.invert_transform(F) @ B @ _with_errors(F, errors) @ spatial.invert_transform(C)
+        # eye-in-hand: X^-1 (F E)^-1 Z = (C X)^-1 (F E')^-1 (B Z); eye-to-hand: X^-1 F E Z =
+        # (B X)^-1 F E' (C Z)
+        set_pose(th, flange_block, C @ pose(th, flange_block))
+        set_pose(th, base_block, B @ pose(th, base_block))
+        e_folded = np.c_[spatial.rotation_vector(E[:, :3, :3]), E[:, :3, 3]]
+        return np.r_[th[free], e_folded.ravel()]
+
+    x = np.r_[theta[free], e.ravel()]
+    folded = fold(x)
+    B, C = gauge(e)
+    # the map's Jacobian by central differences (the errors are small: 1e-9 steps)
+    A = np.empty((len(x), len(x)))
+    for k in range(len(x)):
+        d = np.zeros_like(x)
+        d[k] = 1e-9
+        A[:, k] = (fold(x + d) - fold(x - d)) / 2e-9
+    theta_folded = theta.copy()
+    theta_folded[free] = folded[:nf]
+    e_folded = folded[nf:].reshape(V, 6)
+    # the views a sample of the robot's poses: the part taken out depends on which were drawn.
+    # Each view's remaining error its own draw (the sandwich of the least squares over views,
+    # 12 unknowns off the 6 V errors' degrees of freedom), its second moment the estimate's
+    # square and its uncertainty (the estimates alone are shrunk toward 0 by the prior)
+    model, clustered = (A @ c @ A.T for c in covariances)
+    A_e = A[:nf, nf:].reshape(nf, V, 6)
+    blocks = model[nf:, nf:].reshape(V, 6, V, 6)[np.arange(V), :, np.arange(V), :]
+    moments = np.einsum("vk,vl->vkl", e_folded, e_folded) + blocks
+    sampling = np.einsum("avk,vkl,bvl->ab", A_e, moments, A_e) * (6 * V / max(6 * V - 12, 1))
+    cov = _larger_covariance(model[:nf, :nf], clustered[:nf, :nf], V) + sampling
+    return theta_folded, e_folded, cov, B, C
+
+
+def _larger_covariance(P: np.ndarray, Q: np.ndarray, clusters: int) -> np.ndarray:
+    """``P`` (n, n), the model's covariance, each parameter's variance raised to that of
+    ``Q``, a sandwich clustered over ``clusters`` groups, where ``Q``'s is larger beyond its
+    own sampling error (the ratio over the 95 % point of a chi-square of ``clusters - 1``
+    degrees of freedom over them: 1.59 for 20 views); ``P``'s correlations kept.
+
+    Where the model holds, the sandwich of few clusters scatters about it; taking the larger
+    of the two everywhere would make the sigmas too large by that scatter."""
+    from scipy.stats import chi2
+
+    threshold = chi2.ppf(0.95, max(clusters - 1, 1)) / max(clusters - 1, 1)
+    ratio = np.diag(Q) / np.diag(P)
+    scale = np.sqrt(np.where(ratio > threshold, ratio, 1.0))
+    return P * np.outer(scale, scale)
 
 
 def _pixel_noise(views: BoardViews, camera: CameraModel, C: np.ndarray, fixed: bool) -> float:
@@ -788,7 +917,7 @@ def calibrate_views(
     errors = None
     field_ = None
     if flange_errors:
-        theta, errors, cov_flange, sig, res, w = _fit_flange_errors(
+        theta, errors, fit_covariances, sig, res, w = _fit_flange_errors(
             problem, theta, free, sigma_robust
         )
         # the errors' correlation over the poses, from the independent fit's errors; then the
@@ -799,10 +928,14 @@ def calibrate_views(
         )
         field_ = FlangeErrorField(lever, length, share, F, errors)
         if share > 0.0:
-            theta, errors, cov_flange, sig, res, w = _fit_flange_errors(
+            theta, errors, fit_covariances, sig, res, w = _fit_flange_errors(
                 problem, theta, free, sig[0], correlation=field_.prior(), start=(errors, sig)
             )
-            field_ = FlangeErrorField(lever, length, share, F, errors)
+        field_ = FlangeErrorField(lever, length, share, F, errors)
+        theta, errors, cov_flange, B, C = _through_robot_errors(
+            problem, theta, free, errors, fit_covariances, (sig[1], sig[2])
+        )
+        field_ = replace(field_, base_side=B, flange_side=C)
         flange_sigma = (float(sig[1]), float(sig[2]))
         J = problem.jacobian(theta)[:, free]
         Jw = J * np.sqrt(w)[:, None]
