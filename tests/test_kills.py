@@ -2,9 +2,8 @@
 
 For each command that writes several files or a folder, from a known old output:
 
-* **injected kills** - under strace, SIGKILL at its first and last renames (the first file
-  moved into place, the commit) and at one of its mkdir and unlink calls (a seeded choice);
-  skipped without strace;
+* **injected kills** - under strace, SIGKILL at its last rename (the commit) and at the
+  first watched call after it; skipped without strace;
 * **a timed kill** - SIGKILL at a seeded random instant;
 
 and after every kill: the target is the complete old output or the complete new one (never
@@ -184,11 +183,11 @@ def test_a_killed_command_leaves_the_old_or_the_new_output_and_the_next_run_clea
     if STRACE:
         renames = [e for e in watched if e[0].startswith("rename")]
         others = [e for e in watched if not e[0].startswith("rename")]
-        # the first rename (a file in place, the others not: the state every rename before
-        # the commit leaves) and the last (the commit): every rename was killed at until
-        # 2026-11-29 (87 s of the suite's CPU for three commands), two between, then one, until
-        # later that day
-        renames = renames[:1] + renames[1:][-1:]
+        # the last rename (the commit, every rename before it done: the most a kill before
+        # the commit leaves to roll back): every rename was killed at until 2026-11-29 (87 s
+        # of the suite's CPU for three commands), two between, then one, then the first too
+        # until 2026-11-30 (one rename to roll back: a part of this one's)
+        renames = renames[-1:]
         # and the first watched call after the commit (the journal's removal): the new output
         # whatever the machine's speed (with a random call and a timer instead, every kill fell
         # before the commit on 2026-11-29 and the test saw only the old output)

@@ -73,10 +73,15 @@ def test_every_run_of_every_cell_is_checked_in_order(local, fleet_cells):
 
 
 def test_a_fleet_run_is_what_a_single_check_says(local, cli):
-    """Each ok/failed verdict and collision count equals 'rworld check CELL RUN --json'."""
+    """Each cell's first ok and first failed verdict and their collision counts equal
+    'rworld check CELL RUN --json' (every run until 2026-11-30: 12.7 s of the suite)."""
+    seen = set()
     for r in local.results:
         if r.status not in ("ok", "failed") or "paper_fig9" in r.cell:
             continue
+        if (r.cell, r.status) in seen:
+            continue
+        seen.add((r.cell, r.status))
         one = cli(["check", r.cell, r.run, "--json"])
         assert one.exit_code == (0 if r.ok else 1), one.output
         summary = json.loads(one.output)
@@ -97,7 +102,7 @@ def test_one_process_and_a_dask_local_cluster_give_identical_results(local, flee
     assert _plain(on_dask) == expected
 
 
-def test_a_fleet_on_real_dask_scheduler_and_worker_processes(tmp_path, fleet_cells):
+def test_a_fleet_on_real_dask_scheduler_and_worker_processes(tmp_path, local, fleet_cells):
     """`dask scheduler` and `dask worker` started as a cluster operator would, and the CLI
     pointed at them with --scheduler."""
     dask = Path(sys.executable).with_name("dask")
@@ -136,9 +141,9 @@ def test_a_fleet_on_real_dask_scheduler_and_worker_processes(tmp_path, fleet_cel
         assert done.returncode == 2, done.stderr
         report = json.loads(done.stdout)
         assert report["executor"].startswith(f"dask {address}")
-        expected = check_fleet(cells, workers=1)
+        expected = [r for r in _plain(local) if "probing" not in r["cell"]]
         got = [{k: v for k, v in r.items() if k != "seconds"} for r in report["results"]]
-        assert got == json.loads(json.dumps(_plain(expected)))
+        assert got == json.loads(json.dumps(expected))
         assert report["failed"] == 2 and report["bad_input"] == 2
     finally:
         for process in (worker, scheduler):
@@ -168,7 +173,10 @@ def test_junit_and_github_reports(tmp_path, fleet_cells, cli):
     assert isinstance(cases[("broken", "pick_place")].result[0], Error)
     assert isinstance(cases[("ur5", "(cell)")].result[0], Skipped)
     assert cases[("puma560", "pick_place")].result == []
-    github = cli(["check", *cells, "--all-runs", "--format", "github", "--workers", "1"])
+    # the annotations from the two cells with a failed and a refused run (all cells until
+    # 2026-11-30: the fleet checked twice)
+    two = [c for c in cells if Path(c).name in ("puma560", "broken")]
+    github = cli(["check", *two, "--all-runs", "--format", "github", "--workers", "1"])
     lines = github.output.splitlines()
     errors = [line for line in lines if line.startswith("::error ")]
     assert any(
