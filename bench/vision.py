@@ -19,13 +19,13 @@ Run:  .venv/bin/python bench/vision.py [--seeds 80] [--bootstrap 200] [--images 
    sets with their truth (``cs_synthetic1``-``3``): each method's camera-in-flange error.
 2. The bootstrap over the fitted views (resampled with replacement) and the delete-d
    jackknife (37 % of the views left out, no view twice): the camera-in-flange pose's spread
-   against the sigma rworld reports and the pixel-noise one.
+   against the sigma rworld reports and the pixel-noise one (``--only spread``: this section
+   alone).
 3. Simulated cells with a known truth (``--seeds``, 20 views of a 9 x 6 board, 0.3 px noise):
    each parameter's error spread against the Cramer-Rao bound of pixel noise, and the sigma
    rworld reports against the spread.
 4. Times: corners found per 1920 x 1200 image (the two vendored images, or every image of
    ``--images DIR``, e.g. the data set's BMPs); a 30-view calibration.
-   ``--only spread``: this section alone.
 5. Rendering; 6. planning the views (``--only rendering``, ``--only planning``): the planned
    views' predicted camera-pose error against random usable views', the loops on rendered
    images. 6b (``--only planning --vendors``): the same on six vendor robots, both set-ups,

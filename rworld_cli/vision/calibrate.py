@@ -175,8 +175,8 @@ class FlangeErrorField:
 
     def corrected(self, T_base_flange: np.ndarray) -> np.ndarray:
         """The flange poses (K, 4, 4) with their expected errors applied, for the poses the
-        calibration writes: ``B F exp(e) C^-1`` with ``B``, ``C`` the errors' parts it put
-        into them (``base_side``, ``flange_side``)."""
+        calibration writes: ``B F exp(e) C^-1``, ``B`` and ``C`` the errors' parts it put
+        into them (``base_side``, ``flange_side``; :func:`_through_robot_errors`)."""
         F = _with_errors(T_base_flange, self.predict(T_base_flange))
         return self.base_side @ F @ spatial.invert_transform(self.flange_side)
 
@@ -722,9 +722,9 @@ def _through_robot_errors(
     eye-in-hand or the board eye-to-hand) and one ``b`` shared in the base's frame
     (``exp(b) F``: the base-side pose). Only the prior tells them apart from the poses. They
     are taken out of the errors (``(c, b)`` by least squares on the errors over their sigmas,
-    to first order; then exactly: ``exp(e_i') = F_i^-1 exp(b) F_i exp(e_i) exp(c)^-1``) and
-    put into the poses (``B F_i exp(e_i) C^-1 = F_i exp(e_i')`` with ``B = exp(b)``,
-    ``C = exp(c)``), the corners unchanged. The poses are then what a program on the
+    to first order; then exactly: ``exp(e_i') = F_i^-1 B F_i exp(e_i) C^-1`` with
+    ``B = exp(b)^-1``, ``C = exp(c)``) and put into the poses (eye-in-hand ``C X`` and
+    ``B Z``, eye-to-hand ``B X`` and ``C Z``), the corners unchanged. The poses are then what a program on the
     robot's nominal poses sees, and their covariance no longer holds the prior's guess of
     those parts: it is the views' own - the fit's (``covariances`` of ``(theta[free], e)``,
     the model's and the sandwich clustered by view, carried through the map:
@@ -759,9 +759,8 @@ def _through_robot_errors(
 
     def gauge(errors):
         cg = np.linalg.lstsq(G_w, (errors * weight).ravel(), rcond=None)[0]
-        B = _with_errors(np.eye(4)[None], -cg[None, 6:])[0]
-        C = _with_errors(np.eye(4)[None], cg[None, :6])[0]
-        return B, C
+        C, base = _with_errors(np.broadcast_to(np.eye(4), (2, 4, 4)), cg.reshape(2, 6))
+        return spatial.invert_transform(base), C
 
     def fold(x):
         th = theta.copy()
