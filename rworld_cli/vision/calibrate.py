@@ -724,11 +724,11 @@ def _through_robot_errors(
     are taken out of the errors (``(c, b)`` by least squares on the errors over their sigmas,
     to first order; then exactly: ``exp(e_i') = F_i^-1 B F_i exp(e_i) C^-1`` with
     ``B = exp(b)^-1``, ``C = exp(c)``) and put into the poses (eye-in-hand ``C X`` and
-    ``B Z``, eye-to-hand ``B X`` and ``C Z``), the corners unchanged. The poses are then what a program on the
-    robot's nominal poses sees, and their covariance no longer holds the prior's guess of
-    those parts: it is the views' own - the fit's (``covariances`` of ``(theta[free], e)``,
-    the model's and the sandwich clustered by view, carried through the map:
-    :func:`_larger_covariance`) and the part from which poses the views are at.
+    ``B Z``, eye-to-hand ``B X`` and ``C Z``), the corners unchanged. The poses are then
+    what a program on the robot's nominal poses sees, and their covariance no longer holds
+    the prior's guess of those parts: it is the views' own - the fit's (``covariances`` of
+    ``(theta[free], e)``, the model's and the sandwich clustered by view, carried through the
+    map: :func:`_larger_covariance`) and the part from which poses the views are at.
 
     Returns ``theta', e' (V, 6), covariance of theta'[free], B, C`` (4, 4).
     """
