@@ -33,6 +33,9 @@ MIN_CORNERS = 6
 #: the most pixels an image may say it has (OpenCV's own bound, lowered from 2^30): 16384 x
 #: 16384, more than any industrial camera's
 MAX_IMAGE_PIXELS = 2**28
+#: the exact-robot fit's corners this many times as far off as each view's own picture's: the
+#: robot's pose errors set the fit (simulated exact robots: 1.0; the real KUKA sets: 10-32)
+ROBOT_ERRORS_DOMINATE = 3.0
 
 
 @dataclass
@@ -89,6 +92,8 @@ class CameraCalibrationRun:
                 "camera_pose": _pose_dict(self.mount, r.T_mount_camera, s[9:15]),
                 "board_pose": _pose_dict(self.holder, r.T_holder_board, s[15:21]),
                 "reprojection_rms_px": r.rms,
+                "pictures_rms_px": self.pictures_rms,
+                "robot_errors_dominate": self.robot_errors_dominate,
                 "model": "robot errors"
                 if r.robot is not None
                 else "flange errors"
@@ -131,6 +136,24 @@ class CameraCalibrationRun:
                 "written": self.written,
             }
         )
+
+    @property
+    def pictures_rms(self) -> float | None:
+        """The fitted views' corners against each view's own pose of the board (OpenCV's
+        ``calibrateCamera``: no robot pose in it), rms a corner [px]; the corners' own noise,
+        to set against the fit through the robot's poses."""
+        noise = self.result.start.get("pixel_noise")
+        return None if noise is None else float(np.sqrt(2.0) * noise)
+
+    @property
+    def robot_errors_dominate(self) -> bool:
+        """The robot's poses taken as exact, and the corners through them over 3x as far off
+        as in each view's own picture: the robot's pose errors, not the pictures, set the
+        fit (``--flange-errors`` models them)."""
+        r = self.result
+        own = self.pictures_rms
+        exact = r.flange_sigma is None and r.robot is None
+        return exact and own is not None and r.rms > ROBOT_ERRORS_DOMINATE * own
 
     def view_rms(self, name: str) -> float | None:
         if name in self.result.names:

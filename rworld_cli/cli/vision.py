@@ -198,6 +198,17 @@ def _render(run) -> None:
         f"reprojection through the robot: rms {r.rms:.3f} px over {r.observations} corners "
         f"({r.downweighted} coordinates past Huber's 3 sigma)"
     )
+    if run.pictures_rms is not None:
+        click.echo(
+            f"each view's own picture of the board (its own pose, no robot in it): rms "
+            f"{run.pictures_rms:.3f} px"
+        )
+    if run.robot_errors_dominate:
+        click.echo(
+            f"  the corners through the robot are {r.rms / run.pictures_rms:.0f}x as far off: "
+            "the robot's pose errors set this fit, not the pictures - --flange-errors models "
+            "them (docs/vision.md, 'Two models of the robot')"
+        )
     if r.flange_sigma is not None:
         click.echo(
             f"the robot's flange pose error a view (estimated): {np.degrees(r.flange_sigma[0]):.4f}"

@@ -61,6 +61,9 @@ def test_the_real_capture_file_calibrates_and_writes_a_pose_file_the_cell_reads(
     assert abs(np.linalg.norm(xyz) - 137.0) < 1.0 and out["camera_pose"]["parent"] == "flange"
     assert max(out["camera_pose"]["sigma_mm"]) < 1.5
     assert 1040 < out["camera"]["intrinsics"]["fx"] < 1055
+    # each view's own picture fits its corners to 0.075 px, the robot's poses to 1.07: its
+    # errors set the fit, and the output says so (14x)
+    assert 0.05 < out["pictures_rms_px"] < 0.1 and out["robot_errors_dominate"] is True
     # the pose file is one the cell loader reads: the camera's pose to the file's precision
     from rworld_cli.schema.cellparts import load_pose_file_doc, pose_to_matrix
 
@@ -79,6 +82,8 @@ def test_text_output_names_every_figure(tmp_path):
         "camera in flange:",
         "board in base:",
         "reprojection through the robot: rms",
+        "each view's own picture of the board (its own pose, no robot in it): rms",
+        "the robot's pose errors set this fit, not the pictures - --flange-errors models them",
         "AX = XB over the fitted views' pairs",
     ):
         assert text in r.stdout
@@ -225,5 +230,6 @@ def test_the_flange_error_model_predicts_a_real_robots_held_out_views_where_it_i
         r"AX = XB over the held out views' pairs: rms ([\d.]+) deg, ([\d.]+) mm", r.stdout
     )
     assert near > 0.6 and held is not None and axxb is not None, r.stdout
+    assert "--flange-errors models them" not in r.stdout  # it does
     assert float(held[1]) < 0.6 * 3.379
     assert float(axxb[1]) < 0.7 * 0.1236 and float(axxb[2]) < 0.7 * 2.721

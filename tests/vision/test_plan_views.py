@@ -90,6 +90,9 @@ def _loop(cell: Path, camera: str, tmp_path: Path, candidates: int = 150) -> tup
     out = json.loads(r.stdout)
     assert all(v["refused"] is None for v in out["views"])
     assert out["reprojection_rms_px"] < 0.1
+    # an exact robot (the simulator's): the corners through it as near as in each picture
+    assert out["reprojection_rms_px"] < 1.5 * out["pictures_rms_px"]
+    assert out["robot_errors_dominate"] is False
     return plan, out
 
 
