@@ -100,6 +100,51 @@ def test_the_robots_pose_errors_are_estimated_with_the_camera():
 
 
 @pytest.mark.parametrize("setup", [vc.EYE_IN_HAND, vc.EYE_TO_HAND])
+def test_the_shared_errors_move_into_the_poses_with_every_corner_where_it_was(setup):
+    """Views' flange errors holding a large error shared in the base's frame and one in the
+    flange's (1 mm and 0.1 deg each) beside their own: moved into the poses, every corner is
+    predicted where it was (1e-6 px), the two found are the shared ones, and the errors left
+    hold no shared part."""
+    X, Z = X_TRUE, Z_TRUE
+    if setup == vc.EYE_TO_HAND:
+        X = spatial.make_transform(spatial.rpy_to_matrix(np.radians([180, 5, 0])), [0.7, 0, 1.4])
+        Z = spatial.make_transform(spatial.rpy_to_matrix(np.radians([0, 0, 45])), [0, 0, 0.05])
+    rng = np.random.default_rng(3)
+    views = random_views(rng, CAMERA, BOARD, X, Z, 12, setup=setup)
+    problem = vc._Problem(views, X, Z)
+    theta = np.r_[CAMERA.intrinsics, np.zeros(12)]
+    free = np.arange(21)
+    V = len(views.names)
+
+    def small(scale):
+        return np.r_[rng.normal(0, np.radians(0.1 * scale), 3), rng.normal(0, 1e-3 * scale, 3)]
+
+    b, c = small(1), small(1)
+    E = vc._with_errors(
+        np.broadcast_to(np.eye(4), (V, 4, 4)), np.array([small(0.05) for _ in range(V)])
+    )
+    B, C = (vc._with_errors(np.eye(4)[None], v[None])[0] for v in (b, c))
+    F = views.T_base_flange
+    total = spatial.invert_transform(F) @ B @ F @ E @ C  # F exp(e) = B F E C
+    e = np.c_[spatial.rotation_vector(total[:, :3, :3]), total[:, :3, 3]]
+    covariance = np.eye(21 + 6 * V) * 1e-8
+    theta2, e2, _, B_in, C_in = vc._through_robot_errors(
+        problem, theta, free, e, (covariance, covariance), (np.radians(0.005), 5e-5)
+    )
+    before = problem.predicted(theta, e)
+    after = problem.predicted(theta2, e2)
+    assert np.abs(after - before).max() < 1e-6
+    # the parts found: exp(b)^-1 and exp(c), to the views' own errors' share of them
+    assert np.linalg.norm(spatial.rotation_vector((B_in @ B)[:3, :3])) < np.radians(0.02)
+    assert np.linalg.norm((B_in @ B)[:3, 3]) < 0.2e-3
+    assert np.linalg.norm(
+        spatial.rotation_vector((C_in @ spatial.invert_transform(C))[:3, :3])
+    ) < np.radians(0.02)
+    assert np.linalg.norm((C_in @ spatial.invert_transform(C))[:3, 3]) < 0.2e-3
+    assert np.abs(e2.mean(axis=0)).max() < 0.2 * np.abs(e.mean(axis=0)).max()
+
+
+@pytest.mark.parametrize("setup", [vc.EYE_IN_HAND, vc.EYE_TO_HAND])
 def test_the_poses_written_hold_the_robots_errors_the_views_cannot_tell_from_them(setup):
     """A controller whose every pose is off by one error in the base's frame and one in the
     flange's (0.2 deg and 2 mm each: a base and a tool badly measured), and each view by a
