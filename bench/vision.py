@@ -613,6 +613,25 @@ def planning_vendors() -> None:
                 print(f"   {name} {setup}: " + "; ".join(row), flush=True)
 
 
+def _board_camera(model, name: str, joints: np.ndarray, result=None) -> np.ndarray:
+    """The wrist camera in the board's frame at each of ``joints`` (K, n) of ``model``'s
+    device ``name``, shape (K, 4, 4) [m]: the cell's own, or through ``result``'s camera in
+    its mount and board in its holder (what a program on that robot meets)."""
+    from rworld_cli.world.tree import World
+
+    world = World(model)
+    mount = world.parent("wrist_camera")
+    out = []
+    for q in joints:
+        world.set_joints(name, q)
+        if result is None:
+            out.append(world.T("board", "wrist_camera"))
+        else:
+            T = world.T(name, mount) @ result.T_mount_camera
+            out.append(np.linalg.solve(result.T_holder_board, T))
+    return np.array(out)
+
+
 def _robot_truth(root: Path, cell: Path, seed: int, rng) -> tuple:
     """One truth of section 7: ``cell`` (its robot the first device, a wrist camera over a
     board) copied to a truth off its model (``rng``), 40 planned views (``seed``) emulated
@@ -621,7 +640,6 @@ def _robot_truth(root: Path, cell: Path, seed: int, rng) -> tuple:
     against the truth's, max [m], the three calibrations' time [s])."""
     from rworld_cli.api import calibrate_camera, calibrate_robot, plan_views
     from rworld_cli.schema.loader import load_cell
-    from rworld_cli.world.tree import World
     from tests.vision.camera_cells import (
         emulated_captures,
         list_pose_file,
@@ -646,25 +664,9 @@ def _robot_truth(root: Path, cell: Path, seed: int, rng) -> tuple:
     one = calibrate_camera(str(nominal_captures), holdout_every=4, with_robot=True)
     seconds_one = time.perf_counter() - t0
     held = plan.joints[3::4]
-
-    def board_camera(model, result):
-        world = World(model)
-        mount = world.parent("wrist_camera")
-        out = []
-        for q in held:
-            world.set_joints(name, q)
-            T = world.T(name, mount) @ result.T_mount_camera
-            out.append(np.linalg.solve(result.T_holder_board, T))
-        return np.array(out)
-
-    true_world = World(truth)
-    true = []
-    for q in held:
-        true_world.set_joints(name, q)
-        true.append(true_world.T("board", "wrist_camera"))
-    true = np.array(true)
-    before = board_camera(nominal, exact.result)
-    after = board_camera(load_cell(str(cell)).cell, through.result)
+    true = _board_camera(truth, name, held)
+    before = _board_camera(nominal, name, held, exact.result)
+    after = _board_camera(load_cell(str(cell)).cell, name, held, through.result)
     robot = one.result.robot
     joined = np.linalg.solve(
         one.result.T_holder_board,
@@ -877,7 +879,6 @@ def flange_errors_vendor(robot: str, truths: int) -> None:
 
     from rworld_cli.api import calibrate_camera, plan_views
     from rworld_cli.schema.loader import load_cell
-    from rworld_cli.world.tree import World
     from tests.vision.camera_cells import camera_cell, emulated_captures, robot_off_its_model
 
     print(f"7e. the flange-error model on {robot} off its model ({truths} truths):")
@@ -892,24 +893,13 @@ def flange_errors_vendor(robot: str, truths: int) -> None:
             plan = plan_views(str(cell), "wrist_camera", 40, candidates=300, seed=seed)
             captures = emulated_captures(root, nominal, truth, plan.joints, rng, 0.1)
             held = plan.joints[3::4]
-            true_world = World(truth)
-            true = []
-            for q in held:
-                true_world.set_joints(name, q)
-                true.append(true_world.T("board", "wrist_camera")[:3, 3])
+            true = _board_camera(truth, name, held)[:, :3, 3]
             row = []
             for flange_errors in (False, True):
                 t0 = time.perf_counter()
                 run = calibrate_camera(str(captures), holdout_every=4, flange_errors=flange_errors)
-                r = run.result
-                world = World(nominal)
-                mount = world.parent("wrist_camera")
-                place = []
-                for q in held:
-                    world.set_joints(name, q)
-                    T = world.T(name, mount) @ r.T_mount_camera
-                    place.append(np.linalg.solve(r.T_holder_board, T)[:3, 3])
-                off = np.linalg.norm(np.array(place) - np.array(true), axis=1) * 1000
+                place = _board_camera(nominal, name, held, run.result)[:, :3, 3]
+                off = np.linalg.norm(place - true, axis=1) * 1000
                 row.append(
                     f"{'flange errors' if flange_errors else 'exact robot'} {run.held_out_rms:.3f}"
                     f" px, place rms {np.sqrt(np.mean(off**2)):.3f} mm (max {off.max():.3f}; "

@@ -4,7 +4,7 @@ For each command that writes several files or a folder, from a known old output:
 
 * **injected kills** - under strace, SIGKILL at its last rename (the commit) and at the
   first watched call after it; skipped without strace;
-* **a timed kill** - SIGKILL at a seeded random instant;
+* **a timed kill** - where strace is missing, SIGKILL at a seeded random instant;
 
 and after every kill: the target is the complete old output or the complete new one (never
 missing, never mixed), then the next run of the same command leaves the new output and no

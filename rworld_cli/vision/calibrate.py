@@ -21,7 +21,7 @@ then put into ``X`` and ``Z``, and the sigma is that of the poses so seen.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -745,16 +745,14 @@ def _through_robot_errors(
     G[:, 3:, 6:9] = -RT @ cross_p
     weight = np.r_[np.full(3, 1.0 / sigmas[0]), np.full(3, 1.0 / sigmas[1])]
     G_w = (G * weight[None, :, None]).reshape(6 * V, 12)
-    flange_block = slice(9, 15) if problem.setup == EYE_IN_HAND else slice(15, 21)
-    base_block = slice(15, 21) if problem.setup == EYE_IN_HAND else slice(9, 15)
-    X0, Z0 = problem.X0, problem.Z0
-    reference = {9: X0, 15: Z0}
+    # each pose's parameters and the pose they perturb: the flange's side and the base's
+    camera, board = (slice(9, 15), problem.X0), (slice(15, 21), problem.Z0)
+    flange_side, base_side = (camera, board) if problem.setup == EYE_IN_HAND else (board, camera)
 
-    def pose(th, block):
-        return _perturbed(reference[block.start], th[block])
-
-    def set_pose(th, block, P):
-        P0 = reference[block.start]
+    def moved(th, side, M):
+        """``th`` with the pose of ``side`` (its parameters, its start) moved to ``M P``."""
+        block, P0 = side
+        P = M @ _perturbed(P0, th[block])
         th[block] = np.r_[spatial.rotation_vector(P[:3, :3] @ P0[:3, :3].T), P[:3, 3] - P0[:3, 3]]
 
     def gauge(errors):
@@ -770,8 +768,8 @@ def _through_robot_errors(
         E = spatial.invert_transform(F) @ B @ _with_errors(F, errors) @ spatial.invert_transform(C)
         # eye-in-hand: X^-1 (F E)^-1 Z = (C X)^-1 (F E')^-1 (B Z); eye-to-hand: X^-1 F E Z =
         # (B X)^-1 F E' (C Z)
-        set_pose(th, flange_block, C @ pose(th, flange_block))
-        set_pose(th, base_block, B @ pose(th, base_block))
+        moved(th, flange_side, C)
+        moved(th, base_side, B)
         e_folded = np.c_[spatial.rotation_vector(E[:, :3, :3]), E[:, :3, 3]]
         return np.r_[th[free], e_folded.ravel()]
 
@@ -925,16 +923,16 @@ def calibrate_views(
         lever, length, share = fit_error_correlation(
             F, np.c_[errors[:, :3] / sig[1], errors[:, 3:] / sig[2]]
         )
-        field_ = FlangeErrorField(lever, length, share, F, errors)
         if share > 0.0:
+            prior = FlangeErrorField(lever, length, share, F, errors).prior()
             theta, errors, fit_covariances, sig, res, w = _fit_flange_errors(
-                problem, theta, free, sig[0], correlation=field_.prior(), start=(errors, sig)
+                problem, theta, free, sig[0], correlation=prior, start=(errors, sig)
             )
-        field_ = FlangeErrorField(lever, length, share, F, errors)
-        theta, errors, cov_flange, B, C = _through_robot_errors(
+        theta, folded, cov_flange, B, C = _through_robot_errors(
             problem, theta, free, errors, fit_covariances, (sig[1], sig[2])
         )
-        field_ = replace(field_, base_side=B, flange_side=C)
+        field_ = FlangeErrorField(lever, length, share, F, errors, B, C)
+        errors = folded
         flange_sigma = (float(sig[1]), float(sig[2]))
         J = problem.jacobian(theta)[:, free]
         Jw = J * np.sqrt(w)[:, None]
