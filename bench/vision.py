@@ -28,7 +28,7 @@ Run:  .venv/bin/python bench/vision.py [--seeds 80] [--bootstrap 200] [--images 
    ``--images DIR``, e.g. the data set's BMPs); a 30-view calibration.
 5. Rendering; 6. planning the views (``--only rendering``, ``--only planning``): the planned
    views' predicted camera-pose error against random usable views', the loops on rendered
-   images. 6b (``--only planning --vendors``): the same on six vendor robots, both set-ups,
+   images. 6b (``--only planning --vendors``): the same on seven vendor robots, both set-ups,
    without and with the candidates drawn around the first choice (``--refine``).
 7e. The flange-error model on a vendor robot off its model (``--only flange-errors``, up to
    3 ``--truths``): Yaskawa's GP12 (``tests/data/probe_robots/gp12``), 40 planned views
@@ -590,7 +590,7 @@ def planning_vendors() -> None:
 
     print("6b. plan-views on vendor robots (8 views of 1000 candidates, without and with the")
     print("    candidates drawn around the first choice):")
-    for name in ("kr6r900sixx", "cr7ial", "iiwa14", "vs060", "gen3", "ur10e"):
+    for name in ("kr6r900sixx", "cr7ial", "iiwa14", "vs060", "gen3", "ur10e", "gp12"):
         for fixed in (False, True):
             setup = "eye-to-hand" if fixed else "eye-in-hand"
             with tempfile.TemporaryDirectory() as tmp:

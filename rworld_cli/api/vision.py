@@ -739,7 +739,7 @@ def plan_views(
     width - turned by up to ``roll``); a candidate is usable when the robot reaches it (IK for
     the camera's frame, or the board's), touches nothing there or on the straight joint path
     from home, and the camera sees every corner and the outer squares (nothing of the cell or
-    the robot in the way). ``refine`` more candidates (default a third of ``candidates``; 0:
+    the robot in the way). ``refine`` more candidates (default two thirds of ``candidates``; 0:
     none) are then drawn around the chosen views within the same bounds
     (:func:`~rworld_cli.vision.plan.refined_candidates`), in
     :data:`~rworld_cli.vision.plan.REFINE_ROUNDS` rounds each around the last choice, and the
@@ -911,7 +911,7 @@ def plan_views(
     G = view_information(cam, model, X, Z, T_base_flange, sigma_px, setup)
     chosen, figures = select_views(G, count, seed)
     usable_count = len(Q)
-    refine = candidates // 3 if refine is None else refine
+    refine = 2 * candidates // 3 if refine is None else refine
     refined = 0
     # candidates around the chosen views, the choice made again from all; in rounds, each
     # around the last choice

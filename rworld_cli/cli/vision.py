@@ -285,7 +285,7 @@ def _render(run) -> None:
     metavar="N",
     help="Candidates drawn around the first choice (a few degrees and centimetres from each "
     "chosen view, within the same bounds; in two rounds, the second around the choice the "
-    "first led to), the choice made again from all [default: a third of --candidates; 0: "
+    "first led to), the choice made again from all [default: two thirds of --candidates; 0: "
     "none].",
 )
 @click.option("--seed", default=0, show_default=True, type=int, help="The candidates' random seed.")

@@ -6,7 +6,9 @@ its z) - the same cell for any robot, placed by the robot's reach, not by hand.
 
 ``fixed=True``: eye-to-hand instead - the camera beside the robot (at 0.7, -0.9 and 0.6 of
 the table's distance along x, y and z), looking across at it (+y), and a 7 x 5 board (25 mm)
-on the TCP, 50 mm out, facing away from the flange.
+on the TCP, 50 mm out, facing away from the flange; the probing cell's wall (at y = -0.5 m)
+moved 100 mm behind the camera where the camera would stand behind it (the table over 0.52 m
+out: the GP12, the UR10e), else the camera would look at the wall's back.
 """
 
 from __future__ import annotations
@@ -66,6 +68,12 @@ def camera_cell(robot: str, out: Path, fixed: bool = False) -> Path:
             "xyz": [round(0.7 * d, 3), round(-0.9 * d, 3), round(0.6 * d, 3)],
             "rpy": [-float(np.pi) / 2, 0.0, 0.0],
         }
+        wall = poses["poses"]["wall"]["xyz"]
+        camera_y = poses["poses"]["wrist_camera"]["xyz"][1]
+        # the camera's back (20 mm behind it) at or behind the wall's face (10 mm in front of
+        # its centre)
+        if camera_y < wall[1] + 0.03:
+            poses["poses"]["wall"]["xyz"] = [wall[0], round(camera_y - 0.1, 3), wall[2]]
         poses["poses"]["hand_board"] = {
             "xyz": [-0.075, 0.05, 0.05],
             "rpy": [float(np.pi), 0.0, 0.0],
