@@ -35,6 +35,13 @@ Run:  .venv/bin/python bench/vision.py [--seeds 80] [--bootstrap 200] [--images 
    emulated through the truth, the nominal flanges reported: held-out rms of both models and
    the camera's place relative to the board at the held-out joints through the nominal robot
    and the written poses, against the truth.
+7f. Views planned for the one estimate (``--only plan-with-robot``, ``--truths N``):
+   ``plan-views --with-robot`` on the test cell's UR5 and Yaskawa's GP12
+   (``tests/data/probe_robots/gp12``), 8 to 40 views: the camera-to-board pose's predicted
+   error at the robot's poses against the views chosen for the camera alone from the same
+   candidates and against random ones; then the prediction against N truths (the UR5's joint
+   frames off by 0.5 mm / 0.05 deg, 12 planned views emulated through each with 0.1 px,
+   ``calibrate-camera --with-robot``): the error at the plan's poses, rms over the truths.
 8. AprilTag grids (``--only aprilgrid``): the test cell with a 6 x 4 grid of 40 mm tags for its
    chessboard, the wrist camera at 8 planned views and the overhead camera, rendered with 0.6
    and 1.2 px of blur; each tag's corners by OpenCV's refinements and by rworld's edge fit
@@ -908,6 +915,74 @@ def flange_errors_vendor(robot: str, truths: int) -> None:
             print(f"   truth {seed}: held-out " + "; ".join(row), flush=True)
 
 
+def plan_with_robot(truths: int) -> None:
+    """Section 7f (module docstring)."""
+    import shutil
+    import tempfile
+
+    from rworld_cli import spatial
+    from rworld_cli.api import calibrate_camera, plan_views
+    from rworld_cli.schema.loader import load_cell
+    from tests.vision.camera_cells import camera_cell, emulated_captures, robot_off_its_model
+
+    def cell_of(robot: str, root: Path) -> Path:
+        cell = root / "cell"
+        if robot == "ur5":
+            shutil.copytree(REPO / "tests" / "data" / "vision" / "cell", cell)
+        else:
+            camera_cell(robot, cell)
+        return cell
+
+    print("7f. plan-views --with-robot: the camera-to-board pose's predicted error at the")
+    print("    robot's poses (0.1 px, 300 mm lever), 300 candidates:")
+    for robot in ("ur5", "gp12"):
+        with tempfile.TemporaryDirectory() as tmp:
+            cell = cell_of(robot, Path(tmp))
+            for count in (8, 12, 20, 40):
+                t0 = time.perf_counter()
+                f = plan_views(
+                    str(cell), "wrist_camera", count, candidates=300, with_robot=True
+                ).figures
+                print(
+                    f"   {robot} {count:2d} views: planned {f['error'] * 1000:.4f} mm, the views "
+                    f"chosen for the camera alone {f['camera_choice_error'] * 1000:.4f} mm "
+                    f"({f['camera_choice_error'] / f['error']:.2f}x), random "
+                    f"{f['random_error'] * 1000:.4f} mm ({f['random_error'] / f['error']:.2f}x);"
+                    f" {len(f['robot_parameters'])} robot parameters; "
+                    f"{time.perf_counter() - t0:.1f} s",
+                    flush=True,
+                )
+    print(f"    the prediction against {truths} truths (the UR5 off its model, 12 views planned")
+    print("    with the robot, calibrate-camera --with-robot, the error at the plan's poses):")
+    with tempfile.TemporaryDirectory() as tmp:
+        cell = cell_of("ur5", Path(tmp))
+        plan = plan_views(str(cell), "wrist_camera", 12, candidates=300, with_robot=True)
+        nominal = load_cell(str(cell)).cell
+        name = next(iter(nominal.devices))
+        checks = plan.check_joints
+        squared = []
+        for seed in range(truths):
+            root = Path(tmp) / f"truth{seed}"
+            root.mkdir()
+            rng = np.random.default_rng(500 + seed)
+            truth = load_cell(str(robot_off_its_model(cell, root / "truth", rng))).cell
+            true = _board_camera(truth, name, checks)
+            captures = emulated_captures(root, nominal, truth, plan.joints, rng, 0.1)
+            captures.write_text(captures.read_text().replace("{cell: cell,", "{cell: ../cell,"))
+            r = calibrate_camera(str(captures), with_robot=True).result
+            F = r.robot.model.poses(r.robot.p, checks)
+            est = np.linalg.solve(r.T_holder_board, F @ r.T_mount_camera)
+            d = est[:, :3, 3] - true[:, :3, 3]
+            turn = spatial.rotation_vector(np.swapaxes(true[:, :3, :3], 1, 2) @ est[:, :3, :3])
+            squared.append(float(np.mean(np.sum(d**2, axis=1) + 0.09 * np.sum(turn**2, axis=1))))
+        observed = float(np.sqrt(np.mean(squared)))
+        print(
+            f"   predicted {plan.figures['error'] * 1000:.4f} mm, observed (rms over the truths "
+            f"and the {len(checks)} poses) {observed * 1000:.4f} mm: "
+            f"{observed / plan.figures['error']:.3f}x"
+        )
+
+
 def aprilgrid() -> None:
     """Section 8 (module docstring)."""
     import shutil
@@ -996,6 +1071,7 @@ def main() -> None:
             "aprilgrid",
             "spread",
             "flange-errors",
+            "plan-with-robot",
         ],
         default=None,
         help="run one section",
@@ -1029,6 +1105,9 @@ def main() -> None:
         for name in ("kuka1", "kuka3", "kuka2"):
             real_data(DATA.parent / name)
         synthetic_truth()
+        return
+    if args.only == "plan-with-robot":
+        plan_with_robot(args.truths)
         return
     if args.only == "flange-errors":
         flange_errors_vendor("gp12", min(args.truths, 3))

@@ -655,7 +655,10 @@ class ViewPlanRun:
     figures : dict
         The choice's predicted sigma of the camera's pose in its mount - the flange, or the
         robot's base eye-to-hand - (``position`` m, ``rotation`` rad) against the median of
-        50 random choices of as many usable candidates.
+        50 random choices of as many usable candidates; ``error`` and ``random_error`` at a
+        point ``lever`` ahead [m] (with the robot's errors, ``with_robot``: the
+        camera-to-board pose's at the robot's poses; ``robot_parameters`` the robot's
+        parameters counted).
     """
 
     cell: str
@@ -673,6 +676,9 @@ class ViewPlanRun:
     sigma_px: float
     seconds: float
     written: list[str] = field(default_factory=list)
+    #: with the robot's errors: the robot's poses the camera-to-board error is predicted at
+    #: (K, n) [rad or m] - usable candidates drawn at random
+    check_joints: np.ndarray | None = None
 
     def as_dict(self) -> dict:
         from .. import spatial
@@ -692,6 +698,11 @@ class ViewPlanRun:
                 "refine": f.get("refine", 0),
                 "refined_usable": f.get("refined", 0),
                 "pixel_sigma_px": self.sigma_px,
+                "with_robot": f["with_robot"],
+                "robot_parameters": f["robot_parameters"],
+                "camera_choice_error_mm": (
+                    f["camera_choice_error"] * 1000 if "camera_choice_error" in f else None
+                ),
                 "predicted_error_mm": f["error"] * 1000,
                 "random_error_mm": f["random_error"] * 1000,
                 "lever_mm": f["lever"] * 1000,
@@ -728,6 +739,7 @@ def plan_views(
     program: str | None = None,
     progress=None,
     refine: int | None = None,
+    with_robot: bool = False,
 ) -> ViewPlanRun:
     """Choose ``count`` robot poses from which a camera sees the whole board - the camera on
     the robot (eye-in-hand), or fixed in the cell with the board on the robot (eye-to-hand) -
@@ -749,6 +761,14 @@ def plan_views(
     calibrate-camera``); ``program``: a program that visits each from home, takes an image
     there (a ``capture:`` step) and returns.
 
+    ``with_robot``: views for ``calibrate-camera --with-robot`` (the robot's joint-frame
+    errors estimated with the camera): each view's information holds the robot's parameters
+    too (those the usable candidates determine beside the camera's,
+    :func:`~rworld_cli.calibration.robot.select` as the calibration decides it), and the
+    exchanges lower the camera-to-board pose's predicted error at the robot's poses - 40 of
+    the usable candidates' (:func:`~rworld_cli.vision.plan.place_weight`) - instead of the
+    camera-in-mount pose's.
+
     Raises
     ------
     UserError
@@ -767,9 +787,12 @@ def plan_views(
     from ..vision.plan import (
         REFINE_ROUNDS,
         camera_candidates,
+        place_weight,
         refined_candidates,
+        robot_information,
         select_views,
         view_information,
+        weighted_error,
     )
     from .cells import load_world
 
@@ -909,7 +932,36 @@ def plan_views(
             + " nearer the robot"
         )
     G = view_information(cam, model, X, Z, T_base_flange, sigma_px, setup)
-    chosen, figures = select_views(G, count, seed)
+    weight, robot, taken, robot_names, checks = None, None, np.zeros(0, dtype=int), [], None
+    if with_robot:
+        from ..calibration.robot import RobotModel, preference, select
+
+        mount_link, T_link_mount = world.mount_of(device, mount_frame)
+        robot = RobotModel(
+            dev, np.eye(4), mount_link, T_link_mount[:3, 3].copy(), False, T_link_mount[:3, :3]
+        )
+        n6 = 6 * dev.dof
+        R = robot_information(cam, model, X, Z, robot, Q, sigma_px, setup)
+        # the robot's parameters the candidates determine beside the camera's (projected out)
+        J_camera, J_robot = G.reshape(-1, G.shape[2]), R.reshape(-1, n6)
+        basis, _ = np.linalg.qr(J_camera)
+        J_robot = J_robot - basis @ (basis.T @ J_robot)
+        order = [k for k in preference(robot) if k < n6]
+        taken = np.array(sorted(select(J_robot, order, 1.0)[0]), dtype=int)
+        robot_names = [robot.names[k] for k in taken]
+        G = np.concatenate([G, R[:, :, taken]], axis=2)
+        checks = Q[rng.choice(len(Q), min(40, len(Q)), replace=False)]
+        weight = place_weight(cam, X, Z, robot, checks, taken, 0.3, setup)
+
+    def information(Q_views: np.ndarray, flanges_views: np.ndarray) -> np.ndarray:
+        """The views' whitened Jacobians (M, 2N, 21 [+ the robot's parameters taken])."""
+        out = view_information(cam, model, X, Z, flanges_views, sigma_px, setup)
+        if robot is None:
+            return out
+        R = robot_information(cam, model, X, Z, robot, Q_views, sigma_px, setup)
+        return np.concatenate([out, R[:, :, taken]], axis=2)
+
+    chosen, figures = select_views(G, count, seed, weight=weight)
     usable_count = len(Q)
     refine = 2 * candidates // 3 if refine is None else refine
     refined = 0
@@ -922,10 +974,8 @@ def plan_views(
         )
         Q_near, flanges_near = usable(around, {}, " (around the choice)")
         if len(Q_near):
-            G = np.concatenate(
-                [G, view_information(cam, model, X, Z, flanges_near, sigma_px, setup)]
-            )
-            chosen, figures = select_views(G, count, seed, random_from=usable_count)
+            G = np.concatenate([G, information(Q_near, flanges_near)])
+            chosen, figures = select_views(G, count, seed, random_from=usable_count, weight=weight)
             Q = np.concatenate([Q, Q_near])
             T_base_flange = np.concatenate([T_base_flange, flanges_near])
         refined += len(Q_near)
@@ -933,6 +983,11 @@ def plan_views(
         figures["refined"] = int(refined)
         figures["refine_rounds"] = REFINE_ROUNDS
     figures["refine"] = int(refine)
+    figures["with_robot"] = bool(with_robot)
+    figures["robot_parameters"] = robot_names
+    if weight is not None:  # the views chosen for the camera alone, from the same candidates
+        for_camera, _ = select_views(G[:, :, :21], count, seed, random_from=usable_count)
+        figures["camera_choice_error"] = weighted_error(G, for_camera, weight)
     # visited nearest first from home
     order = [int(c) for c in chosen[np.argsort(np.abs(Q[chosen] - dev.home).max(axis=1))]]
     joints = Q[order]
@@ -952,6 +1007,7 @@ def plan_views(
         figures,
         sigma_px,
         time.perf_counter() - started,
+        check_joints=checks,
     )
     if captures or program:
         import os

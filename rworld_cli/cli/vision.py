@@ -288,6 +288,12 @@ def _render(run) -> None:
     "first led to), the choice made again from all [default: two thirds of --candidates; 0: "
     "none].",
 )
+@click.option(
+    "--with-robot",
+    is_flag=True,
+    help="Views for calibrate-camera --with-robot: the robot's joint-frame errors counted as "
+    "parameters too, the views chosen for the camera-to-board pose at the robot's poses.",
+)
 @click.option("--seed", default=0, show_default=True, type=int, help="The candidates' random seed.")
 @click.option(
     "--pixel-sigma",
@@ -321,6 +327,7 @@ def plan_views(
     board,
     candidates,
     refine,
+    with_robot,
     seed,
     pixel_sigma,
     captures,
@@ -338,12 +345,15 @@ def plan_views(
     information of the calibration's 21 parameters, then exchanged to lower the camera's
     predicted pose error most; more candidates are drawn around that choice (--refine) and the
     choice is made again from all. Its predicted error is shown beside random choices of as
-    many of the first candidates (docs/vision.md).
+    many of the first candidates (docs/vision.md). With --with-robot the robot's joint-frame
+    errors the candidates determine are parameters too, and the error is the camera-to-board
+    pose's at the robot's poses (what calibrate-camera --with-robot predicts through).
 
     \b
     Examples:
       rworld plan-views tests/data/vision/cell --camera wrist_camera --views 12
       rworld plan-views CELL --camera wrist_camera --captures captures.yaml --program views.yaml
+      rworld plan-views CELL --camera wrist_camera --views 40 --with-robot --captures c.yaml
 
     Exit codes: 0 planned (and written), 2 bad input or too few usable candidates.
     """
@@ -367,6 +377,7 @@ def plan_views(
             program=program,
             progress=progress,
             refine=refine,
+            with_robot=with_robot,
         ),
         "reaching the candidates",
     )
@@ -387,9 +398,20 @@ def plan_views(
             f"  {f['refine']} more drawn around the choice in {f['refine_rounds']} rounds: "
             f"{f['refined']} usable, the choice made again from all"
         )
+    if f["with_robot"]:
+        click.echo(
+            f"  with the robot's errors: {len(f['robot_parameters'])} of its joint-frame "
+            "parameters determined beside the camera's; the views chosen for the camera alone "
+            f"from the same candidates: {f['camera_choice_error'] * 1000:.4f} mm"
+        )
+    what = (
+        "the camera-to-board pose at the robot's poses"
+        if f["with_robot"]
+        else f"the camera in its mount ({result.mount})"
+    )
     click.echo(
-        f"predicted error of the camera in the flange ({result.sigma_px:g} px of corner noise, "
-        f"at a point {f['lever'] * 1000:.0f} mm ahead): {f['error'] * 1000:.4f} mm; random "
+        f"predicted error of {what} ({result.sigma_px:g} px of corner noise, at a point "
+        f"{f['lever'] * 1000:.0f} mm ahead): {f['error'] * 1000:.4f} mm; random "
         f"choices of as many: {f['random_error'] * 1000:.4f} mm "
         f"({f['random_error'] / f['error']:.2f}x)"
     )

@@ -106,6 +106,95 @@ def view_information(
     return J.reshape(len(C), -1, J.shape[1])
 
 
+def robot_information(
+    camera: CameraModel,
+    board: BoardModel,
+    X: np.ndarray,
+    Z: np.ndarray,
+    robot,
+    joints: np.ndarray,
+    sigma_px: float,
+    setup: str = "eye-in-hand",
+) -> np.ndarray:
+    """Each view's whitened Jacobian of its corners' pixels by the robot's joint-frame errors
+    (``robot``: a :class:`~rworld_cli.calibration.robot.RobotModel` whose target is the frame
+    on the flange; its first ``6 n`` parameters, each in units of its typical error, 1 mm or
+    1 mrad) at the nominal robot and the nominal ``X`` and ``Z`` (as in
+    :func:`view_information`), the views at ``joints`` (M, n): shape (M, 2N, 6 n)."""
+    from .emulate import seen_corners
+
+    n6 = 6 * robot.device.dof
+    P = len(robot.names)
+    F0 = robot.poses(np.zeros(P), joints)
+    H = spatial.invert_transform(F0) if setup == "eye-in-hand" else F0
+    corners = seen_corners(camera, board, spatial.invert_transform(X) @ H @ Z)
+    views = BoardViews(board, camera, setup, tuple(map(str, range(len(joints)))),
+                       F0, np.nan_to_num(corners, nan=0.0))  # fmt: skip
+    problem = _Problem(views, X, Z)
+    theta = np.r_[camera.intrinsics, np.zeros(12)]
+    scales = robot.scales
+    out = np.empty((len(joints), 2 * board.points.shape[0], n6))
+    for k in range(n6):  # 1e-3 of a typical error: 1 um, 1 urad (calibrate's step)
+        d = np.zeros(P)
+        d[k] = 1e-3 * scales[k]
+        up = problem.predicted(theta, F=robot.poses(d, joints))
+        down = problem.predicted(theta, F=robot.poses(-d, joints))
+        out[:, :, k] = (up - down).reshape(len(joints), -1) / (2e-3 * sigma_px)
+    return out
+
+
+def place_weight(
+    camera: CameraModel,
+    X: np.ndarray,
+    Z: np.ndarray,
+    robot,
+    joints: np.ndarray,
+    columns: np.ndarray,
+    lever: float,
+    setup: str = "eye-in-hand",
+) -> np.ndarray:
+    """The weight ``W`` (21 + C, 21 + C) whose ``trace(W Cov)`` is the mean, over the robot at
+    ``joints`` (K, n), of the camera-to-board pose's predicted squared error: its position's
+    variance plus its rotation's times ``lever`` squared [m^2] - ``Cov`` the covariance of
+    the calibration's 21 parameters and the robot's parameters ``columns`` (C, in units of
+    their typical errors). The pose a program on that robot meets: the camera in the board's
+    frame through the robot's flange (``Z^-1 H(q)^-1 X``; the place of bench/vision.py's
+    sections 7)."""
+    from .calibrate import _steps
+
+    P = len(robot.names)
+    theta0 = np.r_[camera.intrinsics, np.zeros(12)]
+    problem = _Problem.__new__(_Problem)  # only its poses(theta): X and Z moved
+    problem.X0, problem.Z0 = X, Z
+
+    def place(theta, p):  # the camera in the board's frame (K, 4, 4)
+        Xt, Zt = problem.poses(theta)
+        F = robot.poses(p, joints)
+        H_inv = F if setup == "eye-in-hand" else spatial.invert_transform(F)
+        return spatial.invert_transform(Zt) @ H_inv @ Xt
+
+    base = place(theta0, np.zeros(P))
+
+    def moved(T):  # (K, 6): the position's change, the rotation's (times the lever) [m]
+        turn = spatial.rotation_vector(np.swapaxes(base[:, :3, :3], 1, 2) @ T[:, :3, :3])
+        return np.hstack([T[:, :3, 3] - base[:, :3, 3], lever * turn])
+
+    n = 21 + len(columns)
+    L = np.zeros((len(joints), 6, n))
+    steps = _steps(theta0)
+    for k in range(9, 21):  # the intrinsics move no pose
+        d = np.zeros(21)
+        d[k] = steps[k]
+        L[:, :, k] = (
+            moved(place(theta0 + d, np.zeros(P))) - moved(place(theta0 - d, np.zeros(P)))
+        ) / (2 * steps[k])
+    for c, k in enumerate(columns):
+        d = np.zeros(P)
+        d[k] = 1e-3 * robot.scales[k]
+        L[:, :, 21 + c] = (moved(place(theta0, d)) - moved(place(theta0, -d))) / 2e-3
+    return np.einsum("kai,kaj->ij", L, L) / len(joints)
+
+
 def _covariance(G: np.ndarray, ridge: float) -> np.ndarray:
     N = np.einsum("kai,kaj->ij", G, G)
     return np.linalg.inv(N + ridge * np.eye(N.shape[0]))
@@ -128,6 +217,20 @@ def _criterion(covariances: np.ndarray, lever: float) -> np.ndarray:
     return position + lever**2 * rotation
 
 
+def _ridge(info: np.ndarray) -> np.ndarray:
+    """A ridge that keeps sums of the views' information ``info`` (M, P, P) invertible."""
+    scale = float(np.mean(np.trace(info, axis1=1, axis2=2))) / info.shape[1]
+    return 1e-9 * scale * np.eye(info.shape[1])
+
+
+def weighted_error(G: np.ndarray, chosen: np.ndarray, weight: np.ndarray) -> float:
+    """The root of ``trace(weight Cov)`` [m] for the views ``chosen`` of ``G`` (M, 2N, P),
+    ``Cov`` their information's inverse (with :func:`select_views`' ridge)."""
+    info = np.einsum("kai,kaj->kij", G, G)
+    cov = np.linalg.inv(_ridge(info) + info[chosen].sum(axis=0))
+    return float(np.sqrt(np.einsum("ij,ji->", cov, weight)))
+
+
 def select_views(
     G: np.ndarray,
     count: int,
@@ -135,6 +238,7 @@ def select_views(
     lever: float = 0.3,
     passes: int = 8,
     random_from: int | None = None,
+    weight: np.ndarray | None = None,
 ) -> tuple[np.ndarray, dict]:
     """``count`` of the candidates' views: greedily D-optimal (the determinant of the 21
     parameters' information) until the information is whole, then exchanges that lower the
@@ -142,6 +246,11 @@ def select_views(
     choice's predicted sigma against random choices of as many from the first
     ``random_from`` views (default all: the ones after are candidates drawn around an earlier
     choice, not views a user would draw).
+
+    ``weight`` (P, P): the views' Jacobians ``G`` (M, 2N, P) hold more parameters than the
+    camera's 21 (the robot's, :func:`robot_information`), and the exchanges lower
+    ``trace(weight Cov)`` instead (:func:`place_weight`: the camera-to-board pose's error at
+    the robot's poses); ``error`` and ``random_error`` are its root.
 
     Returns
     -------
@@ -156,8 +265,7 @@ def select_views(
     """
     M = len(G)
     info = np.einsum("kai,kaj->kij", G, G)  # (M, 21, 21)
-    scale = float(np.mean(np.trace(info, axis1=1, axis2=2))) / info.shape[1]
-    ridge = 1e-9 * scale * np.eye(info.shape[1])  # keeps sums invertible
+    ridge = _ridge(info)
     total = ridge.copy()
     chosen: list[int] = []
     free = np.ones(M, dtype=bool)
@@ -168,14 +276,21 @@ def select_views(
         chosen.append(best)
         free[best] = False
         total = total + info[best]
-    d_optimal = camera_sigma(G[chosen])
+    d_optimal_choice = list(chosen)
+    d_optimal = camera_sigma(G[chosen]) if weight is None else (np.nan, np.nan)
+
+    def criterion(covariances):
+        if weight is None:
+            return _criterion(covariances, lever)
+        return np.einsum("...ij,ji->...", covariances, weight)
+
     for _ in range(passes):  # exchanges: a chosen view for the one that lowers the error most
         improved = False
         for slot in range(count):
             rest = total - info[chosen[slot]]
-            error = _criterion(np.linalg.inv(rest[None] + info), lever)
+            error = criterion(np.linalg.inv(rest[None] + info))
             error[~free] = np.inf
-            error[chosen[slot]] = _criterion(np.linalg.inv(rest + info[chosen[slot]]), lever)
+            error[chosen[slot]] = criterion(np.linalg.inv(rest + info[chosen[slot]]))
             best = int(np.argmin(error))
             if best != chosen[slot] and error[best] < error[chosen[slot]] * (1 - 1e-9):
                 free[chosen[slot]], free[best] = True, False
@@ -185,13 +300,33 @@ def select_views(
         if not improved:
             break
     rng = np.random.default_rng(seed)
-    position, rotation = camera_sigma(G[chosen])
     pool = M if random_from is None else random_from
-    draws = [camera_sigma(G[rng.choice(pool, count, replace=False)]) for _ in range(50)]
-    errors = [float(np.hypot(p, lever * r)) for p, r in draws]
+    picks = [rng.choice(pool, count, replace=False) for _ in range(50)]
+    if weight is None:
+        position, rotation = camera_sigma(G[chosen])
+        draws = [camera_sigma(G[pick]) for pick in picks]
+        error = float(np.hypot(position, lever * rotation))
+        errors = [float(np.hypot(p, lever * r)) for p, r in draws]
+    else:  # the robot's parameters beside the camera's: the same ridge as the exchanges'
+
+        def covariance(pick):
+            return np.linalg.inv(ridge + info[pick].sum(axis=0))
+
+        def sigmas(cov):
+            return float(np.sqrt(np.trace(cov[12:15, 12:15]))), float(
+                np.sqrt(np.trace(cov[9:12, 9:12]))
+            )
+
+        cov = covariance(chosen)
+        position, rotation = sigmas(cov)
+        error = float(np.sqrt(criterion(cov)))
+        covs = [covariance(pick) for pick in picks]
+        draws = [sigmas(c) for c in covs]
+        errors = [float(np.sqrt(criterion(c))) for c in covs]
+        d_optimal = sigmas(covariance(d_optimal_choice))
     figures = {
         "lever": lever,
-        "error": float(np.hypot(position, lever * rotation)),
+        "error": error,
         "random_error": float(np.median(errors)),
         "position": position,
         "rotation": rotation,

@@ -167,3 +167,103 @@ def test_candidates_drawn_around_a_choice_stay_within_the_first_ones_bounds():
         ]
     )
     assert gap.max() < 5 * 0.05 * 0.5 * np.sqrt(3) and np.degrees(turn.max()) < 5 * 4 * np.sqrt(3)
+
+
+def _ur5_views(count: int = 12):
+    """The test cell's UR5, its wrist camera and board as plan-views sees them, and ``count``
+    of its planned views: (camera, board, X, Z, robot, joints, flanges)."""
+    from rworld_cli.api import plan_views
+    from rworld_cli.api.cells import load_world
+    from rworld_cli.calibration.robot import RobotModel
+
+    run = plan_views(str(CELL / "cell.yaml"), "wrist_camera", count, candidates=150, refine=0)
+    world, _ = load_world(str(CELL / "cell.yaml"))
+    cell = world.cell
+    link, T = world.mount_of("ur5", run.mount)
+    robot = RobotModel(cell.devices["ur5"], np.eye(4), link, T[:3, 3].copy(), False, T[:3, :3])
+    X, Z = world.T(run.mount, "wrist_camera"), world.T("ur5", "board")
+    camera, board = cell.sensors["wrist_camera"].camera, cell.objects["board"].board
+    return camera, board, X, Z, robot, run.joints, run.T_base_flange
+
+
+def test_the_robots_columns_are_how_its_errors_move_the_corners():
+    """``robot_information``: each column is the corners' move when that joint-frame error is
+    made (0.2 of its typical error, corners projected by the sensing room's ``seen_corners``
+    through the moved robot), per typical error and pixel sigma; and the robot model's
+    flange at no error is the cell's."""
+    from rworld_cli import spatial
+    from rworld_cli.vision.emulate import seen_corners
+    from rworld_cli.vision.plan import robot_information
+
+    camera, board, X, Z, robot, joints, flanges = _ur5_views(4)
+    P = len(robot.names)
+    assert np.abs(robot.poses(np.zeros(P), joints) - flanges).max() < 1e-12
+    R = robot_information(camera, board, X, Z, robot, joints, 0.1)
+    assert R.shape == (4, 2 * 54, 36)
+
+    def corners(p):
+        C = spatial.invert_transform(X) @ spatial.invert_transform(robot.poses(p, joints)) @ Z
+        return seen_corners(camera, board, C).reshape(4, -1)
+
+    for k in (1, 4, 13, 29, 35):  # lengths and angles, near the base and at the wrist
+        p = np.zeros(P)
+        p[k] = 0.2 * robot.scales[k]
+        moved = (corners(p) - corners(-p)) / (2 * 0.2 * 0.1)
+        assert np.abs(moved - R[:, :, k]).max() < 1e-4 * np.abs(R[:, :, k]).max() + 1e-6, k
+
+
+def test_the_place_weight_gives_the_mean_squared_error_of_the_camera_to_board_pose():
+    """``place_weight``: trace(W Cov) is the mean over the poses of the camera-to-board pose's
+    squared error (position, and rotation at the lever) - against 4000 draws of the camera's
+    and the robot's parameters from a covariance, each moved exactly (within 4 %)."""
+    from rworld_cli import spatial
+    from rworld_cli.vision.calibrate import _perturbed
+    from rworld_cli.vision.plan import place_weight
+
+    camera, board, X, Z, robot, joints, _ = _ur5_views(6)
+    columns = np.array([6, 7, 8, 20, 33])
+    W = place_weight(camera, X, Z, robot, joints, columns, 0.3)
+    rng = np.random.default_rng(2)
+    n = 21 + len(columns)
+    A = rng.normal(size=(n, n)) * np.r_[np.zeros(9), np.full(12, 2e-4), np.full(len(columns), 0.3)]
+    cov = A.T @ A  # intrinsics move no pose: zero rows
+    draws = rng.multivariate_normal(np.zeros(n), cov, 4000)
+    P = len(robot.names)
+
+    def place(x):  # the camera in the board's frame
+        p = np.zeros(P)
+        p[columns] = x[21:] * robot.scales[columns]
+        F = robot.poses(p, joints)
+        return np.linalg.solve(_perturbed(Z, x[15:21]), F @ _perturbed(X, x[9:15]))
+
+    base = place(np.zeros(n))
+    squared = []
+    for x in draws:
+        T = place(x)
+        turn = spatial.rotation_vector(np.swapaxes(base[:, :3, :3], 1, 2) @ T[:, :3, :3])
+        d = T[:, :3, 3] - base[:, :3, 3]
+        squared.append(np.mean(np.sum(d**2, axis=1) + 0.09 * np.sum(turn**2, axis=1)))
+    assert np.trace(W @ cov) == pytest.approx(np.mean(squared), rel=0.04)
+
+
+def test_views_planned_with_the_robot_count_its_errors_and_beat_random_ones():
+    """plan-views --with-robot: the robot's 18 joint-frame parameters the test cell's views
+    determine beside the camera's (calibrate-camera --with-robot identifies the same 18 in
+    docs/performance.md section 7), the camera-to-board error at its poses below random
+    choices' and the views chosen for the camera alone, said in text and JSON."""
+    args = ["plan-views", str(CELL), "--camera", "wrist_camera", "--views", "12"]
+    args += ["--candidates", "150", "--refine", "50", "--with-robot"]
+    r = run_cli(args + ["--json"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.stdout)
+    assert out["with_robot"] is True and len(out["robot_parameters"]) == 18
+    # joint 1's six are the board's pose in the base, seen by the camera as one
+    names = out["robot_parameters"]
+    assert all(n[:1] == "j" for n in names) and not any(n.startswith("j1.") for n in names)
+    assert out["random_error_mm"] / out["predicted_error_mm"] >= 1.5
+    # the views chosen for the camera alone from the same candidates, by the same figure
+    assert out["camera_choice_error_mm"] > out["predicted_error_mm"]
+    r = run_cli(args)
+    assert r.exit_code == 0, r.output
+    assert "18 of its joint-frame parameters" in r.output
+    assert "the camera-to-board pose at the robot's poses" in r.output
