@@ -267,3 +267,12 @@ def test_views_planned_with_the_robot_count_its_errors_and_beat_random_ones():
     assert r.exit_code == 0, r.output
     assert "18 of its joint-frame parameters" in r.output
     assert "the camera-to-board pose at the robot's poses" in r.output
+    # eye-to-hand: the board on the flange, the overhead camera
+    cell = CELL.parent / "cell_eye_to_hand"
+    args = ["plan-views", str(cell), "--camera", "overhead", "--views", "12"]
+    r = run_cli(args + ["--candidates", "150", "--refine", "0", "--with-robot", "--json"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.stdout)
+    assert out["setup"] == "eye-to-hand" and len(out["robot_parameters"]) == 18
+    assert out["random_error_mm"] / out["predicted_error_mm"] >= 1.5
+    assert out["camera_choice_error_mm"] > out["predicted_error_mm"]
