@@ -160,15 +160,13 @@ def place_weight(
     their typical errors). The pose a program on that robot meets: the camera in the board's
     frame through the robot's flange (``Z^-1 H(q)^-1 X``; the place of bench/vision.py's
     sections 7)."""
-    from .calibrate import _steps
+    from .calibrate import _perturbed, _steps
 
     P = len(robot.names)
     theta0 = np.r_[camera.intrinsics, np.zeros(12)]
-    problem = _Problem.__new__(_Problem)  # only its poses(theta): X and Z moved
-    problem.X0, problem.Z0 = X, Z
 
-    def place(theta, p):  # the camera in the board's frame (K, 4, 4)
-        Xt, Zt = problem.poses(theta)
+    def place(theta, p):  # the camera in the board's frame (K, 4, 4); X, Z moved as the fit's
+        Xt, Zt = _perturbed(X, theta[9:15]), _perturbed(Z, theta[15:21])
         F = robot.poses(p, joints)
         H_inv = F if setup == "eye-in-hand" else spatial.invert_transform(F)
         return spatial.invert_transform(Zt) @ H_inv @ Xt
@@ -277,7 +275,6 @@ def select_views(
         free[best] = False
         total = total + info[best]
     d_optimal_choice = list(chosen)
-    d_optimal = camera_sigma(G[chosen]) if weight is None else (np.nan, np.nan)
 
     def criterion(covariances):
         if weight is None:
@@ -303,6 +300,7 @@ def select_views(
     pool = M if random_from is None else random_from
     picks = [rng.choice(pool, count, replace=False) for _ in range(50)]
     if weight is None:
+        d_optimal = camera_sigma(G[d_optimal_choice])
         position, rotation = camera_sigma(G[chosen])
         draws = [camera_sigma(G[pick]) for pick in picks]
         error = float(np.hypot(position, lever * rotation))
