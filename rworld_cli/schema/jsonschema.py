@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import importlib
 import json
 
@@ -20,6 +21,13 @@ SCHEMA_FILES = {
 
 def schema_documents() -> dict[str, str]:
     """The JSON Schema text of each file format, keyed by file name."""
+    return dict(_documents())
+
+
+@functools.cache
+def _documents() -> dict[str, str]:
+    """:func:`schema_documents`, made once a process (0.2 s: pydantic builds each schema;
+    the models do not change while it runs)."""
     out = {}
     for filename, (module, model_name) in SCHEMA_FILES.items():
         model = getattr(importlib.import_module(f"{__package__}.{module}"), model_name)
