@@ -39,9 +39,10 @@ Run:  .venv/bin/python bench/vision.py [--seeds 80] [--bootstrap 200] [--images 
    ``plan-views --with-robot`` on the test cell's UR5 and Yaskawa's GP12
    (``tests/data/probe_robots/gp12``), 8 to 40 views: the camera-to-board pose's predicted
    error at the robot's poses against the views chosen for the camera alone from the same
-   candidates and against random ones; then the prediction against N truths (the UR5's joint
-   frames off by 0.5 mm / 0.05 deg, 12 planned views emulated through each with 0.1 px,
-   ``calibrate-camera --with-robot``): the error at the plan's poses, rms over the truths.
+   candidates and against random ones; then the prediction against N truths of the UR5 and
+   N/2 of the GP12 (joint frames off by 0.5 mm / 0.05 deg, 12 planned views emulated through
+   each with 0.1 px, ``calibrate-camera --with-robot``): the error at the plan's poses, rms
+   over the truths.
 8. AprilTag grids (``--only aprilgrid``): the test cell with a 6 x 4 grid of 40 mm tags for its
    chessboard, the wrist camera at 8 planned views and the overhead camera, rendered with 0.6
    and 1.2 px of blur; each tag's corners by OpenCV's refinements and by rworld's edge fit
@@ -920,10 +921,8 @@ def plan_with_robot(truths: int) -> None:
     import shutil
     import tempfile
 
-    from rworld_cli import spatial
-    from rworld_cli.api import calibrate_camera, plan_views
-    from rworld_cli.schema.loader import load_cell
-    from tests.vision.camera_cells import camera_cell, emulated_captures, robot_off_its_model
+    from rworld_cli.api import plan_views
+    from tests.vision.camera_cells import camera_cell
 
     def cell_of(robot: str, root: Path) -> Path:
         cell = root / "cell"
@@ -952,10 +951,23 @@ def plan_with_robot(truths: int) -> None:
                     f"{time.perf_counter() - t0:.1f} s",
                     flush=True,
                 )
-    print(f"    the prediction against {truths} truths (the UR5 off its model, 12 views planned")
-    print("    with the robot, calibrate-camera --with-robot, the error at the plan's poses):")
+    print("    the prediction against truths (each robot off its model, 12 views planned with")
+    print("    the robot, calibrate-camera --with-robot, the error at the plan's poses):")
+    for robot, count in (("ur5", truths), ("gp12", max(truths // 2, 1))):
+        _prediction_against_truths(robot, cell_of, count)
+
+
+def _prediction_against_truths(robot: str, cell_of, truths: int) -> None:
+    """Section 7f's second part on ``robot`` (``cell_of(robot, root)`` its cell)."""
+    import tempfile
+
+    from rworld_cli import spatial
+    from rworld_cli.api import calibrate_camera, plan_views
+    from rworld_cli.schema.loader import load_cell
+    from tests.vision.camera_cells import emulated_captures, robot_off_its_model
+
     with tempfile.TemporaryDirectory() as tmp:
-        cell = cell_of("ur5", Path(tmp))
+        cell = cell_of(robot, Path(tmp))
         plan = plan_views(str(cell), "wrist_camera", 12, candidates=300, with_robot=True)
         nominal = load_cell(str(cell)).cell
         name = next(iter(nominal.devices))
@@ -977,8 +989,8 @@ def plan_with_robot(truths: int) -> None:
             squared.append(float(np.mean(np.sum(d**2, axis=1) + 0.09 * np.sum(turn**2, axis=1))))
         observed = float(np.sqrt(np.mean(squared)))
         print(
-            f"   predicted {plan.figures['error'] * 1000:.4f} mm, observed (rms over the truths "
-            f"and the {len(checks)} poses) {observed * 1000:.4f} mm: "
+            f"   {robot}: predicted {plan.figures['error'] * 1000:.4f} mm, observed (rms over "
+            f"{truths} truths and the {len(checks)} poses) {observed * 1000:.4f} mm: "
             f"{observed / plan.figures['error']:.3f}x"
         )
 
