@@ -73,6 +73,9 @@ class CameraCalibrationRun:
     seconds: dict[str, float] = field(default_factory=dict)
     written: list[str] = field(default_factory=list)
     held_out_view_rms: dict[str, float] = field(default_factory=dict)
+    #: the capture file names the robot's cell and each view's joints (``robot:``): the fits
+    #: through the robot (``--through-robot``, ``--with-robot``) can be asked
+    robot_named: bool = False
 
     def as_dict(self) -> dict:
         r = self.result
@@ -94,6 +97,7 @@ class CameraCalibrationRun:
                 "reprojection_rms_px": r.rms,
                 "pictures_rms_px": self.pictures_rms,
                 "robot_errors_dominate": self.robot_errors_dominate,
+                "robot_named": self.robot_named,
                 "model": "robot errors"
                 if r.robot is not None
                 else "flange errors"
@@ -528,6 +532,7 @@ def calibrate_camera(
         "held out" if len(held) >= 2 else "fitted",
         seconds,
         held_out_view_rms=held_view_rms,
+        robot_named=captures.robot_cell is not None,
     )
     date = _dt.datetime.now().replace(microsecond=0).isoformat()
     outputs = [

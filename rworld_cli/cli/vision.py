@@ -208,6 +208,12 @@ def _render(run) -> None:
             f"  the corners through the robot are {r.rms / run.pictures_rms:.0f}x as far off: "
             "the robot's pose errors set this fit, not the pictures - --flange-errors models "
             "them (docs/vision.md, 'Two models of the robot')"
+            + (
+                "; the capture file names the robot and each view's joints: --with-robot "
+                "estimates the robot's own joint-frame errors with the camera"
+                if run.robot_named
+                else ""
+            )
         )
     if r.flange_sigma is not None:
         click.echo(

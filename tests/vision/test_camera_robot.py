@@ -16,6 +16,7 @@ import shutil
 import numpy as np
 import pytest
 
+from tests.conftest import run_cli
 from tests.vision.camera_cells import emulated_captures, list_pose_file, robot_off_its_model
 from tests.vision.test_sense_camera import CELL
 
@@ -83,6 +84,11 @@ def test_the_camera_calibrates_the_robot_and_then_predicts_through_it(setup):
 
     # held-out views predicted through the robot: the nominal robot's errors, then the noise
     assert exact.held_out_rms > 5 * NOISE_PX, exact.held_out_rms
+    # the exact-robot fit says so, and that this capture file's joints allow --with-robot
+    assert exact.robot_errors_dominate and exact.robot_named
+    r = run_cli(["calibrate-camera", str(captures)])
+    assert r.exit_code == 0, r.output
+    assert "--with-robot estimates the robot's own joint-frame errors" in r.stdout
     assert through.held_out_rms < 2 * NOISE_PX, through.held_out_rms
     # where the camera is in the board's frame at the held-out joints, against the truth:
     # the robot's base and the board's pose share a gauge (joint 1's errors and the board's

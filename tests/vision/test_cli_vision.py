@@ -87,6 +87,7 @@ def test_text_output_names_every_figure(tmp_path):
         "AX = XB over the fitted views' pairs",
     ):
         assert text in r.stdout
+    assert "--with-robot" not in r.stdout  # the set's capture file names no robot joints
 
 
 def test_a_motion_about_one_axis_is_refused_and_nothing_written(tmp_path):
