@@ -422,7 +422,8 @@ def plan_views(
         f"({f['random_error'] / f['error']:.2f}x)"
     )
     click.echo(
-        f"  position {f['position'] * 1000:.4f} mm, rotation {np.degrees(f['rotation']):.5f} "
+        f"  the camera in its mount: position {f['position'] * 1000:.4f} mm, rotation "
+        f"{np.degrees(f['rotation']):.5f} "
         f"deg (random: {f['random_position'] * 1000:.4f} mm, "
         f"{np.degrees(f['random_rotation']):.5f} deg)"
     )
