@@ -558,7 +558,6 @@ def _robot_model(captures):
     """The capture file's robot as the robot calibration models it: the frame on its flange
     (the camera's mount, or the board's holder eye-to-hand) as a 6-DoF target on its link,
     in the robot's base."""
-    from ..calibration.robot import RobotModel
     from ..world.tree import World
 
     world = World(captures.robot_model)
@@ -568,14 +567,24 @@ def _robot_model(captures):
             f"{captures.path}: '{flange}' (the frame on the flange) is no frame of "
             f"{captures.robot_cell}"
         )
-    link, T_link_flange = world.mount_of(captures.device, flange)
+    return flange_robot(world, captures.device, flange)
+
+
+def flange_robot(world, device: str, frame: str):
+    """``device`` of ``world`` as the robot calibration models it with ``frame`` - the frame on
+    its flange: the camera's mount, or the board's holder eye-to-hand - as a 6-DoF target on
+    its link, in the robot's base (``calibrate-camera --with-robot``, ``plan-views
+    --with-robot``)."""
+    from ..calibration.robot import RobotModel
+
+    link, T_link_frame = world.mount_of(device, frame)
     return RobotModel(
-        captures.robot_model.devices[captures.device],
+        world.cell.devices[device],
         np.eye(4),
         link,
-        T_link_flange[:3, 3].copy(),
+        T_link_frame[:3, 3].copy(),
         False,
-        T_link_flange[:3, :3].copy(),
+        T_link_frame[:3, :3].copy(),
     )
 
 
@@ -939,20 +948,15 @@ def plan_views(
     G = view_information(cam, model, X, Z, T_base_flange, sigma_px, setup)
     weight, robot, taken, robot_names, checks = None, None, np.zeros(0, dtype=int), [], None
     if with_robot:
-        from ..calibration.robot import RobotModel, preference, select
+        from ..vision.calibrate import joint_errors_determined
 
-        mount_link, T_link_mount = world.mount_of(device, mount_frame)
-        robot = RobotModel(
-            dev, np.eye(4), mount_link, T_link_mount[:3, 3].copy(), False, T_link_mount[:3, :3]
-        )
-        n6 = 6 * dev.dof
+        robot = flange_robot(world, device, mount_frame)
         R = robot_information(cam, model, X, Z, robot, Q, sigma_px, setup)
-        # the robot's parameters the candidates determine beside the camera's (projected out)
-        J_camera, J_robot = G.reshape(-1, G.shape[2]), R.reshape(-1, n6)
-        basis, _ = np.linalg.qr(J_camera)
-        J_robot = J_robot - basis @ (basis.T @ J_robot)
-        order = [k for k in preference(robot) if k < n6]
-        taken = np.array(sorted(select(J_robot, order, 1.0)[0]), dtype=int)
+        # the robot's parameters the candidates determine beside the camera's (whitened: 1)
+        chosen_robot, _, _ = joint_errors_determined(
+            robot, G.reshape(-1, G.shape[2]), R.reshape(-1, R.shape[2]), 1.0
+        )
+        taken = np.array(sorted(chosen_robot), dtype=int)
         robot_names = [robot.names[k] for k in taken]
         G = np.concatenate([G, R[:, :, taken]], axis=2)
         checks = Q[rng.choice(len(Q), min(40, len(Q)), replace=False)]

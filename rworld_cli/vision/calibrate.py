@@ -979,6 +979,23 @@ def calibrate_views(
     )
 
 
+def joint_errors_determined(
+    robot: RobotModel, J_camera: np.ndarray, J_joints: np.ndarray, sigma: float
+) -> tuple[list[int], dict[int, float], np.ndarray]:
+    """The robot's joint-frame parameters that corners determine beside the camera's: decided
+    as ``calibrate-robot`` decides it (:func:`~rworld_cli.calibration.robot.select`, in its
+    order) on the joints' Jacobian ``J_joints`` (R, 6 n; each column per typical error) with
+    the camera's columns ``J_camera`` (R, C) projected out; ``sigma`` the rows' noise.
+    Returns (taken, {let go: its sigma in typical errors}, the projected Jacobian (R, 6 n))."""
+    from ..calibration.robot import preference, select
+
+    basis, _ = np.linalg.qr(J_camera)
+    J = J_joints - basis @ (basis.T @ J_joints)
+    order = [k for k in preference(robot) if k < J_joints.shape[1]]
+    chosen, dropped = select(J, order, sigma)
+    return chosen, dropped, J
+
+
 def calibrate_views_with_robot(
     views: BoardViews,
     robot: RobotModel,
@@ -1025,7 +1042,7 @@ def calibrate_views_with_robot(
     CalibrationRefused
         As :func:`calibrate_views`.
     """
-    from ..calibration.robot import Unidentifiable, observability_index, preference, select
+    from ..calibration.robot import Unidentifiable, observability_index
 
     exact = calibrate_views(views, fix_intrinsics=fix_intrinsics)
     noise = max(float(exact.start["pixel_noise"]), 1e-6)
@@ -1071,15 +1088,8 @@ def calibrate_views_with_robot(
             out[:, nf + c] = (up - down) / 2e-3
         return out
 
-    # the robot's parameters the views determine, beside the camera's (projected out)
-    target = set(range(n6, n6 + robot.target_count))
-    joint_columns = np.arange(n6)
-    J0 = jacobian(theta0, np.zeros(P), joint_columns)
-    Q, _ = np.linalg.qr(J0[:, :nf])
-    J_robot = np.zeros((J0.shape[0], P))
-    J_robot[:, joint_columns] = J0[:, nf:] - Q @ (Q.T @ J0[:, nf:])
-    order = [k for k in preference(robot) if k < n6 + robot.target_count]
-    chosen, dropped = select(J_robot, order, noise, excluded=target)
+    J0 = jacobian(theta0, np.zeros(P), np.arange(n6))
+    chosen, dropped, J_robot = joint_errors_determined(robot, J0[:, :nf], J0[:, nf:], noise)
     taken = np.array(sorted(chosen), dtype=int)
 
     def scaled_jacobian(x):

@@ -121,15 +121,12 @@ def robot_information(
     on the flange; its first ``6 n`` parameters, each in units of its typical error, 1 mm or
     1 mrad) at the nominal robot and the nominal ``X`` and ``Z`` (as in
     :func:`view_information`), the views at ``joints`` (M, n): shape (M, 2N, 6 n)."""
-    from .emulate import seen_corners
-
     n6 = 6 * robot.device.dof
     P = len(robot.names)
     F0 = robot.poses(np.zeros(P), joints)
-    H = spatial.invert_transform(F0) if setup == "eye-in-hand" else F0
-    corners = seen_corners(camera, board, spatial.invert_transform(X) @ H @ Z)
-    views = BoardViews(board, camera, setup, tuple(map(str, range(len(joints)))),
-                       F0, np.nan_to_num(corners, nan=0.0))  # fmt: skip
+    # only predicted corners are differenced: any observed corners (every one seen) serve
+    observed = np.zeros((len(joints), board.points.shape[0], 2))
+    views = BoardViews(board, camera, setup, tuple(map(str, range(len(joints)))), F0, observed)
     problem = _Problem(views, X, Z)
     theta = np.r_[camera.intrinsics, np.zeros(12)]
     scales = robot.scales
@@ -221,11 +218,16 @@ def _ridge(info: np.ndarray) -> np.ndarray:
     return 1e-9 * scale * np.eye(info.shape[1])
 
 
+def _covariance_of(info: np.ndarray, ridge: np.ndarray, chosen) -> np.ndarray:
+    """The inverse of the views ``chosen``'s summed information (of ``info`` (M, P, P))."""
+    return np.linalg.inv(ridge + info[chosen].sum(axis=0))
+
+
 def weighted_error(G: np.ndarray, chosen: np.ndarray, weight: np.ndarray) -> float:
     """The root of ``trace(weight Cov)`` [m] for the views ``chosen`` of ``G`` (M, 2N, P),
     ``Cov`` their information's inverse (with :func:`select_views`' ridge)."""
     info = np.einsum("kai,kaj->kij", G, G)
-    cov = np.linalg.inv(_ridge(info) + info[chosen].sum(axis=0))
+    cov = _covariance_of(info, _ridge(info), chosen)
     return float(np.sqrt(np.einsum("ij,ji->", cov, weight)))
 
 
@@ -308,7 +310,7 @@ def select_views(
     else:  # the robot's parameters beside the camera's: the same ridge as the exchanges'
 
         def covariance(pick):
-            return np.linalg.inv(ridge + info[pick].sum(axis=0))
+            return _covariance_of(info, ridge, pick)
 
         def sigmas(cov):
             return float(np.sqrt(np.trace(cov[12:15, 12:15]))), float(

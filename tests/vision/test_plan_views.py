@@ -174,13 +174,12 @@ def _ur5_views(count: int = 12):
     of its planned views: (camera, board, X, Z, robot, joints, flanges)."""
     from rworld_cli.api import plan_views
     from rworld_cli.api.cells import load_world
-    from rworld_cli.calibration.robot import RobotModel
+    from rworld_cli.api.vision import flange_robot
 
     run = plan_views(str(CELL / "cell.yaml"), "wrist_camera", count, candidates=150, refine=0)
     world, _ = load_world(str(CELL / "cell.yaml"))
     cell = world.cell
-    link, T = world.mount_of("ur5", run.mount)
-    robot = RobotModel(cell.devices["ur5"], np.eye(4), link, T[:3, 3].copy(), False, T[:3, :3])
+    robot = flange_robot(world, "ur5", run.mount)
     X, Z = world.T(run.mount, "wrist_camera"), world.T("ur5", "board")
     camera, board = cell.sensors["wrist_camera"].camera, cell.objects["board"].board
     return camera, board, X, Z, robot, run.joints, run.T_base_flange
