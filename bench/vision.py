@@ -4,8 +4,8 @@ data, against the Cramer-Rao bound on simulated views, and its times.
 Run:  .venv/bin/python bench/vision.py [--seeds 80] [--bootstrap 200] [--images DIR]
 
 1. Real data (``--only real``: 1, 1b, 1c): Ali et al.'s KUKA eye-in-hand sets
-   (``tests/data/vision/kuka1``, ``kuka2``, ``kuka3``: the corners OpenCV found in the shipped
-   images). A fixed split: every 4th view held out from the 4th (7). For rworld's two models
+   (``tests/data/vision/kuka1``, ``kuka2``, ``kuka3``) and Tabb and Ahmad Yousef's Denso set
+   (``tabb1``): the corners OpenCV found in the shipped images. A fixed split: every 4th view held out from the 4th (7). For rworld's two models
    and each of OpenCV's five hand-eye methods (Tsai, Park, Horaud, Andreff, Daniilidis; the
    board then from the views' mean through the robot) and two robot-world methods (Shah,
    Li), on the same detections (OpenCV's intrinsics from ``calibrateCamera`` on the fitted
@@ -20,7 +20,7 @@ Run:  .venv/bin/python bench/vision.py [--seeds 80] [--bootstrap 200] [--images 
 2. The bootstrap over the fitted views (resampled with replacement) and the delete-d
    jackknife (37 % of the views left out, no view twice): the camera-in-flange pose's spread
    against the sigma rworld reports and the pixel-noise one (``--only spread``: this section
-   alone).
+   alone, on kuka2 or ``--set``'s real set).
 3. Simulated cells with a known truth (``--seeds``, 20 views of a 9 x 6 board, 0.3 px noise):
    each parameter's error spread against the Cramer-Rao bound of pixel noise, and the sigma
    rworld reports against the spread.
@@ -1090,6 +1090,12 @@ def main() -> None:
     )
     parser.add_argument("--truths", type=int, default=10, help="--only robot: how many truths")
     parser.add_argument(
+        "--set",
+        default="kuka2",
+        choices=["kuka1", "kuka2", "kuka3", "tabb1"],
+        help="--only spread: the real set (its views but every 4th)",
+    )
+    parser.add_argument(
         "--vendors",
         action="store_true",
         help="--only robot: on vendor robots (3 truths each); --only planning: on vendor robots",
@@ -1114,7 +1120,7 @@ def main() -> None:
         robot_setups()
         return
     if args.only == "real":
-        for name in ("kuka1", "kuka3", "kuka2"):
+        for name in ("kuka1", "kuka3", "kuka2", "tabb1"):
             real_data(DATA.parent / name)
         synthetic_truth()
         return
@@ -1127,15 +1133,16 @@ def main() -> None:
     if args.only == "spread":
         from rworld_cli.vision import calibrate as vc
 
-        index = np.arange(len(_kuka2().names))
-        train = _kuka2().subset(np.setdiff1d(index, index[3::4]))
+        views = _views(DATA.parent / args.set)
+        index = np.arange(len(views.names))
+        train = views.subset(np.setdiff1d(index, index[3::4]))
         ours = vc.calibrate_views(train)
         spreads(train, ours, vc.calibrate_views(train, flange_errors=True), args.bootstrap)
         return
     if args.only is not None:
         {"rendering": rendering, "planning": planning, "aprilgrid": aprilgrid}[args.only]()
         return
-    for name in ("kuka1", "kuka3"):
+    for name in ("kuka1", "kuka3", "tabb1"):
         real_data(DATA.parent / name)
     _views_, train, ours, fe = real_data(DATA)
     synthetic_truth()

@@ -21,6 +21,8 @@ from ..vision.calibrate import (
     axxb_residuals,
     calibrate_views,
     calibrate_views_with_robot,
+    exact_robot_ratio,
+    pictures_rms,
     reprojection_rms,
     view_poses,
 )
@@ -34,7 +36,9 @@ MIN_CORNERS = 6
 #: 16384, more than any industrial camera's
 MAX_IMAGE_PIXELS = 2**28
 #: the exact-robot fit's corners this many times as far off as each view's own picture's: the
-#: robot's pose errors set the fit (simulated exact robots: 1.0; the real KUKA sets: 10-32)
+#: robot's pose errors set the fit, and the model of them is taken unless one is asked
+#: (rendered exact robots: 1.05-1.24; the real sets, Ali et al.'s KUKA and Tabb and Ahmad
+#: Yousef's Denso: 9.8-32)
 ROBOT_ERRORS_DOMINATE = 3.0
 
 
@@ -76,6 +80,9 @@ class CameraCalibrationRun:
     #: the capture file names the robot's cell and each view's joints (``robot:``): the fits
     #: through the robot (``--through-robot``, ``--with-robot``) can be asked
     robot_named: bool = False
+    #: the model of the robot's poses was chosen by the data (none asked): the exact-robot
+    #: fit's corners this many times as far off as each view's own picture's
+    exact_robot_ratio: float | None = None
 
     def as_dict(self) -> dict:
         r = self.result
@@ -97,6 +104,8 @@ class CameraCalibrationRun:
                 "reprojection_rms_px": r.rms,
                 "pictures_rms_px": self.pictures_rms,
                 "robot_errors_dominate": self.robot_errors_dominate,
+                "model_chosen": self.exact_robot_ratio is not None,
+                "exact_robot_ratio": self.exact_robot_ratio,
                 "robot_named": self.robot_named,
                 "model": "robot errors"
                 if r.robot is not None
@@ -146,8 +155,7 @@ class CameraCalibrationRun:
         """The fitted views' corners against each view's own pose of the board (OpenCV's
         ``calibrateCamera``: no robot pose in it), rms a corner [px]; the corners' own noise,
         to set against the fit through the robot's poses."""
-        noise = self.result.start.get("pixel_noise")
-        return None if noise is None else float(np.sqrt(2.0) * noise)
+        return pictures_rms(self.result)
 
     @property
     def robot_errors_dominate(self) -> bool:
@@ -155,9 +163,9 @@ class CameraCalibrationRun:
         as in each view's own picture: the robot's pose errors, not the pictures, set the
         fit (``--flange-errors`` models them)."""
         r = self.result
-        own = self.pictures_rms
         exact = r.flange_sigma is None and r.robot is None
-        return exact and own is not None and r.rms > ROBOT_ERRORS_DOMINATE * own
+        ratio = exact_robot_ratio(r)
+        return exact and ratio is not None and ratio > ROBOT_ERRORS_DOMINATE
 
     def view_rms(self, name: str) -> float | None:
         if name in self.result.names:
@@ -362,7 +370,7 @@ def calibrate_camera(
     captures_path: str,
     holdout_every: int = 0,
     fix_intrinsics: bool = False,
-    flange_errors: bool = False,
+    flange_errors: bool | None = None,
     write_poses: str | None = None,
     write_camera: str | None = None,
     save_corners: str | None = None,
@@ -381,9 +389,13 @@ def calibrate_camera(
         predict it through the robot (0: fit them all).
     fix_intrinsics : bool
         Keep the capture file's intrinsics (which must then be given).
-    flange_errors : bool
+    flange_errors : bool or None
         Give each view's flange pose an error of its own, estimated with its sigma
-        (:func:`~rworld_cli.vision.calibrate.calibrate_views`).
+        (:func:`~rworld_cli.vision.calibrate.calibrate_views`); False: the robot's poses
+        exact; None (default): chosen by the data - the exact-robot fit first, the model of
+        the errors where its corners are more than ``ROBOT_ERRORS_DOMINATE`` times as far off
+        as each view's own picture's (the robot's pose errors then set the fit;
+        ``CameraCalibrationRun.exact_robot_ratio``).
     write_poses, write_camera, save_corners : str or None
         The pose file (camera in its mount, board in its holder), the camera's intrinsics and
         the corners CSV to write - together, atomically, only when the calibration succeeds.
@@ -471,6 +483,7 @@ def calibrate_camera(
     all_views = capture_views(captures, detections)
     corners = all_views.corners
     t0 = time.perf_counter()
+    exact_ratio = None
     try:
         if robot is not None:
             result = calibrate_views_with_robot(
@@ -483,8 +496,16 @@ def calibrate_camera(
             )
         else:
             result = calibrate_views(
-                all_views.subset(fit), fix_intrinsics=fix_intrinsics, flange_errors=flange_errors
+                all_views.subset(fit),
+                fix_intrinsics=fix_intrinsics,
+                flange_errors=bool(flange_errors),
             )
+            if flange_errors is None:
+                exact_ratio = exact_robot_ratio(result)
+                if exact_ratio is not None and exact_ratio > ROBOT_ERRORS_DOMINATE:
+                    result = calibrate_views(
+                        all_views.subset(fit), fix_intrinsics=fix_intrinsics, flange_errors=True
+                    )
     except CalibrationRefused as exc:
         refused = [f"{d.name}: {d.refused} ({d.detail})" for d in detections if d.refused]
         message = str(exc)
@@ -533,6 +554,7 @@ def calibrate_camera(
         seconds,
         held_out_view_rms=held_view_rms,
         robot_named=captures.robot_cell is not None,
+        exact_robot_ratio=exact_ratio,
     )
     date = _dt.datetime.now().replace(microsecond=0).isoformat()
     outputs = [

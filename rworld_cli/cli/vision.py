@@ -51,13 +51,15 @@ from .common import (
     help="Keep the capture file's intrinsics; fit the camera's and the board's poses only.",
 )
 @click.option(
-    "--flange-errors",
-    is_flag=True,
-    help="Give each view's flange pose an error of its own, estimated with its sigma and its "
-    "correlation over the poses (a robot's errors are alike at near poses): intrinsics from "
-    "each view's own picture of the board, the robot's pose error reported, held-out views "
-    "predicted where the robot is expected to be (default: the robot's poses exact, the "
-    "parameters fitted through them).",
+    "--flange-errors/--exact-robot",
+    default=None,
+    help="The model of the robot's poses. --flange-errors: each view's flange pose has an "
+    "error of its own, estimated with its sigma and its correlation over the poses (a robot's "
+    "errors are alike at near poses): intrinsics from each view's own picture of the board, "
+    "the robot's pose error reported, held-out views predicted where the robot is expected "
+    "to be. --exact-robot: the robot's poses exact, the parameters fitted through them. "
+    "Default: chosen by the data - the exact robot, unless its corners come out more than 3x "
+    "as far off as in each view's own picture (the robot's pose errors then set the fit).",
 )
 @click.option(
     "--through-robot",
@@ -111,15 +113,16 @@ def calibrate_camera(
     image whose board is not found, partly seen or blurred is named and left out. OpenCV's
     closed forms give the start; Huber's loss keeps a bad corner from pulling the fit; the
     sigmas allow the errors of one view to be shared (a robot pose's error moves all of its
-    corners). A robot that only translates, or turns about one axis, is refused: the hand-eye
-    is then unobservable. Nothing is written unless the calibration succeeds; programs are
+    corners). The robot's poses are taken as exact, or each given an error of its own where
+    the data says they set the fit (--flange-errors/--exact-robot). A robot that only
+    translates, or turns about one axis, is refused: the hand-eye is then unobservable. Nothing is written unless the calibration succeeds; programs are
     never touched (docs/vision.md).
 
     \b
     Examples:
       rworld calibrate-camera captures.yaml
       rworld calibrate-camera captures.yaml --holdout-every 4 --json
-      rworld calibrate-camera captures.yaml --flange-errors
+      rworld calibrate-camera captures.yaml --exact-robot
       rworld calibrate-camera captures.yaml --write-poses camera_poses.yaml \\
           --write-camera camera.yaml --save-corners corners.csv
       # the robot's own errors: the views as 6-DoF observations, calibrate-robot, again
@@ -203,17 +206,29 @@ def _render(run) -> None:
             f"each view's own picture of the board (its own pose, no robot in it): rms "
             f"{run.pictures_rms:.3f} px"
         )
+    with_robot = (
+        "; the capture file names the robot and each view's joints: --with-robot estimates "
+        "the robot's own joint-frame errors with the camera"
+        if run.robot_named
+        else ""
+    )
+    if run.exact_robot_ratio is not None:
+        if r.flange_sigma is not None:
+            click.echo(
+                f"model: the robot's pose errors (chosen: through its poses as given the corners "
+                f"came out {run.exact_robot_ratio:.0f}x as far off as in each view's own picture; "
+                "--exact-robot keeps them exact)" + with_robot
+            )
+        else:
+            click.echo(
+                f"model: the robot's poses exact (chosen: the corners through them "
+                f"{run.exact_robot_ratio:.2f}x as far off as in each view's own picture)"
+            )
     if run.robot_errors_dominate:
         click.echo(
             f"  the corners through the robot are {r.rms / run.pictures_rms:.0f}x as far off: "
             "the robot's pose errors set this fit, not the pictures - --flange-errors models "
-            "them (docs/vision.md, 'Two models of the robot')"
-            + (
-                "; the capture file names the robot and each view's joints: --with-robot "
-                "estimates the robot's own joint-frame errors with the camera"
-                if run.robot_named
-                else ""
-            )
+            "them (docs/vision.md, 'Two models of the robot')" + with_robot
         )
     if r.flange_sigma is not None:
         click.echo(

@@ -201,6 +201,14 @@ def robot_pose_files(cell, device: str) -> list[Path]:
     return out
 
 
+#: a pose matrix's rotation part further than this from a rotation (``rotation_error``) is
+#: refused; nearer, its nearest rotation is used: a matrix printed to 4 decimals is at most
+#: about 3e-4 away, a typo far more
+MATRIX_ROTATION_REFUSED = 1e-3
+#: ... and said (a warning) beyond this: 6 decimals' rounding (about 3e-6) passes quietly
+MATRIX_ROTATION_QUIET = 1e-5
+
+
 def pose_to_matrix(
     pose: sm.Pose, length: float, angle: float
 ) -> tuple[np.ndarray, str | None, str | None]:
@@ -214,16 +222,28 @@ def pose_to_matrix(
                 None,
             )
         err = float(spatial.rotation_error(M[:3, :3]))
-        if err > 1e-6:
+        if err > MATRIX_ROTATION_REFUSED:
             return (
                 np.eye(4),
                 "the matrix's rotation part is not a rotation (|R^T R - I| or |det R - 1| = "
                 f"{err:.3g})",
                 None,
             )
+        warning = None
         T = M.copy()
+        if err > 1e-12:
+            # a matrix printed to a few decimals (a controller's log, a data set's text
+            # file): its nearest rotation, the one a least-squares fit of the printed
+            # entries gives (SVD); 6 decimals leave |R^T R - I| up to about 3e-6
+            U, _, Vt = np.linalg.svd(M[:3, :3])
+            T[:3, :3] = U @ Vt
+            if err > MATRIX_ROTATION_QUIET:
+                warning = (
+                    f"the matrix's rotation part is {err:.2g} from a rotation (printed to few "
+                    "decimals?); its nearest rotation used"
+                )
         T[:3, 3] *= length
-        return T, None, None
+        return T, None, warning
     p = np.array(pose.xyz if pose.xyz is not None else [0.0, 0.0, 0.0]) * length
     warning = None
     if pose.quaternion_wxyz is not None:

@@ -928,10 +928,10 @@ def calibrate_views(
             theta, errors, fit_covariances, sig, res, w = _fit_flange_errors(
                 problem, theta, free, sig[0], correlation=prior, start=(errors, sig)
             )
-        theta, folded, cov_flange, B, C = _through_robot_errors(
+        theta, folded, cov_flange, B_shared, C_shared = _through_robot_errors(
             problem, theta, free, errors, fit_covariances, (sig[1], sig[2])
         )
-        field_ = FlangeErrorField(lever, length, share, F, errors, B, C)
+        field_ = FlangeErrorField(lever, length, share, F, errors, B_shared, C_shared)
         errors = folded
         flange_sigma = (float(sig[1]), float(sig[2]))
         J = problem.jacobian(theta)[:, free]
@@ -1174,6 +1174,21 @@ def calibrate_views_with_robot(
 
 
 # --------------------------------------------------------------------------- checks on views
+
+
+def pictures_rms(result: CameraCalibration) -> float | None:
+    """The fitted views' corners against each view's own pose of the board (OpenCV's
+    ``calibrateCamera``: no robot pose in it), rms a corner [px]: the corners' own noise."""
+    noise = result.start.get("pixel_noise")
+    return None if noise is None else float(np.sqrt(2.0) * noise)
+
+
+def exact_robot_ratio(result: CameraCalibration) -> float | None:
+    """How many times as far off the corners through the robot's poses are (``result.rms``)
+    as in each view's own picture (:func:`pictures_rms`): near 1 where the robot's poses are
+    as good as the pictures, far above where its pose errors set the fit."""
+    own = pictures_rms(result)
+    return None if own is None or own <= 0 else float(result.rms / own)
 
 
 def reprojection_rms(result_camera: CameraModel, X, Z, views: BoardViews) -> float:

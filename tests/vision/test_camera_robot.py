@@ -72,7 +72,7 @@ def test_the_camera_calibrates_the_robot_and_then_predicts_through_it(setup):
         true_camera.append(true_world.T("ur5", "wrist_camera"))
     true_camera = np.array(true_camera)
 
-    exact = calibrate_camera(str(captures), holdout_every=4)
+    exact = calibrate_camera(str(captures), holdout_every=4, flange_errors=False)
     observations = root / "robot_obs.yaml"
     calibrate_camera(str(captures), write_robot_observations=str(observations))
     text = observations.read_text()
@@ -88,6 +88,8 @@ def test_the_camera_calibrates_the_robot_and_then_predicts_through_it(setup):
     assert exact.robot_errors_dominate and exact.robot_named
     r = run_cli(["calibrate-camera", str(captures)])
     assert r.exit_code == 0, r.output
+    # by default the model of the robot's pose errors, chosen, and --with-robot named
+    assert "model: the robot's pose errors (chosen: through its poses as given" in r.stdout
     assert "--with-robot estimates the robot's own joint-frame errors" in r.stdout
     assert through.held_out_rms < 2 * NOISE_PX, through.held_out_rms
     # where the camera is in the board's frame at the held-out joints, against the truth:
@@ -221,7 +223,7 @@ def test_one_estimate_with_the_robot_eye_to_hand_on_a_vendors_robot(tmp_path):
     captures = emulated_captures(
         tmp_path, nominal, truth, plan.joints, np.random.default_rng(5), NOISE_PX
     )
-    exact = calibrate_camera(str(captures), holdout_every=4)
+    exact = calibrate_camera(str(captures), holdout_every=4, flange_errors=False)
     one = calibrate_camera(str(captures), holdout_every=4, with_robot=True)
     assert one.setup == "eye-to-hand"
     assert exact.held_out_rms > 10 * NOISE_PX, exact.held_out_rms

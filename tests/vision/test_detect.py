@@ -113,3 +113,24 @@ def test_a_real_charuco_image_gives_every_corner_in_the_vendored_order():
     # corner 0 at the board's first square (top-left in this view), the rows along +x
     c = found.corners
     assert c[0].sum() < c[-1].sum() and c[1, 0] > c[0, 0]
+
+
+def test_tabb_and_ahmad_yousefs_image_gives_the_vendored_corners():
+    # their data set 1: a 640 x 480 Sony camera on a Denso arm, a chessboard of 9 x 7 squares
+    # of 28.5 mm about 2 m away (8 x 6 inner corners); image44 as the detector reads it
+    folder = DATA.parent / "tabb1"
+    board = BoardModel("board", "chessboard", 8, 6, 0.0285)
+    grey = cv2.imread(str(folder / "images" / "image44.png"), cv2.IMREAD_GRAYSCALE)
+    found = detect("image44.png", grey, board)
+    assert found.refused is None and found.seen == 48
+    rows = [
+        r
+        for r in csv.reader(
+            line for line in open(folder / "corners.csv") if not line.startswith("#")
+        )
+    ][1:]
+    vendored = np.array([[float(r[2]), float(r[3])] for r in rows if r[0] == "image44.png"])
+    assert np.abs(found.corners - vendored).max() < 6e-5
+    # the board stands upright in this view: its 8-corner rows run down the image
+    c = found.corners
+    assert c[0].sum() < c[-1].sum() and abs(c[1, 1] - c[0, 1]) > abs(c[1, 0] - c[0, 0])

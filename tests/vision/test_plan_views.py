@@ -93,6 +93,9 @@ def _loop(cell: Path, camera: str, tmp_path: Path, candidates: int = 150) -> tup
     # an exact robot (the simulator's): the corners through it as near as in each picture
     assert out["reprojection_rms_px"] < 1.5 * out["pictures_rms_px"]
     assert out["robot_errors_dominate"] is False
+    # so the robot's poses are taken as exact, chosen by the data
+    assert out["model"] == "exact robot" and out["model_chosen"] is True
+    assert out["exact_robot_ratio"] < 1.5
     return plan, out
 
 

@@ -136,7 +136,7 @@ def test_calibrate_cameras_pose_file_gives_a_cell_its_camera(tmp_path):
         .replace("mount: flange", "mount: ur5.tool")
     )
     out = tmp_path / "camera_poses.yaml"
-    r = run_cli(["calibrate-camera", str(captures), "--write-poses", str(out)])
+    r = run_cli(["calibrate-camera", str(captures), "--exact-robot", "--write-poses", str(out)])
     assert r.exit_code == 0, r.output
     text = out.read_text()
     assert "\ncameras:\n  wrist_camera: {resolution: [1920, 1200]" in text
