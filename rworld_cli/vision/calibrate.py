@@ -579,14 +579,20 @@ def _huber_levenberg_marquardt(
         a = np.abs(r)
         return float(np.sum(np.where(a <= scale, 0.5 * a * a, scale * a - 0.5 * scale * scale)))
 
+    from scipy import sparse
+
     r = fun(x)
     c = cost(r)
     damping = 1e-3
     for _ in range(iterations):
         w = np.minimum(1.0, scale / np.maximum(np.abs(r), 1e-300))
         J = jac(x)
-        Jw = J * w[:, None]
-        N = J.T @ Jw
+        if sparse.issparse(J):  # a Jacobian of mostly zeros: its normal matrix from its entries
+            Jw = sparse.csr_matrix(J.multiply(w[:, None]))
+            N = (J.T @ Jw).toarray()
+        else:
+            Jw = J * w[:, None]
+            N = J.T @ Jw
         g = Jw.T @ r
         diag = np.maximum(np.diag(N), 1e-30)
         while True:
@@ -627,11 +633,12 @@ def _fit_flange_errors(
     and the sandwich clustered by view), sigmas (px, rad, m), residuals (px), Huber
     weights``.
     """
+    from scipy import sparse
+
     V = len(problem.F)
     m = 2 * len(problem.observed)
     nf = len(free)
     rows = np.repeat(problem.view_of, 2)
-    by_view = [np.nonzero(rows == i)[0] for i in range(V)]
     sig = [max(sigma_px, 1e-6), np.radians(0.01), 1e-4] if start is None else list(start[1])
     # the prior's rows whitened: L^-1 e / sigma for each component, C = L L^T
     whiten = np.eye(V) if correlation is None else np.linalg.inv(np.linalg.cholesky(correlation))
@@ -647,28 +654,46 @@ def _fit_flange_errors(
         w = whiten @ e
         return np.r_[r, (w[:, :3] / sig[1]).ravel(), (w[:, 3:] / sig[2]).ravel()]
 
+    # the Jacobian's pattern (scipy.sparse): the corners' rows hold the 21 parameters' columns
+    # and their own view's 6 error columns; the prior's rows one error component's columns
+    # over the views (the whitening's triangle) - 3 % of a dense one's entries on 66 views
+    views = np.arange(V)
+    corner_rows = np.arange(m)
+    a, b = np.nonzero(whiten)
+    pattern_rows = [np.repeat(corner_rows, nf)]
+    pattern_cols = [np.tile(np.arange(nf), m)]
+    for j in range(6):
+        pattern_rows.append(corner_rows)
+        pattern_cols.append(nf + 6 * rows + j)
+    for j in range(6):
+        prior = m + (3 * views + j if j < 3 else 3 * V + 3 * views + j - 3)
+        pattern_rows.append(prior[a])
+        pattern_cols.append(nf + 6 * b + j)
+    pattern = (np.concatenate(pattern_rows), np.concatenate(pattern_cols))
+    shape = (m + 6 * V, nf + 6 * V)
+
     def jac(x):
         # forward differences (the residuals are all but linear over the steps: a focal
         # length's 1e-4, a pose's 1e-8): 28 evaluations for central differences' 54
+        from scipy import sparse
+
         theta, e = split(x)
-        J = np.zeros((m + 6 * V, nf + 6 * V))
+        values = []
         steps = _steps(theta)
         here = problem.residuals(theta, e)
+        dense = np.empty((m, nf))
         for c, k in enumerate(free):
             d = np.zeros_like(theta)
             d[k] = steps[k]
-            J[:m, c] = (problem.residuals(theta + d, e) - here) / (steps[k] * sig[0])
+            dense[:, c] = (problem.residuals(theta + d, e) - here) / (steps[k] * sig[0])
+        values.append(dense.ravel())
         for j in range(6):  # each view's error moves its own corners only: all views at once
             d = np.zeros_like(e)
             d[:, j] = 1e-8
-            col = (problem.residuals(theta, e + d) - here) / (1e-8 * sig[0])
-            for i, sel in enumerate(by_view):
-                J[sel, nf + 6 * i + j] = col[sel]
-        views = np.arange(V)
+            values.append((problem.residuals(theta, e + d) - here) / (1e-8 * sig[0]))
         for j in range(6):
-            prior = m + (3 * views + j if j < 3 else 3 * V + 3 * views + j - 3)
-            J[np.ix_(prior, nf + 6 * views + j)] = whiten / (sig[1] if j < 3 else sig[2])
-        return J
+            values.append(whiten[a, b] / (sig[1] if j < 3 else sig[2]))
+        return sparse.csr_matrix((np.concatenate(values), pattern), shape=shape)
 
     x = np.r_[theta0[free], np.zeros(6 * V) if start is None else start[0].ravel()]
     groups = [
@@ -680,10 +705,10 @@ def _fit_flange_errors(
         x = _huber_levenberg_marquardt(fun, jac, x)
         r = fun(x)
         w = np.minimum(1.0, 3.0 / np.maximum(np.abs(r), 1e-300))
-        J = jac(x) * np.sqrt(w)[:, None]
+        J = sparse.csr_matrix(jac(x).multiply(np.sqrt(w)[:, None]))
         rw = r * np.sqrt(w)
-        N_inv = np.linalg.inv(J.T @ J)
-        leverage = np.sum((J @ N_inv) * J, axis=1)
+        N_inv = np.linalg.inv((J.T @ J).toarray())
+        leverage = np.asarray(J.multiply(J @ N_inv).sum(axis=1)).ravel()
         factors = []
         for g in groups:
             redundancy = len(g) - leverage[g].sum()
@@ -700,8 +725,10 @@ def _fit_flange_errors(
     # the sandwich clustered by view (a view's corners and its prior rows): a view's corners
     # share more than its flange error (the corners' noise is not white on real images)
     cluster = np.r_[rows, np.repeat(np.arange(V), 3), np.repeat(np.arange(V), 3)]
-    scores = np.zeros((V, J.shape[1]))
-    np.add.at(scores, cluster, J * rw[:, None])
+    by_cluster = sparse.csr_matrix(
+        (np.ones(len(cluster)), (cluster, np.arange(len(cluster)))), shape=(V, len(cluster))
+    )
+    scores = (by_cluster @ J.multiply(rw[:, None])).toarray()
     clustered = N_inv @ (scores.T @ scores) @ N_inv * (V / max(V - 1, 1))
     return theta, e, (N_inv, clustered), sig, residuals, w[:m]
 
