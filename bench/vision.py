@@ -5,17 +5,17 @@ Run:  .venv/bin/python bench/vision.py [--seeds 80] [--bootstrap 200] [--images 
 
 1. Real data (``--only real``: 1, 1b, 1c): Ali et al.'s KUKA eye-in-hand sets
    (``tests/data/vision/kuka1``, ``kuka2``, ``kuka3``) and Tabb and Ahmad Yousef's Denso set
-   (``tabb1``): the corners OpenCV found in the shipped images. A fixed split: every 4th view held out from the 4th (7). For rworld's two models
-   and each of OpenCV's five hand-eye methods (Tsai, Park, Horaud, Andreff, Daniilidis; the
-   board then from the views' mean through the robot) and two robot-world methods (Shah,
-   Li), on the same detections (OpenCV's intrinsics from ``calibrateCamera`` on the fitted
-   views): the held-out views' corners predicted through the robot (board in base, flange
-   pose, camera in flange, intrinsics; not each view's own PnP), rms px; AX = XB over the
-   held-out views' pairs (each view's PnP with the method's intrinsics), rms deg and mm; and
-   over the four splits (held out from the 1st, 2nd, 3rd, 4th view), how often each of
-   rworld's models is ahead of the best of OpenCV's seven on each figure (the flange-error
-   model predicts the held-out views where it expects the robot: its errors' correlation over
-   the poses, ``docs/vision.md``). 1c: the rendered
+   (``tabb1``): the corners OpenCV found in the shipped images. A fixed split: every 4th view
+   held out from the 4th (7). For rworld's two models and each of OpenCV's five hand-eye
+   methods (Tsai, Park, Horaud, Andreff, Daniilidis; the board then from the views' mean
+   through the robot) and two robot-world methods (Shah, Li), on the same detections (OpenCV's
+   intrinsics from ``calibrateCamera`` on the fitted views): the held-out views' corners
+   predicted through the robot (board in base, flange pose, camera in flange, intrinsics; not
+   each view's own PnP), rms px; AX = XB over the held-out views' pairs (each view's PnP with
+   the method's intrinsics), rms deg and mm; and over the four splits (held out from the 1st,
+   2nd, 3rd, 4th view), how often each of rworld's models is ahead of the best of OpenCV's
+   seven on each figure (the flange-error model predicts the held-out views where it expects
+   the robot: its errors' correlation over the poses, ``docs/vision.md``). 1c: the rendered
    sets with their truth (``cs_synthetic1``-``3``): each method's camera-in-flange error.
 2. The bootstrap over the fitted views (resampled with replacement) and the delete-d
    jackknife (37 % of the views left out, no view twice): the camera-in-flange pose's spread

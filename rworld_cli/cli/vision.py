@@ -115,8 +115,9 @@ def calibrate_camera(
     sigmas allow the errors of one view to be shared (a robot pose's error moves all of its
     corners). The robot's poses are taken as exact, or each given an error of its own where
     the data says they set the fit (--flange-errors/--exact-robot). A robot that only
-    translates, or turns about one axis, is refused: the hand-eye is then unobservable. Nothing is written unless the calibration succeeds; programs are
-    never touched (docs/vision.md).
+    translates, or turns about one axis, is refused: the hand-eye is then unobservable.
+    Nothing is written unless the calibration succeeds; programs are never touched
+    (docs/vision.md).
 
     \b
     Examples:

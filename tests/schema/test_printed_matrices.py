@@ -25,7 +25,9 @@ def _cell_with_box_matrix(tmp_path: Path, decimals: int | None, scale: float = 1
     rows = [[*R[i], [500.0, 20.0, -7.5][i]] for i in range(3)] + [[0, 0, 0, 1]]
     text = ", ".join("[" + ", ".join(repr(float(v)) for v in row) + "]" for row in rows)
     poses = (cell / "poses.yaml").read_text().splitlines()
-    poses = [f"  box: {{matrix: [{text}]}}" if line.startswith("  box:") else line for line in poses]
+    poses = [
+        f"  box: {{matrix: [{text}]}}" if line.startswith("  box:") else line for line in poses
+    ]
     (cell / "poses.yaml").write_text("\n".join(poses) + "\n")
     return cell
 
