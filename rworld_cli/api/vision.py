@@ -22,6 +22,7 @@ from ..vision.calibrate import (
     calibrate_views,
     calibrate_views_with_robot,
     exact_robot_ratio,
+    orient_to_robot,
     pictures_rms,
     reprojection_rms,
     view_poses,
@@ -83,6 +84,9 @@ class CameraCalibrationRun:
     #: the model of the robot's poses was chosen by the data (none asked): the exact-robot
     #: fit's corners this many times as far off as each view's own picture's
     exact_robot_ratio: float | None = None
+    #: views whose corners were renumbered to agree with the robot's motion (a chessboard
+    #: numbered from another corner): {name: the turn [deg]}
+    turned: dict[str, float] = field(default_factory=dict)
 
     def as_dict(self) -> dict:
         r = self.result
@@ -104,6 +108,7 @@ class CameraCalibrationRun:
                 "reprojection_rms_px": r.rms,
                 "pictures_rms_px": self.pictures_rms,
                 "robot_errors_dominate": self.robot_errors_dominate,
+                "turned_views": self.turned,
                 "model_chosen": self.exact_robot_ratio is not None,
                 "exact_robot_ratio": self.exact_robot_ratio,
                 "robot_named": self.robot_named,
@@ -481,6 +486,15 @@ def calibrate_camera(
     held = [k for i, k in enumerate(used) if holdout_every and (i + 1) % holdout_every == 0]
     fit = [k for k in used if k not in held]
     all_views = capture_views(captures, detections)
+    # a chessboard's views numbered from another corner than the others: renumbered where the
+    # robot's motion says so (their own poses turned about the board's normal otherwise)
+    oriented, turned = orient_to_robot(
+        all_views.subset(used), captures.camera if fix_intrinsics else None
+    )
+    if turned:
+        corners = all_views.corners.copy()
+        corners[used] = oriented.corners
+        all_views = dataclasses.replace(all_views, corners=corners)
     corners = all_views.corners
     t0 = time.perf_counter()
     exact_ratio = None
@@ -555,6 +569,7 @@ def calibrate_camera(
         held_out_view_rms=held_view_rms,
         robot_named=captures.robot_cell is not None,
         exact_robot_ratio=exact_ratio,
+        turned=turned,
     )
     date = _dt.datetime.now().replace(microsecond=0).isoformat()
     outputs = [

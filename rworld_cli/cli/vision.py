@@ -179,6 +179,12 @@ def _render(run) -> None:
     for d in run.detections:
         if d.refused:
             click.echo(f"  {d.name}: not used: {d.refused} ({d.detail})")
+    if run.turned:
+        click.echo(
+            f"  {len(run.turned)} views' corners renumbered to agree with the robot's motion "
+            "(the chessboard counted from another corner): "
+            + ", ".join(f"{name} {angle:.0f} deg" for name, angle in run.turned.items())
+        )
     click.echo(f"camera {cam.name} ({cam.width}x{cam.height} px):")
     for k, name in enumerate(("fx", "fy", "cx", "cy")):
         click.echo(f"  {name} {cam.intrinsics[k]:10.3f} +- {s[k]:.3f} px")

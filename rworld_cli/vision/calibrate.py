@@ -22,6 +22,7 @@ then put into ``X`` and ``Z``, and the sigma is that of the poses so seen.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from dataclasses import replace as dataclasses_replace
 
 import numpy as np
 
@@ -455,6 +456,118 @@ def pose_observations(views: BoardViews, camera: CameraModel) -> tuple[np.ndarra
     return carried, float(noise * np.median(sig_p)), float(noise * np.median(sig_r))
 
 
+#: a view's corner order is turned only where the robot's motion tells: the best order's
+#: mismatch at most this fraction of the next best's [-], and the next best's at least
+#: ``ORDER_MIN_GAP`` [rad] (the median over the other views of the turn angles' mismatch)
+ORDER_MAX_RATIO = 1.0 / 3.0
+ORDER_MIN_GAP = np.radians(5.0)
+
+
+def board_turns(board: BoardModel) -> list[np.ndarray]:
+    """The turns of a chessboard's corner grid onto itself about its normal: for each, the
+    permutation ``perm`` (N,) with point ``perm[k]`` where the turn takes point ``k``; the
+    first is no turn. A rectangular grid has the half turn; a square one the quarter turns
+    too. A ChArUco board or an AprilTag grid has none (their markers name each corner)."""
+    pts = board.points
+    identity = np.arange(len(pts))
+    if board.pattern != "chessboard":
+        return [identity]
+    centre = pts.mean(axis=0)
+    quarter = board.columns == board.rows
+    out = [identity]
+    for angle in (np.pi / 2, np.pi, 3 * np.pi / 2) if quarter else (np.pi,):
+        turned = (pts - centre) @ spatial.rot_z(angle).T + centre
+        d = np.linalg.norm(turned[:, None, :2] - pts[None, :, :2], axis=-1)
+        perm = np.argmin(d, axis=1)
+        if d[identity, perm].max() < 1e-9 * max(board.square, 1e-12):
+            out.append(perm)
+    return out
+
+
+def orient_to_robot(views: BoardViews, camera: CameraModel | None = None):
+    """Each chessboard view's corner order agreed with the robot's motion.
+
+    A chessboard's pattern turned by half a turn (a quarter, if square) looks the same, so a
+    detector may number a view's corners from another corner than the next view's: its own
+    pose of the board is then turned about the board's normal, and the hand-eye's equations
+    (the camera's motion between two views the robot's, seen from the camera) do not hold.
+    The turn angle of a motion is the same seen from the camera or from the flange: for every
+    pair of views, the camera's turn (each view's own pose, OpenCV's ``calibrateCamera``, or
+    PnP with ``camera``) against the robot's. Each view's order is the one whose turns agree
+    with the other views' (the median mismatch), taken where the next best is clearly worse
+    (``ORDER_MAX_RATIO``, ``ORDER_MIN_GAP``); the order most views came with is kept.
+
+    Returns
+    -------
+    views : BoardViews
+        The views with their corners renumbered where needed.
+    turned : dict
+        ``{view name: the turn [deg] its corners were renumbered by}``.
+    """
+    perms = board_turns(views.board)
+    V = len(views.names)
+    if len(perms) == 1 or V < 3:
+        return views, {}
+    import cv2
+
+    K = len(perms)
+    try:
+        C = view_poses(views, camera) if camera is not None else intrinsics_start(views, False)[1]
+    except (cv2.error, CalibrationRefused):  # the calibration names what is wrong with them
+        return views, {}
+    RC, RH = C[:, :3, :3], views.H[:, :3, :3]
+
+    def angles(R):
+        return np.linalg.norm(spatial.rotation_vector(R), axis=-1)
+
+    robot = angles(RH[:, None] @ np.swapaxes(RH[None], -1, -2))  # (V, V)
+    step = 2 * np.pi / K
+    # mismatch[d, i, j]: the pair's turns with view j's order turned by d steps against i's
+    mismatch = np.stack(
+        [
+            np.abs(
+                angles(RC[:, None] @ spatial.rot_z(d * step) @ np.swapaxes(RC[None], -1, -2))
+                - robot
+            )
+            for d in range(K)
+        ]
+    )
+    np.einsum("dii->di", mismatch)[:] = np.nan  # a view with itself says nothing
+    labels = np.zeros(V, dtype=int)
+    for _ in range(20):
+        # cost[t, j]: view j's order turned by t against every other view's current one
+        cost = np.stack(
+            [
+                np.nanmedian(
+                    mismatch[(t - labels[:, None]) % K, np.arange(V)[:, None], np.arange(V)[None]],
+                    axis=0,
+                )
+                for t in range(K)
+            ]
+        )
+        new = np.argmin(cost, axis=0)
+        if np.array_equal(new, labels):
+            break
+        labels = new
+    ranked = np.sort(cost, axis=0)
+    clear = (ranked[0] <= ORDER_MAX_RATIO * ranked[1]) & (ranked[1] >= ORDER_MIN_GAP)
+    labels = np.where(clear, labels, 0)
+    # the order most views came with is the board's
+    shift = int(np.argmax(np.bincount(labels[clear] % K, minlength=K))) if clear.any() else 0
+    labels = np.where(clear, (labels - shift) % K, 0)
+    if not labels.any():
+        return views, {}
+    corners = views.corners.copy()
+    turned = {}
+    for i in np.nonzero(labels)[0]:
+        # the view's order is the board's turned by labels[i] steps: its corner k is the
+        # board's corner perm[k] under that turn (a view's camera-to-board pose C turned: C S)
+        perm = perms[labels[i]]
+        corners[i, perm] = views.corners[i]
+        turned[views.names[i]] = float(np.degrees(labels[i] * step))
+    return dataclasses_replace(views, corners=corners), turned
+
+
 def robot_world_start(views: BoardViews, C: np.ndarray, method: int | None = None):
     """OpenCV's robot-world hand-eye closed form: ``(T_mount_camera, T_holder_board)`` from
     each view's ``C_i = T_camera_board`` (default Shah's method)."""
@@ -675,8 +788,6 @@ def _fit_flange_errors(
     def jac(x):
         # forward differences (the residuals are all but linear over the steps: a focal
         # length's 1e-4, a pose's 1e-8): 28 evaluations for central differences' 54
-        from scipy import sparse
-
         theta, e = split(x)
         values = []
         steps = _steps(theta)

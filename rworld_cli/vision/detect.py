@@ -97,7 +97,8 @@ def detect_chessboard(name: str, grey: np.ndarray, board: BoardModel) -> Detecti
 def _orient(corners: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     """OpenCV orders a chessboard's corners from either end; keep the order whose first corner
     is nearer the image's top-left, so that one board's views agree (a board turned by more
-    than 90 degrees between views is beyond this rule: use a ChArUco board)."""
+    than 90 degrees between views is beyond this rule: the calibration renumbers such views
+    by the robot's motion, ``vision/calibrate.orient_to_robot``)."""
     if corners[0, 0] + corners[0, 1] > corners[-1, 0] + corners[-1, 1]:
         return corners[::-1].copy()
     return corners

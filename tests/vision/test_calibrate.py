@@ -184,12 +184,17 @@ def test_the_poses_written_hold_the_robots_errors_the_views_cannot_tell_from_the
     assert rms < 0.15, rms  # 0.1 px a coordinate: 0.14 px a corner
 
 
-@pytest.fixture(scope="module")
-def kuka2():
+def _views_of(name: str) -> vc.BoardViews:
+    """A vendored real set's views (``tests/data/vision/NAME``), its corners as vendored."""
     from rworld_cli.api.vision import capture_views
     from rworld_cli.schema.captures import read_captures
 
-    return capture_views(read_captures(str(DATA / "captures.yaml")))
+    return capture_views(read_captures(str(DATA.parent / name / "captures.yaml")))
+
+
+@pytest.fixture(scope="module")
+def kuka2():
+    return _views_of("kuka2")
 
 
 def test_the_real_kuka_views_held_out_are_predicted_better_than_by_opencvs_methods(kuka2):
@@ -307,3 +312,45 @@ def test_a_robots_errors_alike_at_near_poses_are_predicted_at_held_out_views():
     )
     # predicted through where the robot is expected (this seed: 0.44 px against 1.67)
     assert expected < 0.3 * nominal, (expected, nominal)
+
+
+def test_a_chessboards_views_counted_from_another_corner_are_renumbered_by_the_robots_motion():
+    # Tabb and Ahmad Yousef's set: a chessboard of 9 x 7 squares looks the same turned by half
+    # a turn; five views' corners numbered from the opposite corner, as a detector may
+    views = _views_of("tabb1")
+    corners = views.corners.copy()
+    for i in (5, 17, 40, 41, 42):
+        corners[i] = corners[i][::-1]
+    oriented, turned = vc.orient_to_robot(dataclasses.replace(views, corners=corners))
+    assert turned == {f"image{i:02d}.png": 180.0 for i in (5, 17, 40, 41, 42)}
+    np.testing.assert_array_equal(oriented.corners, views.corners)
+    # the views as shipped agree with the robot already: nothing renumbered
+    assert vc.orient_to_robot(views)[1] == {}
+
+
+@pytest.mark.parametrize("setup", [vc.EYE_IN_HAND, vc.EYE_TO_HAND])
+def test_a_square_boards_views_are_renumbered_by_quarter_turns_too(setup):
+    board = BoardModel("board", "chessboard", 7, 7, 0.03)
+    X, Z = X_TRUE, Z_TRUE
+    if setup == vc.EYE_TO_HAND:
+        X = spatial.make_transform(spatial.rpy_to_matrix(np.radians([180, 5, 0])), [0.7, 0, 1.4])
+        Z = spatial.make_transform(spatial.rpy_to_matrix(np.radians([0, 0, 45])), [0, 0, 0.05])
+    views = random_views(np.random.default_rng(3), CAMERA, board, X, Z, 16, setup=setup)
+    perms = vc.board_turns(board)
+    assert len(perms) == 4
+    # the quarter turn: the first row's corners (along x) become the first column's
+    p = board.points
+    centre = p.mean(axis=0)
+    np.testing.assert_allclose(
+        p[perms[1]] - centre, (p - centre) @ spatial.rot_z(np.pi / 2).T, atol=1e-12
+    )
+    corners = views.corners.copy()
+    turns = {2: 1, 5: 2, 9: 3, 12: 1}
+    for i, t in turns.items():
+        corners[i] = views.corners[i][perms[t]]  # numbered as the board turned back by t
+    oriented, turned = vc.orient_to_robot(dataclasses.replace(views, corners=corners))
+    assert set(turned) == {views.names[i] for i in turns}
+    np.testing.assert_allclose(oriented.corners, views.corners, atol=1e-12)
+    # a rectangular chessboard has the half turn only, a ChArUco board none
+    assert len(vc.board_turns(BOARD)) == 2
+    assert len(vc.board_turns(BoardModel("b", "charuco", 5, 7, 0.04, 0.03, "DICT_4X4_50"))) == 1

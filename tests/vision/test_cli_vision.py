@@ -277,3 +277,37 @@ def test_tabb_and_ahmad_yousefs_robot_world_set_calibrates_ahead_of_opencv():
     assert held is not None and axxb is not None, r.stdout
     assert float(held[1]) < 0.3 * 4.862
     assert float(axxb[1]) < 0.6 * 0.5651 and float(axxb[2]) < 0.6 * 19.222
+
+
+def test_views_counted_from_another_corner_are_named_and_calibrate_as_the_others(tmp_path):
+    # Tabb and Ahmad Yousef's chessboard (9 x 7 squares) looks the same half turned: three
+    # views' corners written from the opposite corner, as a detector may number them
+    folder = DATA.parent / "tabb1"
+    shutil.copy(folder / "captures.yaml", tmp_path / "captures.yaml")
+    rows = (folder / "corners.csv").read_text().splitlines()
+    turned = ("image07.png", "image30.png", "image61.png")
+    out = []
+    for line in rows:
+        parts = line.split(",")
+        if parts[0] in turned:
+            parts[1] = str(47 - int(parts[1]))
+        out.append(",".join(parts))
+    (tmp_path / "corners.csv").write_text("\n".join(out) + "\n")
+    args = ["--exact-robot", "--json", "--save-corners", str(tmp_path / "again.csv")]
+    r = run_cli(["calibrate-camera", str(tmp_path / "captures.yaml"), *args])
+    assert r.exit_code == 0, r.output
+    got = json.loads(r.stdout)
+    assert got["turned_views"] == {name: 180.0 for name in turned}
+    r = run_cli(["calibrate-camera", str(folder / "captures.yaml"), "--exact-robot", "--json"])
+    shipped = json.loads(r.stdout)
+    assert shipped["turned_views"] == {}
+    # the same fit (run to run this ill-conditioned one moves by 5e-5 mm: OpenCV's threads)
+    for key in ("camera_pose", "board_pose"):
+        np.testing.assert_allclose(got[key]["xyz_mm"], shipped[key]["xyz_mm"], atol=1e-3)
+    # the corners saved are the renumbered ones: the shipped file's rows, every one
+    assert sorted((tmp_path / "again.csv").read_text().splitlines()[2:]) == sorted(rows[2:])
+    text = run_cli(["calibrate-camera", str(tmp_path / "captures.yaml"), "--exact-robot"]).stdout
+    assert (
+        "3 views' corners renumbered to agree with the robot's motion (the chessboard counted "
+        "from another corner): image07.png 180 deg, image30.png 180 deg, image61.png 180 deg"
+    ) in text
