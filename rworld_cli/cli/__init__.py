@@ -7,8 +7,15 @@ Commands live in their own modules and are imported only when run, so
 from __future__ import annotations
 
 import importlib
+import os
 import sys
 import warnings
+
+# One BLAS thread unless the caller sets another count (before numpy loads OpenBLAS): rworld's
+# matrices are small (a few hundred rows at most), and OpenBLAS's threads cost more than they
+# give there - on a core another process keeps busy (a CI runner, a Dask worker, two commands
+# at once) far more (a 417 x 417 solve 170 ms against 6 ms on one thread; docs/performance.md)
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import click
 
