@@ -17,11 +17,10 @@ DATA = Path(__file__).resolve().parents[1] / "data" / "vision" / "kuka2"
 BOARD = BoardModel("board", "chessboard", 24, 17, 0.015)
 
 
-def _vendored(view: str) -> np.ndarray:
-    rows = [
-        r
-        for r in csv.reader(line for line in open(DATA / "corners.csv") if not line.startswith("#"))
-    ][1:]
+def _vendored(view: str, folder: Path = DATA) -> np.ndarray:
+    """The corners vendored for ``view`` in ``folder``'s corners.csv, (N, 2) [px]."""
+    lines = (line for line in open(folder / "corners.csv") if not line.startswith("#"))
+    rows = list(csv.reader(lines))[1:]
     return np.array([[float(r[2]), float(r[3])] for r in rows if r[0] == view])
 
 
@@ -102,14 +101,7 @@ def test_a_real_charuco_image_gives_every_corner_in_the_vendored_order():
     grey = cv2.imread(str(folder / "images" / "01.png"), cv2.IMREAD_GRAYSCALE)
     found = detect("01.png", grey, board)
     assert found.refused is None and found.seen == 88  # 11 x 8 inner corners
-    rows = [
-        r
-        for r in csv.reader(
-            line for line in open(folder / "corners.csv") if not line.startswith("#")
-        )
-    ][1:]
-    vendored = np.array([[float(r[2]), float(r[3])] for r in rows if r[0] == "01.png"])
-    assert np.abs(found.corners - vendored).max() < 6e-5
+    assert np.abs(found.corners - _vendored("01.png", folder)).max() < 6e-5
     # corner 0 at the board's first square (top-left in this view), the rows along +x
     c = found.corners
     assert c[0].sum() < c[-1].sum() and c[1, 0] > c[0, 0]
@@ -123,14 +115,7 @@ def test_tabb_and_ahmad_yousefs_image_gives_the_vendored_corners():
     grey = cv2.imread(str(folder / "images" / "image44.png"), cv2.IMREAD_GRAYSCALE)
     found = detect("image44.png", grey, board)
     assert found.refused is None and found.seen == 48
-    rows = [
-        r
-        for r in csv.reader(
-            line for line in open(folder / "corners.csv") if not line.startswith("#")
-        )
-    ][1:]
-    vendored = np.array([[float(r[2]), float(r[3])] for r in rows if r[0] == "image44.png"])
-    assert np.abs(found.corners - vendored).max() < 6e-5
+    assert np.abs(found.corners - _vendored("image44.png", folder)).max() < 6e-5
     # the board stands upright in this view: its 8-corner rows run down the image
     c = found.corners
     assert c[0].sum() < c[-1].sum() and abs(c[1, 1] - c[0, 1]) > abs(c[1, 0] - c[0, 0])
