@@ -509,6 +509,9 @@ def calibrate_camera(
                 all_views, T_base_flange=robot.poses(result.robot.p, captures.joints)
             )
         else:
+            if progress is not None:
+                model = "each view's flange error" if flange_errors else "the robot's poses exact"
+                progress(0, None, f"calibrating: {model}")
             result = calibrate_views(
                 all_views.subset(fit),
                 fix_intrinsics=fix_intrinsics,
@@ -517,6 +520,13 @@ def calibrate_camera(
             if flange_errors is None:
                 exact_ratio = exact_robot_ratio(result)
                 if exact_ratio is not None and exact_ratio > ROBOT_ERRORS_DOMINATE:
+                    if progress is not None:
+                        progress(
+                            0,
+                            None,
+                            f"calibrating: each view's flange error (the exact robot's corners "
+                            f"{exact_ratio:.0f}x the pictures')",
+                        )
                     result = calibrate_views(
                         all_views.subset(fit), fix_intrinsics=fix_intrinsics, flange_errors=True
                     )
