@@ -15,13 +15,13 @@ import numpy as np
 from ..errors import Issue, UserError
 from ..jsonvalues import finite
 from ..vision.calibrate import (
+    ROBOT_ERRORS_DOMINATE,
     BoardViews,
     CalibrationRefused,
     CameraCalibration,
     axxb_residuals,
     calibrate_views,
     calibrate_views_with_robot,
-    exact_robot_ratio,
     orient_to_robot,
     pictures_rms,
     reprojection_rms,
@@ -36,11 +36,6 @@ MIN_CORNERS = 6
 #: the most pixels an image may say it has (OpenCV's own bound, lowered from 2^30): 16384 x
 #: 16384, more than any industrial camera's
 MAX_IMAGE_PIXELS = 2**28
-#: the exact-robot fit's corners this many times as far off as each view's own picture's: the
-#: robot's pose errors set the fit, and the model of them is taken unless one is asked
-#: (rendered exact robots: 1.05-1.24; the real sets, Ali et al.'s KUKA and Tabb and Ahmad
-#: Yousef's Denso: 9.8-32)
-ROBOT_ERRORS_DOMINATE = 3.0
 
 
 @dataclass
@@ -81,9 +76,6 @@ class CameraCalibrationRun:
     #: the capture file names the robot's cell and each view's joints (``robot:``): the fits
     #: through the robot (``--through-robot``, ``--with-robot``) can be asked
     robot_named: bool = False
-    #: the model of the robot's poses was chosen by the data (none asked): the exact-robot
-    #: fit's corners this many times as far off as each view's own picture's
-    exact_robot_ratio: float | None = None
     #: views whose corners were renumbered to agree with the robot's motion (a chessboard
     #: numbered from another corner): {name: the turn [deg]}
     turned: dict[str, float] = field(default_factory=dict)
@@ -163,14 +155,20 @@ class CameraCalibrationRun:
         return pictures_rms(self.result)
 
     @property
+    def exact_robot_ratio(self) -> float | None:
+        """Where the data chose the model of the robot's poses (none asked): the exact-robot
+        fit's corners this many times as far off as each view's own picture's."""
+        r = self.result
+        return r.exact_ratio if r.model_chosen else None
+
+    @property
     def robot_errors_dominate(self) -> bool:
         """The robot's poses taken as exact, and the corners through them over 3x as far off
         as in each view's own picture: the robot's pose errors, not the pictures, set the
         fit (``--flange-errors`` models them)."""
         r = self.result
         exact = r.flange_sigma is None and r.robot is None
-        ratio = exact_robot_ratio(r)
-        return exact and ratio is not None and ratio > ROBOT_ERRORS_DOMINATE
+        return exact and r.exact_ratio is not None and r.exact_ratio > ROBOT_ERRORS_DOMINATE
 
     def view_rms(self, name: str) -> float | None:
         if name in self.result.names:
@@ -397,9 +395,9 @@ def calibrate_camera(
     flange_errors : bool or None
         Give each view's flange pose an error of its own, estimated with its sigma
         (:func:`~rworld_cli.vision.calibrate.calibrate_views`); False: the robot's poses
-        exact; None (default): chosen by the data - the exact-robot fit first, the model of
-        the errors where its corners are more than ``ROBOT_ERRORS_DOMINATE`` times as far off
-        as each view's own picture's (the robot's pose errors then set the fit;
+        exact; None (default): chosen by the data - the model of the errors where the
+        exact-robot fit's corners are more than ``ROBOT_ERRORS_DOMINATE`` times as far off as
+        each view's own picture's (the robot's pose errors then set the fit;
         ``CameraCalibrationRun.exact_robot_ratio``).
     write_poses, write_camera, save_corners : str or None
         The pose file (camera in its mount, board in its holder), the camera's intrinsics and
@@ -497,7 +495,6 @@ def calibrate_camera(
         all_views = dataclasses.replace(all_views, corners=corners)
     corners = all_views.corners
     t0 = time.perf_counter()
-    exact_ratio = None
     try:
         if robot is not None:
             result = calibrate_views_with_robot(
@@ -510,26 +507,10 @@ def calibrate_camera(
             )
         else:
             if progress is not None:
-                model = "each view's flange error" if flange_errors else "the robot's poses exact"
-                progress(0, None, f"calibrating: {model}")
+                progress(0, None, "calibrating")
             result = calibrate_views(
-                all_views.subset(fit),
-                fix_intrinsics=fix_intrinsics,
-                flange_errors=bool(flange_errors),
+                all_views.subset(fit), fix_intrinsics=fix_intrinsics, flange_errors=flange_errors
             )
-            if flange_errors is None:
-                exact_ratio = exact_robot_ratio(result)
-                if exact_ratio is not None and exact_ratio > ROBOT_ERRORS_DOMINATE:
-                    if progress is not None:
-                        progress(
-                            0,
-                            None,
-                            f"calibrating: each view's flange error (the exact robot's corners "
-                            f"{exact_ratio:.0f}x the pictures')",
-                        )
-                    result = calibrate_views(
-                        all_views.subset(fit), fix_intrinsics=fix_intrinsics, flange_errors=True
-                    )
     except CalibrationRefused as exc:
         refused = [f"{d.name}: {d.refused} ({d.detail})" for d in detections if d.refused]
         message = str(exc)
@@ -578,7 +559,6 @@ def calibrate_camera(
         seconds,
         held_out_view_rms=held_view_rms,
         robot_named=captures.robot_cell is not None,
-        exact_robot_ratio=exact_ratio,
         turned=turned,
     )
     date = _dt.datetime.now().replace(microsecond=0).isoformat()
