@@ -162,13 +162,15 @@ def place_weight(
     P = len(robot.names)
     theta0 = np.r_[camera.intrinsics, np.zeros(12)]
 
-    def place(theta, p):  # the camera in the board's frame (K, 4, 4); X, Z moved as the fit's
+    nominal = robot.poses(np.zeros(P), joints)
+
+    def place(theta, p=None):  # the camera in the board's frame (K, 4, 4); X, Z moved as the fit's
         Xt, Zt = _perturbed(X, theta[9:15]), _perturbed(Z, theta[15:21])
-        F = robot.poses(p, joints)
+        F = nominal if p is None else robot.poses(p, joints)
         H_inv = F if setup == "eye-in-hand" else spatial.invert_transform(F)
         return spatial.invert_transform(Zt) @ H_inv @ Xt
 
-    base = place(theta0, np.zeros(P))
+    base = place(theta0)
 
     def moved(T):  # (K, 6): the position's change, the rotation's (times the lever) [m]
         turn = spatial.rotation_vector(np.swapaxes(base[:, :3, :3], 1, 2) @ T[:, :3, :3])
@@ -180,9 +182,7 @@ def place_weight(
     for k in range(9, 21):  # the intrinsics move no pose
         d = np.zeros(21)
         d[k] = steps[k]
-        L[:, :, k] = (
-            moved(place(theta0 + d, np.zeros(P))) - moved(place(theta0 - d, np.zeros(P)))
-        ) / (2 * steps[k])
+        L[:, :, k] = (moved(place(theta0 + d)) - moved(place(theta0 - d))) / (2 * steps[k])
     for c, k in enumerate(columns):
         d = np.zeros(P)
         d[k] = 1e-3 * robot.scales[k]
