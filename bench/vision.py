@@ -20,7 +20,7 @@ Run:  .venv/bin/python bench/vision.py [--seeds 80] [--bootstrap 200] [--images 
 2. The bootstrap over the fitted views (resampled with replacement) and the delete-d
    jackknife (37 % of the views left out, no view twice): the camera-in-flange pose's spread
    against the sigma rworld reports and the pixel-noise one (``--only spread``: this section
-   alone, on kuka2 or ``--set``'s real set).
+   alone, on kuka2 or ``--set``'s real set; ``--model`` one model of the robot's poses).
 3. Simulated cells with a known truth (``--seeds``, 20 views of a 9 x 6 board, 0.3 px noise):
    each parameter's error spread against the Cramer-Rao bound of pixel noise, and the sigma
    rworld reports against the spread.
@@ -259,16 +259,47 @@ def synthetic_truth() -> None:
         )
 
 
-def _refits(train, X0, picks, flange_errors: bool) -> np.ndarray:
+def _weighted(views, pick):
+    """The views drawn by ``pick`` (indices, some twice or more) as each view drawn once with
+    its corners counted as often as it was drawn: a board whose points repeat as often as
+    the most drawn view's, a view's copies beyond its count not seen (NaN)."""
+    import dataclasses
+
+    from rworld_cli.model.vision import BoardModel
+
+    counts = np.bincount(pick, minlength=len(views.names))
+    drawn = np.flatnonzero(counts)
+    copies = int(counts.max())
+
+    @dataclasses.dataclass(frozen=True)
+    class Repeated(BoardModel):
+        copies: int = 1
+
+        @property
+        def points(self):
+            return np.tile(super().points, (self.copies, 1))
+
+    board = Repeated(**dataclasses.asdict(views.board), copies=copies)
+    n = views.corners.shape[1]
+    corners = np.full((len(drawn), copies * n, 2), np.nan)
+    for row, v in enumerate(drawn):
+        corners[row, : counts[v] * n] = np.tile(views.corners[v], (counts[v], 1))
+    picked = views.subset(drawn)
+    return dataclasses.replace(picked, board=board, corners=corners)
+
+
+def _refits(train, X0, picks, flange_errors: bool, weighted: bool = False) -> np.ndarray:
     """The camera-in-flange pose fitted to each pick of the views, as (rotation vector,
-    translation) from ``X0``: shape (K, 6)."""
+    translation) from ``X0``: shape (K, 6). ``weighted``: a view drawn k times is fitted once
+    with its corners counted k times (:func:`_weighted`), not as k views."""
     from rworld_cli import spatial
     from rworld_cli.vision import calibrate as vc
 
     deltas = []
     for pick in picks:
+        views = _weighted(train, pick) if weighted else train.subset(pick)
         try:
-            r = vc.calibrate_views(train.subset(pick), flange_errors=flange_errors)
+            r = vc.calibrate_views(views, flange_errors=flange_errors)
         except vc.CalibrationRefused:
             continue
         X = r.T_mount_camera
@@ -278,10 +309,13 @@ def _refits(train, X0, picks, flange_errors: bool) -> np.ndarray:
     return np.array(deltas)
 
 
-def bootstrap(train, ours, count: int, flange_errors: bool = False, left_out: int = 0) -> None:
-    """Section 2: the bootstrap (views drawn with replacement) or, with ``left_out`` d, the
-    delete-d jackknife (n - d views drawn without: no view twice; Shao and Wu 1989, the
-    variance ``(n - d) / d`` times the picks' spread)."""
+def bootstrap(
+    train, ours, count: int, flange_errors: bool = False, left_out: int = 0, weighted=False
+) -> None:
+    """Section 2: the bootstrap (views drawn with replacement; ``weighted``: a view drawn k
+    times fitted once, its corners counted k times) or, with ``left_out`` d, the delete-d
+    jackknife (n - d views drawn without: no view twice; Shao and Wu 1989, the variance
+    ``(n - d) / d`` times the picks' spread)."""
     rng = np.random.default_rng(0)
     n = len(train.names)
     if left_out:
@@ -289,13 +323,15 @@ def bootstrap(train, ours, count: int, flange_errors: bool = False, left_out: in
     else:
         picks = [rng.integers(0, n, n) for _ in range(count)]
     t0 = time.perf_counter()
-    deltas = _refits(train, ours.T_mount_camera, picks, flange_errors)
+    deltas = _refits(train, ours.T_mount_camera, picks, flange_errors, weighted)
     if left_out:
         spread = np.sqrt((n - left_out) / left_out * np.mean((deltas - deltas.mean(0)) ** 2, 0))
         label, how = "jackknife", f"delete-{left_out} jackknife ({n - left_out} views a pick)"
     else:
         spread = np.std(deltas, axis=0, ddof=1)
         label, how = "bootstrap", "bootstrap"
+        if weighted:
+            label, how = "weighted", "bootstrap, a view drawn k times weighted k"
     reported = ours.sigma[9:15]
     pixels = np.sqrt(np.diag(ours.covariance_pixels))[9:15]
     model = "flange errors" if flange_errors else "exact robot"
@@ -314,16 +350,21 @@ def bootstrap(train, ours, count: int, flange_errors: bool = False, left_out: in
     )
 
 
-def spreads(train, ours, fe, count: int) -> None:
-    """Section 2 on kuka2's fitted views: both models' sigma against the bootstrap (``count``
-    draws for the default, a quarter for the flange-error model) and the delete-d jackknife."""
-    bootstrap(train, ours, count)
-    bootstrap(train, fe, count // 4, flange_errors=True)
-    # no view twice: a view drawn twice is, to the flange-error model, two views at one pose
-    # whose errors agree exactly (its fitted correlation and sigmas move in every draw)
+def spreads(train, ours, fe, count: int, model: str = "both") -> None:
+    """Section 2 on kuka2's fitted views: the sigma of each model (``model``: ``both``,
+    ``exact`` or ``flange-errors``) against the bootstrap (``count`` draws for the exact
+    robot, a quarter for the flange-error model) and the delete-d jackknife."""
+    exact, flange = model in ("both", "exact"), model in ("both", "flange-errors")
+    # no view twice in the jackknife: a view drawn twice is, to the flange-error model, two
+    # views at one pose whose errors agree exactly (its fitted correlation and sigmas move)
     left_out = round(0.37 * len(train.names))  # a bootstrap's draw leaves out 37 %
-    bootstrap(train, ours, count, left_out=left_out)
-    bootstrap(train, fe, count // 4, flange_errors=True, left_out=left_out)
+    for d in (0, left_out):
+        if exact:
+            bootstrap(train, ours, count, left_out=d)
+        if flange:
+            bootstrap(train, fe, count // 4, flange_errors=True, left_out=d)
+        if flange and not d:  # to this model a view drawn twice is not two views: weighted
+            bootstrap(train, fe, count // 4, flange_errors=True, weighted=True)
 
 
 def simulated(seeds: int, flange_noise=(0.0, 0.0), noise_px: float = 0.3) -> None:
@@ -1096,6 +1137,12 @@ def main() -> None:
         help="--only spread: the real set (its views but every 4th)",
     )
     parser.add_argument(
+        "--model",
+        default="both",
+        choices=["both", "exact", "flange-errors"],
+        help="--only spread: the model of the robot's poses whose sigma is checked",
+    )
+    parser.add_argument(
         "--vendors",
         action="store_true",
         help="--only robot: on vendor robots (3 truths each); --only planning: on vendor robots",
@@ -1137,7 +1184,8 @@ def main() -> None:
         index = np.arange(len(views.names))
         train = views.subset(np.setdiff1d(index, index[3::4]))
         ours = vc.calibrate_views(train)
-        spreads(train, ours, vc.calibrate_views(train, flange_errors=True), args.bootstrap)
+        fe = vc.calibrate_views(train, flange_errors=True)
+        spreads(train, ours, fe, args.bootstrap, args.model)
         return
     if args.only is not None:
         {"rendering": rendering, "planning": planning, "aprilgrid": aprilgrid}[args.only]()

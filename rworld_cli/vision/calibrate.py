@@ -687,6 +687,8 @@ VARIANCE_TOLERANCE = 0.02
 #: the smallest flange error sigma the variance components may reach (rad, m): a robot exact
 #: to the data leaves the prior rows to this
 SMALLEST_FLANGE_SIGMA = (1e-8, 1e-8)
+#: the step in the log of a variance component for the estimate's sensitivity to it
+SIGMA_LOG_STEP = 0.05
 
 
 def _huber_levenberg_marquardt(
@@ -757,7 +759,9 @@ def _fit_flange_errors(
 
     Returns ``theta, e (V, 6), covariances of (theta[free], e) (nf + 6 V square: the model's
     and the sandwich clustered by view), sigmas (px, rad, m), residuals (px), Huber
-    weights``.
+    weights, (moves, variances)``: how ``(theta[free], e)`` moves with the log of each of the
+    three sigmas (3, nf + 6 V; a Gauss-Newton step from the solution, central differences)
+    and the variances of those logs as estimated (``1 / 2r``, ``r`` each group's redundancy).
     """
     from scipy import sparse
 
@@ -834,8 +838,8 @@ def _fit_flange_errors(
         N_inv = np.linalg.inv((J.T @ J).toarray())
         leverage = np.asarray(J.multiply(J @ N_inv).sum(axis=1)).ravel()
         factors = []
-        for g in groups:
-            redundancy = len(g) - leverage[g].sum()
+        redundancies = np.array([len(g) - leverage[g].sum() for g in groups])
+        for g, redundancy in zip(groups, redundancies):
             factors.append(float(rw[g] @ rw[g]) / max(redundancy, 1e-9))
         sig = [
             max(sig[0] * np.sqrt(factors[0]), 1e-6),
@@ -854,7 +858,20 @@ def _fit_flange_errors(
     )
     scores = (by_cluster @ J.multiply(rw[:, None])).toarray()
     clustered = N_inv @ (scores.T @ scores) @ N_inv * (V / max(V - 1, 1))
-    return theta, e, (N_inv, clustered), sig, residuals, w[:m]
+    # the sigmas are estimates too (a log sigma's variance 1 / 2r from r redundant residuals):
+    # where the views are few, their ratio moves the fit (the prior's weight against the
+    # corners') and the errors' shared part (the fold's weights: _through_robot_errors)
+    moves = np.empty((3, len(x)))
+    for k, g in enumerate(groups):
+        step = []
+        for sign in (1.0, -1.0):
+            scale = np.ones(len(rw))
+            scale[g] = np.exp(-sign * SIGMA_LOG_STEP)  # the rows over sigma e^(sign step)
+            Js = sparse.diags(scale) @ J
+            step.append(-np.linalg.solve((Js.T @ Js).toarray(), Js.T @ (rw * scale)))
+        moves[k] = (step[0] - step[1]) / (2.0 * SIGMA_LOG_STEP)
+    log_variances = 1.0 / (2.0 * np.maximum(redundancies, 1.0))
+    return theta, e, (N_inv, clustered), sig, residuals, w[:m], (moves, log_variances)
 
 
 def _through_robot_errors(
@@ -864,6 +881,7 @@ def _through_robot_errors(
     e: np.ndarray,
     covariances: tuple[np.ndarray, np.ndarray],
     sigmas: tuple[float, float],
+    sigma_moves: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The camera and the board seen through the part of the robot's errors the views cannot
     tell from them, and each view's error without that part.
@@ -879,7 +897,11 @@ def _through_robot_errors(
     what a program on the robot's nominal poses sees, and their covariance no longer holds
     the prior's guess of those parts: it is the views' own - the fit's (``covariances`` of
     ``(theta[free], e)``, the model's and the sandwich clustered by view, carried through the
-    map: :func:`_larger_covariance`) and the part from which poses the views are at.
+    map: :func:`_larger_covariance`), the part from which poses the views are at, and,
+    with ``sigma_moves`` (:func:`_fit_flange_errors`' moves of ``(theta[free], e)`` with the
+    log of each sigma - the pixels', the rotation's, the translation's - and those logs'
+    variances), the part from the sigmas' own estimation error: they weigh the prior against
+    the corners and the errors' components against each other in the part taken out.
 
     Returns ``theta', e' (V, 6), covariance of theta'[free], B, C`` (4, 4).
     """
@@ -894,8 +916,10 @@ def _through_robot_errors(
     G[:, 3:, 9:] = RT
     cross_p = np.transpose(np.cross(p[:, None, :], np.eye(3)[None]), (0, 2, 1))  # [p]x
     G[:, 3:, 6:9] = -RT @ cross_p
-    weight = np.r_[np.full(3, 1.0 / sigmas[0]), np.full(3, 1.0 / sigmas[1])]
-    G_w = (G * weight[None, :, None]).reshape(6 * V, 12)
+
+    def weights(sigma_r, sigma_t):
+        return np.r_[np.full(3, 1.0 / sigma_r), np.full(3, 1.0 / sigma_t)]
+
     # each pose's parameters and the pose they perturb: the flange's side and the base's
     camera, board = (slice(9, 15), problem.X0), (slice(15, 21), problem.Z0)
     flange_side, base_side = (camera, board) if problem.setup == EYE_IN_HAND else (board, camera)
@@ -906,16 +930,17 @@ def _through_robot_errors(
         P = M @ _perturbed(P0, th[block])
         th[block] = np.r_[spatial.rotation_vector(P[:3, :3] @ P0[:3, :3].T), P[:3, 3] - P0[:3, 3]]
 
-    def gauge(errors):
+    def gauge(errors, weight):
+        G_w = (G * weight[None, :, None]).reshape(6 * V, 12)
         cg = np.linalg.lstsq(G_w, (errors * weight).ravel(), rcond=None)[0]
         C, base = _with_errors(np.broadcast_to(np.eye(4), (2, 4, 4)), cg.reshape(2, 6))
         return spatial.invert_transform(base), C
 
-    def fold(x):
+    def fold(x, weight=weights(*sigmas)):
         th = theta.copy()
         th[free] = x[:nf]
         errors = x[nf:].reshape(V, 6)
-        B, C = gauge(errors)
+        B, C = gauge(errors, weight)
         E = spatial.invert_transform(F) @ B @ _with_errors(F, errors) @ spatial.invert_transform(C)
         # eye-in-hand: X^-1 (F E)^-1 Z = (C X)^-1 (F E')^-1 (B Z); eye-to-hand: X^-1 F E Z =
         # (B X)^-1 F E' (C Z)
@@ -926,7 +951,7 @@ def _through_robot_errors(
 
     x = np.r_[theta[free], e.ravel()]
     folded = fold(x)
-    B, C = gauge(e)
+    B, C = gauge(e, weights(*sigmas))
     # the map's Jacobian by central differences (the errors are small: 1e-9 steps)
     A = np.empty((len(x), len(x)))
     for k in range(len(x)):
@@ -946,6 +971,16 @@ def _through_robot_errors(
     moments = np.einsum("vk,vl->vkl", e_folded, e_folded) + blocks
     sampling = np.einsum("avk,vkl,bvl->ab", A_e, moments, A_e) * (6 * V / max(6 * V - 12, 1))
     cov = _larger_covariance(model[:nf, :nf], clustered[:nf, :nf], V) + sampling
+    if sigma_moves is not None:
+        moves, log_variances = sigma_moves
+        sensitivity = moves @ A[:nf].T  # (3, nf): through the fit
+        for k in (1, 2):  # and through the fold's weights (the flange errors' sigmas)
+            d = np.zeros(2)
+            d[k - 1] = SIGMA_LOG_STEP
+            plus = fold(x, weights(*(np.asarray(sigmas) * np.exp(d))))
+            minus = fold(x, weights(*(np.asarray(sigmas) * np.exp(-d))))
+            sensitivity[k] += (plus - minus)[:nf] / (2.0 * SIGMA_LOG_STEP)
+        cov = cov + np.einsum("ka,k,kb->ab", sensitivity, log_variances, sensitivity)
     return theta_folded, e_folded, cov, B, C
 
 
@@ -1076,7 +1111,7 @@ def calibrate_views(
     errors = None
     field_ = None
     if flange_errors:
-        theta, errors, fit_covariances, sig, res, w = _fit_flange_errors(
+        theta, errors, fit_covariances, sig, res, w, sigma_moves = _fit_flange_errors(
             problem, theta, free, sigma_robust
         )
         # the errors' correlation over the poses, from the independent fit's errors; then the
@@ -1087,11 +1122,11 @@ def calibrate_views(
         )
         if share > 0.0:
             prior = FlangeErrorField(lever, length, share, F, errors).prior()
-            theta, errors, fit_covariances, sig, res, w = _fit_flange_errors(
+            theta, errors, fit_covariances, sig, res, w, sigma_moves = _fit_flange_errors(
                 problem, theta, free, sig[0], correlation=prior, start=(errors, sig)
             )
         theta, folded, cov_flange, B_shared, C_shared = _through_robot_errors(
-            problem, theta, free, errors, fit_covariances, (sig[1], sig[2])
+            problem, theta, free, errors, fit_covariances, (sig[1], sig[2]), sigma_moves
         )
         field_ = FlangeErrorField(lever, length, share, F, errors, B_shared, C_shared)
         errors = folded

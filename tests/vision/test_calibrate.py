@@ -356,3 +356,37 @@ def test_a_square_boards_views_are_renumbered_by_quarter_turns_too(setup):
     # a rectangular chessboard has the half turn only, a ChArUco board none
     assert len(vc.board_turns(BOARD)) == 2
     assert len(vc.board_turns(BoardModel("b", "charuco", 5, 7, 0.04, 0.03, "DICT_4X4_50"))) == 1
+
+
+def test_the_fit_moves_with_its_sigmas_as_its_one_step_says(monkeypatch):
+    """The flange-error model's sigmas are estimates: its covariance carries how the fit moves
+    with the log of each (``_fit_flange_errors``' moves: one Gauss-Newton step from the
+    solution) times that log's variance (``1 / 2r``). The moves against the fit solved again
+    with each sigma 10 % larger and smaller, in the parameters' own sigmas."""
+    views = random_views(np.random.default_rng(203), CAMERA, BOARD, X_TRUE, Z_TRUE, 12,
+                         noise_px=0.1, flange_noise=(np.radians(0.02), 0.2e-3))  # fmt: skip
+    problem = vc._Problem(views, X_TRUE, Z_TRUE)
+    free = np.arange(21)
+    theta0 = np.r_[CAMERA.intrinsics, np.zeros(12)]
+    theta, e, covariances, sig, _, _, (moves, log_variances) = vc._fit_flange_errors(
+        problem, theta0, free, 0.1
+    )
+    # r: the corners' redundancy (about 1200) and each flange error component's (3 x 12
+    # views, less what the fit takes)
+    assert log_variances[0] < 1e-3 and 1 / 72 < log_variances[1] < 1 / 30
+    assert 1 / 72 < log_variances[2] < 1 / 30
+    sd = np.sqrt(np.diag(covariances[0]))
+    monkeypatch.setattr(vc, "VARIANCE_ROUNDS", 1)  # solved at the sigmas given, not re-estimated
+    step = 0.1
+    for k, tolerance in ((0, 0.4), (1, 0.05), (2, 0.05)):
+        solved = []
+        for sign in (1.0, -1.0):
+            s = np.array(sig, dtype=float)
+            s[k] *= np.exp(sign * step)
+            th, ek, *_ = vc._fit_flange_errors(problem, theta, free, s[0], start=(e, list(s)))
+            solved.append(np.r_[th, ek.ravel()])
+        moved = (solved[0] - solved[1]) / (2 * step)
+        # each move over a sigma (1.6-1.8 at most); the pixels' least closely: the corners
+        # Huber takes down change with their sigma (its log's variance is 4e-4 here)
+        assert np.abs(moves[k] / sd).max() > 1.0
+        assert np.abs((moved - moves[k]) / sd).max() < tolerance, k
