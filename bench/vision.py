@@ -17,10 +17,12 @@ Run:  .venv/bin/python bench/vision.py [--seeds 80] [--bootstrap 200] [--images 
    seven on each figure (the flange-error model predicts the held-out views where it expects
    the robot: its errors' correlation over the poses, ``docs/vision.md``). 1c: the rendered
    sets with their truth (``cs_synthetic1``-``3``): each method's camera-in-flange error.
-2. The bootstrap over the fitted views (resampled with replacement) and the delete-d
-   jackknife (37 % of the views left out, no view twice): the camera-in-flange pose's spread
-   against the sigma rworld reports and the pixel-noise one (``--only spread``: this section
-   alone, on kuka2 or ``--set``'s real set; ``--model`` one model of the robot's poses).
+2. The bootstrap over the fitted views (resampled with replacement; for the flange-error
+   model also weighted: a view drawn k times fitted once, its corners counted k times) and
+   the delete-d jackknife (37 % of the views left out, no view twice): the camera-in-flange
+   pose's spread against the sigma rworld reports and the pixel-noise one (``--only
+   spread``: this section alone, on kuka2 or ``--set``'s real set; ``--model`` one model of
+   the robot's poses).
 3. Simulated cells with a known truth (``--seeds``, 20 views of a 9 x 6 board, 0.3 px noise):
    each parameter's error spread against the Cramer-Rao bound of pixel noise, and the sigma
    rworld reports against the spread.
