@@ -378,15 +378,30 @@ def test_the_fit_moves_with_its_sigmas_as_its_one_step_says(monkeypatch):
     sd = np.sqrt(np.diag(covariances[0]))
     monkeypatch.setattr(vc, "VARIANCE_ROUNDS", 1)  # solved at the sigmas given, not re-estimated
     step = 0.1
+    camera_moves = []  # the camera in the flange as written (the shared errors taken out)
     for k, tolerance in ((0, 0.4), (1, 0.05), (2, 0.05)):
-        solved = []
+        solved, written = [], []
         for sign in (1.0, -1.0):
             s = np.array(sig, dtype=float)
             s[k] *= np.exp(sign * step)
             th, ek, *_ = vc._fit_flange_errors(problem, theta, free, s[0], start=(e, list(s)))
             solved.append(np.r_[th, ek.ravel()])
+            cov = (np.eye(21 + 6 * len(ek)),) * 2
+            written.append(vc._through_robot_errors(problem, th, free, ek, cov, s[1:])[0])
         moved = (solved[0] - solved[1]) / (2 * step)
         # each move over a sigma (1.6-1.8 at most); the pixels' least closely: the corners
         # Huber takes down change with their sigma (its log's variance is 4e-4 here)
         assert np.abs(moves[k] / sd).max() > 1.0
         assert np.abs((moved - moves[k]) / sd).max() < tolerance, k
+        camera_moves.append((written[0] - written[1])[9:15] / (2 * step))
+    # the covariance written holds those moves of the camera times the logs' variances
+    args = (problem, theta, free, e, covariances, sig[1:])
+    added = (
+        vc._through_robot_errors(*args, (moves, log_variances))[2]
+        - vc._through_robot_errors(*args)[2]
+    )[9:15, 9:15]
+    expected = np.einsum("ka,k,kb->ab", np.array(camera_moves), log_variances, camera_moves)
+    # in the camera's own sigmas: 0.01-0.24 here (the fold's weights' part half of rx's)
+    a, b = (np.sqrt(np.diag(c)) / sd[9:15] for c in (added, expected))
+    assert b.max() > 0.1
+    assert np.all(np.abs(a - b) < 0.1 * b + 0.01), (a, b)
