@@ -84,6 +84,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from bench.machine import cpu_model  # noqa: E402
+from rworld_cli.model.vision import BoardModel  # noqa: E402
 
 DATA = REPO / "tests" / "data" / "vision" / "kuka2"
 
@@ -261,27 +262,25 @@ def synthetic_truth() -> None:
         )
 
 
+@dataclasses.dataclass(frozen=True)
+class _RepeatedBoard(BoardModel):
+    """A board whose points are listed ``copies`` times (a view's corners counted as often)."""
+
+    copies: int = 1
+
+    @property
+    def points(self):
+        return np.tile(super().points, (self.copies, 1))
+
+
 def _weighted(views, pick):
     """The views drawn by ``pick`` (indices, some twice or more) as each view drawn once with
     its corners counted as often as it was drawn: a board whose points repeat as often as
     the most drawn view's, a view's copies beyond its count not seen (NaN)."""
-    import dataclasses
-
-    from rworld_cli.model.vision import BoardModel
-
     counts = np.bincount(pick, minlength=len(views.names))
     drawn = np.flatnonzero(counts)
     copies = int(counts.max())
-
-    @dataclasses.dataclass(frozen=True)
-    class Repeated(BoardModel):
-        copies: int = 1
-
-        @property
-        def points(self):
-            return np.tile(super().points, (self.copies, 1))
-
-    board = Repeated(**dataclasses.asdict(views.board), copies=copies)
+    board = _RepeatedBoard(**dataclasses.asdict(views.board), copies=copies)
     n = views.corners.shape[1]
     corners = np.full((len(drawn), copies * n, 2), np.nan)
     for row, v in enumerate(drawn):
